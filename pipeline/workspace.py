@@ -1,0 +1,321 @@
+"""The workspace folder: layout, manifest bookkeeping and atomic writes.
+
+One workspace (``WS``) per scene. The user's photo folder is only ever read; every
+output lives under ``WS`` (see ``docs/design.md`` for the contract). Each stage records
+in ``WS/manifest.json`` its parameters, a digest of the inputs it read, the outputs it
+wrote, package versions and timing. A stage whose parameters and input digest are
+unchanged is skipped; since a stage's input digest covers the files earlier stages
+wrote, rerunning an early stage makes every later one that read its outputs stale.
+
+All writes go to a temporary name in the destination folder and are renamed into
+place (``os.replace`` is atomic on POSIX), so a run killed at any moment leaves either
+the old file or the new one, never half of one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pipeline.errors import UserError
+
+SCHEMA_VERSION = 1
+MANIFEST = "manifest.json"
+
+
+# --------------------------------------------------------------------------- atomic writes
+def _tmp_name(path: Path) -> Path:
+    # keep the real suffix last so writers that pick a format by extension still work
+    return path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+
+    On an exception the temporary file is removed and ``path`` is left untouched.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _tmp_name(path)
+    try:
+        yield tmp
+        if tmp.is_dir():
+            if path.exists():
+                trash = path.with_name(f".{path.name}.old{os.getpid()}")
+                os.replace(path, trash)
+                os.replace(tmp, path)
+                shutil.rmtree(trash, ignore_errors=True)
+            else:
+                os.replace(tmp, path)
+        else:
+            if not tmp.exists():
+                raise RuntimeError(f"writer produced no file at {tmp}")
+            os.replace(tmp, path)
+    finally:
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        elif tmp.exists():
+            tmp.unlink()
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_json(path: str | os.PathLike, obj: Any) -> Path:
+    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+
+
+def atomic_imwrite(path: str | os.PathLike, image, params: list[int] | None = None) -> Path:
+    """Write an image with OpenCV atomically (format from the suffix)."""
+    import cv2
+
+    with atomic_path(path) as tmp:
+        if not cv2.imwrite(str(tmp), image, params or []):
+            raise OSError(f"could not write image {path}")
+    return Path(path)
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise UserError(f"{path} is missing: run the stage that writes it first") from None
+    except json.JSONDecodeError as e:
+        raise UserError(f"{path} is not valid JSON ({e.msg} at line {e.lineno}); "
+                        "delete it and rerun the stage that writes it") from None
+
+
+# --------------------------------------------------------------------------- digests
+def file_digest(path: Path) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def digest_paths(paths: Iterable[str | os.PathLike], root: Path | None = None) -> str:
+    """One digest over files and folders (recursively, by relative name and content).
+
+    Hidden files (temporary writes, ``.DS_Store``) are ignored. A missing path counts
+    as a distinct state, so creating it later changes the digest.
+    """
+    h = hashlib.blake2b(digest_size=16)
+    for p in sorted(Path(x) for x in paths):
+        label = str(p.relative_to(root)) if root and p.is_relative_to(root) else str(p)
+        if p.is_dir():
+            for f in sorted(p.rglob("*")):
+                rel = f.relative_to(p)
+                if f.is_file() and not any(part.startswith(".") for part in rel.parts):
+                    h.update(f"{label}/{rel}\0{file_digest(f)}\0".encode())
+        elif p.is_file():
+            h.update(f"{label}\0{file_digest(p)}\0".encode())
+        else:
+            h.update(f"{label}\0<missing>\0".encode())
+    return h.hexdigest()
+
+
+def package_versions(*names: str) -> dict[str, str]:
+    from importlib import metadata
+
+    out = {}
+    for name in ("deflare-scene", *names):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+# --------------------------------------------------------------------------- workspace
+@dataclass
+class StageRun:
+    """Bookkeeping of one stage execution; returned by :meth:`Workspace.begin_stage`."""
+
+    ws: Workspace
+    name: str
+    params: dict
+    inputs_digest: str
+    skip: bool
+    previous: dict = field(default_factory=dict)
+    force: bool = False
+    started: float = field(default_factory=time.time)
+
+    @property
+    def outputs(self) -> list[Path]:
+        return [self.ws.root / p for p in self.previous.get("outputs", [])]
+
+    def finish(self, outputs: Iterable[str | os.PathLike], extra: dict | None = None,
+               versions: Iterable[str] = ()) -> list[Path]:
+        outs = [Path(p) for p in outputs]
+        rel = sorted(str(p.relative_to(self.ws.root)) if p.is_absolute() else str(p)
+                     for p in outs)
+        record = {
+            "status": "complete",
+            "params": self.params,
+            "inputs_digest": self.inputs_digest,
+            "outputs": rel,
+            "versions": package_versions(*versions),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(self.started)),
+            "seconds": round(time.time() - self.started, 3),
+        }
+        if extra:
+            record.update(extra)
+        self.ws.update_manifest(self.name, record)
+        return [self.ws.root / r for r in rel]
+
+
+class Workspace:
+    """A scene's working folder (``WS``); see the module docstring and docs/design.md."""
+
+    def __init__(self, root: str | os.PathLike):
+        self.root = Path(root).resolve()
+
+    # layout ---------------------------------------------------------------
+    @property
+    def manifest_path(self) -> Path:
+        return self.root / MANIFEST
+
+    decoded = property(lambda self: self.root / "decoded")
+    linear = property(lambda self: self.root / "linear")
+    colmap = property(lambda self: self.root / "colmap")
+    images = property(lambda self: self.root / "images")
+    cameras_json = property(lambda self: self.root / "cameras.json")
+    scene_glb = property(lambda self: self.root / "scene.glb")
+    masks = property(lambda self: self.root / "masks")
+    flare_json = property(lambda self: self.root / "flare.json")
+    masks_overview = property(lambda self: self.root / "masks_overview.jpg")
+    views_json = property(lambda self: self.root / "views.json")
+    model = property(lambda self: self.root / "model")
+    deflared = property(lambda self: self.root / "deflared")
+    renders = property(lambda self: self.root / "renders")
+    eval = property(lambda self: self.root / "eval")
+    transforms_json = property(lambda self: self.root / "transforms.json")
+
+    @property
+    def scene_name(self) -> str:
+        """The photo folder's name (``<scene>`` in the contract)."""
+        photos = self.manifest().get("photos")
+        if photos:
+            return Path(photos).name
+        name = self.root.name
+        return name[: -len(".deflare")] if name.endswith(".deflare") else name
+
+    @property
+    def photos_dir(self) -> Path | None:
+        photos = self.manifest().get("photos")
+        return Path(photos) if photos else None
+
+    # creation -------------------------------------------------------------
+    @classmethod
+    def create(cls, root: str | os.PathLike, photos: str | os.PathLike) -> Workspace:
+        """Create (or reopen) the workspace for a photo folder."""
+        root, photos = Path(root).resolve(), Path(photos).resolve()
+        if root == photos or root.is_relative_to(photos):
+            raise UserError(f"output folder {root} is inside the photo folder {photos}: "
+                            "choose an --out outside it (the photo folder is never written)")
+        if root.exists() and not root.is_dir():
+            raise UserError(f"{root} exists and is not a folder: choose another --out")
+        if root.is_dir() and any(root.iterdir()) and not (root / MANIFEST).exists():
+            raise UserError(f"{root} exists, is not empty and is not a deflare-scene "
+                            "workspace: choose another --out or empty it")
+        ws = cls(root)
+        root.mkdir(parents=True, exist_ok=True)
+        man = ws.manifest() if ws.manifest_path.exists() else {}
+        if man.get("photos") and Path(man["photos"]) != photos:
+            raise UserError(f"workspace {root} was made from {man['photos']}, not {photos}: "
+                            "choose another --out")
+        man.setdefault("schema", SCHEMA_VERSION)
+        man["photos"] = str(photos)
+        man.setdefault("stages", {})
+        atomic_write_json(ws.manifest_path, man)
+        return ws
+
+    @classmethod
+    def open(cls, root: str | os.PathLike) -> Workspace:
+        """Open an existing workspace; a clear error if ``root`` is not one."""
+        root = Path(root)
+        if not root.exists():
+            raise UserError(f"workspace {root} does not exist: create it with "
+                            "`deflare-scene decode PHOTOS --out {root}`".replace("{root}",
+                                                                                 str(root)))
+        if not (root / MANIFEST).is_file():
+            raise UserError(f"{root} is not a deflare-scene workspace (no {MANIFEST}): "
+                            f"create one with `deflare-scene decode PHOTOS --out {root}`")
+        return cls(root)
+
+    # manifest -------------------------------------------------------------
+    def manifest(self) -> dict:
+        if not self.manifest_path.exists():
+            return {"schema": SCHEMA_VERSION, "stages": {}}
+        man = read_json(self.manifest_path)
+        if man.get("schema", 0) > SCHEMA_VERSION:
+            raise UserError(f"{self.manifest_path} was written by a newer deflare-scene "
+                            f"(schema {man['schema']}): upgrade deflare-scene")
+        man.setdefault("stages", {})
+        return man
+
+    def update_manifest(self, stage: str, record: dict | None) -> None:
+        man = self.manifest()
+        if record is None:
+            man["stages"].pop(stage, None)
+        else:
+            man["stages"][stage] = record
+        atomic_write_json(self.manifest_path, man)
+
+    def stage_record(self, stage: str) -> dict:
+        return self.manifest()["stages"].get(stage, {})
+
+    def require(self, *stages: str) -> None:
+        """Raise a clear error unless every named stage has completed."""
+        for s in stages:
+            if self.stage_record(s).get("status") != "complete":
+                raise UserError(f"{self.root}: stage '{s}' has not run yet: run "
+                                f"`deflare-scene {s} {self.root}` first")
+
+    def begin_stage(self, name: str, params: dict, inputs: Iterable[str | os.PathLike],
+                    force: bool = False) -> StageRun:
+        """Start a stage: digest its inputs and decide whether it can be skipped.
+
+        ``params`` must be JSON-serialisable. The stage is skipped when its previous run
+        completed with the same parameters and input digest and all its outputs still
+        exist. Otherwise it is marked running; outputs of a previous interrupted run with
+        the same parameters may be reused file by file by the stage itself.
+        """
+        params = json.loads(json.dumps(params, default=str))
+        digest = digest_paths(inputs, self.root)
+        prev = self.stage_record(name)
+        outputs_ok = all((self.root / p).exists() for p in prev.get("outputs", []))
+        skip = (not force and prev.get("status") == "complete" and prev.get("params") == params
+                and prev.get("inputs_digest") == digest and outputs_ok)
+        if not skip:
+            self.update_manifest(name, {"status": "running", "params": params,
+                                        "inputs_digest": digest,
+                                        "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
+        return StageRun(self, name, params, digest, skip, prev, force)
+
+    def resumable(self, run: StageRun) -> bool:
+        """True when per-file outputs left by an interrupted run can be kept.
+
+        That is the case when the previous attempt had the same parameters and inputs.
+        """
+        prev = run.previous
+        return (not run.force and prev.get("params") == run.params
+                and prev.get("inputs_digest") == run.inputs_digest)

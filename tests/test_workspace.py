@@ -1,0 +1,99 @@
+import json
+
+import pytest
+
+from pipeline.errors import UserError
+from pipeline.workspace import Workspace, atomic_path, atomic_write_json, digest_paths
+from workflows.cli import main
+
+
+def test_atomic_write_leaves_old_file_on_failure(tmp_path):
+    target = tmp_path / "a.json"
+    atomic_write_json(target, {"v": 1})
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("killed")
+    assert json.loads(target.read_text()) == {"v": 1}
+    assert [p.name for p in tmp_path.iterdir()] == ["a.json"]
+
+
+def test_atomic_dir_replaces_whole_folder(tmp_path):
+    target = tmp_path / "sparse"
+    with atomic_path(target) as tmp:
+        tmp.mkdir()
+        (tmp / "x.bin").write_bytes(b"1")
+    with atomic_path(target) as tmp:
+        tmp.mkdir()
+        (tmp / "y.bin").write_bytes(b"2")
+    assert sorted(p.name for p in target.iterdir()) == ["y.bin"]
+
+
+def test_digest_changes_with_content_and_ignores_hidden(tmp_path):
+    d = tmp_path / "d"
+    d.mkdir()
+    (d / "a.png").write_bytes(b"1")
+    before = digest_paths([d])
+    (d / ".a.tmp1.png").write_bytes(b"junk")
+    assert digest_paths([d]) == before
+    (d / "a.png").write_bytes(b"2")
+    assert digest_paths([d]) != before
+
+
+def test_stage_skip_and_staleness(tmp_path):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    inp = ws.root / "in.txt"
+    inp.write_text("a")
+    run = ws.begin_stage("s", {"p": 1}, [inp])
+    assert not run.skip
+    out = ws.root / "out.txt"
+    out.write_text("o")
+    run.finish([out])
+    assert ws.begin_stage("s", {"p": 1}, [inp]).skip
+    assert not ws.begin_stage("s", {"p": 2}, [inp]).skip  # params changed
+    run = ws.begin_stage("s", {"p": 1}, [inp])
+    run.finish([out])
+    inp.write_text("b")  # upstream output changed -> stale
+    assert not ws.begin_stage("s", {"p": 1}, [inp]).skip
+    assert not ws.begin_stage("s", {"p": 1}, [inp], force=True).skip
+
+
+def test_interrupted_stage_is_resumable_but_not_skipped(tmp_path):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    run = ws.begin_stage("s", {"p": 1}, [])
+    assert not run.skip  # never finished: it is "running" in the manifest
+    again = ws.begin_stage("s", {"p": 1}, [])
+    assert not again.skip and ws.resumable(again)
+    forced = ws.begin_stage("s", {"p": 1}, [], force=True)
+    assert not ws.resumable(forced)
+
+
+def test_workspace_refuses_bad_locations(tmp_path):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    with pytest.raises(UserError, match="inside the photo folder"):
+        Workspace.create(photos / "ws", photos)
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "keep.txt").write_text("x")
+    with pytest.raises(UserError, match="not a deflare-scene workspace"):
+        Workspace.create(other, photos)
+    with pytest.raises(UserError, match="not a deflare-scene workspace"):
+        Workspace.open(other)
+
+
+def test_cli_one_line_error_and_exit_code(tmp_path, capsys):
+    code = main([str(tmp_path / "missing")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "does not exist" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_cli_help_lists_commands(capsys):
+    code = main(["--help"])
+    assert code == 0
+    assert "run" in capsys.readouterr().out

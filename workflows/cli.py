@@ -1,0 +1,93 @@
+"""The ``deflare-scene`` command line (typer).
+
+``deflare-scene ./photos`` (a folder as the first argument) runs the whole pipeline; the
+subcommands run one stage each. Every command module in ``workflows/commands`` exposes
+``register(app)``; heavy imports (torch, pycolmap, rawpy) happen inside the commands, so
+``--help`` is instant and the GPU machine (no pycolmap) can run the neural stages.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import typer
+
+from pipeline.errors import UserError
+
+app = typer.Typer(
+    name="deflare-scene",
+    help="Flare-free renders and video of a scene from a folder of photos (GN-FR).\n\n"
+    "Run everything: deflare-scene ./photos   (see `deflare-scene run --help` for options)",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode="rich",
+)
+
+
+
+@app.callback()
+def _root() -> None:
+    """Flare-free renders and video of a scene from a folder of photos (GN-FR)."""
+
+
+# one module per command group, in the order the pipeline runs them
+COMMAND_MODULES = [
+    "run", "decode", "pose", "synth", "mask", "select", "finetune", "render", "export",
+    "fmg", "pretrain", "eval", "bench",
+]
+_registered = False
+
+
+def _register_all() -> None:
+    global _registered
+    if _registered:
+        return
+    for name in COMMAND_MODULES:
+        modname = f"workflows.commands.{name}"
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as e:
+            if e.name == modname:  # command not built in this version
+                continue
+            raise
+        mod.register(app)
+    _registered = True
+
+
+def command_names() -> set[str]:
+    _register_all()
+    cmd = typer.main.get_command(app)
+    return set(getattr(cmd, "commands", {}))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI on ``argv`` and return the exit status (tests call this directly)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    names = command_names()
+    if argv and not argv[0].startswith("-") and argv[0] not in names:
+        argv.insert(0, "run")  # `deflare-scene ./photos` is the one-shot command
+    cmd = typer.main.get_command(app)
+    try:
+        cmd.main(args=argv, prog_name="deflare-scene", standalone_mode=True)
+        code = 0
+    except SystemExit as e:  # click's own exit: help, usage errors (status 2), aborts
+        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+    except UserError as e:
+        typer.secho(f"error: {e}", fg="red", err=True)
+        code = 2
+    except KeyboardInterrupt:
+        typer.secho("interrupted: rerun the same command to resume where it stopped",
+                    err=True)
+        code = 130
+    return code
+
+
+def entry() -> None:
+    """The ``deflare-scene`` console script."""
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry()
