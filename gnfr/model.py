@@ -1,0 +1,114 @@
+"""The GN-FR model: ResUNet encoder + alternating view/ray transformers + colour head (GNT).
+
+Shapes: R rays, S samples per ray, V source views, C = ``feat_ch``, D = ``width``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+
+import torch
+import torch.nn as nn
+
+from gnfr.encoder import ResUNet
+from gnfr.transformer import RayTransformer, ViewTransformer, masked_max
+
+
+@dataclass(frozen=True)
+class GNFRConfig:
+    """Architecture of a GN-FR model (stored in every checkpoint's metadata)."""
+
+    enc_widths: tuple[int, int, int] = (64, 128, 256)
+    """Channels of the encoder's three ResNet stages."""
+    enc_blocks: tuple[int, int, int] = (3, 4, 6)
+    """BasicBlocks per encoder stage (ResNet-34 layout in GNT)."""
+    feat_ch: int = 32
+    """Feature channels the encoder outputs, at 1/4 of the source resolution."""
+    width: int = 64
+    """Transformer width D."""
+    depth: int = 8
+    """Number of view/ray transformer block pairs."""
+    heads: int = 4
+    """Heads of the ray transformer's self-attention."""
+    ff_mult: int = 4
+    """Feed-forward hidden width as a multiple of D."""
+    n_freqs_pts: int = 10
+    """NeRF sin/cos frequencies of the sample position."""
+    n_freqs_dirs: int = 10
+    """NeRF sin/cos frequencies of the ray direction."""
+    dropout: float = 0.0
+    """Dropout in attention outputs and feed-forward layers (training only)."""
+
+    def to_json(self) -> str:
+        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+
+    @classmethod
+    def from_json(cls, text: str) -> GNFRConfig:
+        d = json.loads(text)
+        names = {f.name for f in dataclasses.fields(cls)}
+        d = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k in names}
+        return cls(**d)
+
+
+def positional_encoding(x: torch.Tensor, n_freqs: int) -> torch.Tensor:
+    """NeRF encoding: x [..., 3] -> [..., 3 + 6 * n_freqs] (x, sin(2^k x), cos(2^k x))."""
+    freqs = 2.0 ** torch.arange(n_freqs, device=x.device, dtype=x.dtype)
+    xf = (x[..., None, :] * freqs[:, None]).flatten(-2)
+    return torch.cat([x, torch.sin(xf), torch.cos(xf)], -1)
+
+
+class GNFR(nn.Module):
+    def __init__(self, config: GNFRConfig = GNFRConfig()):
+        super().__init__()
+        c = self.config = config
+        D = c.width
+        self.encoder = ResUNet(c.enc_widths, c.enc_blocks, c.feat_ch)
+        self.rgbfeat_fc = nn.Sequential(nn.Linear(c.feat_ch + 3, D), nn.ReLU(), nn.Linear(D, D))
+        emb = 6 + 6 * (c.n_freqs_pts + c.n_freqs_dirs)
+        self.view_blocks = nn.ModuleList(
+            [ViewTransformer(D, c.ff_mult, c.dropout) for _ in range(c.depth)])
+        self.ray_blocks = nn.ModuleList(
+            [RayTransformer(D, c.heads, c.ff_mult, c.dropout) for _ in range(c.depth)])
+        self.q_fcs = nn.ModuleList(
+            [nn.Sequential(nn.Linear(D + emb, D), nn.ReLU(), nn.Linear(D, D))
+             if i % 2 == 0 else nn.Identity() for i in range(c.depth)])
+        self.norm = nn.LayerNorm(D)
+        self.rgb_fc = nn.Linear(D, 3)
+
+    def encode(self, images: torch.Tensor) -> torch.Tensor:
+        """images [V, 3, H, W] in 0..1 -> features [V, C, ceil(H/4), ceil(W/4)]."""
+        return self.encoder(images)
+
+    def transformer_parameters(self) -> list[nn.Parameter]:
+        return [p for n, p in self.named_parameters() if not n.startswith("encoder.")]
+
+    def forward(self, points: torch.Tensor, viewdirs: torch.Tensor, rgb_feat: torch.Tensor,
+                rel_dir: torch.Tensor, attend: torch.Tensor, t: torch.Tensor,
+                fused: bool = True) -> tuple[torch.Tensor, torch.Tensor]:
+        """Colour and depth of each ray.
+
+        points: [R, S, 3]; viewdirs: [R, 3] unit; rgb_feat: [R, S, V, 3 + C] sampled colour
+        and features; rel_dir: [R, S, V, 4]; attend: [R, S, V] bool (Point Sampler mask,
+        at least one True per point, see ``gnfr.transformer.attention_mask``);
+        t: [R, S] sample depths. ``fused=False`` uses the plain reference attention.
+        Returns rgb [R, 3] and depth [R] (last ray-attention weights times t).
+        """
+        R, S = points.shape[:2]
+        dirs = viewdirs[:, None].expand(R, S, 3)
+        embed = torch.cat([positional_encoding(points, self.config.n_freqs_pts),
+                           positional_encoding(dirs, self.config.n_freqs_dirs)], -1)
+        feats = self.rgbfeat_fc(rgb_feat)  # [R, S, V, D]
+        q = masked_max(feats, attend)  # [R, S, D]
+        weights = None
+        last = len(self.view_blocks) - 1
+        blocks = zip(self.view_blocks, self.ray_blocks, self.q_fcs, strict=True)
+        for i, (vb, rb, qf) in enumerate(blocks):
+            q = vb(q, feats, rel_dir, attend)
+            if i % 2 == 0:
+                q = qf(torch.cat([q, embed.to(q.dtype)], -1))
+            q, weights = rb(q, fused=fused, return_weights=(i == last))
+        rgb = self.rgb_fc(self.norm(q).mean(dim=1))
+        depth = (weights * t).sum(-1)
+        return rgb.float(), depth.float()

@@ -1,0 +1,158 @@
+"""Renderer core: encode source views once, then render any rays against the cache.
+
+```python
+src = SourceViews.encode(model, images, K, c2w, masks, device)    # once per scene
+out = render_rays(model, src, src_ids, rays_o, rays_d, near, far, n_samples=64)
+```
+Rendering is deterministic (bin-centre samples, eval mode) and uses bf16 autocast on CUDA.
+Shapes: V cached views, Vs views used for a batch of rays, R rays, S samples per ray.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+
+from gnfr.checkpoint import load_model  # noqa: F401  (part of the renderer API)
+from gnfr.geometry import (
+    inside_image,
+    project,
+    relative_directions,
+    sample_bilinear,
+    sample_depths,
+)
+from gnfr.model import GNFR
+from gnfr.transformer import attention_mask
+
+
+def autocast(device: torch.device | str, enabled: bool = True):
+    """bf16 autocast on CUDA, a no-op elsewhere."""
+    device = torch.device(device)
+    if enabled and device.type == "cuda":
+        return torch.autocast("cuda", dtype=torch.bfloat16)
+    return contextlib.nullcontext()
+
+
+@dataclass
+class SourceViews:
+    """Source views with their encoded feature maps (each view encoded once)."""
+
+    images: torch.Tensor
+    """[V, 3, H, W] float colours in 0..1 (the resolution the features were computed at)."""
+    feats: torch.Tensor
+    """[V, C, h, w] encoder features (h, w about H/4, W/4)."""
+    K: torch.Tensor
+    """[V, 3, 3] intrinsics of ``images`` (continuous-pixel convention, gnfr.geometry)."""
+    c2w: torch.Tensor
+    """[V, 4, 4] camera-to-world (OpenCV)."""
+    masks: torch.Tensor | None
+    """[V, 1, H, W] float, 1 = flare; None when no masks are known (Point Sampler off)."""
+
+    @property
+    def w2c(self) -> torch.Tensor:  # [V, 4, 4]
+        return torch.linalg.inv(self.c2w)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return int(self.images.shape[-2]), int(self.images.shape[-1])
+
+    @classmethod
+    def encode(cls, model: GNFR, images: torch.Tensor, K: torch.Tensor, c2w: torch.Tensor,
+               masks: torch.Tensor | None, device, chunk: int = 4,
+               grad: bool = False) -> SourceViews:
+        """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3];
+        c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the graph
+        (end-to-end training); otherwise no gradients and bf16 autocast on CUDA."""
+        device = torch.device(device)
+        images = images.to(device, torch.float32)
+        feats = []
+        ctx = contextlib.nullcontext() if grad else torch.no_grad()
+        with ctx, autocast(device, enabled=not grad):
+            for i in range(0, images.shape[0], chunk):
+                feats.append(model.encode(images[i:i + chunk]).float())
+        return cls(images=images, feats=torch.cat(feats), K=K.to(device, torch.float32),
+                   c2w=c2w.to(device, torch.float32),
+                   masks=None if masks is None else masks.to(device, torch.float32))
+
+
+def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
+           w2c: torch.Tensor | None = None):
+    """Project points into the chosen source views and sample colour, features and flare.
+
+    src_ids: [Vs] long; points: [R, S, 3]; w2c: optional precomputed [V, 4, 4].
+    Returns rgb_feat [R, S, Vs, 3 + C], valid [R, S, Vs] bool and flared [R, S, Vs] bool
+    (None without masks): on flare = mask sampled bilinearly at the projection > 0.5.
+    """
+    R, S, _ = points.shape
+    w2c = src.w2c if w2c is None else w2c
+    xy, depth = project(points.reshape(-1, 3), src.K[src_ids], w2c[src_ids])  # [Vs, P, 2]
+    size = src.size
+    rgb = sample_bilinear(src.images[src_ids], xy, size)
+    feat = sample_bilinear(src.feats[src_ids], xy, size)
+
+    def to_rsv(x: torch.Tensor) -> torch.Tensor:  # [Vs, P, ...] -> [R, S, Vs, ...]
+        return x.reshape(x.shape[0], R, S, *x.shape[2:]).movedim(0, 2)
+
+    rgb_feat = to_rsv(torch.cat([rgb, feat.to(rgb.dtype)], -1))
+    valid = to_rsv(inside_image(xy, depth, size))
+    flared = None
+    if src.masks is not None:
+        flared = to_rsv(sample_bilinear(src.masks[src_ids], xy, size)[..., 0] > 0.5)
+    return rgb_feat, valid, flared
+
+
+def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
+                 rays_d: torch.Tensor, t: torch.Tensor, point_sampler: bool = True,
+                 reference: bool = False, w2c: torch.Tensor | None = None) -> dict:
+    """One differentiable pass for rays at given depths (training and rendering share it).
+
+    rays_o, rays_d: [R, 3]; t: [R, S] z-depths; src_ids: [Vs]. ``reference=True`` is the
+    plain fp32 path (no autocast, no fused attention). Returns rgb [R, 3], depth [R] and
+    all_flared [R] (fraction of the ray's samples that were on flare in every source view
+    they were valid in and so fell back to validity-only attention).
+    """
+    points = rays_o[:, None] + t[..., None] * rays_d[:, None]  # [R, S, 3]
+    rgb_feat, valid, flared = gather(src, src_ids, points, w2c)
+    attend, all_flared = attention_mask(valid, flared if point_sampler else None)
+    rel_dir = relative_directions(points, rays_o, src.c2w[src_ids, :3, 3])
+    with autocast(rays_o.device, enabled=not reference):
+        rgb, depth = model(points, F.normalize(rays_d, dim=-1), rgb_feat, rel_dir, attend, t,
+                           fused=not reference)
+    return {"rgb": rgb, "depth": depth, "all_flared": all_flared.float().mean(-1)}
+
+
+@torch.no_grad()
+def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
+                rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
+                chunk: int = 1024, point_sampler: bool = True, progress=None) -> dict:
+    """Render rays deterministically in chunks.
+
+    src_ids: [Vs] long (which cached views to use); rays_o, rays_d: [R, 3] (``rays_d`` with
+    camera-z 1, see gnfr.geometry.pixel_rays); near, far: [R] z-depths. ``progress``: an
+    optional callable given the number of rays finished after each chunk.
+    Returns rgb [R, 3] (clamped to 0..1), depth [R], all_flared [R] (see forward_rays).
+    """
+    was_training = model.training
+    model.eval()
+    device = src.images.device
+    src_ids = src_ids.to(device)
+    w2c = src.w2c
+    outs = {"rgb": [], "depth": [], "all_flared": []}
+    try:
+        for i in range(0, rays_o.shape[0], chunk):
+            sl = slice(i, i + chunk)
+            o, d = rays_o[sl].to(device, torch.float32), rays_d[sl].to(device, torch.float32)
+            t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
+            out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c)
+            for k in outs:
+                outs[k].append(out[k].float().cpu())
+            if progress is not None:
+                progress(min(i + chunk, rays_o.shape[0]))
+    finally:
+        model.train(was_training)
+    res = {k: torch.cat(v) for k, v in outs.items()}
+    res["rgb"] = res["rgb"].clamp(0, 1)
+    return res

@@ -1,0 +1,131 @@
+"""View transformer (vector attention across source views, with the Point Sampler) and ray
+transformer (multi-head self-attention along each ray), as in GNT.
+
+Shapes: R rays, S samples per ray, V source views, C channels (model width).
+
+Point Sampler (GN-FR). ``attend`` [R, S, V] is True where a view may be attended: the point
+projects inside the view, in front of it and (with the Point Sampler) not on flare. Views
+that may not be attended get -inf logits *before* the softmax, so their weight is exactly
+zero and the remaining weights of each point sum to one. Rule for a point attended by no
+view (see ``attention_mask``): it falls back to validity-only attention (flare ignored); a
+point valid in no view at all attends every view uniformly as in GNT (its colour then comes
+from the ray transformer's context). The same mask decides which views enter the max-pooled
+initial query.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+
+def attention_mask(valid: torch.Tensor,
+                   flared: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Which views each point attends, with the documented fallbacks.
+
+    valid: [R, S, V] bool (inside image, in front); flared: [R, S, V] bool or None.
+    Returns attend [R, S, V] bool and all_flared [R, S] bool (the point was valid in some
+    view but on flare in every valid one, so it fell back to validity-only attention).
+    Points valid nowhere get an all-True row (uniform attention, GNT behaviour).
+    """
+    if flared is None:
+        attend = valid
+        all_flared = torch.zeros(valid.shape[:2], dtype=torch.bool, device=valid.device)
+    else:
+        clean = valid & ~flared
+        any_valid = valid.any(-1, keepdim=True)
+        all_flared = any_valid[..., 0] & ~clean.any(-1)
+        attend = torch.where(all_flared[..., None], valid, clean)
+    attend = attend | ~attend.any(-1, keepdim=True)
+    return attend, all_flared
+
+
+def masked_max(x: torch.Tensor, attend: torch.Tensor) -> torch.Tensor:
+    """Max over views of the attended views only. x: [R, S, V, C]; attend: [R, S, V]."""
+    neg = torch.finfo(x.dtype).min
+    return x.masked_fill(~attend[..., None], neg).amax(dim=2)
+
+
+class FeedForward(nn.Module):
+    def __init__(self, dim: int, hidden: int, dropout: float):
+        super().__init__()
+        self.net = nn.Sequential(nn.Linear(dim, hidden), nn.ReLU(), nn.Dropout(dropout),
+                                 nn.Linear(hidden, dim), nn.Dropout(dropout))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x)
+
+
+def vector_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pos: torch.Tensor,
+                     attend: torch.Tensor, attn_fc: nn.Module) -> torch.Tensor:
+    """GNT subtraction attention across views with the Point Sampler mask.
+
+    q: [R, S, C]; k, v, pos: [R, S, V, C]; attend: [R, S, V] bool (at least one True per
+    point). Returns [R, S, C] = sum_V (v + pos) * softmax_V(attn_fc(k - q + pos)).
+    """
+    logits = attn_fc(k - q[:, :, None, :] + pos).float()
+    logits = logits.masked_fill(~attend[..., None], float("-inf"))
+    w = torch.softmax(logits, dim=2).to(v.dtype)
+    return ((v + pos) * w).sum(dim=2)
+
+
+class ViewTransformer(nn.Module):
+    """Pre-norm block: vector attention across source views, then a 4x FFN."""
+
+    def __init__(self, dim: int, ff_mult: int = 4, dropout: float = 0.0):
+        super().__init__()
+        hid = max(dim // 8, 4)
+        self.norm1, self.norm2 = nn.LayerNorm(dim), nn.LayerNorm(dim)
+        self.q_fc = nn.Linear(dim, dim, bias=False)
+        self.k_fc = nn.Linear(dim, dim, bias=False)
+        self.v_fc = nn.Linear(dim, dim, bias=False)
+        self.pos_fc = nn.Sequential(nn.Linear(4, hid), nn.ReLU(), nn.Linear(hid, dim))
+        self.attn_fc = nn.Sequential(nn.Linear(dim, hid), nn.ReLU(), nn.Linear(hid, dim))
+        self.out_fc = nn.Linear(dim, dim)
+        self.drop = nn.Dropout(dropout)
+        self.ff = FeedForward(dim, dim * ff_mult, dropout)
+        self.attn_impl = vector_attention  # may be swapped for a torch.compile'd version
+
+    def forward(self, q: torch.Tensor, feats: torch.Tensor, rel_dir: torch.Tensor,
+                attend: torch.Tensor) -> torch.Tensor:
+        """q: [R, S, C]; feats: [R, S, V, C]; rel_dir: [R, S, V, 4]; attend: [R, S, V]."""
+        x = self.norm1(q)  # as in GNT, only the query is normalised
+        att = self.attn_impl(self.q_fc(x), self.k_fc(feats), self.v_fc(feats), self.pos_fc(rel_dir),
+                             attend, self.attn_fc)
+        q = q + self.drop(self.out_fc(att))
+        return q + self.ff(self.norm2(q))
+
+
+class RayTransformer(nn.Module):
+    """Pre-norm multi-head self-attention along the samples of each ray, then a 4x FFN."""
+
+    def __init__(self, dim: int, heads: int = 4, ff_mult: int = 4, dropout: float = 0.0):
+        super().__init__()
+        self.heads = heads
+        self.norm1, self.norm2 = nn.LayerNorm(dim), nn.LayerNorm(dim)
+        self.qkv = nn.Linear(dim, 3 * dim, bias=False)
+        self.out_fc = nn.Linear(dim, dim)
+        self.drop = nn.Dropout(dropout)
+        self.dropout = dropout
+        self.ff = FeedForward(dim, dim * ff_mult, dropout)
+
+    def forward(self, x: torch.Tensor, fused: bool = True,
+                return_weights: bool = False) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """x: [R, S, C] -> ([R, S, C], weights [R, S] (mean attention each sample receives,
+        sums to one per ray) when ``return_weights``)."""
+        R, S, C = x.shape
+        q, k, v = self.qkv(self.norm1(x)).view(R, S, 3, self.heads, C // self.heads).unbind(2)
+        q, k, v = (t.transpose(1, 2) for t in (q, k, v))  # [R, h, S, d]
+        weights = None
+        p = self.dropout if self.training else 0.0
+        if fused and not return_weights:
+            out = F.scaled_dot_product_attention(q, k, v, dropout_p=p)
+        else:
+            a = torch.softmax((q @ k.transpose(-1, -2)).float() / math.sqrt(q.shape[-1]), -1)
+            weights = a.mean(dim=(1, 2)) if return_weights else None  # [R, S]
+            out = F.dropout(a.to(v.dtype), p, self.training) @ v
+        x = x + self.drop(self.out_fc(out.transpose(1, 2).reshape(R, S, C)))
+        return x + self.ff(self.norm2(x)), weights

@@ -1,0 +1,125 @@
+"""GN-FR model: the Point Sampler's attention math, fused vs reference paths, renderer."""
+
+from __future__ import annotations
+
+import torch
+
+from gnfr.geometry import image_pixels, pixel_rays
+from gnfr.model import GNFR, GNFRConfig
+from gnfr.renderer import SourceViews, forward_rays, render_rays
+from gnfr.transformer import attention_mask, vector_attention
+
+TINY = GNFRConfig(enc_widths=(8, 16, 16), enc_blocks=(1, 1, 1), feat_ch=8, width=16, depth=2)
+
+
+def _weights(attend: torch.Tensor) -> torch.Tensor:
+    """Attention weights [R, S, V, C] of vector_attention for random inputs."""
+    R, S, V = attend.shape
+    C = 8
+    captured = {}
+
+    def fc(x):
+        captured["logits"] = x
+        return x
+
+    q, k, pos = torch.randn(R, S, C), torch.randn(R, S, V, C), torch.randn(R, S, V, C)
+    v = torch.zeros(R, S, V, C)
+    vector_attention(q, k, v, pos, attend, fc)
+    logits = captured["logits"].masked_fill(~attend[..., None], float("-inf"))
+    return torch.softmax(logits, dim=2)
+
+
+def test_point_sampler_zeroes_flared_views_and_renormalises():
+    g = torch.Generator().manual_seed(0)
+    valid = torch.rand(6, 5, 4, generator=g) > 0.2
+    flared = torch.rand(6, 5, 4, generator=g) > 0.6
+    valid[0, 0] = True
+    flared[0, 0] = torch.tensor([True, False, True, False])
+    attend, all_flared = attention_mask(valid, flared)
+    w = _weights(attend)
+    # through the real function: weight of the output equals sum over attended views only
+    assert torch.all(w[0, 0, [0, 2]] == 0)
+    assert torch.allclose(w.sum(2), torch.ones(6, 5, 8))
+    clean = valid & ~flared
+    has_clean = clean.any(-1)
+    assert torch.all(w[has_clean][~clean[has_clean]] == 0)
+    assert torch.equal(all_flared, valid.any(-1) & ~has_clean)
+
+
+def test_all_flared_point_falls_back_to_validity_and_is_counted():
+    valid = torch.tensor([[[True, True, False]], [[False, False, False]]])
+    flared = torch.tensor([[[True, True, False]], [[True, False, False]]])
+    attend, all_flared = attention_mask(valid, flared)
+    assert attend[0, 0].tolist() == [True, True, False]  # validity-only fallback
+    assert all_flared.tolist() == [[True], [False]]  # counted; invisible point is not
+    assert attend[1, 0].tolist() == [True, True, True]  # valid nowhere: uniform (GNT)
+    w = _weights(attend)
+    assert torch.all(w[0, 0, 2] == 0) and torch.allclose(w.sum(2), torch.ones(2, 1, 8))
+
+
+def test_vector_attention_output_ignores_flagged_views():
+    R, S, V, C = 3, 4, 5, 8
+    q, k, v, pos = torch.randn(R, S, C), torch.randn(R, S, V, C), torch.randn(R, S, V, C), \
+        torch.randn(R, S, V, C)
+    attend = torch.ones(R, S, V, dtype=torch.bool)
+    attend[..., 1] = False
+    fc = torch.nn.Linear(C, C)
+    out = vector_attention(q, k, v, pos, attend, fc)
+    k2, v2 = k.clone(), v.clone()
+    k2[..., 1, :] += 100.0
+    v2[..., 1, :] -= 50.0
+    assert torch.allclose(out, vector_attention(q, k2, v2, pos, attend, fc), atol=1e-5)
+
+
+def _scene(V=4, H=40, W=56, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    K = torch.tensor([[50.0, 0, W / 2], [0, 50.0, H / 2], [0, 0, 1]]).expand(V, 3, 3)
+    c2w = torch.eye(4).repeat(V, 1, 1)
+    c2w[:, 0, 3] = torch.linspace(-0.3, 0.3, V)
+    c2w[:, 2, 3] = -2.0
+    imgs = torch.rand(V, 3, H, W, generator=g)
+    masks = (torch.rand(V, 1, H, W, generator=g) > 0.7).float()
+    return imgs, K, c2w, masks
+
+
+def test_fused_and_reference_paths_agree_forward_and_backward():
+    torch.manual_seed(0)
+    model = GNFR(TINY).eval()
+    imgs, K, c2w, masks = _scene()
+    o, d = pixel_rays(K[0], c2w[0], image_pixels(40, 56)[::37])
+    t = torch.linspace(1.0, 3.0, 12).expand(o.shape[0], 12)
+    grads = []
+    for ref in (False, True):
+        model.zero_grad()
+        src = SourceViews.encode(model, imgs, K, c2w, masks, "cpu", grad=True)
+        out = forward_rays(model, src, torch.arange(1, 4), o, d, t, reference=ref)
+        (out["rgb"].square().sum() + out["depth"].sum()).backward()
+        grads.append((out, [p.grad.clone() for p in model.parameters()]))
+    (a, ga), (b, gb) = grads
+    assert torch.allclose(a["rgb"], b["rgb"], atol=1e-5)
+    assert torch.allclose(a["depth"], b["depth"], atol=1e-5)
+    for x, y in zip(ga, gb, strict=True):
+        assert torch.allclose(x, y, atol=1e-4, rtol=1e-3)
+
+
+def test_render_rays_is_deterministic_chunk_independent_and_flags_flare():
+    torch.manual_seed(0)
+    model = GNFR(TINY)
+    imgs, K, c2w, masks = _scene()
+    src = SourceViews.encode(model, imgs, K, c2w, masks, "cpu", chunk=2)
+    o, d = pixel_rays(K[0], c2w[0], image_pixels(40, 56)[:200])
+    near, far = torch.full((200,), 1.0), torch.full((200,), 3.0)
+    a = render_rays(model, src, torch.arange(1, 4), o, d, near, far, 16, chunk=64)
+    b = render_rays(model, src, torch.arange(1, 4), o, d, near, far, 16, chunk=200)
+    assert a["rgb"].shape == (200, 3) and a["depth"].shape == (200,)
+    assert torch.allclose(a["rgb"], b["rgb"], atol=1e-5)
+    assert bool(((a["depth"] >= 1.0) & (a["depth"] <= 3.0)).all())
+    full = SourceViews.encode(model, imgs, K, c2w, torch.ones_like(masks), "cpu")
+    c = render_rays(model, full, torch.arange(1, 4), o, d, near, far, 16)
+    assert float(c["all_flared"].mean()) > 0.5 and float(a["all_flared"].mean()) < 0.5
+    off = render_rays(model, full, torch.arange(1, 4), o, d, near, far, 16,
+                      point_sampler=False)
+    assert float(off["all_flared"].max()) == 0.0
+    # with every view flared, the fallback equals rendering with the Point Sampler off
+    assert torch.allclose(c["rgb"][c["all_flared"] == 1], off["rgb"][c["all_flared"] == 1],
+                          atol=1e-5)
