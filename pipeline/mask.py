@@ -1,0 +1,273 @@
+"""Stage `mask`: flare-occupancy masks for every view (FMG, or masks the user annotated).
+
+Reads ``WS/images/<stem>.png`` and writes
+- ``WS/masks/<stem>.png``: uint8, 255 = flare, same size as the image;
+- ``WS/flare.json``: ``{"source": "fmg" | "masks:<dir>", "threshold", "weights",
+  "views": {"<stem>": {"flare_fraction": f, "source": ...}}}``;
+- ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage.
+
+The FMG runs batched at a working resolution (long side ``work_size``) and its probability
+map is upsampled to the image size, optionally refined to follow image edges with a guided
+filter, then cut at ``threshold``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pipeline.datasets import IMAGE_EXTENSIONS
+from pipeline.errors import UserError
+from pipeline.progress import info, track
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
+
+DEFAULT_WEIGHTS = Path(__file__).resolve().parents[1] / "gnfr" / "weights" / "fmg.safetensors"
+"""The FMG weights shipped with the package (see gnfr/weights/fmg.md)."""
+
+
+@dataclass
+class MaskConfig:
+    """Options of the mask stage."""
+
+    weights: Path | None = None
+    """FMG weights (safetensors); None = the shipped gnfr/weights/fmg.safetensors."""
+    masks_dir: Path | None = None
+    """Hand-annotated masks instead of the FMG: one image per stem, nonzero = flare."""
+    threshold: float = 0.5
+    """Flare probability above which a pixel is flare."""
+    work_size: int = 512
+    """Long side (pixels) at which the FMG runs."""
+    refine: bool = False
+    """Refine the probability map with a guided filter on the image before thresholding."""
+    batch: int = 4
+    """Views per FMG forward pass."""
+    device: str = "auto"
+    """torch device for the FMG: auto (CUDA when present), cpu or cuda."""
+
+
+# --------------------------------------------------------------------------- weights
+def weights_path(config: MaskConfig) -> Path:
+    return Path(config.weights) if config.weights else DEFAULT_WEIGHTS
+
+
+def weights_id(path: Path) -> str:
+    """'<file name>@sha256:<first 16 hex>' identifying a weight file."""
+    h = hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+    return f"{path.name}@sha256:{h}"
+
+
+def load_fmg_weights(path: Path, device: str = "cpu"):
+    """Load the FMG, turning a missing or foreign file into a UserError saying what to do."""
+    from gnfr.fmg import load_fmg
+
+    how = ("train one with `deflare-scene fmg train --out FMG_RUN` and copy "
+           f"FMG_RUN/fmg.safetensors to {DEFAULT_WEIGHTS}, or pass --weights PATH")
+    try:
+        return load_fmg(path, device)
+    except FileNotFoundError:
+        raise UserError(f"FMG weights {path} are missing: {how}") from None
+    except ValueError as e:
+        raise UserError(f"FMG weights {path} cannot be used ({e}): {how}") from None
+
+
+def pick_device(name: str) -> str:
+    import torch
+
+    if name == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    return name
+
+
+# --------------------------------------------------------------------------- FMG masks
+def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
+                 eps: float = 1e-3) -> np.ndarray:
+    """Guided-filter the probability map [H, W] with the image as guide (edge-following)."""
+    guide = image_bgr.astype(np.float32) / 255.0
+    out = cv2.ximgproc.guidedFilter(guide, probs.astype(np.float32), radius, eps)
+    return np.clip(out, 0.0, 1.0)
+
+
+def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int) -> list[np.ndarray]:
+    """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images."""
+    import torch
+
+    from gnfr.fmg import predict_probs
+
+    x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
+    t = torch.from_numpy(x).permute(0, 3, 1, 2)                  # [B, 3, H, W]
+    probs = predict_probs(model, t, work_size)                   # [B, 1, H, W]
+    return list(probs[:, 0].cpu().numpy())
+
+
+def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
+    """Group stems of one image size into batches of at most n."""
+    by_size: dict[tuple[int, int], list[str]] = {}
+    for s in stems:
+        by_size.setdefault(sizes[s], []).append(s)
+    for group in by_size.values():
+        for i in range(0, len(group), n):
+            yield group[i:i + n]
+
+
+def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None:
+    """Run the FMG on the views in ``stems`` and write their masks."""
+    import torch
+
+    model = load_fmg_weights(weights_path(config), pick_device(config.device))
+    sizes = {s: _image_size(ws.images / f"{s}.png") for s in stems}
+    batches = list(_batches(stems, sizes, config.batch))
+    with torch.inference_mode():
+        for batch in track(batches, "FMG masks (batches)"):
+            imgs = [read_image(ws.images / f"{s}.png") for s in batch]
+            for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
+                                 strict=True):
+                if config.refine:
+                    p = refine_probs(img, p)
+                mask = np.where(p > config.threshold, 255, 0).astype(np.uint8)
+                atomic_imwrite(ws.masks / f"{s}.png", mask)
+
+
+# --------------------------------------------------------------------------- given masks
+def find_given_mask(masks_dir: Path, stem: str) -> Path:
+    hits = sorted(p for p in masks_dir.iterdir()
+                  if p.stem == stem and p.suffix.lower() in IMAGE_EXTENSIONS)
+    if not hits:
+        raise UserError(f"--masks {masks_dir} has no mask for view '{stem}': add "
+                        f"{masks_dir / (stem + '.png')} (nonzero = flare)")
+    return hits[0]
+
+
+def write_given_masks(masks_dir: Path, ws: Workspace, stems: list[str]) -> None:
+    """Copy hand-made masks (nonzero = flare), resized (nearest) to each image's size."""
+    if not masks_dir.is_dir():
+        raise UserError(f"--masks {masks_dir} is not a folder of mask images")
+    srcs = {s: find_given_mask(masks_dir, s) for s in stems}   # all errors before writing
+    for s in track(stems, "copying masks"):
+        m = cv2.imread(str(srcs[s]), cv2.IMREAD_UNCHANGED)
+        if m is None:
+            raise UserError(f"cannot read mask {srcs[s]}: save it as PNG/JPEG")
+        if m.ndim == 3:
+            m = m.max(axis=2)
+        h, w = _image_size(ws.images / f"{s}.png")
+        m = cv2.resize(m, (w, h), interpolation=cv2.INTER_NEAREST)
+        atomic_imwrite(ws.masks / f"{s}.png", np.where(m > 0, 255, 0).astype(np.uint8))
+
+
+# --------------------------------------------------------------------------- helpers
+def read_image(path: Path) -> np.ndarray:
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise UserError(f"cannot read {path}: rerun `deflare-scene pose` to rewrite it")
+    return img
+
+
+def _image_size(path: Path) -> tuple[int, int]:
+    return read_image(path).shape[:2]
+
+
+def read_mask(path: Path) -> np.ndarray:
+    """[H, W] bool flare mask from a WS/masks png."""
+    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if m is None:
+        raise UserError(f"cannot read mask {path}: rerun `deflare-scene mask --force`")
+    return m > 127
+
+
+def flare_fraction(mask: np.ndarray) -> float:
+    """Fraction of pixels marked flare in a [H, W] bool / uint8 mask."""
+    return float(np.count_nonzero(mask)) / float(mask.size)
+
+
+def image_stems(ws: Workspace) -> list[str]:
+    stems = sorted(p.stem for p in ws.images.glob("*.png")) if ws.images.is_dir() else []
+    if not stems:
+        raise UserError(f"{ws.images} has no images: run `deflare-scene pose {ws.root}` first")
+    return stems
+
+
+def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int = 320,
+                   cols: int | None = None) -> np.ndarray:
+    """A BGR contact sheet: each (stem, image BGR, mask bool) tinted red where flare."""
+    cols = cols or min(len(tiles), max(1, math.ceil(math.sqrt(len(tiles)))), 6)
+    rows = math.ceil(len(tiles) / cols)
+    th = round(thumb * 3 / 4)
+    sheet = np.full((rows * (th + 4), cols * (thumb + 4), 3), 32, np.uint8)
+    for i, (stem, img, mask) in enumerate(tiles):
+        s = min(thumb / img.shape[1], th / img.shape[0])
+        w, h = max(1, round(img.shape[1] * s)), max(1, round(img.shape[0] * s))
+        im = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32)
+        m = cv2.resize(mask.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
+        im[m] = 0.45 * im[m] + 0.55 * np.array([0, 0, 255], np.float32)
+        label = f"{stem}  {100 * flare_fraction(mask):.1f}%"
+        im = im.astype(np.uint8)
+        cv2.putText(im, label, (5, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3)
+        cv2.putText(im, label, (5, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1)
+        r, c = divmod(i, cols)
+        y, x = r * (th + 4) + 2, c * (thumb + 4) + 2
+        sheet[y:y + h, x:x + w] = im
+    return sheet
+
+
+# --------------------------------------------------------------------------- stage
+def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
+    ws.require("pose")
+    stems = image_stems(ws)
+    if config.masks_dir is not None:
+        masks_dir = Path(config.masks_dir).resolve()
+        source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
+    else:
+        wpath = weights_path(config)
+        if not wpath.is_file():
+            load_fmg_weights(wpath)  # raises the UserError that says how to get weights
+        source, wid, inputs = "fmg", weights_id(wpath), [ws.images, wpath]
+    params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
+              if k not in ("device", "batch")}
+    params["source"], params["weights"] = source, wid
+    run_ = ws.begin_stage("mask", params, inputs, force)
+    if run_.skip:
+        info(f"mask: up to date ({ws.flare_json})")
+        return run_.outputs
+    ws.masks.mkdir(parents=True, exist_ok=True)
+    for p in ws.masks.glob("*.png"):  # masks of views that no longer exist, or stale ones
+        if p.stem not in stems or not ws.resumable(run_):
+            p.unlink()
+    todo = [s for s in stems if not (ws.masks / f"{s}.png").exists()]
+    if todo and config.masks_dir is not None:
+        write_given_masks(Path(config.masks_dir), ws, todo)
+    elif todo:
+        write_fmg_masks(config, ws, todo)
+    return _summarise(config, ws, run_, stems, source, wid)
+
+
+def _summarise(config: MaskConfig, ws: Workspace, run_, stems: list[str], source: str,
+               wid: str | None) -> list[Path]:
+    views, tiles = {}, []
+    src = "fmg" if source == "fmg" else "masks"
+    for s in stems:
+        m = read_mask(ws.masks / f"{s}.png")
+        views[s] = {"flare_fraction": round(flare_fraction(m), 6), "source": src}
+        tiles.append((s, read_image(ws.images / f"{s}.png"), m))
+    atomic_write_json(ws.flare_json, {"source": source, "threshold": config.threshold,
+                                      "weights": wid, "views": views})
+    atomic_imwrite(ws.masks_overview, overview_sheet(tiles), [cv2.IMWRITE_JPEG_QUALITY, 90])
+    worst = max(views, key=lambda s: views[s]["flare_fraction"])
+    info(f"mask: {len(stems)} views, most flared {worst} "
+         f"({100 * views[worst]['flare_fraction']:.1f}%); see {ws.masks_overview}")
+    return run_.finish([ws.masks, ws.flare_json, ws.masks_overview],
+                       extra={"views": len(stems)},
+                       versions=["torch", "opencv-contrib-python-headless"])
+
+
+def stage_seconds(ws: Workspace) -> float:
+    """Seconds the last mask run took (from the manifest)."""
+    return float(ws.stage_record("mask").get("seconds", math.nan))
+
+
+__all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
+           "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id"]

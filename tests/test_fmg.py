@@ -1,0 +1,118 @@
+"""FMG (PSPNet): shapes, the 5:1 weighted loss, metrics, weight files, a CPU overfit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+import torch.nn.functional as F
+
+from gnfr.fmg import (
+    FMGConfig,
+    build_fmg,
+    confusion,
+    fmg_loss,
+    load_fmg,
+    predict_probs,
+    save_fmg,
+    seg_metrics,
+    tiny_config,
+    work_shape,
+)
+
+
+@pytest.mark.parametrize("hw", [(64, 64), (37, 53), (8, 8), (101, 66)])
+def test_pspnet_output_shape(hw):
+    torch.manual_seed(0)
+    model = build_fmg(tiny_config()).eval()
+    x = torch.rand(2, 3, *hw)
+    y = model(x)
+    assert y.shape == (2, 1, *hw) and torch.isfinite(y).all()
+
+
+def test_backbone_output_stride_8_and_ppm_width():
+    cfg = FMGConfig(widths=(8, 16, 24, 32), depths=(1, 2, 1, 1), head_width=8)
+    model = build_fmg(cfg).eval()
+    feats = model.backbone(torch.rand(1, 3, 96, 128))
+    assert feats.shape == (1, 32, 12, 16)
+    assert model.ppm(feats).shape == (1, 32 + 4 * 8, 12, 16)
+    # dilation, not stride, in the last two stages
+    assert model.backbone.layer4[-1].conv2.dilation == (4, 4)
+    assert model.backbone.layer3[-1].conv2.dilation == (2, 2)
+
+
+def test_default_config_is_resnet18_sized():
+    n = sum(p.numel() for p in build_fmg().parameters())
+    assert 10e6 < n < 25 * 2**20 / 2  # fp16 file under 25 MiB
+
+
+def test_weighted_bce_matches_manual():
+    torch.manual_seed(1)
+    logits = torch.randn(2, 1, 5, 7)
+    target = (torch.rand(2, 1, 5, 7) > 0.7).float()
+    p = torch.sigmoid(logits).double()
+    t = target.double()
+    manual = -(5 * t * torch.log(p) + (1 - t) * torch.log(1 - p)).mean()
+    assert fmg_loss(logits, target).item() == pytest.approx(manual.item(), rel=1e-5)
+    # flare pixels weigh exactly 5x: same per-pixel BCE, one flare vs one clear pixel
+    z = torch.zeros(1, 1, 1, 2)
+    per_pixel = F.binary_cross_entropy_with_logits(z, torch.tensor([[[[1.0, 0.0]]]]),
+                                                   reduction="none")
+    assert per_pixel[0, 0, 0, 0] == pytest.approx(per_pixel[0, 0, 0, 1].item())
+    lf = fmg_loss(z[..., :1], torch.ones(1, 1, 1, 1))
+    ln = fmg_loss(z[..., :1], torch.zeros(1, 1, 1, 1))
+    assert lf.item() == pytest.approx(5 * ln.item())
+
+
+def test_seg_metrics_definitions():
+    target = torch.tensor([0, 0, 0, 0, 1, 1, 1, 0])
+    pred = torch.tensor([0, 0, 1, 0, 1, 1, 0, 0])
+    m = seg_metrics(confusion(pred, target))
+    # no-flare: TP 4, FP 1, FN 1 -> IoU 4/6, acc 4/5; flare: TP 2, FP 1, FN 1 -> 2/4, 2/3
+    assert m["mIoU"] == pytest.approx((4 / 6 + 2 / 4) / 2)
+    assert m["mAcc"] == pytest.approx((4 / 5 + 2 / 3) / 2)
+    assert m["IoU_flare"] == pytest.approx(0.5)
+    perfect = seg_metrics(confusion(target, target))
+    assert perfect["mIoU"] == 1.0 and perfect["mAcc"] == 1.0
+
+
+def test_work_shape_and_predict_probs_size():
+    assert work_shape(480, 640, 512) == (384, 512)
+    assert all(v % 8 == 0 for v in work_shape(333, 517, 256))
+    model = build_fmg(tiny_config())
+    p = predict_probs(model, torch.rand(1, 3, 75, 99), long_side=64)
+    assert p.shape == (1, 1, 75, 99) and float(p.min()) >= 0 and float(p.max()) <= 1
+
+
+def test_save_load_roundtrip_fp16(tmp_path):
+    torch.manual_seed(2)
+    cfg = tiny_config()
+    model = build_fmg(cfg).eval()
+    path = save_fmg(tmp_path / "w.safetensors", model, extra={"note": "x"})
+    loaded = load_fmg(path)
+    assert loaded.cfg == cfg
+    x = torch.rand(1, 3, 32, 40)
+    with torch.no_grad():
+        assert torch.allclose(model(x), loaded(x), atol=2e-2)
+    with pytest.raises(FileNotFoundError):
+        load_fmg(tmp_path / "missing.safetensors")
+    (tmp_path / "junk.safetensors").write_bytes(b"junk")
+    with pytest.raises(ValueError):
+        load_fmg(tmp_path / "junk.safetensors")
+
+
+def blob_batch(rng: np.random.Generator, n: int, size: int = 48):
+    """Images with soft bright blobs (the 'flare') over textured noise, and their masks."""
+    yy, xx = np.mgrid[:size, :size].astype(np.float32)
+    imgs, masks = [], []
+    for _ in range(n):
+        img = rng.uniform(0.0, 0.5, (size, size, 3)).astype(np.float32)
+        cy, cx = rng.uniform(10, size - 10, 2)
+        r = rng.uniform(5, 10)
+        g = np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * r * r))
+        img = np.clip(img + 0.8 * g[..., None] * np.array([1.0, 0.9, 0.6]), 0, 1)
+        imgs.append(img)
+        masks.append(g > 0.3)
+    x = torch.from_numpy(np.stack(imgs)).permute(0, 3, 1, 2)
+    y = torch.from_numpy(np.stack(masks))[:, None].float()
+    return x, y

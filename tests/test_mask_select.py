@@ -1,0 +1,183 @@
+"""The mask and select stages on a small kermit workspace (cameras placed on a circle)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from gnfr.fmg import build_fmg, save_fmg, tiny_config
+from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
+from pipeline.errors import UserError
+from pipeline.workspace import Workspace, atomic_imwrite
+from tests.conftest import shared
+from workflows.cli import main
+
+
+def look_at(center: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """[4, 4] OpenCV camera-to-world at ``center`` looking at ``target`` (y down)."""
+    z = target - center
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, -1.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    c2w = np.eye(4)
+    c2w[:3, :3] = np.stack([x, y, z], 1)
+    c2w[:3, 3] = center
+    return c2w
+
+
+def make_kermit_ws(root: Path, n: int = 6, scale: float = 0.5) -> Workspace:
+    """Kermit views in WS/images, cameras on a circle (angle = view order), pose 'done'."""
+    src = shared("scenes", "kermit")
+    names = sorted(p.name for p in src.iterdir() if p.suffix.lower() == ".jpg")[:n]
+    ws = Workspace.create(root, src)
+    frames = []
+    for i, name in enumerate(names):
+        img = cv2.imread(str(src / name))
+        h, w = img.shape[:2]
+        W, H = round(w * scale), round(h * scale)
+        img = cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
+        stem = Path(name).stem
+        atomic_imwrite(ws.images / f"{stem}.png", img)
+        a = 2 * np.pi * i / (2 * n)
+        K = np.array([[0.9 * W, 0, W / 2], [0, 0.9 * W, H / 2], [0, 0, 1.0]])
+        frames.append(Frame(name=name, stem=stem, K=K, width=W, height=H,
+                            c2w=look_at(np.array([np.cos(a), 0.0, np.sin(a)]), np.zeros(3)),
+                            near=0.3, far=2.0,
+                            colmap_camera={"model": "PINHOLE", "width": W, "height": H,
+                                           "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}))
+    save_cameras(ws.cameras_json, Cameras(frames=frames))
+    ws.begin_stage("pose", {"fixture": "kermit-circle"}, []).finish([ws.images,
+                                                                     ws.cameras_json])
+    return ws
+
+
+def box_mask(h: int, w: int, fraction: float) -> np.ndarray:
+    """uint8 mask with a top-left box covering about ``fraction`` of the image."""
+    m = np.zeros((h, w), np.uint8)
+    side = np.sqrt(fraction * h * w / (w / h))
+    bh, bw = round(side), round(side * w / h)
+    m[:bh, :bw] = 255
+    return m
+
+
+@pytest.fixture
+def kermit_ws(tmp_path):
+    return make_kermit_ws(tmp_path / "ws")
+
+
+@pytest.fixture
+def tiny_weights(tmp_path):
+    import torch
+
+    torch.manual_seed(0)
+    return save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+
+
+def test_mask_stage_fmg_outputs(kermit_ws, tiny_weights):
+    ws = kermit_ws
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights)]) == 0
+    flare = json.loads(ws.flare_json.read_text())
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    assert flare["source"] == "fmg" and flare["threshold"] == 0.5
+    assert flare["weights"].startswith("tiny.safetensors@sha256:")
+    assert sorted(flare["views"]) == stems
+    for s in stems:
+        img = cv2.imread(str(ws.images / f"{s}.png"))
+        m = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_UNCHANGED)
+        assert m.dtype == np.uint8 and m.shape == img.shape[:2]
+        assert set(np.unique(m)) <= {0, 255}
+        assert flare["views"][s]["flare_fraction"] == pytest.approx((m > 0).mean(), abs=1e-6)
+    assert cv2.imread(str(ws.masks_overview)) is not None
+    # unchanged inputs: skipped, masks untouched
+    mtime = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights)]) == 0
+    assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns == mtime
+
+
+def test_given_masks_and_ten_percent_rule(kermit_ws, tmp_path):
+    ws = kermit_ws
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    h, w = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+    given = tmp_path / "given"
+    given.mkdir()
+    fracs = {s: (0.15 if i % 3 == 0 else 0.05) for i, s in enumerate(stems)}
+    for s in stems:  # written at half size as JPEG-free PNG: must be resized to image size
+        small = box_mask(h // 2, w // 2, fracs[s])
+        cv2.imwrite(str(given / f"{s}.png"), (small > 0).astype(np.uint8))  # nonzero = 1
+    assert main(["mask", str(ws.root), "--masks", str(given)]) == 0
+    flare = json.loads(ws.flare_json.read_text())
+    assert flare["source"].startswith("masks:")
+    for s in stems:
+        m = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_UNCHANGED)
+        assert m.shape == (h, w) and m.max() == 255
+        assert flare["views"][s]["flare_fraction"] == pytest.approx(fracs[s], abs=0.01)
+    assert main(["select", str(ws.root)]) == 0
+    views = json.loads(ws.views_json.read_text())
+    assert views["max_flare"] == 0.1
+    cams = load_cameras(ws.cameras_json).by_stem()
+    for s in stems:
+        v = views["views"][s]
+        assert v["target"] == (fracs[s] < 0.1)
+        src = v["sources"]
+        assert sorted(x["stem"] for x in src) == sorted(set(stems) - {s})
+        d = [x["distance"] for x in src]
+        assert d == sorted(d)
+        for x in src:
+            true_d = np.linalg.norm(cams[s].center - cams[x["stem"]].center)
+            assert x["distance"] == pytest.approx(true_d, abs=1e-5)
+            assert x["flare_fraction"] == flare["views"][x["stem"]]["flare_fraction"]
+    # neighbours on the circle: the nearest source of view i is i-1 or i+1
+    i = 2
+    assert views["views"][stems[i]]["sources"][0]["stem"] in (stems[1], stems[3])
+
+
+def test_select_refuses_when_too_flared(kermit_ws, tmp_path):
+    ws = kermit_ws
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    h, w = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+    given = tmp_path / "given"
+    given.mkdir()
+    for i, s in enumerate(stems):
+        cv2.imwrite(str(given / f"{s}.png"), box_mask(h, w, 0.05 if i == 0 else 0.15))
+    assert main(["mask", str(ws.root), "--masks", str(given)]) == 0
+    from pipeline.select import SelectConfig, run
+
+    with pytest.raises(UserError) as e:
+        run(SelectConfig(), ws)
+    msg = str(e.value)
+    assert f"{stems[1]} (15." in msg and "--max-flare" in msg and "--masks" in msg
+    assert stems[0] + " (" not in msg
+    assert main(["select", str(ws.root), "--max-flare", "0.2"]) == 0
+
+
+def test_given_masks_missing_stem_named(kermit_ws, tmp_path):
+    ws = kermit_ws
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    given = tmp_path / "given"
+    given.mkdir()
+    for s in stems[1:]:
+        cv2.imwrite(str(given / f"{s}.png"), np.zeros((8, 8), np.uint8))
+    from pipeline.mask import MaskConfig, run
+
+    with pytest.raises(UserError, match=f"no mask for view '{stems[0]}'"):
+        run(MaskConfig(masks_dir=given), ws)
+
+
+def test_missing_weights_is_clear_error(kermit_ws, tmp_path, capsys):
+    code = main(["mask", str(kermit_ws.root), "--weights", str(tmp_path / "nope.safetensors")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "nope.safetensors" in err and "deflare-scene fmg train" in err
+    assert "Traceback" not in err
+
+
+def test_foreign_weights_is_clear_error(kermit_ws, tmp_path, capsys):
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not a safetensors file")
+    assert main(["mask", str(kermit_ws.root), "--weights", str(bad)]) == 2
+    assert "cannot be used" in capsys.readouterr().err
