@@ -1,0 +1,264 @@
+"""Camera path builders, camera-path JSON formats and COLMAP camera models."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from gnfr.paths import (
+    PathCamera,
+    PoseSpline,
+    interpolate_path,
+    is_surrounding,
+    look_at,
+    matrix_from_quat,
+    order_tour,
+    path_from_json,
+    path_from_nerfstudio,
+    path_to_json,
+    path_to_nerfstudio,
+    quat_from_matrix,
+    spiral_path,
+)
+from pipeline.camera_models import MODELS, CameraModel, warp_maps
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def ring(n=8, seed=0, shuffle=True):
+    """Cameras on a noisy ring around the origin, looking at it, in shuffled order."""
+    rng = np.random.default_rng(seed)
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    if shuffle:
+        rng.shuffle(th)
+    eyes = np.stack([np.cos(th), np.sin(th), 0.2 + 0.05 * rng.standard_normal(n)], 1)
+    return np.stack([look_at(e, 0.05 * rng.standard_normal(3), UP) for e in eyes])
+
+
+def forward_facing(n=9, seed=1):
+    rng = np.random.default_rng(seed)
+    eyes = np.c_[rng.uniform(-0.3, 0.3, n), rng.uniform(-0.2, 0.2, n), np.zeros(n)]
+    return np.stack([look_at(e, np.array([0.0, 4.0, 0.0]) + 0.1 * rng.standard_normal(3),
+                             UP) for e in eyes])
+
+
+def assert_rotations(P):
+    R = P[:, :3, :3]
+    assert np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max() < 1e-9
+    assert np.allclose(np.linalg.det(R), 1.0, atol=1e-9)
+    assert np.allclose(P[:, 3], [0, 0, 0, 1])
+
+
+def test_quaternion_round_trip():
+    P = np.concatenate([ring(20), forward_facing()])
+    q = quat_from_matrix(P[:, :3, :3])
+    assert np.allclose(np.linalg.norm(q, axis=1), 1)
+    assert np.abs(matrix_from_quat(q) - P[:, :3, :3]).max() < 1e-12
+    # 180-degree turns (trace -1) are the unstable case of the naive formula
+    flip = np.diag([1.0, -1.0, -1.0])
+    assert np.abs(matrix_from_quat(quat_from_matrix(flip)) - flip).max() < 1e-12
+
+
+def test_order_tour_follows_the_ring():
+    P = ring(10)
+    order = order_tour(P[:, :3, 3])
+    assert sorted(order) == list(range(10))
+    steps = np.linalg.norm(np.diff(P[order, :3, 3], axis=0), axis=1)
+    neighbour = 2 * np.sin(np.pi / 10)  # chord between neighbours on the unit ring
+    assert steps.max() < 1.3 * neighbour  # a tour around the ring, no jumps across it
+
+
+@pytest.mark.parametrize(("make", "closed"), [(ring, False), (ring, True),
+                                              (forward_facing, False)])
+def test_interpolate_smooth_and_through_keys(make, closed):
+    keys = make()
+    P = interpolate_path(keys, 120, closed=closed)
+    assert P.shape == (120, 4, 4)
+    assert_rotations(P)
+    step = np.linalg.norm(np.diff(P[:, :3, 3], axis=0), axis=1)
+    second = np.linalg.norm(np.diff(P[:, :3, 3], 2, axis=0), axis=1)
+    assert second.max() < step.mean()  # turns by less than 60 degrees a frame
+    # C1: second differences shrink ~4x when the frame count doubles (a kink gives 2x)
+    fine = [np.linalg.norm(np.diff(interpolate_path(keys, n, closed=closed)[:, :3, 3], 2,
+                                   axis=0), axis=1).max() for n in (240, 480)]
+    assert fine[1] / fine[0] < 0.35
+    rot_step = np.arccos(np.clip((np.trace(P[:-1, :3, :3].transpose(0, 2, 1) @ P[1:, :3, :3],
+                                           axis1=1, axis2=2) - 1) / 2, -1, 1))
+    assert rot_step.max() < 0.2  # radians per frame: no rotation jumps
+    # every key camera is passed closely (constant-speed resampling leaves < one step)
+    near = np.linalg.norm(keys[:, None, :3, 3] - P[None, :, :3, 3], axis=-1).min(1)
+    assert near.max() <= step.max() + 1e-9
+    if not closed:  # the open path starts and ends on keys
+        order = order_tour(keys[:, :3, 3])
+        assert np.allclose(P[0], keys[order[0]], atol=1e-9)
+        assert np.allclose(P[-1], keys[order[-1]], atol=1e-9)
+
+
+def test_spline_hits_keys_exactly():
+    keys = ring(7, shuffle=False)
+    for closed in (False, True):
+        s = PoseSpline.fit(keys, closed)
+        assert np.abs(s(s.knots[:7]) - keys).max() < 1e-9
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 37])
+def test_frame_counts(n):
+    assert interpolate_path(ring(5), n).shape == (n, 4, 4)
+    assert spiral_path(ring(5), np.full(5, 0.5), np.full(5, 2.0), n).shape == (n, 4, 4)
+
+
+def test_spiral_forward_facing_looks_ahead():
+    keys = forward_facing()
+    assert not is_surrounding(keys)
+    P = spiral_path(keys, np.full(9, 1.0), np.full(9, 8.0), 60)
+    assert_rotations(P)
+    # stays within the spread of the captured centres and looks the same way they do
+    lo, hi = keys[:, :3, 3].min(0), keys[:, :3, 3].max(0)
+    assert np.all(P[:, :3, 3] > lo - 0.1) and np.all(P[:, :3, 3] < hi + 0.1)
+    assert np.all(P[:, :3, 2] @ keys[:, :3, 2].mean(0) > 0.9)
+    assert np.all(P[:, :3, 1] @ UP < -0.9)  # upright
+    assert np.abs(np.diff(P[:, :3, 3], 2, axis=0)).max() < 0.05
+
+
+def test_spiral_surrounding_orbits_the_focus():
+    keys = ring(12)
+    assert is_surrounding(keys)
+    P = spiral_path(keys, np.full(12, 0.5), np.full(12, 2.0), 90)
+    assert_rotations(P)
+    r = np.linalg.norm(P[:, :2, 3], axis=1)
+    assert np.all(np.abs(r - 1.0) < 0.15)  # the ring's radius
+    to_centre = -P[:, :3, 3] / np.linalg.norm(P[:, :3, 3], axis=1, keepdims=True)
+    assert np.all(np.sum(P[:, :3, 2] * to_centre, 1) > 0.95)  # looking at the scene
+    assert np.all(P[:, :3, 1] @ UP < -0.9)  # upright: image y points down the world
+
+
+def test_look_at_convention():
+    c2w = look_at(np.array([0.0, -2.0, 0.0]), np.zeros(3), UP)
+    assert np.allclose(c2w[:3, 2], [0, 1, 0])  # z forward
+    assert np.allclose(c2w[:3, 1], [0, 0, -1])  # y down
+    assert np.allclose(c2w[:3, 0], [1, 0, 0])  # x right
+
+
+# --------------------------------------------------------------------------- JSON paths
+def sample_cams():
+    K = np.array([[300.0, 0, 160], [0, 300.0, 120], [0, 0, 1]])
+    return [PathCamera(f"view_{i}", K, c2w, 320, 240) for i, c2w in enumerate(ring(4))]
+
+
+def test_json_round_trip():
+    cams = sample_cams()
+    text = json.dumps(path_to_json(cams))
+    back = path_from_json(json.loads(text))
+    assert [c.name for c in back] == [c.name for c in cams]
+    for a, b in zip(cams, back, strict=True):
+        assert np.array_equal(a.K, b.K) and np.array_equal(a.c2w, b.c2w)
+        assert (a.width, a.height) == (b.width, b.height)
+
+
+def test_json_errors_are_named():
+    good = path_to_json(sample_cams())
+    with pytest.raises(ValueError, match="frames"):
+        path_from_json({"cameras": []})
+    bad = json.loads(json.dumps(good))
+    bad["frames"][2]["K"] = [[1, 2], [3, 4]]
+    with pytest.raises(ValueError, match="frame 2: K"):
+        path_from_json(bad)
+    bad = json.loads(json.dumps(good))
+    bad["frames"][1]["name"] = "view_0"
+    with pytest.raises(ValueError, match="repeated"):
+        path_from_json(bad)
+
+
+def test_nerfstudio_round_trip_and_conventions():
+    cams = sample_cams()
+    ns = path_to_nerfstudio(cams, fps=30)
+    assert len(ns["camera_path"][0]["camera_to_world"]) == 16
+    back = path_from_json(json.loads(json.dumps(ns)))
+    for a, b in zip(cams, back, strict=True):
+        assert np.allclose(a.K, b.K) and np.allclose(a.c2w, b.c2w)
+    # OpenGL: the camera looks down its -z; the OpenCV forward is +z of c2w
+    gl = np.array(ns["camera_path"][0]["camera_to_world"]).reshape(4, 4)
+    assert np.allclose(-gl[:3, 2], cams[0].c2w[:3, 2])
+    assert np.allclose(gl[:3, 3], cams[0].c2w[:3, 3])
+    # vertical fov: tan(fov / 2) = (H / 2) / f
+    assert np.isclose(np.tan(np.radians(ns["camera_path"][0]["fov"]) / 2), 120 / 300)
+
+
+def test_nerfstudio_refuses_what_it_cannot_map():
+    cams = sample_cams()
+    cams[0].K = cams[0].K.copy()
+    cams[0].K[0, 2] += 5  # off-centre principal point has no nerfstudio equivalent
+    with pytest.raises(ValueError, match="centred"):
+        path_to_nerfstudio(cams)
+    with pytest.raises(ValueError, match="perspective"):
+        path_from_nerfstudio({"camera_type": "fisheye", "render_height": 10,
+                              "camera_path": []})
+
+
+# --------------------------------------------------------------------------- camera models
+PARAMS = {
+    "SIMPLE_PINHOLE": [500, 320, 240],
+    "PINHOLE": [500, 510, 320, 240],
+    "SIMPLE_RADIAL": [500, 320, 240, -0.12],
+    "RADIAL": [500, 320, 240, -0.1, 0.02],
+    "OPENCV": [500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002],
+    "FULL_OPENCV": [500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002, 0.01, 0.05, 0.01, 0.001],
+    "SIMPLE_RADIAL_FISHEYE": [300, 320, 240, 0.05],
+    "RADIAL_FISHEYE": [300, 320, 240, 0.05, 0.01],
+    "OPENCV_FISHEYE": [300, 310, 320, 240, 0.05, 0.01, 0.001, 0.0001],
+}
+
+
+@pytest.mark.parametrize("model", list(MODELS))
+def test_camera_model_round_trip(model):
+    cam = CameraModel.from_colmap({"model": model, "width": 640, "height": 480,
+                                   "params": PARAMS[model]})
+    uv = cam.pixel_grid()[::7, ::7].reshape(-1, 2)
+    xy = cam.pixel_to_normalized(uv)
+    assert np.abs(cam.normalized_to_pixel(xy) - uv).max() < 1e-6  # distort(undistort(x))
+    xy2 = np.random.default_rng(0).uniform(-0.5, 0.5, (500, 2))
+    assert np.abs(cam.undistort(cam.distort(xy2)) - xy2).max() < 1e-6
+    if cam.dist.any():  # the distortion really does something
+        assert np.abs(cam.distort(xy2) - xy2).max() > 1e-3
+
+
+@pytest.mark.parametrize("model", ["OPENCV", "FULL_OPENCV", "OPENCV_FISHEYE"])
+def test_camera_model_matches_opencv(model):
+    import cv2
+
+    cam = CameraModel.from_colmap({"model": model, "width": 640, "height": 480,
+                                   "params": PARAMS[model]})
+    xy = np.random.default_rng(1).uniform(-0.4, 0.4, (100, 2))
+    pts3 = np.c_[xy, np.ones(len(xy))][:, None]
+    if model == "OPENCV_FISHEYE":
+        uv, _ = cv2.fisheye.projectPoints(pts3, np.zeros(3), np.zeros(3), cam.K, cam.dist)
+    else:
+        uv, _ = cv2.projectPoints(pts3, np.zeros(3), np.zeros(3), cam.K, cam.dist)
+    assert np.abs(uv[:, 0] - cam.normalized_to_pixel(xy)).max() < 1e-6
+
+
+def test_scaled_camera_and_warp_maps():
+    cam = CameraModel.from_colmap({"model": "SIMPLE_RADIAL", "width": 640, "height": 480,
+                                   "params": PARAMS["SIMPLE_RADIAL"]})
+    half = cam.scaled(0.5)
+    assert (half.width, half.height) == (320, 240)
+    xy = np.array([[0.1, -0.2], [0.3, 0.25]])
+    assert np.allclose(half.normalized_to_pixel(xy), cam.normalized_to_pixel(xy) * 0.5)
+    aniso = cam.scaled(0.5, 0.25)
+    assert aniso.model == "OPENCV"
+    assert np.allclose(aniso.normalized_to_pixel(xy), cam.normalized_to_pixel(xy) * [0.5, 0.25])
+    # warping the pinhole geometry into itself is the identity map
+    pin = CameraModel.pinhole(cam.K, 640, 480)
+    mx, my = warp_maps(pin, pin)
+    j, i = np.meshgrid(np.arange(640), np.arange(480))
+    assert np.abs(mx - j).max() < 1e-3 and np.abs(my - i).max() < 1e-3
+
+
+def test_unknown_camera_model_is_a_user_error():
+    from pipeline.errors import UserError
+
+    with pytest.raises(UserError, match="not supported"):
+        CameraModel.from_colmap({"model": "THIN_PRISM_FISHEYE", "width": 1, "height": 1,
+                                 "params": []})
