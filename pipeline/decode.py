@@ -1,0 +1,315 @@
+"""Decode stage: a folder of photos (camera raw or JPEG/PNG/TIFF) -> ``WS/decoded``.
+
+Writes ``WS/decoded/<stem>.png`` (8-bit sRGB, orientation applied, long side at most
+``max_size``) for every usable photo and, for camera raw input, ``WS/linear/<stem>.tiff``
+(16-bit linear camera RGB after white balance, same size and orientation as the PNG). The
+photo folder is only read.
+
+Colour pipeline for camera raw (LibRaw through rawpy; every format LibRaw reads: DNG, NEF,
+CR2/CR3, ARW, RAF, ORF, RW2, PEF, KDC, ...):
+
+1. *Black and white level*: LibRaw subtracts the black level and scales the data so the
+   white (saturation) level maps to full scale. Some files declare a white level below
+   their own data (e.g. film-scanner NEFs declare 255 for 16-bit data, which would clip
+   almost everything): then the white level is taken from the data (next ``2^k - 1`` above
+   its maximum).
+2. *White balance*: the camera's as-shot multipliers when the file has valid ones,
+   otherwise LibRaw's daylight multipliers (``pre_mul``), otherwise none.
+3. *Highlights*: LibRaw highlight mode "blend" (2): where one channel clipped, the clipped
+   and unclipped channels are blended towards neutral, so clipped highlights stay white
+   instead of turning magenta.
+4. *Demosaic*: LibRaw AHD; when the raw is at least twice ``max_size`` on its long side,
+   LibRaw's half-size mode (2x2 binning, no interpolation) is used instead: faster and
+   sharper after downscaling.
+5. *Exposure*: fixed (``no_auto_bright``, brightness 1): every view of a scene keeps the
+   camera's exposure, so views stay photometrically consistent; nothing is auto-brightened.
+6. *Linear output*: LibRaw's camera RGB (no colour matrix, gamma 1), 16-bit, resized with
+   area averaging in linear light -> ``WS/linear/<stem>.tiff`` (RGB channel order).
+7. *Display output*: LibRaw's camera-to-sRGB matrix (camera -> XYZ -> sRGB primaries, D65),
+   gamma 1, resized in linear light, clipped to [0, 1], encoded with the sRGB transfer
+   function (IEC 61966-2-1) and quantised to 8 bits -> ``WS/decoded/<stem>.png``.
+   Orientation (the file's flip flag) is applied by LibRaw in both outputs.
+
+JPEG/PNG/TIFF/BMP/WebP are read with OpenCV, which applies the EXIF orientation; 16-bit
+images are scaled to 8 bits; images are resized with area averaging in their own (sRGB)
+encoding. A JPEG without an end-of-image marker after its last scan is truncated and is
+skipped (OpenCV would silently fill the missing part with grey).
+
+Two photos with one stem (a RAW+JPEG pair): the raw is kept and a warning names both.
+Unreadable files are named in one line each and skipped; fewer than 3 usable photos is
+an error. Per-file resume: outputs of an interrupted run with the same inputs and
+parameters are kept.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.errors import UserError
+from pipeline.progress import info, track, warn
+from pipeline.workspace import Workspace, atomic_imwrite
+
+RAW_EXTS = frozenset({
+    ".dng", ".nef", ".nrw", ".cr2", ".cr3", ".crw", ".arw", ".srf", ".sr2", ".raf", ".orf",
+    ".rw2", ".rwl", ".pef", ".ptx", ".kdc", ".dcr", ".k25", ".srw", ".x3f", ".3fr", ".fff",
+    ".iiq", ".mef", ".mos", ".mrw", ".erf", ".raw", ".dcs", ".cap", ".eip", ".gpr", ".ari",
+    ".bay", ".rdc", ".sti", ".cs1", ".mdc"})
+"""Camera raw extensions (read with LibRaw)."""
+IMAGE_EXTS = frozenset({".jpg", ".jpeg", ".jpe", ".png", ".tif", ".tiff", ".bmp", ".webp"})
+"""Ordinary image extensions (read with OpenCV)."""
+MIN_IMAGES = 3
+
+
+@dataclass
+class DecodeConfig:
+    max_size: int = 1008
+    """Long side of the decoded images in pixels (never upscaled; 0 keeps the full size)."""
+    highlight_mode: int = 2
+    """LibRaw highlight mode for raw input: 0 clip, 1 unclip, 2 blend, 3-9 rebuild."""
+
+
+@dataclass
+class Photo:
+    """One photo chosen for decoding."""
+
+    path: Path
+    stem: str
+    is_raw: bool
+    others: tuple[Path, ...] = ()
+    """Other files with the same stem, tried in order if ``path`` cannot be decoded."""
+
+
+# --------------------------------------------------------------------------- listing
+def list_photos(photos: Path) -> list[Photo]:
+    """The photos of a folder, one per stem (raw preferred); clear errors when none."""
+    if not photos.exists():
+        raise UserError(f"photo folder {photos} does not exist: pass a folder of photos")
+    if not photos.is_dir():
+        raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
+    files = sorted(p for p in photos.iterdir() if p.is_file() and not p.name.startswith("."))
+    if not files:
+        raise UserError(f"photo folder {photos} is empty: put at least {MIN_IMAGES} "
+                        "overlapping photos of the scene in it")
+    by_stem: dict[str, list[Path]] = {}
+    for p in files:
+        ext = p.suffix.lower()
+        if ext in RAW_EXTS or ext in IMAGE_EXTS:
+            by_stem.setdefault(p.stem, []).append(p)
+    if not by_stem:
+        raise UserError(f"photo folder {photos} has no photos (no camera raw such as DNG/NEF/"
+                        "CR2/ARW, and no JPEG/PNG/TIFF files): put the photos of the scene in it")
+    chosen = []
+    for stem, paths in sorted(by_stem.items()):
+        paths.sort(key=lambda p: (p.suffix.lower() not in RAW_EXTS, p.name))
+        if len(paths) > 1:
+            warn(f"{', '.join(p.name for p in paths)} share the stem '{stem}': "
+                 f"using {paths[0].name}, ignoring the others")
+        chosen.append(Photo(paths[0], stem, paths[0].suffix.lower() in RAW_EXTS,
+                            tuple(paths[1:])))
+    if len(chosen) < MIN_IMAGES:
+        raise UserError(f"photo folder {photos} has only {len(chosen)} photo(s): at least "
+                        f"{MIN_IMAGES} overlapping photos of the scene are needed")
+    return chosen
+
+
+# --------------------------------------------------------------------------- pixels
+def target_size(w: int, h: int, max_size: int) -> tuple[int, int]:
+    """(W, H) with the long side at most ``max_size``, aspect kept, never upscaled."""
+    s = 1.0 if max_size <= 0 else min(1.0, max_size / max(w, h))
+    return max(1, round(w * s)), max(1, round(h * s))
+
+
+def resize_area(img: np.ndarray, max_size: int) -> np.ndarray:
+    """Area-average downscale to the target size (identity when already small enough)."""
+    import cv2
+
+    h, w = img.shape[:2]
+    W, H = target_size(w, h, max_size)
+    return img if (w, h) == (W, H) else cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
+    x = np.clip(linear, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def jpeg_truncated(path: Path) -> bool:
+    """True when the JPEG has no end-of-image marker after its last start-of-scan."""
+    data = path.read_bytes()
+    sos = data.rfind(b"\xff\xda")
+    return sos < 0 or data.rfind(b"\xff\xd9") < sos
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Silence LibRaw's own C-level messages on fd 2 (the stage names bad files itself)."""
+    sys.stderr.flush()
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+class DecodeError(Exception):
+    """A photo that cannot be decoded (corrupt, truncated, unsupported)."""
+
+
+def decode_image(path: Path, max_size: int) -> np.ndarray:
+    """JPEG/PNG/TIFF/... -> [H, W, 3] uint8 BGR, EXIF orientation applied, resized."""
+    import cv2
+
+    if path.suffix.lower() in (".jpg", ".jpeg", ".jpe") and jpeg_truncated(path):
+        raise DecodeError("truncated JPEG (no end-of-image marker)")
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
+    if img is None or img.size == 0:
+        raise DecodeError("not a readable image (corrupt or unsupported)")
+    if img.dtype == np.uint16:
+        img = np.round(img.astype(np.float32) / 257.0)
+    elif img.dtype != np.uint8:
+        img = np.clip(img.astype(np.float32), 0, 1) * 255.0
+    img = resize_area(img.astype(np.float32) if img.dtype != np.uint8 else img, max_size)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8) if img.dtype != np.uint8 else img
+
+
+def _raw_params(raw, cfg: DecodeConfig) -> dict:
+    """LibRaw parameters of steps 1-5 of the module docstring for one file."""
+    import rawpy
+
+    wb = list(raw.camera_whitebalance)[:3]
+    params = dict(output_bps=16, gamma=(1, 1), no_auto_bright=True, bright=1.0,
+                  highlight_mode=rawpy.HighlightMode(cfg.highlight_mode))
+    if all(v > 0 for v in wb):
+        params["use_camera_wb"] = True
+    else:  # no valid as-shot multipliers: LibRaw falls back to its daylight pre_mul
+        params["use_camera_wb"] = False
+    data_max = int(raw.raw_image_visible.max())
+    if data_max > raw.white_level:
+        params["user_sat"] = int(2 ** int(np.ceil(np.log2(data_max + 1))) - 1)
+    s = raw.sizes
+    if cfg.max_size > 0 and max(s.width, s.height) >= 2 * cfg.max_size:
+        params["half_size"] = True
+    return params
+
+
+def decode_raw(path: Path, cfg: DecodeConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Camera raw -> ([H, W, 3] uint8 sRGB BGR, [H, W, 3] uint16 linear camera RGB as BGR).
+
+    Both arrays are in OpenCV's BGR order so ``cv2.imwrite`` stores them as RGB files.
+    """
+    import cv2
+    import rawpy
+
+    try:
+        with _quiet_stderr(), rawpy.imread(str(path)) as raw:
+            params = _raw_params(raw, cfg)
+            cam = raw.postprocess(output_color=rawpy.ColorSpace.raw, **params)
+            srgb_lin = raw.postprocess(output_color=rawpy.ColorSpace.sRGB, **params)
+    except (rawpy.LibRawError, ValueError, OSError) as e:
+        msg = e.args[0].decode() if e.args and isinstance(e.args[0], bytes) else str(e)
+        raise DecodeError(f"not a readable raw file ({msg})") from None
+    cam = resize_area(cam.astype(np.float32), cfg.max_size)
+    srgb = srgb_encode(resize_area(srgb_lin.astype(np.float32), cfg.max_size) / 65535.0)
+    png = np.round(srgb * 255.0).astype(np.uint8)
+    linear = np.clip(np.round(cam), 0, 65535).astype(np.uint16)
+    return cv2.cvtColor(png, cv2.COLOR_RGB2BGR), cv2.cvtColor(linear, cv2.COLOR_RGB2BGR)
+
+
+# --------------------------------------------------------------------------- stage
+def default_workspace(photos: Path) -> Path:
+    """``<photos>.deflare`` beside the photo folder."""
+    photos = Path(photos).resolve()
+    return photos.with_name(photos.name + ".deflare")
+
+
+def _decode_one(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> Photo:
+    """Decode ``photo`` (or, if it fails, a same-stem alternative); return the one used.
+
+    Raises DecodeError naming every file tried when none can be decoded.
+    """
+    errors = []
+    for path in (photo.path, *photo.others):
+        cand = Photo(path, photo.stem, path.suffix.lower() in RAW_EXTS)
+        try:
+            _decode_file(cand, cfg, png, tiff)
+        except DecodeError as e:
+            errors.append(f"{path.name}: {e}")
+            continue
+        if errors:
+            warn(f"{errors[0]}; using {path.name} instead")
+        return cand
+    raise DecodeError("; ".join(errors))
+
+
+def _decode_file(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> None:
+    if photo.is_raw:
+        bgr, linear = decode_raw(photo.path, cfg)
+        atomic_imwrite(tiff, linear)
+    else:
+        bgr = decode_image(photo.path, cfg.max_size)
+    atomic_imwrite(png, bgr)
+
+
+def _remove_stale(folder: Path, keep: set[str], suffix: str) -> None:
+    if not folder.is_dir():
+        return
+    for p in folder.iterdir():
+        if p.is_file() and p.suffix == suffix and p.stem not in keep:
+            p.unlink()
+
+
+def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike | None = None,
+        force: bool = False) -> Workspace:
+    """Decode every photo of ``photos`` into the workspace ``ws_path``; return it."""
+    if cfg.max_size != 0 and cfg.max_size < 64:
+        raise UserError(f"--max-size {cfg.max_size} is too small: use at least 64 pixels "
+                        "(or 0 to keep the full size)")
+    photos = Path(photos)
+    chosen = list_photos(photos)
+    ws = Workspace.create(ws_path or default_workspace(photos), photos)
+    run_ = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force)
+    if run_.skip:
+        info(f"decode: up to date ({len(run_.previous.get('sources', {}))} images)")
+        return ws
+    resume = ws.resumable(run_)
+    done, skipped, reused = {}, {}, 0
+    for photo in track(chosen, "decode"):
+        png, tiff = ws.decoded / f"{photo.stem}.png", ws.linear / f"{photo.stem}.tiff"
+        if resume and png.exists() and (tiff.exists() or not photo.is_raw):
+            done[photo.stem], reused = photo, reused + 1
+            continue
+        try:
+            done[photo.stem] = _decode_one(photo, cfg, png, tiff)
+        except DecodeError as e:
+            warn(f"skipping {e}; replace or remove the file")
+            skipped[photo.path.name] = str(e)
+    raw_stems = {s for s, p in done.items() if p.is_raw}
+    _remove_stale(ws.decoded, set(done), ".png")
+    _remove_stale(ws.linear, raw_stems, ".tiff")
+    if len(done) < MIN_IMAGES:
+        raise UserError(f"only {len(done)} of {len(chosen)} photos in {photos} could be "
+                        f"decoded (skipped: {', '.join(skipped) or 'none'}): at least "
+                        f"{MIN_IMAGES} usable photos are needed; replace the unreadable files")
+    outputs = [ws.decoded] + ([ws.linear] if raw_stems else [])
+    if not raw_stems and ws.linear.exists():
+        import shutil
+
+        shutil.rmtree(ws.linear)
+    run_.finish(outputs, extra={
+        "sources": {s: p.path.name for s, p in sorted(done.items())},
+        "raw": sorted(raw_stems), "skipped": skipped},
+        versions=["rawpy", "opencv-contrib-python-headless", "numpy"])
+    info(f"decode: {len(done)} images -> {ws.decoded}"
+         + (f" ({reused} kept from an interrupted run)" if reused else "")
+         + (f", {len(skipped)} skipped" if skipped else ""))
+    return ws
