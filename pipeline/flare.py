@@ -60,17 +60,38 @@ LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)  # linear-light luminance 
 
 
 # --------------------------------------------------------------------------- colour
+def _pow(x: np.ndarray, p: float) -> np.ndarray:
+    """``x ** p`` for x > 0 (float32, any shape) via OpenCV's fast exp/log."""
+    flat = np.maximum(x, np.float32(1e-12)).reshape(-1, 1)
+    return cv2.exp(cv2.log(flat) * np.float32(p)).reshape(x.shape)
+
+
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
     """sRGB-encoded values in [0, 1] to linear light (IEC 61966-2-1), float32."""
     x = np.clip(np.asarray(x, np.float32), 0.0, 1.0)
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    hi = _pow((x + np.float32(0.055)) * np.float32(1 / 1.055), 2.4)
+    return np.where(x <= 0.04045, x * np.float32(1 / 12.92), hi)
 
 
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
     """Linear light in [0, 1] (clipped) to sRGB encoding, float32."""
     x = np.clip(np.asarray(x, np.float32), 0.0, 1.0)
-    return np.where(x <= 0.0031308, x * 12.92,
-                    1.055 * np.power(x, 1 / 2.4) - 0.055).astype(np.float32)
+    hi = np.float32(1.055) * _pow(x, 1 / 2.4) - np.float32(0.055)
+    return np.where(x <= 0.0031308, x * np.float32(12.92), hi)
+
+
+_SRGB8_TO_LINEAR = None
+
+
+def image_to_linear(image: np.ndarray) -> np.ndarray:
+    """[H, W, 3] uint8 (0-255, a table lookup) or float sRGB in [0, 1] -> float32 linear."""
+    global _SRGB8_TO_LINEAR
+    image = np.asarray(image)
+    if image.dtype == np.uint8:
+        if _SRGB8_TO_LINEAR is None:
+            _SRGB8_TO_LINEAR = srgb_to_linear(np.arange(256, dtype=np.float32) / 255)
+        return cv2.LUT(image, _SRGB8_TO_LINEAR)
+    return srgb_to_linear(image)
 
 
 def to_float_image(image: np.ndarray) -> np.ndarray:
@@ -79,6 +100,12 @@ def to_float_image(image: np.ndarray) -> np.ndarray:
     if image.dtype == np.uint8:
         return image.astype(np.float32) / 255.0
     return np.clip(image.astype(np.float32), 0.0, 1.0)
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """[H, W, 3] linear RGB -> [H, W] float32 luminance (Rec. 709 weights)."""
+    rgb = np.ascontiguousarray(rgb, np.float32)
+    return cv2.transform(rgb, LUMA[None]).reshape(rgb.shape[:-1])
 
 
 def spectral_response(wavelengths: np.ndarray) -> np.ndarray:
@@ -225,15 +252,26 @@ def _loguniform(rng: np.random.Generator, r: tuple[float, float]) -> float:
 
 
 # --------------------------------------------------------------------------- apertures
+def _polygon_gauge(x: np.ndarray, y: np.ndarray, blades: int, rotation: float
+                   ) -> tuple[np.ndarray, float]:
+    """(gauge, apothem factor): a circle (blades 0) or regular n-gon of circumradius ``r``
+    is ``gauge <= r * factor``; ``gauge - r * factor`` is an approximate signed distance
+    (pixels, negative inside). ``x``, ``y`` broadcast (float32)."""
+    if blades == 0:
+        return np.sqrt(x * x + y * y), 1.0
+    angles = rotation + 2 * np.pi * np.arange(blades) / blades
+    proj = x * float(np.cos(angles[0])) + y * float(np.sin(angles[0]))
+    for a in angles[1:]:
+        np.maximum(proj, x * float(np.cos(a)) + y * float(np.sin(a)), out=proj)
+    return proj, float(np.cos(np.pi / blades))
+
+
 def _polygon_sdf(x: np.ndarray, y: np.ndarray, radius: float, blades: int,
                  rotation: float) -> np.ndarray:
-    """Signed distance (approx., pixels) to a circle (blades 0) or regular n-gon whose
-    circumradius is ``radius``; negative inside. ``x``, ``y`` broadcast."""
-    if blades == 0:
-        return np.sqrt(x * x + y * y) - radius
-    angles = rotation + 2 * np.pi * np.arange(blades) / blades
-    proj = np.max([x * np.cos(a) + y * np.sin(a) for a in angles], axis=0)
-    return proj - radius * np.cos(np.pi / blades)
+    """Approximate signed distance (pixels, negative inside) to a circle (blades 0) or a
+    regular n-gon of circumradius ``radius``."""
+    gauge, factor = _polygon_gauge(x, y, blades, rotation)
+    return gauge - np.float32(radius * factor)
 
 
 def make_aperture(size: int, radius: float, blades: int, cfg: FlareConfig,
@@ -484,25 +522,31 @@ def _ghost_patch(g: Ghost, radius_px: float, blades: int, rotation: float) -> np
     half = int(np.ceil(radius_px * (1 + g.chroma) + 2 * soft + 1))
     yy, xx = np.mgrid[-half:half + 1, -half:half + 1].astype(np.float32)
     out = np.empty((2 * half + 1, 2 * half + 1, 3), np.float32)
+    gauge, factor = _polygon_gauge(xx, yy, blades, rotation)
     for ch, s in enumerate((1 + g.chroma, 1.0, 1 - g.chroma)):
-        r = radius_px * s
-        sdf = _polygon_sdf(xx, yy, r, blades, rotation)
-        alpha = np.clip(0.5 - sdf / (2 * soft), 0, 1)
+        r = max(radius_px * s, 1e-3)
+        sdf = gauge - np.float32(r * factor)
+        alpha = np.clip(0.5 - sdf * np.float32(0.5 / soft), 0, 1)
         alpha = alpha * alpha * (3 - 2 * alpha)  # smoothstep edge
-        if g.ring:
-            rim = np.clip(1 + sdf / max(r, 1e-6), 0, 1) ** 4
-            alpha = alpha * (0.15 + 0.85 * rim)
-        out[..., ch] = alpha * g.tint[ch]
+        if g.ring:  # brighter towards the rim
+            rim = np.clip(1 + sdf * np.float32(1 / r), 0, 1) ** 4
+            alpha *= 0.15 + 0.85 * rim
+        out[..., ch] = alpha * np.float32(g.tint[ch])
     return out
 
 
+def _scalar(rgb: np.ndarray) -> tuple[float, float, float, float]:
+    """[3] -> an OpenCV per-channel scalar."""
+    return (float(rgb[0]), float(rgb[1]), float(rgb[2]), 0.0)
+
+
 def _render_glare(lens: Lens, light_xy, size_hw, diag: float) -> np.ndarray:
-    """[H, W, 1] glare falloff ``(1 + (d / w)^2)^-1.5`` around the light, peak 1."""
+    """[H, W] glare falloff ``(1 + (d / w)^2)^-1.5`` around the light, peak 1."""
     H, W = size_hw
     w = lens.glare_width * diag
     x = ((np.arange(W, dtype=np.float32) - light_xy[0]) / w) ** 2
     y = ((np.arange(H, dtype=np.float32) - light_xy[1]) / w) ** 2
-    return ((1.0 + y[:, None] + x[None, :]) ** -1.5)[..., None]
+    return _pow(1.0 + y[:, None] + x[None, :], -1.5)
 
 
 def _render_core(lens: Lens, light_xy, size_hw, diag: float) -> np.ndarray:
@@ -524,15 +568,26 @@ def flare_mask(flare: np.ndarray, core: np.ndarray, cfg: FlareConfig,
     """[H, W] bool: linear flare luminance > max(abs, rel x background luminance), minus the
     core (wherever ``core`` is non-zero). The background luminance is first smoothed
     (Gaussian, ``mask_smooth`` x diagonal) so masks follow regions, not texture."""
-    lum = flare @ LUMA
     thr = np.float32(cfg.mask_abs_threshold)
     if background_linear is not None:
-        bg = np.ascontiguousarray(background_linear @ LUMA, dtype=np.float32)
-        sigma = cfg.mask_smooth * float(np.hypot(*bg.shape))
-        if sigma > 0.3:
-            bg = cv2.GaussianBlur(bg, (0, 0), sigma)
-        thr = np.maximum(thr, cfg.mask_rel_threshold * bg)
-    return (lum > thr) & ~(core.max(axis=-1) > 0)
+        bg = _smooth(luminance(background_linear),
+                     cfg.mask_smooth * float(np.hypot(*flare.shape[:2])))
+        thr = np.maximum(thr, np.float32(cfg.mask_rel_threshold) * bg)
+    core_any = cv2.transform(np.ascontiguousarray(core), np.ones((1, 3), np.float32)) > 0
+    return (luminance(flare) > thr) & ~core_any.reshape(core.shape[:2])
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    """[H, W] Gaussian blur with ``sigma`` pixels, done at reduced resolution when wide."""
+    if sigma <= 0.3:
+        return x
+    f = max(int(sigma // 2), 1)
+    H, W = x.shape
+    if f == 1 or min(H, W) < 8 * f:
+        return cv2.GaussianBlur(x, (0, 0), sigma)
+    small = cv2.resize(x, (W // f, H // f), interpolation=cv2.INTER_AREA)
+    small = cv2.GaussianBlur(small, (0, 0), sigma / f)
+    return cv2.resize(small, (W, H), interpolation=cv2.INTER_LINEAR)
 
 
 def render_flare(lens: Lens, light_xy: tuple[float, float], size_hw: tuple[int, int],
@@ -552,10 +607,11 @@ def render_flare(lens: Lens, light_xy: tuple[float, float], size_hw: tuple[int, 
     k = 1.0 if intensity is None else float(intensity)
     lx, ly = float(light_xy[0]), float(light_xy[1])
     cx, cy = ((W - 1) / 2, (H - 1) / 2) if center_xy is None else center_xy
-    flare = _render_scatter(lens, (lx, ly), size_hw, diag)
-    flare *= lens.light_rgb * (k * lens.scatter_flux)
-    flare += _render_glare(lens, (lx, ly), size_hw, diag) * (
-        k * lens.glare_amplitude * lens.glare_tint * lens.light_rgb)
+    flare = _render_scatter(lens, (lx, ly), size_hw, diag)  # [H, W, 3]
+    flare = cv2.multiply(flare, _scalar(lens.light_rgb * (k * lens.scatter_flux)))
+    glare_rgb = k * lens.glare_amplitude * lens.glare_tint * lens.light_rgb  # [3]
+    glare = _render_glare(lens, (lx, ly), size_hw, diag)  # [H, W]
+    flare += cv2.transform(glare[..., None], glare_rgb.astype(np.float32)[:, None])
     ghost_xy = []
     for g in lens.ghosts:
         gx, gy = cx + g.t * (lx - cx), cy + g.t * (ly - cy)
@@ -584,12 +640,22 @@ def apply_flare(image_srgb: np.ndarray, layers: FlareLayers,
     [0, 1] whatever the input dtype (callers quantise). ``noise`` is the std of Gaussian
     noise in linear light (needs ``rng``).
     """
-    lin = srgb_to_linear(to_float_image(image_srgb))
-    out = (lin + layers.flare + layers.core) * np.float32(gain)
+    return _composite(image_to_linear(image_srgb), layers, rng, noise, gain)
+
+
+def _composite(linear: np.ndarray, layers: FlareLayers, rng: np.random.Generator | None,
+               noise: float, gain: float) -> np.ndarray:
+    out = linear + layers.flare
+    out += layers.core
+    if gain != 1.0:
+        out *= np.float32(gain)
     if noise > 0:
         if rng is None:
             raise ValueError("apply_flare: noise > 0 needs an rng")
-        out += rng.normal(0.0, noise, out.shape).astype(np.float32)
+        cv2.setRNGSeed(int(rng.integers(2 ** 31)))  # OpenCV's Gaussian RNG is ~3x faster
+        n = np.empty_like(out)
+        cv2.randn(n, 0.0, float(noise))
+        out += n
     return linear_to_srgb(out)
 
 
@@ -614,13 +680,13 @@ def synthesize(image_srgb: np.ndarray, cfg: FlareConfig, rng: np.random.Generato
     ``image_srgb`` [H, W, 3] uint8 or float in [0, 1]. Returns (flared sRGB float32 [H, W, 3]
     in [0, 1], the layers). The mask's threshold is relative to the photo's brightness.
     """
-    img = to_float_image(image_srgb)
-    H, W = img.shape[:2]
+    linear = image_to_linear(image_srgb)
+    H, W = linear.shape[:2]
     lens = sample_lens(cfg, rng)
     if light_xy is None:
         light_xy = sample_light_xy(cfg, (H, W), rng)
     k = _loguniform(rng, cfg.intensity)
     gain = _uniform(rng, cfg.gain)
     noise = _uniform(rng, cfg.noise)
-    layers = render_flare(lens, light_xy, (H, W), rng, k, srgb_to_linear(img) * gain)
-    return apply_flare(img, layers, rng, noise, gain), layers
+    layers = render_flare(lens, light_xy, (H, W), rng, k, linear)
+    return _composite(linear, layers, rng, noise, gain), layers
