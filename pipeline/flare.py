@@ -149,7 +149,7 @@ class FlareConfig:
     """Number of dirty apertures (RGB PSFs) in the bank."""
     n_wavelengths: int = 41
     """Wavelengths sampled evenly in 380-740 nm for each PSF."""
-    aperture_radius: float = 0.2
+    aperture_radius: float = 0.25
     """Aperture radius as a fraction of ``psf_size`` (sets the Airy core size)."""
     aperture_blades: tuple[int, ...] = (0, 6, 8)
     """Aperture shapes drawn from: 0 = circle, n = regular n-gon (iris blades)."""
@@ -167,7 +167,7 @@ class FlareConfig:
     """Seed of the bank's apertures."""
 
     # lens (sampled once per scene by sample_lens)
-    psf_extent: tuple[float, float] = (0.9, 2.2)
+    psf_extent: tuple[float, float] = (0.7, 1.8)
     """Side of the PSF grid on the image, as a fraction of the image diagonal."""
     scatter_flux: tuple[float, float] = (3e3, 6e4)
     """Log-uniform. Flux of the light in the scatter layer (x PSF, per PSF-grid pixel)."""
@@ -217,7 +217,7 @@ class FlareConfig:
     # ground-truth mask
     mask_abs_threshold: float = 0.012
     """Flare is visible where its linear luminance exceeds this ..."""
-    mask_rel_threshold: float = 0.08
+    mask_rel_threshold: float = 0.1
     """... and this fraction of the background's linear luminance (both must hold)."""
     mask_smooth: float = 0.004
     """Gaussian sigma (fraction of the diagonal) smoothing the background luminance used by
