@@ -91,8 +91,13 @@ def _focus_point(cams: Cameras) -> np.ndarray:
     dirs = np.stack([f.c2w[:3, 2] for f in cams.frames])
     proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]  # [N, 3, 3]
     A, b = proj.sum(0), (proj @ centres[:, :, None]).sum(0)[:, 0]
+    far = np.median([f.far for f in cams.frames])
     if np.linalg.cond(A) < 1e6:
-        return np.linalg.solve(A, b)
+        p = np.linalg.solve(A, b)
+        depths = np.einsum("nk,nk->n", p - centres, dirs)
+        if np.median(depths) > 0 and np.linalg.norm(p - centres.mean(0)) < far:
+            return p
+    # near-parallel axes (a forward-facing capture): mid-depth ahead of the cameras
     depth = np.median([(f.near + f.far) / 2 for f in cams.frames])
     return centres.mean(0) + dirs.mean(0) * depth
 

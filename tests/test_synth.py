@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline import flare as F
-from pipeline.cameras import load_cameras
+from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.errors import UserError
 from pipeline.synth import SynthConfig, choose_light, heldout_indices, project, run
 from tests.fixtures import make_temple_workspace
@@ -103,6 +103,23 @@ def test_choose_light_visible_in_most_views(temple):
     assert sum(inside) >= len(cams.frames) // 2
     again = choose_light(cams, np.random.default_rng(0))
     np.testing.assert_array_equal(light, again)
+
+
+def test_choose_light_forward_facing_rig():
+    """Nearly parallel cameras (LLFF-like): the light goes ahead of them, inside the frames."""
+    rng = np.random.default_rng(0)
+    K = np.array([[200.0, 0, 160], [0, 200.0, 120], [0, 0, 1]])
+    frames = []
+    for i in range(8):
+        c2w = np.eye(4)
+        c2w[:3, 3] = [rng.uniform(-0.3, 0.3), rng.uniform(-0.2, 0.2), 0.0]
+        frames.append(Frame(name=f"{i}.png", stem=str(i), K=K, width=320, height=240,
+                            c2w=c2w, near=0.5, far=4.0))
+    light = choose_light(Cameras(frames=frames), rng)
+    assert 0.5 < light[2] < 4.0
+    inside = [(xy := project(f, light)) is not None and 0 <= xy[0] < 320 and 0 <= xy[1] < 240
+              for f in frames]
+    assert all(inside)
 
 
 def test_heldout_indices():
