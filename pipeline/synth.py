@@ -7,7 +7,9 @@ projected with each view's ``K`` and ``c2w``; that view's flare is the lens rend
 projection, with the principal point as optical centre, so streaks and ghosts move with the
 camera as real flare does. Intensity varies mildly per view (ghost reflections depend on
 the angle of incidence); a light outside the frame fades with its distance from it; a
-light behind the camera gives no flare.
+light behind the camera gives no flare. Limitation: with no scene depth the light is never
+occluded, so pick ``--light`` in free space when the default placement (0.25-0.8 of the
+camera distance from the point the cameras look at) lands inside an object.
 
 Output folder ``DIR`` (never inside the workspace or the photo folder):
 ```
