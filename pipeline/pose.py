@@ -406,7 +406,7 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     ws.require("decode")
     inp = Inputs.of(ws)
     choose_matcher(cfg, inp.stems)  # validate the option before any work
-    params = {k: v for k, v in asdict(cfg).items() if k != "colmap_log"}
+    params = {k: v for k, v in asdict(cfg).items() if k not in ("colmap_log", "num_threads")}
     extra_inputs = [Path(cfg.colmap_model).resolve()] if cfg.colmap_model else []
     run_ = ws.begin_stage("pose", params, [ws.decoded, *extra_inputs], force)
     if run_.skip:
