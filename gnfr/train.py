@@ -1,0 +1,235 @@
+"""Training: configs and presets, scene tensors, batch sampling, optimizer, one train step.
+
+The caller owns the loop (pipeline/finetune.py, workflows/pretrain.py); all state (model,
+optimizer, generator, step) is passed in. Shapes: N scene views, Vs sources, R rays.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field, replace
+
+import torch
+import torch.nn.functional as F
+
+from gnfr.geometry import pixel_rays, sample_depths
+from gnfr.losses import masked_mse, mse_to_psnr
+from gnfr.model import GNFR, GNFRConfig
+from gnfr.renderer import SourceViews, forward_rays
+from gnfr.view_sampler import MAX_FLARE, target_stems, train_sources
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """One training recipe (fine-tune or pretrain)."""
+
+    model: GNFRConfig = GNFRConfig()
+    """Architecture."""
+    iters: int = 50_000
+    """Optimizer steps."""
+    rays: int = 256
+    """Rays per step (all from one target view)."""
+    samples: int = 64
+    """Samples per ray, uniform in inverse depth with stratified jitter."""
+    n_views: tuple[int, int] = (8, 12)
+    """Range of the number N of training source views (paper: 8..12)."""
+    pool_k: tuple[float, float] = (1.0, 3.0)
+    """Range of k: sources are drawn from the round(k*N) nearest views."""
+    eval_views: int = 10
+    """Source views at render / evaluation time (nearest least-flared)."""
+    lr_encoder: float = 5e-4
+    """Adam learning rate of the encoder (GNT fine-tuning)."""
+    lr_transformer: float = 2e-4
+    """Adam learning rate of everything else."""
+    lr_decay_steps: int = 20_000
+    """Both learning rates are halved every this many steps."""
+    source_scale: float = 1.0
+    """Sources are encoded at this fraction of their resolution (targets stay full size)."""
+    cached_features: bool = False
+    """Encode every source once with a frozen encoder and reuse the features every step."""
+    point_sampler: bool = True
+    """GN-FR Point Sampler (off: GNT attention)."""
+    view_sampler: bool = True
+    """GN-FR View Sampler (off: nearest N sources, flared views may be targets)."""
+    mask_loss: bool = True
+    """GN-FR masking loss (off: MSE over every pixel)."""
+    max_flare: float = MAX_FLARE
+    """Views with more flare than this are never targets (with the View Sampler)."""
+    reference: bool = False
+    """Plain fp32 path: no autocast, no fused attention (for checks and timing)."""
+    seed: int = 0
+    """Seed of initialisation and of every random draw of the run."""
+    log_every: int = 50
+    """Steps between metrics.jsonl lines."""
+    ckpt_every: int = 1000
+    """Steps between checkpoints."""
+
+
+PAPER = TrainConfig()
+"""GN-FR fine-tuning as in the paper: GNT-sized model, 50k steps, 256 rays, 64 samples,
+sources at full resolution, encoder trained end-to-end."""
+
+PRETRAIN = replace(PAPER, iters=500_000, lr_encoder=1e-3, lr_transformer=5e-4,
+                   lr_decay_steps=50_000, ckpt_every=5000)
+"""Cross-scene pretraining (paper: 500k steps; GNT learning rates)."""
+
+QUICK = replace(
+    PAPER,
+    model=replace(PAPER.model, enc_widths=(16, 32, 64), enc_blocks=(1, 1, 1), feat_ch=16,
+                  width=32, depth=4),
+    iters=1500, rays=128, samples=32, n_views=(6, 8), eval_views=8, source_scale=0.25,
+    lr_encoder=1e-3, lr_transformer=5e-4, lr_decay_steps=1000, log_every=25, ckpt_every=250)
+"""CPU preset: 4 blocks of width 32, small encoder, sources at 1/4 resolution, 32 samples,
+128 rays, 6-8 sources, 1500 steps. About 10 minutes on 2 cores; see docs for the trade."""
+
+PRESETS = {"paper": PAPER, "quick": QUICK, "pretrain": PRETRAIN,
+           "pretrain-quick": replace(QUICK, iters=20_000, lr_decay_steps=10_000)}
+
+
+@dataclass
+class Scene:
+    """One posed scene as tensors (filled by pipeline.scene_data)."""
+
+    stems: list[str]
+    images: torch.Tensor
+    """[N, 3, H, W] uint8 target images (full resolution)."""
+    K: torch.Tensor
+    """[N, 3, 3] intrinsics of ``images``."""
+    c2w: torch.Tensor
+    """[N, 4, 4] camera-to-world (OpenCV)."""
+    near: torch.Tensor
+    """[N] near z-depth per view."""
+    far: torch.Tensor
+    """[N] far z-depth per view."""
+    masks: torch.Tensor | None = None
+    """[N, 1, H, W] uint8 1 = flare, or None (no masks: all clear)."""
+    flare: dict[str, float] = field(default_factory=dict)
+    """Flare fraction per stem."""
+    ranked: dict[str, list[str]] = field(default_factory=dict)
+    """Per stem, every other stem nearest first."""
+    name: str = ""
+
+    def index(self) -> dict[str, int]:
+        return {s: i for i, s in enumerate(self.stems)}
+
+
+def downscale(scene: Scene, scale: float) -> tuple[torch.Tensor, torch.Tensor,
+                                                   torch.Tensor | None]:
+    """Source images [N, 3, h, w] float 0..1, K [N, 3, 3] and masks [N, 1, h, w] float at
+    ``scale`` of the scene's resolution (area filter; K rows scale exactly)."""
+    imgs = scene.images.float() / 255.0
+    masks = None if scene.masks is None else scene.masks.float()
+    K = scene.K.clone().float()
+    if scale != 1.0:
+        H, W = imgs.shape[-2:]
+        h, w = max(8, round(H * scale)), max(8, round(W * scale))
+        imgs = F.interpolate(imgs, size=(h, w), mode="area")
+        masks = None if masks is None else F.interpolate(masks, size=(h, w), mode="area")
+        K[:, 0] *= w / W
+        K[:, 1] *= h / H
+    return imgs, K, masks
+
+
+@dataclass
+class Batch:
+    target: int
+    """Index of the target view."""
+    sources: torch.Tensor
+    """[Vs] long indices of the source views."""
+    rays_o: torch.Tensor
+    """[R, 3]"""
+    rays_d: torch.Tensor
+    """[R, 3] camera-z 1."""
+    t: torch.Tensor
+    """[R, S] stratified sample depths."""
+    rgb: torch.Tensor
+    """[R, 3] target colours 0..1."""
+    flare: torch.Tensor | None
+    """[R] 1 where the target pixel is flare, or None."""
+
+
+def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
+    """Pick a target (never above the flare threshold with the View Sampler), its sources
+    (View Sampler) and ``cfg.rays`` random pixels of it with jittered sample depths."""
+    idx = scene.index()
+    flare = {s: scene.flare.get(s, 0.0) for s in scene.stems}
+    targets = target_stems(flare, cfg.max_flare, cfg.view_sampler)
+    if not targets:
+        raise ValueError(f"scene {scene.name}: no view has flare <= {cfg.max_flare}")
+    tgt = targets[int(torch.randint(len(targets), (1,), generator=gen))]
+    src = train_sources(scene.ranked[tgt], flare, gen, cfg.n_views, cfg.pool_k,
+                        cfg.view_sampler)
+    i = idx[tgt]
+    H, W = scene.images.shape[-2:]
+    flat = torch.randint(H * W, (cfg.rays,), generator=gen)
+    ys, xs = flat // W, flat % W
+    pix = torch.stack([xs, ys], 1).float() + 0.5
+    o, d = pixel_rays(scene.K[i].float(), scene.c2w[i].float(), pix)
+    near, far = scene.near[i].expand(cfg.rays).float(), scene.far[i].expand(cfg.rays).float()
+    t = sample_depths(near, far, cfg.samples, jitter=True, generator=gen)
+    rgb = scene.images[i, :, ys, xs].T.float() / 255.0
+    fl = None if scene.masks is None else scene.masks[i, 0, ys, xs].float()
+    return Batch(i, torch.tensor([idx[s] for s in src]), o, d, t, rgb, fl)
+
+
+def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
+    """Adam with two groups: encoder and transformer (their own learning rates)."""
+    return torch.optim.Adam([
+        {"params": list(model.encoder.parameters()), "lr": cfg.lr_encoder, "name": "encoder"},
+        {"params": model.transformer_parameters(), "lr": cfg.lr_transformer,
+         "name": "transformer"}])
+
+
+def set_learning_rates(opt: torch.optim.Optimizer, cfg: TrainConfig, step: int) -> float:
+    """Step decay: halve every ``lr_decay_steps``. Returns the decay factor."""
+    f = 0.5 ** (step // cfg.lr_decay_steps)
+    for g in opt.param_groups:
+        g["lr"] = (cfg.lr_encoder if g["name"] == "encoder" else cfg.lr_transformer) * f
+    return f
+
+
+def batch_sources(model: GNFR, batch: Batch, bank: tuple, cache: SourceViews | None,
+                  device) -> tuple[SourceViews, torch.Tensor]:
+    """The SourceViews a step reads and the ids of its sources in it: the cached views as
+    they are, or the batch's sources encoded now with gradients (end-to-end)."""
+    if cache is not None:
+        return cache, batch.sources.to(cache.images.device)
+    imgs, K, masks, c2w = bank
+    ids = batch.sources
+    src = SourceViews.encode(model, imgs[ids], K[ids], c2w[ids],
+                             None if masks is None else masks[ids], device, grad=True)
+    return src, torch.arange(len(ids), device=src.images.device)
+
+
+def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
+                 cfg: TrainConfig) -> tuple[torch.Tensor, dict]:
+    dev = src.images.device
+    out = forward_rays(model, src, ids, batch.rays_o.to(dev), batch.rays_d.to(dev),
+                       batch.t.to(dev), cfg.point_sampler, cfg.reference)
+    flare = None if batch.flare is None else batch.flare.to(dev)
+    loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None)
+    with torch.no_grad():
+        psnr_mse = masked_mse(out["rgb"], batch.rgb.to(dev), flare)
+    return loss, {"psnr": mse_to_psnr(psnr_mse), "all_flared": float(out["all_flared"].mean())}
+
+
+def train_step(model: GNFR, opt: torch.optim.Optimizer, batch: Batch, bank: tuple,
+               cache: SourceViews | None, cfg: TrainConfig, step: int,
+               grad_hook=None) -> dict:
+    """One optimizer step. ``bank`` = (images, K, masks, c2w) of all views at source
+    scale (see ``downscale``); ``cache`` the pre-encoded views in cached-feature mode.
+    ``grad_hook`` (e.g. a DDP all-reduce) runs between backward and the update.
+    Returns loss, psnr (non-flare pixels of the target), all_flared, lr factor."""
+    model.train()
+    lr_f = set_learning_rates(opt, cfg, step)
+    opt.zero_grad(set_to_none=True)
+    device = next(model.parameters()).device
+    ctx = torch.no_grad() if cache is not None else contextlib.nullcontext()
+    with ctx:  # the encoder's graph is only needed end-to-end
+        src, ids = batch_sources(model, batch, bank, cache, device)
+    loss, info = compute_loss(model, batch, src, ids, cfg)
+    loss.backward()
+    if grad_hook is not None:
+        grad_hook(model)
+    opt.step()
+    return {"loss": float(loss.detach()), **info, "lr_factor": lr_f}

@@ -1,0 +1,327 @@
+"""Scenes as training tensors (``gnfr.train.Scene``) from three layouts:
+
+* a deflare-scene workspace (``WS/images``, ``WS/cameras.json``, optional ``WS/masks`` and
+  ``WS/views.json``);
+* an LLFF folder (``poses_bounds.npy`` + ``images/`` or ``images_<f>/``);
+* a COLMAP workspace (``sparse/`` or ``sparse/0`` + ``images/``), read by the small
+  pure-python binary/text reader below (no pycolmap).
+
+LLFF and COLMAP scenes are brought into the workspace's normalised frame: camera centres
+centred at the origin within a sphere of radius about 1 (near/far scaled alike).
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+
+from gnfr.train import Scene
+from pipeline.cameras import load_cameras
+from pipeline.errors import UserError
+from pipeline.progress import warn
+from pipeline.workspace import read_json
+
+IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+
+
+# --------------------------------------------------------------------------- helpers
+def read_rgb(path: Path, size_wh: tuple[int, int] | None = None) -> np.ndarray:
+    """[H, W, 3] uint8 RGB, resized (area) to ``size_wh`` when given."""
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise UserError(f"{path} could not be read as an image: replace or remove it")
+    if size_wh is not None and (img.shape[1], img.shape[0]) != tuple(size_wh):
+        img = cv2.resize(img, tuple(size_wh), interpolation=cv2.INTER_AREA)
+    return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+
+
+def rank_by_distance(stems: Sequence[str], centers: np.ndarray) -> dict[str, list[str]]:
+    """Per stem, every other stem by camera-centre distance, nearest first (stable)."""
+    d = np.linalg.norm(centers[:, None] - centers[None], axis=-1)
+    out = {}
+    for i, s in enumerate(stems):
+        order = [j for j in np.argsort(d[i], kind="stable") if j != i]
+        out[s] = [stems[j] for j in order]
+    return out
+
+
+def make_scene(name: str, stems: list[str], images: list[np.ndarray], K: np.ndarray,
+               c2w: np.ndarray, near: np.ndarray, far: np.ndarray,
+               masks: list[np.ndarray] | None = None, flare: dict | None = None,
+               ranked: dict | None = None) -> Scene:
+    """Stack per-view arrays (images [H, W, 3] uint8, masks [H, W] bool) into a Scene."""
+    imgs = torch.from_numpy(np.stack(images)).permute(0, 3, 1, 2).contiguous()
+    m = None
+    if masks is not None:
+        m = torch.from_numpy(np.stack(masks).astype(np.uint8))[:, None]
+    if flare is None:
+        flare = {s: float(mk.mean()) if masks is not None else 0.0
+                 for s, mk in zip(stems, masks or [None] * len(stems), strict=True)}
+    if ranked is None:
+        ranked = rank_by_distance(stems, c2w[:, :3, 3])
+    return Scene(stems=stems, images=imgs, K=torch.as_tensor(K, dtype=torch.float64),
+                 c2w=torch.as_tensor(c2w, dtype=torch.float64),
+                 near=torch.as_tensor(near, dtype=torch.float64),
+                 far=torch.as_tensor(far, dtype=torch.float64), masks=m, flare=flare,
+                 ranked=ranked, name=name)
+
+
+def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
+    """Centre camera centres at the origin and scale them into the unit sphere (the
+    workspace convention); returns scaled copies of c2w [N, 4, 4], near [N], far [N]."""
+    c2w = c2w.copy()
+    centre = c2w[:, :3, 3].mean(0)
+    radius = np.linalg.norm(c2w[:, :3, 3] - centre, axis=1).max()
+    # forward-facing captures: keep the scene depth reasonable when cameras barely move
+    s = 1.0 / max(radius, 0.1 * float(np.median(near)), 1e-9)
+    c2w[:, :3, 3] = (c2w[:, :3, 3] - centre) * s
+    return c2w, near * s, far * s
+
+
+# --------------------------------------------------------------------------- workspace
+def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scene:
+    """A workspace's posed views (and masks / views.json when present) as a Scene."""
+    root = Path(root)
+    cams = load_cameras(root / "cameras.json")
+    frames = [f for f in cams.frames if stems is None or f.stem in stems]
+    size = (frames[0].width, frames[0].height)
+    images, Ks = [], []
+    for f in frames:
+        p = root / "images" / f"{f.stem}.png"
+        if not p.exists():
+            raise UserError(f"{p} is missing: rerun `deflare-scene pose {root} --force`")
+        images.append(read_rgb(p, size))
+        K = np.array(f.K, float)
+        K[0] *= size[0] / f.width
+        K[1] *= size[1] / f.height
+        Ks.append(K)
+    masks = _workspace_masks(root, [f.stem for f in frames], size)
+    flare, ranked = _workspace_views(root, [f.stem for f in frames], masks)
+    return make_scene(root.name, [f.stem for f in frames], images, np.stack(Ks),
+                      np.stack([f.c2w for f in frames]), np.array([f.near for f in frames]),
+                      np.array([f.far for f in frames]), masks, flare, ranked)
+
+
+def _workspace_masks(root: Path, stems: list[str], size) -> list[np.ndarray] | None:
+    folder = root / "masks"
+    if not folder.is_dir():
+        warn(f"{folder} is missing: treating every view as flare-free (run `deflare-scene "
+             f"mask {root}` for GN-FR's flare handling)")
+        return None
+    out = []
+    for s in stems:
+        p = folder / f"{s}.png"
+        m = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        if m is None:
+            raise UserError(f"{p} is missing or unreadable: rerun `deflare-scene mask {root}`")
+        if (m.shape[1], m.shape[0]) != tuple(size):
+            m = cv2.resize(m, tuple(size), interpolation=cv2.INTER_NEAREST)
+        out.append(m > 127)
+    return out
+
+
+def _workspace_views(root: Path, stems: list[str], masks):
+    p = root / "views.json"
+    if not p.exists():
+        return None, None
+    views = read_json(p).get("views", {})
+    keep = set(stems)
+    flare = {s: float(views[s]["flare_fraction"]) if s in views else 0.0 for s in stems}
+    ranked = {s: [x["stem"] for x in views[s]["sources"] if x["stem"] in keep]
+              for s in stems if s in views}
+    if len(ranked) != len(stems):
+        return flare, None
+    return flare, ranked
+
+
+# --------------------------------------------------------------------------- LLFF
+def llff_to_opencv(poses: np.ndarray) -> np.ndarray:
+    """LLFF [N, 3, 5] poses (columns down, right, back, centre, hwf) -> OpenCV c2w
+    [N, 4, 4] (x right, y down, z forward)."""
+    c2w = np.tile(np.eye(4), (len(poses), 1, 1))
+    c2w[:, :3, 0] = poses[:, :, 1]
+    c2w[:, :3, 1] = poses[:, :, 0]
+    c2w[:, :3, 2] = -poses[:, :, 2]
+    c2w[:, :3, 3] = poses[:, :, 3]
+    return c2w
+
+
+def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
+    """An LLFF scene (``poses_bounds.npy``: N rows of a 3x5 [R|t|hwf] + near, far)."""
+    folder = Path(folder)
+    pb = np.load(folder / "poses_bounds.npy")
+    poses, bounds = pb[:, :15].reshape(-1, 3, 5), pb[:, 15:17]
+    img_dir = _llff_image_dir(folder, max_size)
+    files = sorted(p for p in img_dir.iterdir() if p.suffix.lower() in IMAGE_EXTS)
+    if len(files) != len(poses):
+        raise UserError(f"{img_dir} has {len(files)} images but poses_bounds.npy "
+                        f"{len(poses)} poses")
+    H0, W0, f0 = poses[0, :, 4]
+    h, w = cv2.imread(str(files[0])).shape[:2]
+    s = min(1.0, max_size / max(h, w))
+    W, H = round(w * s), round(h * s)
+    K = np.array([[f0 * W / W0, 0, W / 2], [0, f0 * H / H0, H / 2], [0, 0, 1]])
+    c2w, near, far = normalise(llff_to_opencv(poses), bounds[:, 0] * 0.9, bounds[:, 1] * 1.1)
+    images = [read_rgb(p, (W, H)) for p in files]
+    return make_scene(folder.name, [p.stem for p in files], images, np.tile(K, (len(files), 1, 1)),
+                      c2w, near, far)
+
+
+def _llff_image_dir(folder: Path, max_size: int) -> Path:
+    cands = sorted((p for p in folder.glob("images*") if p.is_dir()),
+                   key=lambda p: int(p.name.split("_")[1]) if "_" in p.name else 1)
+    if not cands:
+        raise UserError(f"{folder} has poses_bounds.npy but no images/ folder")
+    for p in reversed(cands):  # the smallest images still at least max_size
+        img = cv2.imread(str(next(x for x in sorted(p.iterdir()))))
+        if img is not None and max(img.shape[:2]) >= max_size:
+            return p
+    return cands[0]
+
+
+# --------------------------------------------------------------------------- COLMAP
+# model id -> (name, number of params); K from params: f, cx, cy or fx, fy, cx, cy
+COLMAP_MODELS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4),
+                 3: ("RADIAL", 5), 4: ("OPENCV", 8), 5: ("OPENCV_FISHEYE", 8),
+                 6: ("FULL_OPENCV", 12), 7: ("FOV", 5), 8: ("SIMPLE_RADIAL_FISHEYE", 4),
+                 9: ("RADIAL_FISHEYE", 5), 10: ("THIN_PRISM_FISHEYE", 12)}
+SINGLE_FOCAL = {"SIMPLE_PINHOLE", "SIMPLE_RADIAL", "RADIAL", "SIMPLE_RADIAL_FISHEYE",
+                "RADIAL_FISHEYE"}
+
+
+def _unpack(f, fmt: str):
+    return struct.unpack("<" + fmt, f.read(struct.calcsize("<" + fmt)))
+
+
+def read_colmap_bin(folder: Path) -> tuple[dict, dict, dict]:
+    """cameras {id: (model, w, h, params)}, images {id: (qvec, tvec, cam_id, name,
+    point3D_ids)}, points {id: xyz} from a binary COLMAP model."""
+    cams, imgs, pts = {}, {}, {}
+    with open(folder / "cameras.bin", "rb") as f:
+        for _ in range(_unpack(f, "Q")[0]):
+            cid, mid, w, h = _unpack(f, "iiQQ")
+            name, n = COLMAP_MODELS[mid]
+            cams[cid] = (name, w, h, np.array(_unpack(f, f"{n}d")))
+    with open(folder / "images.bin", "rb") as f:
+        for _ in range(_unpack(f, "Q")[0]):
+            iid, *qt, cid = _unpack(f, "i7di")
+            name = b""
+            while (c := f.read(1)) != b"\0":
+                name += c
+            n2d = _unpack(f, "Q")[0]
+            data = np.frombuffer(f.read(24 * n2d), dtype=[("x", "<f8"), ("y", "<f8"),
+                                                          ("id", "<i8")])
+            imgs[iid] = (np.array(qt[:4]), np.array(qt[4:]), cid, name.decode(), data["id"])
+    with open(folder / "points3D.bin", "rb") as f:
+        for _ in range(_unpack(f, "Q")[0]):
+            pid, x, y, z, _r, _g, _b, _err, tl = _unpack(f, "Q3d3BdQ")
+            f.seek(8 * tl, 1)
+            pts[pid] = (x, y, z)
+    return cams, imgs, pts
+
+
+def read_colmap_text(folder: Path) -> tuple[dict, dict, dict]:
+    """The same as :func:`read_colmap_bin` from cameras.txt / images.txt / points3D.txt."""
+    def lines(name):
+        return [ln for ln in (folder / name).read_text().splitlines()
+                if ln.strip() and not ln.startswith("#")]
+    cams, imgs, pts = {}, {}, {}
+    for ln in lines("cameras.txt"):
+        p = ln.split()
+        cams[int(p[0])] = (p[1], int(p[2]), int(p[3]), np.array(p[4:], float))
+    il = (folder / "images.txt").read_text().splitlines()
+    il = [ln for ln in il if not ln.startswith("#")]
+    for head, pts2d in zip(il[0::2], il[1::2], strict=False):
+        p = head.split()
+        if not p:
+            continue
+        ids = np.array(pts2d.split()[2::3], dtype=np.int64)
+        imgs[int(p[0])] = (np.array(p[1:5], float), np.array(p[5:8], float), int(p[8]),
+                           " ".join(p[9:]), ids)
+    for ln in lines("points3D.txt"):
+        p = ln.split()
+        pts[int(p[0])] = tuple(float(v) for v in p[1:4])
+    return cams, imgs, pts
+
+
+def qvec_to_rotmat(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def colmap_K(model: str, params: np.ndarray) -> np.ndarray:
+    if model in SINGLE_FOCAL:
+        f, cx, cy = params[:3]
+        return np.array([[f, 0, cx], [0, f, cy], [0, 0, 1.0]])
+    fx, fy, cx, cy = params[:4]
+    return np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]])
+
+
+def colmap_model_dir(folder: Path) -> Path:
+    for cand in (folder / "sparse" / "0", folder / "sparse", folder):
+        if (cand / "cameras.bin").is_file() or (cand / "cameras.txt").is_file():
+            return cand
+    raise UserError(f"{folder} has no COLMAP model (cameras.bin/.txt in sparse/0, sparse/ "
+                    "or the folder itself)")
+
+
+def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
+    """A COLMAP workspace (sparse model + ``images/``) as a Scene; near/far per view from
+    the depths of the 3D points it sees (1st / 99th percentile, with margins)."""
+    folder = Path(folder)
+    model = colmap_model_dir(folder)
+    binary = (model / "cameras.bin").is_file()
+    cams, imgs, pts = read_colmap_bin(model) if binary else read_colmap_text(model)
+    xyz_ids = np.array(sorted(pts), dtype=np.int64)
+    xyz = np.array([pts[i] for i in xyz_ids]).reshape(-1, 3)
+    stems, images, Ks, c2ws, nears, fars = [], [], [], [], [], []
+    for _iid, (q, t, cid, name, pids) in sorted(imgs.items(), key=lambda kv: kv[1][3]):
+        mname, w, h, params = cams[cid]
+        if mname not in ("PINHOLE", "SIMPLE_PINHOLE"):
+            warn(f"{model}: camera {cid} is {mname}; distortion is ignored (undistort with "
+                 "COLMAP's image_undistorter for exact results)")
+        s = min(1.0, max_size / max(w, h))
+        W, H = round(w * s), round(h * s)
+        K = colmap_K(mname, params)
+        K[0] *= W / w
+        K[1] *= H / h
+        R = qvec_to_rotmat(q)
+        c2w = np.eye(4)
+        c2w[:3, :3], c2w[:3, 3] = R.T, -R.T @ t
+        seen = xyz[np.isin(xyz_ids, pids[pids >= 0])]
+        z = (seen @ R.T + t)[:, 2] if len(seen) else np.zeros(0)
+        z = z[z > 0]
+        near, far = (np.percentile(z, 1) * 0.8, np.percentile(z, 99) * 1.2) if len(z) > 4 \
+            else (0.1, 100.0)
+        stems.append(Path(name).stem)
+        images.append(read_rgb(folder / "images" / name, (W, H)))
+        Ks.append(K)
+        c2ws.append(c2w)
+        nears.append(near)
+        fars.append(far)
+    sizes = {im.shape[:2] for im in images}
+    if len(sizes) > 1:
+        raise UserError(f"{folder}: images have different sizes {sorted(sizes)}; pretraining "
+                        "needs one size per scene (undistort to a single PINHOLE camera)")
+    c2w, near, far = normalise(np.stack(c2ws), np.array(nears), np.array(fars))
+    return make_scene(folder.name, stems, images, np.stack(Ks), c2w, near, far)
+
+
+def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
+    """Load a workspace, an LLFF folder or a COLMAP workspace, whichever ``path`` is."""
+    path = Path(path)
+    if (path / "cameras.json").is_file():
+        return load_workspace(path)
+    if (path / "poses_bounds.npy").is_file():
+        return load_llff(path, max_size)
+    if (path / "images").is_dir():
+        return load_colmap(path, max_size)
+    raise UserError(f"{path} is not a workspace (cameras.json), an LLFF scene "
+                    "(poses_bounds.npy) or a COLMAP workspace (sparse/ + images/)")
