@@ -19,6 +19,7 @@ from gnfr.fmg import (
     tiny_config,
     work_shape,
 )
+from tests.conftest import shared
 
 
 @pytest.mark.parametrize("hw", [(64, 64), (37, 53), (8, 8), (101, 66)])
@@ -101,18 +102,69 @@ def test_save_load_roundtrip_fp16(tmp_path):
         load_fmg(tmp_path / "junk.safetensors")
 
 
-def blob_batch(rng: np.random.Generator, n: int, size: int = 48):
-    """Images with soft bright blobs (the 'flare') over textured noise, and their masks."""
-    yy, xx = np.mgrid[:size, :size].astype(np.float32)
-    imgs, masks = [], []
-    for _ in range(n):
-        img = rng.uniform(0.0, 0.5, (size, size, 3)).astype(np.float32)
-        cy, cx = rng.uniform(10, size - 10, 2)
-        r = rng.uniform(5, 10)
-        g = np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * r * r))
-        img = np.clip(img + 0.8 * g[..., None] * np.array([1.0, 0.9, 0.6]), 0, 1)
-        imgs.append(img)
-        masks.append(g > 0.3)
-    x = torch.from_numpy(np.stack(imgs)).permute(0, 3, 1, 2)
-    y = torch.from_numpy(np.stack(masks))[:, None].float()
-    return x, y
+def composites(n: int, size: int = 96, seed: int = 0):
+    """n flared composites of kermit views (pipeline.fmg_data) and their masks."""
+    from pipeline.fmg_data import CompositeConfig, CompositeSource, find_images, load_backgrounds
+
+    paths = find_images(shared("scenes", "kermit"))[:3]
+    src = CompositeSource(load_backgrounds(paths, 160), comp=CompositeConfig(size=size))
+    return src.batch(n, np.random.default_rng(seed), train=False)
+
+
+def test_tiny_fmg_overfits_composites():
+    torch.manual_seed(0)
+    x, y = composites(4)
+    assert 0.005 < float(y.mean()) < 0.8  # every composite has some flare, not all flare
+    model = build_fmg(tiny_config())
+    opt = torch.optim.Adam(model.parameters(), lr=1e-2)
+
+    def iou() -> float:
+        model.eval()
+        with torch.no_grad():
+            return seg_metrics(confusion(model(x) > 0, y > 0.5))["IoU_flare"]
+
+    iou0, losses = iou(), []
+    model.train()
+    for _ in range(80):
+        loss = fmg_loss(model(x), y)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        losses.append(float(loss.detach()))
+    assert np.mean(losses[-5:]) < 0.5 * np.mean(losses[:5])
+    iou1 = iou()
+    assert iou1 > max(0.5, iou0 + 0.2), (iou0, iou1)
+
+
+def test_composites_mark_visible_flare_not_core():
+    from pipeline import flare as fl
+    from pipeline.fmg_data import CompositeConfig, composite_flare, warp_layers
+
+    rng = np.random.default_rng(3)
+    img = np.full((96, 96, 3), 0.25, np.float32)
+    flared, mask = composite_flare(img, fl.FlareConfig(), CompositeConfig(size=96), rng)
+    assert flared.shape == img.shape and mask.shape == (96, 96) and mask.any()
+    diff = np.abs(flared - img).max(axis=2)
+    assert diff[mask].mean() > 3 * diff[~mask].mean()
+    # one affine moves flare, core and mask alike; the core is never in the mask
+    lens = fl.sample_lens(fl.FlareConfig(), rng)
+    layers = fl.render_flare(lens, (48.0, 48.0), (96, 96), None, 1.0)
+    m = np.array([[1, 0, 10], [0, 1, -5]], np.float32)  # shift 10 right, 5 up
+    w = warp_layers(layers, m, 96)
+    assert np.array_equal(w.mask[:-5, 10:], layers.mask[5:, :-10])
+    assert np.allclose(w.core[:-5, 10:], layers.core[5:, :-10])
+    assert not (w.mask & (w.core.max(axis=2) > 0)).any()
+
+
+def test_split_keeps_heldout_scenes_out(tmp_path):
+    from pipeline.datasets import HELDOUT_SCENES
+    from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds
+
+    for rel in [f"scenes/{HELDOUT_SCENES[0]}/a.jpg", "scenes/et/sub/b.png",
+                f"backgrounds/x/{HELDOUT_BACKGROUNDS[0]}.png", "backgrounds/y.jpg",
+                "backgrounds/notes.txt"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(b"")
+    train, val = split_backgrounds(tmp_path)
+    assert sorted(p.name for p in train) == ["b.png", "y.jpg"]
+    assert sorted(p.name for p in val) == ["a.jpg", f"{HELDOUT_BACKGROUNDS[0]}.png"]
