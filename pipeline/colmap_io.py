@@ -93,13 +93,26 @@ def points_seen(rec: pycolmap.Reconstruction, image: pycolmap.Image) -> np.ndarr
 
 
 def all_points(rec: pycolmap.Reconstruction) -> tuple[np.ndarray, np.ndarray]:
-    """([N, 3] float xyz, [N, 3] uint8 rgb) of every 3D point."""
-    pts = list(rec.points3D.values())
+    """([N, 3] float xyz, [N, 3] uint8 rgb) of every 3D point, in point id order."""
+    pts = [p for _, p in sorted(rec.points3D.items(), key=lambda kv: kv[0])]
     if not pts:
         return np.zeros((0, 3)), np.zeros((0, 3), np.uint8)
     xyz = np.stack([p.xyz for p in pts])
     rgb = np.stack([np.asarray(p.color, np.uint8) for p in pts])
     return xyz, rgb
+
+
+def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Similarity (s, R [3, 3], t [3]) minimising |dst - (s R src + t)|^2; src, dst [N, 3]."""
+    mu_s, mu_d = src.mean(0), dst.mean(0)
+    xs, xd = src - mu_s, dst - mu_d
+    U, S, Vt = np.linalg.svd(xd.T @ xs / len(src))
+    D = np.eye(3)
+    if np.linalg.det(U) * np.linalg.det(Vt) < 0:
+        D[2, 2] = -1
+    R = U @ D @ Vt
+    s = float(np.trace(np.diag(S) @ D) / (xs ** 2).sum(1).mean())
+    return s, R, mu_d - s * R @ mu_s
 
 
 # --------------------------------------------------------------------------- import

@@ -8,7 +8,8 @@ Steps: (1) one COLMAP camera per group of photos with the same decoded size and 
 length (the focal length, read from the original photo's EXIF when it has one, is a prior);
 (2) SIFT extraction (GPU when pycolmap has CUDA); (3) exhaustive matching for small sets,
 sequential matching for large or video-like ones (``matcher="auto"``); (4) incremental
-mapping, keeping the model with the most registered images; (5) undistortion to PINHOLE;
+mapping, keeping the model with the most registered images; (5) undistortion to PINHOLE
+(COLMAP's undistorted camera, OpenCV remap: the same pixels as COLMAP's undistorter);
 (6) the normalised world frame: translate the median of the sparse points to the origin
 and scale so the farthest camera is at distance 1 (no rotation), recorded as
 ``colmap_to_world``; (7) per view near/far from the depths of the sparse points it sees
@@ -34,7 +35,7 @@ from pipeline.cameras import Cameras, Frame, save_cameras
 from pipeline.errors import UserError
 from pipeline.progress import console, info, make_progress, warn
 from pipeline.scene_glb import write_scene_glb
-from pipeline.workspace import Workspace, atomic_path, atomic_write_json
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
 
 MATCHERS = ("auto", "exhaustive", "sequential")
 
@@ -159,7 +160,8 @@ class Inputs:
 
     @classmethod
     def of(cls, ws: Workspace) -> Inputs:
-        sources = ws.stage_record("decode").get("sources", {})
+        sources = ws.stage_record("decode").get("sources") or {
+            p.stem: p.name for p in ws.decoded.glob("*.png")}  # workspaces made by hand
         stems = sorted(s for s in sources if (ws.decoded / f"{s}.png").is_file())
         if not stems:
             raise UserError(f"{ws.decoded} has no decoded images: rerun `deflare-scene decode "
@@ -202,7 +204,7 @@ def _extract(cfg: PoseConfig, db: Path, decoded: Path, names: list[str]) -> None
     opts.sift.max_num_features = cfg.max_num_features
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model = cfg.camera_model
-    chunk = 4
+    chunk = max(4, -(-len(names) // 10))  # about ten progress steps
     with make_progress() as prog:
         task = prog.add_task("pose: SIFT features", total=len(names))
         for i in range(0, len(names), chunk):
@@ -324,31 +326,50 @@ def check_registration(report: dict, cfg: PoseConfig, ws: Workspace) -> None:
 
 
 # --------------------------------------------------------------------------- outputs
-def undistort(sparse: Path, ws: Workspace, cfg: PoseConfig):
-    """Undistort WS/decoded to PINHOLE into WS/images; return the undistorted model."""
+def undistortion_map(cam) -> tuple:
+    """(pinhole camera, [H, W] x map, [H, W] y map) for cv2.remap of one distorted camera.
+
+    The maps give, for each pixel of the undistorted image, where to sample the distorted
+    one (pixel centres at integers, as OpenCV; COLMAP's are at +0.5, hence the shifts).
+    """
     import pycolmap
 
-    tmp = ws.root / ".undistort"
-    shutil.rmtree(tmp, ignore_errors=True)
-    try:
-        info("pose: undistorting images")
-        pycolmap.undistort_images(str(tmp), str(sparse), str(ws.decoded), output_type="COLMAP",
-                                  num_threads=cfg.num_threads)
-        und = pycolmap.Reconstruction(str(tmp / "sparse"))
-        ws.images.mkdir(parents=True, exist_ok=True)
-        names = {und.images[i].name for i in und.reg_image_ids()}
-        for name in names:
-            with atomic_path(ws.images / name) as dst:
-                shutil.move(tmp / "images" / name, dst)
-        for p in ws.images.iterdir():
-            if p.is_file() and p.name not in names:
-                p.unlink()
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return und
+    pinhole = pycolmap.undistort_camera(pycolmap.UndistortCameraOptions(), cam)
+    w, h = int(pinhole.width), int(pinhole.height)
+    xs, ys = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    rays = pinhole.cam_from_img(np.c_[xs.ravel(), ys.ravel()])  # [H*W, 2] on z = 1
+    uv = cam.img_from_cam(np.c_[rays, np.ones(len(rays))], check_cheirality=False) - 0.5
+    return pinhole, *(uv[:, i].reshape(h, w).astype(np.float32) for i in (0, 1))
 
 
-def build_cameras(rec, und, inp: Inputs, margin: float) -> tuple[Cameras, np.ndarray]:
+def undistort(rec, ws: Workspace) -> dict:
+    """Undistort every registered WS/decoded image to PINHOLE into WS/images.
+
+    Returns {image name: pinhole camera}. Images of a shared camera share one map.
+    """
+    import cv2
+
+    images = colmap_io.registered_images(rec)
+    maps, pinholes = {}, {}
+    ws.images.mkdir(parents=True, exist_ok=True)
+    with make_progress() as prog:
+        task = prog.add_task("pose: undistort", total=len(images))
+        for im in images:
+            if im.camera_id not in maps:
+                maps[im.camera_id] = undistortion_map(rec.cameras[im.camera_id])
+            pinhole, mx, my = maps[im.camera_id]
+            src = cv2.imread(str(ws.decoded / im.name), cv2.IMREAD_COLOR)
+            out = cv2.remap(src, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+            atomic_imwrite(ws.images / im.name, out)
+            pinholes[im.name] = pinhole
+            prog.advance(task)
+    for p in ws.images.iterdir():
+        if p.is_file() and p.name not in pinholes:
+            p.unlink()
+    return pinholes
+
+
+def build_cameras(rec, pinholes: dict, inp: Inputs, margin: float) -> tuple[Cameras, np.ndarray]:
     """cameras.json content in the normalised frame, and the [N, 3] world points."""
     images = colmap_io.registered_images(rec)
     c2ws = {im.name: colmap_io.cam_to_world(im) for im in images}
@@ -363,8 +384,7 @@ def build_cameras(rec, und, inp: Inputs, margin: float) -> tuple[Cameras, np.nda
         fallback = near_far((world - center) @ axis, margin, (0.01, 10.0))
         seen = colmap_io.points_seen(rec, im) @ T[:3, :3].T + T[:3, 3]
         near, far = near_far((seen - center) @ axis, margin, fallback)
-        uim = und.find_image_with_name(im.name)
-        ucam = und.cameras[uim.camera_id]
+        ucam = pinholes[im.name]
         frames.append(Frame(
             name=inp.sources.get(stem, im.name), stem=stem, K=ucam.calibration_matrix(),
             width=int(ucam.width), height=int(ucam.height), c2w=c2w, near=near, far=far,
@@ -419,9 +439,9 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
         atomic_write_json(ws.colmap / "report.json", report)
         print_report(report)
         check_registration(report, cfg, ws)
-        sparse = colmap_io.write_model(rec, ws.colmap / "sparse" / "0")
-        und = undistort(sparse, ws, cfg)
-    cams, world = build_cameras(rec, und, inp, cfg.depth_margin)
+        colmap_io.write_model(rec, ws.colmap / "sparse" / "0")
+    pinholes = undistort(rec, ws)
+    cams, world = build_cameras(rec, pinholes, inp, cfg.depth_margin)
     save_cameras(ws.cameras_json, cams)
     _, rgb = colmap_io.all_points(rec)
     write_scene_glb(ws.scene_glb, world, rgb, cams.frames)

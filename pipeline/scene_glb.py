@@ -83,6 +83,21 @@ def write_scene_glb(path: str | os.PathLike, points: np.ndarray, colors: np.ndar
     return atomic_write_bytes(path, scene.export(file_type="glb"))
 
 
+def read_scene_points(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """([N, 3] float points, [N, 3] uint8 RGB) of the point cloud in a scene.glb written
+    by :func:`write_scene_glb` (empty arrays when it has none): lets a later stage rewrite
+    the file with a camera path without pycolmap."""
+    import trimesh
+
+    scene = trimesh.load(str(path), force="scene")
+    cloud = scene.geometry.get("points")
+    if cloud is None:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.uint8)
+    colors = np.asarray(cloud.colors, np.uint8)[:, :3] if len(cloud.colors) else np.full(
+        (len(cloud.vertices), 3), 200, np.uint8)
+    return np.asarray(cloud.vertices, np.float64), colors
+
+
 def _lines(segs: np.ndarray, color: tuple[int, int, int, int]):
     """A trimesh Path3D of segments [S, 2, 3] in one colour."""
     import trimesh

@@ -12,7 +12,7 @@ import pytest
 
 from pipeline import colmap_io, pose
 from pipeline.cameras import Frame, load_cameras
-from pipeline.scene_glb import write_scene_glb
+from pipeline.scene_glb import read_scene_points, write_scene_glb
 from pipeline.workspace import Workspace, atomic_imwrite
 from tests.conftest import shared
 from tests.fixtures import read_temple_par
@@ -98,6 +98,21 @@ def test_points_project_inside_views_and_between_near_far(kermit):
         assert ok.mean() > 0.98
 
 
+def test_undistortion_matches_colmap(kermit, tmp_path):
+    import pycolmap
+
+    name = "kermit003.png"
+    pycolmap.undistort_images(str(tmp_path), str(kermit.colmap / "sparse" / "0"),
+                              str(kermit.decoded), image_names=[name])
+    ref = cv2.imread(str(tmp_path / "images" / name)).astype(int)
+    ours = cv2.imread(str(kermit.images / name)).astype(int)
+    assert ref.shape == ours.shape
+    assert np.abs(ref - ours).mean() < 0.05
+    und = pycolmap.Reconstruction(str(tmp_path / "sparse"))
+    K = und.cameras[und.find_image_with_name(name).camera_id].calibration_matrix()
+    assert np.allclose(load_cameras(kermit.cameras_json).by_stem()["kermit003"].K, K)
+
+
 def test_scene_glb(kermit, tmp_path):
     import trimesh
 
@@ -109,6 +124,12 @@ def test_scene_glb(kermit, tmp_path):
     out = write_scene_glb(tmp_path / "s.glb", np.zeros((0, 3)), np.zeros((0, 3), np.uint8),
                           frames, extra_paths=[path])
     assert "path0" in trimesh.load(out).geometry
+    pts, rgb = read_scene_points(kermit.scene_glb)  # export can rewrite it without pycolmap
+    rec = colmap_io.read_model(kermit.colmap / "sparse" / "0")
+    xyz, rgb0 = colmap_io.all_points(rec)
+    T = load_cameras(kermit.cameras_json).colmap_to_world
+    assert np.allclose(pts, xyz @ T[:3, :3].T + T[:3, 3], atol=1e-5)
+    assert (rgb == rgb0).all()
 
 
 def test_rerun_is_skipped(kermit, capsys):
@@ -119,25 +140,12 @@ def test_rerun_is_skipped(kermit, capsys):
 
 
 # --------------------------------------------------------------------------- temple
-def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Similarity (s, R, t) minimising |dst - (s R src + t)|^2; src, dst [N, 3]."""
-    mu_s, mu_d = src.mean(0), dst.mean(0)
-    xs, xd = src - mu_s, dst - mu_d
-    U, S, Vt = np.linalg.svd(xd.T @ xs / len(src))
-    D = np.eye(3)
-    if np.linalg.det(U) * np.linalg.det(Vt) < 0:
-        D[2, 2] = -1
-    R = U @ D @ Vt
-    s = np.trace(np.diag(S) @ D) / (xs ** 2).sum(1).mean()
-    return s, R, mu_d - s * R @ mu_s
-
-
 def test_umeyama_recovers_similarity():
     rng = np.random.default_rng(0)
     src = rng.normal(size=(10, 3))
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     R = q * np.sign(np.linalg.det(q))
-    s, R2, t = umeyama(src, 2.5 * src @ R.T + [1, 2, 3])
+    s, R2, t = colmap_io.umeyama(src, 2.5 * src @ R.T + [1, 2, 3])
     assert np.isclose(s, 2.5) and np.allclose(R2, R) and np.allclose(t, [1, 2, 3])
 
 
@@ -152,7 +160,7 @@ def test_temple_accuracy(temple):
     assert len(frames) >= 12  # 13/16 with pycolmap 4.2.1
     est = np.stack([f.center for f in frames])
     gt = np.stack([-par[f.name][1].T @ par[f.name][2] for f in frames])
-    s, R, t = umeyama(est, gt)
+    s, R, t = colmap_io.umeyama(est, gt)
     err = np.linalg.norm(s * est @ R.T + t - gt, axis=1)
     radius = np.linalg.norm(gt - gt.mean(0), axis=1).max()
     assert np.sqrt((err ** 2).mean()) < 0.01 * radius, err / radius
