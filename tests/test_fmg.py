@@ -168,3 +168,32 @@ def test_split_keeps_heldout_scenes_out(tmp_path):
     train, val = split_backgrounds(tmp_path)
     assert sorted(p.name for p in train) == ["b.png", "y.jpg"]
     assert sorted(p.name for p in val) == ["a.jpg", f"{HELDOUT_BACKGROUNDS[0]}.png"]
+
+
+def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
+    import json
+    import shutil
+
+    from workflows.cli import main
+
+    kermit = shared("scenes", "kermit")
+    data = tmp_path / "data"
+    for sub, name in (("scenes/kermit", "kermit000.jpg"), ("scenes/et", "kermit001.jpg"),
+                      ("backgrounds/misc", "kermit002.jpg")):
+        (data / sub).mkdir(parents=True)
+        shutil.copy(kermit / name, data / sub / name)
+    out = tmp_path / "run"
+    args = ["fmg", "train", "--out", str(out), "--data", str(data), "--batch", "2",
+            "--size", "64", "--widths", "8,8,16,16", "--depths", "1,1,1,1", "--head-width",
+            "16", "--ckpt-every", "1", "--eval-every", "100", "--val-count", "2"]
+    assert main([*args, "--iters", "2"]) == 0
+    assert main([*args, "--iters", "3"]) == 0  # resumes at step 2
+    steps = [json.loads(line)["step"] for line in (out / "log.jsonl").read_text().splitlines()]
+    assert steps == [1, 2, 3]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert 0 <= metrics["default"]["mIoU"] <= 1 and 0 <= metrics["unseen"]["mAcc"] <= 1
+    model = load_fmg(out / "fmg.safetensors")
+    assert model.cfg.widths == (8, 8, 16, 16)
+    assert main(["fmg", "eval", "--weights", str(out / "fmg.safetensors"), "--data", str(data),
+                 "--count", "2", "--size", "64", "--out", str(tmp_path / "m.json")]) == 0
+    assert json.loads((tmp_path / "m.json").read_text())["count"] == 2

@@ -200,7 +200,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str)}
     with atomic_path(out / "fmg.safetensors") as tmp:
         save_fmg(tmp, model.cpu(), extra=meta)
-    metrics = evaluate(out / "fmg.safetensors", Path(cfg.data), count=cfg.val_count * 2)
+    metrics = evaluate(out / "fmg.safetensors", Path(cfg.data), count=cfg.val_count * 2,
+                       size=cfg.size)
     atomic_write_json(out / "metrics.json", metrics)
     return metrics
 

@@ -32,6 +32,8 @@ def register(app: typer.Typer) -> None:
         lr: float = typer.Option(2e-3, help="Peak learning rate."),
         ckpt_every: int = typer.Option(100, help="Steps between checkpoints."),
         eval_every: int = typer.Option(500, help="Steps between validation scores."),
+        val_count: int = typer.Option(32, help="Held-out composites scored during training "
+                                      "(twice as many at the end)."),
         device: str = typer.Option("auto", help="auto, cpu or cuda."),
     ) -> None:
         """Train the FMG on flare composited onto photos; held-out scenes are never seen."""
@@ -40,7 +42,7 @@ def register(app: typer.Typer) -> None:
         cfg = FMGTrainConfig(out=out, data=data or default_data(), iters=iters, batch=batch,
                              size=size, widths=_ints(widths), depths=_ints(depths),
                              head_width=head_width, lr=lr, ckpt_every=ckpt_every,
-                             eval_every=eval_every, device=device)
+                             eval_every=eval_every, val_count=val_count, device=device)
         typer.echo(format_metrics(train(cfg)))
 
     @fmg.command("eval")
@@ -49,6 +51,7 @@ def register(app: typer.Typer) -> None:
                                      "the shipped ones)."),
         data: Path = typer.Option(None, help="Folder with backgrounds/ and scenes/."),
         count: int = typer.Option(64, help="Held-out composites per flare setting."),
+        size: int = typer.Option(256, help="Composite side in pixels."),
         refine: bool = typer.Option(False, "--refine/--no-refine",
                                     help="Also score guided-filter refined masks."),
         out: Path = typer.Option(None, "--out", help="Write the metrics here (JSON)."),
@@ -58,7 +61,8 @@ def register(app: typer.Typer) -> None:
         from pipeline.workspace import atomic_write_json
         from workflows.fmg_train import default_data, evaluate, format_metrics
 
-        m = evaluate(weights or DEFAULT_WEIGHTS, data or default_data(), count, refine=refine)
+        m = evaluate(weights or DEFAULT_WEIGHTS, data or default_data(), count, refine=refine,
+                     size=size)
         typer.echo(format_metrics(m))
         if out:
             atomic_write_json(out, m)
