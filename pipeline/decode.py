@@ -109,7 +109,7 @@ def list_photos(photos: Path) -> list[Photo]:
         paths.sort(key=lambda p: (p.suffix.lower() not in RAW_EXTS, p.name))
         if len(paths) > 1:
             warn(f"{', '.join(p.name for p in paths)} share the stem '{stem}': "
-                 f"using {paths[0].name}, ignoring the others")
+                 f"using {paths[0].name} (the others only if it cannot be decoded)")
         chosen.append(Photo(paths[0], stem, paths[0].suffix.lower() in RAW_EXTS,
                             tuple(paths[1:])))
     if len(chosen) < MIN_IMAGES:
