@@ -1,0 +1,528 @@
+"""Stage `render`: de-flared input photos and novel camera paths from the fine-tuned model.
+
+``--path inputs`` renders every input photo at its own camera with its full COLMAP model
+(distortion included) at the size and framing of ``WS/decoded/<stem>.png`` into
+``WS/deflared/<stem>.png``. By default only the flare region is rendered (the FMG mask
+warped from ``WS/images`` geometry, dilated and feathered) and blended over the photo, so
+clean pixels keep their detail; ``blend="none"`` writes the full render. ``interpolate``,
+``spiral`` and a ``FILE.json`` path render novel cameras into ``WS/renders/<path>/``
+(numbered frames; ``<name>.png`` for a JSON path), with the path's cameras beside them in
+``cameras.json`` (the JSON path format, docs/camera_paths.md).
+
+Every source view needed by any frame is encoded ONCE into a feature cache
+(:class:`gnfr.renderer.SourceViews`) that all frames share. Frames are written atomically
+and skipped on restart. Sources: for an input view its ranked pool from ``WS/views.json``
+(itself excluded); for a novel frame every input view ranked by distance to the frame's
+centre; from either, the nearest-10-least-flared (``gnfr.view_sampler.eval_sources``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.camera_models import CameraModel, warp_maps
+from pipeline.cameras import Cameras, Frame, load_cameras
+from pipeline.errors import UserError
+from pipeline.progress import info, make_progress, warn
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
+
+NAMED_PATHS = ("inputs", "interpolate", "spiral")
+
+
+@dataclass
+class RenderConfig:
+    """Options of the render stage."""
+
+    path: str = "inputs"
+    """inputs, interpolate, spiral, or a camera-path FILE.json (docs/camera_paths.md)."""
+    frames: int | None = None
+    """Frames of an interpolate / spiral path (default: seconds x fps)."""
+    seconds: float = 4.0
+    """Length of an interpolate / spiral path when ``frames`` is not given."""
+    fps: float = 24.0
+    """Frame rate used with ``seconds`` to count frames."""
+    size: tuple[int, int] | None = None
+    """Render size (width, height) of novel frames; overrides ``scale``."""
+    scale: float | None = None
+    """Novel frames at this fraction of the input image size (default 1/4 on CPU, 1 on
+    CUDA; a JSON path keeps its own sizes unless ``scale`` or ``size`` is given)."""
+    chunk: int = 1024
+    """Rays per forward pass (lower it if memory runs out)."""
+    device: str = "auto"
+    """cuda, cpu or auto (CUDA when available)."""
+    samples: int | None = None
+    """Samples per ray (default: the checkpoint's training value, else 64 CUDA / 32 CPU)."""
+    blend: str = "mask"
+    """inputs: ``mask`` renders and replaces only the flare region; ``none`` the full image."""
+    dilate: float = 0.01
+    """inputs: the flare mask is grown by this fraction of the image's long side."""
+    feather: float = 0.01
+    """inputs: width of the soft blend edge as a fraction of the image's long side."""
+    full_res: bool = False
+    """inputs: also render the flare region at the original photo's full resolution and
+    blend it into the original (into WS/deflared_full/)."""
+    n_sources: int | None = None
+    """Source views per frame, the least flared of the nearest ``pool`` (default: the
+    checkpoint's eval_views, else 10)."""
+    pool: int = 20
+    """Nearest views from which the ``n_sources`` least-flared are kept."""
+    source_scale: float | None = None
+    """Resolution of the encoded source views relative to WS/images (default: the
+    checkpoint's training value, else 1)."""
+    checkpoint: str | None = None
+    """Model weights (default: the latest checkpoint in WS/model/)."""
+
+
+@dataclass
+class FrameJob:
+    """One image to render: where it goes, which camera, which sources, depth range."""
+
+    out: Path
+    sources: list[str]
+    near: float
+    far: float
+    camera: object  # gnfr.paths.PathCamera (novel) or pipeline.cameras.Frame (input view)
+    extra: dict = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------- entry point
+def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
+    import torch
+
+    ws.require("pose")
+    cams = load_cameras(ws.cameras_json)
+    views = _load_views(ws)
+    device = _device(cfg.device)
+    ckpt = _checkpoint(ws, cfg.checkpoint)
+    meta = _train_meta(ckpt)
+    cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
+    key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    params = {**asdict(cfg), "device": None, "chunk": None,
+              "samples": int(cfg.samples or meta.get("samples") or meta.get("n_samples")
+                             or (64 if device.startswith("cuda") else 32)),
+              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
+              "scale": _scale(cfg, device),
+              "point_sampler": bool(meta.get("point_sampler", True))}
+    inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
+    inputs += [ws.decoded] if key == "inputs" else []
+    inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
+    run_ = ws.begin_stage(f"render:{key}", params, inputs, force)
+    if run_.skip:
+        info(f"render {key}: up to date ({out_dir})")
+        return run_.outputs
+    if not ws.resumable(run_):
+        _clear_frames(out_dir, jobs)
+    if key != "inputs":
+        _write_path_cameras(out_dir, jobs)
+    todo = [j for j in jobs if not j.out.exists()]
+    if len(todo) < len(jobs):
+        info(f"render {key}: {len(jobs) - len(todo)} of {len(jobs)} frames already done")
+    if todo:
+        with torch.inference_mode():
+            model = _load_model(ckpt, device)
+            stems = sorted({s for j in todo for s in j.sources})
+            src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"])
+            render_jobs(model, src, index, todo, params, cfg, ws)
+    outputs = [out_dir]
+    if key == "inputs" and cfg.full_res:
+        from pipeline.render_full import render_full_res
+
+        outputs.append(render_full_res(cfg, ws, cams, views, ckpt, device, params["samples"]))
+    return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
+
+
+def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: dict,
+              device: str) -> tuple[str, Path, list[FrameJob]]:
+    """(path key, output folder, frame jobs) for ``cfg.path``."""
+    if cfg.path == "inputs":
+        if cfg.blend not in ("mask", "none"):
+            raise UserError(f"--blend {cfg.blend!r} is not known: use mask or none")
+        jobs = [FrameJob(ws.deflared / f"{f.stem}.png", input_sources(f.stem, views, cfg),
+                         f.near, f.far, f) for f in cams.frames]
+        return "inputs", ws.deflared, jobs
+    path_cams, key = novel_path(cfg, cams, device)
+    out_dir = ws.renders / key
+    jobs = []
+    for i, pc in enumerate(path_cams):
+        near, far = novel_depth_range(pc.c2w[:3, 3], cams)
+        name = pc.name if key not in NAMED_PATHS else f"{i:05d}"
+        jobs.append(FrameJob(out_dir / f"{name}.png", novel_sources(pc.c2w[:3, 3], cams, views,
+                                                                    cfg), near, far, pc))
+    return key, out_dir, jobs
+
+
+# --------------------------------------------------------------------------- cameras
+def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
+    """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json."""
+    from gnfr import paths
+
+    if cfg.path not in NAMED_PATHS:
+        file = Path(cfg.path)
+        if file.suffix.lower() != ".json":
+            raise UserError(f"--path {cfg.path}: use inputs, interpolate, spiral or a .json "
+                            "camera path file (docs/camera_paths.md)")
+        try:
+            pcs = paths.path_from_json(read_json(file))
+        except ValueError as e:
+            raise UserError(f"{file}: {e} (format: docs/camera_paths.md)") from None
+        if cfg.size or cfg.scale:
+            pcs = [_resize(pc, cfg, device) for pc in pcs]
+        return pcs, file.stem
+    if len(cams.frames) < 2:
+        raise UserError(f"--path {cfg.path} needs at least 2 posed views; the workspace has "
+                        f"{len(cams.frames)}")
+    n = cfg.frames or max(1, round(cfg.seconds * cfg.fps))
+    c2ws = np.stack([f.c2w for f in cams.frames])
+    if cfg.path == "interpolate":
+        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws))
+    else:
+        near = np.array([f.near for f in cams.frames])
+        far = np.array([f.far for f in cams.frames])
+        poses = paths.spiral_path(c2ws, near, far, n)
+    ref = reference_frame(cams)
+    base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
+    base = _resize(base, cfg, device)
+    return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)
+            for i, p in enumerate(poses)], cfg.path
+
+
+def reference_frame(cams: Cameras) -> Frame:
+    """The first view with the most common image size (its K sets novel intrinsics)."""
+    sizes = [(f.width, f.height) for f in cams.frames]
+    common = max(set(sizes), key=sizes.count)
+    return cams.frames[sizes.index(common)]
+
+
+def _resize(pc, cfg: RenderConfig, device: str):
+    """A PathCamera scaled to ``cfg.size`` or by ``cfg.scale`` (default by device)."""
+    from gnfr.paths import PathCamera
+
+    if cfg.size:
+        W, H = (int(v) for v in cfg.size)
+    else:
+        s = _scale(cfg, device)
+        W, H = max(1, round(pc.width * s)), max(1, round(pc.height * s))
+    K = np.asarray(pc.K, np.float64).copy()
+    K[0] *= W / pc.width
+    K[1] *= H / pc.height
+    return PathCamera(pc.name, K, pc.c2w, W, H)
+
+
+def _scale(cfg: RenderConfig, device: str) -> float:
+    if cfg.scale:
+        return float(cfg.scale)
+    return 1.0 if device == "cuda" else 0.25
+
+
+def novel_depth_range(center: np.ndarray, cams: Cameras, k: int = 3) -> tuple[float, float]:
+    """(near, far) of a novel camera: the range spanned by its ``k`` nearest input views."""
+    d = np.linalg.norm(cams.centers() - center, axis=1)
+    idx = np.argsort(d, kind="stable")[:k]
+    return (float(min(cams.frames[i].near for i in idx)),
+            float(max(cams.frames[i].far for i in idx)))
+
+
+# --------------------------------------------------------------------------- sources
+def _eval_sources(ranked: list[str], fractions: list[float], n: int, pool: int) -> list[str]:
+    from gnfr.view_sampler import eval_sources
+
+    return list(eval_sources(ranked, fractions, n=n, pool=pool))
+
+
+def input_sources(stem: str, views: dict, cfg: RenderConfig) -> list[str]:
+    """Sources of an input view: its ranked pool in views.json (itself excluded)."""
+    pool = [s for s in views[stem]["sources"] if s["stem"] != stem] if stem in views else []
+    if not pool:
+        raise UserError(f"{stem} has no source views in views.json: rerun "
+                        "`deflare-scene select WS`")
+    return _eval_sources([s["stem"] for s in pool], [s["flare_fraction"] for s in pool],
+                         cfg.n_sources, cfg.pool)
+
+
+def novel_sources(center: np.ndarray, cams: Cameras, views: dict,
+                  cfg: RenderConfig) -> list[str]:
+    """Sources of a novel camera: all input views ranked by distance to ``center``."""
+    d = np.linalg.norm(cams.centers() - center, axis=1)
+    ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
+    ranked = [s for s in ranked if s in views]
+    return _eval_sources(ranked, [views[s]["flare_fraction"] for s in ranked],
+                         cfg.n_sources, cfg.pool)
+
+
+def _load_views(ws: Workspace) -> dict:
+    if not ws.views_json.exists():
+        raise UserError(f"{ws.views_json} is missing: run `deflare-scene select {ws.root}` "
+                        "first")
+    return read_json(ws.views_json)["views"]
+
+
+# --------------------------------------------------------------------------- model, cache
+def _device(name: str) -> str:
+    import torch
+
+    if name == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        raise UserError("--device cuda was asked for but no CUDA GPU is available: use "
+                        "--device cpu")
+    if name not in ("cpu",) and not name.startswith("cuda"):
+        raise UserError(f"--device {name!r} is not known: use auto, cuda or cpu")
+    return name
+
+
+def _checkpoint(ws: Workspace, path: str | None) -> Path:
+    """The weights to render with: ``path``, else the newest checkpoint in WS/model/."""
+    if path:
+        p = Path(path)
+        if not p.is_file():
+            raise UserError(f"checkpoint {p} does not exist")
+        return p
+    found = ws.model / "gnfr.safetensors"  # what `finetune` writes (pipeline/finetune.py)
+    if not found.is_file():
+        cands = sorted(ws.model.glob("*.safetensors"), key=lambda p: p.stat().st_mtime)
+        found = cands[-1] if cands else None
+    if not found:
+        raise UserError(f"no model checkpoint in {ws.model}: run `deflare-scene finetune "
+                        f"{ws.root}` first (or pass --checkpoint FILE.safetensors)")
+    return Path(found)
+
+
+def _train_meta(ckpt: Path) -> dict:
+    """Training settings recorded in a checkpoint's metadata (flattened one level)."""
+    try:
+        from gnfr.checkpoint import read_metadata
+
+        meta = read_metadata(ckpt)[1]
+    except Exception:  # unreadable metadata is reported when the model loads
+        return {}
+    flat = {}
+    for v in meta.values():
+        if isinstance(v, dict):
+            flat.update(v)
+    flat.update({k: v for k, v in meta.items() if not isinstance(v, dict)})
+    return flat
+
+
+def _load_model(ckpt: Path, device: str):
+    from gnfr.checkpoint import CheckpointError
+    from gnfr.renderer import load_model
+
+    try:
+        return load_model(ckpt, device)
+    except CheckpointError as e:
+        raise UserError(f"{e}: retrain with `deflare-scene finetune WS --force`") from None
+
+
+def read_rgb(path: Path) -> np.ndarray:
+    """[H, W, 3] uint8 RGB; a clear error if unreadable."""
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise UserError(f"cannot read image {path}: rerun the stage that writes it")
+    return img[..., ::-1].copy()
+
+
+def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
+                   scale: float = 1.0):
+    """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i}).
+
+    Images of different sizes are padded to the largest; the padding is marked as flare so
+    the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
+    """
+    import cv2
+    import torch
+
+    from gnfr.renderer import SourceViews
+
+    by = cams.by_stem()
+    imgs = [_resize_img(read_rgb(ws.images / f"{s}.png"), scale) for s in stems]
+    H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
+    have_masks = all((ws.masks / f"{s}.png").exists() for s in stems)
+    if not have_masks:
+        warn(f"no flare masks in {ws.masks} for every source: rendering without the Point "
+             "Sampler (run `deflare-scene mask WS`)")
+    padded = any(i.shape[:2] != (H, W) for i in imgs)
+    images = torch.zeros(len(stems), 3, H, W)
+    masks = torch.ones(len(stems), 1, H, W) if (have_masks or padded) else None
+    for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):
+        h, w = img.shape[:2]
+        images[v, :, :h, :w] = torch.from_numpy(img).permute(2, 0, 1).float() / 255
+        if masks is not None:
+            m = np.zeros((h, w), np.float32)
+            if have_masks:
+                m = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
+                if m is None or m.shape != (by[s].height, by[s].width):
+                    raise UserError(f"{ws.masks / f'{s}.png'} is unreadable or not the size "
+                                    "of its image: rerun `deflare-scene mask WS --force`")
+                m = (_resize_img(m, scale, like=img) > 127).astype(np.float32)
+            masks[v, 0, :h, :w] = torch.from_numpy(m)
+    K = np.stack([by[s].K for s in stems])
+    for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):  # exact K of resized images
+        K[v, 0] *= img.shape[1] / by[s].width
+        K[v, 1] *= img.shape[0] / by[s].height
+    K = torch.tensor(K, dtype=torch.float32)
+    c2w = torch.tensor(np.stack([by[s].c2w for s in stems]), dtype=torch.float32)
+    src = SourceViews.encode(model, images, K, c2w, masks, device)
+    return src, {s: i for i, s in enumerate(stems)}
+
+
+def _resize_img(img: np.ndarray, scale: float, like: np.ndarray | None = None) -> np.ndarray:
+    """Area-resize by ``scale`` (or to the size of ``like``)."""
+    import cv2
+
+    if like is not None:
+        h, w = like.shape[:2]
+    elif scale == 1.0:
+        return img
+    else:
+        h, w = max(8, round(img.shape[0] * scale)), max(8, round(img.shape[1] * scale))
+    if (h, w) == img.shape[:2]:
+        return img
+    return cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+
+
+# --------------------------------------------------------------------------- rendering
+def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params: dict,
+                cfg: RenderConfig, ws: Workspace) -> None:
+    """Render and write every job against the shared source cache, with progress bars."""
+    import torch
+
+    from gnfr.renderer import render_rays
+
+    with make_progress() as prog:
+        t_frames = prog.add_task("frames", total=len(jobs))
+        t_rays = prog.add_task("rays", total=1)
+        for job in jobs:
+            rays_o, rays_d, compose = prepare_job(job, cfg, ws)
+            prog.reset(t_rays, total=max(len(rays_o), 1))
+            rgb = np.zeros((0, 3), np.float32)
+            if len(rays_o):
+                ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
+                n = len(rays_o)
+                out = render_rays(model, src, ids, rays_o, rays_d,
+                                  torch.full((n,), job.near), torch.full((n,), job.far),
+                                  params["samples"], chunk=cfg.chunk,
+                                  point_sampler=params["point_sampler"],
+                                  progress=lambda k: prog.update(t_rays, completed=k))
+                rgb = out["rgb"].numpy()
+            write_frame(job.out, compose(rgb))
+            prog.advance(t_frames)
+
+
+def write_frame(path: Path, rgb: np.ndarray) -> None:
+    """Write one RGB uint8 frame atomically (module-level so tests can interrupt it)."""
+    atomic_imwrite(path, np.ascontiguousarray(rgb[..., ::-1]))
+
+
+def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace):
+    """(rays_o [R, 3], rays_d [R, 3], compose(rgb [R, 3] float) -> image [H, W, 3] uint8)."""
+    import torch
+
+    from gnfr.geometry import image_pixels, pixel_rays
+
+    if isinstance(job.camera, Frame):
+        return _prepare_input(job.camera, cfg, ws)
+    pc = job.camera
+    pix = image_pixels(pc.height, pc.width)
+    rays_o, rays_d = pixel_rays(torch.tensor(pc.K, dtype=torch.float32),
+                                torch.tensor(pc.c2w, dtype=torch.float32), pix)
+
+    def compose(rgb):
+        return _to_u8(rgb.reshape(pc.height, pc.width, 3))
+
+    return rays_o, rays_d, compose
+
+
+def _to_u8(x: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(x * 255.0), 0, 255).astype(np.uint8)
+
+
+def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
+    import torch
+
+    from gnfr.geometry import pixel_rays
+
+    photo = read_rgb(ws.decoded / f"{frame.stem}.png")
+    cam = decoded_camera(frame, photo.shape[1], photo.shape[0])
+    if cfg.blend == "none":
+        alpha = np.ones(photo.shape[:2], np.float32)
+    else:
+        alpha = blend_weights(flare_mask_in(cam, frame, ws), cfg.dilate, cfg.feather)
+    rows, cols = np.nonzero(alpha > 0.5 / 255)
+    xy = cam.pixel_to_normalized(np.stack([cols + 0.5, rows + 0.5], 1))
+    rays_o, rays_d = pixel_rays(torch.eye(3), torch.tensor(frame.c2w, dtype=torch.float32),
+                                torch.tensor(xy, dtype=torch.float32))
+
+    def compose(rgb):
+        out = photo.astype(np.float32) / 255.0
+        a = alpha[rows, cols, None]
+        out[rows, cols] = out[rows, cols] * (1 - a) + rgb * a
+        return _to_u8(out)
+
+    return rays_o, rays_d, compose
+
+
+def decoded_camera(frame: Frame, width: int, height: int) -> CameraModel:
+    """The full COLMAP camera of WS/decoded/<stem>.png (pinhole K if none is recorded)."""
+    if frame.colmap_camera:
+        cam = CameraModel.from_colmap(frame.colmap_camera)
+    else:
+        cam = CameraModel.pinhole(frame.K, frame.width, frame.height)
+    if (cam.width, cam.height) != (width, height):
+        cam = cam.scaled(width / cam.width, height / cam.height)
+        cam.width, cam.height = width, height
+    return cam
+
+
+def flare_mask_in(cam: CameraModel, frame: Frame, ws: Workspace) -> np.ndarray:
+    """[H, W] bool flare mask of WS/masks (WS/images geometry) warped into camera ``cam``."""
+    import cv2
+
+    path = ws.masks / f"{frame.stem}.png"
+    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if m is None:
+        raise UserError(f"{path} is missing: run `deflare-scene mask {ws.root}` first, or "
+                        "render the full image with --blend none")
+    pin = CameraModel.pinhole(frame.K, m.shape[1], m.shape[0])
+    mx, my = warp_maps(pin, cam)
+    warped = cv2.remap(m.astype(np.float32), mx, my, cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return warped > 127
+
+
+def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray:
+    """[H, W] float blend weight: 1 on the dilated mask, falling to 0 over the feather."""
+    import cv2
+
+    long_side = max(mask.shape)
+    r = max(1, round(dilate * long_side))
+    grown = cv2.dilate(mask.astype(np.uint8),
+                       cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+    f = max(1, round(feather * long_side))
+    # distance outside the grown mask -> linear ramp, so the weight is exactly 1 inside
+    dist = cv2.distanceTransform((1 - grown).astype(np.uint8), cv2.DIST_L2, 5)
+    return np.clip(1.0 - dist / f, 0.0, 1.0).astype(np.float32)
+
+
+# --------------------------------------------------------------------------- bookkeeping
+def _clear_frames(out_dir: Path, jobs: list[FrameJob]) -> None:
+    """Remove frames of an earlier, different render of this path (not resumable)."""
+    if out_dir.is_dir():
+        for p in out_dir.glob("*.png"):
+            p.unlink()
+
+
+def _write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
+    from gnfr.paths import PathCamera, path_to_json
+
+    cams = [PathCamera(j.out.stem, j.camera.K, j.camera.c2w, j.camera.width, j.camera.height)
+            for j in jobs]
+    data = path_to_json(cams)
+    for f, j in zip(data["frames"], jobs, strict=True):
+        f["sources"], f["near"], f["far"] = j.sources, j.near, j.far
+    atomic_write_json(out_dir / "cameras.json", data)

@@ -1,0 +1,211 @@
+"""Render stage: input views with masks and camera models, novel paths, cache, restart."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from pipeline.camera_models import CameraModel
+from pipeline.cameras import load_cameras, save_cameras
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
+
+TINY = dict(enc_widths=(8, 8, 8), enc_blocks=(1, 1, 1), feat_ch=8, width=16, depth=1,
+            heads=2, n_freqs_pts=2, n_freqs_dirs=2)
+FLARED = "templeSR0002"
+BOX = (slice(10, 22), slice(30, 46))  # rows, cols of the flare square in WS/images geometry
+
+
+def make_render_ws(root: Path, n_views: int = 5, seed: int = 0) -> Workspace:
+    """A posed temple workspace (160x120) with views.json, masks (one small flare square in
+    one view) and a tiny random GN-FR checkpoint at WS/model/gnfr.safetensors."""
+    from gnfr.checkpoint import save_model
+    from gnfr.model import GNFR, GNFRConfig
+    from pipeline.select import build_views
+    from tests.fixtures import make_temple_workspace
+
+    ws = make_temple_workspace(root, n_views=n_views, scale=0.25)
+    cams = load_cameras(ws.cameras_json)
+    frac = {}
+    for f in cams.frames:
+        m = np.zeros((f.height, f.width), np.uint8)
+        if f.stem == FLARED:
+            m[BOX] = 255
+        atomic_imwrite(ws.masks / f"{f.stem}.png", m)
+        frac[f.stem] = float((m > 0).mean())
+    atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
+    torch.manual_seed(seed)
+    save_model(ws.model / "gnfr.safetensors", GNFR(GNFRConfig(**TINY)),
+               {"samples": 4, "eval_views": 3, "source_scale": 0.5, "point_sampler": True})
+    return ws
+
+
+@pytest.fixture(scope="module")
+def rws(tmp_path_factory):
+    return make_render_ws(tmp_path_factory.mktemp("render") / "ws")
+
+
+class Counter:
+    """Wraps a function and counts its calls and the rays it was given."""
+
+    def __init__(self, fn):
+        self.fn, self.calls, self.rays = fn, 0, 0
+
+    def __call__(self, *args, **kw):
+        self.calls += 1
+        self.rays += len(args[3]) if len(args) > 3 else 0
+        return self.fn(*args, **kw)
+
+
+@pytest.fixture
+def counters(monkeypatch):
+    import gnfr.renderer as R
+
+    rays, enc = Counter(R.render_rays), Counter(R.SourceViews.encode)
+    monkeypatch.setattr(R, "render_rays", rays)
+    monkeypatch.setattr(R.SourceViews, "encode", enc)
+    return rays, enc
+
+
+def test_inputs_replace_only_the_flare_region(rws, counters):
+    from pipeline.render import RenderConfig, blend_weights, flare_mask_in, run
+
+    rays, enc = counters
+    outs = run(RenderConfig(path="inputs"), rws)
+    assert outs == [rws.deflared]
+    cams = load_cameras(rws.cameras_json)
+    assert enc.calls == 1  # every source view encoded once, in one cache
+    for f in cams.frames:
+        got = cv2.imread(str(rws.deflared / f"{f.stem}.png"))
+        orig = cv2.imread(str(rws.decoded / f"{f.stem}.png"))
+        assert got.shape == orig.shape
+        if f.stem != FLARED:
+            assert np.array_equal(got, orig)  # no flare: the photo untouched
+            continue
+        from pipeline.render import decoded_camera
+
+        alpha = blend_weights(flare_mask_in(decoded_camera(f, f.width, f.height), f, rws),
+                              0.01, 0.01)
+        assert rays.rays == int((alpha > 0.5 / 255).sum())  # only the flare region rendered
+        assert alpha[BOX].min() == 1.0
+        assert np.array_equal(got[alpha == 0], orig[alpha == 0])
+        assert np.abs(got[BOX].astype(int) - orig[BOX]).mean() > 1  # replaced there
+    assert rays.calls == 1
+    # rerun: the stage is up to date, nothing is rendered or encoded again
+    run(RenderConfig(path="inputs"), rws)
+    assert (rays.calls, enc.calls) == (1, 1)
+
+
+def test_mask_warped_through_the_distortion_model(tmp_path):
+    """A flare dot in WS/images (pinhole) lands where the distorted decoded camera sees
+    the same ray."""
+    from pipeline.render import decoded_camera, flare_mask_in
+
+    ws = Workspace(tmp_path)
+    cams_path = tmp_path / "cameras.json"
+    from pipeline.cameras import Cameras, Frame
+
+    K = np.array([[150.0, 0, 80], [0, 150.0, 60], [0, 0, 1]])
+    cc = {"model": "OPENCV", "width": 200, "height": 150,
+          "params": [190.0, 185.0, 101.0, 74.0, -0.25, 0.08, 0.002, -0.001]}
+    f = Frame("a.jpg", "a", K, 160, 120, np.eye(4), 0.1, 5.0, cc)
+    save_cameras(cams_path, Cameras([f]))
+    m = np.zeros((120, 160), np.uint8)
+    m[14:19, 20:25] = 255  # a dot near a corner, where distortion is strong
+    atomic_imwrite(ws.masks / "a.png", m)
+    cam = decoded_camera(f, 200, 150)
+    warped = flare_mask_in(cam, f, ws)
+    xy = np.linalg.solve(K, np.array([22.5, 16.5, 1.0]))[None, :2]  # dot centre (+0.5)
+    u, v = cam.normalized_to_pixel(xy)[0] - 0.5
+    ys, xs = np.nonzero(warped)
+    assert abs(xs.mean() - u) < 1.0 and abs(ys.mean() - v) < 1.0
+    # and it is NOT where a pinhole-only warp would put it
+    pin = CameraModel.pinhole(cam.K, 200, 150).normalized_to_pixel(xy)[0] - 0.5
+    assert np.hypot(*(pin - [u, v])) > 2.0
+
+
+def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
+    import pipeline.render as R
+
+    rays, enc = counters
+    cfg = R.RenderConfig(path="interpolate", frames=4, size=(16, 12))
+    real, written = R.write_frame, []
+
+    def dying(path, rgb):
+        if len(written) == 2:
+            raise KeyboardInterrupt
+        real(path, rgb)
+        written.append(path)
+
+    monkeypatch.setattr(R, "write_frame", dying)
+    with pytest.raises(KeyboardInterrupt):
+        R.run(cfg, rws)
+    out = rws.renders / "interpolate"
+    assert sorted(p.name for p in out.glob("*.png")) == ["00000.png", "00001.png"]
+    assert not list(out.glob(".*"))  # no half-written temporary left behind
+    mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    monkeypatch.setattr(R, "write_frame", real)
+    rays.calls = 0
+    R.run(cfg, rws)
+    assert rays.calls == 2  # only the two missing frames were rendered
+    assert sorted(p.name for p in out.glob("*.png")) == [f"{i:05d}.png" for i in range(4)]
+    assert all(p.stat().st_mtime_ns == t for p, t in mtimes.items())
+    assert cv2.imread(str(out / "00003.png")).shape == (12, 16, 3)
+    cams = json.loads((out / "cameras.json").read_text())["frames"]
+    assert len(cams) == 4 and all(len(c["sources"]) == 3 for c in cams)
+    # a different setting is not a resume: stale frames are replaced, not mixed in
+    R.run(R.RenderConfig(path="interpolate", frames=3, size=(16, 12)), rws)
+    assert len(list(out.glob("*.png"))) == 3
+
+
+def test_json_paths_project_and_nerfstudio(rws, tmp_path, counters):
+    from gnfr.paths import PathCamera, path_to_json, path_to_nerfstudio
+    from pipeline.render import RenderConfig, run
+
+    rays, enc = counters
+    cams = load_cameras(rws.cameras_json)
+    f0, f1 = cams.frames[0], cams.frames[1]
+    K = np.array([[20.0, 0, 10], [0, 20.0, 7.5], [0, 0, 1]])
+    own = [PathCamera("left", K, f0.c2w, 20, 15), PathCamera("right", K, f1.c2w, 20, 15)]
+    p = tmp_path / "mypath.json"
+    p.write_text(json.dumps(path_to_json(own)))
+    run(RenderConfig(path=str(p)), rws)
+    out = rws.renders / "mypath"
+    assert sorted(x.name for x in out.glob("*.png")) == ["left.png", "right.png"]
+    assert cv2.imread(str(out / "left.png")).shape == (15, 20, 3)
+    assert enc.calls == 1 and rays.calls == 2
+    ns = tmp_path / "ns_path.json"
+    ns.write_text(json.dumps(path_to_nerfstudio(own)))
+    run(RenderConfig(path=str(ns)), rws)
+    back = json.loads((rws.renders / "ns_path" / "cameras.json").read_text())["frames"]
+    assert np.allclose(back[1]["c2w"], f1.c2w) and np.allclose(back[0]["K"], K)
+
+
+def test_novel_frames_use_nearest_least_flared_sources(rws):
+    from pipeline.render import RenderConfig, novel_depth_range, novel_sources
+
+    cams = load_cameras(rws.cameras_json)
+    views = json.loads(rws.views_json.read_text())["views"]
+    c = cams.frames[2].center + 1e-3
+    src = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4))
+    d = np.linalg.norm(cams.centers() - c, axis=1)
+    nearest4 = [cams.frames[i].stem for i in np.argsort(d)[:4]]
+    assert FLARED in nearest4 and FLARED not in src  # the flared one is dropped
+    assert src == [s for s in nearest4 if s != FLARED]
+    near, far = novel_depth_range(c, cams)
+    assert near <= cams.frames[2].near and far >= cams.frames[2].far
+
+
+def test_render_cli_errors(rws):
+    from workflows.cli import main
+
+    assert main(["render", str(rws.root), "--path", "nowhere"]) == 2
+    assert main(["render", str(rws.root), "--path", "spiral", "--size", "big"]) == 2
+    assert main(["render", str(rws.root), "--blend", "soft"]) == 2
+    bad = rws.root.parent / "bad.json"
+    bad.write_text('{"frames": [{"name": "x"}]}')
+    assert main(["render", str(rws.root), "--path", str(bad)]) == 2
