@@ -1,0 +1,284 @@
+"""Stage `export`: video, comparisons, scene.glb with the path, nerfstudio transforms.json.
+
+Writes
+- ``WS/<scene>.mp4``: H.264 (yuv420p) of the frames of a rendered path (default
+  ``interpolate``), see pipeline/video.py;
+- ``WS/<scene>_compare.mp4`` and ``WS/<scene>_compare.jpg``: each input photo beside its
+  de-flared version (``WS/decoded`` | ``WS/deflared``), as a video and a contact sheet;
+- ``WS/scene.glb``: sparse points and input cameras plus the rendered camera path;
+- ``WS/transforms.json`` and ``WS/masks_nerfstudio/<stem>.png``: the poses and flare masks
+  in nerfstudio's format (see :func:`nerfstudio_transforms` for the choices made).
+Each output is skipped when its inputs are missing, with a message saying what to run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.camera_models import CameraModel
+from pipeline.cameras import Cameras, Frame, load_cameras
+from pipeline.errors import UserError
+from pipeline.progress import info, track, warn
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
+
+CV_GL = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenCV <-> OpenGL camera axes (flip y and z)
+
+
+@dataclass
+class ExportConfig:
+    """Options of the export stage."""
+
+    path: str = "interpolate"
+    """Rendered path whose frames make the video: a folder name under WS/renders."""
+    fps: float = 24.0
+    """Frame rate of the videos."""
+    crf: int = 18
+    """H.264 quality: 0 lossless .. 51 worst; 18 is visually lossless, 23 x264's default."""
+    compare: bool = True
+    """Write the input vs de-flared comparison video and contact sheet."""
+    glb: bool = True
+    """Rewrite WS/scene.glb with the rendered camera path."""
+    transforms: bool = True
+    """Write WS/transforms.json and WS/masks_nerfstudio/ (nerfstudio format)."""
+
+
+def masks_nerfstudio(ws: Workspace) -> Path:
+    return ws.root / "masks_nerfstudio"
+
+
+def video_path(ws: Workspace) -> Path:
+    return ws.root / f"{ws.scene_name}.mp4"
+
+
+def compare_paths(ws: Workspace) -> tuple[Path, Path]:
+    return ws.root / f"{ws.scene_name}_compare.mp4", ws.root / f"{ws.scene_name}_compare.jpg"
+
+
+def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Export what the workspace has; returns the written paths."""
+    ws.require("pose")
+    cams = load_cameras(ws.cameras_json)
+    frames_dir = ws.renders / Path(cfg.path).stem
+    inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks]
+    run_ = ws.begin_stage("export", asdict(cfg), inputs, force)
+    if run_.skip:
+        info("export: up to date")
+        return run_.outputs
+    outs: list[Path] = []
+    frames = sorted(frames_dir.glob("*.png")) if frames_dir.is_dir() else []
+    if frames:
+        outs.append(write_path_video(frames, video_path(ws), cfg.fps, cfg.crf))
+    else:
+        warn(f"no frames in {frames_dir}: run `deflare-scene render {ws.root} --path "
+             f"{cfg.path}` first; skipping {video_path(ws).name}")
+    if cfg.compare:
+        outs += write_comparisons(ws, cams, cfg)
+    if cfg.glb:
+        glb = write_glb(ws, cams, frames_dir)
+        outs += [glb] if glb else []
+    if cfg.transforms:
+        outs += write_transforms(ws, cams)
+    if not outs:
+        raise UserError(f"nothing to export in {ws.root}: run `deflare-scene render "
+                        f"{ws.root}` first")
+    return run_.finish(outs, versions=["imageio-ffmpeg"])
+
+
+# --------------------------------------------------------------------------- videos
+def _read_rgb(path: Path) -> np.ndarray:
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise UserError(f"cannot read {path}: delete it and rerun the stage that wrote it")
+    return img[..., ::-1]
+
+
+def write_path_video(frames: list[Path], out: Path, fps: float, crf: int) -> Path:
+    """H.264 video of numbered frames (all one size)."""
+    from pipeline.video import write_video
+
+    def gen():
+        size = None
+        for p in track(frames, f"video {out.name}"):
+            img = _read_rgb(p)
+            if size and img.shape != size:
+                raise UserError(f"{p} is {img.shape[1]}x{img.shape[0]}, other frames are "
+                                f"{size[1]}x{size[0]}: rerender the path with --force")
+            size = img.shape
+            yield img
+
+    write_video(out, gen(), fps=fps, crf=crf)
+    info(f"wrote {out} ({len(frames)} frames at {fps:g} fps)")
+    return out
+
+
+def side_by_side(a: np.ndarray, b: np.ndarray, height: int | None = None) -> np.ndarray:
+    """Two RGB images side by side at one height (``b`` resized to ``a``'s height)."""
+    import cv2
+
+    h = height or a.shape[0]
+
+    def fit(x):
+        if x.shape[0] == h:
+            return x
+        w = max(1, round(x.shape[1] * h / x.shape[0]))
+        return cv2.resize(x, (w, h), interpolation=cv2.INTER_AREA)
+
+    return np.concatenate([fit(a), fit(b)], 1)
+
+
+def write_comparisons(ws: Workspace, cams: Cameras, cfg: ExportConfig) -> list[Path]:
+    """WS/<scene>_compare.mp4 and .jpg: decoded | deflared for every input view."""
+    import cv2
+
+    from pipeline.video import write_video
+
+    stems = [f.stem for f in cams.frames if (ws.deflared / f"{f.stem}.png").exists()]
+    if not stems:
+        warn(f"no de-flared photos in {ws.deflared}: run `deflare-scene render {ws.root} "
+             "--path inputs` first; skipping the comparisons")
+        return []
+    height = _read_rgb(ws.decoded / f"{stems[0]}.png").shape[0]
+    pairs = [side_by_side(_read_rgb(ws.decoded / f"{s}.png"), _read_rgb(ws.deflared /
+                                                                         f"{s}.png"), height)
+             for s in track(stems, "comparisons")]
+    width = max(p.shape[1] for p in pairs)
+    pairs = [np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0))) for p in pairs]
+    mp4, jpg = compare_paths(ws)
+    # each view held for one second; frames repeated so any player shows them
+    hold = max(1, round(cfg.fps))
+    write_video(mp4, (p for p in pairs for _ in range(hold)), fps=cfg.fps, crf=cfg.crf)
+    sheet = contact_sheet(pairs, long_side=2400)
+    atomic_imwrite(jpg, sheet[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 90])
+    info(f"wrote {mp4} and {jpg} ({len(stems)} views: input | de-flared)")
+    return [mp4, jpg]
+
+
+def contact_sheet(tiles: list[np.ndarray], long_side: int = 2400) -> np.ndarray:
+    """Tiles (one size) stacked in rows, 2 per row, downscaled so the sheet's long side is
+    at most ``long_side``."""
+    import cv2
+
+    cols = 1 if len(tiles) == 1 else 2
+    rows = -(-len(tiles) // cols)
+    h, w = tiles[0].shape[:2]
+    sheet = np.zeros((rows * h, cols * w, 3), np.uint8)
+    for i, t in enumerate(tiles):
+        r, c = divmod(i, cols)
+        sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = t
+    s = min(1.0, long_side / max(sheet.shape[:2]))
+    if s < 1.0:
+        sheet = cv2.resize(sheet, (max(1, round(sheet.shape[1] * s)),
+                                   max(1, round(sheet.shape[0] * s))),
+                           interpolation=cv2.INTER_AREA)
+    return sheet
+
+
+# --------------------------------------------------------------------------- scene.glb
+def path_poses(frames_dir: Path) -> np.ndarray | None:
+    """[M, 4, 4] camera-to-world of a rendered path (its cameras.json), or None."""
+    f = frames_dir / "cameras.json"
+    if not f.is_file():
+        return None
+    return np.asarray([fr["c2w"] for fr in read_json(f)["frames"]], np.float64)
+
+
+def write_glb(ws: Workspace, cams: Cameras, frames_dir: Path) -> Path | None:
+    """Rewrite WS/scene.glb: its sparse points, the input cameras and the rendered path."""
+    from pipeline.scene_glb import read_scene_points, write_scene_glb
+
+    poses = path_poses(frames_dir)
+    if poses is None:
+        warn(f"no rendered path in {frames_dir}: scene.glb left without a path")
+        return ws.scene_glb if ws.scene_glb.exists() else None
+    if ws.scene_glb.exists():
+        points, colors = read_scene_points(ws.scene_glb)
+    else:
+        points, colors = np.zeros((0, 3)), np.zeros((0, 3), np.uint8)
+    write_scene_glb(ws.scene_glb, points, colors, cams.frames, extra_paths=[poses])
+    info(f"wrote {ws.scene_glb} ({len(points)} points, {len(cams.frames)} cameras, path of "
+         f"{len(poses)} poses)")
+    return ws.scene_glb
+
+
+# --------------------------------------------------------------------------- nerfstudio
+def nerfstudio_camera(frame: Frame) -> tuple[str, dict] | None:
+    """(camera_model, intrinsics) of WS/decoded/<stem>.png in nerfstudio's terms, or None
+    when its COLMAP model has no nerfstudio equivalent (FULL_OPENCV's rational terms)."""
+    if not frame.colmap_camera:
+        return None
+    cam = CameraModel.from_colmap(frame.colmap_camera).as_two_focal()
+    (fx, fy), (cx, cy) = cam.focal, cam.principal
+    d = {"fl_x": fx, "fl_y": fy, "cx": cx, "cy": cy, "w": cam.width, "h": cam.height}
+    if cam.model == "PINHOLE":
+        return "OPENCV", {**d, "k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0}
+    if cam.model == "OPENCV":
+        k1, k2, p1, p2 = (float(v) for v in cam.dist)
+        return "OPENCV", {**d, "k1": k1, "k2": k2, "p1": p1, "p2": p2}
+    if cam.model == "OPENCV_FISHEYE":
+        return "OPENCV_FISHEYE", {**d, **{f"k{i + 1}": float(v) for i, v in
+                                          enumerate(cam.dist)}}
+    return None
+
+
+def nerfstudio_transforms(ws: Workspace, cams: Cameras, with_masks: bool) -> dict:
+    """nerfstudio ``transforms.json`` of the workspace.
+
+    Choice: the ORIGINAL framing, ``file_path: decoded/<stem>.png`` with camera_model
+    OPENCV (or OPENCV_FISHEYE) and the distortion of ``colmap_camera``, per-frame
+    intrinsics; when some view's model has no nerfstudio equivalent (FULL_OPENCV), every
+    view falls back to PINHOLE with the undistorted ``images/<stem>.png`` and its K.
+    ``transform_matrix``: camera-to-world in OpenGL axes (OpenCV c2w with y and z flipped)
+    in the workspace's normalised frame; ``applied_transform``: that frame from COLMAP's
+    (cameras.json colmap_to_world, 3x4). ``mask_path``: masks_nerfstudio/<stem>.png,
+    0 = flare (ignored by nerfstudio), 255 = use, same size as the image.
+    """
+    mapped = [nerfstudio_camera(f) for f in cams.frames]
+    models = {m[0] for m in mapped if m}
+    original = all(mapped) and len(models) == 1
+    out = {"camera_model": models.pop() if original else "PINHOLE",
+           "applied_transform": np.asarray(cams.colmap_to_world)[:3].tolist(), "frames": []}
+    for f, m in zip(cams.frames, mapped, strict=True):
+        if original:
+            entry = {"file_path": f"decoded/{f.stem}.png", **m[1]}
+        else:
+            entry = {"file_path": f"images/{f.stem}.png", "fl_x": f.K[0, 0],
+                     "fl_y": f.K[1, 1], "cx": f.K[0, 2], "cy": f.K[1, 2],
+                     "w": f.width, "h": f.height}
+        entry["transform_matrix"] = (np.asarray(f.c2w) @ CV_GL).tolist()
+        if with_masks:
+            entry["mask_path"] = f"masks_nerfstudio/{f.stem}.png"
+        out["frames"].append({k: (float(v) if isinstance(v, np.floating) else v)
+                              for k, v in entry.items()})
+    return out
+
+
+def write_transforms(ws: Workspace, cams: Cameras) -> list[Path]:
+    """WS/transforms.json and, when masks exist, WS/masks_nerfstudio/<stem>.png."""
+    import cv2
+
+    from pipeline.render import decoded_camera, flare_mask_in
+
+    with_masks = all((ws.masks / f"{f.stem}.png").exists() for f in cams.frames)
+    data = nerfstudio_transforms(ws, cams, with_masks)
+    outs = []
+    if with_masks:
+        original = data["frames"][0]["file_path"].startswith("decoded/")
+        for f in track(cams.frames, "nerfstudio masks"):
+            if original:
+                h, w = cv2.imread(str(ws.decoded / f"{f.stem}.png"), cv2.IMREAD_GRAYSCALE).shape
+                flare = flare_mask_in(decoded_camera(f, w, h), f, ws)
+            else:
+                flare = cv2.imread(str(ws.masks / f"{f.stem}.png"), cv2.IMREAD_GRAYSCALE) > 127
+            atomic_imwrite(masks_nerfstudio(ws) / f"{f.stem}.png",
+                           np.where(flare, 0, 255).astype(np.uint8))
+        outs.append(masks_nerfstudio(ws))
+    else:
+        warn(f"no flare masks in {ws.masks}: transforms.json written without mask_path")
+    atomic_write_json(ws.transforms_json, data)
+    info(f"wrote {ws.transforms_json} ({data['camera_model']}, {len(cams.frames)} frames)")
+    return [ws.transforms_json, *outs]

@@ -1,0 +1,144 @@
+"""Export stage: H.264 video, comparisons, scene.glb with the path, nerfstudio transforms."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.cameras import load_cameras, save_cameras
+from pipeline.video import read_frames_cv2, write_video
+from pipeline.workspace import atomic_imwrite, atomic_write_json
+
+CV_GL = np.diag([1.0, -1.0, -1.0, 1.0])
+
+
+def test_video_decodes_to_the_right_frames():
+    import tempfile
+    from pathlib import Path
+
+    rng = np.random.default_rng(0)
+    frames = [np.full((37, 50, 3), 20 * i, np.uint8) for i in range(9)]
+    frames[4] = rng.integers(0, 255, (37, 50, 3), dtype=np.uint8)
+    with tempfile.TemporaryDirectory() as d:
+        out = write_video(Path(d) / "v.mp4", frames, fps=12, crf=10)
+        got = read_frames_cv2(out)
+        cap = cv2.VideoCapture(str(out))
+        fps = cap.get(cv2.CAP_PROP_FPS)
+        cap.release()
+    assert len(got) == 9
+    assert got[0].shape == (38, 50, 3)  # odd height padded to even (yuv420p)
+    assert abs(fps - 12) < 1e-3
+    for i in (1, 6, 8):  # flat grey frames survive H.264 closely
+        assert abs(float(got[i][:37].mean()) - 20 * i) < 2.5
+
+
+def test_video_rejects_mixed_sizes(tmp_path):
+    with pytest.raises(ValueError, match="size"):
+        write_video(tmp_path / "v.mp4", [np.zeros((8, 8, 3), np.uint8),
+                                         np.zeros((10, 8, 3), np.uint8)])
+    assert not (tmp_path / "v.mp4").exists()
+    assert not list(tmp_path.iterdir())  # no temporary left behind
+
+
+def test_bundled_ffmpeg_has_libx264():
+    import subprocess
+
+    from pipeline.video import ffmpeg_exe
+
+    out = subprocess.run([ffmpeg_exe(), "-hide_banner", "-encoders"], capture_output=True,
+                         text=True, check=True).stdout
+    assert "libx264" in out
+
+
+@pytest.fixture
+def ews(tmp_path):
+    """A workspace with a fake rendered path and fake de-flared photos (no model needed)."""
+    from gnfr.paths import PathCamera, interpolate_path, path_to_json
+    from tests.test_render import make_render_ws
+
+    ws = make_render_ws(tmp_path / "ws", n_views=4)
+    cams = load_cameras(ws.cameras_json)
+    poses = interpolate_path(np.stack([f.c2w for f in cams.frames]), 6)
+    K = cams.frames[0].K / 4
+    K[2, 2] = 1
+    pcs = [PathCamera(f"{i:05d}", K, p, 40, 30) for i, p in enumerate(poses)]
+    for i, _ in enumerate(pcs):
+        atomic_imwrite(ws.renders / "interpolate" / f"{i:05d}.png",
+                       np.full((30, 40, 3), 30 * i, np.uint8))
+    atomic_write_json(ws.renders / "interpolate" / "cameras.json", path_to_json(pcs))
+    for f in cams.frames:
+        img = cv2.imread(str(ws.decoded / f"{f.stem}.png"))
+        atomic_imwrite(ws.deflared / f"{f.stem}.png", 255 - img)
+    return ws
+
+
+def test_export_writes_every_output(ews):
+    import trimesh
+
+    from pipeline.export import ExportConfig, masks_nerfstudio, run
+    from tests.test_render import BOX, FLARED
+
+    outs = run(ExportConfig(fps=6), ews)
+    scene = ews.scene_name
+    for name in (f"{scene}.mp4", f"{scene}_compare.mp4", f"{scene}_compare.jpg",
+                 "scene.glb", "transforms.json"):
+        assert ews.root / name in outs
+    video = read_frames_cv2(ews.root / f"{scene}.mp4")
+    assert len(video) == 6 and video[0].shape == (30, 40, 3)
+    assert abs(float(video[3].mean()) - 90) < 3  # the frames, in order
+    compare = read_frames_cv2(ews.root / f"{scene}_compare.mp4")
+    assert len(compare) == 4 * 6 and compare[0].shape == (120, 320, 3)  # 4 views, 1 s each
+    glb = trimesh.load(str(ews.scene_glb), force="scene")
+    assert "path0" in glb.geometry and "cameras" in glb.geometry
+    # transforms.json: nerfstudio conventions
+    tr = json.loads(ews.transforms_json.read_text())
+    cams = load_cameras(ews.cameras_json).by_stem()
+    assert tr["camera_model"] == "OPENCV" and len(tr["frames"]) == 4
+    for fr in tr["frames"]:
+        stem = fr["file_path"].split("/")[-1][:-4]
+        assert fr["file_path"] == f"decoded/{stem}.png"
+        assert np.allclose(np.array(fr["transform_matrix"]) @ CV_GL, cams[stem].c2w)
+        assert (fr["w"], fr["h"]) == (160, 120)
+        m = cv2.imread(str(ews.root / fr["mask_path"]), cv2.IMREAD_GRAYSCALE)
+        assert m.shape == (120, 160)
+        if stem == FLARED:
+            assert m[BOX].max() == 0 and m.mean() > 200  # flare = 0 (ignore), rest 255
+        else:
+            assert m.min() == 255
+    assert masks_nerfstudio(ews) in outs
+    # up to date on a rerun
+    assert run(ExportConfig(fps=6), ews) == sorted(outs)
+
+
+def test_transforms_camera_models(ews):
+    from pipeline.export import nerfstudio_transforms
+
+    cams = load_cameras(ews.cameras_json)
+    for f in cams.frames:
+        f.colmap_camera = {"model": "SIMPLE_RADIAL", "width": 160, "height": 120,
+                           "params": [150.0, 80.0, 60.0, -0.07]}
+    tr = nerfstudio_transforms(ews, cams, with_masks=False)
+    assert tr["camera_model"] == "OPENCV"
+    assert tr["frames"][0]["k1"] == -0.07 and tr["frames"][0]["fl_y"] == 150.0
+    assert "mask_path" not in tr["frames"][0]
+    cams.frames[1].colmap_camera = {"model": "FULL_OPENCV", "width": 160, "height": 120,
+                                    "params": [150, 150, 80, 60] + [0.01] * 8}
+    tr = nerfstudio_transforms(ews, cams, with_masks=True)
+    assert tr["camera_model"] == "PINHOLE"  # rational model: fall back to undistorted images
+    assert all(fr["file_path"].startswith("images/") for fr in tr["frames"])
+    assert tr["frames"][0]["fl_x"] == cams.frames[0].K[0, 0]
+
+
+def test_export_without_renders_is_a_clear_message(tmp_path):
+    from pipeline.errors import UserError
+    from pipeline.export import ExportConfig, run
+    from tests.fixtures import make_temple_workspace
+
+    ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.25)
+    cams = load_cameras(ws.cameras_json)
+    save_cameras(ws.cameras_json, cams)
+    with pytest.raises(UserError, match="render"):
+        run(ExportConfig(glb=False, transforms=False), ws)
