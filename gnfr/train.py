@@ -82,8 +82,15 @@ QUICK = replace(
 """CPU preset: 4 blocks of width 32, small encoder, sources at 1/4 resolution, 32 samples,
 128 rays, 6-8 sources, 1500 steps. About 10 minutes on 2 cores; see docs for the trade."""
 
+TINY = replace(QUICK, model=replace(QUICK.model, enc_widths=(8, 16, 16), feat_ch=8, width=16,
+                                    depth=2),
+               iters=20, rays=32, samples=8, n_views=(3, 4), eval_views=4, source_scale=0.5,
+               log_every=5, ckpt_every=10)
+"""Smoke-test size (seconds on CPU); useless for real scenes."""
+
 PRESETS = {"paper": PAPER, "quick": QUICK, "pretrain": PRETRAIN,
-           "pretrain-quick": replace(QUICK, iters=20_000, lr_decay_steps=10_000)}
+           "pretrain-quick": replace(QUICK, iters=20_000, lr_decay_steps=10_000),
+           "tiny": TINY}
 
 
 @dataclass

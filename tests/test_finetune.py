@@ -29,12 +29,12 @@ def _metrics(path):
 def test_overfit_tiny_model_on_temple_psnr_rises(tmp_path):
     ws = make_temple_workspace(tmp_path / "ws", n_views=6, scale=0.25)
     scene = load_workspace(ws.root)
-    cfg = replace(TINY, model=replace(TINY.model, width=32), iters=240, rays=96, samples=16,
-                  log_every=20, ckpt_every=1000)
+    cfg = replace(TINY, iters=150, rays=64, samples=12, log_every=15, ckpt_every=1000,
+                  lr_encoder=3e-3, lr_transformer=2e-3)
     fit(scene, cfg, torch.device("cpu"), ws.model, resume=False, init="scratch")
     psnr = [m["psnr"] for m in _metrics(ws.model / "metrics.jsonl")]
-    assert len(psnr) == 12
-    assert np.mean(psnr[-3:]) > psnr[0] + 3.0, psnr
+    assert len(psnr) == 10
+    assert np.mean(psnr[-2:]) > psnr[0] + 3.0, psnr
 
 
 def masked_workspace(root):

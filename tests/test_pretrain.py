@@ -1,0 +1,128 @@
+"""Pretraining: scene readers (LLFF, COLMAP text and binary), held-out scenes, torchrun."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from gnfr.checkpoint import load_model
+from pipeline.cameras import load_cameras
+from pipeline.errors import UserError
+from pipeline.scene_data import load_colmap, load_llff, load_workspace, qvec_to_rotmat
+from tests.conftest import REPO
+from tests.fixtures import make_temple_workspace
+from workflows.pretrain import find_scenes
+
+
+def _rotmat_to_qvec(R):
+    w = np.sqrt(max(1e-12, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
+    return np.array([w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w),
+                     (R[1, 0] - R[0, 1]) / (4 * w)])
+
+
+def _write_colmap_text(ws, folder):
+    """A COLMAP text model + images/ of the temple workspace (points from the near/far)."""
+    cams = load_cameras(ws.cameras_json)
+    (folder / "sparse" / "0").mkdir(parents=True)
+    (folder / "images").mkdir()
+    lines_c, lines_i = [], []
+    pts = np.random.default_rng(0).uniform(-0.15, 0.15, (50, 3))
+    for i, f in enumerate(cams.frames, 1):
+        (folder / "images" / f"{f.stem}.png").write_bytes((ws.images / f"{f.stem}.png")
+                                                          .read_bytes())
+        K = f.K
+        lines_c.append(f"{i} PINHOLE {f.width} {f.height} {K[0, 0]} {K[1, 1]} {K[0, 2]} "
+                       f"{K[1, 2]}")
+        w2c = np.linalg.inv(f.c2w)
+        q, t = _rotmat_to_qvec(w2c[:3, :3]), w2c[:3, 3]
+        lines_i.append(f"{i} {' '.join(map(str, q))} {' '.join(map(str, t))} {i} {f.stem}.png")
+        lines_i.append(" ".join(f"1.0 2.0 {j + 1}" for j in range(len(pts))))
+    sp = folder / "sparse" / "0"
+    (sp / "cameras.txt").write_text("\n".join(lines_c) + "\n")
+    (sp / "images.txt").write_text("\n".join(lines_i) + "\n")
+    ids = range(1, len(cams.frames) + 1)
+    (sp / "points3D.txt").write_text("".join(
+        f"{j + 1} {p[0]} {p[1]} {p[2]} 1 2 3 0.5 {' '.join(f'{i} {j}' for i in ids)}\n"
+        for j, p in enumerate(pts)))
+    return cams
+
+
+def test_colmap_text_and_binary_readers_recover_cameras(tmp_path):
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.2)
+    cams = _write_colmap_text(ws, tmp_path / "col")
+    a = load_colmap(tmp_path / "col")
+    pycolmap = pytest.importorskip("pycolmap")
+    rec = pycolmap.Reconstruction(str(tmp_path / "col" / "sparse" / "0"))
+    (tmp_path / "bin" / "sparse").mkdir(parents=True)
+    rec.write_binary(str(tmp_path / "bin" / "sparse"))
+    (tmp_path / "bin" / "images").symlink_to(tmp_path / "col" / "images")
+    b = load_colmap(tmp_path / "bin")
+    for sc in (a, b):
+        assert sc.stems == cams.stems and sc.images.shape[0] == 4
+        assert torch.allclose(sc.K[0], torch.tensor(cams.frames[0].K), atol=1e-6)
+        # rotations are kept; centres are recentred and scaled into the unit sphere
+        for f, c2w in zip(cams.frames, sc.c2w, strict=True):
+            assert np.allclose(c2w[:3, :3].numpy(), f.c2w[:3, :3], atol=1e-6)
+        assert float(sc.c2w[:, :3, 3].norm(dim=1).max()) == pytest.approx(1.0)
+        assert bool((sc.near < sc.far).all()) and bool((sc.near > 0).all())
+    assert torch.allclose(a.c2w, b.c2w, atol=1e-6) and torch.allclose(a.near, b.near)
+    assert np.allclose(qvec_to_rotmat(_rotmat_to_qvec(cams.frames[1].c2w[:3, :3])),
+                       cams.frames[1].c2w[:3, :3], atol=1e-8)
+
+
+def test_llff_poses_convert_to_opencv(tmp_path):
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.2)
+    ref = load_workspace(ws.root)
+    cams = load_cameras(ws.cameras_json)
+    rows = []
+    for f in cams.frames:
+        R, c = f.c2w[:3, :3], f.c2w[:3, 3]
+        llff = np.stack([R[:, 1], R[:, 0], -R[:, 2], c,
+                         [f.height, f.width, f.K[0, 0]]], 1)  # down, right, back, t, hwf
+        rows.append(np.concatenate([llff.reshape(-1), [f.near, f.far]]))
+    d = tmp_path / "llff"
+    (d / "images").mkdir(parents=True)
+    np.save(d / "poses_bounds.npy", np.array(rows))
+    for f in cams.frames:
+        (d / "images" / f"{f.stem}.png").write_bytes((ws.images / f"{f.stem}.png").read_bytes())
+    sc = load_llff(d)
+    assert torch.allclose(sc.c2w[:, :3, :3], ref.c2w[:, :3, :3], atol=1e-9)
+    # same scene up to a similarity: relative centre distances agree after scaling
+    dref = torch.cdist(ref.c2w[:, :3, 3], ref.c2w[:, :3, 3])
+    dl = torch.cdist(sc.c2w[:, :3, 3], sc.c2w[:, :3, 3])
+    s = dl.max() / dref.max()
+    assert torch.allclose(dl, dref * s, atol=1e-6)
+    assert torch.allclose(sc.near, ref.near * 0.9 * s, atol=1e-6)
+
+
+def test_find_scenes_leaves_out_heldout(tmp_path):
+    make_temple_workspace(tmp_path / "all" / "kermit", n_views=3, scale=0.1)
+    make_temple_workspace(tmp_path / "all" / "temple", n_views=3, scale=0.1)
+    assert [p.name for p in find_scenes([tmp_path / "all"])] == ["temple"]
+    with pytest.raises(UserError):
+        find_scenes([tmp_path / "all" / "kermit"])
+
+
+def test_torchrun_two_process_gloo_pretrain(tmp_path):
+    make_temple_workspace(tmp_path / "scenes" / "temple", n_views=5, scale=0.15)
+    out = tmp_path / "out"
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(REPO))
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone",
+           "--nproc_per_node", "2", "-m", "workflows.pretrain", str(tmp_path / "scenes"),
+           "--out", str(out), "--preset", "tiny", "--iters", "6", "--no-flare",
+           "--device", "cpu"]
+    res = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr[-3000:]
+    model = load_model(out / "gnfr.safetensors")
+    assert model.config.width == 16
+    state = torch.load(out / "train_state.pt", weights_only=True)
+    assert state["step"] == 6
+    # resuming a finished run does nothing more and keeps the step
+    res = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and torch.load(out / "train_state.pt",
+                                              weights_only=True)["step"] == 6

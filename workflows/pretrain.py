@@ -1,0 +1,223 @@
+"""`deflare-scene pretrain`: a generalizable GN-FR model trained across many scenes.
+
+Scenes: deflare-scene workspaces, LLFF folders (``poses_bounds.npy``) and COLMAP workspaces
+(``sparse/`` + ``images/``), or folders holding such scenes. The held-out evaluation scenes
+(``pipeline.datasets.HELDOUT_SCENES``) are always left out. Optional synthetic flare
+(``pipeline.flare``) is imposed once per view at load time with its ground-truth mask, so the
+masking loss, Point Sampler and View Sampler train as in the paper.
+
+Several processes: ``torchrun --nproc_per_node K -m workflows.pretrain ...`` (or
+``python -m torch.distributed.run``); each rank draws its own batches, gradients are
+averaged with an all-reduce (NCCL on CUDA, gloo on CPU), rank 0 writes checkpoints.
+A run resumes from ``OUT/train_state.pt`` (weights, optimizer, step); on resume each rank's
+sampler is re-seeded from (seed, rank, step), so a resumed run is statistically, not
+bitwise, the same as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from gnfr.checkpoint import load_train_state, load_weights
+from gnfr.train import PRESETS, Scene, TrainConfig, make_optimizer, sample_batch, train_step
+from pipeline.datasets import HELDOUT_SCENES
+from pipeline.errors import UserError
+from pipeline.finetune import (
+    MODEL_FILE,
+    STATE_FILE,
+    init_model,
+    prepare_sources,
+    render_meta,
+    rng_state,
+)
+from pipeline.progress import info, make_progress, warn
+
+
+@dataclass
+class PretrainConfig:
+    """Options of `deflare-scene pretrain`."""
+
+    scenes: list[Path] = field(default_factory=list)
+    """Scene folders, or folders whose sub-folders are scenes."""
+    out: Path = Path("gnfr_pretrain")
+    """Output folder: gnfr.safetensors, train_state.pt, metrics.jsonl."""
+    preset: str = "pretrain"
+    """pretrain (paper: 500k steps, GNT-sized) | pretrain-quick | tiny (tests)."""
+    iters: int | None = None
+    """Override the preset's number of steps."""
+    flare: bool = True
+    """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
+    flare_prob: float = 0.5
+    """Fraction of views that get flare."""
+    max_size: int = 504
+    """Long side of the images scenes are loaded at."""
+    device: str = "auto"
+    """auto | cpu | cuda (with torchrun: cuda:LOCAL_RANK)."""
+    seed: int = 0
+    """Seed of initialisation and sampling."""
+    init: str = "scratch"
+    """scratch | auto (shipped weights) | path to a .safetensors checkpoint."""
+
+
+def find_scenes(paths: list[Path]) -> list[Path]:
+    """Scene folders among ``paths`` and their sub-folders, held-out scenes removed."""
+    def is_scene(p: Path) -> bool:
+        return (p / "cameras.json").is_file() or (p / "poses_bounds.npy").is_file() or (
+            (p / "images").is_dir() and ((p / "sparse").is_dir()))
+    found = []
+    for p in paths:
+        cands = [p] if is_scene(p) else sorted(q for q in p.iterdir() if q.is_dir()
+                                               and is_scene(q)) if p.is_dir() else []
+        if not cands:
+            raise UserError(f"{p} holds no scene (workspace, LLFF or COLMAP folder)")
+        found += cands
+    kept = [p for p in found if p.name.removesuffix(".deflare") not in HELDOUT_SCENES]
+    for p in sorted(set(found) - set(kept)):
+        warn(f"pretrain: leaving out held-out evaluation scene {p}")
+    if not kept:
+        raise UserError("pretrain: no training scene left after removing held-out scenes")
+    return kept
+
+
+def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
+    """Synthetic flare on a random ``prob`` of the views, with their masks and fractions."""
+    from pipeline.flare import FlareConfig, synthesize
+
+    cfg = FlareConfig()
+    imgs = scene.images.clone()
+    masks = torch.zeros(imgs.shape[0], 1, *imgs.shape[-2:], dtype=torch.uint8)
+    for i in range(imgs.shape[0]):
+        if rng.random() >= prob:
+            continue
+        flared, layers = synthesize(imgs[i].permute(1, 2, 0).numpy(), cfg, rng)
+        imgs[i] = torch.from_numpy(np.round(flared * 255).astype(np.uint8)).permute(2, 0, 1)
+        masks[i, 0] = torch.from_numpy(layers.mask.astype(np.uint8))
+    flare = {s: float(masks[i].float().mean()) for i, s in enumerate(scene.stems)}
+    return replace(scene, images=imgs, masks=masks, flare=flare)
+
+
+def load_scenes(config: PretrainConfig) -> list[Scene]:
+    from pipeline.progress import track
+    from pipeline.scene_data import detect_and_load
+
+    rng = np.random.default_rng(config.seed)
+    scenes = []
+    for p in track(find_scenes(config.scenes), "loading scenes"):
+        sc = detect_and_load(p, config.max_size)
+        if config.flare:
+            sc = impose_flare(sc, config.flare_prob, rng)
+        scenes.append(sc)
+    return scenes
+
+
+# --------------------------------------------------------------------------- distributed
+def setup_distributed(device_name: str) -> tuple[int, int, torch.device]:
+    """(rank, world size, device); initialises the process group under torchrun."""
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    rank = int(os.environ.get("RANK", "0"))
+    cuda = torch.cuda.is_available() and device_name in ("auto", "cuda")
+    if cuda:
+        device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+        torch.cuda.set_device(device)
+    else:
+        device = torch.device("cpu" if device_name == "auto" else device_name)
+    if world > 1 and not torch.distributed.is_initialized():
+        torch.distributed.init_process_group("nccl" if device.type == "cuda" else "gloo")
+    return rank, world, device
+
+
+def allreduce_grads(model: torch.nn.Module) -> None:
+    """Average gradients over ranks in one flat buffer (params without grad count as 0)."""
+    params = [p for p in model.parameters() if p.requires_grad]
+    flat = torch.cat([(p.grad if p.grad is not None else torch.zeros_like(p)).reshape(-1)
+                      for p in params])
+    torch.distributed.all_reduce(flat)
+    flat /= torch.distributed.get_world_size()
+    i = 0
+    for p in params:
+        n = p.numel()
+        p.grad = flat[i:i + n].view_as(p).clone()
+        i += n
+
+
+def broadcast_params(model: torch.nn.Module) -> None:
+    for t in model.state_dict().values():
+        torch.distributed.broadcast(t, 0)
+
+
+# --------------------------------------------------------------------------- training
+def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
+    """Pretrain; returns the weight file. ``train`` overrides the preset entirely."""
+    rank, world, device = setup_distributed(config.device)
+    cfg = train or PRESETS[config.preset]
+    if config.iters is not None:
+        cfg = replace(cfg, iters=config.iters)
+    cfg = replace(cfg, seed=config.seed)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    scenes = load_scenes(config)
+    model, how = init_model(cfg, device, config.init)
+    opt = make_optimizer(model, cfg)
+    step = 0
+    if (out / STATE_FILE).exists() and (out / MODEL_FILE).exists():
+        load_weights(model, out / MODEL_FILE)
+        st = load_train_state(out / STATE_FILE)
+        opt.load_state_dict(st["optimizer"])
+        step = int(st["step"])
+        how = f"resuming at step {step}"
+    if world > 1:
+        broadcast_params(model)
+    if rank == 0:
+        info(f"pretrain: {len(scenes)} scenes, {world} process(es) on {device.type}, "
+             f"{cfg.iters} steps, {how}")
+    gen = torch.Generator().manual_seed(cfg.seed * 1_000_003 + rank * 7919 + step)
+    banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
+    _loop(model, opt, gen, scenes, banks, cfg, step, out, rank, world, config.preset)
+    if world > 1:
+        torch.distributed.barrier()
+    return out / MODEL_FILE
+
+
+def _loop(model, opt, gen, scenes, banks, cfg, step, out, rank, world, preset) -> None:
+    from gnfr.checkpoint import save_model, save_train_state
+
+    hook = allreduce_grads if world > 1 else None
+    t0, done0 = time.time(), step
+    with make_progress() as prog:
+        task = prog.add_task("pretrain", total=cfg.iters, completed=step)
+        while step < cfg.iters:
+            k = int(torch.randint(len(scenes), (1,), generator=gen))
+            batch = sample_batch(scenes[k], cfg, gen)
+            r = train_step(model, opt, batch, banks[k][0], banks[k][1], cfg, step, hook)
+            step += 1
+            prog.update(task, completed=step)
+            if rank != 0:
+                continue
+            if step % cfg.log_every == 0 or step == cfg.iters:
+                rec = {"step": step, "scene": scenes[k].name, **r,
+                       "it_s": (step - done0) / max(time.time() - t0, 1e-9)}
+                with open(out / "metrics.jsonl", "a") as f:
+                    f.write(json.dumps(rec) + "\n")
+            if step % cfg.ckpt_every == 0 or step == cfg.iters:
+                save_model(out / MODEL_FILE, model, render_meta(cfg, preset, step))
+                save_train_state(out / STATE_FILE, {"step": step,
+                                                    "optimizer": opt.state_dict(),
+                                                    "rng": rng_state(gen)})
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry for torchrun: ``python -m workflows.pretrain [options]`` (same as the CLI)."""
+    from workflows.cli import main as cli_main
+
+    return cli_main(["pretrain", *(argv if argv is not None else __import__("sys").argv[1:])])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
