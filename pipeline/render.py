@@ -27,7 +27,13 @@ from pipeline.camera_models import CameraModel, warp_maps
 from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.errors import UserError
 from pipeline.progress import info, make_progress, warn
-from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
+from pipeline.workspace import (
+    Workspace,
+    atomic_imwrite,
+    atomic_write_bytes,
+    atomic_write_json,
+    read_json,
+)
 
 NAMED_PATHS = ("inputs", "interpolate", "spiral")
 
@@ -118,21 +124,32 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         _clear_frames(out_dir, jobs)
     if key != "inputs":
         _write_path_cameras(out_dir, jobs)
-    todo = [j for j in jobs if not j.out.exists()]
-    if len(todo) < len(jobs):
-        info(f"render {key}: {len(jobs) - len(todo)} of {len(jobs)} frames already done")
+    full = full_res_jobs(ws, jobs) if key == "inputs" and cfg.full_res else []
+    if full and not ws.resumable(run_):
+        _clear_frames(full[0].out.parent, full)
+    todo = [j for j in jobs + full if not j.out.exists()]
+    if len(todo) < len(jobs) + len(full):
+        info(f"render {key}: {len(jobs) + len(full) - len(todo)} of {len(jobs) + len(full)} "
+             "images already done")
     if todo:
         with torch.inference_mode():
             model = _load_model(ckpt, device)
             stems = sorted({s for j in todo for s in j.sources})
             src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"])
             render_jobs(model, src, index, todo, params, cfg, ws)
-    outputs = [out_dir]
-    if key == "inputs" and cfg.full_res:
-        from pipeline.render_full import render_full_res
-
-        outputs.append(render_full_res(cfg, ws, cams, views, ckpt, device, params["samples"]))
+    outputs = [out_dir] + ([full_dir(ws)] if full else [])
     return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
+
+
+def full_dir(ws: Workspace) -> Path:
+    return ws.root / "deflared_full"
+
+
+def full_res_jobs(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
+    """Jobs of ``--full-res`` (see pipeline/render_full.py)."""
+    from pipeline.render_full import plan_full_res
+
+    return plan_full_res(ws, jobs, full_dir(ws))
 
 
 def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: dict,
@@ -410,13 +427,25 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                                   point_sampler=params["point_sampler"],
                                   progress=lambda k: prog.update(t_rays, completed=k))
                 rgb = out["rgb"].numpy()
-            write_frame(job.out, compose(rgb))
+            write_frame(job.out, compose(rgb), job.extra.get("exif"))
             prog.advance(t_frames)
 
 
-def write_frame(path: Path, rgb: np.ndarray) -> None:
-    """Write one RGB uint8 frame atomically (module-level so tests can interrupt it)."""
-    atomic_imwrite(path, np.ascontiguousarray(rgb[..., ::-1]))
+def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> None:
+    """Write one RGB frame atomically: uint8 (PNG, JPEG with the EXIF of ``exif_from``) or
+    uint16 (TIFF). Module-level so tests can interrupt it."""
+    import cv2
+
+    bgr = np.ascontiguousarray(rgb[..., ::-1])
+    if path.suffix.lower() in (".jpg", ".jpeg"):
+        ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, 95])
+        if not ok:
+            raise OSError(f"could not encode {path}")
+        from pipeline.render_full import with_exif
+
+        atomic_write_bytes(path, with_exif(buf.tobytes(), exif_from))
+    else:
+        atomic_imwrite(path, bgr)
 
 
 def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace):
@@ -426,6 +455,10 @@ def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace):
     from gnfr.geometry import image_pixels, pixel_rays
 
     if isinstance(job.camera, Frame):
+        if "full" in job.extra:
+            from pipeline.render_full import prepare_full_res
+
+            return prepare_full_res(job, cfg, ws)
         return _prepare_input(job.camera, cfg, ws)
     pc = job.camera
     pix = image_pixels(pc.height, pc.width)
@@ -443,20 +476,10 @@ def _to_u8(x: np.ndarray) -> np.ndarray:
 
 
 def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
-    import torch
-
-    from gnfr.geometry import pixel_rays
-
     photo = read_rgb(ws.decoded / f"{frame.stem}.png")
-    cam = decoded_camera(frame, photo.shape[1], photo.shape[0])
-    if cfg.blend == "none":
-        alpha = np.ones(photo.shape[:2], np.float32)
-    else:
-        alpha = blend_weights(flare_mask_in(cam, frame, ws), cfg.dilate, cfg.feather)
-    rows, cols = np.nonzero(alpha > 0.5 / 255)
-    xy = cam.pixel_to_normalized(np.stack([cols + 0.5, rows + 0.5], 1))
-    rays_o, rays_d = pixel_rays(torch.eye(3), torch.tensor(frame.c2w, dtype=torch.float32),
-                                torch.tensor(xy, dtype=torch.float32))
+    size = (photo.shape[1], photo.shape[0])
+    alpha = input_alpha(frame, cfg, ws, size, size)
+    rays_o, rays_d, rows, cols = input_rays(frame, alpha, photo.shape[1], photo.shape[0])
 
     def compose(rgb):
         out = photo.astype(np.float32) / 255.0
@@ -465,6 +488,36 @@ def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
         return _to_u8(out)
 
     return rays_o, rays_d, compose
+
+
+def input_alpha(frame: Frame, cfg: RenderConfig, ws: Workspace, size: tuple[int, int],
+                decoded_size: tuple[int, int]) -> np.ndarray:
+    """[H, W] blend weight of an input view at ``size`` = (W, H) (the decoded framing,
+    maybe scaled; ``decoded_size`` is WS/decoded's): the flare mask warped through the
+    camera model, dilated and feathered; 1 everywhere with blend none."""
+    import cv2
+
+    if cfg.blend == "none":
+        return np.ones(size[::-1], np.float32)
+    mask = flare_mask_in(decoded_camera(frame, *decoded_size), frame, ws)
+    if decoded_size != size:  # full resolution: upsample the decoded-size mask
+        mask = cv2.resize(mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+    return blend_weights(mask, cfg.dilate, cfg.feather)
+
+
+def input_rays(frame: Frame, alpha: np.ndarray, width: int, height: int):
+    """Rays [R, 3] (o, d) through the pixels with alpha > 0 of the view's full camera
+    model at (width, height), and those pixels' rows, cols [R]."""
+    import torch
+
+    from gnfr.geometry import pixel_rays
+
+    cam = decoded_camera(frame, width, height)
+    rows, cols = np.nonzero(alpha > 0.5 / 255)
+    xy = cam.pixel_to_normalized(np.stack([cols + 0.5, rows + 0.5], 1))
+    rays_o, rays_d = pixel_rays(torch.eye(3), torch.tensor(frame.c2w, dtype=torch.float32),
+                                torch.tensor(xy, dtype=torch.float32))
+    return rays_o, rays_d, rows, cols
 
 
 def decoded_camera(frame: Frame, width: int, height: int) -> CameraModel:
@@ -513,8 +566,9 @@ def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray
 def _clear_frames(out_dir: Path, jobs: list[FrameJob]) -> None:
     """Remove frames of an earlier, different render of this path (not resumable)."""
     if out_dir.is_dir():
-        for p in out_dir.glob("*.png"):
-            p.unlink()
+        for p in out_dir.iterdir():
+            if p.is_file() and p.suffix.lower() in (".png", ".jpg", ".jpeg", ".tif", ".tiff"):
+                p.unlink()
 
 
 def _write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:

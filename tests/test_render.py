@@ -135,10 +135,10 @@ def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
     cfg = R.RenderConfig(path="interpolate", frames=4, size=(16, 12))
     real, written = R.write_frame, []
 
-    def dying(path, rgb):
+    def dying(path, rgb, exif=None):
         if len(written) == 2:
             raise KeyboardInterrupt
-        real(path, rgb)
+        real(path, rgb, exif)
         written.append(path)
 
     monkeypatch.setattr(R, "write_frame", dying)
@@ -209,3 +209,53 @@ def test_render_cli_errors(rws):
     bad = rws.root.parent / "bad.json"
     bad.write_text('{"frames": [{"name": "x"}]}')
     assert main(["render", str(rws.root), "--path", str(bad)]) == 2
+
+
+def _exif_app1(orientation: int) -> bytes:
+    """A minimal big-endian Exif APP1 segment with one IFD0 entry: Orientation."""
+    import struct
+
+    tiff = b"MM" + struct.pack(">HI", 42, 8) + struct.pack(">H", 1)
+    tiff += struct.pack(">HHIHH", 0x0112, 3, 1, orientation, 0) + struct.pack(">I", 0)
+    body = b"Exif\x00\x00" + tiff
+    return b"\xff\xe1" + struct.pack(">H", len(body) + 2) + body
+
+
+def test_exif_kept_with_orientation_reset(tmp_path):
+    from pipeline.render_full import with_exif
+
+    img = np.zeros((20, 40, 3), np.uint8)
+    img[:, :10] = 255
+    ok, buf = cv2.imencode(".jpg", img)
+    src = tmp_path / "src.jpg"
+    src.write_bytes(buf[:2].tobytes() + _exif_app1(6) + buf[2:].tobytes())
+    assert cv2.imread(str(src)).shape == (40, 20, 3)  # orientation 6: shown rotated
+    upright = cv2.imread(str(src))
+    ok, enc = cv2.imencode(".jpg", upright)
+    out = tmp_path / "out.jpg"
+    out.write_bytes(with_exif(enc.tobytes(), src))
+    assert b"Exif\x00\x00" in out.read_bytes()
+    assert cv2.imread(str(out)).shape == (40, 20, 3)  # not rotated a second time
+
+
+def test_full_res_blends_into_the_original_photos(rws, counters):
+    from pipeline.render import RenderConfig, full_dir, run
+
+    rays, enc = counters
+    outs = run(RenderConfig(path="inputs", full_res=True), rws)
+    assert full_dir(rws) in outs
+    photos = rws.photos_dir
+    got = cv2.imread(str(full_dir(rws) / f"{FLARED}.png"))
+    orig = cv2.imread(str(photos / f"{FLARED}.png"))
+    assert got.shape == orig.shape == (480, 640, 3)  # the original's full resolution
+    rows, cols = BOX
+    big = (slice(rows.start * 4, rows.stop * 4), slice(cols.start * 4, cols.stop * 4))
+    assert np.abs(got[big].astype(int) - orig[big]).mean() > 1  # flare region replaced
+    far = np.ones(got.shape[:2], bool)
+    far[big[0].start - 40:big[0].stop + 40, big[1].start - 40:big[1].stop + 40] = False
+    assert np.array_equal(got[far], orig[far])  # the rest keeps every original pixel
+    other = cv2.imread(str(full_dir(rws) / "templeSR0001.png"))
+    assert np.array_equal(other, cv2.imread(str(photos / "templeSR0001.png")))
+    # only flare pixels were rendered: one decoded-size view (a new setting rerenders
+    # WS/deflared too) and the same view at full resolution
+    assert rays.calls == 2 and 48 * 64 <= rays.rays < 110 * 130 + 30 * 40

@@ -1,0 +1,164 @@
+"""``render --path inputs --full-res``: de-flare the ORIGINAL photos at full resolution.
+
+For each input photo (read from the photo folder recorded in the manifest, EXIF orientation
+applied) the flare region (the decoded-size mask warped through the camera model, scaled
+up, dilated and feathered) is rendered with the view's COLMAP camera scaled to the
+photo's size and blended into the photo. Output in ``WS/deflared_full/``:
+- 8-bit JPEG input -> ``<stem>.jpg`` (quality 95) with the photo's EXIF (orientation
+  reset to 1, since the pixels are stored upright);
+- other 8-bit input -> ``<stem>.png``; 16-bit input -> ``<stem>.tiff`` (16-bit);
+- raw input -> ``<stem>.tiff``, 16-bit LINEAR, blended into ``WS/linear/<stem>.tiff``:
+  the render is linearised (inverse sRGB) and mapped to the camera's linear RGB with
+  per-channel gains fitted on the clean pixels of the decoded photo. Without
+  ``WS/linear/<stem>.tiff`` a raw photo is skipped with a message.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.progress import warn
+from pipeline.workspace import Workspace
+
+READABLE = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
+
+
+def plan_full_res(ws: Workspace, jobs: list, out_dir: Path) -> list:
+    """FrameJobs for the photos that can be de-flared at full resolution."""
+    from pipeline.render import FrameJob
+
+    photos = ws.photos_dir
+    if photos is None or not photos.is_dir():
+        warn(f"--full-res: the photo folder {photos} recorded in the manifest is not there; "
+             "skipping full-resolution output")
+        return []
+    out = []
+    for j in jobs:
+        f = j.camera
+        src = photos / f.name
+        if not src.is_file():
+            warn(f"--full-res: {src} is missing; {f.stem} skipped")
+            continue
+        if src.suffix.lower() not in READABLE:  # camera raw
+            lin = ws.linear / f"{f.stem}.tiff"
+            if not lin.is_file():
+                warn(f"--full-res: {src.name} is a raw photo and {lin} is missing (decode "
+                     "writes it for raw input); skipped")
+                continue
+            out.append(FrameJob(out_dir / f"{f.stem}.tiff", j.sources, j.near, j.far, f,
+                                {"full": lin, "linear": True}))
+            continue
+        ext = ".jpg" if src.suffix.lower() in (".jpg", ".jpeg") else ".png"
+        out.append(FrameJob(out_dir / f"{f.stem}{ext}", j.sources, j.near, j.far, f,
+                            {"full": src, "linear": False,
+                             "exif": src if ext == ".jpg" else None}))
+    return out
+
+
+def _read_any(path: Path) -> np.ndarray:
+    """[H, W, 3] RGB uint8 or uint16, EXIF orientation applied."""
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
+    if img is None:
+        from pipeline.errors import UserError
+
+        raise UserError(f"cannot read {path} for --full-res")
+    return img[..., ::-1].copy()
+
+
+def srgb_to_linear(x: np.ndarray) -> np.ndarray:
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def linear_gains(linear: np.ndarray, decoded: np.ndarray, clean: np.ndarray) -> np.ndarray:
+    """[3] per-channel gain g with linear ~ g * srgb_to_linear(decoded) on clean pixels.
+
+    linear: [h, w, 3] float at the decoded size; decoded: [h, w, 3] float 0..1; clean:
+    [h, w] bool (not flare)."""
+    dec = srgb_to_linear(decoded)
+    ok = clean & np.all((decoded > 0.05) & (decoded < 0.95), -1)
+    if ok.sum() < 100:
+        ok = np.all(dec > 1e-3, -1)
+    ratio = linear[ok] / np.maximum(dec[ok], 1e-6)
+    return np.median(ratio, axis=0) if len(ratio) else np.ones(3)
+
+
+def prepare_full_res(job, cfg, ws: Workspace):
+    """(rays_o, rays_d, compose) of a full-resolution job (see pipeline.render)."""
+    import cv2
+
+    from pipeline.render import input_alpha, input_rays, read_rgb
+
+    f = job.camera
+    photo = _read_any(job.extra["full"])
+    H, W = photo.shape[:2]
+    decoded = read_rgb(ws.decoded / f"{f.stem}.png")
+    dsize = (decoded.shape[1], decoded.shape[0])
+    if abs(W / H - dsize[0] / dsize[1]) > 0.02:
+        from pipeline.errors import UserError
+
+        raise UserError(f"{job.extra['full']} ({W}x{H}) does not have the aspect of "
+                        f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
+    alpha = input_alpha(f, cfg, ws, (W, H), dsize)
+    rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
+    peak = 65535.0 if photo.dtype == np.uint16 else 255.0
+    gains = np.ones(3)
+    if job.extra["linear"]:
+        small = cv2.resize(photo.astype(np.float32) / peak, dsize, interpolation=cv2.INTER_AREA)
+        clean = cv2.resize((alpha == 0).astype(np.uint8), dsize,
+                           interpolation=cv2.INTER_NEAREST) > 0
+        gains = linear_gains(small, decoded.astype(np.float32) / 255.0, clean)
+
+    def compose(rgb):
+        out = photo.astype(np.float32) / peak
+        a = alpha[rows, cols, None]
+        new = srgb_to_linear(rgb) * gains if job.extra["linear"] else rgb
+        out[rows, cols] = out[rows, cols] * (1 - a) + new * a
+        return np.clip(np.rint(out * peak), 0, peak).astype(photo.dtype)
+
+    return rays_o, rays_d, compose
+
+
+# --------------------------------------------------------------------------- EXIF
+def _exif_segment(jpeg: bytes) -> bytes | None:
+    """The APP1 Exif segment (marker included) of a JPEG file, or None."""
+    i = 2
+    while i + 4 <= len(jpeg) and jpeg[i] == 0xFF:
+        marker, length = jpeg[i + 1], struct.unpack(">H", jpeg[i + 2:i + 4])[0]
+        if marker == 0xE1 and jpeg[i + 4:i + 10] == b"Exif\x00\x00":
+            return jpeg[i:i + 2 + length]
+        if marker == 0xDA:  # start of scan: no more metadata
+            return None
+        i += 2 + length
+    return None
+
+
+def _reset_orientation(seg: bytes) -> bytes:
+    """The Exif segment with IFD0's Orientation tag (0x0112) set to 1 (upright)."""
+    b = bytearray(seg)
+    tiff = 10  # marker (2) + length (2) + "Exif\0\0" (6)
+    end = "<" if b[tiff:tiff + 2] == b"II" else ">"
+    try:
+        ifd = tiff + struct.unpack(end + "I", b[tiff + 4:tiff + 8])[0]
+        n = struct.unpack(end + "H", b[ifd:ifd + 2])[0]
+        for k in range(n):
+            e = ifd + 2 + 12 * k
+            if struct.unpack(end + "H", b[e:e + 2])[0] == 0x0112:
+                b[e + 8:e + 10] = struct.pack(end + "H", 1)
+    except struct.error:  # truncated IFD: keep the segment as it is
+        pass
+    return bytes(b)
+
+
+def with_exif(jpeg: bytes, source: Path | None) -> bytes:
+    """``jpeg`` with the Exif segment of the JPEG file ``source`` (orientation reset)."""
+    if source is None:
+        return jpeg
+    seg = _exif_segment(Path(source).read_bytes())
+    if seg is None:
+        return jpeg
+    return jpeg[:2] + _reset_orientation(seg) + jpeg[2:]
