@@ -1,0 +1,62 @@
+"""`deflare-scene bench --quick`: the JSON record has every measurement, all positive."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+from workflows.bench import PeakMemory, synthetic_scene
+from workflows.cli import main
+
+
+@pytest.fixture
+def one_thread():
+    """One torch thread: on a shared 2-core machine oversubscribed threads are far slower."""
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
+def test_bench_quick_writes_json(tmp_path, one_thread):
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--quick", "--device", "cpu", "--out", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    m = rec["machine"]
+    assert m["cores"] >= 1 and m["torch"] == torch.__version__ and m["cpu"]
+    assert rec["settings"]["quick"] and rec["preset"]["name"] == "quick"
+    assert list(rec["results"]) == ["cpu"]
+    r = rec["results"]["cpu"]
+    assert set(r["train"]) == {"end_to_end", "cached", "reference"}
+    for mode in r["train"].values():
+        assert mode["it_per_s"] > 0 and mode["steps"] == 2 and mode["peak_mib"] >= 0
+    assert set(r["render"]) == {"504x378", "1008x756"}
+    for rr in r["render"].values():
+        assert rr["rays_timed"] == 128 and rr["samples"] == 8
+        for path in ("fast", "reference"):
+            assert rr[path]["s_per_frame"] > 0 and rr[path]["ms_per_ray"] > 0
+        # the reference re-encodes its sources for the frame: that time is in its frame
+        assert rr["reference"]["s_per_frame"] >= rr["reference"]["encode_per_frame_s"] > 0
+    assert "cpu" in rec["memory_method"]
+
+
+def test_bench_rejects_unknown_device(tmp_path):
+    assert main(["bench", "--quick", "--device", "tpu", "--out", str(tmp_path / "b.json")]) == 2
+    assert not (tmp_path / "b.json").exists()
+
+
+def test_peak_memory_sees_an_allocation():
+    with PeakMemory("cpu") as mem:
+        x = torch.ones(64, 2**20)   # 64 Mi float32 = 256 MiB
+        x += 1
+        del x
+    assert mem.mib > 100, mem.how
+
+
+def test_synthetic_scene_shapes():
+    s = synthetic_scene(6, (64, 48))
+    assert s.images.shape == (6, 3, 48, 64) and s.masks.shape == (6, 1, 48, 64)
+    assert s.flare["v00"] > 0 and s.flare["v01"] == 0
+    assert s.ranked["v00"][0] == "v01"

@@ -1,0 +1,125 @@
+"""`deflare-scene eval` end to end on a tiny synthetic-flare temple scene."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import cv2
+import pytest
+import torch
+
+from pipeline import flare as F
+from pipeline.synth import SynthConfig
+from pipeline.synth import run as synth_run
+from tests.fixtures import make_temple_workspace
+from workflows.cli import main
+from workflows.eval import link_file, parse_variants, sync_tree
+
+SMALL = F.FlareConfig(psf_size=128, n_psfs=2, n_wavelengths=9, dust_count=(5, 20))
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """One torch thread: on a shared 2-core machine oversubscribed threads are far slower."""
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    """6 temple views at 1/4 size; seed 0 with flare probability 0.5 leaves 3 clean and 2
+    flared training views (>= 2 targets under 10% flare) and 1 held-out view."""
+    root = tmp_path_factory.mktemp("eval")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("DEFLARE_CACHE", str(root / "psf_cache"))
+    ws = make_temple_workspace(root / "ws", n_views=6, scale=0.25)
+    synth_run(SynthConfig(out=root / "synth", heldout=1, seed=0, flare_prob=0.5, flare=SMALL),
+              ws)
+    mp.undo()
+    return root / "synth"
+
+
+def _eval(scene, out, *extra):
+    return main(["eval", str(scene), "--out", str(out), "--variants", "gnfr,gnt,input,inpaint",
+                 "--masks", "gt", "--preset", "tiny", "--iters", "5", "--render-scale", "0.5",
+                 "--device", "cpu", *extra])
+
+
+def test_eval_end_to_end(scene, tmp_path):
+    out = tmp_path / "ews"
+    assert _eval(scene, out) == 0
+    res = json.loads((out / "eval" / "results.json").read_text())
+    split = json.loads((scene / "split.json").read_text())
+    assert res["heldout_views"] == split["heldout"] and res["masks"] == "gt"
+    assert res["budget"]["iters"] == 5 and res["budget"]["preset"] == "tiny"
+    assert list(res["methods"]) == ["gnfr", "gnt", "input", "inpaint"]
+    # ground-truth masks score perfectly against themselves
+    assert res["mask_scores"]["miou"] == pytest.approx(1.0)
+    flared = res["scored_input_views"]
+    assert flared and set(flared) <= set(split["train"])
+    for name, r in res["methods"].items():
+        for key in ("psnr", "ssim", "psnr_flare"):
+            v = r["inputs"][key]
+            assert math.isfinite(v) and v < 100, (name, key, v)
+        assert -1 <= r["inputs"]["ssim"] <= 1
+        if name in ("gnfr", "gnt"):
+            assert set(r["heldout"]["views"]) == set(split["heldout"])
+            assert math.isfinite(r["heldout"]["psnr"]) and r["train"]["steps"] == 5
+        else:
+            assert "heldout" not in r
+    # the flared input differs from the ground truth exactly where the flare is
+    inp = res["methods"]["input"]["inputs"]
+    assert inp["psnr_flare"] < inp["psnr"]
+    # the variants really differ in their GN-FR parts (written into their checkpoints)
+    from gnfr.checkpoint import read_metadata
+    metas = {v: read_metadata(out / "variants" / v / "model" / "gnfr.safetensors")[1]
+             for v in ("gnfr", "gnt")}
+    flat = {v: json.dumps(m) for v, m in metas.items()}
+    assert '"point_sampler": true' in flat["gnfr"] and '"point_sampler": false' in flat["gnt"]
+    # held-out renders are at the render scale
+    clean = cv2.imread(str(scene / "clean" / f"{split['heldout'][0]}.png"))
+    render = cv2.imread(str(out / "variants" / "gnfr" / "renders" / "heldout_cameras" /
+                            f"{split['heldout'][0]}.png"))
+    assert render.shape[:2] == (round(clean.shape[0] * 0.5), round(clean.shape[1] * 0.5))
+    table = (out / "eval" / "table.md").read_text()
+    assert "| GN-FR |" in table and "ground truth" in table and "tiny" in table
+    grid = cv2.imread(str(out / "eval" / "grid.jpg"))
+    tile_w = round(180 * clean.shape[1] / clean.shape[0])
+    rows = len(split["heldout"]) + len(flared)         # 1 held-out + the 2 flared inputs
+    cols = 1 + 3 + 1                                   # input, gnfr/gnt/inpaint, truth
+    assert grid.shape[:2] == (rows * 180, cols * tile_w)
+    # a second run resumes: every stage is skipped, scores are identical
+    before = {v: (out / "variants" / v / "model" / "gnfr.safetensors").stat().st_mtime_ns
+              for v in ("gnfr", "gnt")}
+    assert _eval(scene, out) == 0
+    again = json.loads((out / "eval" / "results.json").read_text())
+    assert again["methods"] == res["methods"]
+    for v, t in before.items():
+        assert (out / "variants" / v / "model" / "gnfr.safetensors").stat().st_mtime_ns == t
+
+
+def test_eval_rejects_bad_input(tmp_path, scene):
+    assert main(["eval", str(tmp_path), "--masks", "gt"]) == 2          # not a synth folder
+    assert main(["eval", str(scene), "--variants", "gnfr,nerf"]) == 2   # unknown variant
+    with pytest.raises(Exception, match="unknown nerf"):
+        parse_variants("gnfr,nerf")
+
+
+def test_sync_tree_links_and_prunes(tmp_path):
+    src, dst = tmp_path / "a", tmp_path / "b"
+    src.mkdir()
+    (src / "x.png").write_bytes(b"1")
+    (src / "y.png").write_bytes(b"2")
+    sync_tree(src, dst)
+    assert (dst / "x.png").samefile(src / "x.png")
+    (src / "y.png").unlink()
+    (src / "x.png").unlink()
+    (src / "x.png").write_bytes(b"3")   # replaced (a new inode, as atomic writes do)
+    sync_tree(src, dst)
+    assert sorted(p.name for p in dst.iterdir()) == ["x.png"]
+    assert (dst / "x.png").read_bytes() == b"3"
+    link_file(src / "x.png", dst / "x.png")   # already linked: a no-op
+    assert (dst / "x.png").samefile(src / "x.png")

@@ -1,0 +1,411 @@
+"""`deflare-scene bench`: training and rendering speed and peak memory, fast vs reference.
+
+Runs anywhere without data: a synthetic scene (smooth random textures on a ring of cameras
+looking at the origin, a flare blob in every third view) is built in memory. For each
+device (CPU, and CUDA when present) it measures, in the same process and run:
+
+- training iterations/s at a preset (default ``quick``) in three modes: end-to-end (the
+  encoder trained, sources encoded every step), cached features (frozen encoder, sources
+  encoded once) and the plain reference path (end-to-end, fp32, no fused attention);
+- rendering seconds per frame at 504x378 and 1008x756: fast = the render stage's path
+  (sources encoded once and shared by all frames, bf16 autocast and fused attention on
+  CUDA), reference = sources re-encoded for every frame, fp32, no fused attention. Rays
+  are timed on ``rays`` pixels of the frame (default: all of it on CUDA, 4096 on CPU) and
+  scaled to the whole frame (cost is linear in rays: fixed chunks);
+- peak memory of each measurement: CUDA ``torch.cuda.max_memory_allocated``; CPU the peak
+  resident set size above the level at the start of the measurement, sampled every 5 ms
+  (psutil when installed, else /proc/self/statm, else ``resource`` maxrss).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import threading
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+SIZES = ((504, 378), (1008, 756))
+
+
+@dataclass
+class BenchConfig:
+    """Options of `deflare-scene bench`."""
+
+    out: Path = Path("bench.json")
+    """JSON file to write."""
+    devices: tuple[str, ...] = ()
+    """Devices to measure (default: cpu, and cuda when present)."""
+    preset: str = "quick"
+    """Training preset whose model, rays and samples are measured."""
+    steps: int = 10
+    """Timed training steps per mode (after ``warmup``)."""
+    warmup: int = 2
+    """Untimed steps (and render passes) before timing."""
+    rays: int | None = None
+    """Rays timed per rendered frame (default: the whole frame on CUDA, 4096 on CPU)."""
+    samples: int | None = None
+    """Samples per ray when rendering (default: the preset's)."""
+    views: int = 10
+    """Views of the synthetic scene (training sources come from these)."""
+    train_size: tuple[int, int] = (504, 378)
+    """Image size (width, height) of the synthetic training views."""
+    quick: bool = False
+    """A small fast run (tests): 2 steps, 1 warm-up, 128 rays, 8 samples per frame."""
+
+
+def effective(cfg: BenchConfig) -> BenchConfig:
+    if not cfg.quick:
+        return cfg
+    return replace(cfg, steps=min(cfg.steps, 2), warmup=1, rays=cfg.rays or 128,
+                   samples=cfg.samples or 8, views=min(cfg.views, 8), train_size=(252, 189))
+
+
+# --------------------------------------------------------------------------- machine
+def machine() -> dict:
+    import torch
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    info = {"cpu": cpu, "cores": os.cpu_count(), "torch_threads": torch.get_num_threads(),
+            "torch": torch.__version__, "python": platform.python_version(),
+            "platform": platform.platform(), "cuda": None}
+    if torch.cuda.is_available():
+        p = torch.cuda.get_device_properties(0)
+        info["cuda"] = {"name": p.name, "memory_gib": round(p.total_memory / 2**30, 1),
+                        "cuda": torch.version.cuda}
+    return info
+
+
+# --------------------------------------------------------------------------- memory
+def _rss_bytes() -> int | None:
+    try:
+        import psutil
+
+        return int(psutil.Process().memory_info().rss)
+    except ImportError:
+        pass
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+        return pages * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def memory_method(device: str) -> str:
+    """How PeakMemory measures on ``device`` (recorded in the JSON)."""
+    if device == "cuda":
+        return "torch.cuda.max_memory_allocated - allocated at start"
+    try:
+        import psutil  # noqa: F401
+
+        return "peak RSS (psutil) sampled every 5 ms - RSS at start"
+    except ImportError:
+        pass
+    if _rss_bytes() is not None:
+        return "peak RSS (/proc/self/statm) sampled every 5 ms - RSS at start"
+    return "resource maxrss delta (0 unless the process peak grows)"
+
+
+class PeakMemory:
+    """Context manager measuring peak memory above the start level, in MiB (``.mib``)."""
+
+    def __init__(self, device: str):
+        self.device, self.mib, self.how = device, 0.0, ""
+
+    def __enter__(self) -> PeakMemory:
+        import torch
+
+        if self.device == "cuda":
+            torch.cuda.synchronize()
+            torch.cuda.reset_peak_memory_stats()
+            self.start = torch.cuda.memory_allocated()
+            self.how = "torch.cuda.max_memory_allocated - allocated at start"
+            return self
+        self.start = _rss_bytes()
+        if self.start is None:
+            import resource
+
+            self.start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+            self.how = "resource maxrss delta (0 unless the process peak grows)"
+            self._thread = None
+            return self
+        self.how = "peak RSS sampled every 5 ms - RSS at start"
+        self.peak, self._stop = self.start, threading.Event()
+
+        def poll():
+            while not self._stop.wait(0.005):
+                self.peak = max(self.peak, _rss_bytes() or 0)
+
+        self._thread = threading.Thread(target=poll, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import torch
+
+        if self.device == "cuda":
+            torch.cuda.synchronize()
+            self.mib = (torch.cuda.max_memory_allocated() - self.start) / 2**20
+        elif self._thread is None:
+            import resource
+
+            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+            self.mib = max(0, peak - self.start) / 2**20
+        else:
+            self._stop.set()
+            self._thread.join()
+            self.peak = max(self.peak, _rss_bytes() or 0)
+            self.mib = (self.peak - self.start) / 2**20
+
+
+def _sync(device: str) -> None:
+    import torch
+
+    if device == "cuda":
+        torch.cuda.synchronize()
+
+
+# --------------------------------------------------------------------------- scene
+def synthetic_scene(n: int, size: tuple[int, int], seed: int = 0):
+    """A gnfr.train.Scene of ``n`` views [W, H] = ``size`` on an arc looking at the origin:
+    smooth random textures, a round flare blob in every third view."""
+    import cv2
+
+    from gnfr.paths import look_at
+    from pipeline.scene_data import make_scene
+
+    W, H = size
+    rng = np.random.default_rng(seed)
+    th = np.linspace(-0.5, 0.5, n)
+    c2w = np.stack([look_at(np.array([np.sin(t), 0.0, -np.cos(t)]) * 2.5, np.zeros(3),
+                            np.array([0.0, -1.0, 0.0])) for t in th])
+    K = np.array([[0.9 * W, 0, W / 2], [0, 0.9 * W, H / 2], [0, 0, 1.0]])
+    images, masks = [], []
+    for i in range(n):
+        small = rng.random((H // 8, W // 8, 3))
+        img = cv2.resize(small, (W, H), interpolation=cv2.INTER_CUBIC)
+        images.append(np.clip(img * 255, 0, 255).astype(np.uint8))
+        m = np.zeros((H, W), np.uint8)
+        if i % 3 == 0:
+            cv2.circle(m, (int(rng.integers(W)), int(rng.integers(H))), H // 6, 1, -1)
+        masks.append(m.astype(bool))
+    return make_scene("bench", [f"v{i:02d}" for i in range(n)], images, np.repeat(K[None], n, 0),
+                      c2w, np.full(n, 1.0), np.full(n, 4.5), masks)
+
+
+# --------------------------------------------------------------------------- training
+TRAIN_MODES = {"end_to_end": {"cached_features": False, "reference": False},
+               "cached": {"cached_features": True, "reference": False},
+               "reference": {"cached_features": False, "reference": True}}
+"""reference = the plain fp32 path, end-to-end (no cached features, no fused attention)."""
+
+
+def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
+    """Training it/s and peak memory of one mode."""
+    import torch
+
+    from gnfr.model import GNFR
+    from gnfr.train import make_optimizer, sample_batch, train_step
+    from pipeline.finetune import prepare_sources
+
+    tc = replace(tcfg, **TRAIN_MODES[mode])
+    torch.manual_seed(0)
+    model = GNFR(tc.model).to(device)
+    opt = make_optimizer(model, tc)
+    gen = torch.Generator().manual_seed(0)
+    with PeakMemory(device) as mem:
+        t0 = time.perf_counter()
+        bank, cache = prepare_sources(model, scene, tc, torch.device(device))
+        _sync(device)
+        prep = time.perf_counter() - t0
+        for step in range(cfg.warmup):
+            train_step(model, opt, sample_batch(scene, tc, gen), bank, cache, tc, step)
+        _sync(device)
+        t0 = time.perf_counter()
+        for step in range(cfg.warmup, cfg.warmup + cfg.steps):
+            train_step(model, opt, sample_batch(scene, tc, gen), bank, cache, tc, step)
+        _sync(device)
+        dt = time.perf_counter() - t0
+    return {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,
+            "peak_mib": mem.mib, "steps": cfg.steps}
+
+
+# --------------------------------------------------------------------------- rendering
+def _frame_rays(W: int, H: int, n_rays: int, c2w, device: str):
+    """(K [3, 3], rays_o [R, 3], rays_d [R, 3]) of ``n_rays`` pixels spread over a frame."""
+    import torch
+
+    from gnfr.geometry import image_pixels, pixel_rays
+
+    K = torch.tensor([[0.9 * W, 0, W / 2], [0, 0.9 * W, H / 2], [0, 0, 1.0]])
+    pix = image_pixels(H, W)
+    if n_rays < len(pix):
+        g = torch.Generator().manual_seed(0)
+        pix = pix[torch.randperm(len(pix), generator=g)[:n_rays]]
+    o, d = pixel_rays(K, c2w, pix)
+    return K, o.to(device), d.to(device)
+
+
+def _sources(scene, tc, size: tuple[int, int], n: int):
+    """First ``n`` scene views resized to ``size`` x source_scale: images, K, masks, c2w."""
+    import torch
+    import torch.nn.functional as F
+
+    W, H = size
+    w, h = max(8, round(W * tc.source_scale)), max(8, round(H * tc.source_scale))
+    imgs = F.interpolate(scene.images[:n].float() / 255, size=(h, w), mode="area")
+    masks = F.interpolate(scene.masks[:n].float(), size=(h, w), mode="area").round()
+    K = torch.tensor([[0.9 * w, 0, w / 2], [0, 0.9 * w, h / 2], [0, 0, 1.0]]).expand(n, 3, 3)
+    return imgs, K.contiguous(), masks, scene.c2w[:n].float()
+
+
+def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int],
+                 model) -> dict:
+    """Seconds per frame at ``size``: fast (cached sources) and reference (re-encoded, fp32,
+    unfused), each with peak memory."""
+    import torch
+
+    from gnfr.geometry import sample_depths
+    from gnfr.renderer import SourceViews, forward_rays, render_rays
+
+    W, H = size
+    n_src = min(tcfg.eval_views, len(scene.stems) - 1)
+    samples = cfg.samples or tcfg.samples
+    n_rays = cfg.rays or (W * H if device == "cuda" else 4096)
+    imgs, K, masks, c2w = _sources(scene, tcfg, size, n_src)
+    target = scene.c2w[n_src].float()
+    _, o, d = _frame_rays(W, H, n_rays, target, device)
+    R = len(o)
+    near, far = torch.full((R,), 1.0), torch.full((R,), 4.5)
+    ids = torch.arange(n_src)
+    scale = W * H / R
+    out = {"rays_timed": R, "samples": samples, "sources": f"{n_src} x {imgs.shape[-1]}x"
+           f"{imgs.shape[-2]}"}
+    with torch.inference_mode():
+        # fast: encode once (shared by every frame of a path), then only the rays
+        src = SourceViews.encode(model, imgs, K, c2w, masks, device)
+        render_rays(model, src, ids, o[:64], d[:64], near[:64], far[:64], samples)  # warm-up
+        with PeakMemory(device) as mem:
+            _sync(device)
+            t0 = time.perf_counter()
+            src = SourceViews.encode(model, imgs, K, c2w, masks, device)
+            _sync(device)
+            enc = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            render_rays(model, src, ids, o, d, near, far, samples, chunk=1024)
+            _sync(device)
+            rays_s = time.perf_counter() - t0
+        out["fast"] = {"s_per_frame": rays_s * scale, "encode_once_s": enc,
+                       "ms_per_ray": 1e3 * rays_s / R, "peak_mib": mem.mib}
+        # reference: sources re-encoded for this frame in fp32, plain attention
+        with PeakMemory(device) as mem:
+            _sync(device)
+            t0 = time.perf_counter()
+            src = SourceViews.encode(model, imgs, K, c2w, masks, device, grad=True)
+            _sync(device)
+            enc = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            model.eval()
+            for i in range(0, R, 1024):
+                sl = slice(i, i + 1024)
+                t = sample_depths(near[sl].to(o), far[sl].to(o), samples, jitter=False)
+                forward_rays(model, src, ids.to(device), o[sl], d[sl], t, reference=True)
+            _sync(device)
+            rays_s = time.perf_counter() - t0
+        out["reference"] = {"s_per_frame": rays_s * scale + enc, "encode_per_frame_s": enc,
+                            "ms_per_ray": 1e3 * rays_s / R, "peak_mib": mem.mib}
+    out["reference_over_fast"] = out["reference"]["s_per_frame"] / out["fast"]["s_per_frame"]
+    return out
+
+
+# --------------------------------------------------------------------------- entry point
+def default_devices() -> tuple[str, ...]:
+    import torch
+
+    return ("cpu", "cuda") if torch.cuda.is_available() else ("cpu",)
+
+
+def run(cfg: BenchConfig) -> dict:
+    """Measure every device; write ``cfg.out`` (JSON) and return the record."""
+    import torch
+
+    from gnfr.model import GNFR
+    from gnfr.train import PRESETS
+    from pipeline.errors import UserError
+    from pipeline.progress import info
+    from pipeline.workspace import atomic_write_json
+
+    cfg = effective(cfg)
+    if cfg.preset not in PRESETS:
+        raise UserError(f"--preset {cfg.preset}: choose one of {', '.join(PRESETS)}")
+    devices = cfg.devices or default_devices()
+    for d in devices:
+        if d not in ("cpu", "cuda") or (d == "cuda" and not torch.cuda.is_available()):
+            raise UserError(f"--device {d}: not available here (choose cpu"
+                            f"{' or cuda' if torch.cuda.is_available() else ''})")
+    tcfg = PRESETS[cfg.preset]
+    scene = synthetic_scene(cfg.views, cfg.train_size)
+    record = {"machine": machine(), "settings": {**asdict(cfg), "out": str(cfg.out),
+                                                   "devices": list(devices)},
+              "preset": {"name": cfg.preset, "rays": tcfg.rays, "samples": tcfg.samples,
+                         "depth": tcfg.model.depth, "width": tcfg.model.width,
+                         "source_scale": tcfg.source_scale, "n_views": list(tcfg.n_views),
+                         "eval_views": tcfg.eval_views},
+              "results": {}}
+    for dev in devices:
+        res = {"train": {}, "render": {}}
+        for mode in TRAIN_MODES:
+            info(f"bench: {dev} training, {mode} ({cfg.warmup}+{cfg.steps} steps)")
+            res["train"][mode] = bench_train(cfg, tcfg, scene, dev, mode)
+        torch.manual_seed(0)
+        model = GNFR(tcfg.model).to(dev).eval()
+        for W, H in SIZES:
+            info(f"bench: {dev} rendering {W}x{H}")
+            res["render"][f"{W}x{H}"] = bench_render(cfg, tcfg, scene, dev, (W, H), model)
+        record["results"][dev] = res
+    record["memory_method"] = {d: memory_method(d) for d in devices}
+    atomic_write_json(cfg.out, record)
+    return record
+
+
+def print_table(record: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    m = record["machine"]
+    p = record["preset"]
+    s = record["settings"]
+    title = (f"deflare-scene bench: {m['cpu']} ({m['cores']} cores, {m['torch_threads']} torch "
+             f"threads), torch {m['torch']}"
+             + (f", {m['cuda']['name']}" if m.get("cuda") else ""))
+    t = Table(title=title, caption=f"preset {p['name']}: depth {p['depth']} width {p['width']}"
+              f", {p['rays']} rays x {p['samples']} samples per training step; render "
+              f"{s['samples'] or p['samples']} samples per ray, rays timed per frame: "
+              f"{s['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
+    for col in ("device", "measurement", "fast", "reference", "ref / fast", "peak MiB "
+                "fast / ref"):
+        t.add_column(col, justify="left" if col in ("device", "measurement") else "right")
+    for dev, r in record["results"].items():
+        tr = r["train"]
+        for mode in ("end_to_end", "cached"):
+            ref = tr["reference"]
+            t.add_row(dev, f"train it/s ({mode.replace('_', '-')})",
+                      f"{tr[mode]['it_per_s']:.2f}", f"{ref['it_per_s']:.2f}",
+                      f"{tr[mode]['it_per_s'] / ref['it_per_s']:.2f}x faster",
+                      f"{tr[mode]['peak_mib']:.0f} / {ref['peak_mib']:.0f}")
+        for size, rr in r["render"].items():
+            t.add_row(dev, f"render s/frame {size}", f"{rr['fast']['s_per_frame']:.2f}",
+                      f"{rr['reference']['s_per_frame']:.2f}",
+                      f"{rr['reference_over_fast']:.2f}x",
+                      f"{rr['fast']['peak_mib']:.0f} / {rr['reference']['peak_mib']:.0f}")
+    Console().print(t)
