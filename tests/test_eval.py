@@ -101,6 +101,27 @@ def test_eval_end_to_end(scene, tmp_path):
         assert (out / "variants" / v / "model" / "gnfr.safetensors").stat().st_mtime_ns == t
 
 
+def test_eval_fmg_masks_scored_against_truth(scene, tmp_path, capsys):
+    """With FMG masks (here an untrained tiny FMG) the table reports their mIoU; the
+    baselines alone need no training."""
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "fmg.safetensors", build_fmg(tiny_config()))
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "input,inpaint",
+                 "--fmg-weights", str(weights), "--device", "cpu"]) == 0
+    res = json.loads((out / "eval" / "results.json").read_text())
+    ms = res["mask_scores"]
+    assert res["masks"] == "fmg" and 0 <= ms["miou"] < 1 and 0 <= ms["accuracy"] <= 1
+    assert f"mIoU {ms['miou']:.3f}" in (out / "eval" / "table.md").read_text()
+    assert list(res["methods"]) == ["input", "inpaint"]
+    # missing FMG weights: one clear error that also names --masks gt
+    assert main(["eval", str(scene), "--out", str(tmp_path / "e2"), "--variants", "input",
+                 "--fmg-weights", str(tmp_path / "none.safetensors")]) == 2
+    assert "--masks gt" in capsys.readouterr().err
+
+
 def test_eval_rejects_bad_input(tmp_path, scene):
     assert main(["eval", str(tmp_path), "--masks", "gt"]) == 2          # not a synth folder
     assert main(["eval", str(scene), "--variants", "gnfr,nerf"]) == 2   # unknown variant

@@ -356,8 +356,14 @@ def run(cfg: EvalConfig) -> Path:
     base = build_workspace(scene, Path(cfg.out or scene.root / "eval.ws"), cfg.force)
     mcfg = mask.MaskConfig(masks_dir=scene.root / "masks_gt" if cfg.masks == "gt" else None,
                            weights=cfg.fmg_weights, device=cfg.device)
-    mask.run(mcfg, base, force=cfg.force)
-    select.run(select.SelectConfig(), base, force=cfg.force)
+    try:
+        mask.run(mcfg, base, force=cfg.force)
+    except UserError as e:
+        if cfg.masks != "fmg":
+            raise
+        raise UserError(f"{e}; or evaluate with the true masks: --masks gt") from None
+    if any(v in NEURAL for v in cfg.variants):  # baselines need no View Sampler
+        select.run(select.SelectConfig(), base, force=cfg.force)
     path_json = heldout_path_json(scene, base) if scene.heldout else None
     methods = {}
     for name in cfg.variants:
@@ -432,8 +438,12 @@ def table_markdown(res: dict) -> str:
     where = ("one of the held-out scenes (pipeline.datasets.HELDOUT_SCENES), never used for "
              "training" if res["origin_is_heldout_scene"] else
              "NOT one of pipeline.datasets.HELDOUT_SCENES: a trained model may have seen it")
-    masks = ("ground truth (`--masks gt`)" if res["masks"] == "gt"
-             else "FMG network (shipped weights unless --fmg-weights)")
+    if res["masks"] == "gt":
+        masks = "ground truth masks_gt (`--masks gt`), so no FMG mIoU is measured"
+    else:
+        masks = (f"FMG network (shipped weights unless --fmg-weights); against masks_gt on "
+                 f"the training views: mIoU {_f(ms.get('miou'), '{:.3f}')}, flare IoU "
+                 f"{_f(ms.get('iou_flare'), '{:.3f}')}")
     lines = [
         f"# deflare-scene eval: {origin} with synthetic flare", "",
         f"- Scene: `{res['scene']}`, made from `{origin}`: {where}.",
@@ -441,8 +451,7 @@ def table_markdown(res: dict) -> str:
         f"scored on the {len(res['scored_input_views'])} with flare in masks_gt), "
         f"{len(res['heldout_views'])} held-out views. Cameras: ground truth for every view "
         "(no pose noise; COLMAP was not run on the flared photos).",
-        f"- Masks: {masks}; against masks_gt on the training views: mIoU "
-        f"{_f(ms.get('miou'), '{:.3f}')}, flare IoU {_f(ms.get('iou_flare'), '{:.3f}')}.",
+        f"- Masks: {masks}.",
         f"- Budget, the same for every neural variant: preset `{b['preset']}` on "
         f"{b['device']}, {b['iters']} steps (paper: 50,000 fine-tuning steps after 500k "
         f"pretraining), {b['rays']} rays x {b['samples']} samples, model depth {b['depth']} "
