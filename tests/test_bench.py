@@ -60,3 +60,14 @@ def test_synthetic_scene_shapes():
     assert s.images.shape == (6, 3, 48, 64) and s.masks.shape == (6, 1, 48, 64)
     assert s.flare["v00"] > 0 and s.flare["v01"] == 0
     assert s.ranked["v00"][0] == "v01"
+
+
+def test_measure_in_a_fresh_process():
+    """Isolated CPU measurements run in a spawned process and return the same record."""
+    from gnfr.train import PRESETS
+    from workflows.bench import BenchConfig, bench_train, effective, measure
+
+    cfg = effective(BenchConfig(quick=True))
+    scene = synthetic_scene(5, (64, 48))
+    rec = measure(True, bench_train, cfg, PRESETS["tiny"], scene, "cpu", "cached")
+    assert rec["it_per_s"] > 0 and rec["steps"] == 2 and rec["peak_mib"] >= 0

@@ -53,15 +53,22 @@ class BenchConfig:
     """Views of the synthetic scene (training sources come from these)."""
     train_size: tuple[int, int] = (504, 378)
     """Image size (width, height) of the synthetic training views."""
+    chunk: int = 1024
+    """Rays per forward pass when rendering (the render stage's default)."""
+    isolate: bool = True
+    """CPU: run each measurement in a fresh process, so its peak RSS is its own (the
+    allocator keeps memory freed by an earlier measurement)."""
     quick: bool = False
-    """A small fast run (tests): 2 steps, 1 warm-up, 128 rays, 8 samples per frame."""
+    """A small fast run (tests): 2 steps, 1 warm-up, 128 rays, 8 samples per frame, no
+    process isolation (CPU peak memory then depends on the order of measurements)."""
 
 
 def effective(cfg: BenchConfig) -> BenchConfig:
     if not cfg.quick:
         return cfg
     return replace(cfg, steps=min(cfg.steps, 2), warmup=1, rays=cfg.rays or 128,
-                   samples=cfg.samples or 8, views=min(cfg.views, 8), train_size=(252, 189))
+                   samples=cfg.samples or 8, views=min(cfg.views, 8), train_size=(252, 189),
+                   isolate=False)
 
 
 # --------------------------------------------------------------------------- machine
@@ -269,15 +276,17 @@ def _sources(scene, tc, size: tuple[int, int], n: int):
     return imgs, K.contiguous(), masks, scene.c2w[:n].float()
 
 
-def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int],
-                 model) -> dict:
+def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int]) -> dict:
     """Seconds per frame at ``size``: fast (cached sources) and reference (re-encoded, fp32,
-    unfused), each with peak memory."""
+    unfused), each with peak memory. Random weights: speed does not depend on them."""
     import torch
 
     from gnfr.geometry import sample_depths
+    from gnfr.model import GNFR
     from gnfr.renderer import SourceViews, forward_rays, render_rays
 
+    torch.manual_seed(0)
+    model = GNFR(tcfg.model).to(device).eval()
     W, H = size
     n_src = min(tcfg.eval_views, len(scene.stems) - 1)
     samples = cfg.samples or tcfg.samples
@@ -302,7 +311,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
             _sync(device)
             enc = time.perf_counter() - t0
             t0 = time.perf_counter()
-            render_rays(model, src, ids, o, d, near, far, samples, chunk=1024)
+            render_rays(model, src, ids, o, d, near, far, samples, chunk=cfg.chunk)
             _sync(device)
             rays_s = time.perf_counter() - t0
         out["fast"] = {"s_per_frame": rays_s * scale, "encode_once_s": enc,
@@ -316,8 +325,8 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
             enc = time.perf_counter() - t0
             t0 = time.perf_counter()
             model.eval()
-            for i in range(0, R, 1024):
-                sl = slice(i, i + 1024)
+            for i in range(0, R, cfg.chunk):
+                sl = slice(i, i + cfg.chunk)
                 t = sample_depths(near[sl].to(o), far[sl].to(o), samples, jitter=False)
                 forward_rays(model, src, ids.to(device), o[sl], d[sl], t, reference=True)
             _sync(device)
@@ -329,6 +338,27 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
 
 
 # --------------------------------------------------------------------------- entry point
+def measure(isolate: bool, fn, *args) -> dict:
+    """``fn(*args)``, in a fresh spawned process when ``isolate`` (same torch threads)."""
+    if not isolate:
+        return fn(*args)
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    import torch
+
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
+                             initializer=_set_threads,
+                             initargs=(torch.get_num_threads(),)) as pool:
+        return pool.submit(fn, *args).result()
+
+
+def _set_threads(n: int) -> None:
+    import torch
+
+    torch.set_num_threads(n)
+
+
 def default_devices() -> tuple[str, ...]:
     import torch
 
@@ -339,7 +369,6 @@ def run(cfg: BenchConfig) -> dict:
     """Measure every device; write ``cfg.out`` (JSON) and return the record."""
     import torch
 
-    from gnfr.model import GNFR
     from gnfr.train import PRESETS
     from pipeline.errors import UserError
     from pipeline.progress import info
@@ -363,15 +392,15 @@ def run(cfg: BenchConfig) -> dict:
                          "eval_views": tcfg.eval_views},
               "results": {}}
     for dev in devices:
-        res = {"train": {}, "render": {}}
+        iso = cfg.isolate and dev == "cpu"
+        res = {"train": {}, "render": {}, "isolated_processes": iso}
         for mode in TRAIN_MODES:
             info(f"bench: {dev} training, {mode} ({cfg.warmup}+{cfg.steps} steps)")
-            res["train"][mode] = bench_train(cfg, tcfg, scene, dev, mode)
-        torch.manual_seed(0)
-        model = GNFR(tcfg.model).to(dev).eval()
+            res["train"][mode] = measure(iso, bench_train, cfg, tcfg, scene, dev, mode)
         for W, H in SIZES:
             info(f"bench: {dev} rendering {W}x{H}")
-            res["render"][f"{W}x{H}"] = bench_render(cfg, tcfg, scene, dev, (W, H), model)
+            res["render"][f"{W}x{H}"] = measure(iso, bench_render, cfg, tcfg, scene, dev,
+                                                (W, H))
         record["results"][dev] = res
     record["memory_method"] = {d: memory_method(d) for d in devices}
     atomic_write_json(cfg.out, record)
@@ -390,8 +419,8 @@ def print_table(record: dict) -> None:
              + (f", {m['cuda']['name']}" if m.get("cuda") else ""))
     t = Table(title=title, caption=f"preset {p['name']}: depth {p['depth']} width {p['width']}"
               f", {p['rays']} rays x {p['samples']} samples per training step; render "
-              f"{s['samples'] or p['samples']} samples per ray, rays timed per frame: "
-              f"{s['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
+              f"{s['samples'] or p['samples']} samples per ray, chunks of {s['chunk']} rays, "
+              f"rays timed per frame: {s['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
     for col in ("device", "measurement", "fast", "reference", "ref / fast", "peak MiB "
                 "fast / ref"):
         t.add_column(col, justify="left" if col in ("device", "measurement") else "right")

@@ -20,8 +20,12 @@ def register(app: typer.Typer) -> None:
                                  "whole frame (default: whole frame on CUDA, 4096 on CPU)."),
         samples: int = typer.Option(None, help="Samples per ray when rendering (default: "
                                     "the preset's)."),
+        chunk: int = typer.Option(1024, help="Rays per forward pass when rendering."),
+        isolate: bool = typer.Option(True, "--isolate/--no-isolate",
+                                     help="CPU: each measurement in a fresh process (peak "
+                                     "memory per measurement)."),
         quick: bool = typer.Option(False, "--quick", help="Small fast run (2 steps, 128 "
-                                   "rays, 8 samples, smaller training images)."),
+                                   "rays, 8 samples, smaller training images, no isolation)."),
     ) -> None:
         """Measure speed and peak memory on a synthetic scene (no data needed), each beside
         the plain fp32 reference path measured in the same run."""
@@ -29,7 +33,7 @@ def register(app: typer.Typer) -> None:
 
         devices = () if device == "all" else tuple(d.strip() for d in device.split(","))
         cfg = BenchConfig(out=out, devices=devices, preset=preset, steps=steps, rays=rays,
-                          samples=samples, quick=quick)
+                          samples=samples, chunk=chunk, isolate=isolate, quick=quick)
         record = run(cfg)
         print_table(record)
         typer.echo(f"wrote {out}")
