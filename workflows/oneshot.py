@@ -1,24 +1,54 @@
-"""The one-shot pipeline: every stage in order on one photo folder, each resumable."""
+"""The one-shot pipeline: every stage in order on one photo folder, each resumable.
+
+``deflare-scene ./photos`` runs decode, pose, mask, select, finetune, render (the input
+views and the video path) and export. Each stage skips itself when its inputs and
+parameters did not change, so rerunning the same command after an interruption picks up
+where it stopped; changing an option reruns that stage and everything after it.
+
+The common options are flags of the command; every other field of every stage's config is
+reachable with ``--set STAGE.FIELD=VALUE`` (e.g. ``--set finetune.rays=512``).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+import types
+import typing
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from pipeline.errors import UserError
 from pipeline.progress import info
 
 
+def _stage_configs() -> dict[str, Any]:
+    """Default config of every stage the one-shot runs, by stage name."""
+    from pipeline.decode import DecodeConfig
+    from pipeline.export import ExportConfig
+    from pipeline.finetune import FinetuneConfig
+    from pipeline.mask import MaskConfig
+    from pipeline.pose import PoseConfig
+    from pipeline.render import RenderConfig
+    from pipeline.select import SelectConfig
+
+    return {
+        "decode": DecodeConfig(), "pose": PoseConfig(), "mask": MaskConfig(),
+        "select": SelectConfig(), "finetune": FinetuneConfig(),
+        "render": RenderConfig(path="interpolate"), "export": ExportConfig(),
+    }
+
+
 @dataclass
 class OneShotConfig:
+    """Options of `deflare-scene PHOTOS` (the one-shot command)."""
+
     photos: Path
-    """Folder of photos (only read)."""
+    """Folder of photos (only read, never written)."""
     out: Path | None = None
     """Workspace folder; default ``<photos>.deflare`` beside the photo folder."""
-    max_size: int = 1008
-    """Decode: long side of the decoded images in pixels."""
-    matcher: str = "auto"
-    """Pose: exhaustive, sequential or auto."""
+    stages: dict[str, Any] = field(default_factory=_stage_configs)
+    """Config of each stage by name (decode, pose, mask, select, finetune, render, export)."""
     force: bool = False
     """Rerun every stage even when its inputs did not change."""
 
@@ -28,16 +58,88 @@ def default_workspace(photos: Path) -> Path:
     return photos.with_name(photos.name + ".deflare")
 
 
-def run_all(cfg: OneShotConfig) -> Path:
-    """Run the stages that exist, in order; return the workspace path."""
-    from pipeline import decode, pose
+# --------------------------------------------------------------------------- --set parsing
+def _coerce(value: str, tp: Any, where: str) -> Any:
+    """Convert a command-line string to the annotated type ``tp``."""
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if value.lower() in ("none", "null", "") and type(None) in typing.get_args(tp):
+            return None
+        return _coerce(value, args[0], where)
+    if origin is tuple:
+        parts = value.replace("x", ",").split(",")
+        args = typing.get_args(tp)
+        if len(parts) != len(args):
+            raise UserError(f"{where}: expected {len(args)} comma-separated values, got {value!r}")
+        return tuple(_coerce(p, a, where) for p, a in zip(parts, args, strict=True))
+    try:
+        if tp is bool:
+            if value.lower() in ("1", "true", "yes", "on"):
+                return True
+            if value.lower() in ("0", "false", "no", "off"):
+                return False
+            raise ValueError(value)
+        if tp in (int, float, str, Path):
+            return tp(value)
+    except ValueError:
+        raise UserError(f"{where}: {value!r} is not a valid {tp.__name__}") from None
+    raise UserError(f"{where}: this option cannot be set from the command line")
 
+
+def apply_overrides(stages: dict[str, Any], items: list[str]) -> dict[str, Any]:
+    """Apply ``STAGE.FIELD=VALUE`` strings to the stage configs (new objects returned)."""
+    stages = dict(stages)
+    for item in items:
+        key, sep, value = item.partition("=")
+        stage, dot, name = key.partition(".")
+        if not sep or not dot:
+            raise UserError(f"--set {item!r}: use STAGE.FIELD=VALUE, e.g. finetune.iters=2000")
+        if stage not in stages:
+            raise UserError(f"--set {item!r}: unknown stage {stage!r}; one of "
+                            f"{', '.join(stages)}")
+        cfg = stages[stage]
+        names = {f.name for f in fields(cfg)}
+        if name not in names:
+            raise UserError(f"--set {item!r}: {stage} has no option {name!r}; it has "
+                            f"{', '.join(sorted(names))}")
+        hints = typing.get_type_hints(type(cfg))
+        if is_dataclass(hints[name]):
+            raise UserError(f"--set {item!r}: {stage}.{name} is a group of options; set its "
+                            "fields with the stage's own command")
+        stages[stage] = replace(cfg, **{name: _coerce(value, hints[name], f"--set {key}")})
+    return stages
+
+
+# --------------------------------------------------------------------------- the run
+def run_all(cfg: OneShotConfig) -> Path:
+    """Run every stage in order; return the workspace path."""
     photos = Path(cfg.photos)
     if not photos.exists():
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos, "
                         "e.g. `deflare-scene ./photos`, or see `deflare-scene --help`")
+    if not photos.is_dir():
+        raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
+    from pipeline import decode, export, finetune, mask, pose, render, select
+
+    st, force, t0 = cfg.stages, cfg.force, time.time()
     ws_path = Path(cfg.out) if cfg.out else default_workspace(photos)
-    ws = decode.run(decode.DecodeConfig(max_size=cfg.max_size), photos, ws_path, force=cfg.force)
-    pose.run(pose.PoseConfig(matcher=cfg.matcher), ws, force=cfg.force)
-    info(f"[green]done[/green]: workspace {ws.root}")
+    ws = decode.run(st["decode"], photos, ws_path, force=force)
+    pose.run(st["pose"], ws, force=force)
+    mask.run(st["mask"], ws, force=force)
+    select.run(st["select"], ws, force=force)
+    finetune.run(st["finetune"], ws, force=force)
+    render.run(replace(st["render"], path="inputs"), ws, force=force)
+    render.run(st["render"], ws, force=force)
+    written = export.run(replace(st["export"], path=Path(st["render"].path).stem), ws,
+                         force=force)
+    video = export.video_path(ws)
+    minutes = (time.time() - t0) / 60
+    info(f"[green]done[/green] in {minutes:.1f} min: workspace {ws.root}")
+    info(f"  de-flared photos: {ws.deflared}")
+    if video.exists():
+        info(f"  video: {video}")
+    for p in written:
+        if p != video and p.suffix in (".mp4", ".jpg", ".glb", ".json"):
+            info(f"  {p.name}: {p}")
     return ws.root
