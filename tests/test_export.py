@@ -142,3 +142,6 @@ def test_export_without_renders_is_a_clear_message(tmp_path):
     save_cameras(ws.cameras_json, cams)
     with pytest.raises(UserError, match="render"):
         run(ExportConfig(glb=False, transforms=False), ws)
+    from workflows.cli import main
+
+    assert main(["export", str(ws.root), "--no-glb", "--no-transforms"]) == 2
