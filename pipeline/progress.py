@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
@@ -20,9 +21,46 @@ console = Console(stderr=True, highlight=False, soft_wrap=True)  # one message, 
 T = TypeVar("T")
 
 
+class _Progress(Progress):
+    """rich Progress that, when stderr is not a terminal (logs, CI, nohup), prints a plain
+    line per task at most every ``PLAIN_EVERY_S`` seconds and when the task completes."""
+
+    PLAIN_EVERY_S = 30.0
+
+    def __init__(self, *args, plain: bool = False, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._plain = plain
+        self._last: dict = {}
+
+    def update(self, task_id, **kwargs) -> None:
+        super().update(task_id, **kwargs)
+        self._maybe_log(task_id)
+
+    def advance(self, task_id, advance: float = 1) -> None:
+        super().advance(task_id, advance)
+        self._maybe_log(task_id)
+
+    def _maybe_log(self, task_id) -> None:
+        if not self._plain:
+            return
+        task = self._tasks[task_id]
+        now = time.monotonic()
+        done = task.total is not None and task.completed >= task.total
+        last = self._last.setdefault(task_id, now)
+        if (now - last >= self.PLAIN_EVERY_S or done) and self._last.get(("done", task_id)) is None:
+            total = f"/{task.total:g}" if task.total is not None else ""
+            extra = " ".join(f"{k}={v}" for k, v in task.fields.items() if v not in (None, ""))
+            console.print(f"{task.description}: {task.completed:g}{total} "
+                          f"({task.elapsed or 0:.0f} s) {extra}".rstrip())
+            self._last[task_id] = now
+            if done:
+                self._last[("done", task_id)] = True
+
+
 def make_progress(*extra_columns) -> Progress:
-    """A rich progress bar on stderr; plain (no live redraw) when not a terminal."""
-    return Progress(
+    """A rich progress bar on stderr; plain periodic lines when not a terminal."""
+    plain = not sys.stderr.isatty()
+    return _Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
@@ -30,8 +68,9 @@ def make_progress(*extra_columns) -> Progress:
         TimeElapsedColumn(),
         TimeRemainingColumn(),
         console=console,
-        disable=not sys.stderr.isatty(),
+        disable=plain,
         transient=False,
+        plain=plain,
     )
 
 
