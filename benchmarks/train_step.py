@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
 import time
 from dataclasses import replace
 
-import torch
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before torch loads (docs/presets.md)
+
+import torch  # noqa: E402
 
 
 def synthetic_scene(n: int, W: int, H: int):

@@ -96,16 +96,16 @@ class GNFR(nn.Module):
         Returns rgb [R, 3] and depth [R] (last ray-attention weights times t).
         """
         R, S = points.shape[:2]
-        dirs = viewdirs[:, None].expand(R, S, 3)
+        pe_dirs = positional_encoding(viewdirs, self.config.n_freqs_dirs)  # once per ray
         embed = torch.cat([positional_encoding(points, self.config.n_freqs_pts),
-                           positional_encoding(dirs, self.config.n_freqs_dirs)], -1)
+                           pe_dirs[:, None].expand(R, S, -1)], -1)
         feats = self.rgbfeat_fc(rgb_feat)  # [R, S, V, D]
         q = masked_max(feats, attend)  # [R, S, D]
         weights = None
         last = len(self.view_blocks) - 1
         blocks = zip(self.view_blocks, self.ray_blocks, self.q_fcs, strict=True)
         for i, (vb, rb, qf) in enumerate(blocks):
-            q = vb(q, feats, rel_dir, attend)
+            q = vb(q, feats, rel_dir, attend, fused=fused)
             if i % 2 == 0:
                 q = qf(torch.cat([q, embed.to(q.dtype)], -1))
             q, weights = rb(q, fused=fused, return_weights=(i == last))

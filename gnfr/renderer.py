@@ -124,7 +124,6 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
     return {"rgb": rgb, "depth": depth, "all_flared": all_flared.float().mean(-1)}
 
 
-@torch.no_grad()
 def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                 rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
                 chunk: int = 1024, point_sampler: bool = True, progress=None) -> dict:
@@ -134,6 +133,7 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
     camera-z 1, see gnfr.geometry.pixel_rays); near, far: [R] z-depths. ``progress``: an
     optional callable given the number of rays finished after each chunk.
     Returns rgb [R, 3] (clamped to 0..1), depth [R], all_flared [R] (see forward_rays).
+    Runs under ``torch.inference_mode``; the returned tensors are ordinary tensors.
     """
     was_training = model.training
     model.eval()
@@ -142,17 +142,18 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
     w2c = src.w2c
     outs = {"rgb": [], "depth": [], "all_flared": []}
     try:
-        for i in range(0, rays_o.shape[0], chunk):
-            sl = slice(i, i + chunk)
-            o, d = rays_o[sl].to(device, torch.float32), rays_d[sl].to(device, torch.float32)
-            t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
-            out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c)
-            for k in outs:
-                outs[k].append(out[k].float().cpu())
-            if progress is not None:
-                progress(min(i + chunk, rays_o.shape[0]))
+        with torch.inference_mode():
+            for i in range(0, rays_o.shape[0], chunk):
+                sl = slice(i, i + chunk)
+                o, d = rays_o[sl].to(device, torch.float32), rays_d[sl].to(device, torch.float32)
+                t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
+                out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c)
+                for k in outs:
+                    outs[k].append(out[k].float().cpu())
+                if progress is not None:
+                    progress(min(i + chunk, rays_o.shape[0]))
     finally:
         model.train(was_training)
-    res = {k: torch.cat(v) for k, v in outs.items()}
+    res = {k: torch.cat(v).clone() for k, v in outs.items()}  # outside: normal tensors
     res["rgb"] = res["rgb"].clamp(0, 1)
     return res

@@ -87,16 +87,37 @@ class ViewTransformer(nn.Module):
         self.out_fc = nn.Linear(dim, dim)
         self.drop = nn.Dropout(dropout)
         self.ff = FeedForward(dim, dim * ff_mult, dropout)
-        self.attn_impl = vector_attention  # may be swapped for a torch.compile'd version
 
     def forward(self, q: torch.Tensor, feats: torch.Tensor, rel_dir: torch.Tensor,
-                attend: torch.Tensor) -> torch.Tensor:
-        """q: [R, S, C]; feats: [R, S, V, C]; rel_dir: [R, S, V, 4]; attend: [R, S, V]."""
+                attend: torch.Tensor, fused: bool = True) -> torch.Tensor:
+        """q: [R, S, C]; feats: [R, S, V, C]; rel_dir: [R, S, V, 4]; attend: [R, S, V].
+        ``fused=False`` runs the literal ``vector_attention``; the default computes the
+        same function with the attention MLP's first layer folded into the key, query and
+        position projections (no [R, S, V, C] key or key-query tensor)."""
         x = self.norm1(q)  # as in GNT, only the query is normalised
-        att = self.attn_impl(self.q_fc(x), self.k_fc(feats), self.v_fc(feats), self.pos_fc(rel_dir),
-                             attend, self.attn_fc)
+        if fused:
+            att = self._folded_attention(x, feats, rel_dir, attend)
+        else:
+            att = vector_attention(self.q_fc(x), self.k_fc(feats), self.v_fc(feats),
+                                   self.pos_fc(rel_dir), attend, self.attn_fc)
         q = q + self.drop(self.out_fc(att))
         return q + self.ff(self.norm2(q))
+
+    def _folded_attention(self, x: torch.Tensor, feats: torch.Tensor, rel_dir: torch.Tensor,
+                          attend: torch.Tensor) -> torch.Tensor:
+        """vector_attention with A1 = attn_fc[0] applied by linearity:
+        A1(k - q + pos) = (A1 Wk) f - (A1 Wq) x + (A1 P2) p + A1 b_p2 + b_a1, where
+        p = relu(P1 rel_dir) is the position MLP's hidden layer [R, S, V, hid]."""
+        a1, p1, p2 = self.attn_fc[0], self.pos_fc[0], self.pos_fc[2]
+        ph = F.relu(p1(rel_dir))  # [R, S, V, hid]
+        pos = p2(ph)  # [R, S, V, C]
+        hk = F.linear(feats, a1.weight @ self.k_fc.weight)  # [R, S, V, hid]
+        hq = F.linear(x, a1.weight @ self.q_fc.weight)  # [R, S, hid]
+        hp = F.linear(ph, a1.weight @ p2.weight, a1.weight @ p2.bias + a1.bias)
+        logits = self.attn_fc[2](F.relu(hk - hq[:, :, None] + hp)).float()  # [R, S, V, C]
+        logits = logits.masked_fill(~attend[..., None], float("-inf"))
+        w = torch.softmax(logits, dim=2).to(feats.dtype)
+        return ((self.v_fc(feats) + pos) * w).sum(dim=2)
 
 
 class RayTransformer(nn.Module):
