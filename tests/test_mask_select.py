@@ -181,3 +181,42 @@ def test_foreign_weights_is_clear_error(kermit_ws, tmp_path, capsys):
     bad.write_bytes(b"not a safetensors file")
     assert main(["mask", str(kermit_ws.root), "--weights", str(bad)]) == 2
     assert "cannot be used" in capsys.readouterr().err
+
+
+def test_shipped_fmg_on_synthesized_kermit(tmp_path):
+    """The shipped weights on held-out kermit views with synthetic flare, and one clean view."""
+    from gnfr.fmg import confusion, seg_metrics
+    from pipeline import flare as fl
+    from pipeline.mask import DEFAULT_WEIGHTS
+
+    assert DEFAULT_WEIGHTS.is_file(), "the shipped FMG weights are part of the package"
+    ws = make_kermit_ws(tmp_path / "ws", n=4)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    rng = np.random.default_rng(7)
+    gt = {}
+    for s in stems[1:]:
+        img = cv2.imread(str(ws.images / f"{s}.png"))[..., ::-1]
+        h, w = img.shape[:2]
+        light = (float(rng.uniform(0.2, 0.8) * w), float(rng.uniform(0.2, 0.8) * h))
+        flared, layers = fl.synthesize(img, fl.FlareConfig(), rng, light)
+        atomic_imwrite(ws.images / f"{s}.png",
+                       (np.clip(flared, 0, 1)[..., ::-1] * 255 + 0.5).astype(np.uint8))
+        gt[s] = layers.mask
+    assert main(["mask", str(ws.root)]) == 0
+    flare = json.loads(ws.flare_json.read_text())
+    assert flare["weights"].startswith("fmg.safetensors@sha256:")
+    conf = sum(confusion(torch_from(read_png_mask(ws, s)), torch_from(gt[s])) for s in gt)
+    m = seg_metrics(conf)
+    assert m["mIoU"] > 0.6, m
+    clean = flare["views"][stems[0]]["flare_fraction"]
+    assert clean < 0.05 and clean < min(flare["views"][s]["flare_fraction"] for s in gt)
+
+
+def read_png_mask(ws: Workspace, stem: str) -> np.ndarray:
+    return cv2.imread(str(ws.masks / f"{stem}.png"), cv2.IMREAD_GRAYSCALE) > 127
+
+
+def torch_from(a: np.ndarray):
+    import torch
+
+    return torch.from_numpy(np.ascontiguousarray(a))

@@ -227,10 +227,10 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
     res = {"weights": str(weights), "count": count, "size": size, "seed": seed}
     for name, fcfg in (("default", fl.FlareConfig()), ("unseen", fl.FlareConfig.unseen())):
         imgs, masks = fixed_set(CompositeSource(bgs, fcfg, comp), count, seed)
-        res[name] = score(model, imgs, masks)
+        frac = {"flare_pixels": round(float(masks.mean()), 4)}
+        res[name] = {**score(model, imgs, masks), **frac}
         if refine:
-            res[name + "_refined"] = score(model, imgs, masks, refine=True)
-        res[name]["flare_pixels"] = round(float(masks.mean()), 4)
+            res[name + "_refined"] = {**score(model, imgs, masks, refine=True), **frac}
     return res
 
 
