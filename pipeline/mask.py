@@ -86,8 +86,12 @@ def pick_device(name: str) -> str:
 # --------------------------------------------------------------------------- FMG masks
 def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
                  eps: float = 1e-3) -> np.ndarray:
-    """Guided-filter the probability map [H, W] with the image as guide (edge-following)."""
-    guide = image_bgr.astype(np.float32) / 255.0
+    """Guided-filter the probability map [H, W] with the image as guide (edge-following).
+
+    The guide is the image's grey level: with a 3-channel guide the filter's 3x3 colour
+    covariance is near-singular on grey-ish content and small ``eps`` breaks it.
+    """
+    guide = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY).astype(np.float32) / 255.0
     out = cv2.ximgproc.guidedFilter(guide, probs.astype(np.float32), radius, eps)
     return np.clip(out, 0.0, 1.0)
 

@@ -220,3 +220,28 @@ def torch_from(a: np.ndarray):
     import torch
 
     return torch.from_numpy(np.ascontiguousarray(a))
+
+
+def test_refine_follows_image_edges():
+    from pipeline.mask import refine_probs
+
+    ideal = np.zeros((64, 64), np.float32)
+    ideal[:, 32:] = 1.0
+    image = np.repeat((ideal * 200 + 20).astype(np.uint8)[..., None], 3, axis=2)
+    blurry = cv2.GaussianBlur(ideal, (0, 0), 4)
+    refined = refine_probs(image, blurry)
+    assert refined.shape == ideal.shape and refined.min() >= 0 and refined.max() <= 1
+    # the probability now jumps where the image does (columns 31 -> 32), not gradually
+    jump = refined[:, 32] - refined[:, 31]
+    assert (jump > 3 * (blurry[:, 32] - blurry[:, 31])).all()
+    assert (jump > 5 * np.abs(refined[:, 31] - refined[:, 30])).all()
+    assert abs(refined.mean() - blurry.mean()) < 0.02
+
+
+def test_mask_stage_refine_option(kermit_ws, tiny_weights):
+    ws = kermit_ws
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--refine",
+                 "--threshold", "0.4"]) == 0
+    rec = ws.stage_record("mask")
+    assert rec["params"]["refine"] is True and rec["params"]["threshold"] == 0.4
+    assert json.loads(ws.flare_json.read_text())["threshold"] == 0.4
