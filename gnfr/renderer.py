@@ -96,7 +96,8 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
     def to_rsv(x: torch.Tensor) -> torch.Tensor:  # [Vs, P, ...] -> [R, S, Vs, ...]
         return x.reshape(x.shape[0], R, S, *x.shape[2:]).movedim(0, 2)
 
-    rgb_feat = to_rsv(torch.cat([rgb, feat.to(rgb.dtype)], -1))
+    # contiguous: a permuted view would make every linear layer downstream copy its input
+    rgb_feat = to_rsv(torch.cat([rgb, feat.to(rgb.dtype)], -1)).contiguous()
     valid = to_rsv(inside_image(xy, depth, size))
     flared = None
     if src.masks is not None:

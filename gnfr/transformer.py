@@ -107,17 +107,19 @@ class ViewTransformer(nn.Module):
                           attend: torch.Tensor) -> torch.Tensor:
         """vector_attention with A1 = attn_fc[0] applied by linearity:
         A1(k - q + pos) = (A1 Wk) f - (A1 Wq) x + (A1 P2) p + A1 b_p2 + b_a1, where
-        p = relu(P1 rel_dir) is the position MLP's hidden layer [R, S, V, hid]."""
+        p = relu(P1 rel_dir) is the position MLP's hidden layer [R, S, V, hid]. The position
+        bias b_p2 is added after the sum over views (the weights sum to one per channel),
+        and the mask is filled in place: fewer passes over [R, S, V, C] tensors."""
         a1, p1, p2 = self.attn_fc[0], self.pos_fc[0], self.pos_fc[2]
         ph = F.relu(p1(rel_dir))  # [R, S, V, hid]
-        pos = p2(ph)  # [R, S, V, C]
         hk = F.linear(feats, a1.weight @ self.k_fc.weight)  # [R, S, V, hid]
         hq = F.linear(x, a1.weight @ self.q_fc.weight)  # [R, S, hid]
         hp = F.linear(ph, a1.weight @ p2.weight, a1.weight @ p2.bias + a1.bias)
         logits = self.attn_fc[2](F.relu(hk - hq[:, :, None] + hp)).float()  # [R, S, V, C]
-        logits = logits.masked_fill(~attend[..., None], float("-inf"))
+        logits = logits.masked_fill_(~attend[..., None], float("-inf"))
         w = torch.softmax(logits, dim=2).to(feats.dtype)
-        return ((self.v_fc(feats) + pos) * w).sum(dim=2)
+        vp = self.v_fc(feats) + F.linear(ph, p2.weight)  # v + pos - b_p2
+        return (vp * w).sum(dim=2) + p2.bias
 
 
 class RayTransformer(nn.Module):
