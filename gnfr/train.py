@@ -77,8 +77,8 @@ QUICK = replace(
     PAPER,
     model=replace(PAPER.model, enc_widths=(16, 32, 64), enc_blocks=(1, 1, 1), feat_ch=16,
                   width=32, depth=4),
-    iters=2500, rays=128, samples=24, n_views=(5, 7), eval_views=6, source_scale=0.25,
-    lr_encoder=1e-3, lr_transformer=5e-4, lr_decay_steps=1500, log_every=25, ckpt_every=250)
+    iters=3000, rays=128, samples=24, n_views=(5, 7), eval_views=6, source_scale=0.25,
+    lr_encoder=1e-3, lr_transformer=5e-4, lr_decay_steps=2000, log_every=25, ckpt_every=250)
 """CPU preset (about 8-10 minutes of fine-tuning on an idle 2-core machine for an 8-10-view
 scene at the default decode size). What it trades against ``PAPER`` (docs/presets.md):
 4 instead of 8 view/ray block pairs of width 32 instead of 64 (about 1/10 of the
@@ -86,7 +86,7 @@ transformer's parameters), a 3-stage single-block encoder (16/32/64 channels, 16
 features) on sources at 1/4 resolution, so fine texture comes from the target-resolution
 colour samples only; 24 instead of 64 samples per ray (depth resolution), 5-7 training
 and 6 rendering sources instead of 8-12 and 10 (fewer neighbours to fill a flare region
-from), 128 rays and 2500 steps instead of 256 and 50k (a fit of the scene's low
+from), 128 rays and 3000 steps instead of 256 and 50k (a fit of the scene's low
 frequencies, not a converged model). With shipped pretrained weights of this architecture
 the encoder is frozen and its features cached (``cached_features``), which is faster."""
 
