@@ -119,7 +119,7 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
         fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > 127
         res[s] = {"psnr": round(psnr(pred, clean), 2),
                   "psnr_flare_region": round(masked_psnr(pred, clean, fm) or 0.0, 2)}
-        cv2.imwrite(str(model_path.parent / f"heldout_{s}.png"),
+        cv2.imwrite(str(model_path.with_name(f"{model_path.stem}_heldout_{s}.png")),
                     cv2.cvtColor(np.uint8(pred * 255 + 0.5), cv2.COLOR_RGB2BGR))
     return res
 
@@ -129,7 +129,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("/tmp/cyx"))
     ap.add_argument("--iters", type=int, default=500)
     ap.add_argument("--variant", default="all",
-                    help="pretrained-cached | pretrained-e2e | scratch | all")
+                    help="zero-shot | pretrained-cached | pretrained-e2e | scratch | all")
     ap.add_argument("--weights", type=Path, default=REPO / "gnfr" / "weights" /
                     "gnfr.safetensors")
     ap.add_argument("--render-scale", type=float, default=0.5)
@@ -140,6 +140,10 @@ def main() -> None:
 
     root = build_workspace(a.out / "ws")
     scene = load_workspace(root)
+    if a.variant in ("all", "zero-shot"):  # the shipped weights without fine-tuning
+        print(json.dumps({"variant": "zero-shot", "iters": 0,
+                          "heldout": render_heldout(a.weights, scene, a.render_scale)}),
+              flush=True)
     variants = {"pretrained-cached": (str(a.weights), True),
                 "pretrained-e2e": (str(a.weights), False), "scratch": ("scratch", False)}
     for name, (init, cached) in variants.items():

@@ -212,6 +212,15 @@ def _loop(model, opt, gen, scenes, banks, cfg, step, out, rank, world, preset) -
                                                     "rng": rng_state(gen)})
 
 
+def export_fp16(run_weights: Path, dest: Path, extra: dict | None = None) -> Path:
+    """Ship a pretraining checkpoint: fp16 weights with its metadata (plus ``extra``)."""
+    from gnfr.checkpoint import load_model, read_metadata, save_model
+
+    _, meta = read_metadata(run_weights)
+    model = load_model(run_weights)
+    return save_model(dest, model, {**meta, **(extra or {})}, dtype=torch.float16)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry for torchrun: ``python -m workflows.pretrain [options]`` (same as the CLI)."""
     from workflows.cli import main as cli_main
