@@ -56,6 +56,21 @@ class CompositeConfig:
     """Affine shear (degrees)."""
     jitter: float = 0.2
     """Strength of brightness / contrast / saturation jitter of the background."""
+    night_prob: float = 0.0
+    """Probability of darkening the background to dusk / night (linear light x
+    ``night_gain``, slightly blue), as in real flare photos taken at night."""
+    night_gain: tuple[float, float] = (0.02, 0.3)
+    """Log-uniform linear-light gain of a night background."""
+    streak_prob: float = 0.0
+    """Probability that a flared composite also gets long straight streaks through the light
+    (the broad diagonal scatter streaks of real phone / windscreen flare), labelled flare."""
+    streak_amplitude: tuple[float, float] = (0.03, 0.6)
+    """Log-uniform peak linear value of a streak at the light (x flare intensity)."""
+    streak_length: tuple[float, float] = (0.1, 0.6)
+    """Exponential fall-off length of a streak along its axis, fraction of the diagonal."""
+    streak_width: tuple[float, float] = (0.004, 0.025)
+    """Gaussian half-width of a streak at the light, fraction of the diagonal (it widens
+    with distance)."""
 
 
 # --------------------------------------------------------------------------- backgrounds
@@ -133,6 +148,36 @@ def add_distractors(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return img
 
 
+def darken_night(img: np.ndarray, cfg: CompositeConfig,
+                 rng: np.random.Generator) -> np.ndarray:
+    """Dusk / night version of an sRGB float image [S, S, 3]: linear light x a small gain,
+    with a random cool (blue) tint."""
+    g = float(np.exp(rng.uniform(*np.log(cfg.night_gain))))
+    tint = np.array([1.0 - rng.uniform(0, 0.3), 1.0 - rng.uniform(0, 0.15), 1.0], np.float32)
+    return fl.linear_to_srgb(fl.srgb_to_linear(img) * np.float32(g) * tint).astype(np.float32)
+
+
+def render_streaks(light_xy: tuple[float, float], size: int, rgb: np.ndarray,
+                   cfg: CompositeConfig, rng: np.random.Generator) -> np.ndarray:
+    """[S, S, 3] linear light: 1-2 long straight streaks through ``light_xy``, each
+    ``a exp(-|s| / L) exp(-d^2 / 2 w(s)^2)`` with ``w(s) = w0 (1 + |s| / L)``, s along and d
+    across the streak; ``rgb`` [3] is the light colour times the flare intensity."""
+    diag = float(np.hypot(size, size))
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32)
+    dx, dy = xx - np.float32(light_xy[0]), yy - np.float32(light_xy[1])
+    out = np.zeros((size, size), np.float32)
+    angle = rng.uniform(0, np.pi)
+    for i in range(int(rng.integers(1, 3))):
+        a = angle + (0 if i == 0 else rng.uniform(0.3, np.pi - 0.3))
+        s = np.abs(dx * np.float32(np.cos(a)) + dy * np.float32(np.sin(a)))
+        d = -dx * np.float32(np.sin(a)) + dy * np.float32(np.cos(a))
+        length = rng.uniform(*cfg.streak_length) * diag
+        w = rng.uniform(*cfg.streak_width) * diag * (1 + s / np.float32(length))
+        amp = np.exp(rng.uniform(*np.log(cfg.streak_amplitude))) * (1 if i == 0 else 0.5)
+        out += np.float32(amp) * np.exp(-s / np.float32(length) - 0.5 * (d / w) ** 2)
+    return out[..., None] * rgb.astype(np.float32)
+
+
 def random_affine(cfg: CompositeConfig, center: tuple[float, float],
                   rng: np.random.Generator) -> np.ndarray:
     """[2, 3] rotation x scale x shear about ``center``, then a translation."""
@@ -159,23 +204,32 @@ def warp_layers(layers: fl.FlareLayers, m: np.ndarray, size: int) -> fl.FlareLay
 
 
 def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeConfig,
-                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+                    rng: np.random.Generator, streaks: bool = True
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool).
 
-    A fresh lens at a random light position, its layers moved by one random affine; the
-    warped mask is kept where the warped flare is visible against this background.
+    A fresh lens at a random light position, its layers moved by one random affine; with
+    probability ``comp.streak_prob`` (when ``streaks``) long streaks are added through the
+    moved light. The mask is kept where the flare is visible against this background.
     """
     S = img.shape[0]
     lens = fl.sample_lens(flare_cfg, rng)
     light = fl.sample_light_xy(flare_cfg, (S, S), rng)
     k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
     layers = fl.render_flare(lens, light, (S, S), rng, k)
-    layers = warp_layers(layers, random_affine(comp, light, rng), S)
+    m = random_affine(comp, light, rng)
+    layers = warp_layers(layers, m, S)
+    label = layers.mask
+    if streaks and rng.random() < comp.streak_prob:
+        xy = m @ np.array([light[0], light[1], 1.0], np.float32)
+        streak = render_streaks((float(xy[0]), float(xy[1])), S, lens.light_rgb * k, comp, rng)
+        label = label | (fl.luminance(streak) > flare_cfg.mask_abs_threshold)
+        layers = dataclasses.replace(layers, flare=layers.flare + streak)
     gain = float(rng.uniform(*flare_cfg.gain))
     noise = float(rng.uniform(*flare_cfg.noise))
     visible = fl.flare_mask(layers.flare, layers.core, flare_cfg,
                             fl.srgb_to_linear(img) * gain)
-    layers = dataclasses.replace(layers, mask=layers.mask & visible)
+    layers = dataclasses.replace(layers, mask=label & visible)
     return fl.apply_flare(img, layers, rng, noise, gain), layers.mask
 
 
@@ -190,29 +244,36 @@ class CompositeSource:
         self.flare_cfg = flare_cfg or fl.FlareConfig()
         self.comp = comp or CompositeConfig()
 
-    def sample(self, rng: np.random.Generator, train: bool = True
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def sample(self, rng: np.random.Generator, train: bool = True,
+               extras: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """One composite. ``train`` adds jitter, distractors and flare-free samples;
+        ``extras`` (default: ``train``) enables night backgrounds and streaks."""
         c = self.comp
+        extras = train if extras is None else extras
         bg = self.backgrounds[int(rng.integers(len(self.backgrounds)))]
         img = random_crop(bg, c.size, c.crop_scale, rng)
+        if extras and rng.random() < c.night_prob:
+            img = darken_night(img, c, rng)
         if train:
             img = colour_jitter(img, c.jitter, rng)
             if rng.random() < c.distractor_prob:
                 img = add_distractors(img, rng)
             if rng.random() >= c.flare_prob:
                 return img, np.zeros(img.shape[:2], bool)
-        return composite_flare(img, self.flare_cfg, c, rng)
+        return composite_flare(img, self.flare_cfg, c, rng, streaks=extras)
 
-    def batch(self, n: int, rng: np.random.Generator, train: bool = True):
+    def batch(self, n: int, rng: np.random.Generator, train: bool = True,
+              extras: bool | None = None):
         """(images [n, 3, S, S] float32, masks [n, 1, S, S] float32) as torch tensors."""
         import torch
 
-        pairs = [self.sample(rng, train) for _ in range(n)]
+        pairs = [self.sample(rng, train, extras) for _ in range(n)]
         x = torch.from_numpy(np.stack([p[0] for p in pairs])).permute(0, 3, 1, 2)
         y = torch.from_numpy(np.stack([p[1] for p in pairs]))[:, None].float()
         return x.contiguous(), y
 
 
-def fixed_set(source: CompositeSource, n: int, seed: int) -> tuple:
-    """A deterministic validation set: n evaluation composites (every one flared)."""
-    return source.batch(n, np.random.default_rng(seed), train=False)
+def fixed_set(source: CompositeSource, n: int, seed: int, extras: bool = False) -> tuple:
+    """A deterministic validation set: n evaluation composites (every one flared); with
+    ``extras``, night backgrounds and streaks as configured in ``source.comp``."""
+    return source.batch(n, np.random.default_rng(seed), train=False, extras=extras)

@@ -156,6 +156,41 @@ def test_composites_mark_visible_flare_not_core():
     assert not (w.mask & (w.core.max(axis=2) > 0)).any()
 
 
+def test_night_and_streak_options():
+    from pipeline import flare as fl
+    from pipeline.fmg_data import (
+        CompositeConfig,
+        CompositeSource,
+        composite_flare,
+        darken_night,
+        render_streaks,
+    )
+
+    rng = np.random.default_rng(5)
+    comp = CompositeConfig(size=96, streak_prob=1.0, night_prob=1.0)
+    img = np.full((96, 96, 3), 0.6, np.float32)
+    dark = darken_night(img, comp, rng)
+    assert dark.shape == img.shape and dark.max() < 0.6 and dark[..., 2].min() >= dark[..., 0].max()
+    # a streak through the centre is long: bright far along its axis, dark across it
+    comp1 = CompositeConfig(size=96, streak_length=(0.5, 0.5), streak_width=(0.01, 0.01),
+                            streak_amplitude=(0.5, 0.5))
+    st = render_streaks((48.0, 48.0), 96, np.ones(3), comp1, np.random.default_rng(0))
+    lum = fl.luminance(st)
+    assert lum[48, 48] > 0.45 and (lum > 0.05).mean() < 0.25 and (lum > 0.05).sum() > 2 * 40
+    # streaks are labelled flare: masks grow with them on a night background
+    def frac(c, streaks):
+        r = np.random.default_rng(9)
+        return composite_flare(dark, fl.FlareConfig(), c, r, streaks=streaks)[1].mean()
+
+    assert frac(comp, True) > frac(comp, False)
+    # the evaluation set without extras does not depend on the extra options
+    bgs = [np.full((120, 120, 3), 128, np.uint8)]
+    a = CompositeSource(bgs, comp=CompositeConfig(size=96)).batch(2, np.random.default_rng(1),
+                                                                  train=False)
+    b = CompositeSource(bgs, comp=comp).batch(2, np.random.default_rng(1), train=False)
+    assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and a[1].any()
+
+
 def test_split_keeps_heldout_scenes_out(tmp_path):
     from pipeline.datasets import HELDOUT_SCENES
     from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds

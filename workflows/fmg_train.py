@@ -60,6 +60,10 @@ class FMGTrainConfig:
     eval_every: int = 500
     """Steps between validation scores (on ``val_count`` held-out composites)."""
     val_count: int = 32
+    night_prob: float = 0.0
+    """Probability of a night-darkened training background (``CompositeConfig``)."""
+    streak_prob: float = 0.0
+    """Probability of long streaks on a flared training composite (``CompositeConfig``)."""
     seed: int = 0
     device: str = "auto"
 
@@ -70,7 +74,7 @@ def _device(name: str) -> str:
     return ("cuda" if torch.cuda.is_available() else "cpu") if name == "auto" else name
 
 
-def _sources(data: Path, size: int):
+def _sources(data: Path, size: int, night_prob: float = 0.0, streak_prob: float = 0.0):
     from pipeline import flare as fl
     from pipeline.fmg_data import (
         CompositeConfig,
@@ -80,7 +84,7 @@ def _sources(data: Path, size: int):
     )
 
     train_p, val_p = split_backgrounds(data)
-    comp = CompositeConfig(size=size)
+    comp = CompositeConfig(size=size, night_prob=night_prob, streak_prob=streak_prob)
     tr = CompositeSource(load_backgrounds(train_p, comp.preload_side), fl.FlareConfig(), comp)
     va = load_backgrounds(val_p, comp.preload_side)
     return tr, va, comp, (len(train_p), len(val_p))
@@ -164,7 +168,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     dev = _device(cfg.device)
     torch.manual_seed(cfg.seed)
-    src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size)
+    src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
+                                          cfg.streak_prob)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} held out, device {dev}")
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
                                 head_width=cfg.head_width)).to(dev)
@@ -210,7 +215,8 @@ def train(cfg: FMGTrainConfig) -> dict:
 def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
              refine: bool = False, size: int = 256) -> dict:
     """mIoU / mAcc on ``count`` held-out composites (scenes in HELDOUT_SCENES + held-out
-    backgrounds), for the default flare settings and ``FlareConfig.unseen()``."""
+    backgrounds), for the default flare settings, ``FlareConfig.unseen()`` and default
+    settings with night backgrounds (half) and streaks (all) (``night_streak``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import (
         CompositeConfig,
@@ -225,8 +231,12 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
     comp = CompositeConfig(size=size)
     bgs = load_backgrounds(split_backgrounds(Path(data))[1], comp.preload_side)
     res = {"weights": str(weights), "count": count, "size": size, "seed": seed}
-    for name, fcfg in (("default", fl.FlareConfig()), ("unseen", fl.FlareConfig.unseen())):
-        imgs, masks = fixed_set(CompositeSource(bgs, fcfg, comp), count, seed)
+    extra = CompositeConfig(size=size, night_prob=0.5, streak_prob=1.0)
+    rows = (("default", fl.FlareConfig(), comp, False),
+            ("unseen", fl.FlareConfig.unseen(), comp, False),
+            ("night_streak", fl.FlareConfig(), extra, True))
+    for name, fcfg, c, extras in rows:
+        imgs, masks = fixed_set(CompositeSource(bgs, fcfg, c), count, seed, extras)
         frac = {"flare_pixels": round(float(masks.mean()), 4)}
         res[name] = {**score(model, imgs, masks), **frac}
         if refine:

@@ -34,6 +34,10 @@ def register(app: typer.Typer) -> None:
         eval_every: int = typer.Option(500, help="Steps between validation scores."),
         val_count: int = typer.Option(32, help="Held-out composites scored during training "
                                       "(twice as many at the end)."),
+        night_prob: float = typer.Option(0.0, help="Probability of a night-darkened "
+                                         "training background."),
+        streak_prob: float = typer.Option(0.0, help="Probability of long streaks through "
+                                          "the light on a flared training composite."),
         device: str = typer.Option("auto", help="auto, cpu or cuda."),
     ) -> None:
         """Train the FMG on flare composited onto photos; held-out scenes are never seen."""
@@ -42,7 +46,8 @@ def register(app: typer.Typer) -> None:
         cfg = FMGTrainConfig(out=out, data=data or default_data(), iters=iters, batch=batch,
                              size=size, widths=_ints(widths), depths=_ints(depths),
                              head_width=head_width, lr=lr, ckpt_every=ckpt_every,
-                             eval_every=eval_every, val_count=val_count, device=device)
+                             eval_every=eval_every, val_count=val_count, device=device,
+                             night_prob=night_prob, streak_prob=streak_prob)
         typer.echo(format_metrics(train(cfg)))
 
     @fmg.command("eval")
