@@ -72,7 +72,8 @@ class FinetuneConfig:
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = "auto"
-    """auto (shipped weights when they match, else scratch) | scratch | a .safetensors path."""
+    """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
+    a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""
     seed: int = 0
     """Seed of initialisation and sampling."""
 
@@ -89,13 +90,17 @@ def pick_device(name: str) -> torch.device:
 
 
 def shipped_weights(cfg: TrainConfig) -> Path | None:
-    """The first shipped weight file whose architecture matches ``cfg.model``."""
+    """The first shipped weight file whose architecture matches ``cfg.model`` and whose
+    metadata marks it for automatic use (``auto_init``). gnfr/weights/gnfr.safetensors is
+    not marked: it did not beat training from scratch in the flare region at equal steps
+    (gnfr/weights/gnfr.md); pass it with ``init=<path>``."""
     for p in sorted(WEIGHTS_DIR.glob("gnfr*.safetensors")):
         try:
-            if read_metadata(p)[0] == cfg.model:
-                return p
+            cfg_p, meta = read_metadata(p)
         except CheckpointError:
             continue
+        if cfg_p == cfg.model and meta.get("auto_init") is True:
+            return p
     return None
 
 

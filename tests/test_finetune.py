@@ -83,3 +83,22 @@ def test_finetune_stage_writes_model_and_skips_when_up_to_date(tmp_path, monkeyp
     stamp = (ws.model / "gnfr.safetensors").stat().st_mtime_ns
     assert run(cfg, ws) == outs  # up to date: skipped, nothing rewritten
     assert (ws.model / "gnfr.safetensors").stat().st_mtime_ns == stamp
+
+
+def test_shipped_pretrained_weights_load_but_are_not_auto_enabled():
+    from gnfr.checkpoint import read_metadata
+    from pipeline.datasets import HELDOUT_SCENES
+    from pipeline.finetune import WEIGHTS_DIR, resolve, shipped_weights
+
+    path = WEIGHTS_DIR / "gnfr.safetensors"
+    assert path.stat().st_size < 25 * 2**20
+    cfg, meta = read_metadata(path)
+    assert cfg == QUICK.model and meta["samples"] == QUICK.samples
+    assert not set(meta["pretrain_scenes"]) & set(HELDOUT_SCENES)
+    assert all(v.dtype == torch.float16 for v in load_file(str(path)).values())
+    model = load_model(path)  # rebuilds from the file alone
+    assert all(torch.isfinite(p).all() for p in model.parameters())
+    # gnfr/weights/gnfr.md: not better than scratch in flare regions -> not used by default
+    assert meta["auto_init"] is False and shipped_weights(QUICK) is None
+    name, cfg_q = resolve(FinetuneConfig(device="cpu"), torch.device("cpu"))
+    assert name == "quick" and not cfg_q.cached_features
