@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import cv2
 import pytest
@@ -144,3 +145,13 @@ def test_sync_tree_links_and_prunes(tmp_path):
     assert (dst / "x.png").read_bytes() == b"3"
     link_file(src / "x.png", dst / "x.png")   # already linked: a no-op
     assert (dst / "x.png").samefile(src / "x.png")
+
+
+def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
+    from workflows.eval import load_synth, photo_path
+
+    root = Path(__file__).resolve().parents[1] / "samples" / "cyprus_truth"
+    scene = load_synth(root)
+    assert len(scene.train) == 8 and len(scene.heldout) == 2
+    assert all(photo_path(root, s).suffix == ".jpg" for s in scene.train)
+    assert photo_path(root, scene.heldout[0]) is None  # held-out views are not photos

@@ -121,7 +121,7 @@ def load_synth(root: Path) -> SynthScene:
     cams = load_cameras(root / "cameras_gt.json")
     train, held = list(split.get("train", [])), list(split.get("heldout", []))
     for s in train:
-        if not (root / "photos" / f"{s}.png").is_file():
+        if photo_path(root, s) is None:
             raise UserError(f"{root / 'photos' / (s + '.png')} is missing: rerun "
                             f"`deflare-scene synth ... --out {root} --force`")
     for s in train + held:
@@ -140,6 +140,27 @@ def _origin(root: Path) -> str:
 
 
 # --------------------------------------------------------------------------- workspaces
+PHOTO_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
+
+
+def photo_path(root: Path, stem: str) -> Path | None:
+    """The flared photo of ``stem`` in ``root/photos`` (synth writes PNG; the shipped sample
+    keeps its photos as JPEG), or None."""
+    for ext in PHOTO_EXTS:
+        if (root / "photos" / f"{stem}{ext}").is_file():
+            return root / "photos" / f"{stem}{ext}"
+    return None
+
+
+def place_photo(src: Path, dst: Path) -> None:
+    """``dst`` (a .png) holds the image of ``src``: a hard link when ``src`` is a PNG, else
+    a lossless PNG re-encoding."""
+    if src.suffix.lower() == ".png":
+        link_file(src, dst)
+    elif not dst.exists():
+        atomic_imwrite(dst, cv2.imread(str(src), cv2.IMREAD_COLOR))
+
+
 def link_file(src: Path, dst: Path) -> None:
     """Make ``dst`` a hard link of ``src`` (a copy across devices), atomically."""
     if dst.exists() and os.path.samefile(src, dst):
@@ -187,8 +208,9 @@ def build_workspace(scene: SynthScene, out: Path, force: bool = False) -> Worksp
     by = scene.cams.by_stem()
     frames = [pinhole_frame(by[s]) for s in scene.train]
     for s in scene.train:
-        link_file(scene.root / "photos" / f"{s}.png", ws.images / f"{s}.png")
-        link_file(scene.root / "photos" / f"{s}.png", ws.decoded / f"{s}.png")
+        src = photo_path(scene.root, s)
+        place_photo(src, ws.images / f"{s}.png")
+        place_photo(src, ws.decoded / f"{s}.png")
     save_cameras(ws.cameras_json, Cameras(frames, scene.cams.colmap_to_world))
     ws.begin_stage("decode", {"linked_from": str(scene.root / "photos")}, []).finish(
         [ws.decoded])
