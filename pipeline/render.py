@@ -549,7 +549,11 @@ def flare_mask_in(cam: CameraModel, frame: Frame, ws: Workspace) -> np.ndarray:
 
 
 def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray:
-    """[H, W] float blend weight: 1 on the dilated mask, falling to 0 over the feather."""
+    """[H, W] float blend weight: 1 on the dilated mask, falling to 0 over the feather.
+
+    Unmasked regions the mask encloses (the light source at the centre of its flare, which
+    FMG and synth never mark) are kept at 0: dilation must not swallow the light.
+    """
     import cv2
 
     long_side = max(mask.shape)
@@ -559,7 +563,22 @@ def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray
     f = max(1, round(feather * long_side))
     # distance outside the grown mask -> linear ramp, so the weight is exactly 1 inside
     dist = cv2.distanceTransform((1 - grown).astype(np.uint8), cv2.DIST_L2, 5)
-    return np.clip(1.0 - dist / f, 0.0, 1.0).astype(np.float32)
+    weight = np.clip(1.0 - dist / f, 0.0, 1.0).astype(np.float32)
+    holes = enclosed_holes(mask)
+    if holes.any():
+        weight[holes] = 0.0
+    return weight
+
+
+def enclosed_holes(mask: np.ndarray) -> np.ndarray:
+    """[H, W] bool: unmasked pixels not connected to the image border through unmasked
+    pixels (4-connectivity), i.e. holes the mask surrounds."""
+    import cv2
+
+    free = (~mask.astype(bool)).astype(np.uint8)
+    n, labels = cv2.connectedComponents(free, connectivity=4)
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    return (labels > 0) & ~np.isin(labels, border)
 
 
 # --------------------------------------------------------------------------- bookkeeping

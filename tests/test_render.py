@@ -321,3 +321,17 @@ def test_overfit_scene_reproduces_the_input_views(tmp_path):
     print(f"PSNR before {before:.2f} dB, after {after:.2f} dB, mean colour {mean_colour:.2f}")
     assert after > before + 3.0
     assert after > mean_colour - 1.5
+
+
+def test_blend_keeps_the_light_the_mask_encloses():
+    import numpy as np
+
+    from pipeline.render import blend_weights
+
+    yy, xx = np.mgrid[:100, :100]
+    d = np.hypot(yy - 50, xx - 50)
+    ring = (d > 4) & (d < 25)  # flare around an unmarked light core of radius 4
+    w = blend_weights(ring, dilate=0.05, feather=0.05)
+    assert w[50, 50] == 0.0 and w[50, 52] == 0.0  # the light stays the photo's
+    assert w[50, 65] == 1.0  # flare is re-rendered
+    assert w[50, 78] > 0.0 and w[0, 0] == 0.0  # dilated + feathered outward only
