@@ -10,24 +10,12 @@ import numpy as np
 import pytest
 
 from gnfr.fmg import build_fmg, save_fmg, tiny_config
+from gnfr.paths import look_at
 from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
 from pipeline.errors import UserError
 from pipeline.workspace import Workspace, atomic_imwrite
 from tests.conftest import shared
 from workflows.cli import main
-
-
-def look_at(center: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """[4, 4] OpenCV camera-to-world at ``center`` looking at ``target`` (y down)."""
-    z = target - center
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, -1.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    c2w = np.eye(4)
-    c2w[:3, :3] = np.stack([x, y, z], 1)
-    c2w[:3, 3] = center
-    return c2w
 
 
 def make_kermit_ws(root: Path, n: int = 6, scale: float = 0.5) -> Workspace:
@@ -46,7 +34,8 @@ def make_kermit_ws(root: Path, n: int = 6, scale: float = 0.5) -> Workspace:
         a = 2 * np.pi * i / (2 * n)
         K = np.array([[0.9 * W, 0, W / 2], [0, 0.9 * W, H / 2], [0, 0, 1.0]])
         frames.append(Frame(name=name, stem=stem, K=K, width=W, height=H,
-                            c2w=look_at(np.array([np.cos(a), 0.0, np.sin(a)]), np.zeros(3)),
+                            c2w=look_at(np.array([np.cos(a), 0.0, np.sin(a)]), np.zeros(3),
+                                        np.array([0.0, -1.0, 0.0])),
                             near=0.3, far=2.0,
                             colmap_camera={"model": "PINHOLE", "width": W, "height": H,
                                            "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}))
