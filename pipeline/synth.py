@@ -17,7 +17,7 @@ DIR/photos/<stem>.png    flared photos a user would have (held-out views left ou
 DIR/clean/<stem>.png     ground truth, every view: the clean photo plus the light's core
 DIR/masks_gt/<stem>.png  255 = flare, every view (held-out: the flare they would have had)
 DIR/cameras_gt.json      WS/cameras.json, every view
-DIR/split.json           {"train", "heldout", "seed", "light_world", "lens", "views"}
+DIR/split.json           {"train", "heldout", "seed", "light_world", "origin", "lens", "views"}
 DIR/README.md            how it was made
 DIR/manifest.json        this stage's bookkeeping (skip when up to date, resume)
 ```
@@ -265,7 +265,7 @@ def _write_meta(cfg: SynthConfig, out: Path, ws: Workspace, cams: Cameras, held:
     split = {"train": [s for i, s in enumerate(stems) if i not in held],
              "heldout": [s for i, s in enumerate(stems) if i in held],
              "seed": cfg.seed, "light_world": [float(v) for v in light],
-             "lens": lens.summary(), "views": views}
+             "origin": ws.scene_name, "lens": lens.summary(), "views": views}
     save_cameras(out / "cameras_gt.json", cams)
     atomic_write_json(out / "split.json", split)
     n_flare = sum(v["flare"] for v in views.values())

@@ -152,6 +152,6 @@ def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
 
     root = Path(__file__).resolve().parents[1] / "samples" / "cyprus_truth"
     scene = load_synth(root)
-    assert len(scene.train) == 8 and len(scene.heldout) == 2
+    assert len(scene.train) == 8 and len(scene.heldout) == 2 and scene.origin == "cyprus"
     assert all(photo_path(root, s).suffix == ".jpg" for s in scene.train)
     assert photo_path(root, scene.heldout[0]) is None  # held-out views are not photos

@@ -45,6 +45,7 @@ def test_synth_outputs_split_and_projected_light(temple, tmp_path):
     split = json.loads((out / "split.json").read_text())
     assert len(split["heldout"]) == 2 and len(split["train"]) == 4
     assert sorted(split["train"] + split["heldout"]) == sorted(cams.stems)
+    assert split["origin"] == temple.scene_name == "temple"
     assert sorted(p.stem for p in (out / "photos").glob("*.png")) == sorted(split["train"])
     assert load_cameras(out / "cameras_gt.json").stems == cams.stems
     assert (out / "README.md").is_file() and split["seed"] == 3

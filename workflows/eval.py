@@ -131,7 +131,11 @@ def load_synth(root: Path) -> SynthScene:
 
 
 def _origin(root: Path) -> str:
-    """The photo folder name of the clean workspace synth read (from its manifest)."""
+    """The photo folder name of the clean scene synth read (``origin`` in split.json, else
+    the synth manifest, else the folder's own name)."""
+    origin = read_json(root / "split.json").get("origin")
+    if origin:
+        return str(origin)
     try:
         ws = Path(Workspace(root).stage_record("synth")["params"]["workspace"])
         return Workspace(ws).scene_name if ws.exists() else ws.name
