@@ -88,16 +88,28 @@ def test_mask_stage_fmg_outputs(kermit_ws, tiny_weights):
     assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns == mtime
 
 
-def test_given_masks_and_ten_percent_rule(kermit_ws, tmp_path):
-    ws = kermit_ws
+def _stems_and_size(ws) -> tuple[list[str], tuple[int, int]]:
+    """The workspace's stems and the (H, W) of its images."""
     stems = sorted(p.stem for p in ws.images.glob("*.png"))
-    h, w = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+    return stems, cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+
+
+def _write_given(tmp_path, masks: dict):
+    """Hand-made masks as tmp_path/given/<stem>.png; returns the folder."""
     given = tmp_path / "given"
     given.mkdir()
+    for s, m in masks.items():
+        cv2.imwrite(str(given / f"{s}.png"), m)
+    return given
+
+
+def test_given_masks_and_ten_percent_rule(kermit_ws, tmp_path):
+    ws = kermit_ws
+    stems, (h, w) = _stems_and_size(ws)
     fracs = {s: (0.15 if i % 3 == 0 else 0.05) for i, s in enumerate(stems)}
-    for s in stems:  # written at half size as JPEG-free PNG: must be resized to image size
-        small = box_mask(h // 2, w // 2, fracs[s])
-        cv2.imwrite(str(given / f"{s}.png"), (small > 0).astype(np.uint8))  # nonzero = 1
+    # written at half size with values 0/1: must be resized to image size, nonzero = flare
+    given = _write_given(tmp_path, {s: (box_mask(h // 2, w // 2, f) > 0).astype(np.uint8)
+                                    for s, f in fracs.items()})
     assert main(["mask", str(ws.root), "--masks", str(given)]) == 0
     flare = json.loads(ws.flare_json.read_text())
     assert flare["source"].startswith("masks:")
@@ -127,12 +139,9 @@ def test_given_masks_and_ten_percent_rule(kermit_ws, tmp_path):
 
 def test_select_refuses_when_too_flared(kermit_ws, tmp_path):
     ws = kermit_ws
-    stems = sorted(p.stem for p in ws.images.glob("*.png"))
-    h, w = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
-    given = tmp_path / "given"
-    given.mkdir()
-    for i, s in enumerate(stems):
-        cv2.imwrite(str(given / f"{s}.png"), box_mask(h, w, 0.05 if i == 0 else 0.15))
+    stems, (h, w) = _stems_and_size(ws)
+    given = _write_given(tmp_path, {s: box_mask(h, w, 0.05 if i == 0 else 0.15)
+                                    for i, s in enumerate(stems)})
     assert main(["mask", str(ws.root), "--masks", str(given)]) == 0
     from pipeline.select import SelectConfig, run
 
