@@ -94,6 +94,14 @@ def test_cli_one_line_error_and_exit_code(tmp_path, capsys):
 
 
 def test_cli_help_lists_commands(capsys):
+    from pathlib import Path
+
+    from workflows.cli import COMMAND_MODULES, command_names
+
+    modules = {p.stem for p in (Path(__file__).parents[1] / "workflows" / "commands").glob("*.py")}
+    assert modules - {"__init__"} == set(COMMAND_MODULES)  # no command module left unregistered
     code = main(["--help"])
+    out = capsys.readouterr().out
     assert code == 0
-    assert "run" in capsys.readouterr().out
+    for name in ("run", "decode", "pose", "mask", "finetune", "render", "eval", "bench"):
+        assert name in command_names() and name in out

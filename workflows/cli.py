@@ -31,7 +31,6 @@ app = typer.Typer(
 )
 
 
-
 @app.callback()
 def _root() -> None:
     """Flare-free renders and video of a scene from a folder of photos (GN-FR)."""
@@ -49,15 +48,8 @@ def _register_all() -> None:
     global _registered
     if _registered:
         return
-    for name in COMMAND_MODULES:
-        modname = f"workflows.commands.{name}"
-        try:
-            mod = importlib.import_module(modname)
-        except ModuleNotFoundError as e:
-            if e.name == modname:  # command not built in this version
-                continue
-            raise
-        mod.register(app)
+    for name in COMMAND_MODULES:  # every module exists: a missing one is a packaging bug
+        importlib.import_module(f"workflows.commands.{name}").register(app)
     _registered = True
 
 
