@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -38,8 +38,10 @@ class MaskConfig:
     """FMG weights (safetensors); None = the shipped gnfr/weights/fmg.safetensors."""
     masks_dir: Path | None = None
     """Hand-annotated masks instead of the FMG: one image per stem, nonzero = flare."""
-    threshold: float = 0.5
-    """Flare probability above which a pixel is flare."""
+    threshold: float | None = None
+    """Flare probability above which a pixel is flare; None = the cut calibrated for the
+    weights (their ``threshold`` metadata, written by ``deflare-scene fmg calibrate``),
+    else 0.5."""
     work_size: int = 512
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
@@ -59,6 +61,22 @@ def weights_id(path: Path) -> str:
     """'<file name>@sha256:<first 16 hex>' identifying a weight file."""
     h = hashlib.sha256(path.read_bytes()).hexdigest()[:16]
     return f"{path.name}@sha256:{h}"
+
+
+def resolve_threshold(config: MaskConfig, wpath: Path | None) -> float:
+    """The probability cut to use: the config's, else the weights' calibrated one, else 0.5."""
+    if config.threshold is not None:
+        return float(config.threshold)
+    if wpath is not None:
+        from gnfr.fmg import read_fmg_metadata
+
+        try:
+            cut = read_fmg_metadata(wpath).get("threshold")
+        except Exception:  # noqa: BLE001 - not a safetensors file: loading it says so
+            cut = None
+        if cut is not None:
+            return float(cut)
+    return 0.5
 
 
 def load_fmg_weights(path: Path, device: str = "cpu"):
@@ -230,6 +248,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         if not wpath.is_file():
             load_fmg_weights(wpath)  # raises the UserError that says how to get weights
         source, wid, inputs = "fmg", weights_id(wpath), [ws.images, wpath]
+        config = replace(config, threshold=resolve_threshold(config, wpath))
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
               if k not in ("device", "batch")}
     params["source"], params["weights"] = source, wid

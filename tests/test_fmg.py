@@ -232,3 +232,20 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     assert main(["fmg", "eval", "--weights", str(out / "fmg.safetensors"), "--data", str(data),
                  "--count", "2", "--size", "64", "--out", str(tmp_path / "m.json")]) == 0
     assert json.loads((tmp_path / "m.json").read_text())["count"] == 2
+    # calibrate: sweep the cut on training-side composites and store the chosen one
+    from safetensors.torch import load_file
+
+    from gnfr.fmg import read_fmg_metadata
+
+    w = out / "fmg.safetensors"
+    before = load_file(str(w))
+    assert main(["fmg", "calibrate", "--weights", str(w), "--data", str(data), "--count", "4",
+                 "--write", "--out", str(tmp_path / "cal.json")]) == 0
+    cal = json.loads((tmp_path / "cal.json").read_text())
+    marked = [r["marked_over_true"] for r in cal["rows"]]
+    assert all(a >= b for a, b in zip(marked, marked[1:], strict=False))  # higher: no more
+    assert cal["best"] in [r["cut"] for r in cal["rows"]]
+    assert float(read_fmg_metadata(w)["threshold"]) == cal["best"]
+    after = load_file(str(w))
+    assert before.keys() == after.keys() and all(torch.equal(before[k], after[k]) for k in before)
+

@@ -67,6 +67,17 @@ def tiny_weights(tmp_path):
     return save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
 
 
+def test_mask_cut_comes_from_the_weights_unless_given(kermit_ws, tiny_weights):
+    from workflows.fmg_train import write_threshold
+
+    ws = kermit_ws
+    write_threshold(tiny_weights, 0.65)
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights)]) == 0
+    assert json.loads(ws.flare_json.read_text())["threshold"] == 0.65
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--threshold", "0.3"]) == 0
+    assert json.loads(ws.flare_json.read_text())["threshold"] == 0.3
+
+
 def test_mask_stage_fmg_outputs(kermit_ws, tiny_weights):
     ws = kermit_ws
     assert main(["mask", str(ws.root), "--weights", str(tiny_weights)]) == 0

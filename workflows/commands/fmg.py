@@ -1,4 +1,4 @@
-"""`deflare-scene fmg train|eval`: the flare mask network (PSPNet) on synthetic composites."""
+"""`deflare-scene fmg train|eval|calibrate`: the flare mask network (PSPNet)."""
 
 from __future__ import annotations
 
@@ -71,3 +71,34 @@ def register(app: typer.Typer) -> None:
         typer.echo(format_metrics(m))
         if out:
             atomic_write_json(out, m)
+
+    @fmg.command("calibrate")
+    def calibrate_cmd(
+        weights: Path = typer.Option(None, "--weights", help="FMG weights (default: "
+                                     "the shipped ones)."),
+        data: Path = typer.Option(None, help="Folder with backgrounds/ and scenes/."),
+        count: int = typer.Option(96, help="Training-side composites to score."),
+        seed: int = typer.Option(7, help="Seed of the composites."),
+        write: bool = typer.Option(False, "--write/--no-write", help="Store the best cut "
+                                   "in the weights' metadata (the mask stage's default)."),
+        out: Path = typer.Option(None, "--out", help="Write the sweep here (JSON)."),
+    ) -> None:
+        """Pick the flare probability cut of highest flare IoU on training-side composites."""
+        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
+        from pipeline.workspace import atomic_write_json
+        from workflows.fmg_train import (
+            calibrate,
+            default_data,
+            format_calibration,
+            write_threshold,
+        )
+
+        path = weights or DEFAULT_WEIGHTS
+        load_fmg_weights(path)  # a missing or foreign file: one clear line
+        res = calibrate(path, data or default_data(), count, seed)
+        typer.echo(format_calibration(res))
+        if out:
+            atomic_write_json(out, res)
+        if write:
+            write_threshold(path, res["best"])
+            typer.echo(f"wrote threshold={res['best']:g} into {path}")

@@ -13,7 +13,9 @@ def register(app: typer.Typer) -> None:
         workspace: Path = typer.Argument(..., help="Workspace folder (after `pose`)."),
         masks: Path = typer.Option(None, "--masks", help="Folder of hand-made masks, one "
                                    "image per view stem, nonzero = flare (replaces the FMG)."),
-        threshold: float = typer.Option(0.5, help="Flare probability cut."),
+        threshold: float = typer.Option(
+            None, help="Flare probability cut (default: the cut calibrated for the "
+            "FMG weights, 0.65 for the shipped ones)."),
         weights: Path = typer.Option(None, "--weights",
                                      help="FMG weights (default: the shipped ones)."),
         work_size: int = typer.Option(512, help="Long side at which the FMG runs."),

@@ -18,7 +18,9 @@ def register(app: typer.Typer) -> None:
         matcher: str = typer.Option("auto", help="pose: exhaustive, sequential or auto."),
         masks: Path = typer.Option(None, help="mask: hand-made masks (one per stem) "
                                               "instead of the FMG network."),
-        threshold: float = typer.Option(0.5, help="mask: flare probability cut."),
+        threshold: float = typer.Option(
+            None, help="mask: flare probability cut (default: the cut calibrated for the "
+            "FMG weights, 0.65 for the shipped ones)."),
         max_flare: float = typer.Option(0.10, help="select: views above this flare "
                                                    "fraction are never training targets."),
         preset: str = typer.Option("auto", help="finetune: paper, quick, or auto "
