@@ -21,6 +21,8 @@ def register(app: typer.Typer) -> None:
         samples: int = typer.Option(None, help="Samples per ray when rendering (default: "
                                     "the preset's)."),
         chunk: int = typer.Option(1024, help="Rays per forward pass when rendering."),
+        repeats: int = typer.Option(2, help="Render passes per path, alternating fast and "
+                                    "reference; the fastest of each counts."),
         isolate: bool = typer.Option(True, "--isolate/--no-isolate",
                                      help="CPU: each measurement in a fresh process (peak "
                                      "memory per measurement)."),
@@ -33,7 +35,8 @@ def register(app: typer.Typer) -> None:
 
         devices = () if device == "all" else tuple(d.strip() for d in device.split(","))
         cfg = BenchConfig(out=out, devices=devices, preset=preset, steps=steps, rays=rays,
-                          samples=samples, chunk=chunk, isolate=isolate, quick=quick)
+                          samples=samples, chunk=chunk, isolate=isolate, quick=quick,
+                          repeats=repeats)
         record = run(cfg)
         print_table(record)
         typer.echo(f"wrote {out}")
