@@ -67,6 +67,11 @@ class RenderConfig:
     """inputs: the flare mask is grown by this fraction of the image's long side."""
     feather: float = 0.01
     """inputs: width of the soft blend edge as a fraction of the image's long side."""
+    color_match: bool = True
+    """inputs (with ``blend mask``): before blending, map the rendered fill's colours to the
+    photo by a per-channel gain and offset fitted on the rendered pixels just outside the
+    flare mask (the dilation ring, where both the render and the clean photo exist); this
+    removes the fill's colour and exposure drift (docs/eval.md)."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""
@@ -480,14 +485,56 @@ def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
     size = (photo.shape[1], photo.shape[0])
     alpha = input_alpha(frame, cfg, ws, size, size)
     rays_o, rays_d, rows, cols = input_rays(frame, alpha, photo.shape[1], photo.shape[0])
+    ring = match_ring(frame, cfg, ws, alpha, size, size)
+    ring = None if ring is None else ring[rows, cols]
 
     def compose(rgb):
         out = photo.astype(np.float32) / 255.0
         a = alpha[rows, cols, None]
+        if ring is not None:
+            rgb = match_colours(rgb, out[rows, cols], ring)
         out[rows, cols] = out[rows, cols] * (1 - a) + rgb * a
         return _to_u8(out)
 
     return rays_o, rays_d, compose
+
+
+def match_ring(frame: Frame, cfg: RenderConfig, ws: Workspace, alpha: np.ndarray,
+               size: tuple[int, int], decoded_size: tuple[int, int]) -> np.ndarray | None:
+    """[H, W] bool pixels the colour match is fitted on: rendered at full weight
+    (alpha >= 0.9) but outside the flare mask (the dilation ring); None when colour
+    matching is off (``color_match`` false or ``blend none``)."""
+    import cv2
+
+    if not cfg.color_match or cfg.blend == "none":
+        return None
+    mask = flare_mask_in(decoded_camera(frame, *decoded_size), frame, ws)
+    if decoded_size != size:
+        mask = cv2.resize(mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+    return (alpha >= 0.9) & ~mask
+
+
+MATCH_MIN_PIXELS = 100
+MATCH_GAIN = (0.5, 2.0)
+
+
+def match_colours(rgb: np.ndarray, photo: np.ndarray, ring: np.ndarray | None) -> np.ndarray:
+    """Map rendered colours ``rgb`` [R, 3] to the photo: per channel, least squares
+    ``photo ~ g * rgb + b`` over the ``ring`` [R] pixels (g clipped to MATCH_GAIN, b the
+    mean residual with that g). Identity with fewer than MATCH_MIN_PIXELS ring pixels or
+    ``ring`` None. Values stay in the input's range convention (clipped at 0 below)."""
+    if ring is None or int(ring.sum()) < MATCH_MIN_PIXELS:
+        return rgb
+    x, y = rgb[ring].astype(np.float64), photo[ring].astype(np.float64)
+    out = np.empty_like(rgb, dtype=np.float32)
+    for c in range(rgb.shape[1]):
+        xc, yc = x[:, c], y[:, c]
+        var = float(np.var(xc))
+        g = float(np.cov(xc, yc, bias=True)[0, 1] / var) if var > 1e-8 else 1.0
+        g = float(np.clip(g, *MATCH_GAIN))
+        b = float(np.mean(yc - g * xc))
+        out[:, c] = g * rgb[:, c] + b
+    return np.maximum(out, 0.0)
 
 
 def input_alpha(frame: Frame, cfg: RenderConfig, ws: Workspace, size: tuple[int, int],

@@ -91,7 +91,7 @@ def prepare_full_res(job, cfg, ws: Workspace):
     """(rays_o, rays_d, compose) of a full-resolution job (see pipeline.render)."""
     import cv2
 
-    from pipeline.render import input_alpha, input_rays, read_rgb
+    from pipeline.render import input_alpha, input_rays, match_colours, match_ring, read_rgb
 
     f = job.camera
     photo = _read_any(job.extra["full"])
@@ -105,6 +105,8 @@ def prepare_full_res(job, cfg, ws: Workspace):
                         f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
     alpha = input_alpha(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
+    ring = match_ring(f, cfg, ws, alpha, (W, H), dsize)
+    ring = None if ring is None else ring[rows, cols]
     peak = 65535.0 if photo.dtype == np.uint16 else 255.0
     gains = np.ones(3)
     if job.extra["linear"]:
@@ -117,6 +119,7 @@ def prepare_full_res(job, cfg, ws: Workspace):
         out = photo.astype(np.float32) / peak
         a = alpha[rows, cols, None]
         new = srgb_to_linear(rgb) * gains if job.extra["linear"] else rgb
+        new = match_colours(new, out[rows, cols], ring)  # in the output's own encoding
         out[rows, cols] = out[rows, cols] * (1 - a) + new * a
         return np.clip(np.rint(out * peak), 0, peak).astype(photo.dtype)
 

@@ -335,3 +335,24 @@ def test_blend_keeps_the_light_the_mask_encloses():
     assert w[50, 50] == 0.0 and w[50, 52] == 0.0  # the light stays the photo's
     assert w[50, 65] == 1.0  # flare is re-rendered
     assert w[50, 78] > 0.0 and w[0, 0] == 0.0  # dilated + feathered outward only
+
+
+def test_colour_match_undoes_a_gain_and_offset_fitted_on_the_ring():
+    from pipeline.render import MATCH_MIN_PIXELS, match_colours
+
+    rng = np.random.default_rng(0)
+    photo = rng.uniform(0.1, 0.8, (500, 3)).astype(np.float32)
+    gain, offset = np.array([0.8, 1.25, 1.0]), np.array([0.05, -0.03, 0.1])
+    rgb = ((photo - offset) / gain).astype(np.float32)  # a fill drifted in colour
+    ring = np.zeros(500, bool)
+    ring[:300] = True  # fitted here only; the other 200 pixels are the flare region
+    fixed = match_colours(rgb, photo, ring)
+    assert np.abs(fixed[~ring] - photo[~ring]).max() < 1e-4  # corrected where it was not fit
+    assert np.abs(rgb[~ring] - photo[~ring]).max() > 0.05
+    # too few ring pixels, or matching off: the render is left as it is
+    few = np.zeros(500, bool)
+    few[:MATCH_MIN_PIXELS - 1] = True
+    assert match_colours(rgb, photo, few) is rgb and match_colours(rgb, photo, None) is rgb
+    # an implausible fit (inverted colours) is clipped to the allowed gain range
+    inv = match_colours(1.0 - photo, photo, ring)
+    assert np.isfinite(inv).all() and (inv >= 0).all()

@@ -90,6 +90,9 @@ class EvalConfig:
     """auto | cpu | cuda."""
     seed: int = 0
     """Seed of every variant's training."""
+    color_match: bool = True
+    """De-flared inputs with the render stage's colour match of the fill (as the product
+    writes them); false scores the raw fill blended in."""
     grid_rows: int = 4
     """Views (rows) in grid.jpg: held-out views first, then the most flared inputs."""
     force: bool = False
@@ -275,7 +278,8 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
     # without the View Sampler, render from the nearest n views whatever their flare
     pool = {} if NEURAL[name]["view_sampler"] else {"n_sources": n, "pool": n}
     common = {"device": cfg.device, "samples": cfg.samples, **pool}
-    render.run(RenderConfig(path="inputs", **common), vws, force=cfg.force)
+    render.run(RenderConfig(path="inputs", color_match=cfg.color_match, **common), vws,
+               force=cfg.force)
     out = {"inputs": vws.deflared, "workspace": vws.root}
     if path_json is not None:
         render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, **common), vws,
@@ -438,7 +442,8 @@ def budget(cfg: EvalConfig) -> dict:
             "samples": t.samples, "depth": t.model.depth, "width": t.model.width,
             "source_scale": t.source_scale, "eval_views": t.eval_views,
             "cached_features": t.cached_features, "init": cfg.init,
-            "render_scale": cfg.render_scale, "seed": cfg.seed}
+            "render_scale": cfg.render_scale, "seed": cfg.seed,
+            "color_match": cfg.color_match}
 
 
 # --------------------------------------------------------------------------- outputs
@@ -486,7 +491,8 @@ def table_markdown(res: dict) -> str:
         f"`{b['init']}`, {'cached features' if b['cached_features'] else 'end-to-end'}.",
         f"- Held-out views rendered and scored at {b['render_scale']:g} of full size"
         f"{'' if b['render_scale'] == 1 else ' (cut for time)'}; de-flared inputs at full "
-        "size.", "",
+        f"size, {'with' if b.get('color_match', False) else 'without'} the render stage's "
+        "colour match of the fill.", "",
         "| method | held-out PSNR | held-out SSIM | inputs PSNR | inputs SSIM | "
         "flare-region PSNR | train s |",
         "|---|---:|---:|---:|---:|---:|---:|",

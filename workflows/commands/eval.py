@@ -32,6 +32,9 @@ def register(app: typer.Typer) -> None:
                                            "full size (smaller is faster)."),
         device: str = typer.Option("auto", help="auto | cpu | cuda."),
         seed: int = typer.Option(0, help="Training seed of every variant."),
+        color_match: bool = typer.Option(True, "--color-match/--no-color-match",
+                                         help="De-flared inputs with the fill's colour match "
+                                         "(as the product writes them)."),
         grid_rows: int = typer.Option(4, help="Views shown in grid.jpg."),
         force: bool = typer.Option(False, "--force", help="Redo every stage."),
     ) -> None:
@@ -49,6 +52,7 @@ def register(app: typer.Typer) -> None:
         cfg = EvalConfig(scene=scene, out=out, variants=parse_variants(variants), masks=masks,
                          fmg_weights=fmg_weights, preset=preset, iters=iters, rays=rays,
                          samples=samples, views=views, init=init, render_scale=render_scale,
-                         device=device, seed=seed, grid_rows=grid_rows, force=force)
+                         device=device, seed=seed, grid_rows=grid_rows, force=force,
+                         color_match=color_match)
         folder = run(cfg)
         typer.echo((folder / "table.md").read_text())

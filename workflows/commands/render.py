@@ -42,6 +42,9 @@ def register(app: typer.Typer) -> None:
         samples: int = typer.Option(None, help="Samples per ray [default: as trained]."),
         blend: str = typer.Option("mask", help="inputs: mask (replace only the flare region) "
                                   "| none (full render)."),
+        color_match: bool = typer.Option(True, "--color-match/--no-color-match",
+                                         help="inputs: match the fill's colours to the photo "
+                                         "on the ring just outside the flare mask."),
         full_res: bool = typer.Option(False, "--full-res", help="inputs: also de-flare the "
                                       "original photos at full resolution (WS/deflared_full)."),
         checkpoint: Path = typer.Option(None, help="Weights [default: latest in WS/model]."),
@@ -58,7 +61,7 @@ def register(app: typer.Typer) -> None:
 
         cfg = RenderConfig(path=path, frames=frames, seconds=seconds, fps=fps,
                            size=parse_size(size), scale=scale, chunk=chunk, device=device,
-                           samples=samples, blend=blend, full_res=full_res,
+                           samples=samples, blend=blend, full_res=full_res, color_match=color_match,
                            checkpoint=str(checkpoint) if checkpoint else None)
         outs = run(cfg, Workspace.open(workspace), force=force)
         for p in outs:
