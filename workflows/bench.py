@@ -54,8 +54,8 @@ class BenchConfig:
     """Views of the synthetic scene (training sources come from these)."""
     train_size: tuple[int, int] = (504, 378)
     """Image size (width, height) of the synthetic training views."""
-    chunk: int = 1024
-    """Rays per forward pass when rendering (the render stage's default)."""
+    chunk: int | None = None
+    """Rays per forward pass when rendering (default: the render stage's for the device)."""
     repeats: int = 2
     """Render passes per path, alternating fast and reference; the fastest of each counts."""
     isolate: bool = True
@@ -287,6 +287,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     from gnfr.geometry import sample_depths
     from gnfr.model import GNFR
     from gnfr.renderer import SourceViews, forward_rays, render_rays
+    from pipeline.render import default_chunk
 
     torch.manual_seed(0)
     model = GNFR(tcfg.model).to(device).eval()
@@ -294,6 +295,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     n_src = min(tcfg.eval_views, len(scene.stems) - 1)
     samples = cfg.samples or tcfg.samples
     n_rays = cfg.rays or (W * H if device == "cuda" else 4096)
+    chunk = cfg.chunk or default_chunk(device)
     imgs, K, masks, c2w = _sources(scene, tcfg, size, n_src)
     target = scene.c2w[n_src].float()
     _, o, d = _frame_rays(W, H, n_rays, target, device)
@@ -301,8 +303,10 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     near, far = torch.full((R,), 1.0), torch.full((R,), 4.5)
     ids = torch.arange(n_src)
     scale = W * H / R
-    out = {"rays_timed": R, "samples": samples, "sources": f"{n_src} x {imgs.shape[-1]}x"
+    out = {"rays_timed": R, "samples": samples, "chunk": chunk,
+           "sources": f"{n_src} x {imgs.shape[-1]}x"
            f"{imgs.shape[-2]}"}
+
     def fast_pass() -> tuple[float, float]:
         # fast: sources encoded once (shared by every frame of a path), then only the rays
         _sync(device)
@@ -311,7 +315,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
         _sync(device)
         enc = time.perf_counter() - t0
         t0 = time.perf_counter()
-        render_rays(model, src, ids, o, d, near, far, samples, chunk=cfg.chunk)
+        render_rays(model, src, ids, o, d, near, far, samples, chunk=chunk)
         _sync(device)
         return enc, time.perf_counter() - t0
 
@@ -323,8 +327,8 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
         _sync(device)
         enc = time.perf_counter() - t0
         t0 = time.perf_counter()
-        for i in range(0, R, cfg.chunk):
-            sl = slice(i, i + cfg.chunk)
+        for i in range(0, R, chunk):
+            sl = slice(i, i + chunk)
             t = sample_depths(near[sl].to(o), far[sl].to(o), samples, jitter=False)
             forward_rays(model, src, ids.to(device), o[sl], d[sl], t, reference=True)
         _sync(device)
@@ -333,13 +337,13 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     # Both paths are warmed up on a full chunk, then timed alternately ``repeats`` times
     # and the fastest pass of each kept: a single pass in a fixed order let allocator
     # growth and other load on the machine decide which path looked faster.
-    warm = slice(0, min(R, cfg.chunk))
+    warm = slice(0, min(R, chunk))
     best = {"fast": (math.inf, math.inf), "reference": (math.inf, math.inf)}
     peak = {"fast": 0.0, "reference": 0.0}
     with torch.inference_mode():
         src0 = SourceViews.encode(model, imgs, K, c2w, masks, device)
         render_rays(model, src0, ids, o[warm], d[warm], near[warm], far[warm], samples,
-                    chunk=cfg.chunk)
+                    chunk=chunk)
         t = sample_depths(near[warm].to(o), far[warm].to(o), samples, jitter=False)
         forward_rays(model, src0, ids.to(device), o[warm], d[warm], t, reference=True)
         del src0
@@ -443,7 +447,8 @@ def print_table(record: dict) -> None:
              + (f", {m['cuda']['name']}" if m.get("cuda") else ""))
     t = Table(title=title, caption=f"preset {p['name']}: depth {p['depth']} width {p['width']}"
               f", {p['rays']} rays x {p['samples']} samples per training step; render "
-              f"{s['samples'] or p['samples']} samples per ray, chunks of {s['chunk']} rays, "
+              f"{s['samples'] or p['samples']} samples per ray, chunks of "
+              f"{s['chunk'] or '1024 (CUDA) / 256 (CPU)'} rays, "
               f"rays timed per frame: {s['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
     for col in ("device", "measurement", "fast", "reference", "ref / fast", "peak MiB "
                 "fast / ref"):

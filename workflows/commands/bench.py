@@ -20,7 +20,8 @@ def register(app: typer.Typer) -> None:
                                  "whole frame (default: whole frame on CUDA, 4096 on CPU)."),
         samples: int = typer.Option(None, help="Samples per ray when rendering (default: "
                                     "the preset's)."),
-        chunk: int = typer.Option(1024, help="Rays per forward pass when rendering."),
+        chunk: int = typer.Option(None, help="Rays per forward pass when rendering "
+                                  "[default: the render stage's, 1024 CUDA / 256 CPU]."),
         repeats: int = typer.Option(2, help="Render passes per path, alternating fast and "
                                     "reference; the fastest of each counts."),
         isolate: bool = typer.Option(True, "--isolate/--no-isolate",

@@ -37,7 +37,8 @@ def register(app: typer.Typer) -> None:
                                  "--scale)."),
         scale: float = typer.Option(None, help="Novel frames at this fraction of the input "
                                     "size [default: 0.25 on CPU, 1 on CUDA]."),
-        chunk: int = typer.Option(1024, help="Rays per forward pass."),
+        chunk: int = typer.Option(None, help="Rays per forward pass [default: 1024 on CUDA, "
+                                  "256 on CPU]."),
         device: str = typer.Option("auto", help="auto | cuda | cpu."),
         samples: int = typer.Option(None, help="Samples per ray [default: as trained]."),
         blend: str = typer.Option("mask", help="inputs: mask (replace only the flare region) "
