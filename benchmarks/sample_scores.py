@@ -1,0 +1,76 @@
+"""Score the README's main job: the de-flared sample photos against the sample's ground truth.
+
+    deflare-scene samples/cyprus                       # writes samples/cyprus.deflare
+    python benchmarks/sample_scores.py [samples/cyprus.deflare] [--truth samples/cyprus_truth]
+
+For every photo of the sample: PSNR of WS/deflared/<stem>.png and of the flared photo
+itself against the clean ground truth, over the whole image and inside the true flare mask
+(`masks_gt`), at the de-flared image's size. Prints a per-view table and the means.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _read(path: Path, shape: tuple[int, int] | None = None, gray: bool = False) -> np.ndarray:
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE if gray else cv2.IMREAD_COLOR)
+    if img is None:
+        raise SystemExit(f"error: cannot read {path}")
+    if shape is not None and img.shape[:2] != shape:
+        interp = cv2.INTER_NEAREST if gray else cv2.INTER_AREA
+        img = cv2.resize(img, (shape[1], shape[0]), interpolation=interp)
+    return img
+
+
+def score(ws: Path, truth: Path) -> dict:
+    from pipeline import metrics
+
+    photos = {p.stem: p for p in (truth / "photos").iterdir() if p.is_file()}
+    per = {}
+    for out in sorted((ws / "deflared").glob("*.png")):
+        s = out.stem
+        pred = _read(out)
+        shape = pred.shape[:2]
+        gt = _read(truth / "clean" / f"{s}.png", shape)
+        flared = _read(photos[s], shape)
+        m = _read(truth / "masks_gt" / f"{s}.png", shape, gray=True) > 127
+        per[s] = {"psnr": metrics.psnr(pred, gt), "psnr_input": metrics.psnr(flared, gt),
+                  "psnr_flare": metrics.masked_psnr(pred, gt, m) if m.any() else None,
+                  "psnr_flare_input": metrics.masked_psnr(flared, gt, m) if m.any() else None}
+    if not per:
+        raise SystemExit(f"error: {ws}/deflared has no photos: run `deflare-scene "
+                         "samples/cyprus` first")
+    keys = ("psnr", "psnr_input", "psnr_flare", "psnr_flare_input")
+    mean = {k: float(np.mean([v[k] for v in per.values() if v[k] is not None])) for k in keys}
+    return {"workspace": str(ws), "views": per, "mean": mean}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("workspace", type=Path, nargs="?", default=REPO / "samples" /
+                    "cyprus.deflare")
+    ap.add_argument("--truth", type=Path, default=REPO / "samples" / "cyprus_truth")
+    ap.add_argument("--out", type=Path, default=None, help="Also write the scores (JSON).")
+    a = ap.parse_args()
+    res = score(a.workspace, a.truth)
+    print("| view | whole: de-flared / flared | flare region: de-flared / flared |")
+    print("|---|---|---|")
+    rows = [*res["views"].items(), ("**mean**", res["mean"])]
+    for s, v in rows:
+        fl = ("—" if v["psnr_flare"] is None
+              else f"{v['psnr_flare']:.2f} / {v['psnr_flare_input']:.2f}")
+        print(f"| {s} | {v['psnr']:.2f} / {v['psnr_input']:.2f} | {fl} |")
+    if a.out:
+        a.out.write_text(json.dumps(res, indent=2))
+
+
+if __name__ == "__main__":
+    main()
