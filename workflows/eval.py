@@ -431,7 +431,7 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
 
 def budget(cfg: EvalConfig) -> dict:
     """What every neural variant ran with, beside the paper's setting."""
-    from pipeline.finetune import FinetuneConfig, pick_device, resolve
+    from pipeline.finetune import FinetuneConfig, pick_device, resolve, shipped_weights
 
     fc = FinetuneConfig(preset=cfg.preset, iters=cfg.iters, rays=cfg.rays,
                         samples=cfg.samples, views=cfg.views, device=cfg.device,
@@ -442,8 +442,16 @@ def budget(cfg: EvalConfig) -> dict:
             "samples": t.samples, "depth": t.model.depth, "width": t.model.width,
             "source_scale": t.source_scale, "eval_views": t.eval_views,
             "cached_features": t.cached_features, "init": cfg.init,
+            "init_weights": _init_weights(cfg.init, shipped_weights(t)),
             "render_scale": cfg.render_scale, "seed": cfg.seed,
             "color_match": cfg.color_match}
+
+
+def _init_weights(init: str, shipped: Path | None) -> str:
+    """What ``init`` resolved to: 'scratch' or a weight file's name."""
+    if init == "auto":
+        return shipped.name if shipped is not None else "scratch"
+    return init if init == "scratch" else Path(init).name
 
 
 # --------------------------------------------------------------------------- outputs
@@ -488,7 +496,8 @@ def table_markdown(res: dict) -> str:
         f"pretraining), {b['rays']} rays x {b['samples']} samples, model depth {b['depth']} "
         f"width {b['width']} (paper: GNT, depth 8 width 64), sources at "
         f"{b['source_scale']:g} resolution, {b['eval_views']} render views, init "
-        f"`{b['init']}`, {'cached features' if b['cached_features'] else 'end-to-end'}.",
+        f"`{b['init']}` ({b.get('init_weights', '?')}), "
+        f"{'cached features' if b['cached_features'] else 'end-to-end'}.",
         f"- Held-out views rendered and scored at {b['render_scale']:g} of full size"
         f"{'' if b['render_scale'] == 1 else ' (cut for time)'}; de-flared inputs at full "
         f"size, {'with' if b.get('color_match', False) else 'without'} the render stage's "
