@@ -38,6 +38,22 @@ def save_model(path: str | os.PathLike, model: GNFR, meta: dict | None = None,
     return path
 
 
+def replace_metadata(path: str | os.PathLike, updates: dict[str, str]) -> Path:
+    """Rewrite a safetensors file with its raw string metadata updated by ``updates`` and
+    the tensors unchanged (temporary name, then rename). GN-FR extra metadata values are
+    JSON strings (``json.dumps``); the FMG's are plain strings."""
+    from safetensors.torch import load_file
+
+    path = Path(path)
+    with safe_open(str(path), framework="pt") as f:
+        meta = dict(f.metadata() or {})
+    meta.update(updates)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    save_file(load_file(str(path)), str(tmp), metadata=meta)
+    os.replace(tmp, path)
+    return path
+
+
 def read_metadata(path: str | os.PathLike) -> tuple[GNFRConfig, dict]:
     """(architecture, extra metadata decoded from JSON) of a checkpoint."""
     path = Path(path)

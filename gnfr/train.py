@@ -87,10 +87,9 @@ features) on sources at 1/4 resolution, so fine texture comes from the target-re
 colour samples only; 24 instead of 64 samples per ray (depth resolution), 5-7 training
 and 6 rendering sources instead of 8-12 and 10 (fewer neighbours to fill a flare region
 from), 128 rays and 3000 steps instead of 256 and 50k (a fit of the scene's low
-frequencies, not a converged model). With shipped pretrained weights of this architecture
-marked for automatic use the encoder is frozen and its features cached
-(``cached_features``, about a quarter faster per step); the shipped
-gnfr/weights/gnfr.safetensors is not so marked (see its model card)."""
+frequencies, not a converged model). ``finetune --init auto`` starts it from the shipped
+pretrained weights of this architecture (gnfr/weights/gnfr.md) and trains end-to-end;
+``cached_features`` (frozen encoder, about a quarter faster per step) is opt-in."""
 
 TINY = replace(QUICK, model=replace(QUICK.model, enc_widths=(8, 16, 16), feat_ch=8, width=16,
                                     depth=2),

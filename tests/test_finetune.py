@@ -11,7 +11,7 @@ import torch
 from safetensors.torch import load_file
 
 from gnfr.checkpoint import load_model
-from gnfr.train import QUICK
+from gnfr.train import PRESETS, QUICK
 from pipeline.finetune import FinetuneConfig, fit, run
 from pipeline.scene_data import load_workspace
 from tests.fixtures import make_temple_workspace
@@ -85,7 +85,7 @@ def test_finetune_stage_writes_model_and_skips_when_up_to_date(tmp_path, monkeyp
     assert (ws.model / "gnfr.safetensors").stat().st_mtime_ns == stamp
 
 
-def test_shipped_pretrained_weights_load_but_are_not_auto_enabled():
+def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     from gnfr.checkpoint import read_metadata
     from pipeline.datasets import HELDOUT_SCENES
     from pipeline.finetune import WEIGHTS_DIR, resolve, shipped_weights
@@ -98,7 +98,11 @@ def test_shipped_pretrained_weights_load_but_are_not_auto_enabled():
     assert all(v.dtype == torch.float16 for v in load_file(str(path)).values())
     model = load_model(path)  # rebuilds from the file alone
     assert all(torch.isfinite(p).all() for p in model.parameters())
-    # gnfr/weights/gnfr.md: not better than scratch in flare regions -> not used by default
-    assert meta["auto_init"] is False and shipped_weights(QUICK) is None
+    # gnfr/weights/gnfr.md: beats scratch at equal steps on both held-out scenes -> init=auto
+    # picks it for the quick architecture (and fine-tunes it end-to-end), not for paper's
+    assert meta["auto_init"] is True and shipped_weights(QUICK) == path
+    assert shipped_weights(PRESETS["paper"]) is None
     name, cfg_q = resolve(FinetuneConfig(device="cpu"), torch.device("cpu"))
     assert name == "quick" and not cfg_q.cached_features
+    _, cfg_c = resolve(FinetuneConfig(device="cpu", cached_features=True), torch.device("cpu"))
+    assert cfg_c.cached_features

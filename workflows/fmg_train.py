@@ -324,13 +324,6 @@ def format_calibration(res: dict) -> str:
 def write_threshold(weights: Path, cut: float) -> None:
     """Store ``cut`` as the weights' calibrated ``threshold`` metadata (tensors unchanged;
     the file is replaced atomically)."""
-    from safetensors.torch import load_file, save_file
+    from gnfr.checkpoint import replace_metadata
 
-    from gnfr.fmg import read_fmg_metadata
-
-    weights = Path(weights)
-    meta = read_fmg_metadata(weights)
-    meta["threshold"] = f"{cut:g}"
-    tmp = weights.with_name(weights.name + ".tmp")
-    save_file(load_file(str(weights)), str(tmp), metadata=meta)
-    tmp.replace(weights)
+    replace_metadata(weights, {"threshold": f"{cut:g}"})

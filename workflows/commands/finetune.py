@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
         views: int = typer.Option(None, help="Override the number of source views."),
         cached_features: bool = typer.Option(None, "--cached-features/--end-to-end",
                                              help="Frozen encoder, sources encoded once "
-                                             "(default: quick once trained weights ship)."),
+                                             "(default: end-to-end)."),
         device: str = typer.Option("auto", help="auto | cpu | cuda | mps."),
         init: str = typer.Option("auto", help="auto (shipped weights if they match) | "
                                  "scratch | path to a .safetensors checkpoint."),
