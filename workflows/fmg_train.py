@@ -90,8 +90,10 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, streak_prob: float 
     return tr, va, comp, (len(train_p), len(val_p))
 
 
-def score(model, images, masks, batch: int = 8, refine: bool = False) -> dict[str, float]:
-    """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled)."""
+def score(model, images, masks, batch: int = 8, refine: bool = False,
+          cut: float = 0.5) -> dict[str, float]:
+    """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
+    flare where the probability exceeds ``cut``."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
@@ -105,7 +107,7 @@ def score(model, images, masks, batch: int = 8, refine: bool = False) -> dict[st
             p = torch.sigmoid(model(x)).cpu()
             if refine:
                 p = _refine_batch(x.cpu(), p)
-            conf += confusion(p > 0.5, masks[i:i + batch] > 0.5)
+            conf += confusion(p > cut, masks[i:i + batch] > 0.5)
     return seg_metrics(conf)
 
 
@@ -215,7 +217,8 @@ def train(cfg: FMGTrainConfig) -> dict:
 def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
              refine: bool = False, size: int = 256) -> dict:
     """mIoU / mAcc on ``count`` held-out composites (scenes in HELDOUT_SCENES + held-out
-    backgrounds), for the default flare settings, ``FlareConfig.unseen()`` and default
+    backgrounds) at the cut the mask stage uses (the weights' calibrated one, else 0.5),
+    for the default flare settings, ``FlareConfig.unseen()`` and default
     settings with night backgrounds (half) and streaks (all) (``night_streak``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import (
@@ -225,12 +228,13 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
         load_backgrounds,
         split_backgrounds,
     )
-    from pipeline.mask import load_fmg_weights
+    from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
 
     model = load_fmg_weights(Path(weights))
+    cut = resolve_threshold(MaskConfig(), Path(weights))  # the mask stage's default cut
     comp = CompositeConfig(size=size)
     bgs = load_backgrounds(split_backgrounds(Path(data))[1], comp.preload_side)
-    res = {"weights": str(weights), "count": count, "size": size, "seed": seed}
+    res = {"weights": str(weights), "count": count, "size": size, "seed": seed, "cut": cut}
     extra = CompositeConfig(size=size, night_prob=0.5, streak_prob=1.0)
     rows = (("default", fl.FlareConfig(), comp, False),
             ("unseen", fl.FlareConfig.unseen(), comp, False),
@@ -238,9 +242,10 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
     for name, fcfg, c, extras in rows:
         imgs, masks = fixed_set(CompositeSource(bgs, fcfg, c), count, seed, extras)
         frac = {"flare_pixels": round(float(masks.mean()), 4)}
-        res[name] = {**score(model, imgs, masks), **frac}
+        res[name] = {**score(model, imgs, masks, cut=cut), **frac}
         if refine:
-            res[name + "_refined"] = {**score(model, imgs, masks, refine=True), **frac}
+            res[name + "_refined"] = {**score(model, imgs, masks, refine=True, cut=cut),
+                                      **frac}
     return res
 
 
@@ -250,6 +255,8 @@ def format_metrics(m: dict) -> str:
         if isinstance(v, dict):
             rows.append(f"| {k} | {v['mIoU']:.3f} | {v['mAcc']:.3f} | {v['IoU_flare']:.3f} | "
                         f"{v.get('flare_pixels', math.nan):.3f} |")
+    if "cut" in m:
+        rows.append(f"(flare where the probability exceeds {m['cut']:g})")
     return "\n".join(rows)
 
 
