@@ -416,6 +416,7 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
            "cameras": "ground truth (no pose noise)", "masks": cfg.masks,
            "budget": budget(cfg), "methods": {}}
     res["mask_scores"] = fmg_scores(scene, base)
+    res["mask_threshold"] = read_json(base.flare_json).get("threshold")
     flared = flared_views(scene) or scene.train
     res["scored_input_views"] = flared
     for name, m in methods.items():
@@ -480,7 +481,9 @@ def table_markdown(res: dict) -> str:
     if res["masks"] == "gt":
         masks = "ground truth masks_gt (`--masks gt`), so no FMG mIoU is measured"
     else:
-        masks = (f"FMG network (shipped weights unless --fmg-weights); against masks_gt on "
+        cut = res.get("mask_threshold")
+        masks = (f"FMG network (shipped weights unless --fmg-weights), probability cut "
+                 f"{_f(cut, '{:g}')}; against masks_gt on "
                  f"the training views: mIoU {_f(ms.get('miou'), '{:.3f}')}, flare IoU "
                  f"{_f(ms.get('iou_flare'), '{:.3f}')}")
     lines = [
