@@ -1,0 +1,87 @@
+"""How much of a flare region can the Point Sampler fill from clean source pixels?
+
+    python benchmarks/flare_coverage.py WS SCENE [--samples 24] [--rays 2000]
+
+WS is a workspace that ran mask and select (e.g. an eval variant, EVAL/variants/gnfr);
+SCENE the synth folder with ``masks_gt``. For rays through the true flare region of every
+flared input view, points are placed as the renderer does (uniform in inverse depth between
+the view's near and far) and projected into the sources `render --path inputs` would use;
+it prints, per view, the fraction of points that land on flare (WS/masks) in every source
+that sees them: there the Point Sampler has nothing clean to attend to and falls back to
+validity-only attention. Geometry only, no network.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+
+def _mask(path: Path, size: tuple[int, int]) -> np.ndarray:
+    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE) > 127
+    if m.shape != size[::-1]:
+        m = cv2.resize(m.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+    return m
+
+
+def coverage(ws: Path, scene: Path, samples: int = 24, rays: int = 2000) -> dict[str, float]:
+    from pipeline.cameras import load_cameras
+    from pipeline.render import RenderConfig, input_sources
+
+    cams = load_cameras(ws / "cameras.json").by_stem()
+    views = json.loads((ws / "views.json").read_text())["views"]
+    cfg = RenderConfig(n_sources=6, pool=20)
+    masks = {s: _mask(ws / "masks" / f"{s}.png", (f.width, f.height)) for s, f in cams.items()}
+    out = {}
+    for s in views:
+        gt_path = scene / "masks_gt" / f"{s}.png"
+        f = cams[s]
+        if not gt_path.is_file():
+            continue
+        gt = _mask(gt_path, (f.width, f.height))
+        if not gt.any():
+            continue
+        ys, xs = np.nonzero(gt)
+        pick = np.random.default_rng(0).choice(len(ys), min(rays, len(ys)), replace=False)
+        pix = np.stack([xs[pick] + 0.5, ys[pick] + 0.5, np.ones(len(pick))], 1)
+        dirs = pix @ np.linalg.inv(f.K).T @ f.c2w[:3, :3].T
+        t = 1.0 / np.linspace(1.0 / f.near, 1.0 / f.far, samples)
+        pts = f.c2w[:3, 3] + t[None, :, None] * dirs[:, None, :]  # [R, S, 3]
+        all_flared = np.ones(pts.shape[:2], bool)
+        seen = np.zeros(pts.shape[:2], bool)
+        for q in input_sources(s, views, cfg):
+            g = cams[q]
+            w2c = np.linalg.inv(g.c2w)
+            x = pts @ w2c[:3, :3].T + w2c[:3, 3]
+            z = x[..., 2]
+            uv = (x[..., :2] / np.maximum(z[..., None], 1e-9) * [g.K[0, 0], g.K[1, 1]]
+                  + [g.K[0, 2], g.K[1, 2]])
+            inside = ((z > 0) & (uv[..., 0] >= 0) & (uv[..., 0] < g.width)
+                      & (uv[..., 1] >= 0) & (uv[..., 1] < g.height))
+            u = np.clip(uv[..., 0].astype(int), 0, g.width - 1)
+            v = np.clip(uv[..., 1].astype(int), 0, g.height - 1)
+            seen |= inside
+            all_flared &= masks[q][v, u] | ~inside
+        out[s] = float((all_flared & seen).sum() / max(seen.sum(), 1))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("workspace", type=Path)
+    ap.add_argument("scene", type=Path)
+    ap.add_argument("--samples", type=int, default=24)
+    ap.add_argument("--rays", type=int, default=2000)
+    a = ap.parse_args()
+    res = coverage(a.workspace, a.scene, a.samples, a.rays)
+    for s, v in res.items():
+        print(f"{s}: {100 * v:.1f} % of flare-region points on flare in every source")
+    print(f"mean over {len(res)} views: {100 * float(np.mean(list(res.values()))):.1f} %")
+
+
+if __name__ == "__main__":
+    main()
