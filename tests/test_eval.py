@@ -87,6 +87,17 @@ def test_eval_end_to_end(scene, tmp_path):
     assert render.shape[:2] == (round(clean.shape[0] * 0.5), round(clean.shape[1] * 0.5))
     table = (out / "eval" / "table.md").read_text()
     assert "| GN-FR |" in table and "ground truth" in table and "tiny" in table
+    # what init resolved to and the colour match are recorded; the summary script reads them
+    assert res["budget"]["init_weights"] == "scratch" and res["budget"]["color_match"] is True
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "eval_summary", Path(__file__).parents[1] / "benchmarks" / "eval_summary.py")
+    summary = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(summary)
+    gap = (res["methods"]["gnfr"]["inputs"]["psnr_flare"]
+           - res["methods"]["gnt"]["inputs"]["psnr_flare"])
+    assert f"| {gap:+.2f} dB |" in summary.summarise([out / "eval" / "results.json"])
     grid = cv2.imread(str(out / "eval" / "grid.jpg"))
     tile_w = round(180 * clean.shape[1] / clean.shape[0])
     rows = len(split["heldout"]) + len(flared)         # 1 held-out + the 2 flared inputs
