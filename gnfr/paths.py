@@ -99,10 +99,35 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
     return c2w
 
 
-def world_up(c2ws: np.ndarray) -> np.ndarray:
-    """[3] unit world-up estimated from cameras [N, 4, 4] (mean of their -y axes)."""
-    up = -np.asarray(c2ws)[:, :3, 1].mean(0)
-    return up / max(np.linalg.norm(up), 1e-12)
+def world_up(c2ws: np.ndarray, iters: int = 3) -> np.ndarray:
+    """[3] unit world-up estimated from cameras [N, 4, 4].
+
+    Start from the mean of the cameras' up axes (-y in OpenCV); then, since a photo may be
+    taken rolled by 90 or 180 degrees (portrait or upside-down shots whose pixels were not
+    rotated), take from every camera whichever of its four in-image axes (-y, y, -x, x) is
+    closest to the current estimate and average again. Cameras held upright dominate."""
+    R = np.asarray(c2ws, np.float64)[:, :3, :3]
+    up = -R[:, :, 1].mean(0)
+    if np.linalg.norm(up) < 1e-9:
+        up = -R[0, :, 1]
+    up = up / np.linalg.norm(up)
+    cands = np.stack([-R[:, :, 1], R[:, :, 1], -R[:, :, 0], R[:, :, 0]], 1)  # [N, 4, 3]
+    for _ in range(iters):
+        pick = np.argmax(cands @ up, axis=1)
+        new = cands[np.arange(len(R)), pick].mean(0)
+        if np.linalg.norm(new) < 1e-9:
+            break
+        up = new / np.linalg.norm(new)
+    return up
+
+
+def upright(c2ws: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Cameras [N, 4, 4] rolled about their viewing axis so their image up is as close to
+    ``up`` as their viewing direction allows (positions and viewing directions kept)."""
+    out = np.array(c2ws, np.float64, copy=True)
+    for i, c in enumerate(out):
+        out[i] = look_at(c[:3, 3], c[:3, 3] + c[:3, 2], up)
+    return out
 
 
 # --------------------------------------------------------------------------- tour ordering
@@ -232,13 +257,17 @@ class PoseSpline:
 
 
 def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
-                     order: bool = True) -> np.ndarray:
+                     order: bool = True, up: np.ndarray | None = None) -> np.ndarray:
     """A smooth constant-speed path [n_frames, 4, 4] through key poses c2ws [N, 4, 4].
 
     ``order`` first sorts the keys into a short tour (:func:`order_tour`); the path starts
-    at the first key of the tour and (open path) ends at its last.
+    at the first key of the tour and (open path) ends at its last. With ``up`` the keys are
+    first rolled upright (:func:`upright`), so portrait or upside-down photos do not make
+    the video spin.
     """
     c2ws = np.asarray(c2ws, np.float64)
+    if up is not None:
+        c2ws = upright(c2ws, up)
     if n_frames < 1:
         raise ValueError("n_frames must be >= 1")
     if len(c2ws) == 1:

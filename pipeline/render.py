@@ -201,7 +201,8 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
     n = cfg.frames or max(1, round(cfg.seconds * cfg.fps))
     c2ws = np.stack([f.c2w for f in cams.frames])
     if cfg.path == "interpolate":
-        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws))
+        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
+                                       up=paths.world_up(c2ws))
     else:
         near = np.array([f.near for f in cams.frames])
         far = np.array([f.far for f in cams.frames])

@@ -262,3 +262,27 @@ def test_unknown_camera_model_is_a_user_error():
     with pytest.raises(UserError, match="not supported"):
         CameraModel.from_colmap({"model": "THIN_PRISM_FISHEYE", "width": 1, "height": 1,
                                  "params": []})
+
+
+def test_rolled_photos_do_not_make_the_tour_spin():
+    from gnfr.paths import world_up
+
+    up = np.array([0.0, 0.0, 1.0])
+    keys = []
+    for i, a in enumerate(np.linspace(-0.6, 0.6, 8)):
+        eye = np.array([3 * np.sin(a), -3 * np.cos(a), 0.2 * (i % 2)])
+        c = look_at(eye, np.zeros(3), up)
+        roll = {2: np.pi / 2, 5: np.pi}.get(i, 0.0)  # one portrait, one upside-down shot
+        rz = np.array([[np.cos(roll), -np.sin(roll), 0], [np.sin(roll), np.cos(roll), 0],
+                       [0, 0, 1]])
+        c[:3, :3] = c[:3, :3] @ rz
+        keys.append(c)
+    keys = np.stack(keys)
+    est = world_up(keys)
+    assert est @ up > np.cos(np.radians(2))  # the rolled shots do not tilt the estimate
+    path = interpolate_path(keys, 40, up=est)
+    assert (-path[:, :3, 1] @ up > np.cos(np.radians(5))).all()  # every frame upright
+    # viewing directions and positions of the keys are kept
+    assert np.allclose(np.sort(path[[0, -1], :3, 3], 0), np.sort(keys[[0, -1], :3, 3], 0))
+    spun = interpolate_path(keys, 40)  # without it, the rolled keys turn the frames
+    assert (-spun[:, :3, 1] @ up < 0.5).any()
