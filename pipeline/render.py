@@ -496,9 +496,8 @@ def _to_u8(x: np.ndarray) -> np.ndarray:
 def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
     photo = read_rgb(ws.decoded / f"{frame.stem}.png")
     size = (photo.shape[1], photo.shape[0])
-    alpha = input_alpha(frame, cfg, ws, size, size)
+    alpha, ring = input_blend(frame, cfg, ws, size, size)
     rays_o, rays_d, rows, cols = input_rays(frame, alpha, photo.shape[1], photo.shape[0])
-    ring = match_ring(frame, cfg, ws, alpha, size, size)
     ring = None if ring is None else ring[rows, cols]
 
     def compose(rgb):
@@ -510,21 +509,6 @@ def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
         return _to_u8(out)
 
     return rays_o, rays_d, compose
-
-
-def match_ring(frame: Frame, cfg: RenderConfig, ws: Workspace, alpha: np.ndarray,
-               size: tuple[int, int], decoded_size: tuple[int, int]) -> np.ndarray | None:
-    """[H, W] bool pixels the colour match is fitted on: rendered at full weight
-    (alpha >= 0.9) but outside the flare mask (the dilation ring); None when colour
-    matching is off (``color_match`` false or ``blend none``)."""
-    import cv2
-
-    if not cfg.color_match or cfg.blend == "none":
-        return None
-    mask = flare_mask_in(decoded_camera(frame, *decoded_size), frame, ws)
-    if decoded_size != size:
-        mask = cv2.resize(mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
-    return (alpha >= 0.9) & ~mask
 
 
 MATCH_MIN_PIXELS = 100
@@ -550,19 +534,24 @@ def match_colours(rgb: np.ndarray, photo: np.ndarray, ring: np.ndarray | None) -
     return np.maximum(out, 0.0)
 
 
-def input_alpha(frame: Frame, cfg: RenderConfig, ws: Workspace, size: tuple[int, int],
-                decoded_size: tuple[int, int]) -> np.ndarray:
-    """[H, W] blend weight of an input view at ``size`` = (W, H) (the decoded framing,
-    maybe scaled; ``decoded_size`` is WS/decoded's): the flare mask warped through the
-    camera model, dilated and feathered; 1 everywhere with blend none."""
+def input_blend(frame: Frame, cfg: RenderConfig, ws: Workspace, size: tuple[int, int],
+                decoded_size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
+    """(alpha, ring) of an input view at ``size`` = (W, H) (the decoded framing, maybe
+    scaled; ``decoded_size`` is WS/decoded's), from one read of its flare mask warped
+    through the camera model. alpha [H, W]: the blend weight, the mask dilated and
+    feathered (1 everywhere with blend none). ring [H, W] bool: the pixels the colour match
+    is fitted on, rendered at full weight (alpha >= 0.9) but outside the flare mask (the
+    dilation ring); None when colour matching is off (``color_match`` false or blend none).
+    """
     import cv2
 
     if cfg.blend == "none":
-        return np.ones(size[::-1], np.float32)
+        return np.ones(size[::-1], np.float32), None
     mask = flare_mask_in(decoded_camera(frame, *decoded_size), frame, ws)
     if decoded_size != size:  # full resolution: upsample the decoded-size mask
         mask = cv2.resize(mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
-    return blend_weights(mask, cfg.dilate, cfg.feather)
+    alpha = blend_weights(mask, cfg.dilate, cfg.feather)
+    return alpha, ((alpha >= 0.9) & ~mask) if cfg.color_match else None
 
 
 def input_rays(frame: Frame, alpha: np.ndarray, width: int, height: int):

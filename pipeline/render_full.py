@@ -91,7 +91,7 @@ def prepare_full_res(job, cfg, ws: Workspace):
     """(rays_o, rays_d, compose) of a full-resolution job (see pipeline.render)."""
     import cv2
 
-    from pipeline.render import input_alpha, input_rays, match_colours, match_ring, read_rgb
+    from pipeline.render import input_blend, input_rays, match_colours, read_rgb
 
     f = job.camera
     photo = _read_any(job.extra["full"])
@@ -103,9 +103,8 @@ def prepare_full_res(job, cfg, ws: Workspace):
 
         raise UserError(f"{job.extra['full']} ({W}x{H}) does not have the aspect of "
                         f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
-    alpha = input_alpha(f, cfg, ws, (W, H), dsize)
+    alpha, ring = input_blend(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
-    ring = match_ring(f, cfg, ws, alpha, (W, H), dsize)
     ring = None if ring is None else ring[rows, cols]
     peak = 65535.0 if photo.dtype == np.uint16 else 255.0
     gains = np.ones(3)

@@ -297,14 +297,12 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
     imgs, masks = fixed_set(src, count, seed, extras=True)
     with torch.no_grad():
         probs = torch.cat([torch.sigmoid(model(imgs[i:i + 8])) for i in range(0, count, 8)])
+    from gnfr.fmg import confusion
+
     truth = masks > 0.5
     rows = []
     for c in cuts:
-        pred = probs > c
-        tp = int((pred & truth).sum())
-        fp = int((pred & ~truth).sum())
-        fn = int((~pred & truth).sum())
-        tn = int((~pred & ~truth).sum())
+        (tn, fp), (fn, tp) = confusion(probs > c, truth).tolist()
         iou_f, iou_c = tp / max(tp + fp + fn, 1), tn / max(tn + fp + fn, 1)
         rows.append({"cut": c, "iou_flare": round(iou_f, 4),
                      "miou": round((iou_f + iou_c) / 2, 4),

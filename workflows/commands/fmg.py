@@ -11,6 +11,11 @@ def _ints(text: str) -> tuple[int, ...]:
     return tuple(int(v) for v in text.split(","))
 
 
+# options shared by eval and calibrate (typer reads the same OptionInfo in both signatures)
+WEIGHTS = typer.Option(None, "--weights", help="FMG weights (default: the shipped ones).")
+DATA = typer.Option(None, help="Folder with backgrounds/ and scenes/.")
+
+
 def register(app: typer.Typer) -> None:
     fmg = typer.Typer(help="Train or evaluate the FMG flare-mask network.",
                       no_args_is_help=True)
@@ -52,9 +57,8 @@ def register(app: typer.Typer) -> None:
 
     @fmg.command("eval")
     def eval_cmd(
-        weights: Path = typer.Option(None, "--weights", help="FMG weights (default: "
-                                     "the shipped ones)."),
-        data: Path = typer.Option(None, help="Folder with backgrounds/ and scenes/."),
+        weights: Path = WEIGHTS,
+        data: Path = DATA,
         count: int = typer.Option(64, help="Held-out composites per flare setting."),
         size: int = typer.Option(256, help="Composite side in pixels."),
         refine: bool = typer.Option(False, "--refine/--no-refine",
@@ -74,9 +78,8 @@ def register(app: typer.Typer) -> None:
 
     @fmg.command("calibrate")
     def calibrate_cmd(
-        weights: Path = typer.Option(None, "--weights", help="FMG weights (default: "
-                                     "the shipped ones)."),
-        data: Path = typer.Option(None, help="Folder with backgrounds/ and scenes/."),
+        weights: Path = WEIGHTS,
+        data: Path = DATA,
         count: int = typer.Option(96, help="Training-side composites to score."),
         seed: int = typer.Option(7, help="Seed of the composites."),
         write: bool = typer.Option(False, "--write/--no-write", help="Store the best cut "
