@@ -29,7 +29,7 @@ def _tree_digest(folder: Path) -> str:
 TINY_ARGS = ["--max-size", "200", "--masks", str(TRUTH / "masks_gt"), "--preset", "tiny",
              "--iters", "4", "--frames", "3", "--fps", "6", "--device", "cpu",
              "--set", "render.scale=0.25", "--set", "render.samples=8",
-             "--set", "render.chunk=4096", "--set", "pose.num_threads=2"]
+             "--set", "render.chunk=4096", "--set", "pose.num_threads=1"]
 
 
 def test_one_shot_on_sample_produces_video_and_deflared_photos(tmp_path, capsys):
