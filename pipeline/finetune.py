@@ -227,7 +227,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
         info(f"finetune: resuming at step {step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")
-    _trim_metrics(out / "metrics.jsonl", step)
+    trim_metrics(out / "metrics.jsonl", step)
     bank, cache = prepare_sources(model, scene, cfg, device)
     stats = _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset)
     _write_unseen(out / "unseen.json", scene, unseen)
@@ -264,7 +264,7 @@ def _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset) -
     return {"steps": step, "it_per_s": round((step - done0) / max(time.time() - t0, 1e-9), 3)}
 
 
-def _trim_metrics(path: Path, step: int) -> None:
+def trim_metrics(path: Path, step: int) -> None:
     """Drop metric lines past the checkpoint a run resumes from (all on a fresh start)."""
     if not path.exists():
         return

@@ -12,6 +12,7 @@ centred at the origin within a sphere of radius about 1 (near/far scaled alike).
 
 from __future__ import annotations
 
+import re
 import struct
 from collections.abc import Sequence
 from pathlib import Path
@@ -162,7 +163,11 @@ def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
         raise UserError(f"{img_dir} has {len(files)} images but poses_bounds.npy "
                         f"{len(poses)} poses")
     H0, W0, f0 = poses[0, :, 4]
-    h, w = cv2.imread(str(files[0])).shape[:2]
+    h, w = read_rgb(files[0]).shape[:2]
+    if abs((w / W0) / (h / H0) - 1) > 0.01:
+        raise UserError(f"{files[0]} is {w}x{h} but poses_bounds.npy says {W0:.0f}x{H0:.0f} "
+                        "(another aspect: rotated or cropped images?); use the images the "
+                        "poses were made for")
     s = min(1.0, max_size / max(h, w))
     W, H = round(w * s), round(h * s)
     K = np.array([[f0 * W / W0, 0, W / 2], [0, f0 * H / H0, H / 2], [0, 0, 1]])
@@ -173,12 +178,17 @@ def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
 
 
 def _llff_image_dir(folder: Path, max_size: int) -> Path:
-    cands = sorted((p for p in folder.glob("images*") if p.is_dir()),
+    """``images/`` or the ``images_<factor>/`` whose images are the smallest still at least
+    ``max_size`` on their long side (else the largest)."""
+    cands = sorted((p for p in folder.iterdir()
+                    if p.is_dir() and re.fullmatch(r"images(_\d+)?", p.name)),
                    key=lambda p: int(p.name.split("_")[1]) if "_" in p.name else 1)
     if not cands:
-        raise UserError(f"{folder} has poses_bounds.npy but no images/ folder")
+        raise UserError(f"{folder} has poses_bounds.npy but no images/ or images_<factor>/ "
+                        "folder")
     for p in reversed(cands):  # the smallest images still at least max_size
-        img = cv2.imread(str(next(x for x in sorted(p.iterdir()))))
+        first = next((x for x in sorted(p.iterdir()) if x.suffix.lower() in IMAGE_EXTS), None)
+        img = None if first is None else cv2.imread(str(first))
         if img is not None and max(img.shape[:2]) >= max_size:
             return p
     return cands[0]

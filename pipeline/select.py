@@ -8,7 +8,8 @@
 A view whose flare occupancy is above ``max_flare`` is never a training target (it can
 still be rendered as a novel view and still serve as a source where it is clean). Each
 view's ``sources`` lists every OTHER view, nearest camera centre first; training and
-rendering pick the least-flared among the nearest (gnfr/view_sampler.py).
+rendering pick among the nearest with ``gnfr.view_sampler.pick_sources`` (the least
+flared, fractions within its tolerance counting as equal and the nearer winning).
 """
 
 from __future__ import annotations

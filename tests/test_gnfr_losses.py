@@ -5,7 +5,13 @@ from __future__ import annotations
 import torch
 
 from gnfr.losses import masked_mse
-from gnfr.view_sampler import eval_sources, target_stems, train_sources
+from gnfr.view_sampler import (
+    FLARE_TOLERANCE,
+    eval_sources,
+    pick_sources,
+    target_stems,
+    train_sources,
+)
 
 
 def test_masking_loss_gives_no_gradient_on_flare_pixels():
@@ -38,8 +44,9 @@ def test_train_sources_prefer_least_flared_within_the_pool():
         assert idx == sorted(idx)  # nearest first
         pool = RANKED[:max(idx) + 1]
         left_out = [s for s in pool if s not in src]
-        # every view left out of the pool's nearest part is at least as flared
-        assert all(FLARE[o] >= max(FLARE[s] for s in src) - 1e-12 for o in left_out)
+        # no source is more flared than a view left out by more than the tolerance
+        worst = max(FLARE[s] for s in src)
+        assert all(FLARE[o] >= worst - FLARE_TOLERANCE - 1e-9 for o in left_out)
     near = train_sources(RANKED, FLARE, g, use_flare=False)
     assert near == RANKED[:len(near)]
 
@@ -51,6 +58,53 @@ def test_eval_sources_deterministic_nearest_least_flared():
     assert all(FLARE[s] < 0.5 for s in a)  # the heavily flared views are dropped
     aligned = eval_sources(RANKED, [FLARE[s] for s in RANKED], n=10, pool=20)
     assert aligned == a
+
+
+LINE = [f"v{i:02d}" for i in range(24)]  # 24 views in a line, nearest first
+
+
+def test_near_views_within_tolerance_beat_far_clean_ones():
+    # the toy case of issue 13: the 12 nearest 0.1-0.4% flared, the 12 far ones clean
+    fl = {s: (0.001 + 0.003 * i / 11 if i < 12 else 0.0) for i, s in enumerate(LINE)}
+    assert eval_sources(LINE, fl, n=12, pool=24) == LINE[:12]
+    assert eval_sources(LINE, fl, n=10, pool=20) == LINE[:10]
+    g = torch.Generator().manual_seed(0)
+    for _ in range(20):
+        src = train_sources(LINE, fl, g, n_range=(8, 12))
+        assert src == LINE[:len(src)]
+
+
+def test_a_heavily_flared_near_view_loses_to_a_far_clean_one():
+    fl = dict.fromkeys(LINE, 0.0) | {"v00": 0.3, "v03": 0.3}
+    got = eval_sources(LINE, fl, n=4, pool=24)
+    assert got == ["v01", "v02", "v04", "v05"]
+
+
+def test_tolerance_boundary_both_ways():
+    pool = ["near", "far"]
+    t = FLARE_TOLERANCE
+    # a difference of at most the tolerance counts as equal: the near view wins
+    for near_f, far_f in ((t, 0.0), (t / 2, 0.0), (0.05 + t, 0.05), (0.0, 0.01)):
+        assert pick_sources(pool, [near_f, far_f], 1) == ["near"]
+    # a difference above it is resolved: the cleaner, farther view wins
+    assert pick_sources(pool, [t + 1e-4, 0.0], 1) == ["far"]
+    assert pick_sources(pool, [0.05 + t + 1e-4, 0.05], 1) == ["far"]
+    # the tolerance is a parameter: 0 gives the strict least-flared choice
+    assert pick_sources(pool, [0.003, 0.0], 1, tolerance=0.0) == ["far"]
+    assert eval_sources(pool, [0.003, 0.0], n=1, tolerance=0.0) == ["far"]
+    assert eval_sources(pool, [0.003, 0.0], n=1) == ["near"]
+
+
+def test_source_choice_is_deterministic_and_nearest_first():
+    fl = [0.3, 0.0, 0.015, 0.05, 0.0, 0.2, 0.01, 0.0, 0.04, 0.0]
+    stems = [f"s{i}" for i in range(10)]
+    a = pick_sources(stems, fl, 5)
+    assert a == pick_sources(list(stems), list(fl), 5) == eval_sources(stems, fl, 5, 10)
+    assert a == ["s1", "s2", "s4", "s6", "s7"]  # s0 (30%) and s3 (5%) resolved, s5 too
+    assert [stems.index(s) for s in a] == sorted(stems.index(s) for s in a)
+    g1, g2 = torch.Generator().manual_seed(3), torch.Generator().manual_seed(3)
+    assert ([train_sources(stems, fl, g1, (3, 5)) for _ in range(10)]
+            == [train_sources(stems, fl, g2, (3, 5)) for _ in range(10)])
 
 
 def test_flared_views_are_never_targets_unless_ablated():

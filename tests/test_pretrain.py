@@ -130,3 +130,105 @@ def test_torchrun_two_process_gloo_pretrain(tmp_path):
                        flare=False, device="cpu"))
     assert torch.load(out / "train_state.pt", weights_only=True)["step"] == 6
     assert (out / "gnfr.safetensors").stat().st_mtime_ns == stamp
+
+
+# --------------------------------------------------------------------------- step counts
+@pytest.fixture(scope="module")
+def pretrain_scenes(tmp_path_factory):
+    root = tmp_path_factory.mktemp("pretrain_scenes")
+    make_temple_workspace(root / "temple", n_views=5, scale=0.15)
+    return root
+
+
+@pytest.fixture
+def steps_taken(monkeypatch):
+    """The step argument of every train_step the pretraining loop makes."""
+    import workflows.pretrain as wp
+
+    taken, real = [], wp.train_step
+
+    def counting(model, opt, batch, *args):
+        taken.append(args[-2])                       # (..., cfg, step, hook)
+        return real(model, opt, batch, *args)
+    monkeypatch.setattr(wp, "train_step", counting)
+    return taken
+
+
+def _pretrain_cli(scenes, out, iters: int, *extra: str) -> None:
+    from workflows.cli import main
+
+    assert main(["pretrain", str(scenes), "--out", str(out), "--preset", "tiny", "--iters",
+                 str(iters), "--no-flare", "--device", "cpu", *extra]) == 0
+
+
+def _steps_logged(out) -> list[int]:
+    import json
+
+    return [json.loads(ln)["step"] for ln in (out / "metrics.jsonl").read_text().splitlines()]
+
+
+def test_init_from_weights_continues_their_step_count(pretrain_scenes, steps_taken, tmp_path,
+                                                      capsys):
+    from gnfr.checkpoint import read_metadata
+    from workflows.pretrain import export_fp16, start_step
+
+    _pretrain_cli(pretrain_scenes, tmp_path / "a", 6)
+    assert steps_taken == list(range(6))
+    shipped = export_fp16(tmp_path / "a" / "gnfr.safetensors", tmp_path / "shipped.safetensors")
+    assert read_metadata(shipped)[1]["step"] == 6
+    steps_taken.clear()
+    _pretrain_cli(pretrain_scenes, tmp_path / "b", 12, "--init", str(shipped))
+    assert steps_taken == list(range(6, 12))             # not 0..11: it went on from step 6
+    assert _steps_logged(tmp_path / "b") == [10, 12]
+    assert torch.load(tmp_path / "b" / "train_state.pt", weights_only=True)["step"] == 12
+    assert read_metadata(tmp_path / "b" / "gnfr.safetensors")[1]["step"] == 12
+    # weights of another preset (same architecture) start the count at 0
+    other = export_fp16(tmp_path / "a" / "gnfr.safetensors", tmp_path / "other.safetensors",
+                        {"preset": "pretrain-quick"})
+    from gnfr.train import PRESETS
+
+    assert start_step(PRESETS["tiny"], str(other), "tiny") == 0
+    assert start_step(PRESETS["tiny"], str(shipped), "tiny") == 6
+    assert start_step(PRESETS["tiny"], "scratch", "tiny") == 0
+    # an --iters the weights already reached is refused (nothing would be trained)
+    from workflows.cli import main
+
+    assert main(["pretrain", str(pretrain_scenes), "--out", str(tmp_path / "d"), "--preset",
+                 "tiny", "--iters", "6", "--device", "cpu", "--init", str(shipped)]) == 2
+    assert "give --iters above 6" in capsys.readouterr().err
+    assert not (tmp_path / "d" / "gnfr.safetensors").exists()
+    steps_taken.clear()
+    _pretrain_cli(pretrain_scenes, tmp_path / "c", 3, "--init", str(other))
+    assert steps_taken == [0, 1, 2]
+    assert read_metadata(tmp_path / "c" / "gnfr.safetensors")[1]["step"] == 3
+
+
+def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_taken, tmp_path):
+    from dataclasses import replace
+
+    import workflows.pretrain as wp
+    from gnfr.train import PRESETS
+
+    class Killed(Exception):
+        pass
+
+    real = wp.train_step
+
+    def dies_at_step_5(model, opt, batch, *args):
+        if args[-2] == 5:
+            raise Killed
+        return real(model, opt, batch, *args)
+    cfg = replace(PRESETS["tiny"], ckpt_every=2)
+    config = wp.PretrainConfig(scenes=[pretrain_scenes], out=tmp_path / "run", preset="tiny",
+                               iters=10, flare=False, device="cpu")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(wp, "train_step", dies_at_step_5)
+        with pytest.raises(Killed):
+            wp.run(config, cfg)
+    # steps 0..4 ran; the last checkpoint is the one after step index 3 (step count 4)
+    assert torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)["step"] == 4
+    assert steps_taken == [0, 1, 2, 3, 4]
+    wp.run(config, cfg)                                  # rerun in the same folder
+    assert steps_taken[5:] == list(range(4, 10))         # continued, not restarted
+    assert torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)["step"] == 10
+    assert _steps_logged(tmp_path / "run") == [5, 10]   # the killed run's 5 was dropped

@@ -36,6 +36,7 @@ from pipeline.finetune import (
     prepare_sources,
     render_meta,
     rng_state,
+    trim_metrics,
 )
 from pipeline.progress import info, make_progress, warn
 
@@ -117,6 +118,24 @@ def load_scenes(config: PretrainConfig) -> list[Scene]:
     return scenes
 
 
+def start_step(cfg: TrainConfig, init: str, preset: str) -> int:
+    """The step a run started from pretrained weights continues at: the ``step`` recorded in
+    the weights' metadata when they come from the same preset (so the learning-rate schedule
+    and step count go on where that run stopped; its optimizer state is not shipped), else 0.
+    ``run`` refuses an ``iters`` that is not above it."""
+    from gnfr.checkpoint import read_metadata
+    from pipeline.finetune import shipped_weights
+
+    path = shipped_weights(cfg) if init == "auto" else (None if init == "scratch"
+                                                        else Path(init))
+    if path is None or not Path(path).is_file():
+        return 0
+    _, meta = read_metadata(path)
+    if meta.get("preset") != preset:
+        return 0
+    return int(meta.get("step", 0))
+
+
 # --------------------------------------------------------------------------- distributed
 def setup_distributed(device_name: str) -> tuple[int, int, torch.device]:
     """(rank, world size, device); initialises the process group under torchrun."""
@@ -162,16 +181,24 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     cfg = replace(cfg, seed=config.seed)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
+    step = start_step(cfg, config.init, config.preset)
+    resume = (out / STATE_FILE).exists() and (out / MODEL_FILE).exists()
+    if step and not resume and step >= cfg.iters:
+        raise UserError(f"--init {config.init} was trained to step {step} with preset "
+                        f"{config.preset}: give --iters above {step} to train it further")
     scenes = load_scenes(config)
     model, how = init_model(cfg, device, config.init)
     opt = make_optimizer(model, cfg)
-    step = 0
-    if (out / STATE_FILE).exists() and (out / MODEL_FILE).exists():
+    if step:
+        how += f", continuing its step count at {step} (fresh optimizer state)"
+    if resume:
         load_weights(model, out / MODEL_FILE)
         st = load_train_state(out / STATE_FILE)
         opt.load_state_dict(st["optimizer"])
         step = int(st["step"])
         how = f"resuming at step {step}"
+    if rank == 0:
+        trim_metrics(out / "metrics.jsonl", step)
     if world > 1:
         broadcast_params(model)
     if rank == 0:
