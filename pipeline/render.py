@@ -36,6 +36,7 @@ from pipeline.workspace import (
 )
 
 NAMED_PATHS = ("inputs", "interpolate", "spiral")
+FILLS = ("hybrid", "network")
 
 
 @dataclass
@@ -86,6 +87,15 @@ class RenderConfig:
     checkpoint's training value, else 1)."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
+    fill: str = "hybrid"
+    """``hybrid``: where WS/depth exists (`deflare-scene depth`), pixels are taken from the
+    nearest photos warped by depth wherever ``min_support`` of them agree (flare masks and
+    occlusions respected), and GN-FR renders only the rest; ``network``: GN-FR renders every
+    pixel (docs/depth.md)."""
+    min_support: int = 2
+    """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
+    photo_sources: int = 4
+    """hybrid: nearest clean photos warped into each image."""
 
 
 @dataclass
@@ -119,7 +129,17 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
               "scale": _scale(cfg, device),
               "point_sampler": bool(meta.get("point_sampler", True))}
+    if cfg.fill not in FILLS:
+        raise UserError(f"--fill {cfg.fill!r} is not known: use {' or '.join(FILLS)}")
+    if cfg.min_support < 1 or cfg.photo_sources < 1:
+        raise UserError(f"--min-support {cfg.min_support} / --photo-sources "
+                        f"{cfg.photo_sources}: both must be at least 1")
+    use_photos = cfg.fill == "hybrid" and _depth_dir(ws).is_dir()
+    if cfg.fill == "hybrid" and not use_photos:
+        warn(f"render: no {_depth_dir(ws)} (run `deflare-scene depth {ws.root}`): GN-FR "
+             "renders every pixel")
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
+    inputs += [_depth_dir(ws)] if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     run_ = ws.begin_stage(f"render:{key}", params, inputs, force)
@@ -142,7 +162,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
             model = _load_model(ckpt, device)
             stems = sorted({s for j in todo for s in j.sources})
             src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"])
-            render_jobs(model, src, index, todo, params, cfg, ws)
+            photos = photo_views(ws, cams, todo, cfg) if use_photos else None
+            render_jobs(model, src, index, todo, params, cfg, ws, photos)
     outputs = [out_dir] + ([full_dir(ws)] if full else [])
     return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
 
@@ -422,7 +443,7 @@ def default_chunk(device_type: str) -> int:
 
 
 def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params: dict,
-                cfg: RenderConfig, ws: Workspace) -> None:
+                cfg: RenderConfig, ws: Workspace, photos: dict | None = None) -> None:
     """Render and write every job against the shared source cache, with progress bars."""
     import torch
 
@@ -432,7 +453,7 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
         for job in jobs:
-            rays_o, rays_d, compose = prepare_job(job, cfg, ws)
+            rays_o, rays_d, compose = prepare_job(job, cfg, ws, photos)
             prog.reset(t_rays, total=max(len(rays_o), 1))
             rgb = np.zeros((0, 3), np.float32)
             if len(rays_o):
@@ -466,8 +487,9 @@ def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> N
         atomic_imwrite(path, bgr)
 
 
-def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace):
-    """(rays_o [R, 3], rays_d [R, 3], compose(rgb [R, 3] float) -> image [H, W, 3] uint8)."""
+def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | None = None):
+    """(rays_o [R, 3], rays_d [R, 3], compose(rgb [R, 3] float) -> image [H, W, 3] uint8).
+    ``photos``: {stem: PosedView with depth} for the hybrid fill (None: network only)."""
     import torch
 
     from gnfr.geometry import image_pixels, pixel_rays
@@ -477,38 +499,125 @@ def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace):
             from pipeline.render_full import prepare_full_res
 
             return prepare_full_res(job, cfg, ws)
-        return _prepare_input(job.camera, cfg, ws)
+        return _prepare_input(job, cfg, ws, photos)
     pc = job.camera
-    pix = image_pixels(pc.height, pc.width)
+    H, W = pc.height, pc.width
+    wgt = colour = None
+    if photos is not None:
+        colour, wgt = _photo_fill(pc.K, pc.c2w, (W, H), job, photos, cfg)
+    todo = np.ones((H, W), bool) if wgt is None else wgt < 1
+    pix = image_pixels(H, W)[torch.from_numpy(todo.reshape(-1))]
     rays_o, rays_d = pixel_rays(torch.tensor(pc.K, dtype=torch.float32),
                                 torch.tensor(pc.c2w, dtype=torch.float32), pix)
 
     def compose(rgb):
-        return _to_u8(rgb.reshape(pc.height, pc.width, 3))
+        out = np.zeros((H, W, 3), np.float32)
+        out[todo] = rgb
+        if wgt is not None:
+            out = out * (1 - wgt[..., None]) + colour * wgt[..., None]
+        return _to_u8(out)
 
     return rays_o, rays_d, compose
+
+
+def _depth_dir(ws: Workspace) -> Path:
+    return ws.root / "depth"
+
+
+def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:
+    """{stem: PosedView} (WS/images, flare masks, WS/depth) of every photo a job warps."""
+    from pipeline.depth import load_views
+
+    stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
+    return load_views(ws, cams, stems, with_depth=True)
+
+
+def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
+                reference: tuple[np.ndarray, np.ndarray] | None = None):
+    """(colour [H, W, 3], weight [H, W]) of the hybrid fill for one camera: the nearest
+    ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
+    gains matched to ``reference`` = (image, valid) when given (an input view's own clean
+    pixels)."""
+    from pipeline.photo_fill import photo_fill, support_weight
+
+    c = np.asarray(c2w, float)[:3, 3]
+    near = sorted((s for s in job.sources if s in photos),
+                  key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
+    srcs = [photos[s] for s in near[:cfg.photo_sources]]
+    if not srcs:
+        return np.zeros((size[1], size[0], 3), np.float32), np.zeros(size[::-1], np.float32)
+    ref, ref_valid = reference if reference is not None else (None, None)
+    pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
+                    reference=ref, ref_valid=ref_valid)
+    return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs)))
+
+
+def _own_clean_pixels(ws: Workspace, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    """(image float [H, W, 3], valid [H, W]) of WS/images/<stem>.png outside its flare mask
+    grown by 2% of the long side: the reference the warped photos' gains are matched to."""
+    import cv2
+
+    img = read_rgb(ws.images / f"{frame.stem}.png").astype(np.float32) / 255.0
+    m = cv2.imread(str(ws.masks / f"{frame.stem}.png"), cv2.IMREAD_GRAYSCALE)
+    if m is None:
+        return img, np.ones(img.shape[:2], bool)
+    r = max(1, round(0.02 * max(m.shape)))
+    grown = cv2.dilate((m > 127).astype(np.uint8), np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+    return img, grown == 0
 
 
 def _to_u8(x: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(x * 255.0), 0, 255).astype(np.uint8)
 
 
-def _prepare_input(frame: Frame, cfg: RenderConfig, ws: Workspace):
+def _prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | None):
+    """An input view: the flare region (alpha > 0) filled by GN-FR or, in the hybrid fill,
+    from the warped photos where they agree; each fill colour-matched on the ring."""
+    frame = job.camera
     photo = read_rgb(ws.decoded / f"{frame.stem}.png")
     size = (photo.shape[1], photo.shape[0])
     alpha, ring = input_blend(frame, cfg, ws, size, size)
-    rays_o, rays_d, rows, cols = input_rays(frame, alpha, photo.shape[1], photo.shape[0])
-    ring = None if ring is None else ring[rows, cols]
+    region = alpha > 0.5 / 255
+    wgt = colour = None
+    if photos is not None and region.any():
+        colour, wgt = _photo_fill(frame.K, frame.c2w, (frame.width, frame.height), job,
+                                  photos, cfg, _own_clean_pixels(ws, frame))
+        colour, wgt = _to_decoded(frame, size, colour, wgt)
+    # the network renders where the photos do not cover, and on the ring (its colour match)
+    net = region if wgt is None else region & ((wgt < 1) | (ring if ring is not None
+                                                            else False))
+    rays_o, rays_d, rows, cols = input_rays(frame, net.astype(np.float32), *size)
 
     def compose(rgb):
         out = photo.astype(np.float32) / 255.0
-        a = alpha[rows, cols, None]
-        if ring is not None:
-            rgb = match_colours(rgb, out[rows, cols], ring)
-        out[rows, cols] = out[rows, cols] * (1 - a) + rgb * a
+        fill = np.zeros_like(out)
+        if len(rows):
+            fill[rows, cols] = (match_colours(rgb, out[rows, cols], ring[rows, cols])
+                                if ring is not None else rgb)
+        if wgt is not None:
+            pc = colour
+            if ring is not None:
+                pc = match_colours(colour.reshape(-1, 3), out.reshape(-1, 3),
+                                   (ring & (wgt >= 1)).reshape(-1)).reshape(out.shape)
+            fill = fill * (1 - wgt[..., None]) + pc * wgt[..., None]
+        a = alpha[..., None]
+        out = np.where(region[..., None], out * (1 - a) + fill * a, out)
         return _to_u8(out)
 
     return rays_o, rays_d, compose
+
+
+def _to_decoded(frame: Frame, size: tuple[int, int], colour: np.ndarray, wgt: np.ndarray):
+    """Colour and weight from WS/images (pinhole) geometry into WS/decoded geometry."""
+    import cv2
+
+    cam = decoded_camera(frame, *size)
+    pin = CameraModel.pinhole(frame.K, frame.width, frame.height)
+    mx, my = warp_maps(pin, cam)
+    colour = cv2.remap(colour, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    wgt = cv2.remap(wgt, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                    borderValue=0)
+    return colour, wgt
 
 
 MATCH_MIN_PIXELS = 100

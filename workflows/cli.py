@@ -38,7 +38,7 @@ def _root() -> None:
 
 # one module per command group, in the order the pipeline runs them
 COMMAND_MODULES = [
-    "run", "decode", "pose", "synth", "mask", "select", "finetune", "render", "export",
+    "run", "decode", "pose", "synth", "mask", "depth", "select", "finetune", "render", "export",
     "fmg", "pretrain", "eval", "bench",
 ]
 _registered = False

@@ -10,6 +10,7 @@ WS/masks, flare.json, views.json     mask (FMG, or masks_gt with --masks gt) and
 WS/variants/<name>/                  one workspace per neural variant (inputs hard-linked
                                      from WS): model/, deflared/, renders/heldout_cameras/
 WS/baselines/inpaint/<stem>.png      single-image inpainting of the masked region
+WS/baselines/photos[_heldout]/       neighbours warped by plane-sweep depth (no network)
 WS/eval/heldout_cameras.json         the held-out cameras as a JSON camera path
 WS/eval/table.md, results.json, grid.jpg
 ```
@@ -19,7 +20,7 @@ input views (``render --path inputs``: the product's de-flared photos, flare reg
 re-rendered and blended). Each variant's finetune and renders are workspace stages, so an
 interrupted evaluation resumes per variant; the scores are recomputed every run (seconds).
 
-Scenes: evaluate only scenes of ``pipeline.datasets.HELDOUT_SCENES`` (kermit, cyprus), which
+Scenes: evaluate only scenes of ``pipeline.datasets.TEST_SCENES`` (fern, kermit, cyprus), which
 no training run uses; another scene is evaluated with a warning recorded in the results.
 """
 
@@ -48,13 +49,14 @@ NEURAL = {
     "no_ml": {"point_sampler": True, "view_sampler": True, "mask_loss": False},
 }
 """Neural variants: which of GN-FR's three parts each keeps."""
-BASELINES = ("input", "inpaint")
+BASELINES = ("input", "inpaint", "photos")
 ALL_VARIANTS = (*NEURAL, *BASELINES)
 LABELS = {"gnfr": "GN-FR", "gnt": "GNT (all GN-FR parts off)",
           "no_ps": "GN-FR w/o Point Sampler", "no_vs": "GN-FR w/o View Sampler",
           "no_ml": "GN-FR w/o masking loss", "input": "flared input (no removal)",
-          "inpaint": "inpainting of the mask (OpenCV Telea)"}
-LINKED = ("images", "decoded", "masks", "cameras.json", "views.json", "flare.json")
+          "inpaint": "inpainting of the mask (OpenCV Telea)",
+          "photos": "photos warped by plane-sweep depth, no network (Telea where none agree)"}
+LINKED = ("images", "decoded", "masks", "cameras.json", "views.json", "flare.json", "depth")
 """What a variant workspace shares with the evaluation workspace (hard links)."""
 
 
@@ -67,7 +69,7 @@ class EvalConfig:
     out: Path | None = None
     """Evaluation workspace (default SCENE/eval.ws)."""
     variants: tuple[str, ...] = ALL_VARIANTS
-    """Methods to score: gnfr, gnt, no_ps, no_vs, no_ml, input, inpaint."""
+    """Methods to score: gnfr, gnt, no_ps, no_vs, no_ml, input, inpaint, photos."""
     masks: str = "fmg"
     """fmg (shipped FMG weights, or ``fmg_weights``) | gt (SCENE/masks_gt)."""
     fmg_weights: Path | None = None
@@ -93,6 +95,9 @@ class EvalConfig:
     color_match: bool = True
     """De-flared inputs with the render stage's colour match of the fill (as the product
     writes them); false scores the raw fill blended in."""
+    fill: str = "hybrid"
+    """Render fill of the neural variants (render --fill): hybrid (photos warped by depth
+    where they agree, the network elsewhere) | network (the network everywhere)."""
     grid_rows: int = 4
     """Views (rows) in grid.jpg: held-out views first, then the most flared inputs."""
     force: bool = False
@@ -230,7 +235,7 @@ def variant_workspace(base: Workspace, name: str) -> Workspace:
     vws = Workspace.create(base.root / "variants" / name, base.photos_dir)
     for item in LINKED:
         sync_tree(base.root / item, vws.root / item)
-    for stage in ("decode", "pose", "mask", "select"):
+    for stage in ("decode", "pose", "mask", "depth", "select"):
         vws.update_manifest(stage, base.stage_record(stage))
     return vws
 
@@ -277,7 +282,7 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
     n = tcfg.eval_views
     # without the View Sampler, render from the nearest n views whatever their flare
     pool = {} if NEURAL[name]["view_sampler"] else {"n_sources": n, "pool": n}
-    common = {"device": cfg.device, "samples": cfg.samples, **pool}
+    common = {"device": cfg.device, "samples": cfg.samples, "fill": cfg.fill, **pool}
     render.run(RenderConfig(path="inputs", color_match=cfg.color_match, **common), vws,
                force=cfg.force)
     out = {"inputs": vws.deflared, "workspace": vws.root}
@@ -302,6 +307,55 @@ def run_inpaint(scene: SynthScene, ws: Workspace, radius: int = 5) -> Path:
         m = cv2.dilate((mask > 127).astype(np.uint8), np.ones((3, 3), np.uint8))
         atomic_imwrite(out / f"{s}.png", cv2.inpaint(img, m, radius, cv2.INPAINT_TELEA))
     return out
+
+
+def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
+               scale: float = 1.0, n_sources: int = 4) -> dict:
+    """The no-network baseline: WS/baselines/photos/<stem>.png, each flared photo's mask
+    region filled from its ``n_sources`` nearest photos warped by WS/depth where at least
+    two agree (pipeline/photo_fill.py), OpenCV Telea inpainting elsewhere; and with held-out
+    cameras, WS/baselines/photos_heldout/<stem>.png rendered the same way at ``scale`` (holes
+    inpainted).
+    """
+    from pipeline.depth import load_views, nearest_views
+    from pipeline.photo_fill import photo_fill, support_weight
+
+    cams = load_cameras(ws.cameras_json)
+    views = load_views(ws, cams, cams.stems, with_depth=True)
+    near = nearest_views(cams, n_sources)
+    out = ws.root / "baselines" / "photos"
+    for s in track(scene.train, "Photo fill (baseline)"):
+        f, v = cams.by_stem()[s], views[s]
+        flare = ~v.valid if v.valid is not None else np.zeros(v.image.shape[:2], bool)
+        ref_valid = cv2.dilate(flare.astype(np.uint8), np.ones((9, 9), np.uint8)) == 0
+        pf = photo_fill(f.K, f.c2w, v.size, [views[n] for n in near[s]],
+                        reference=v.image, ref_valid=ref_valid)
+        wgt = support_weight(pf.support, 2)[..., None]
+        img = (v.image * 255).astype(np.uint8)[..., ::-1]
+        m = cv2.dilate(flare.astype(np.uint8), np.ones((3, 3), np.uint8))
+        base = cv2.inpaint(img, m, 5, cv2.INPAINT_TELEA).astype(np.float32) / 255
+        fill = base * (1 - wgt) + pf.colour[..., ::-1] * wgt
+        res = np.where(m[..., None] > 0, fill, img.astype(np.float32) / 255)
+        atomic_imwrite(out / f"{s}.png", np.clip(np.rint(res * 255), 0, 255).astype(np.uint8))
+    rec = {"inputs": out}
+    if path_json is not None:
+        from gnfr.paths import path_from_json
+
+        hout = ws.root / "baselines" / "photos_heldout"
+        centers = np.stack([views[s].c2w[:3, 3] for s in cams.stems])
+        for pc in path_from_json(read_json(path_json)):
+            W, H = max(1, round(pc.width * scale)), max(1, round(pc.height * scale))
+            K = np.asarray(pc.K, float).copy()
+            K[0] *= W / pc.width
+            K[1] *= H / pc.height
+            order = np.argsort(np.linalg.norm(centers - pc.c2w[:3, 3], axis=1))
+            pf = photo_fill(K, pc.c2w, (W, H), [views[cams.stems[i]]
+                                                   for i in order[:n_sources]])
+            ok = (support_weight(pf.support, 2) < 1).astype(np.uint8)
+            img = np.clip(np.rint(pf.colour[..., ::-1] * 255), 0, 255).astype(np.uint8)
+            atomic_imwrite(hout / f"{pc.name}.png", cv2.inpaint(img, ok, 5, cv2.INPAINT_TELEA))
+        rec["heldout"] = hout
+    return rec
 
 
 # --------------------------------------------------------------------------- scoring
@@ -370,7 +424,7 @@ def parse_variants(text: str) -> tuple[str, ...]:
 
 def run(cfg: EvalConfig) -> Path:
     """Evaluate; returns WS/eval (table.md, results.json, grid.jpg)."""
-    from pipeline import mask, select
+    from pipeline import depth, mask, select
 
     if cfg.masks not in ("fmg", "gt"):
         raise UserError(f"--masks {cfg.masks!r}: use fmg (the FMG network) or gt")
@@ -392,6 +446,7 @@ def run(cfg: EvalConfig) -> Path:
         if cfg.masks != "fmg":
             raise
         raise UserError(f"{e}; or evaluate with the true masks: --masks gt") from None
+    depth.run(depth.DepthConfig(), base, force=cfg.force)
     if any(v in NEURAL for v in cfg.variants):  # baselines need no View Sampler
         select.run(select.SelectConfig(), base, force=cfg.force)
     path_json = heldout_path_json(scene, base) if scene.heldout else None
@@ -401,6 +456,8 @@ def run(cfg: EvalConfig) -> Path:
             methods[name] = run_neural(cfg, base, name, path_json)
         elif name == "input":
             methods[name] = {"inputs": base.images}
+        elif name == "photos":
+            methods[name] = run_photos(scene, base, path_json, cfg.render_scale)
         else:
             methods[name] = {"inputs": run_inpaint(scene, base)}
     results = score_all(cfg, scene, base, methods)
@@ -445,7 +502,7 @@ def budget(cfg: EvalConfig) -> dict:
             "cached_features": t.cached_features, "init": cfg.init,
             "init_weights": _init_weights(cfg.init, shipped_weights(t)),
             "render_scale": cfg.render_scale, "seed": cfg.seed,
-            "color_match": cfg.color_match}
+            "color_match": cfg.color_match, "fill": cfg.fill}
 
 
 def _init_weights(init: str, shipped: Path | None) -> str:
@@ -504,7 +561,7 @@ def table_markdown(res: dict) -> str:
         f"- Held-out views rendered and scored at {b['render_scale']:g} of full size"
         f"{'' if b['render_scale'] == 1 else ' (cut for time)'}; de-flared inputs at full "
         f"size, {'with' if b.get('color_match', False) else 'without'} the render stage's "
-        "colour match of the fill.", "",
+        f"colour match of the fill; render fill: {b.get('fill', 'network')}.", "",
         "| method | held-out PSNR | held-out SSIM | inputs PSNR | inputs SSIM | "
         "flare-region PSNR | train s |",
         "|---|---:|---:|---:|---:|---:|---:|",

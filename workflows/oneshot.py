@@ -1,6 +1,6 @@
 """The one-shot pipeline: every stage in order on one photo folder, each resumable.
 
-``deflare-scene ./photos`` runs decode, pose, mask, select, finetune, render (the input
+``deflare-scene ./photos`` runs decode, pose, mask, depth, select, finetune, render (the input
 views and the video path) and export. Each stage skips itself when its inputs and
 parameters did not change, so rerunning the same command after an interruption picks up
 where it stopped; changing an option reruns that stage and everything after it.
@@ -25,6 +25,7 @@ from pipeline.progress import info
 def _stage_configs() -> dict[str, Any]:
     """Default config of every stage the one-shot runs, by stage name."""
     from pipeline.decode import DecodeConfig
+    from pipeline.depth import DepthConfig
     from pipeline.export import ExportConfig
     from pipeline.finetune import FinetuneConfig
     from pipeline.mask import MaskConfig
@@ -34,7 +35,7 @@ def _stage_configs() -> dict[str, Any]:
 
     return {
         "decode": DecodeConfig(), "pose": PoseConfig(), "mask": MaskConfig(),
-        "select": SelectConfig(), "finetune": FinetuneConfig(),
+        "depth": DepthConfig(), "select": SelectConfig(), "finetune": FinetuneConfig(),
         "render": RenderConfig(path="interpolate"), "export": ExportConfig(),
     }
 
@@ -48,7 +49,8 @@ class OneShotConfig:
     out: Path | None = None
     """Workspace folder; default ``<photos>.deflare`` beside the photo folder."""
     stages: dict[str, Any] = field(default_factory=_stage_configs)
-    """Config of each stage by name (decode, pose, mask, select, finetune, render, export)."""
+    """Config of each stage by name (decode, pose, mask, depth, select, finetune, render,
+    export)."""
     force: bool = False
     """Rerun every stage even when its inputs did not change."""
 
@@ -132,13 +134,14 @@ def run_all(cfg: OneShotConfig) -> Path:
                         "e.g. `deflare-scene ./photos`, or see `deflare-scene --help`")
     if not photos.is_dir():
         raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
-    from pipeline import decode, export, finetune, mask, pose, render, select
+    from pipeline import decode, depth, export, finetune, mask, pose, render, select
 
     st, force, t0 = cfg.stages, cfg.force, time.time()
     ws_path = Path(cfg.out) if cfg.out else default_workspace(photos)
     ws = decode.run(st["decode"], photos, ws_path, force=force)
     pose.run(st["pose"], ws, force=force)
     mask.run(st["mask"], ws, force=force)
+    depth.run(st["depth"], ws, force=force)
     select.run(st["select"], ws, force=force)
     finetune.run(st["finetune"], ws, force=force)
     render.run(replace(st["render"], path="inputs"), ws, force=force)

@@ -11,13 +11,14 @@ def register(app: typer.Typer) -> None:
     @app.command("eval")
     def eval_cmd(
         scene: Path = typer.Argument(..., help="Folder written by `deflare-scene synth` (use a "
-                                     "scene of HELDOUT_SCENES: kermit or cyprus)."),
+                                     "scene of TEST_SCENES: fern, kermit or cyprus)."),
         out: Path = typer.Option(None, "--out", "-o", help="Evaluation workspace "
                                  "(default SCENE/eval.ws); results in OUT/eval/."),
-        variants: str = typer.Option("gnfr,gnt,no_ps,no_vs,no_ml,input,inpaint",
+        variants: str = typer.Option("gnfr,gnt,no_ps,no_vs,no_ml,input,inpaint,photos",
                                      help="Comma-separated methods: gnfr, gnt (all GN-FR "
                                      "parts off), no_ps, no_vs, no_ml (single ablations), "
-                                     "input (flared photo), inpaint (OpenCV Telea)."),
+                                     "input (flared photo), inpaint (OpenCV Telea), photos "
+                                     "(warped by depth, no network)."),
         masks: str = typer.Option("fmg", help="fmg (FMG network) | gt (SCENE/masks_gt)."),
         fmg_weights: Path = typer.Option(None, help="FMG weights (default: shipped)."),
         preset: str = typer.Option("auto", help="Training preset of every neural variant: "
@@ -35,6 +36,9 @@ def register(app: typer.Typer) -> None:
         color_match: bool = typer.Option(True, "--color-match/--no-color-match",
                                          help="De-flared inputs with the fill's colour match "
                                          "(as the product writes them)."),
+        fill: str = typer.Option("hybrid", "--fill", help="Render fill of the neural variants: "
+                                 "hybrid (photos warped by depth where they agree, the "
+                                 "network elsewhere) | network."),
         grid_rows: int = typer.Option(4, help="Views shown in grid.jpg."),
         force: bool = typer.Option(False, "--force", help="Redo every stage."),
     ) -> None:
@@ -53,6 +57,6 @@ def register(app: typer.Typer) -> None:
                          fmg_weights=fmg_weights, preset=preset, iters=iters, rays=rays,
                          samples=samples, views=views, init=init, render_scale=render_scale,
                          device=device, seed=seed, grid_rows=grid_rows, force=force,
-                         color_match=color_match)
+                         color_match=color_match, fill=fill)
         folder = run(cfg)
         typer.echo((folder / "table.md").read_text())

@@ -1,0 +1,167 @@
+"""Stage `depth`: per-view depth and confidence from the posed photos (plane-sweep stereo).
+
+Writes ``WS/depth/<stem>.npz`` with ``depth`` [H, W] float32 (camera z-depth in the
+normalised world frame of WS/cameras.json, at the size of WS/images/<stem>.png; 0 = unknown)
+and ``confidence`` [H, W] float16 (0..1). The algorithm (docs/depth.md): for each view, a
+plane sweep over its nearest ``neighbours`` views with windowed ZNCC, best-k source costs
+(a flared or occluding neighbour cannot spoil a pixel: flare-masked source pixels are never
+matched), sub-plane refinement, then a multi-view consistency check that keeps a depth only
+where another view's depth agrees. Render uses the depths to warp clean photo pixels into
+flare regions and novel frames (pipeline/photo_fill.py).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.cameras import Cameras, load_cameras
+from pipeline.errors import UserError
+from pipeline.progress import info, track
+from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depth
+from pipeline.workspace import Workspace, atomic_path
+
+
+@dataclass
+class DepthConfig:
+    """Options of the depth stage."""
+
+    neighbours: int = 4
+    """Nearest views (camera centres) each view is matched against."""
+    planes: int = 48
+    """Depth hypotheses per view, uniform in inverse depth between its near and far."""
+    window: int = 7
+    """Matching window side (pixels, odd)."""
+    keep: int = 2
+    """Best-k: a pixel's cost is the mean of its k best neighbours' costs."""
+    min_confidence: float = 0.5
+    """Depths below this confidence (1 - ZNCC cost) are dropped."""
+    consistency: float = 0.02
+    """Keep a depth only where a neighbour's depth agrees within this relative difference
+    (0: no check)."""
+
+    def sweep(self) -> SweepConfig:
+        return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
+                           min_confidence=self.min_confidence, consistency=self.consistency)
+
+    def check(self) -> None:
+        """UserError for values outside their range (one line naming the option)."""
+        rules = [("neighbours", self.neighbours >= 1, ">= 1"), ("planes", self.planes >= 3,
+                 ">= 3"), ("window", self.window >= 3 and self.window % 2 == 1,
+                 "an odd number >= 3"), ("keep", 1 <= self.keep <= self.neighbours,
+                 "between 1 and --neighbours"),
+                 ("min-confidence", 0 <= self.min_confidence <= 1, "in 0..1"),
+                 ("consistency", 0 <= self.consistency < 1, "in 0..1")]
+        for name, ok, allowed in rules:
+            if not ok:
+                raise UserError(f"--{name} {getattr(self, name.replace('-', '_'))}: must be "
+                                f"{allowed}")
+
+
+def depth_path(ws: Workspace, stem: str) -> Path:
+    return ws.root / "depth" / f"{stem}.npz"
+
+
+def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
+    """Per stem, the ``n`` other views with the nearest camera centres."""
+    c = cams.centers()
+    d = np.linalg.norm(c[:, None] - c[None], axis=-1)
+    stems = cams.stems
+    return {s: [stems[j] for j in np.argsort(d[i], kind="stable") if j != i][:n]
+            for i, s in enumerate(stems)}
+
+
+def load_views(ws: Workspace, cams: Cameras, stems: list[str], with_depth: bool = False,
+               scale: float = 1.0) -> dict[str, PosedView]:
+    """{stem: PosedView} of WS/images (float RGB), flare masks as validity where WS/masks
+    has them, and WS/depth where ``with_depth`` and present; at ``scale`` of WS/images."""
+    import cv2
+
+    by = cams.by_stem()
+    out = {}
+    for s in stems:
+        f = by[s]
+        img = cv2.imread(str(ws.images / f"{s}.png"), cv2.IMREAD_COLOR)
+        if img is None:
+            raise UserError(f"cannot read {ws.images / f'{s}.png'}: rerun `deflare-scene "
+                            f"pose {ws.root}`")
+        K = np.array(f.K, float)
+        mpath = ws.masks / f"{s}.png"
+        m = cv2.imread(str(mpath), cv2.IMREAD_GRAYSCALE) if mpath.exists() else None
+        valid = None if m is None else m <= 127
+        depth = None
+        if with_depth and depth_path(ws, s).exists():
+            depth = np.load(depth_path(ws, s))["depth"].astype(np.float32)
+        if scale != 1.0:
+            h, w = max(8, round(img.shape[0] * scale)), max(8, round(img.shape[1] * scale))
+            K[0] *= w / img.shape[1]
+            K[1] *= h / img.shape[0]
+            img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+            if valid is not None:
+                valid = cv2.resize(valid.astype(np.uint8), (w, h),
+                                   interpolation=cv2.INTER_NEAREST) > 0
+            if depth is not None:
+                depth = cv2.resize(depth, (w, h), interpolation=cv2.INTER_NEAREST)
+        out[s] = PosedView(img[..., ::-1].astype(np.float32) / 255.0, K, np.array(f.c2w),
+                           valid, depth)
+    return out
+
+
+def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Write WS/depth/<stem>.npz for every view; returns [WS/depth]."""
+    config.check()
+    ws.require("pose")
+    cams = load_cameras(ws.cameras_json)
+    masks = [ws.masks / f"{s}.png" for s in cams.stems if (ws.masks / f"{s}.png").exists()]
+    run_ = ws.begin_stage("depth", asdict(config), [ws.cameras_json, ws.images, *masks],
+                          force)
+    out_dir = ws.root / "depth"
+    if run_.skip:
+        info(f"depth: up to date ({out_dir})")
+        return run_.outputs
+    if len(cams.stems) < 2:
+        raise UserError(f"{ws.cameras_json}: depth needs at least 2 posed views")
+    raw_dir = out_dir / ".raw"
+    raw_dir.mkdir(parents=True, exist_ok=True)
+    keep_raw = ws.resumable(run_)
+    near = nearest_views(cams, config.neighbours)
+    views = load_views(ws, cams, cams.stems)
+    by = cams.by_stem()
+    sweep = config.sweep()
+    for s in track(cams.stems, "depth: plane sweep"):
+        raw = raw_dir / f"{s}.npz"
+        if keep_raw and raw.exists():
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
+                               sweep)
+        with atomic_path(raw) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, depth=d, confidence=c.astype(np.float16))
+    for s in cams.stems:
+        z = np.load(raw_dir / f"{s}.npz")
+        views[s].depth = z["depth"]
+    order = list(cams.stems)
+    kept = []
+    for s in order:
+        d = views[s].depth
+        conf = np.load(raw_dir / f"{s}.npz")["confidence"]
+        if config.consistency > 0:
+            idx = {t: i for i, t in enumerate(order)}
+            cnt = consistency_count([views[t] for t in order], idx[s],
+                                    [idx[n] for n in near[s]], config.consistency)
+            d = np.where(cnt >= 1, d, 0).astype(np.float32)
+            conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
+        with atomic_path(depth_path(ws, s)) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, depth=d, confidence=conf)
+        kept.append(float((d > 0).mean()))
+    for p in raw_dir.iterdir():
+        p.unlink()
+    raw_dir.rmdir()
+    run_.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
+    info(f"depth: {len(order)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
+         "of pixels on average)")
+    return [out_dir]

@@ -1,0 +1,63 @@
+"""Detail from the photos: clean pixels of neighbouring photos warped into a camera by depth.
+
+The network's fill is a smooth estimate; the neighbours usually saw the same surface sharp
+and flare-free. For a camera (an input view's flare region, or a novel frame) this module
+splats the neighbours' depth maps (WS/depth) into it, warps the neighbours' clean pixels
+(flare masks respected, occlusion checked against each neighbour's own depth) through that
+depth at full source resolution, and keeps a pixel's colour only where at least
+``min_support`` neighbours agree on it. Render uses the network where support is lacking
+(docs/depth.md, "Fill").
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.stereo import PosedView, fuse, match_gains, splat_depth, warp_sources
+
+
+@dataclass
+class PhotoFill:
+    """Photo colours for a camera, at its own size."""
+
+    colour: np.ndarray
+    """[H, W, 3] float32 0..1 (meaningful where ``support >= min_support``)."""
+    support: np.ndarray
+    """[H, W] int: neighbours that agree on the colour."""
+    depth: np.ndarray
+    """[H, W] float32 splatted z-depth (0 = no neighbour saw the surface)."""
+
+
+def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
+               sources: list[PosedView], agree: float = 0.08,
+               occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
+               ref_valid: np.ndarray | None = None, dense: bool = True) -> PhotoFill:
+    """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
+    ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
+    view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
+    ``dense``: holes of the splatted depth are filled (``stereo.fill_holes``); the
+    agreement test decides whether the photos support the filled depth."""
+    depth = splat_depth(K, c2w, size, sources, fill=-1 if dense else 2)
+    w = warp_sources(K, c2w, depth, sources, occlusion_tol)
+    w = match_gains(w, reference, ref_valid)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN medians where none sees
+        colour, support = fuse(w, agree)
+    return PhotoFill(colour, support, depth)
+
+
+def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> np.ndarray:
+    """[H, W] float 0..1 weight of the photo fill: 1 where ``support >= min_support``, eroded
+    by one pixel (edges of the warped region are where depth is least sure) and feathered
+    over ``feather`` pixels towards the network's fill."""
+    import cv2
+
+    ok = (support >= min_support).astype(np.uint8)
+    ok = cv2.erode(ok, np.ones((3, 3), np.uint8))
+    if feather <= 0:
+        return ok.astype(np.float32)
+    dist = cv2.distanceTransform(ok, cv2.DIST_L2, 3)
+    return np.clip(dist / feather, 0.0, 1.0).astype(np.float32)

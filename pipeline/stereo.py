@@ -1,0 +1,348 @@
+"""Multi-view geometry on posed photos: plane-sweep depth, depth splatting, photo warping.
+
+No network: numpy and OpenCV on pinhole views (WS/images geometry). Used by the ``depth``
+stage (per-view depth and confidence), by ``render`` (sharp fill of flare regions and novel
+frames from the photos themselves, depth-guided ray samples) and by ``eval`` (the photo-warp
+baseline). The algorithm is described in docs/depth.md.
+
+Conventions are ``gnfr.geometry``'s: ``K`` maps camera coordinates to continuous pixel
+coordinates with pixel (col j, row i) centred at (j + 0.5, i + 0.5); ``c2w`` is OpenCV
+camera-to-world; depth is camera z. Images are float32 RGB in 0..1, ``valid`` maps are
+bool (False = flare, padding or unknown).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+_HALF = np.array([[1.0, 0.0, 0.5], [0.0, 1.0, 0.5], [0.0, 0.0, 1.0]])
+"""Continuous (+0.5 centred) pixel coordinates = _HALF @ OpenCV integer-centred ones."""
+
+
+@dataclass
+class PosedView:
+    """One posed pinhole photo."""
+
+    image: np.ndarray
+    """[H, W, 3] float32 RGB 0..1."""
+    K: np.ndarray
+    """[3, 3] intrinsics of ``image``."""
+    c2w: np.ndarray
+    """[4, 4] camera-to-world (OpenCV)."""
+    valid: np.ndarray | None = None
+    """[H, W] bool, False where the pixel must not be used (flare); None: all valid."""
+    depth: np.ndarray | None = None
+    """[H, W] float32 z-depth (0 = unknown), when known."""
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(W, H)."""
+        return self.image.shape[1], self.image.shape[0]
+
+
+@dataclass
+class SweepConfig:
+    """Plane-sweep stereo settings (docs/depth.md)."""
+
+    planes: int = 48
+    """Depth hypotheses, uniform in inverse depth between near and far."""
+    window: int = 7
+    """Side of the square window of the matching cost (pixels, odd)."""
+    keep: int = 2
+    """Best-k: the matching cost of a pixel is the mean of its k best source costs, so an
+    occluding or flared neighbour cannot spoil it."""
+    min_confidence: float = 0.5
+    """Depths with a lower confidence (1 - best cost, 0..1) are dropped (set to 0)."""
+    consistency: float = 0.02
+    """Multi-view check: a depth is kept when at least one neighbour's depth agrees within
+    this relative difference after reprojection (0 disables the check)."""
+
+
+def homography(K_t: np.ndarray, c2w_t: np.ndarray, K_s: np.ndarray, c2w_s: np.ndarray,
+               depth: float) -> np.ndarray:
+    """[3, 3] map from target pixels (OpenCV integer-centred) to source pixels through the
+    fronto-parallel plane z = ``depth`` of the target camera."""
+    T = np.linalg.inv(c2w_s) @ c2w_t
+    R, t = T[:3, :3], T[:3, 3:4]
+    n = np.array([[0.0, 0.0, 1.0]])
+    H = K_s @ (R + t @ n / depth) @ np.linalg.inv(K_t)
+    return np.linalg.inv(_HALF) @ H @ _HALF
+
+
+def inverse_depths(near: float, far: float, n: int) -> np.ndarray:
+    """[n] depths uniform in inverse depth from near to far."""
+    return 1.0 / np.linspace(1.0 / near, 1.0 / far, n)
+
+
+def _grey(img: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(img @ np.array([0.299, 0.587, 0.114], np.float32))
+
+
+def _warp(img: np.ndarray, H: np.ndarray, size: tuple[int, int],
+          interp: int = cv2.INTER_LINEAR) -> np.ndarray:
+    return cv2.warpPerspective(img, H, size, flags=interp | cv2.WARP_INVERSE_MAP,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+def _zncc_cost(ref: np.ndarray, ref_stats, warped: np.ndarray, win: int) -> np.ndarray:
+    """[H, W] 1 - ZNCC over a win x win window, in 0..2 (flat windows cost 1)."""
+    mu_r, var_r = ref_stats
+    box = (win, win)
+    mu_w = cv2.boxFilter(warped, -1, box)
+    var_w = cv2.boxFilter(warped * warped, -1, box) - mu_w * mu_w
+    cov = cv2.boxFilter(ref * warped, -1, box) - mu_r * mu_w
+    den = np.sqrt(np.maximum(var_r, 0) * np.maximum(var_w, 0))
+    ok = den > 1e-5
+    ncc = np.where(ok, cov / np.maximum(den, 1e-5), 0.0)
+    return (1.0 - np.clip(ncc, -1.0, 1.0)).astype(np.float32)
+
+
+def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: float,
+                cfg: SweepConfig = SweepConfig()) -> tuple[np.ndarray, np.ndarray]:
+    """Depth of ``ref`` from its neighbours ``sources``: (depth [H, W] float32, confidence
+    [H, W] float32 in 0..1). Per plane, each source is warped into ``ref`` and scored by
+    windowed ZNCC; a pixel's cost is the mean of its ``keep`` best sources (flared or
+    out-of-view source pixels cost 2); the best plane wins, refined by a parabola through
+    its neighbours' costs in inverse depth. Confidence = 1 - that cost, 0 where fewer than
+    ``keep`` sources see the pixel."""
+    W, H = ref.size
+    win = cfg.window
+    g_ref = _grey(ref.image)
+    mu_r = cv2.boxFilter(g_ref, -1, (win, win))
+    var_r = cv2.boxFilter(g_ref * g_ref, -1, (win, win)) - mu_r * mu_r
+    greys = [_grey(s.image) for s in sources]
+    valids = [(np.ones(s.image.shape[:2], np.float32) if s.valid is None
+               else s.valid.astype(np.float32)) for s in sources]
+    depths = inverse_depths(near, far, cfg.planes)
+    keep = min(cfg.keep, len(sources))
+    cost = np.empty((cfg.planes, H, W), np.float32)
+    seen = np.zeros((H, W), np.int32)
+    per = np.empty((len(sources), H, W), np.float32)
+    for p, d in enumerate(depths):
+        for k, s in enumerate(sources):
+            Hm = homography(ref.K, ref.c2w, s.K, s.c2w, d)
+            w = _warp(greys[k], Hm, (W, H))
+            v = _warp(valids[k], Hm, (W, H), cv2.INTER_NEAREST) > 0.5
+            c = _zncc_cost(g_ref, (mu_r, var_r), w, win)
+            per[k] = np.where(v, c, 2.0)
+            if p == cfg.planes // 2:
+                seen += v
+        part = np.partition(per, keep - 1, axis=0)[:keep] if keep < len(sources) else per
+        cost[p] = part.mean(0)
+    best = np.argmin(cost, 0)
+    depth, c_best = _refine(cost, best, depths)
+    conf = np.clip(1.0 - c_best, 0.0, 1.0)
+    if ref.valid is not None:
+        conf[~ref.valid] *= 0.5  # the reference pixel itself is flared: matched, not trusted
+    conf[seen < keep] = 0.0
+    depth[conf < cfg.min_confidence] = 0.0
+    return depth.astype(np.float32), conf.astype(np.float32)
+
+
+def _refine(cost: np.ndarray, best: np.ndarray, depths: np.ndarray):
+    """Sub-plane depth by a parabola through the costs at best-1, best, best+1 (in the
+    inverse-depth index), and the cost at the best plane."""
+    P = cost.shape[0]
+    i0 = np.clip(best, 1, P - 2)
+    take = lambda i: np.take_along_axis(cost, i[None], 0)[0]  # noqa: E731
+    cm, c0, cp = take(i0 - 1), take(i0), take(i0 + 1)
+    den = cm - 2 * c0 + cp
+    off = np.where(den > 1e-6, 0.5 * (cm - cp) / np.maximum(den, 1e-6), 0.0)
+    off = np.clip(off, -0.5, 0.5)
+    idx = np.where((best == 0) | (best == P - 1), best, i0 + off)
+    inv = np.interp(idx, np.arange(P), 1.0 / depths)
+    return 1.0 / inv, take(best)
+
+
+# --------------------------------------------------------------------------- reprojection
+def pixel_grid(W: int, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel-centre coordinates (x, y) [H, W] in the continuous convention."""
+    return np.meshgrid(np.arange(W, dtype=np.float32) + 0.5,
+                       np.arange(H, dtype=np.float32) + 0.5)
+
+
+def backproject(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """[H, W, 3] world points of a z-depth map."""
+    H, W = depth.shape
+    x, y = pixel_grid(W, H)
+    Ki = np.linalg.inv(K)
+    cam = np.stack([x, y, np.ones_like(x)], -1) @ Ki.T.astype(np.float32) * depth[..., None]
+    return cam @ c2w[:3, :3].T.astype(np.float32) + c2w[:3, 3].astype(np.float32)
+
+
+def project_points(pts: np.ndarray, K: np.ndarray, c2w: np.ndarray):
+    """(xy [..., 2] continuous pixels, z [...]) of world points in a camera."""
+    w2c = np.linalg.inv(c2w)
+    cam = pts @ w2c[:3, :3].T.astype(np.float32) + w2c[:3, 3].astype(np.float32)
+    z = cam[..., 2]
+    uv = cam @ K.T.astype(np.float32)
+    zs = np.where(np.abs(uv[..., 2:]) < 1e-8, 1e-8, uv[..., 2:])
+    return uv[..., :2] / zs, z
+
+
+def consistency_count(views: list[PosedView], i: int, neighbours: list[int],
+                      tol: float) -> np.ndarray:
+    """[H, W] number of ``neighbours`` whose own depth agrees with view ``i``'s depth after
+    reprojection (relative z difference below ``tol``)."""
+    v = views[i]
+    pts = backproject(v.K, v.c2w, v.depth)
+    count = np.zeros(v.depth.shape, np.int32)
+    for j in neighbours:
+        n = views[j]
+        if n.depth is None:
+            continue
+        xy, z = project_points(pts, n.K, n.c2w)
+        dz = cv2.remap(n.depth, xy[..., 0] - 0.5, xy[..., 1] - 0.5, cv2.INTER_NEAREST,
+                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        ok = (dz > 0) & (z > 0) & (np.abs(dz - z) < tol * z)
+        count += ok
+    count[v.depth <= 0] = 0
+    return count
+
+
+def splat_depth(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
+                views: list[PosedView], fill: int = 2) -> np.ndarray:
+    """[H, W] z-depth of a target camera from the views' depth maps: every known depth
+    pixel is projected into the target and the nearest surface wins (z-buffer); holes of up
+    to ``fill`` pixels (the cracks of forward projection) are closed by a min filter of the
+    surrounding depths; ``fill`` < 0 fills every hole (``fill_holes``). 0 where no view saw
+    the surface."""
+    W, H = size
+    zbuf = np.full(H * W, np.inf, np.float32)
+    for v in views:
+        if v.depth is None:
+            continue
+        m = v.depth > 0
+        if v.valid is not None:
+            m &= v.valid
+        pts = backproject(v.K, v.c2w, v.depth)[m]
+        xy, z = project_points(pts, K, c2w)
+        c, r = np.floor(xy[:, 0]).astype(np.int64), np.floor(xy[:, 1]).astype(np.int64)
+        ok = (z > 0) & (c >= 0) & (c < W) & (r >= 0) & (r < H)
+        np.minimum.at(zbuf, r[ok] * W + c[ok], z[ok])
+    z = zbuf.reshape(H, W)
+    z[~np.isfinite(z)] = 0
+    if fill < 0:
+        return fill_holes(z)
+    if fill > 0:
+        k = 2 * fill + 1
+        big = np.where(z > 0, z, np.float32(1e9))
+        closed = cv2.erode(big, np.ones((k, k), np.uint8))  # min filter: nearest surface
+        hole = (z == 0) & (closed < 1e9)
+        z[hole] = closed[hole]
+    return z
+
+
+def fill_holes(depth: np.ndarray, min_size: int = 4) -> np.ndarray:
+    """[H, W] depth with every hole (0) filled by push-pull interpolation of inverse depth:
+    the known values are averaged down an image pyramid and the holes of each level are
+    filled from the coarser one, so a hole takes the smooth blend of the surfaces around
+    it. Fills the sky and textureless walls with a plausible depth; whether the photos
+    agree there is checked later (``fuse``). All zeros stay zeros."""
+    known = depth > 0
+    if known.all() or not known.any():
+        return depth
+    inv = np.where(known, 1.0 / np.maximum(depth, 1e-12), 0).astype(np.float32)
+    levels = [(inv, known.astype(np.float32))]
+    while min(levels[-1][0].shape) > min_size:
+        v, w = levels[-1]
+        h2, w2 = (v.shape[0] + 1) // 2, (v.shape[1] + 1) // 2
+        vs = cv2.resize(v * w, (w2, h2), interpolation=cv2.INTER_AREA)
+        ws = cv2.resize(w, (w2, h2), interpolation=cv2.INTER_AREA)
+        levels.append((np.where(ws > 0, vs / np.maximum(ws, 1e-12), 0).astype(np.float32),
+                       (ws > 0).astype(np.float32)))
+    filled = levels[-1][0]
+    for v, w in reversed(levels[:-1]):
+        up = cv2.resize(filled, (v.shape[1], v.shape[0]), interpolation=cv2.INTER_LINEAR)
+        filled = np.where(w > 0, v, up)
+    out = np.where(known, depth, 1.0 / np.maximum(filled, 1e-12)).astype(np.float32)
+    out[filled <= 0] = 0
+    return out
+
+
+@dataclass
+class Warped:
+    """Source photos warped into a target camera through a depth map."""
+
+    colours: np.ndarray
+    """[N, H, W, 3] float32 colour each source sees at the target's surface point."""
+    ok: np.ndarray
+    """[N, H, W] bool: in view, not flared, not occluded (its depth agrees)."""
+
+
+def warp_sources(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray,
+                 sources: list[PosedView], occlusion_tol: float = 0.03) -> Warped:
+    """Backward-warp every source into the target through ``depth`` (bilinear, full source
+    resolution). A source pixel counts only where the target depth is known, the point is
+    in front of the source, the source pixel is valid, and, when the source has a depth
+    map, that depth agrees with the point's depth in the source (else it is occluded)."""
+    H, W = depth.shape
+    pts = backproject(K, c2w, depth)
+    cols = np.zeros((len(sources), H, W, 3), np.float32)
+    ok = np.zeros((len(sources), H, W), bool)
+    for k, s in enumerate(sources):
+        xy, z = project_points(pts, s.K, s.c2w)
+        mx, my = xy[..., 0] - 0.5, xy[..., 1] - 0.5
+        cols[k] = cv2.remap(s.image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        sw, sh = s.size
+        good = ((depth > 0) & (z > 0) & (mx >= -0.5) & (mx <= sw - 0.5) & (my >= -0.5)
+                & (my <= sh - 0.5))
+        if s.valid is not None:
+            vv = cv2.remap(s.valid.astype(np.uint8), mx, my, cv2.INTER_NEAREST,
+                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+            good &= vv > 0
+        if s.depth is not None:
+            sd = cv2.remap(s.depth, mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                           borderValue=0)
+            good &= (sd <= 0) | (np.abs(sd - z) < occlusion_tol * z)
+        ok[k] = good
+    return Warped(cols, ok)
+
+
+def match_gains(w: Warped, reference: np.ndarray | None = None,
+                ref_valid: np.ndarray | None = None, min_pixels: int = 200) -> Warped:
+    """Per-source, per-channel gains (0.5..2) that bring each warped source to the
+    ``reference`` image where it is valid (an input view's own clean pixels), or without a
+    reference to the per-pixel median of the sources: photos of one scene differ in
+    exposure and white balance, and agreement is judged on colour."""
+    cols = w.colours.copy()
+    if reference is None:
+        c = np.where(w.ok[..., None], w.colours, np.nan)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
+            ref = np.nanmedian(c, axis=0)
+        rv = np.isfinite(ref).all(-1) & (w.ok.sum(0) >= 2)
+        ref = np.nan_to_num(ref)
+    else:
+        ref = reference
+        rv = np.ones(ref.shape[:2], bool) if ref_valid is None else ref_valid
+    for k in range(cols.shape[0]):
+        m = w.ok[k] & rv
+        if m.sum() < min_pixels:
+            continue
+        x, y = cols[k][m].astype(np.float64), ref[m].astype(np.float64)
+        g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
+        cols[k] *= np.clip(g, 0.5, 2.0).astype(np.float32)
+    return Warped(cols, w.ok)
+
+
+def fuse(w: Warped, agree: float = 0.08, min_views: int = 1):
+    """Robust per-pixel colour of warped sources: the median of the valid sources, then the
+    mean of those within ``agree`` (max channel difference) of it, weighted by source
+    order (nearer sources first get more weight). Returns (colour [H, W, 3], support [H, W]
+    int = sources that agree; colour is 0 where support < min_views)."""
+    N = w.colours.shape[0]
+    c = np.where(w.ok[..., None], w.colours, np.nan)
+    med = np.nanmedian(c, axis=0) if N > 1 else c[0]
+    dev = np.nanmax(np.abs(c - med[None]), axis=-1)
+    agree_m = w.ok & (np.nan_to_num(dev, nan=9.0) < agree)
+    wt = (1.0 / (1.0 + np.arange(N, dtype=np.float32)))[:, None, None] * agree_m
+    tot = wt.sum(0)
+    col = (np.nan_to_num(c) * wt[..., None]).sum(0) / np.maximum(tot, 1e-8)[..., None]
+    support = agree_m.sum(0)
+    col[support < min_views] = 0
+    return col.astype(np.float32), support
