@@ -16,7 +16,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.stereo import PosedView, fuse, match_gains, splat_depth, warp_sources
+from pipeline.stereo import (
+    PosedView,
+    fill_holes,
+    fuse,
+    match_gains,
+    splat_depth,
+    sweep_consensus,
+    warp_sources,
+)
+
+CONSENSUS_VAR = 0.002
+"""Largest windowed colour variance (per channel, 0..1 colours; about 0.045 standard
+deviation) at which a consensus-sweep depth is trusted."""
 
 
 @dataclass
@@ -34,13 +46,24 @@ class PhotoFill:
 def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                sources: list[PosedView], agree: float = 0.08,
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
-               ref_valid: np.ndarray | None = None, dense: bool = True) -> PhotoFill:
+               ref_valid: np.ndarray | None = None, dense: bool = True,
+               near: float | None = None, far: float | None = None) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
-    ``dense``: holes of the splatted depth are filled (``stereo.fill_holes``); the
-    agreement test decides whether the photos support the filled depth."""
-    depth = splat_depth(K, c2w, size, sources, fill=-1 if dense else 2)
+    ``dense``: holes of the splatted depth are filled: where ``near``/``far`` are given, by
+    a plane sweep for the depth on which the sources agree best (``stereo.sweep_consensus``,
+    kept where their colour variance is below CONSENSUS_VAR), the rest by interpolation
+    (``stereo.fill_holes``); the agreement test then decides whether the photos support
+    the depth."""
+    depth = splat_depth(K, c2w, size, sources, fill=2)
+    if dense and near is not None and (depth <= 0).any():
+        holes = depth <= 0
+        cdepth, cost = sweep_consensus(K, c2w, size, sources, near, far, where=holes)
+        ok = holes & (cost < CONSENSUS_VAR)
+        depth[ok] = cdepth[ok]
+    if dense:
+        depth = fill_holes(depth)
     w = warp_sources(K, c2w, depth, sources, occlusion_tol)
     w = match_gains(w, reference, ref_valid)
     with warnings.catch_warnings():

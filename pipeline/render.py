@@ -96,6 +96,14 @@ class RenderConfig:
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
     photo_sources: int = 4
     """hybrid: nearest clean photos warped into each image."""
+    network_scale: float | None = None
+    """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
+    fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
+    on CUDA)."""
+    depth_samples: int | None = None
+    """hybrid: rays whose surface depth the photos' depth maps give are sampled with this
+    many samples in a band around it instead of the full near-far range (default: a third
+    of ``samples``; 0 = off)."""
 
 
 @dataclass
@@ -122,13 +130,6 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     ckpt = _checkpoint(ws, cfg.checkpoint)
     meta = _train_meta(ckpt)
     cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
-    key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
-    params = {**asdict(cfg), "device": None, "chunk": None,
-              "samples": int(cfg.samples or meta.get("samples") or meta.get("n_samples")
-                             or (64 if device.startswith("cuda") else 32)),
-              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
-              "scale": _scale(cfg, device),
-              "point_sampler": bool(meta.get("point_sampler", True))}
     if cfg.fill not in FILLS:
         raise UserError(f"--fill {cfg.fill!r} is not known: use {' or '.join(FILLS)}")
     if cfg.min_support < 1 or cfg.photo_sources < 1:
@@ -138,6 +139,16 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if cfg.fill == "hybrid" and not use_photos:
         warn(f"render: no {_depth_dir(ws)} (run `deflare-scene depth {ws.root}`): GN-FR "
              "renders every pixel")
+        cfg = replace(cfg, fill="network")
+    key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
+                  or (64 if device.startswith("cuda") else 32))
+    params = {**asdict(cfg), "device": None, "chunk": None, "samples": samples,
+              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
+              "scale": _scale(cfg, device), "network_scale": _network_scale(cfg, device),
+              "depth_samples": (int(cfg.depth_samples) if cfg.depth_samples is not None
+                                else max(4, samples // 3)) if cfg.fill == "hybrid" else 0,
+              "point_sampler": bool(meta.get("point_sampler", True))}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += [_depth_dir(ws)] if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
@@ -258,9 +269,18 @@ def _resize(pc, cfg: RenderConfig, device: str):
 
 
 def _scale(cfg: RenderConfig, device: str) -> float:
+    """Novel frames' size as a fraction of the input views': 1 on CUDA and with the hybrid
+    fill (the photos give the detail), 1/4 for the network alone on CPU."""
     if cfg.scale:
         return float(cfg.scale)
-    return 1.0 if device == "cuda" else 0.25
+    return 1.0 if device.startswith("cuda") or cfg.fill == "hybrid" else 0.25
+
+
+def _network_scale(cfg: RenderConfig, device: str) -> float:
+    """Fraction of a hybrid novel frame's size at which GN-FR renders its uncovered pixels."""
+    if cfg.network_scale:
+        return float(cfg.network_scale)
+    return 1.0 if device.startswith("cuda") else 0.25
 
 
 def novel_depth_range(center: np.ndarray, cams: Cameras, k: int = 3) -> tuple[float, float]:
@@ -453,21 +473,52 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
         for job in jobs:
-            rays_o, rays_d, compose = prepare_job(job, cfg, ws, photos)
+            prep = prepare_job(job, cfg, ws, photos, params)
+            rays_o, rays_d, compose = prep[:3]
+            guided = prep[3] if len(prep) > 3 else None
             prog.reset(t_rays, total=max(len(rays_o), 1))
             rgb = np.zeros((0, 3), np.float32)
             if len(rays_o):
                 ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
                 n = len(rays_o)
-                out = render_rays(model, src, ids, rays_o, rays_d,
-                                  torch.full((n,), job.near), torch.full((n,), job.far),
-                                  params["samples"],
-                                  chunk=cfg.chunk or default_chunk(src.images.device.type),
-                                  point_sampler=params["point_sampler"],
-                                  progress=lambda k: prog.update(t_rays, completed=k))
-                rgb = out["rgb"].numpy()
+                near, far = torch.full((n,), job.near), torch.full((n,), job.far)
+                chunk = cfg.chunk or default_chunk(src.images.device.type)
+                parts = split_guided(n, guided, params.get("depth_samples", 0))
+                rgb = np.zeros((n, 3), np.float32)
+                offset = 0
+                for idx, lo, hi, ns in parts:
+                    if len(idx) == 0:
+                        continue
+                    out = render_rays(model, src, ids, rays_o[idx], rays_d[idx],
+                                      near[idx] if lo is None else lo,
+                                      far[idx] if hi is None else hi, ns or params["samples"],
+                                      chunk=chunk, point_sampler=params["point_sampler"],
+                                      progress=lambda k, o=offset: prog.update(
+                                          t_rays, completed=o + k))
+                    rgb[idx.numpy()] = out["rgb"].numpy()
+                    offset += len(idx)
             write_frame(job.out, compose(rgb), job.extra.get("exif"))
             prog.advance(t_frames)
+
+
+DEPTH_BAND = 1.25
+"""Depth-guided rays sample z in [d / DEPTH_BAND, d * DEPTH_BAND] around the photos' depth d
+(uniform in inverse depth, like the full range)."""
+
+
+def split_guided(n: int, guided, depth_samples: int):
+    """[(ray indices, near or None, far or None, samples or None)]: the rays with a known
+    surface depth (``guided`` = (depth [n] tensor, known [n] bool tensor) or None) get a
+    band of ``depth_samples`` samples around it, the rest the job's full range."""
+    import torch
+
+    every = torch.arange(n)
+    if guided is None or depth_samples <= 0:
+        return [(every, None, None, None)]
+    depth, known = guided
+    ks, us = every[known], every[~known]
+    d = depth[known].float()
+    return [(ks, d / DEPTH_BAND, d * DEPTH_BAND, depth_samples), (us, None, None, None)]
 
 
 def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> None:
@@ -487,9 +538,11 @@ def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> N
         atomic_imwrite(path, bgr)
 
 
-def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | None = None):
-    """(rays_o [R, 3], rays_d [R, 3], compose(rgb [R, 3] float) -> image [H, W, 3] uint8).
-    ``photos``: {stem: PosedView with depth} for the hybrid fill (None: network only)."""
+def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | None = None,
+                params: dict | None = None):
+    """(rays_o [R, 3], rays_d [R, 3], compose(rgb [R, 3] float) -> image [H, W, 3] uint8[,
+    (depth [R], known [R]) for depth-guided sampling]). ``photos``: {stem: PosedView with
+    depth} for the hybrid fill (None: network only)."""
     import torch
 
     from gnfr.geometry import image_pixels, pixel_rays
@@ -502,22 +555,58 @@ def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | 
         return _prepare_input(job, cfg, ws, photos)
     pc = job.camera
     H, W = pc.height, pc.width
-    wgt = colour = None
-    if photos is not None:
-        colour, wgt = _photo_fill(pc.K, pc.c2w, (W, H), job, photos, cfg)
-    todo = np.ones((H, W), bool) if wgt is None else wgt < 1
-    pix = image_pixels(H, W)[torch.from_numpy(todo.reshape(-1))]
-    rays_o, rays_d = pixel_rays(torch.tensor(pc.K, dtype=torch.float32),
-                                torch.tensor(pc.c2w, dtype=torch.float32), pix)
+    if photos is None:
+        pix = image_pixels(H, W)
+        rays_o, rays_d = pixel_rays(torch.tensor(pc.K, dtype=torch.float32),
+                                    torch.tensor(pc.c2w, dtype=torch.float32), pix)
+        return rays_o, rays_d, lambda rgb: _to_u8(rgb.reshape(H, W, 3))
+    return _prepare_hybrid_novel(job, cfg, photos, (params or {}).get("network_scale", 1.0))
+
+
+def _prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict, net_scale: float):
+    """A novel frame: the photos warped by depth at full frame size; GN-FR renders the
+    pixels they do not cover at ``net_scale`` of the size (rays through the low-resolution
+    pixel grid, sampled around the splatted depth where known), upsampled beneath them."""
+    import cv2
+    import torch
+
+    from gnfr.geometry import image_pixels, pixel_rays
+    from pipeline.photo_fill import photo_fill, support_weight
+
+    pc = job.camera
+    H, W = pc.height, pc.width
+    c = np.asarray(pc.c2w, float)[:3, 3]
+    near_src = sorted((s for s in job.sources if s in photos),
+                      key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
+    srcs = [photos[s] for s in near_src[:cfg.photo_sources]]
+    pf = photo_fill(np.asarray(pc.K, float), np.asarray(pc.c2w, float), (W, H), srcs,
+                    near=job.near, far=job.far)
+    wgt = support_weight(pf.support, min(cfg.min_support, max(len(srcs), 1)))
+    w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
+    K = np.asarray(pc.K, float).copy()
+    K[0] *= w / W
+    K[1] *= h / H
+    # a low-res pixel is rendered when any full-res pixel it covers lacks the photos
+    need = cv2.resize((wgt < 1).astype(np.float32), (w, h), interpolation=cv2.INTER_AREA) > 0
+    need = cv2.dilate(need.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # for upsampling
+    sel = torch.from_numpy(need.reshape(-1))
+    rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
+                                torch.tensor(pc.c2w, dtype=torch.float32),
+                                image_pixels(h, w)[sel])
+    real = (pf.depth > 0) & (pf.support >= 1)  # a depth some photo saw, not a filled hole
+    d_lo = cv2.resize(np.where(real, pf.depth, 0).astype(np.float32), (w, h),
+                      interpolation=cv2.INTER_NEAREST).reshape(-1)[need.reshape(-1)]
+    known = torch.from_numpy((d_lo > job.near) & (d_lo < job.far))
+    small_photo = cv2.resize(pf.colour, (w, h), interpolation=cv2.INTER_AREA)
 
     def compose(rgb):
-        out = np.zeros((H, W, 3), np.float32)
-        out[todo] = rgb
-        if wgt is not None:
-            out = out * (1 - wgt[..., None]) + colour * wgt[..., None]
+        low = small_photo.copy()
+        low[need] = rgb
+        up = cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR)
+        out = up * (1 - wgt[..., None]) + pf.colour * wgt[..., None]
         return _to_u8(out)
 
-    return rays_o, rays_d, compose
+    return rays_o, rays_d, compose, (torch.from_numpy(d_lo), known)
 
 
 def _depth_dir(ws: Workspace) -> Path:
@@ -534,7 +623,8 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
 
 def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                 reference: tuple[np.ndarray, np.ndarray] | None = None):
-    """(colour [H, W, 3], weight [H, W]) of the hybrid fill for one camera: the nearest
+    """(colour [H, W, 3], weight [H, W], depth [H, W]: the splatted depth where some photo
+    saw the surface, else 0) of the hybrid fill for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
     pixels)."""
@@ -545,11 +635,13 @@ def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                   key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
     if not srcs:
-        return np.zeros((size[1], size[0], 3), np.float32), np.zeros(size[::-1], np.float32)
+        z = np.zeros(size[::-1], np.float32)
+        return np.zeros((size[1], size[0], 3), np.float32), z, z
     ref, ref_valid = reference if reference is not None else (None, None)
     pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
-                    reference=ref, ref_valid=ref_valid)
-    return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs)))
+                    reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
+    real = np.where((pf.depth > 0) & (pf.support >= 1), pf.depth, 0).astype(np.float32)
+    return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs))), real
 
 
 def _own_clean_pixels(ws: Workspace, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
@@ -578,15 +670,23 @@ def _prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict
     size = (photo.shape[1], photo.shape[0])
     alpha, ring = input_blend(frame, cfg, ws, size, size)
     region = alpha > 0.5 / 255
-    wgt = colour = None
+    wgt = colour = depth = None
     if photos is not None and region.any():
-        colour, wgt = _photo_fill(frame.K, frame.c2w, (frame.width, frame.height), job,
-                                  photos, cfg, _own_clean_pixels(ws, frame))
-        colour, wgt = _to_decoded(frame, size, colour, wgt)
+        colour, wgt, depth = _photo_fill(frame.K, frame.c2w, (frame.width, frame.height), job,
+                                         photos, cfg, _own_clean_pixels(ws, frame))
+        colour, wgt, depth = _to_decoded(frame, size, colour, wgt, depth)
+        if ring is not None:
+            wgt = _check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0, region, ring)
     # the network renders where the photos do not cover, and on the ring (its colour match)
     net = region if wgt is None else region & ((wgt < 1) | (ring if ring is not None
                                                             else False))
     rays_o, rays_d, rows, cols = input_rays(frame, net.astype(np.float32), *size)
+    guided = None
+    if depth is not None:
+        import torch
+
+        d = depth[rows, cols]
+        guided = (torch.from_numpy(d), torch.from_numpy((d > frame.near) & (d < frame.far)))
 
     def compose(rgb):
         out = photo.astype(np.float32) / 255.0
@@ -604,11 +704,40 @@ def _prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict
         out = np.where(region[..., None], out * (1 - a) + fill * a, out)
         return _to_u8(out)
 
-    return rays_o, rays_d, compose
+    if guided is None:
+        return rays_o, rays_d, compose
+    return rays_o, rays_d, compose, guided
 
 
-def _to_decoded(frame: Frame, size: tuple[int, int], colour: np.ndarray, wgt: np.ndarray):
-    """Colour and weight from WS/images (pinhole) geometry into WS/decoded geometry."""
+RING_TOLERANCE = 0.06
+"""Largest mean absolute colour difference (0..1) between the photo fill and the clean photo
+on a flare region's ring at which the photo fill of that region is trusted."""
+
+
+def _check_on_ring(colour: np.ndarray, wgt: np.ndarray, photo: np.ndarray, region: np.ndarray,
+                   ring: np.ndarray, min_pixels: int = 20) -> np.ndarray:
+    """The photo-fill weight with each connected flare region zeroed where the fill, on the
+    region's ring (clean photo pixels just outside the mask), differs from the photo by more
+    than RING_TOLERANCE on average: the warped photos there show another surface (a depth
+    no photo confirms, or a surface the neighbours do not see), so the network fills it."""
+    import cv2
+
+    n, labels = cv2.connectedComponents(region.astype(np.uint8), connectivity=8)
+    wgt = wgt.copy()
+    err = np.abs(colour - photo).mean(-1)
+    check = ring & (wgt >= 1)
+    for k in range(1, n):
+        sel = labels == k
+        on = check & sel
+        if on.sum() >= min_pixels and float(err[on].mean()) > RING_TOLERANCE:
+            wgt[sel] = 0.0
+    return wgt
+
+
+def _to_decoded(frame: Frame, size: tuple[int, int], colour: np.ndarray, wgt: np.ndarray,
+                depth: np.ndarray):
+    """Colour, weight and depth from WS/images (pinhole) geometry into WS/decoded geometry
+    (depth is z along the same rays, so it maps like the colour, without interpolation)."""
     import cv2
 
     cam = decoded_camera(frame, *size)
@@ -617,7 +746,9 @@ def _to_decoded(frame: Frame, size: tuple[int, int], colour: np.ndarray, wgt: np
     colour = cv2.remap(colour, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     wgt = cv2.remap(wgt, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                     borderValue=0)
-    return colour, wgt
+    depth = cv2.remap(depth, mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=0)
+    return colour, wgt, depth
 
 
 MATCH_MIN_PIXELS = 100

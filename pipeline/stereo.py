@@ -143,6 +143,54 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     return depth.astype(np.float32), conf.astype(np.float32)
 
 
+def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
+                    sources: list[PosedView], near: float, far: float, planes: int = 32,
+                    window: int = 5, where: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Depth of a camera that has no photo of its own (a novel frame, or pixels no depth map
+    covers): per plane the sources are warped in and a pixel's cost is the windowed mean of
+    the variance of their colours (sources under flare or out of view left out; fewer than
+    two: no cost). Returns (depth [H, W], cost [H, W]; inf where never two sources saw the
+    pixel). ``where`` [H, W] bool limits the work to the bounding box of those pixels."""
+    W, H = size
+    depth = np.zeros((H, W), np.float32)
+    best = np.full((H, W), np.inf, np.float32)
+    if where is not None:
+        rows, cols = np.nonzero(where)
+        if len(rows) == 0:
+            return depth, best
+        r0, r1 = max(rows.min() - window, 0), min(rows.max() + window + 1, H)
+        c0, c1 = max(cols.min() - window, 0), min(cols.max() + window + 1, W)
+    else:
+        r0, r1, c0, c1 = 0, H, 0, W
+    shift = np.array([[1.0, 0, c0], [0, 1.0, r0], [0, 0, 1.0]])  # crop px -> frame px
+    cw, ch = c1 - c0, r1 - r0
+    valids = [(np.ones(s.image.shape[:2], np.float32) if s.valid is None
+               else s.valid.astype(np.float32)) for s in sources]
+    sub_best = best[r0:r1, c0:c1]
+    sub_depth = depth[r0:r1, c0:c1]
+    for d in inverse_depths(near, far, planes):
+        n = np.zeros((ch, cw), np.float32)
+        s1 = np.zeros((ch, cw, 3), np.float32)
+        s2 = np.zeros((ch, cw), np.float32)
+        for k, s in enumerate(sources):
+            Hm = homography(K, c2w, s.K, s.c2w, d) @ shift
+            col = _warp(s.image, Hm, (cw, ch))
+            v = _warp(valids[k], Hm, (cw, ch), cv2.INTER_NEAREST)
+            n += v
+            s1 += col * v[..., None]
+            s2 += (col * col).sum(-1) * v
+        mean = s1 / np.maximum(n, 1)[..., None]
+        var = (s2 / np.maximum(n, 1) - (mean * mean).sum(-1)) / 3.0
+        var = np.where(n >= 2, np.maximum(var, 0), np.inf).astype(np.float32)
+        c = cv2.blur(np.where(np.isfinite(var), var, 1.0).astype(np.float32), (window, window))
+        c[~np.isfinite(var)] = np.inf
+        better = c < sub_best
+        sub_best[better] = c[better]
+        sub_depth[better] = d
+    return depth, best
+
+
 def _refine(cost: np.ndarray, best: np.ndarray, depths: np.ndarray):
     """Sub-plane depth by a parabola through the costs at best-1, best, best+1 (in the
     inverse-depth index), and the cost at the best plane."""
