@@ -1,7 +1,8 @@
 """Stage ``synth``: impose 3D-consistent synthetic lens flare on a posed clean scene.
 
 Input: a posed workspace of clean photos (``WS/images/<stem>.png`` + ``WS/cameras.json``).
-One lens is drawn per scene (:func:`pipeline.flare.sample_lens`) and one point light is
+One lens is drawn per scene (:func:`pipeline.flare.sample_lens`; the kinds of flare it
+combines come from ``SynthConfig.flare.kinds``, ``--kinds``) and one point light is
 placed in the world (near the scene, in front of most cameras, or given). The light is
 projected with each view's ``K`` and ``c2w``; that view's flare is the lens rendered at the
 projection, with the principal point as optical centre, so streaks and ghosts move with the
@@ -17,7 +18,8 @@ DIR/photos/<stem>.png    flared photos a user would have (held-out views left ou
 DIR/clean/<stem>.png     ground truth, every view: the clean photo plus the light's core
 DIR/masks_gt/<stem>.png  255 = flare, every view (held-out: the flare they would have had)
 DIR/cameras_gt.json      WS/cameras.json, every view
-DIR/split.json           {"train", "heldout", "seed", "light_world", "origin", "lens", "views"}
+DIR/split.json           {"train", "heldout", "seed", "kinds", "light_world", "origin", "lens",
+                          "views"}  (kinds: those allowed; lens.kinds: those drawn)
 DIR/README.md            how it was made
 DIR/manifest.json        this stage's bookkeeping (skip when up to date, resume)
 ```
@@ -35,6 +37,7 @@ import numpy as np
 from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
 from pipeline.errors import UserError
 from pipeline.flare import (
+    KINDS,
     FlareConfig,
     FlareLayers,
     Lens,
@@ -44,6 +47,7 @@ from pipeline.flare import (
     sample_lens,
     srgb_to_linear,
 )
+from pipeline.options import option, validate
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, atomic_write_text
 
@@ -54,19 +58,19 @@ class SynthConfig:
 
     out: Path
     """Output folder (not inside the workspace or the photo folder)."""
-    seed: int = 0
+    seed: int = option(0, ge=0)
     """Seed of the lens, light, intensities and which views get flare."""
-    light: tuple[float, float, float] | None = None
+    light: tuple[float, float, float] | None = option(None, metavar="X,Y,Z")
     """Light position in the normalised world frame; default: chosen from the cameras."""
-    heldout: int | None = None
-    """Hold out this many views, evenly spread (overrides heldout_every)."""
-    heldout_every: int = 8
+    heldout: int | None = option(None, ge=0)
+    """Hold out this many views, evenly spread (instead of ``heldout_every``)."""
+    heldout_every: int = option(8, ge=0)
     """Hold out every K-th view (index % K == 0, the LLFF convention); 0 = none."""
-    flare_prob: float = 1.0
+    flare_prob: float = option(1.0, ge=0, le=1)
     """Fraction of views that get flare (the others still show the light's core)."""
-    intensity_jitter: float = 0.15
+    intensity_jitter: float = option(0.15, ge=0)
     """Log-normal sigma of the per-view flare intensity around the scene's."""
-    fade_distance: float = 0.35
+    fade_distance: float = option(0.35, gt=0)
     """A light outside the frame fades as exp(-(d / (this x diagonal))^2)."""
     flare: FlareConfig = field(default_factory=FlareConfig)
     """Ranges of the flare synthesizer."""
@@ -218,10 +222,9 @@ def _read_image(ws: Workspace, frame: Frame) -> np.ndarray:
 
 def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write the flared scene to ``cfg.out``; returns the written paths."""
+    validate(cfg)
     ws.require("pose")
     out = _check_out(cfg, ws)
-    if not 0.0 <= cfg.flare_prob <= 1.0:
-        raise UserError(f"--flare-prob {cfg.flare_prob} must be in [0, 1]")
     cams = load_cameras(ws.cameras_json)
     if len(cams.frames) < 3:
         raise UserError(f"{ws.cameras_json} has {len(cams.frames)} views; synth needs >= 3")
@@ -237,7 +240,8 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     lens = sample_lens(cfg.flare, rng)
     light = np.asarray(cfg.light, float) if cfg.light is not None else choose_light(cams, rng)
     base = float(np.exp(rng.uniform(*np.log(cfg.flare.intensity))))
-    psf_bank(cfg.flare, progress=True)
+    if "scatter" in lens.kinds:
+        psf_bank(cfg.flare, progress=True)
     views = {}
     for i, frame in enumerate(track(cams.frames, "Imposing flare")):
         img = _read_image(ws, frame)
@@ -264,17 +268,21 @@ def _write_meta(cfg: SynthConfig, out: Path, ws: Workspace, cams: Cameras, held:
     stems = cams.stems
     split = {"train": [s for i, s in enumerate(stems) if i not in held],
              "heldout": [s for i, s in enumerate(stems) if i in held],
-             "seed": cfg.seed, "light_world": [float(v) for v in light],
+             "seed": cfg.seed, "kinds": list(cfg.flare.kinds),
+             "light_world": [float(v) for v in light],
              "origin": ws.scene_name, "lens": lens.summary(), "views": views}
     save_cameras(out / "cameras_gt.json", cams)
     atomic_write_json(out / "split.json", split)
     n_flare = sum(v["flare"] for v in views.values())
+    kinds_opt = "" if cfg.flare.kinds == KINDS else f" --kinds {','.join(cfg.flare.kinds)}"
     atomic_write_text(out / "README.md", f"""# Synthetic flare scene
 
-Made by `deflare-scene synth {ws.root} --out {out} --seed {cfg.seed}` from the clean posed
-workspace `{ws.root}` ({len(stems)} views). One lens (physically based flare synthesizer,
-pipeline/flare.py) and one point light at world {np.round(light, 4).tolist()} shared by all
-views; the light is projected into each view, so the flare moves with the camera.
+Made by `deflare-scene synth {ws.root} --out {out} --seed {cfg.seed}{kinds_opt}` from the
+clean posed workspace `{ws.root}` ({len(stems)} views). One lens (physically based flare
+synthesizer, pipeline/flare.py; kinds of flare allowed: {', '.join(cfg.flare.kinds)};
+drawn: {', '.join(lens.kinds)}) and one point light at world
+{np.round(light, 4).tolist()} shared by all views; the light is projected into each view,
+so the flare moves with the camera.
 {n_flare} of {len(stems)} views have flare (flare probability {cfg.flare_prob}).
 
 - `photos/`: the flared photos a user would have ({len(split['train'])} views; the
@@ -282,7 +290,8 @@ views; the light is projected into each view, so the flare moves with the camera
 - `clean/`: ground truth for every view (clean photo plus the light source's core).
 - `masks_gt/`: ground-truth flare masks (255 = flare) for every view.
 - `cameras_gt.json`: the ground-truth cameras of every view (same format as cameras.json).
-- `split.json`: train / held-out stems, seed, light position, lens and per-view draws.
+- `split.json`: train / held-out stems, seed, kinds, light position, lens and per-view
+  draws.
 """)
     return [out / "photos", out / "clean", out / "masks_gt", out / "cameras_gt.json",
             out / "split.json", out / "README.md"]

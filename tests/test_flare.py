@@ -8,9 +8,12 @@ import numpy as np
 import pytest
 
 from pipeline import flare as F
+from pipeline.errors import UserError
 
 # a small bank keeps every test fast; the physics is the same as the default's
-SMALL = dict(psf_size=128, n_psfs=3, n_wavelengths=9, dust_count=(5, 20))
+BANK = dict(psf_size=128, n_psfs=3, n_wavelengths=9, dust_count=(5, 20))
+# the tests of the dirty-aperture lens (the ``scatter`` kind) render that kind alone
+SMALL = dict(BANK, kinds=("scatter",))
 
 
 @pytest.fixture(autouse=True)
@@ -171,3 +174,223 @@ def test_lens_summary_is_json():
     lens = F.sample_lens(small_cfg(), np.random.default_rng(0))
     s = json.loads(json.dumps(lens.summary()))
     assert len(s["ghosts"]) == len(lens.ghosts) and s["bank"] == lens.cfg.bank_key()
+
+
+# --------------------------------------------------------------------------- kinds of flare
+H, W = 96, 128
+BLACK = np.zeros((H, W, 3), np.uint8)
+GREY = np.full((H, W, 3), 128, np.uint8)
+WHITE_LIGHT = dict(light_temperature=(6500.0, 6500.0))  # light_rgb = (1, 1, 1)
+
+
+def kind_cfg(*kinds: str, **kw) -> F.FlareConfig:
+    return F.FlareConfig(**{**BANK, "kinds": kinds, **kw})
+
+
+def documented_threshold(img: np.ndarray) -> float:
+    """The mask rule on a uniform photo: max(MASK_THRESHOLD, MASK_RELATIVE x its luminance)."""
+    lum = float(F.srgb_to_linear(img[0, 0] / 255.0) @ F.LUMA)
+    return max(F.MASK_THRESHOLD, F.MASK_RELATIVE * lum)
+
+
+@pytest.mark.parametrize("kind", F.KINDS)
+@pytest.mark.parametrize("img", [BLACK, GREY], ids=["black", "grey"])
+def test_each_kind_masks_exactly_where_its_light_exceeds_the_threshold(kind, img):
+    cfg = kind_cfg(kind, intensity=(2.0, 2.0))
+    assert cfg.mask_abs_threshold == F.MASK_THRESHOLD
+    _, layers = F.synthesize(img, cfg, np.random.default_rng(11), light_xy=(44.0, 30.0))
+    assert layers.kinds == (kind,)
+    thr = documented_threshold(img)
+    np.testing.assert_allclose(F.mask_threshold(cfg, (H, W), F.image_to_linear(img)), thr,
+                               rtol=1e-6)
+    lum = F.luminance(layers.flare)
+    core = layers.core.max(-1) > 0
+    np.testing.assert_array_equal(layers.mask, (lum > np.float32(thr)) & ~core)
+    assert layers.mask.sum() >= 10  # the kind adds visible light ...
+    assert ((lum > 0) & ~layers.mask & ~core).any()  # ... and light under the threshold
+    assert layers.flare.min() >= 0
+
+
+def test_starburst_spikes_reach_along_their_directions_with_colour_fringes():
+    angles = [0.3 + k * np.pi / 3 for k in range(6)]
+    sb = F.Starburst(angles=angles, lengths=[0.25] * 6, width=0.004, sharpness=1.0,
+                     amplitude=0.5, chroma=0.1, tint=np.ones(3, np.float32))
+    h, w = 260, 260
+    light = np.array([130.0, 130.0])
+    out = F.render_starburst(sb, tuple(light), (h, w), np.ones(3, np.float32))
+    L = 0.25 * np.hypot(h, w)  # 92 px
+    lum = F.luminance(out)
+
+    def at(angle, r, img=lum):
+        x, y = np.round(light + r * np.array([np.cos(angle), np.sin(angle)])).astype(int)
+        return img[y, x]
+
+    for a in angles:
+        assert at(a, 0.6 * L) > 0.1  # 55 px out: 0.5 x (1 - 0.6) = 0.2 on the axis
+        assert at(a + np.pi / 6, 0.3 * L) < 1e-4  # nothing between the spikes
+        assert at(a, 1.15 * L) == 0  # beyond the longest (red) channel
+        # colour fringes: past the blue tips, before the red ones, the spike is red
+        assert at(a, 0.95 * L, out[..., 0]) > 0.01 and at(a, 0.95 * L, out[..., 2]) == 0
+    assert out[..., 0].sum() > out[..., 1].sum() > out[..., 2].sum()
+
+
+def test_starburst_sampling_covers_its_ranges():
+    cfg = F.StarburstConfig()
+    counts = {len(F.sample_starburst(cfg, np.random.default_rng(s)).angles) for s in range(60)}
+    assert min(counts) >= 4 and max(counts) <= 18 and len(counts) > 8
+    sb = F.sample_starburst(dataclasses.replace(cfg, length_spread=(0.5, 0.5)),
+                            np.random.default_rng(0))
+    assert max(sb.lengths) / min(sb.lengths) > 1.2  # varied lengths
+
+
+def test_ghost_chain_lies_beyond_the_centre_on_the_light_line():
+    chain = F.GhostChainConfig(t=(-1.6, -0.4), count=(5, 5), amplitude=(0.3, 0.3),
+                               radius=(0.02, 0.03), chroma=(0.0, 0.0), ring_prob=0.0)
+    cfg = kind_cfg("ghosts", ghosts=chain, **WHITE_LIGHT)
+    lens = F.sample_lens(cfg, np.random.default_rng(3))
+    h, w = 120, 160
+    light, centre = np.array([140.0, 20.0]), np.array([(w - 1) / 2, (h - 1) / 2])
+    layers = F.render_flare(lens, tuple(light), (h, w))
+    ys, xs = np.nonzero(layers.mask)
+    assert len(ys) > 20
+    v = light - centre
+    t = ((xs - centre[0]) * v[0] + (ys - centre[1]) * v[1]) / (v @ v)
+    assert t.max() < 0  # every ghost on the far side of the centre
+    lum = F.luminance(layers.flare)
+    for g in lens.kind_params["ghosts"].ghosts:
+        x, y = np.round(centre + g.t * v).astype(int)
+        if 0 <= x < w and 0 <= y < h:  # filled ghosts are bright at their centres
+            assert lum[y, x] > F.MASK_THRESHOLD
+    assert lum[:, : w // 2].sum() > 20 * lum[:, w // 2:].sum()  # the light is on the right
+
+
+def test_ghost_chain_shapes_and_spacing():
+    cfg = F.GhostChainConfig(regular_prob=1.0, spacing=(0.3, 0.3), count=(5, 5))
+    chain = F.sample_ghost_chain(cfg, np.random.default_rng(0))
+    np.testing.assert_allclose(np.diff([g.t for g in chain.ghosts]), 0.3)
+    sides = {F.sample_ghost_chain(F.GhostChainConfig(), np.random.default_rng(s)).blades
+             for s in range(60)}
+    assert sides == {0, 5, 6, 7, 8, 9}
+
+
+def test_anamorphic_streak_is_long_thin_and_falls_off():
+    streaks = F.StreakConfig(anamorphic_prob=1.0, anamorphic_tilt=0.0, amplitude=(0.3, 0.3),
+                             anamorphic_length=(1.0, 1.0), anamorphic_width=(0.004, 0.004),
+                             anamorphic_saturation=(0.0, 0.0))
+    lens = F.sample_lens(kind_cfg("streaks", streaks=streaks, **WHITE_LIGHT),
+                         np.random.default_rng(0))
+    h, w = 96, 256
+    layers = F.render_flare(lens, (30.0, 48.0), (h, w))
+    row = layers.mask[48]
+    assert row[36:].all()  # masked from the light to the far edge: 220+ px
+    assert layers.mask[:, 150].sum() <= 5  # thin across
+    lum = F.luminance(layers.flare)[48]
+    assert lum[40] > lum[120] > lum[250] > 0  # falls off with distance
+
+
+def test_smeared_streaks_several_directions():
+    streaks = F.StreakConfig(anamorphic_prob=0.0, count=(3, 3), amplitude=(0.4, 0.4),
+                             length=(0.6, 0.6))
+    lens = F.sample_lens(kind_cfg("streaks", streaks=streaks, **WHITE_LIGHT),
+                         np.random.default_rng(1))
+    st = lens.kind_params["streaks"].streaks
+    assert len(st) == 3 and len({round(s.angle, 3) for s in st}) == 3
+    h, w = 200, 200
+    layers = F.render_flare(lens, (100.0, 100.0), (h, w))
+    for s in st:  # masked 70 px out along each direction, both ways
+        for sign in (1, -1):
+            x, y = np.round(100 + sign * 70 * np.array([np.cos(s.angle), np.sin(s.angle)]))
+            assert layers.mask[int(y), int(x)]
+
+
+def test_glare_lifts_a_large_area_a_little_and_masks_only_near_the_light():
+    h, w = 96, 128
+    diag = np.hypot(h, w)
+    cfg = kind_cfg("glare")
+    yy, xx = np.mgrid[0:h, 0:w]
+    for seed in range(6):
+        lens = F.sample_lens(cfg, np.random.default_rng(seed))
+        layers = F.render_flare(lens, (30.0, 40.0), (h, w), intensity=cfg.intensity[1])
+        lum = F.luminance(layers.flare)
+        assert (lum > 0.1 * F.MASK_THRESHOLD).mean() > 0.9  # nearly all the frame is lifted
+        assert 0 < layers.mask.mean() < 0.5
+        dist = np.hypot(xx - 30, yy - 40)[layers.mask]
+        assert dist.max() < 0.45 * diag  # the glow near the light, not the veil
+    # the veil and cast alone never reach the mask, however bright the light
+    veil_only = dataclasses.replace(
+        cfg, glare=F.VeilingGlareConfig(glow_amplitude=(1e-9, 1e-9), veil_level=(0.7, 0.7),
+                                        cast_level=(0.3, 0.3)))
+    lens = F.sample_lens(veil_only, np.random.default_rng(0))
+    layers = F.render_flare(lens, (30.0, 40.0), (h, w), intensity=20.0)
+    lum = F.luminance(layers.flare)
+    assert lum.max() <= F.VEIL_CAP * F.MASK_THRESHOLD * 1.001 and not layers.mask.any()
+    assert (lum > 0.5 * F.MASK_THRESHOLD).mean() > 0.5
+
+
+@pytest.mark.parametrize("img", [BLACK, GREY], ids=["black", "grey"])
+def test_combined_kinds_sum_their_layers_and_mask_the_sum(img):
+    always = dict(scatter_prob=1.0, starburst=F.StarburstConfig(prob=1.0),
+                  ghosts=F.GhostChainConfig(prob=1.0), streaks=F.StreakConfig(prob=1.0),
+                  glare=F.VeilingGlareConfig(prob=1.0))
+    cfg = kind_cfg(*F.KINDS, **always)
+    lens = F.sample_lens(cfg, np.random.default_rng(3))
+    assert lens.kinds == F.KINDS and set(lens.kind_params) == set(F.KINDS) - {"scatter"}
+    light, k, bg = (50.0, 40.0), 0.6, F.image_to_linear(img)
+    layers = F.render_flare(lens, light, (H, W), None, k, bg)
+    parts = [F.render_kind(lens, kind, light, (H, W), None, k) for kind in lens.kinds]
+    assert all(p.max() > 0 for p in parts)
+    total = parts[0]
+    for p in parts[1:]:
+        total = total + p
+    np.testing.assert_array_equal(layers.flare, total)
+    thr = np.float32(documented_threshold(img))
+    core = layers.core.max(-1) > 0
+    np.testing.assert_array_equal(layers.mask, (F.luminance(total) > thr) & ~core)
+    # faint layers add up: the sum is masked where no single kind would be
+    union = np.any([F.luminance(p) > thr for p in parts], axis=0)
+    assert (layers.mask & ~union).any() and not (union & ~layers.mask & ~core).any()
+    # synthesize composes the drawn kinds for one light the same way
+    _, syn = F.synthesize(img, cfg, np.random.default_rng(4), light_xy=light)
+    assert syn.kinds == F.KINDS
+    thr_map = F.mask_threshold(cfg, (H, W), bg)
+    np.testing.assert_array_equal(
+        syn.mask, (F.luminance(syn.flare) > thr_map) & ~(syn.core.max(-1) > 0))
+
+
+def test_kinds_drawn_by_probability_and_never_none():
+    never = dict(scatter_prob=0.0, starburst=F.StarburstConfig(prob=0.0),
+                 ghosts=F.GhostChainConfig(prob=0.0), streaks=F.StreakConfig(prob=0.0),
+                 glare=F.VeilingGlareConfig(prob=0.0))
+    cfg = kind_cfg(*F.KINDS, **never)
+    drawn = [F.sample_lens(cfg, np.random.default_rng(s)).kinds for s in range(40)]
+    assert all(len(d) == 1 for d in drawn) and len(set(drawn)) == 5  # one, at random
+    mixed = [F.sample_lens(kind_cfg(*F.KINDS), np.random.default_rng(s)).kinds
+             for s in range(40)]
+    assert len({len(d) for d in mixed}) >= 3  # default: varied combinations
+    assert F.FlareConfig().kinds == F.KINDS  # training data: every kind
+    lens = F.sample_lens(kind_cfg("scatter"), np.random.default_rng(0))
+    assert lens.kinds == ("scatter",) and lens.kind_params == {}
+    assert F.FlareConfig.unseen().kinds == ("scatter",)
+
+
+def test_unknown_kind_is_a_user_error():
+    with pytest.raises(UserError, match=r"^--kinds 'starburst,sun': unknown flare kind 'sun'; "
+                       r"allowed kinds: starburst, ghosts, streaks, glare, scatter$"):
+        F.parse_kinds("starburst,sun")
+    with pytest.raises(UserError, match="FlareConfig.kinds"):
+        F.FlareConfig(kinds=("starburst", "halo"))
+    with pytest.raises(UserError, match="empty"):
+        F.parse_kinds(" , ")
+    assert F.parse_kinds(" ghosts, glare,ghosts") == ("ghosts", "glare")
+
+
+def test_summary_of_every_kind_is_json():
+    import json
+
+    always = dict(scatter_prob=1.0, starburst=F.StarburstConfig(prob=1.0),
+                  ghosts=F.GhostChainConfig(prob=1.0), streaks=F.StreakConfig(prob=1.0),
+                  glare=F.VeilingGlareConfig(prob=1.0))
+    lens = F.sample_lens(kind_cfg(*F.KINDS, **always), np.random.default_rng(0))
+    s = json.loads(json.dumps(lens.summary()))
+    assert s["kinds"] == list(F.KINDS) and set(s["kind_params"]) == set(F.KINDS) - {"scatter"}
+    assert len(s["kind_params"]["ghosts"]["ghosts"]) == len(lens.kind_params["ghosts"].ghosts)

@@ -161,3 +161,20 @@ def test_synth_cli_and_bad_inputs(temple, tmp_path, capsys):
         if not v["flare"]:  # no flare: no mask
             mask = cv2.imread(str(out / "masks_gt" / f"{stem}.png"), cv2.IMREAD_GRAYSCALE)
             assert not mask.any()
+
+
+def test_synth_kinds_option(temple, tmp_path, capsys):
+    bad = tmp_path / "bad"
+    assert main(["synth", str(temple.root), "--out", str(bad), "--kinds", "starburst,sun"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--kinds 'starburst,sun': unknown flare kind 'sun'; allowed kinds: starburst, " \
+        "ghosts, streaks, glare, scatter" in err and len(err.splitlines()) == 1
+    assert not bad.exists()
+    out = tmp_path / "kinds"
+    assert main(["synth", str(temple.root), "--out", str(out), "--kinds", "ghosts,glare",
+                 "--heldout-every", "0"]) == 0
+    split = json.loads((out / "split.json").read_text())
+    assert split["kinds"] == ["ghosts", "glare"]
+    assert split["lens"]["kinds"] and set(split["lens"]["kinds"]) <= {"ghosts", "glare"}
+    assert set(split["lens"]["kind_params"]) == set(split["lens"]["kinds"])
+    assert "--kinds ghosts,glare" in (out / "README.md").read_text()
