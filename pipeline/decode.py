@@ -52,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import UserError
+from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
 from pipeline.workspace import Workspace, atomic_imwrite
 
@@ -68,9 +69,9 @@ MIN_IMAGES = 3
 
 @dataclass
 class DecodeConfig:
-    max_size: int = 1008
+    max_size: int = option(1008, ge=0)
     """Long side of the decoded images in pixels (never upscaled; 0 keeps the full size)."""
-    highlight_mode: int = 2
+    highlight_mode: int = option(2, ge=0, le=9)
     """LibRaw highlight mode for raw input: 0 clip, 1 unclip, 2 blend, 3-9 rebuild."""
 
 
@@ -271,6 +272,7 @@ def _remove_stale(folder: Path, keep: set[str], suffix: str) -> None:
 def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike | None = None,
         force: bool = False) -> Workspace:
     """Decode every photo of ``photos`` into the workspace ``ws_path``; return it."""
+    validate(cfg)
     if cfg.max_size != 0 and cfg.max_size < 64:
         raise UserError(f"--max-size {cfg.max_size} is too small: use at least 64 pixels "
                         "(or 0 to keep the full size)")

@@ -20,6 +20,7 @@ import numpy as np
 
 from pipeline.cameras import Cameras, load_cameras
 from pipeline.errors import UserError
+from pipeline.options import option, validate
 from pipeline.progress import info, track
 from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depth
 from pipeline.workspace import Workspace, atomic_path
@@ -29,17 +30,17 @@ from pipeline.workspace import Workspace, atomic_path
 class DepthConfig:
     """Options of the depth stage."""
 
-    neighbours: int = 4
+    neighbours: int = option(4, ge=1)
     """Nearest views (camera centres) each view is matched against."""
-    planes: int = 48
+    planes: int = option(48, ge=3)
     """Depth hypotheses per view, uniform in inverse depth between its near and far."""
-    window: int = 7
+    window: int = option(7, ge=3, odd=True)
     """Matching window side (pixels, odd)."""
-    keep: int = 2
+    keep: int = option(2, ge=1, le="neighbours")
     """Best-k: a pixel's cost is the mean of its k best neighbours' costs."""
-    min_confidence: float = 0.5
+    min_confidence: float = option(0.5, ge=0, le=1)
     """Depths below this confidence (1 - ZNCC cost) are dropped."""
-    consistency: float = 0.02
+    consistency: float = option(0.02, ge=0, lt=1)
     """Keep a depth only where a neighbour's depth agrees within this relative difference
     (0: no check)."""
 
@@ -48,17 +49,8 @@ class DepthConfig:
                            min_confidence=self.min_confidence, consistency=self.consistency)
 
     def check(self) -> None:
-        """UserError for values outside their range (one line naming the option)."""
-        rules = [("neighbours", self.neighbours >= 1, ">= 1"), ("planes", self.planes >= 3,
-                 ">= 3"), ("window", self.window >= 3 and self.window % 2 == 1,
-                 "an odd number >= 3"), ("keep", 1 <= self.keep <= self.neighbours,
-                 "between 1 and --neighbours"),
-                 ("min-confidence", 0 <= self.min_confidence <= 1, "in 0..1"),
-                 ("consistency", 0 <= self.consistency < 1, "in 0..1")]
-        for name, ok, allowed in rules:
-            if not ok:
-                raise UserError(f"--{name} {getattr(self, name.replace('-', '_'))}: must be "
-                                f"{allowed}")
+        """UserError for values outside their range (``pipeline.options.validate``)."""
+        validate(self)
 
 
 def depth_path(ws: Workspace, stem: str) -> Path:

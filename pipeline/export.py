@@ -21,6 +21,7 @@ import numpy as np
 from pipeline.camera_models import CameraModel
 from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.errors import UserError
+from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
 
@@ -33,9 +34,9 @@ class ExportConfig:
 
     path: str = "interpolate"
     """Rendered path whose frames make the video: a folder name under WS/renders."""
-    fps: float = 24.0
+    fps: float = option(24.0, gt=0)
     """Frame rate of the videos."""
-    crf: int = 18
+    crf: int = option(18, ge=0, le=51)
     """H.264 quality: 0 lossless .. 51 worst; 18 is visually lossless, 23 x264's default."""
     compare: bool = True
     """Write the input vs de-flared comparison video and contact sheet."""
@@ -58,22 +59,22 @@ def compare_paths(ws: Workspace) -> tuple[Path, Path]:
 
 
 def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
-    """Export what the workspace has; returns the written paths."""
+    """Export the rendered path ``cfg.path`` and what else the workspace has; returns the
+    written paths. Nothing rendered on that path: a UserError saying what to run first."""
+    validate(cfg)
     ws.require("pose")
     cams = load_cameras(ws.cameras_json)
     frames_dir = ws.renders / Path(cfg.path).stem
+    frames = sorted(frames_dir.glob("*.png")) if frames_dir.is_dir() else []
+    if not frames:
+        raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
+                        f"render {ws.root} --path {cfg.path}` first")
     inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks]
     run_ = ws.begin_stage("export", asdict(cfg), inputs, force)
     if run_.skip:
         info("export: up to date")
         return run_.outputs
-    outs: list[Path] = []
-    frames = sorted(frames_dir.glob("*.png")) if frames_dir.is_dir() else []
-    if frames:
-        outs.append(write_path_video(frames, video_path(ws), cfg.fps, cfg.crf))
-    else:
-        warn(f"no frames in {frames_dir}: run `deflare-scene render {ws.root} --path "
-             f"{cfg.path}` first; skipping {video_path(ws).name}")
+    outs = [write_path_video(frames, video_path(ws), cfg.fps, cfg.crf)]
     if cfg.compare:
         outs += write_comparisons(ws, cams, cfg)
     if cfg.glb:
@@ -81,9 +82,6 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
         outs += [glb] if glb else []
     if cfg.transforms:
         outs += write_transforms(ws, cams)
-    if not outs:
-        raise UserError(f"nothing to export in {ws.root}: run `deflare-scene render "
-                        f"{ws.root}` first")
     return run_.finish(outs, versions=["imageio-ffmpeg"])
 
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from pipeline.datasets import IMAGE_EXTENSIONS
 from pipeline.errors import UserError
+from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
 
@@ -35,21 +36,20 @@ class MaskConfig:
     """Options of the mask stage."""
 
     weights: Path | None = None
-    """FMG weights (safetensors); None = the shipped gnfr/weights/fmg.safetensors."""
-    masks_dir: Path | None = None
+    """FMG weights (safetensors); default: the shipped gnfr/weights/fmg.safetensors."""
+    masks_dir: Path | None = option(None, flag="--masks")
     """Hand-annotated masks instead of the FMG: one image per stem, nonzero = flare."""
-    threshold: float | None = None
-    """Flare probability above which a pixel is flare; None = the cut calibrated for the
-    weights (their ``threshold`` metadata, written by ``deflare-scene fmg calibrate``),
-    else 0.5."""
-    work_size: int = 512
+    threshold: float | None = option(None, ge=0, le=1)
+    """Flare probability above which a pixel is flare; default: the cut calibrated for the
+    weights (their threshold metadata, written by `deflare-scene fmg calibrate`), else 0.5."""
+    work_size: int = option(512, ge=32)
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
-    batch: int = 4
+    batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
-    device: str = "auto"
-    """torch device for the FMG: auto (CUDA when present), cpu or cuda."""
+    device: str = option("auto", device=True)
+    """torch device for the FMG: auto (CUDA when present), cpu, cuda or cuda:N."""
 
 
 # --------------------------------------------------------------------------- weights
@@ -94,11 +94,8 @@ def load_fmg_weights(path: Path, device: str = "cpu"):
 
 
 def pick_device(name: str) -> str:
-    import torch
-
-    if name == "auto":
-        return "cuda" if torch.cuda.is_available() else "cpu"
-    return name
+    """The FMG's torch device (``pipeline.options.resolve_device``)."""
+    return resolve_device(name)
 
 
 # --------------------------------------------------------------------------- FMG masks
@@ -238,6 +235,7 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 # --------------------------------------------------------------------------- stage
 def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
+    validate(config)
     ws.require("pose")
     stems = image_stems(ws)
     if config.masks_dir is not None:

@@ -26,6 +26,7 @@ import numpy as np
 from pipeline.camera_models import CameraModel, warp_maps
 from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.errors import UserError
+from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import (
     Workspace,
@@ -43,31 +44,31 @@ FILLS = ("hybrid", "network")
 class RenderConfig:
     """Options of the render stage."""
 
-    path: str = "inputs"
+    path: str = option("inputs", choices=NAMED_PATHS, suffix=".json")
     """inputs, interpolate, spiral, or a camera-path FILE.json (docs/camera_paths.md)."""
-    frames: int | None = None
+    frames: int | None = option(None, ge=1)
     """Frames of an interpolate / spiral path (default: seconds x fps)."""
-    seconds: float = 4.0
+    seconds: float = option(4.0, gt=0)
     """Length of an interpolate / spiral path when ``frames`` is not given."""
-    fps: float = 24.0
+    fps: float = option(24.0, gt=0)
     """Frame rate used with ``seconds`` to count frames."""
-    size: tuple[int, int] | None = None
+    size: tuple[int, int] | None = option(None, ge=1, sep="x", metavar="WIDTHxHEIGHT")
     """Render size (width, height) of novel frames; overrides ``scale``."""
-    scale: float | None = None
+    scale: float | None = option(None, gt=0)
     """Novel frames at this fraction of the input image size (default 1/4 on CPU, 1 on
     CUDA; a JSON path keeps its own sizes unless ``scale`` or ``size`` is given)."""
-    chunk: int | None = None
+    chunk: int | None = option(None, ge=1)
     """Rays per forward pass (default: ``default_chunk`` of the device; lower it if memory
     runs out)."""
-    device: str = "auto"
-    """cuda, cpu or auto (CUDA when available)."""
-    samples: int | None = None
+    device: str = option("auto", device=True)
+    """auto (CUDA when available), cpu, cuda or cuda:N."""
+    samples: int | None = option(None, ge=1)
     """Samples per ray (default: the checkpoint's training value, else 64 CUDA / 32 CPU)."""
-    blend: str = "mask"
+    blend: str = option("mask", choices=("mask", "none"))
     """inputs: ``mask`` renders and replaces only the flare region; ``none`` the full image."""
-    dilate: float = 0.01
+    dilate: float = option(0.01, ge=0)
     """inputs: the flare mask is grown by this fraction of the image's long side."""
-    feather: float = 0.01
+    feather: float = option(0.01, ge=0)
     """inputs: width of the soft blend edge as a fraction of the image's long side."""
     color_match: bool = True
     """inputs (with ``blend mask``): before blending, map the rendered fill's colours to the
@@ -77,30 +78,30 @@ class RenderConfig:
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""
-    n_sources: int | None = None
+    n_sources: int | None = option(None, ge=1)
     """Source views per frame, the least flared of the nearest ``pool`` (default: the
     checkpoint's eval_views, else 10)."""
-    pool: int = 20
+    pool: int = option(20, ge=1)
     """Nearest views from which the ``n_sources`` least-flared are kept."""
-    source_scale: float | None = None
+    source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
-    fill: str = "hybrid"
+    fill: str = option("hybrid", choices=FILLS)
     """``hybrid``: where WS/depth exists (`deflare-scene depth`), pixels are taken from the
     nearest photos warped by depth wherever ``min_support`` of them agree (flare masks and
     occlusions respected), and GN-FR renders only the rest; ``network``: GN-FR renders every
     pixel (docs/depth.md)."""
-    min_support: int = 2
+    min_support: int = option(2, ge=1)
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
-    photo_sources: int = 4
+    photo_sources: int = option(4, ge=1)
     """hybrid: nearest clean photos warped into each image."""
-    network_scale: float | None = None
+    network_scale: float | None = option(None, gt=0)
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
     fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
     on CUDA)."""
-    depth_samples: int | None = None
+    depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos' depth maps give are sampled with this
     many samples in a band around it instead of the full near-far range (default: a third
     of ``samples``; 0 = off)."""
@@ -121,6 +122,7 @@ class FrameJob:
 # --------------------------------------------------------------------------- entry point
 def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
+    validate(cfg)
     import torch
 
     ws.require("pose")
@@ -327,16 +329,7 @@ def _load_views(ws: Workspace) -> dict:
 
 # --------------------------------------------------------------------------- model, cache
 def _device(name: str) -> str:
-    import torch
-
-    if name == "auto":
-        return "cuda" if torch.cuda.is_available() else "cpu"
-    if name.startswith("cuda") and not torch.cuda.is_available():
-        raise UserError("--device cuda was asked for but no CUDA GPU is available: use "
-                        "--device cpu")
-    if name not in ("cpu",) and not name.startswith("cuda"):
-        raise UserError(f"--device {name!r} is not known: use auto, cuda or cpu")
-    return name
+    return resolve_device(name)  # pipeline.options: the one device resolver
 
 
 def _checkpoint(ws: Workspace, path: str | None) -> Path:

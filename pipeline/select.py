@@ -21,6 +21,7 @@ import numpy as np
 
 from pipeline.cameras import load_cameras
 from pipeline.errors import UserError
+from pipeline.options import option, validate
 from pipeline.progress import info
 from pipeline.workspace import Workspace, atomic_write_json, read_json
 
@@ -29,9 +30,9 @@ from pipeline.workspace import Workspace, atomic_write_json, read_json
 class SelectConfig:
     """Options of the select stage."""
 
-    max_flare: float = 0.10
+    max_flare: float = option(0.10, ge=0, le=1)
     """Views whose flare fraction is above this are never training targets (paper: 10%)."""
-    min_targets: int = 2
+    min_targets: int = option(2, ge=1)
     """Fewest target-eligible views the scene needs."""
 
 
@@ -81,6 +82,7 @@ def check_targets(views: dict, max_flare: float, min_targets: int, root: Path) -
 
 def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/views.json; returns the written paths."""
+    validate(config)
     ws.require("pose", "mask")
     run_ = ws.begin_stage("select", {"max_flare": config.max_flare,
                                      "min_targets": config.min_targets},

@@ -111,7 +111,7 @@ def test_bad_matcher_and_bad_model(tmp_path, capsys):
     d = _kermit(tmp_path / "photos", 3)
     ws = tmp_path / "ws"
     assert main(["decode", str(d), "--out", str(ws), "--max-size", "160"]) == 0
-    _fails(capsys, ["pose", str(ws), "--matcher", "fancy"], "--matcher 'fancy'")
+    _fails(capsys, ["pose", str(ws), "--matcher", "fancy"], "--matcher fancy")
     _fails(capsys, ["pose", str(ws), "--colmap-model", str(tmp_path)], "is not a COLMAP model")
 
 

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.options import option
+
 SIZES = ((504, 378), (1008, 756))
 
 
@@ -42,21 +44,21 @@ class BenchConfig:
     """Devices to measure (default: cpu, and cuda when present)."""
     preset: str = "quick"
     """Training preset whose model, rays and samples are measured."""
-    steps: int = 10
+    steps: int = option(10, ge=1)
     """Timed training steps per mode (after ``warmup``)."""
-    warmup: int = 2
+    warmup: int = option(2, ge=0)
     """Untimed steps (and render passes) before timing."""
-    rays: int | None = None
+    rays: int | None = option(None, ge=1)
     """Rays timed per rendered frame (default: the whole frame on CUDA, 4096 on CPU)."""
-    samples: int | None = None
+    samples: int | None = option(None, ge=1)
     """Samples per ray when rendering (default: the preset's)."""
-    views: int = 10
+    views: int = option(10, ge=3)
     """Views of the synthetic scene (training sources come from these)."""
-    train_size: tuple[int, int] = (504, 378)
+    train_size: tuple[int, int] = option((504, 378), ge=8, sep="x", metavar="WIDTHxHEIGHT")
     """Image size (width, height) of the synthetic training views."""
-    chunk: int | None = None
+    chunk: int | None = option(None, ge=1)
     """Rays per forward pass when rendering (default: the render stage's for the device)."""
-    repeats: int = 2
+    repeats: int = option(2, ge=1)
     """Render passes per path, alternating fast and reference; the fastest of each counts."""
     isolate: bool = True
     """CPU: run each measurement in a fresh process, so its peak RSS is its own (the
@@ -395,21 +397,21 @@ def default_devices() -> tuple[str, ...]:
 
 def run(cfg: BenchConfig) -> dict:
     """Measure every device; write ``cfg.out`` (JSON) and return the record."""
-    import torch
 
     from gnfr.train import PRESETS
     from pipeline.errors import UserError
+    from pipeline.options import resolve_device, validate
     from pipeline.progress import info
     from pipeline.workspace import atomic_write_json
 
-    cfg = effective(cfg)
+    cfg = effective(validate(cfg))
     if cfg.preset not in PRESETS:
         raise UserError(f"--preset {cfg.preset}: choose one of {', '.join(PRESETS)}")
     devices = cfg.devices or default_devices()
     for d in devices:
-        if d not in ("cpu", "cuda") or (d == "cuda" and not torch.cuda.is_available()):
-            raise UserError(f"--device {d}: not available here (choose cpu"
-                            f"{' or cuda' if torch.cuda.is_available() else ''})")
+        if d not in ("cpu", "cuda"):
+            raise UserError(f"--device {d}: must be all, cpu or cuda")
+        resolve_device(d)  # cuda without a GPU: the one message
     tcfg = PRESETS[cfg.preset]
     scene = synthetic_scene(cfg.views, cfg.train_size)
     record = {"machine": machine(), "settings": {**asdict(cfg), "out": str(cfg.out),

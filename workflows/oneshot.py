@@ -11,33 +11,35 @@ reachable with ``--set STAGE.FIELD=VALUE`` (e.g. ``--set finetune.rays=512``).
 
 from __future__ import annotations
 
+import importlib
 import time
-import types
 import typing
 from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from pipeline.errors import UserError
+from pipeline.options import check_field, coerce, resolve_device, validate
 from pipeline.progress import info
+
+STAGES = {
+    "decode": "pipeline.decode:DecodeConfig", "pose": "pipeline.pose:PoseConfig",
+    "mask": "pipeline.mask:MaskConfig", "depth": "pipeline.depth:DepthConfig",
+    "select": "pipeline.select:SelectConfig", "finetune": "pipeline.finetune:FinetuneConfig",
+    "render": "pipeline.render:RenderConfig", "export": "pipeline.export:ExportConfig",
+}
+"""The config class ("module:Class") of every stage the one-shot runs, in order."""
+DEFAULTS = {"render": {"path": "interpolate"}}
+"""Where the one-shot's defaults differ from the stage command's."""
 
 
 def _stage_configs() -> dict[str, Any]:
     """Default config of every stage the one-shot runs, by stage name."""
-    from pipeline.decode import DecodeConfig
-    from pipeline.depth import DepthConfig
-    from pipeline.export import ExportConfig
-    from pipeline.finetune import FinetuneConfig
-    from pipeline.mask import MaskConfig
-    from pipeline.pose import PoseConfig
-    from pipeline.render import RenderConfig
-    from pipeline.select import SelectConfig
-
-    return {
-        "decode": DecodeConfig(), "pose": PoseConfig(), "mask": MaskConfig(),
-        "depth": DepthConfig(), "select": SelectConfig(), "finetune": FinetuneConfig(),
-        "render": RenderConfig(path="interpolate"), "export": ExportConfig(),
-    }
+    out = {}
+    for stage, target in STAGES.items():
+        module, _, cls = target.partition(":")
+        out[stage] = getattr(importlib.import_module(module), cls)(**DEFAULTS.get(stage, {}))
+    return out
 
 
 @dataclass
@@ -63,46 +65,16 @@ def default_workspace(photos: Path) -> Path:
 def default_fps(device: str) -> float:
     """Video frame rate when none is given: 24 on CUDA, 12 on CPU (half the frames to render;
     a CPU renders about 2-4 thousand rays a second with the quick preset)."""
-    if device == "cpu":
-        return 12.0
-    if device in ("auto", "cuda"):
-        import torch
-
-        return 24.0 if torch.cuda.is_available() else 12.0
-    return 24.0
+    try:
+        return 24.0 if resolve_device(device).startswith("cuda") else 12.0
+    except UserError:  # a bad --device: the option check reports it before anything runs
+        return 24.0
 
 
 # --------------------------------------------------------------------------- --set parsing
-def _coerce(value: str, tp: Any, where: str) -> Any:
-    """Convert a command-line string to the annotated type ``tp``."""
-    origin = typing.get_origin(tp)
-    if origin in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        if value.lower() in ("none", "null", "") and type(None) in typing.get_args(tp):
-            return None
-        return _coerce(value, args[0], where)
-    if origin is tuple:
-        parts = value.replace("x", ",").split(",")
-        args = typing.get_args(tp)
-        if len(parts) != len(args):
-            raise UserError(f"{where}: expected {len(args)} comma-separated values, got {value!r}")
-        return tuple(_coerce(p, a, where) for p, a in zip(parts, args, strict=True))
-    try:
-        if tp is bool:
-            if value.lower() in ("1", "true", "yes", "on"):
-                return True
-            if value.lower() in ("0", "false", "no", "off"):
-                return False
-            raise ValueError(value)
-        if tp in (int, float, str, Path):
-            return tp(value)
-    except ValueError:
-        raise UserError(f"{where}: {value!r} is not a valid {tp.__name__}") from None
-    raise UserError(f"{where}: this option cannot be set from the command line")
-
-
 def apply_overrides(stages: dict[str, Any], items: list[str]) -> dict[str, Any]:
-    """Apply ``STAGE.FIELD=VALUE`` strings to the stage configs (new objects returned)."""
+    """Apply ``STAGE.FIELD=VALUE`` strings to the stage configs (new objects returned); each
+    value is parsed and checked as the stage's own option is (``pipeline.options``)."""
     stages = dict(stages)
     for item in items:
         key, sep, value = item.partition("=")
@@ -121,13 +93,18 @@ def apply_overrides(stages: dict[str, Any], items: list[str]) -> dict[str, Any]:
         if is_dataclass(hints[name]):
             raise UserError(f"--set {item!r}: {stage}.{name} is a group of options; set its "
                             "fields with the stage's own command")
-        stages[stage] = replace(cfg, **{name: _coerce(value, hints[name], f"--set {key}")})
+        form = next(f for f in fields(cfg) if f.name == name).metadata.get("metavar")
+        cfg = replace(cfg, **{name: coerce(value, hints[name], f"--set {item}", form)})
+        check_field(cfg, name, f"--set {item}")
+        stages[stage] = cfg
     return stages
 
 
 # --------------------------------------------------------------------------- the run
 def run_all(cfg: OneShotConfig) -> Path:
     """Run every stage in order; return the workspace path."""
+    for stage_cfg in cfg.stages.values():  # every option checked before anything is written
+        validate(stage_cfg)
     photos = Path(cfg.photos)
     if not photos.exists():
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos, "

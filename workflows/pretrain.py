@@ -38,6 +38,7 @@ from pipeline.finetune import (
     rng_state,
     trim_metrics,
 )
+from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 
 
@@ -49,21 +50,22 @@ class PretrainConfig:
     """Scene folders, or folders whose sub-folders are scenes."""
     out: Path = Path("gnfr_pretrain")
     """Output folder: gnfr.safetensors, train_state.pt, metrics.jsonl."""
-    preset: str = "pretrain"
-    """pretrain (paper: 500k steps, GNT-sized) | pretrain-quick | tiny (tests)."""
-    iters: int | None = None
+    preset: str = option("pretrain", choices=tuple(PRESETS))
+    """pretrain (the paper's: GNT-sized) | pretrain-quick | tiny (tests) | any finetune
+    preset (docs/presets.md)."""
+    iters: int | None = option(None, ge=1)
     """Override the preset's number of steps."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
-    flare_prob: float = 0.5
+    flare_prob: float = option(0.5, ge=0, le=1)
     """Fraction of views that get flare."""
-    max_size: int = 504
+    max_size: int = option(504, ge=64)
     """Long side of the images scenes are loaded at."""
-    device: str = "auto"
-    """auto | cpu | cuda (with torchrun: cuda:LOCAL_RANK)."""
-    seed: int = 0
+    device: str = option("auto", device=True)
+    """auto | cpu | cuda (with torchrun: cuda:LOCAL_RANK) | cuda:N."""
+    seed: int = option(0, ge=0)
     """Seed of initialisation and sampling."""
-    init: str = "scratch"
+    init: str = option("scratch", choices=("scratch", "auto"), suffix=".safetensors")
     """scratch | auto (shipped weights) | path to a .safetensors checkpoint."""
 
 
@@ -141,12 +143,12 @@ def setup_distributed(device_name: str) -> tuple[int, int, torch.device]:
     """(rank, world size, device); initialises the process group under torchrun."""
     world = int(os.environ.get("WORLD_SIZE", "1"))
     rank = int(os.environ.get("RANK", "0"))
-    cuda = torch.cuda.is_available() and device_name in ("auto", "cuda")
-    if cuda:
+    name = resolve_device(device_name)
+    if name == "cuda":  # auto on a GPU machine, or cuda: this rank's GPU
         device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
         torch.cuda.set_device(device)
     else:
-        device = torch.device("cpu" if device_name == "auto" else device_name)
+        device = torch.device(name)
     if world > 1 and not torch.distributed.is_initialized():
         torch.distributed.init_process_group("nccl" if device.type == "cuda" else "gloo")
     return rank, world, device
@@ -174,6 +176,7 @@ def broadcast_params(model: torch.nn.Module) -> None:
 # --------------------------------------------------------------------------- training
 def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     """Pretrain; returns the weight file. ``train`` overrides the preset entirely."""
+    validate(config)
     rank, world, device = setup_distributed(config.device)
     cfg = train or PRESETS[config.preset]
     if config.iters is not None:

@@ -7,36 +7,46 @@ from pathlib import Path
 
 import typer
 
+from workflows.config_cli import Pick, fields_command
+from workflows.oneshot import DEFAULTS, STAGES
+
+FLAGS = {
+    "max_size": ("decode",), "matcher": ("pose",), "masks_dir": ("mask",),
+    "threshold": ("mask",), "max_flare": ("select",), "preset": ("finetune",),
+    "iters": ("finetune",), "device": ("finetune", "mask", "render"), "path": ("render",),
+    "frames": ("render",), "seconds": ("render",), "fps": ("render", "export"),
+}
+"""The one-shot's own flags: each sets the field of that name in these stages' configs (name,
+default and help from the first one's dataclass); every other field: --set."""
+HELP = {
+    "path": "the video's camera path: interpolate, spiral or a camera-path FILE.json.",
+    "fps": "frame rate (default 24 with CUDA; 12 on CPU, where rendering is slow).",
+}
+
+
+def _picks() -> list[Pick]:
+    picks = []
+    for name, stages in FLAGS.items():
+        default = DEFAULTS.get(stages[0], {}).get(name, ...)
+        picks.append(Pick(STAGES[stages[0]], name, help_prefix=", ".join(stages) + ": ",
+                          help=HELP.get(name),
+                          **({"default": None} if name == "fps" else
+                             {} if default is ... else {"default": default})))
+    return picks
+
 
 def register(app: typer.Typer) -> None:
-    @app.command("run")
+    @fields_command(app, "run", _picks())
     def run_cmd(
         photos: Path = typer.Argument(..., help="Folder of photos (raw or JPEG/PNG/TIFF)."),
         out: Path = typer.Option(None, "--out", "-o",
                                  help="Workspace folder (default: <photos>.deflare beside it)."),
-        max_size: int = typer.Option(1008, help="decode: long side of decoded images."),
-        matcher: str = typer.Option("auto", help="pose: exhaustive, sequential or auto."),
-        masks: Path = typer.Option(None, help="mask: hand-made masks (one per stem) "
-                                              "instead of the FMG network."),
-        threshold: float = typer.Option(
-            None, help="mask: flare probability cut (default: the cut calibrated for the "
-            "FMG weights, 0.65 for the shipped ones)."),
-        max_flare: float = typer.Option(0.10, help="select: views above this flare "
-                                                   "fraction are never training targets."),
-        preset: str = typer.Option("auto", help="finetune: paper, quick, or auto "
-                                                "(paper with CUDA, quick otherwise)."),
-        iters: int = typer.Option(None, help="finetune: training steps (default: preset)."),
-        device: str = typer.Option("auto", help="finetune/render/mask: auto, cpu, cuda, mps."),
-        path: str = typer.Option("interpolate", help="render: video path: interpolate, "
-                                                     "spiral or a camera-path FILE.json."),
-        frames: int = typer.Option(None, help="render: frames of the video path."),
-        seconds: float = typer.Option(4.0, help="render: length of the video path."),
-        fps: float = typer.Option(None, help="render/export: frame rate (default 24 with "
-                                             "CUDA; 12 on CPU, where rendering is slow)."),
+        *,
+        values,
         set_: list[str] = typer.Option(
             None, "--set", "-s", metavar="STAGE.FIELD=VALUE",
             help="Any other stage option, e.g. --set finetune.rays=512 --set export.crf=23 "
-                 "(stages: decode pose mask select finetune render export)."),
+                 f"(stages: {' '.join(STAGES)}; fields: each stage command's --help)."),
         force: bool = typer.Option(False, "--force", help="Rerun every stage."),
     ) -> None:
         """Run every stage on a photo folder; resumes where a previous run stopped."""
@@ -48,15 +58,11 @@ def register(app: typer.Typer) -> None:
             run_all,
         )
 
-        fps = fps or default_fps(device)
+        if values["fps"] is None:
+            values["fps"] = default_fps(values["device"])
         st = _stage_configs()
-        st["decode"] = replace(st["decode"], max_size=max_size)
-        st["pose"] = replace(st["pose"], matcher=matcher)
-        st["mask"] = replace(st["mask"], masks_dir=masks, threshold=threshold, device=device)
-        st["select"] = replace(st["select"], max_flare=max_flare)
-        st["finetune"] = replace(st["finetune"], preset=preset, iters=iters, device=device)
-        st["render"] = replace(st["render"], path=path, frames=frames, seconds=seconds, fps=fps,
-                               device=device)
-        st["export"] = replace(st["export"], fps=fps)
+        for name, stages in FLAGS.items():
+            for stage in stages:
+                st[stage] = replace(st[stage], **{name: values[name]})
         st = apply_overrides(st, list(set_ or []))
         run_all(OneShotConfig(photos=photos, out=out, stages=st, force=force))

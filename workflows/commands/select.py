@@ -6,18 +6,18 @@ from pathlib import Path
 
 import typer
 
+from workflows.config_cli import config_command
+
 
 def register(app: typer.Typer) -> None:
-    @app.command("select")
+    @config_command(app, "select", "pipeline.select:SelectConfig")
     def select_cmd(
+        config,
         workspace: Path = typer.Argument(..., help="Workspace folder (after `mask`)."),
-        max_flare: float = typer.Option(0.10, "--max-flare",
-                                        help="Views with more flare than this fraction are "
-                                        "never training targets."),
         force: bool = typer.Option(False, "--force", help="Rerun even if up to date."),
     ) -> None:
         """Write WS/views.json (View Sampler rules)."""
-        from pipeline.select import SelectConfig, run
+        from pipeline.select import run
         from pipeline.workspace import Workspace
 
-        run(SelectConfig(max_flare=max_flare), Workspace.open(workspace), force=force)
+        run(config, Workspace.open(workspace), force=force)
