@@ -8,7 +8,9 @@ Steps: (1) one COLMAP camera per group of photos with the same decoded size and 
 length (the focal length, read from the original photo's EXIF when it has one, is a prior);
 (2) SIFT extraction (GPU when pycolmap has CUDA); (3) exhaustive matching for small sets,
 sequential matching for large or video-like ones (``matcher="auto"``); (4) incremental
-mapping, keeping the model with the most registered images; (5) undistortion to PINHOLE
+mapping, keeping the model with the most registered images; when fewer than half of the
+images register, mapping again with the initial-pair constraints relaxed for forward motion
+(``RELAXED_INIT``; both passes in report.json ``mapping``); (5) undistortion to PINHOLE
 (COLMAP's undistorted camera, OpenCV remap: the same pixels as COLMAP's undistorter);
 (6) the normalised world frame: translate the median of the sparse points to the origin
 and scale so the farthest camera is at distance 1 (no rotation), recorded as
@@ -31,8 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from pipeline import colmap_io
+from pipeline.camera_models import MODELS
 from pipeline.cameras import Cameras, Frame, save_cameras
 from pipeline.errors import UserError
+from pipeline.options import option, validate
 from pipeline.progress import console, info, make_progress, warn
 from pipeline.scene_glb import write_scene_glb
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
@@ -42,26 +46,26 @@ MATCHERS = ("auto", "exhaustive", "sequential")
 
 @dataclass
 class PoseConfig:
-    matcher: str = "auto"
+    matcher: str = option("auto", choices=MATCHERS)
     """exhaustive, sequential, or auto (exhaustive up to ``exhaustive_max`` images unless the
     names look like video frames)."""
     colmap_model: str | None = None
     """Import this COLMAP sparse model (folder) instead of solving; images matched by stem."""
-    camera_model: str = "SIMPLE_RADIAL"
+    camera_model: str = option("SIMPLE_RADIAL", choices=tuple(MODELS))
     """COLMAP camera model to estimate (e.g. OPENCV for strong or wide-angle distortion)."""
-    max_num_features: int = 8192
+    max_num_features: int = option(8192, ge=1)
     """SIFT features per image."""
-    exhaustive_max: int = 60
+    exhaustive_max: int = option(60, ge=0)
     """auto: the largest image count matched exhaustively."""
-    sequential_overlap: int = 10
+    sequential_overlap: int = option(10, ge=1)
     """Sequential matching: neighbours matched on each side (plus quadratic overlap)."""
-    min_registered_fraction: float = 0.5
+    min_registered_fraction: float = option(0.5, gt=0, le=1)
     """Fail when fewer than this fraction of the images (or fewer than 3) register."""
-    depth_margin: float = 1.3
+    depth_margin: float = option(1.3, ge=1)
     """near = 1st depth percentile / margin, far = 99th percentile * margin."""
-    num_threads: int = -1
+    num_threads: int = option(-1, ge=-1, flag="--threads")
     """CPU threads for COLMAP (-1: all)."""
-    seed: int = 0
+    seed: int = option(0, ge=0)
     """Random seed of COLMAP's RANSAC and mapper (one thread makes runs repeatable)."""
     colmap_log: bool = False
     """Show COLMAP's own log (glog) on stderr."""
@@ -230,7 +234,18 @@ def _match(cfg: PoseConfig, db: Path, matcher: str) -> None:
         pycolmap.match_sequential(str(db), opts, pairing, verify)
 
 
-def _map(cfg: PoseConfig, db: Path, decoded: Path, out: Path, n: int) -> dict:
+# Initial-pair constraints of the retry. COLMAP's defaults (|t_z| < 0.95, median triangulation
+# angle > 16 degrees, which it relaxes to 4 degrees at most) reject every neighbouring pair of a
+# walk forward: lund's have |t_z| ~ 0.999 and 1-3 degrees (with 100-990 inliers). COLMAP then
+# starts from a far-apart pair of 30-50 inliers whose two-view bundle adjustment cannot fix the
+# focal length and distortion (lund: f 1035 -> 1505 px, k -4.9), and the model stops at two
+# images. COLMAP still halves the angle and the inlier count (twice) if no pair qualifies.
+RELAXED_INIT = {"init_max_forward_motion": 1.0, "init_min_tri_angle": 1.0}
+
+
+def _map(cfg: PoseConfig, db: Path, decoded: Path, out: Path, n: int,
+         relaxed: bool = False) -> dict:
+    """Incremental mapping into ``out``; {index: reconstruction}. ``relaxed``: RELAXED_INIT."""
     import pycolmap
 
     opts = pycolmap.IncrementalPipelineOptions()
@@ -238,12 +253,46 @@ def _map(cfg: PoseConfig, db: Path, decoded: Path, out: Path, n: int) -> dict:
     opts.random_seed = cfg.seed
     opts.mapper.random_seed = cfg.seed
     opts.triangulation.random_seed = cfg.seed
+    if relaxed:
+        for key, value in RELAXED_INIT.items():
+            setattr(opts.mapper, key, value)
+    label = "pose: incremental mapping" + (" (relaxed initial pair)" if relaxed else "")
     with make_progress() as prog:
-        task = prog.add_task("pose: incremental mapping", total=n)
+        task = prog.add_task(label, total=n)
         return pycolmap.incremental_mapping(
             str(db), str(decoded), str(out), opts,
             initial_image_pair_callback=lambda: prog.advance(task, 2),
             next_image_callback=lambda: prog.advance(task, 1))
+
+
+def needs_retry(registered: int, n: int, cfg: PoseConfig) -> bool:
+    """Map again (relaxed) when fewer than half the images, or too few to pass, registered."""
+    return registered < 3 or registered < max(0.5, cfg.min_registered_fraction) * n
+
+
+def map_with_retry(cfg: PoseConfig, db: Path, decoded: Path, tmp: Path, n: int) -> tuple:
+    """Incremental mapping, again with RELAXED_INIT when needs_retry; the pass whose largest
+    model registers more images wins (the first on a tie).
+
+    Returns ({index: reconstruction} of the chosen pass, report entry
+    {"passes": [{"init", "registered", "models"}, ...], "used": "default" | "relaxed"}).
+    """
+    passes, chosen = [], None
+    for init in ("default", "relaxed"):
+        out = tmp / init
+        out.mkdir(parents=True)
+        recs = _map(cfg, db, decoded, out, n, relaxed=init == "relaxed")
+        sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
+        k = sizes[0] if sizes else 0
+        passes.append({"init": init, "registered": k, "models": sizes})
+        if chosen is None or k > chosen[1]:
+            chosen = (init, k, recs)
+        if not needs_retry(k, n, cfg):
+            break
+        if init == "default":
+            info(f"pose: only {k} of {n} images registered: mapping again with the initial "
+                 "pair relaxed for forward motion")
+    return chosen[2], {"passes": passes, "used": chosen[0]}
 
 
 def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:
@@ -267,14 +316,15 @@ def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:
-        recs = _map(cfg, db, ws.decoded, tmp, len(names))
+        recs, mapping = map_with_retry(cfg, db, ws.decoded, tmp, len(names))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     t["map"] = time.time()
     secs = {"extract": t["extract"] - t["start"], "match": t["match"] - t["extract"],
             "map": t["map"] - t["match"]}
     sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
-    return colmap_io.largest_model(recs), sizes, {"matcher": matcher, "seconds": secs}
+    return colmap_io.largest_model(recs), sizes, {"matcher": matcher, "mapping": mapping,
+                                                  "seconds": secs}
 
 
 # --------------------------------------------------------------------------- report
@@ -423,6 +473,7 @@ def _reconstruct(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> t
 
 def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Pose the decoded images of ``ws``; return the written paths."""
+    validate(cfg)
     ws.require("decode")
     inp = Inputs.of(ws)
     choose_matcher(cfg, inp.stems)  # validate the option before any work
