@@ -86,14 +86,16 @@ class GNFR(nn.Module):
 
     def forward(self, points: torch.Tensor, viewdirs: torch.Tensor, rgb_feat: torch.Tensor,
                 rel_dir: torch.Tensor, attend: torch.Tensor, t: torch.Tensor,
-                fused: bool = True) -> tuple[torch.Tensor, torch.Tensor]:
+                fused: bool = True, with_depth: bool = True
+                ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """Colour and depth of each ray.
 
         points: [R, S, 3]; viewdirs: [R, 3] unit; rgb_feat: [R, S, V, 3 + C] sampled colour
         and features; rel_dir: [R, S, V, 4]; attend: [R, S, V] bool (Point Sampler mask,
         at least one True per point, see ``gnfr.transformer.attention_mask``);
         t: [R, S] sample depths. ``fused=False`` uses the plain reference attention.
-        Returns rgb [R, 3] and depth [R] (last ray-attention weights times t).
+        Returns rgb [R, 3] and depth [R] (last ray-attention weights times t), or None
+        without ``with_depth`` (then the last ray block may use fused attention too).
         """
         R, S = points.shape[:2]
         pe_dirs = positional_encoding(viewdirs, self.config.n_freqs_dirs)  # once per ray
@@ -108,7 +110,8 @@ class GNFR(nn.Module):
             q = vb(q, feats, rel_dir, attend, fused=fused)
             if i % 2 == 0:
                 q = qf(torch.cat([q, embed.to(q.dtype)], -1))
-            q, weights = rb(q, fused=fused, return_weights=(i == last))
+            q, weights = rb(q, fused=fused, return_weights=(i == last and with_depth))
         rgb = self.rgb_fc(self.norm(q).mean(dim=1))
-        depth = (weights * t).sum(-1)
-        return rgb.float(), depth.float()
+        if weights is None:
+            return rgb.float(), None
+        return rgb.float(), (weights * t).sum(-1).float()

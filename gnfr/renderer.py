@@ -107,11 +107,13 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
 
 def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                  rays_d: torch.Tensor, t: torch.Tensor, point_sampler: bool = True,
-                 reference: bool = False, w2c: torch.Tensor | None = None) -> dict:
+                 reference: bool = False, w2c: torch.Tensor | None = None,
+                 with_depth: bool = True) -> dict:
     """One differentiable pass for rays at given depths (training and rendering share it).
 
     rays_o, rays_d: [R, 3]; t: [R, S] z-depths; src_ids: [Vs]. ``reference=True`` is the
-    plain fp32 path (no autocast, no fused attention). Returns rgb [R, 3], depth [R] and
+    plain fp32 path (no autocast, no fused attention). Returns rgb [R, 3], depth [R] (None
+    without ``with_depth``: the explicit attention it needs is then skipped) and
     all_flared [R] (fraction of the ray's samples that were on flare in every source view
     they were valid in and so fell back to validity-only attention).
     """
@@ -121,19 +123,21 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
     rel_dir = relative_directions(points, rays_o, src.c2w[src_ids, :3, 3])
     with autocast(rays_o.device, enabled=not reference):
         rgb, depth = model(points, F.normalize(rays_d, dim=-1), rgb_feat, rel_dir, attend, t,
-                           fused=not reference)
+                           fused=not reference, with_depth=with_depth)
     return {"rgb": rgb, "depth": depth, "all_flared": all_flared.float().mean(-1)}
 
 
 def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                 rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
-                chunk: int = 1024, point_sampler: bool = True, progress=None) -> dict:
+                chunk: int = 1024, point_sampler: bool = True, progress=None,
+                with_depth: bool = True) -> dict:
     """Render rays deterministically in chunks.
 
     src_ids: [Vs] long (which cached views to use); rays_o, rays_d: [R, 3] (``rays_d`` with
     camera-z 1, see gnfr.geometry.pixel_rays); near, far: [R] z-depths. ``progress``: an
     optional callable given the number of rays finished after each chunk.
-    Returns rgb [R, 3] (clamped to 0..1), depth [R], all_flared [R] (see forward_rays).
+    Returns rgb [R, 3] (clamped to 0..1), depth [R] (only ``with_depth``), all_flared [R]
+    (see forward_rays).
     Runs under ``torch.inference_mode``; the returned tensors are ordinary tensors.
     """
     was_training = model.training
@@ -141,14 +145,15 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
     device = src.images.device
     src_ids = src_ids.to(device)
     w2c = src.w2c
-    outs = {"rgb": [], "depth": [], "all_flared": []}
+    outs = {"rgb": [], "all_flared": [], **({"depth": []} if with_depth else {})}
     try:
         with torch.inference_mode():
             for i in range(0, rays_o.shape[0], chunk):
                 sl = slice(i, i + chunk)
                 o, d = rays_o[sl].to(device, torch.float32), rays_d[sl].to(device, torch.float32)
                 t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
-                out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c)
+                out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c,
+                                   with_depth=with_depth)
                 for k in outs:
                     outs[k].append(out[k].float().cpu())
                 if progress is not None:

@@ -487,7 +487,7 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                                       far[idx] if hi is None else hi, ns or params["samples"],
                                       chunk=chunk, point_sampler=params["point_sampler"],
                                       progress=lambda k, o=offset: prog.update(
-                                          t_rays, completed=o + k))
+                                          t_rays, completed=o + k), with_depth=False)
                     rgb[idx.numpy()] = out["rgb"].numpy()
                     offset += len(idx)
             write_frame(job.out, compose(rgb), job.extra.get("exif"))
@@ -586,7 +586,7 @@ def _prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict, net_sc
     rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
                                 torch.tensor(pc.c2w, dtype=torch.float32),
                                 image_pixels(h, w)[sel])
-    real = (pf.depth > 0) & (pf.support >= 1)  # a depth some photo saw, not a filled hole
+    real = (pf.depth > 0) & (pf.support >= 2)  # a depth two photos agree on
     d_lo = cv2.resize(np.where(real, pf.depth, 0).astype(np.float32), (w, h),
                       interpolation=cv2.INTER_NEAREST).reshape(-1)[need.reshape(-1)]
     known = torch.from_numpy((d_lo > job.near) & (d_lo < job.far))
@@ -617,7 +617,7 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
 def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                 reference: tuple[np.ndarray, np.ndarray] | None = None):
     """(colour [H, W, 3], weight [H, W], depth [H, W]: the splatted depth where some photo
-    saw the surface, else 0) of the hybrid fill for one camera: the nearest
+    agree on it, else 0) of the hybrid fill for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
     pixels)."""
@@ -633,7 +633,7 @@ def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
     ref, ref_valid = reference if reference is not None else (None, None)
     pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
                     reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
-    real = np.where((pf.depth > 0) & (pf.support >= 1), pf.depth, 0).astype(np.float32)
+    real = np.where((pf.depth > 0) & (pf.support >= 2), pf.depth, 0).astype(np.float32)
     return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs))), real
 
 

@@ -114,6 +114,8 @@ def test_render_rays_is_deterministic_chunk_independent_and_flags_flare():
     assert a["rgb"].shape == (200, 3) and a["depth"].shape == (200,)
     assert torch.allclose(a["rgb"], b["rgb"], atol=1e-5)
     assert bool(((a["depth"] >= 1.0) & (a["depth"] <= 3.0)).all())
+    nd = render_rays(model, src, torch.arange(1, 4), o, d, near, far, 16, with_depth=False)
+    assert "depth" not in nd and torch.allclose(nd["rgb"], a["rgb"], atol=1e-5)
     full = SourceViews.encode(model, imgs, K, c2w, torch.ones_like(masks), "cpu")
     c = render_rays(model, full, torch.arange(1, 4), o, d, near, far, 16)
     assert float(c["all_flared"].mean()) > 0.5 and float(a["all_flared"].mean()) < 0.5
