@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from pipeline.errors import UserError
@@ -81,3 +82,67 @@ def test_set_overrides_reach_stage_configs():
 def test_bad_set_is_a_clear_error(item, msg):
     with pytest.raises(UserError, match=msg):
         apply_overrides(_stage_configs(), [item])
+
+
+def _video_facts(path: Path) -> dict:
+    """Codec, pixel format and size from ffmpeg's own description of the stream, and
+    whether the index (moov) precedes the data (mdat): 'faststart'."""
+    import re
+    import subprocess
+
+    from pipeline.video import ffmpeg_exe
+
+    err = subprocess.run([ffmpeg_exe(), "-hide_banner", "-i", str(path)],
+                         capture_output=True, text=True).stderr
+    m = re.search(r"Video: (\w+).*?, (yuv\w+)[,(].*?, (\d+)x(\d+)", err)
+    data = path.read_bytes()
+    return {"codec": m.group(1), "pix_fmt": m.group(2), "size": (int(m.group(3)),
+            int(m.group(4))), "faststart": data.find(b"moov") < data.find(b"mdat")}
+
+
+def _flare_region_psnr(img: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:
+    err = ((img.astype(np.float64) - truth.astype(np.float64)) / 255.0) ** 2
+    return float(-10 * np.log10(err[mask].mean()))
+
+
+def test_default_path_removes_the_flare_on_the_sample(tmp_path, capsys):
+    """What a user runs by default (shipped FMG masks, depth, shipped GN-FR weights with
+    init auto, the hybrid fill), at 200 px and 150 fine-tuning steps to fit CI, scored
+    against the sample's clean truth inside the true flare region. Flare adds light: the
+    flared photos are brighter than the truth there (about +32 of 255 on average). The
+    de-flared photos must remove most of that excess (a fill that leaves the flare in keeps
+    it all) without losing more than 1 dB of PSNR against the flared photos (a grey, black
+    or misplaced fill loses several). At this budget the fill does not yet beat the flared
+    photos' PSNR (measured: +0.1 dB on average, -1.6 to +2.4 per view); at 504 px and 3000
+    steps it does (README)."""
+    ws = tmp_path / "cyprus.deflare"
+    args = ["--max-size", "200", "--preset", "quick", "--iters", "150", "--frames", "4",
+            "--fps", "4", "--device", "cpu", "--set", "pose.num_threads=1"]
+    assert main([str(SAMPLE), "--out", str(ws), *args]) == 0
+    err = capsys.readouterr().err.replace("\n", "")
+    assert "starting from pretrained weights" in err and "gnfr.safetensors" in err
+    man = json.loads((ws / "manifest.json").read_text())
+    assert all(man["stages"][s]["status"] == "complete" for s in ("mask", "depth", "finetune"))
+    gains, excess_out, excess_in = [], [], []
+    for p in sorted(SAMPLE.glob("*.jpg")):
+        out = cv2.imread(str(ws / "deflared" / f"{p.stem}.png"))
+        flared = cv2.imread(str(ws / "decoded" / f"{p.stem}.png"))
+        h, w = out.shape[:2]
+        truth = cv2.resize(cv2.imread(str(TRUTH / "clean" / f"{p.stem}.png")), (w, h),
+                           interpolation=cv2.INTER_AREA)
+        m = cv2.resize(cv2.imread(str(TRUTH / "masks_gt" / f"{p.stem}.png"),
+                                  cv2.IMREAD_GRAYSCALE), (w, h),
+                       interpolation=cv2.INTER_NEAREST) > 127
+        if m.sum() < 50:
+            continue
+        gains.append(_flare_region_psnr(out, truth, m) - _flare_region_psnr(flared, truth, m))
+        excess_out.append(float((out.astype(float) - truth)[m].mean()))
+        excess_in.append(float((flared.astype(float) - truth)[m].mean()))
+    assert len(gains) >= 4
+    assert np.mean(excess_in) > 15  # the sample's flare is there to remove
+    assert np.mean(excess_out) < 0.65 * np.mean(excess_in), (excess_out, excess_in)
+    assert np.mean(gains) > -1.0, f"flare-region PSNR gain over the flared photos {gains}"
+    facts = _video_facts(ws / "cyprus.mp4")
+    assert facts["codec"] == "h264" and facts["pix_fmt"] == "yuv420p" and facts["faststart"]
+    assert facts["size"][0] % 2 == 0 and facts["size"][1] % 2 == 0
+    assert facts["size"][0] >= 190  # hybrid frames at the decoded size (200 px long side)
