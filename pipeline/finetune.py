@@ -38,6 +38,7 @@ from gnfr.train import (
     sample_batch,
     train_step,
 )
+from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import Workspace, atomic_write_json
 
@@ -49,20 +50,21 @@ MODEL_FILE, STATE_FILE = "gnfr.safetensors", "train_state.pt"
 class FinetuneConfig:
     """Options of `deflare-scene finetune`."""
 
-    preset: str = "auto"
-    """paper | quick | auto (paper with CUDA, quick otherwise)."""
-    iters: int | None = None
+    preset: str = option("auto", choices=("auto", "paper", "quick", "tiny"))
+    """paper (the paper's GNT-sized model) | quick (CPU-sized; steps, rays and sizes in
+    docs/presets.md) | auto (paper with CUDA, quick otherwise) | tiny (smoke tests only)."""
+    iters: int | None = option(None, ge=1)
     """Override the preset's number of steps."""
-    rays: int | None = None
+    rays: int | None = option(None, ge=1)
     """Override rays per step."""
-    samples: int | None = None
+    samples: int | None = option(None, ge=1)
     """Override samples per ray."""
-    views: int | None = None
+    views: int | None = option(None, ge=1)
     """Override the number of source views (training and rendering)."""
-    cached_features: bool | None = None
+    cached_features: bool | None = option(None, flag="--cached-features/--end-to-end")
     """Frozen encoder, every source encoded once (default: off, the encoder is fine-tuned)."""
-    device: str = "auto"
-    """auto | cpu | cuda | mps."""
+    device: str = option("auto", device=True)
+    """auto (CUDA when present) | cpu | cuda | cuda:N."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""
     view_sampler: bool = True
@@ -71,22 +73,16 @@ class FinetuneConfig:
     """GN-FR masking loss (False: ablation)."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
-    init: str = "auto"
+    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
     """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
     a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""
-    seed: int = 0
+    seed: int = option(0, ge=0)
     """Seed of initialisation and sampling."""
 
 
 def pick_device(name: str) -> torch.device:
-    if name == "auto":
-        if torch.cuda.is_available():
-            return torch.device("cuda")
-        return torch.device("cpu")
-    if name == "cuda" and not torch.cuda.is_available():
-        from pipeline.errors import UserError
-        raise UserError("--device cuda: no CUDA device is visible; use --device cpu")
-    return torch.device(name)
+    """``pipeline.options.resolve_device`` as a torch.device."""
+    return torch.device(resolve_device(name))
 
 
 def shipped_weights(cfg: TrainConfig) -> Path | None:
@@ -124,6 +120,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
 
 def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Fine-tune on ``ws``; returns the written paths."""
+    validate(config)
     ws.require("pose")
     device = pick_device(config.device)
     name, cfg = resolve(config, device)
@@ -132,6 +129,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     run_ = ws.begin_stage("finetune", params, inputs, force)
     if run_.skip:
         info(f"finetune: up to date ({ws.model})")
+        _check_init(ws, cfg, config.init)
         return run_.outputs
     info(f"finetune: preset '{name}' on {device.type} ({cfg.iters} steps, {cfg.rays} rays, "
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
@@ -144,6 +142,20 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     outs = [ws.model / MODEL_FILE, ws.model / STATE_FILE, ws.model / "metrics.jsonl",
             ws.model / "unseen.json"]
     return run_.finish(outs, extra=stats, versions=["torch", "safetensors"])
+
+
+def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:
+    """Warn when the up-to-date model was started from other weights than ``init`` resolves
+    to now (e.g. the shipped file changed): the stage params record only ``init``'s text."""
+    prev = checkpoint_provenance(ws.model / MODEL_FILE)
+    if prev is None:
+        return
+    path = init_path(cfg, init)
+    now = None if path is None or not path.is_file() else init_record(init, path)["sha256"]
+    if prev.get("init", {}).get("sha256") != now:
+        warn(f"finetune: {ws.model / MODEL_FILE} was trained from "
+             f"{prev.get('init', {}).get('weights')}, but --init {init} now resolves to "
+             f"{path or 'scratch'}: rerun with --force to retrain from it")
 
 
 # --------------------------------------------------------------------------- training loop
@@ -161,12 +173,35 @@ def set_rng_state(gen: torch.Generator, st: dict) -> None:
         torch.cuda.set_rng_state_all(st["cuda"])
 
 
+def init_path(cfg: TrainConfig, init: str) -> Path | None:
+    """The weight file ``init`` (auto | scratch | a path) resolves to; None = scratch."""
+    if init == "auto":
+        return shipped_weights(cfg)
+    return None if init == "scratch" else Path(init)
+
+
+def init_record(init: str, path: Path | None) -> dict:
+    """What a model started from: the ``--init`` value, the file it resolved to with its
+    sha256, and the step / pretraining facts that file's metadata carries."""
+    if path is None:
+        return {"init": init, "weights": "scratch", "sha256": None}
+    from pipeline.provenance import sha256
+
+    rec = {"init": init, "weights": str(Path(path).resolve()), "sha256": sha256(path)}
+    try:
+        meta = read_metadata(path)[1]
+    except CheckpointError:
+        return rec
+    keys = ("step", "preset", "pretrain_steps", "pretrain_scenes", "auto_init", "card")
+    rec["metadata"] = {k: meta[k] for k in keys if k in meta}
+    return rec
+
+
 def init_model(cfg: TrainConfig, device: torch.device, init: str) -> tuple[GNFR, str]:
     """A fresh model (seeded), loaded from ``init``; returns it and a line saying which."""
     torch.manual_seed(cfg.seed)
     model = GNFR(cfg.model)
-    path = shipped_weights(cfg) if init == "auto" else (None if init == "scratch"
-                                                        else Path(init))
+    path = init_path(cfg, init)
     if path is None:
         how = "from scratch (no shipped weights match this architecture)" \
             if init == "auto" else "from scratch"
@@ -189,10 +224,37 @@ def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
 
 
 def save_all(out: Path, model, opt, gen, step: int, cfg: TrainConfig, preset: str,
-             unseen: torch.Tensor) -> None:
-    save_model(out / MODEL_FILE, model, render_meta(cfg, preset, step))
+             unseen: torch.Tensor, prov: dict | None = None, seconds: float = 0.0) -> None:
+    """Weights (with ``prov``, the run's provenance, plus steps done and training seconds
+    so far in the metadata) and the training state."""
+    meta = render_meta(cfg, preset, step)
+    if prov is not None:
+        meta["provenance"] = {**prov, "steps_done": step, "train_seconds": round(seconds, 1)}
+    save_model(out / MODEL_FILE, model, meta)
     save_train_state(out / STATE_FILE, {"step": step, "optimizer": opt.state_dict(),
-                                        "rng": rng_state(gen), "unseen": unseen})
+                                        "rng": rng_state(gen), "unseen": unseen,
+                                        "seconds": float(seconds)})
+
+
+def run_provenance(cfg: TrainConfig, preset: str, device: torch.device, init: dict) -> dict:
+    """What trains this checkpoint, stored in its metadata (``provenance``): the start
+    (``init_record``), preset and every TrainConfig number, seed, cached or end-to-end,
+    device, machine and code version."""
+    from pipeline.provenance import code_version, device_name, machine
+
+    return {"init": init, "preset": preset, "train": asdict(cfg), "seed": cfg.seed,
+            "cached_features": cfg.cached_features, "device": device.type,
+            "device_name": device_name(device), "machine": machine(), "code": code_version(),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S")}
+
+
+def checkpoint_provenance(path: Path) -> dict | None:
+    """The ``provenance`` metadata of a checkpoint written by ``fit`` (None when absent:
+    a checkpoint of an older version or of pretraining)."""
+    try:
+        return read_metadata(path)[1].get("provenance")
+    except CheckpointError:
+        return None
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig, device: torch.device):
@@ -218,23 +280,35 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     opt = make_optimizer(model, cfg)
     step, unseen = 0, torch.zeros(len(scene.stems), 2, dtype=torch.float64)
     state_path = out / STATE_FILE
+    prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
+    seconds = 0.0
     if resume and state_path.exists() and (out / MODEL_FILE).exists():
         load_weights(model, out / MODEL_FILE)
         st = load_train_state(state_path)
         opt.load_state_dict(st["optimizer"])
         set_rng_state(gen, st["rng"])
         step, unseen = int(st["step"]), st["unseen"]
+        seconds = float(st.get("seconds", 0.0))
+        # the start is what the interrupted run began from, not what init resolves to now
+        prev = checkpoint_provenance(out / MODEL_FILE)
+        if prev is not None:
+            prov["init"] = prev.get("init", prov["init"])
+            prov["started"] = prev.get("started", prov["started"])
+            prov["resumed"] = [*prev.get("resumed", []), {"at_step": step, **{
+                k: prov[k] for k in ("device_name", "code")}}]
         info(f"finetune: resuming at step {step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")
     trim_metrics(out / "metrics.jsonl", step)
     bank, cache = prepare_sources(model, scene, cfg, device)
-    stats = _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset)
+    stats = _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset, prov,
+                  seconds)
     _write_unseen(out / "unseen.json", scene, unseen)
-    return stats
+    return {**stats, "init": prov["init"]}
 
 
-def _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset) -> dict:
+def _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset, prov=None,
+          seconds0: float = 0.0) -> dict:
     from rich.progress import TextColumn
 
     window, t0, done0 = [], time.time(), step
@@ -259,9 +333,11 @@ def _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset) -
                 window = []
                 prog.update(task, psnr=f"{psnr:.2f}")
             if step % cfg.ckpt_every == 0 or step == cfg.iters:
-                save_all(out, model, opt, gen, step, cfg, preset, unseen)
+                save_all(out, model, opt, gen, step, cfg, preset, unseen, prov,
+                         seconds0 + time.time() - t0)
             prog.update(task, completed=step, speed=f"{speed:.2f}")
-    return {"steps": step, "it_per_s": round((step - done0) / max(time.time() - t0, 1e-9), 3)}
+    return {"steps": step, "it_per_s": round((step - done0) / max(time.time() - t0, 1e-9), 3),
+            "train_seconds": round(seconds0 + time.time() - t0, 1)}
 
 
 def trim_metrics(path: Path, step: int) -> None:

@@ -39,7 +39,7 @@ def _root() -> None:
 # one module per command group, in the order the pipeline runs them
 COMMAND_MODULES = [
     "run", "decode", "pose", "synth", "mask", "depth", "select", "finetune", "render", "export",
-    "fmg", "pretrain", "eval", "bench",
+    "fmg", "pretrain", "eval", "eval_llff", "bench",
 ]
 _registered = False
 

@@ -26,8 +26,10 @@ no training run uses; another scene is evaluated with a warning recorded in the 
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -255,8 +257,6 @@ def heldout_path_json(scene: SynthScene, ws: Workspace) -> Path:
 
 
 def _roundtrip(obj):
-    import json
-
     return json.loads(json.dumps(obj))
 
 
@@ -329,7 +329,7 @@ def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
         flare = ~v.valid if v.valid is not None else np.zeros(v.image.shape[:2], bool)
         ref_valid = cv2.dilate(flare.astype(np.uint8), np.ones((9, 9), np.uint8)) == 0
         pf = photo_fill(f.K, f.c2w, v.size, [views[n] for n in near[s]],
-                        reference=v.image, ref_valid=ref_valid)
+                        reference=v.image, ref_valid=ref_valid, near=f.near, far=f.far)
         wgt = support_weight(pf.support, 2)[..., None]
         img = (v.image * 255).astype(np.uint8)[..., ::-1]
         m = cv2.dilate(flare.astype(np.uint8), np.ones((3, 3), np.uint8))
@@ -349,8 +349,10 @@ def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
             K[0] *= W / pc.width
             K[1] *= H / pc.height
             order = np.argsort(np.linalg.norm(centers - pc.c2w[:3, 3], axis=1))
+            lo = min(cams.frames[i].near for i in order[:n_sources])
+            hi = max(cams.frames[i].far for i in order[:n_sources])
             pf = photo_fill(K, pc.c2w, (W, H), [views[cams.stems[i]]
-                                                   for i in order[:n_sources]])
+                                                   for i in order[:n_sources]], near=lo, far=hi)
             ok = (support_weight(pf.support, 2) < 1).astype(np.uint8)
             img = np.clip(np.rint(pf.colour[..., ::-1] * 255), 0, 255).astype(np.uint8)
             atomic_imwrite(hout / f"{pc.name}.png", cv2.inpaint(img, ok, 5, cv2.INPAINT_TELEA))
@@ -471,7 +473,7 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
            "origin_is_heldout_scene": scene.origin in HELDOUT_SCENES,
            "train_views": scene.train, "heldout_views": scene.heldout,
            "cameras": "ground truth (no pose noise)", "masks": cfg.masks,
-           "budget": budget(cfg), "methods": {}}
+           "budget": budget(cfg), "provenance": run_provenance(base), "methods": {}}
     res["mask_scores"] = fmg_scores(scene, base)
     res["mask_threshold"] = read_json(base.flare_json).get("threshold")
     flared = flared_views(scene) or scene.train
@@ -483,12 +485,88 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
             r["heldout"] = score_views(scene, m["heldout"], scene.heldout, with_region=False)
         if "train" in m:
             r["train"] = m["train"]
+        r["provenance"] = method_provenance(name, m, base)
         res["methods"][name] = r
     return res
 
 
+# --------------------------------------------------------------------------- provenance
+def run_provenance(ws: Workspace) -> dict:
+    """What scored this results file: code version, machine, the command, and the
+    workspace's shared stage records (cameras, masks with their source and cut, depth,
+    View Sampler), read from WS, not from the code's defaults."""
+    from pipeline.provenance import code_version, command_line, machine
+
+    def params(stage: str) -> dict | None:
+        rec = ws.stage_record(stage)
+        return None if not rec else {"params": rec.get("params"), "status": rec.get("status"),
+                                     "started": rec.get("started"),
+                                     "seconds": rec.get("seconds")}
+
+    flare = read_json(ws.flare_json) if ws.flare_json.exists() else {}
+    return {"code": code_version(), "machine": machine(), "command": command_line(),
+            "scored": time.strftime("%Y-%m-%dT%H:%M:%S"), "workspace": str(ws.root),
+            "cameras": params("pose"),
+            "masks": {"source": flare.get("source"), "threshold": flare.get("threshold"),
+                      "weights": flare.get("weights"), "stage": params("mask")},
+            "depth": params("depth"), "select": params("select")}
+
+
+def method_provenance(name: str, m: dict, base: Workspace) -> dict:
+    """What trained and rendered one method, read from its workspace: for a neural variant
+    the checkpoint's metadata (``provenance`` written by finetune: start weights and their
+    sha256, preset numbers, seed, steps done, device, training seconds, code), the
+    checkpoint's own sha256 and the finetune / render stage records (colour match, fill,
+    render size, sources)."""
+    if name not in NEURAL:
+        used = {"input": [], "inpaint": ["masks"], "photos": ["masks", "depth"]}[name]
+        return {"kind": "baseline", "uses": used}
+    from gnfr.checkpoint import read_metadata
+    from pipeline.finetune import MODEL_FILE
+    from pipeline.provenance import sha256
+
+    vws = Workspace(m["workspace"])
+    ckpt = vws.model / MODEL_FILE
+    _, meta = read_metadata(ckpt)
+    prov = meta.pop("provenance", None)
+    fin = vws.stage_record("finetune")
+    renders = {k: {"params": r.get("params"), "seconds": r.get("seconds"),
+                   "started": r.get("started"), "frames": r.get("frames")}
+               for k, r in vws.manifest()["stages"].items() if k.startswith("render:")}
+    out = {"kind": "neural", "parts": NEURAL[name], "checkpoint": str(ckpt),
+           "checkpoint_sha256": sha256(ckpt), "checkpoint_meta": meta,
+           "trained": prov, "finetune_stage": {k: fin.get(k) for k in (
+               "params", "started", "seconds", "steps", "it_per_s", "train_seconds", "init",
+               "versions")}, "renders": renders}
+    out["summary"] = provenance_summary(prov, fin, renders)
+    return out
+
+
+def provenance_summary(prov: dict | None, fin: dict, renders: dict) -> dict:
+    """The few facts a table prints, from the checkpoint (None where it does not say)."""
+    inputs = (renders.get("render:inputs") or {}).get("params") or {}
+    held = [r["params"] for k, r in renders.items() if k != "render:inputs" and r["params"]]
+    if prov is None:  # a checkpoint written before finetune recorded its provenance
+        return {"from_checkpoint": False, "trained_from": None, "init_sha256": None,
+                "cached_features": None, "steps_done": fin.get("steps"), "seed": None,
+                "preset": (fin.get("params") or {}).get("preset"), "device": None,
+                "train_seconds": fin.get("seconds"), "color_match": inputs.get("color_match"),
+                "fill": inputs.get("fill"), "heldout_fill": [h.get("fill") for h in held]}
+    init = prov.get("init") or {}
+    return {"from_checkpoint": True,
+            "trained_from": Path(init["weights"]).name if init.get("sha256") else "scratch",
+            "init_sha256": init.get("sha256"), "cached_features": prov.get("cached_features"),
+            "steps_done": prov.get("steps_done"), "seed": prov.get("seed"),
+            "preset": prov.get("preset"), "device": prov.get("device_name"),
+            "train_seconds": prov.get("train_seconds"),
+            "color_match": inputs.get("color_match"), "fill": inputs.get("fill"),
+            "heldout_fill": [h.get("fill") for h in held]}
+
+
 def budget(cfg: EvalConfig) -> dict:
-    """What every neural variant ran with, beside the paper's setting."""
+    """What every neural variant was asked to run with (the options, resolved by the code
+    that scores), beside the paper's setting. What actually trained each model is in its
+    ``provenance`` (read from the checkpoint); the table reports that."""
     from pipeline.finetune import FinetuneConfig, pick_device, resolve, shipped_weights
 
     fc = FinetuneConfig(preset=cfg.preset, iters=cfg.iters, rays=cfg.rays,
@@ -555,13 +633,13 @@ def table_markdown(res: dict) -> str:
         f"{b['device']}, {b['iters']} steps (paper: 50,000 fine-tuning steps after 500k "
         f"pretraining), {b['rays']} rays x {b['samples']} samples, model depth {b['depth']} "
         f"width {b['width']} (paper: GNT, depth 8 width 64), sources at "
-        f"{b['source_scale']:g} resolution, {b['eval_views']} render views, init "
-        f"`{b['init']}` ({b.get('init_weights', '?')}), "
-        f"{'cached features' if b['cached_features'] else 'end-to-end'}.",
+        f"{b['source_scale']:g} resolution, {b['eval_views']} render views, `--init "
+        f"{b['init']}` asked (what each model started from: below, from its checkpoint).",
         f"- Held-out views rendered and scored at {b['render_scale']:g} of full size"
         f"{'' if b['render_scale'] == 1 else ' (cut for time)'}; de-flared inputs at full "
         f"size, {'with' if b.get('color_match', False) else 'without'} the render stage's "
-        f"colour match of the fill; render fill: {b.get('fill', 'network')}.", "",
+        f"colour match of the fill; render fill: {b.get('fill', 'network')}.",
+        *provenance_lines(res), "",
         "| method | held-out PSNR | held-out SSIM | inputs PSNR | inputs SSIM | "
         "flare-region PSNR | train s |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -579,6 +657,45 @@ def table_markdown(res: dict) -> str:
               "held-out views (—). Paper (Table 1, full budget, real-scene synthetic "
               "flare): GNT 22.44 dB, GN-FR 26.18 dB / SSIM 0.8815 on held-out views.", ""]
     return "\n".join(lines)
+
+
+def provenance_lines(res: dict) -> list[str]:
+    """Markdown bullets: the code and machine that scored, and per neural method what its
+    checkpoint says trained it."""
+    p = res.get("provenance")
+    if not p:
+        return ["- Provenance: not recorded (results written before eval recorded it)."]
+    code, mach = p.get("code") or {}, p.get("machine") or {}
+    commit = (code.get("commit") or "unknown")[:12]
+    n_dirty = len(code.get("dirty_files") or [])
+    dirty = f" with uncommitted changes to {n_dirty} files" if code.get("dirty") else ""
+    lines = [f"- Scored by commit `{commit}`{dirty}"
+             f" on {mach.get('cpu')} ({mach.get('torch_threads')} torch threads, torch "
+             f"{mach.get('torch')}, GPU: {(mach.get('cuda') or {}).get('name', 'none')}); "
+             f"command `{p.get('command')}`."]
+    groups: dict[str, list[str]] = {}  # methods that share one model print one line
+    for r in res["methods"].values():
+        sm = (r.get("provenance") or {}).get("summary")
+        if sm is not None:
+            groups.setdefault(json.dumps(sm, sort_keys=True), []).append(r["label"])
+    for key, labels in groups.items():
+        sm, label = json.loads(key), " and ".join(labels)
+        if not sm["from_checkpoint"]:
+            lines.append(f"- {label}: its checkpoint records no provenance (written "
+                         f"before finetune recorded it): start weights unknown, "
+                         f"{sm['steps_done']} steps.")
+            continue
+        start = (f"`{sm['trained_from']}` (sha256 {sm['init_sha256'][:12]})"
+                 if sm["init_sha256"] else "scratch")
+        lines.append(
+            f"- {label}: trained from {start}, {sm['steps_done']} steps of preset "
+            f"`{sm['preset']}`, seed {sm['seed']}, "
+            f"{'cached features' if sm['cached_features'] else 'end-to-end'}, on "
+            f"{sm['device']}, {_f(sm['train_seconds'], '{:.0f}')} s"
+            + ("" if sm["fill"] is None else f"; inputs rendered "
+               f"{'with' if sm['color_match'] else 'without'} colour match, fill {sm['fill']}")
+            + f"; held-out fill {', '.join(map(str, sm['heldout_fill'])) or '—'}.")
+    return lines
 
 
 def _tile(img: np.ndarray | None, size: tuple[int, int], text: str) -> np.ndarray:
