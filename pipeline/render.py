@@ -102,9 +102,12 @@ class RenderConfig:
     fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
     on CUDA)."""
     depth_samples: int | None = option(None, ge=0)
-    """hybrid: rays whose surface depth the photos' depth maps give are sampled with this
-    many samples in a band around it instead of the full near-far range (default: a third
-    of ``samples``; 0 = off)."""
+    """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
+    with this many samples in a band around it instead of the full near-far range
+    (default: a third of ``samples``; 0 = off)."""
+    depth_support: int = option(2, ge=1)
+    """hybrid: photos that must agree on a pixel before its ray is sampled around their
+    depth (docs/depth.md: 2 was the best worst case on the development scenes)."""
 
 
 @dataclass
@@ -586,7 +589,7 @@ def _prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict, net_sc
     rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
                                 torch.tensor(pc.c2w, dtype=torch.float32),
                                 image_pixels(h, w)[sel])
-    real = (pf.depth > 0) & (pf.support >= 2)  # a depth two photos agree on
+    real = (pf.depth > 0) & (pf.support >= cfg.depth_support)  # a depth photos agree on
     d_lo = cv2.resize(np.where(real, pf.depth, 0).astype(np.float32), (w, h),
                       interpolation=cv2.INTER_NEAREST).reshape(-1)[need.reshape(-1)]
     known = torch.from_numpy((d_lo > job.near) & (d_lo < job.far))
@@ -633,7 +636,8 @@ def _photo_fill(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
     ref, ref_valid = reference if reference is not None else (None, None)
     pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
                     reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
-    real = np.where((pf.depth > 0) & (pf.support >= 2), pf.depth, 0).astype(np.float32)
+    real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
+                    0).astype(np.float32)
     return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs))), real
 
 

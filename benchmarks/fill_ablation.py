@@ -1,0 +1,72 @@
+"""The fill's settings on an evaluated scene: re-render the de-flared inputs of a trained
+`eval` variant with each render setting and score them against the clean truth (whole
+image, flare region, SSIM), with the render time. Only the render changes; the model is
+the variant's.
+
+    python benchmarks/fill_ablation.py SCENE_SYNTH --out docs/results/fill_ablation_X.json
+
+Settings: network (GN-FR everywhere), hybrid without depth-guided samples, hybrid with
+guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+SETTINGS = {
+    "network": {"fill": "network"},
+    "hybrid_unguided": {"fill": "hybrid", "depth_samples": 0},
+    "hybrid_guided_support1": {"fill": "hybrid", "depth_support": 1},
+    "hybrid_guided_support2": {"fill": "hybrid", "depth_support": 2},
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene", type=Path)
+    ap.add_argument("--variant", default="gnfr")
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+
+    from gnfr.checkpoint import read_metadata
+    from pipeline import render
+    from pipeline.provenance import code_version, machine
+    from pipeline.workspace import Workspace
+    from workflows.eval import flared_views, load_synth, score_views
+
+    scene = load_synth(a.scene)
+    ws = Workspace(a.scene / "eval.ws" / "variants" / a.variant)
+    stems = flared_views(scene)
+    rows = {}
+    for name, over in SETTINGS.items():
+        t0 = time.perf_counter()
+        render.run(render.RenderConfig(path="inputs", **over), ws, force=True)
+        dt = time.perf_counter() - t0
+        r = score_views(scene, ws.deflared, stems, with_region=True)
+        rows[name] = {"settings": over, "psnr": round(r["psnr"], 3),
+                      "psnr_flare": round(r["psnr_flare"], 3), "ssim": round(r["ssim"], 4),
+                      "render_s": round(dt, 1)}
+        print(name, json.dumps(rows[name]), flush=True)
+    _, meta = read_metadata(ws.model / "gnfr.safetensors")
+    rec = {"scene": str(a.scene), "origin": scene.origin, "variant": a.variant,
+           "scored_views": stems, "model": {k: meta.get(k) for k in
+                                             ("step", "preset", "init", "init_sha256")},
+           "finetune_record": {k: ws.stage_record("finetune").get(k)
+                               for k in ("steps", "seconds", "params")},
+           "rows": rows, "code": code_version(), "machine": machine(),
+           "command": "python benchmarks/fill_ablation.py " + " ".join(argv or sys.argv[1:])}
+    if a.out:
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        a.out.write_text(json.dumps(rec, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
