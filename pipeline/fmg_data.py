@@ -4,15 +4,19 @@ Following the paper (and Flare7K), each composite takes a flare pattern, moves i
 affine transform (rotation, scale, translation, shear) and adds it to a photo; the same
 transform is applied to the pattern's mask. Here the pattern comes from the physically
 based synthesizer (``pipeline/flare.py``): a fresh lens, light position and intensity per
-composite. The warped mask is then also cut where the flare is not visible against the new
-background (the synthesizer's relative threshold), and the light core is never flare.
+composite, drawn from every kind of flare (``training_flare``: all of ``flare.KINDS``, or all
+but the kinds left out for a leave-one-kind-out model). The warped mask is then also cut
+where the flare is not visible against the new background (the synthesizer's relative
+threshold), and the light core is never flare.
 
 Backgrounds are every image under ``<data>/backgrounds`` and ``<data>/scenes`` (found
 recursively), downscaled once into memory. Validation keeps whole scenes out
 (``pipeline.datasets.HELDOUT_SCENES``) plus a few held-out backgrounds. Training adds random
-crops, flips, colour jitter, composites without flare, and sharp-edged bright shapes that
-are not flare (the scenes bring their own sky and white walls), so the network learns to
-leave bright non-flare content and the light itself unmarked.
+crops, flips, colour jitter, night backgrounds, composites without flare, and **hard
+negatives**: bright things that are not flare, painted onto the background before any flare
+and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
+highlights, sky, white walls and windows, red / orange foliage, neon lines, reflections), so
+the network learns to leave bright non-flare content and the light itself unmarked.
 """
 
 from __future__ import annotations
@@ -28,6 +32,10 @@ from pipeline import flare as fl
 from pipeline.datasets import HELDOUT_SCENES, IMAGE_EXTENSIONS
 from pipeline.errors import UserError
 
+HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage", "neon",
+                                   "reflection")
+"""Kinds of bright non-flare content ``add_hard_negatives`` paints (see its docstring)."""
+
 HELDOUT_BACKGROUNDS: tuple[str, ...] = ("coffee", "rocket", "grace_hopper")
 """Stems of background photos kept out of FMG training (validation only)."""
 
@@ -42,10 +50,14 @@ class CompositeConfig:
     """Long side to which every background is downscaled once, in memory."""
     crop_scale: tuple[float, float] = (0.45, 1.0)
     """Crop side as a fraction of the background's short side (then resized to ``size``)."""
-    flare_prob: float = 0.85
+    flare_prob: float = 0.8
     """Probability that a training composite has flare (the rest teach 'nothing here')."""
-    distractor_prob: float = 0.3
+    distractor_prob: float = 0.2
     """Probability of adding sharp-edged bright non-flare shapes to a training composite."""
+    negative_prob: float = 0.5
+    """Probability of hard negatives (``add_hard_negatives``) on a flared training composite."""
+    clean_negative_prob: float = 0.8
+    """Probability of hard negatives on a training composite without flare."""
     rotation: tuple[float, float] = (-180.0, 180.0)
     """Affine rotation of the flare layer (degrees)."""
     scale: tuple[float, float] = (0.7, 1.4)
@@ -61,16 +73,6 @@ class CompositeConfig:
     ``night_gain``, slightly blue), as in real flare photos taken at night."""
     night_gain: tuple[float, float] = (0.02, 0.3)
     """Log-uniform linear-light gain of a night background."""
-    streak_prob: float = 0.0
-    """Probability that a flared composite also gets long straight streaks through the light
-    (the broad diagonal scatter streaks of real phone / windscreen flare), labelled flare."""
-    streak_amplitude: tuple[float, float] = (0.03, 0.6)
-    """Log-uniform peak linear value of a streak at the light (x flare intensity)."""
-    streak_length: tuple[float, float] = (0.1, 0.6)
-    """Exponential fall-off length of a streak along its axis, fraction of the diagonal."""
-    streak_width: tuple[float, float] = (0.004, 0.025)
-    """Gaussian half-width of a streak at the light, fraction of the diagonal (it widens
-    with distance)."""
 
 
 # --------------------------------------------------------------------------- backgrounds
@@ -148,6 +150,210 @@ def add_distractors(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return img
 
 
+# --------------------------------------------------------------------------- hard negatives
+def _smooth_noise(size: int, scale: float, rng: np.random.Generator) -> np.ndarray:
+    """[S, S] float32 smooth random field, zero mean, unit std, features about ``scale`` px."""
+    n = max(2, int(round(size / max(scale, 1.0))))
+    f = cv2.resize(rng.standard_normal((n, n)).astype(np.float32), (size, size),
+                   interpolation=cv2.INTER_CUBIC)
+    return (f - f.mean()) / (f.std() + 1e-6)
+
+
+def _disc_alpha(size: int, cx: float, cy: float, rx: float, ry: float,
+                angle: float) -> np.ndarray:
+    """[S, S] anti-aliased filled ellipse (1 inside, 0 outside, a one-pixel edge)."""
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32)
+    c, s = np.float32(np.cos(angle)), np.float32(np.sin(angle))
+    u, v = (xx - cx) * c + (yy - cy) * s, -(xx - cx) * s + (yy - cy) * c
+    d = np.sqrt((u / rx) ** 2 + (v / ry) ** 2)
+    return np.clip((1.0 - d) * min(rx, ry) + 0.5, 0, 1).astype(np.float32)
+
+
+def _blend(lin: np.ndarray, alpha: np.ndarray, rgb: np.ndarray) -> None:
+    """lin [S, S, 3] <- lin (1 - alpha) + alpha rgb, in place; alpha [S, S]; rgb [3] or
+    [S, S, 3] linear light."""
+    a = alpha[..., None]
+    lin *= 1 - a
+    lin += a * rgb
+
+
+def _neg_lamp(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Lamps and bare light cores: saturated discs, ellipses or lit windows with a sharp edge
+    and no halo (a light without flare, as the synthesizer's own core)."""
+    S = lin.shape[0]
+    for _ in range(int(rng.integers(1, 5))):
+        rgb = fl.blackbody_rgb(rng.uniform(2000, 7000)) * np.float32(
+            np.exp(rng.uniform(np.log(0.8), np.log(8.0))))
+        cx, cy = rng.uniform(0, S, 2)
+        r = S * float(np.exp(rng.uniform(np.log(0.004), np.log(0.06))))
+        if rng.random() < 0.25:  # a lit window or panel: a rectangle
+            w, h = r * rng.uniform(1, 3), r * rng.uniform(1, 3)
+            a = np.zeros((S, S), np.float32)
+            cv2.rectangle(a, (int(cx - w), int(cy - h)), (int(cx + w), int(cy + h)), 1.0, -1,
+                          cv2.LINE_AA)
+        else:
+            a = _disc_alpha(S, cx, cy, r, r * rng.uniform(0.5, 1.0), rng.uniform(0, np.pi))
+        if rng.random() < 0.5:  # a diffuser globe: brighter centre, dimmer rim, same edge
+            g = _disc_alpha(S, cx, cy, 0.6 * r, 0.6 * r, 0.0)
+            rgb_map = rgb * (0.35 + 0.65 * g[..., None])
+            _blend(lin, a, rgb_map)
+        else:
+            _blend(lin, a, rgb)
+
+
+def _neg_specular(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Specular highlights: clusters of small sharp bright glints (metal, glass, water)."""
+    S = lin.shape[0]
+    add = np.zeros((S, S), np.float32)
+    for _ in range(int(rng.integers(1, 3))):
+        c = rng.uniform(0, S, 2)
+        spread = S * rng.uniform(0.03, 0.25)
+        for _ in range(int(rng.integers(3, 25))):
+            x, y = c + rng.normal(0, spread, 2)
+            sig = rng.uniform(0.6, 3.0)
+            ax = (int(round(x)), int(round(y)))
+            axes = (max(1, int(sig * rng.uniform(1, 4))), max(1, int(sig)))
+            cv2.ellipse(add, ax, axes, float(rng.uniform(0, 180)), 0, 360,
+                        float(np.exp(rng.uniform(np.log(0.5), np.log(4.0)))), -1, cv2.LINE_AA)
+    add = cv2.GaussianBlur(add, (0, 0), 0.7)
+    tint = 0.8 + 0.2 * fl.blackbody_rgb(rng.uniform(3500, 8000))
+    lin += add[..., None] * tint
+
+
+def _neg_sky(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Bright sky above an irregular horizon: a smooth gradient, clear blue to overcast
+    white, with soft clouds."""
+    S = lin.shape[0]
+    base = S * rng.uniform(0.15, 0.6)
+    horizon = base + S * 0.08 * _smooth_noise(S, S / rng.uniform(2, 12), rng)[0]
+    yy = np.arange(S, dtype=np.float32)[:, None]
+    alpha = np.clip(horizon[None, :] - yy + 0.5, 0, 1)
+    top = np.array([rng.uniform(0.2, 0.6), rng.uniform(0.4, 0.8), 1.0], np.float32)
+    if rng.random() < 0.4:  # overcast
+        top = np.full(3, 1.0, np.float32)
+    level = np.float32(np.exp(rng.uniform(np.log(0.4), np.log(1.5))))
+    grad = (yy / max(base, 1.0)).clip(0, 1)[..., None]  # brighter, whiter towards the horizon
+    sky = level * (top * (1 - 0.5 * grad) + 0.5 * grad)
+    clouds = np.clip(_smooth_noise(S, S / rng.uniform(3, 8), rng), 0, None)[..., None]
+    sky = sky + np.float32(rng.uniform(0, 0.4)) * level * clouds
+    _blend(lin, alpha, np.broadcast_to(sky, lin.shape))
+
+
+def _neg_wall(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """White walls and facades: large bright quadrilaterals with gentle shading and texture."""
+    S = lin.shape[0]
+    for _ in range(int(rng.integers(1, 3))):
+        c = rng.uniform(0, S, 2)
+        half = S * rng.uniform(0.1, 0.45, 2)
+        quad = np.array([c + half * [-1, -1], c + half * [1, -1], c + half * [1, 1],
+                         c + half * [-1, 1]]) + rng.normal(0, S * 0.04, (4, 2))
+        a = np.zeros((S, S), np.float32)
+        cv2.fillConvexPoly(a, np.round(quad * 16).astype(np.int32), 1.0, cv2.LINE_AA, 4)
+        level = np.float32(rng.uniform(0.5, 1.3))
+        shade = 1 + 0.15 * _smooth_noise(S, S / 2, rng) + 0.05 * _smooth_noise(S, 3, rng)
+        rgb = level * (0.9 + 0.1 * fl.blackbody_rgb(rng.uniform(4000, 9000)))
+        _blend(lin, a, shade[..., None] * rgb)
+
+
+def _neg_foliage(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Red and orange (autumn) foliage: a blobby region of leafy red / orange texture, sunlit
+    or lit by a lamp; it keeps the photo's own texture."""
+    S = lin.shape[0]
+    region = _smooth_noise(S, S / rng.uniform(2, 6), rng)
+    alpha = np.clip((region - rng.uniform(-0.3, 1.0)) * 3, 0, 1)
+    leaves = np.clip(0.6 + 0.5 * _smooth_noise(S, rng.uniform(1.5, 5), rng), 0.05, 1.5)
+    own = fl.luminance(lin)
+    own = own / (float(own.mean()) + 1e-3)
+    tex = leaves * np.clip(0.5 + 0.5 * own, 0.2, 2.0)
+    hue = rng.uniform(0, 40)  # red to orange
+    col = fl.srgb_to_linear(fl.hsv_rgb(hue, rng.uniform(0.6, 1.0)))
+    level = np.float32(np.exp(rng.uniform(np.log(0.1), np.log(0.9))))
+    _blend(lin, alpha, level * tex[..., None] * col)
+
+
+def _neg_neon(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Neon signs: thin saturated polylines and arcs, a near-white core with a tight glow of
+    their own colour (a lit tube, not lens flare)."""
+    S = lin.shape[0]
+    tube = np.zeros((S, S), np.float32)
+    for _ in range(int(rng.integers(1, 4))):
+        if rng.random() < 0.6:
+            pts = rng.uniform(0.1 * S, 0.9 * S, (int(rng.integers(2, 6)), 2))
+            cv2.polylines(tube, [np.round(pts).astype(np.int32)], bool(rng.random() < 0.3),
+                          1.0, int(rng.integers(1, 5)), cv2.LINE_AA)
+        else:
+            c = tuple(int(v) for v in rng.uniform(0.2 * S, 0.8 * S, 2))
+            ax = tuple(int(v) for v in rng.uniform(0.03 * S, 0.2 * S, 2))
+            a0 = float(rng.uniform(0, 360))
+            cv2.ellipse(tube, c, ax, 0.0, a0, a0 + float(rng.uniform(90, 360)), 1.0,
+                        int(rng.integers(1, 5)), cv2.LINE_AA)
+    col = fl.hsv_rgb(rng.uniform(0, 360), rng.uniform(0.7, 1.0))
+    level = np.float32(np.exp(rng.uniform(np.log(0.6), np.log(4.0))))
+    glow = cv2.GaussianBlur(tube, (0, 0), rng.uniform(1.0, 3.0)) * np.float32(
+        rng.uniform(0.1, 0.4))
+    lin += level * (tube[..., None] * (0.6 * col + 0.4) + glow[..., None] * col)
+
+
+def _neg_reflection(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Reflections in water or glass: the part above a line mirrored below it, stretched,
+    rippled and dimmed (lamps above become vertical glints below)."""
+    S = lin.shape[0]
+    y0 = int(S * rng.uniform(0.35, 0.8))
+    stretch = rng.uniform(1.0, 2.5)
+    ys = np.arange(y0, S, dtype=np.float32)
+    src_y = y0 - 1 - (ys - y0) / stretch
+    xx = np.arange(S, dtype=np.float32)[None, :]
+    amp, period = rng.uniform(0, 4), rng.uniform(4, 30)
+    map_x = (xx + amp * np.sin(ys[:, None] / period * 2 * np.pi + rng.uniform(0, 6))).astype(
+        np.float32)
+    map_y = np.broadcast_to(np.clip(src_y, 0, S - 1)[:, None], map_x.shape).astype(np.float32)
+    refl = cv2.remap(np.ascontiguousarray(lin), map_x, map_y, cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REFLECT)
+    refl = cv2.GaussianBlur(refl, (0, 0), rng.uniform(0.3, 2.0))
+    k = np.float32(rng.uniform(0.25, 0.8))
+    lin[y0:] = (1 - k) * lin[y0:] * np.float32(rng.uniform(0.2, 0.7)) + k * refl
+
+
+_NEGATIVES = {"lamp": _neg_lamp, "specular": _neg_specular, "sky": _neg_sky,
+              "wall": _neg_wall, "foliage": _neg_foliage, "neon": _neg_neon,
+              "reflection": _neg_reflection}
+
+
+def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
+                       kinds: tuple[str, ...] | None = None) -> np.ndarray:
+    """Paint 1-3 kinds of bright non-flare content (``HARD_NEGATIVES``, or ``kinds``) onto an
+    sRGB float image [S, S, 3], in linear light; returns the new sRGB float32 image.
+
+    - ``lamp``: lamps and bare light cores (1-4 saturated discs, ellipses, lit windows; some
+      diffuser globes), sharp-edged, no halo: a light is not flare.
+    - ``specular``: clusters of small sharp glints.
+    - ``sky``: bright sky above an irregular horizon (clear to overcast, soft clouds).
+    - ``wall``: large bright white quadrilaterals (walls, facades) with gentle shading.
+    - ``foliage``: red / orange leafy texture, dim to sunlit.
+    - ``neon``: thin saturated lines and arcs with a tight glow of their own.
+    - ``reflection``: the image above a line mirrored below it, stretched, rippled, dimmed
+      (drawn last, so it reflects the others: lamps become vertical glints).
+    Nothing here is flare: composites keep their label (flare added later is masked where
+    it is visible against this brighter background)."""
+    if kinds is None:
+        n = int(rng.integers(1, 4))
+        kinds = tuple(rng.choice(HARD_NEGATIVES, size=n, replace=False))
+    lin = np.ascontiguousarray(fl.srgb_to_linear(img), np.float32)
+    for k in sorted(kinds, key=lambda k: k == "reflection"):
+        _NEGATIVES[k](lin, rng)
+    return fl.linear_to_srgb(lin).astype(np.float32)
+
+
+def training_flare(without: tuple[str, ...] = ()) -> fl.FlareConfig:
+    """The flare of FMG training composites: default ``FlareConfig`` with every kind of
+    ``flare.KINDS`` except those in ``without`` (a leave-one-kind-out model)."""
+    without = fl.check_kinds(without, "--without") if without else ()
+    kinds = tuple(k for k in fl.KINDS if k not in without)
+    if not kinds:
+        raise UserError("--without leaves no kind of flare to train on")
+    return fl.FlareConfig(kinds=kinds)
+
+
 def darken_night(img: np.ndarray, cfg: CompositeConfig,
                  rng: np.random.Generator) -> np.ndarray:
     """Dusk / night version of an sRGB float image [S, S, 3]: linear light x a small gain,
@@ -155,27 +361,6 @@ def darken_night(img: np.ndarray, cfg: CompositeConfig,
     g = float(np.exp(rng.uniform(*np.log(cfg.night_gain))))
     tint = np.array([1.0 - rng.uniform(0, 0.3), 1.0 - rng.uniform(0, 0.15), 1.0], np.float32)
     return fl.linear_to_srgb(fl.srgb_to_linear(img) * np.float32(g) * tint).astype(np.float32)
-
-
-def render_streaks(light_xy: tuple[float, float], size: int, rgb: np.ndarray,
-                   cfg: CompositeConfig, rng: np.random.Generator) -> np.ndarray:
-    """[S, S, 3] linear light: 1-2 long straight streaks through ``light_xy``, each
-    ``a exp(-|s| / L) exp(-d^2 / 2 w(s)^2)`` with ``w(s) = w0 (1 + |s| / L)``, s along and d
-    across the streak; ``rgb`` [3] is the light colour times the flare intensity."""
-    diag = float(np.hypot(size, size))
-    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32)
-    dx, dy = xx - np.float32(light_xy[0]), yy - np.float32(light_xy[1])
-    out = np.zeros((size, size), np.float32)
-    angle = rng.uniform(0, np.pi)
-    for i in range(int(rng.integers(1, 3))):
-        a = angle + (0 if i == 0 else rng.uniform(0.3, np.pi - 0.3))
-        s = np.abs(dx * np.float32(np.cos(a)) + dy * np.float32(np.sin(a)))
-        d = -dx * np.float32(np.sin(a)) + dy * np.float32(np.cos(a))
-        length = rng.uniform(*cfg.streak_length) * diag
-        w = rng.uniform(*cfg.streak_width) * diag * (1 + s / np.float32(length))
-        amp = np.exp(rng.uniform(*np.log(cfg.streak_amplitude))) * (1 if i == 0 else 0.5)
-        out += np.float32(amp) * np.exp(-s / np.float32(length) - 0.5 * (d / w) ** 2)
-    return out[..., None] * rgb.astype(np.float32)
 
 
 def random_affine(cfg: CompositeConfig, center: tuple[float, float],
@@ -204,13 +389,12 @@ def warp_layers(layers: fl.FlareLayers, m: np.ndarray, size: int) -> fl.FlareLay
 
 
 def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeConfig,
-                    rng: np.random.Generator, streaks: bool = True
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool).
 
-    A fresh lens at a random light position, its layers moved by one random affine; with
-    probability ``comp.streak_prob`` (when ``streaks``) long streaks are added through the
-    moved light. The mask is kept where the flare is visible against this background.
+    A fresh lens (kinds from ``flare_cfg.kinds``) at a random light position, its layers
+    moved by one random affine. The mask is kept where the flare is visible against this
+    background.
     """
     S = img.shape[0]
     lens = fl.sample_lens(flare_cfg, rng)
@@ -220,11 +404,6 @@ def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeC
     m = random_affine(comp, light, rng)
     layers = warp_layers(layers, m, S)
     label = layers.mask
-    if streaks and rng.random() < comp.streak_prob:
-        xy = m @ np.array([light[0], light[1], 1.0], np.float32)
-        streak = render_streaks((float(xy[0]), float(xy[1])), S, lens.light_rgb * k, comp, rng)
-        label = label | (fl.luminance(streak) > flare_cfg.mask_abs_threshold)
-        layers = dataclasses.replace(layers, flare=layers.flare + streak)
     gain = float(rng.uniform(*flare_cfg.gain))
     noise = float(rng.uniform(*flare_cfg.noise))
     visible = fl.flare_mask(layers.flare, layers.core, flare_cfg,
@@ -246,8 +425,8 @@ class CompositeSource:
 
     def sample(self, rng: np.random.Generator, train: bool = True,
                extras: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """One composite. ``train`` adds jitter, distractors and flare-free samples;
-        ``extras`` (default: ``train``) enables night backgrounds and streaks."""
+        """One composite. ``train`` adds jitter, distractors, hard negatives and flare-free
+        samples; ``extras`` (default: ``train``) enables night backgrounds."""
         c = self.comp
         extras = train if extras is None else extras
         bg = self.backgrounds[int(rng.integers(len(self.backgrounds)))]
@@ -258,9 +437,12 @@ class CompositeSource:
             img = colour_jitter(img, c.jitter, rng)
             if rng.random() < c.distractor_prob:
                 img = add_distractors(img, rng)
-            if rng.random() >= c.flare_prob:
+            flared = rng.random() < c.flare_prob
+            if rng.random() < (c.negative_prob if flared else c.clean_negative_prob):
+                img = add_hard_negatives(img, rng)
+            if not flared:
                 return img, np.zeros(img.shape[:2], bool)
-        return composite_flare(img, self.flare_cfg, c, rng, streaks=extras)
+        return composite_flare(img, self.flare_cfg, c, rng)
 
     def batch(self, n: int, rng: np.random.Generator, train: bool = True,
               extras: bool | None = None):
@@ -275,5 +457,5 @@ class CompositeSource:
 
 def fixed_set(source: CompositeSource, n: int, seed: int, extras: bool = False) -> tuple:
     """A deterministic validation set: n evaluation composites (every one flared); with
-    ``extras``, night backgrounds and streaks as configured in ``source.comp``."""
+    ``extras``, night backgrounds as configured in ``source.comp``."""
     return source.batch(n, np.random.default_rng(seed), train=False, extras=extras)

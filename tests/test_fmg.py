@@ -156,39 +156,56 @@ def test_composites_mark_visible_flare_not_core():
     assert not (w.mask & (w.core.max(axis=2) > 0)).any()
 
 
-def test_night_and_streak_options():
+def test_night_backgrounds_and_hard_negatives():
     from pipeline import flare as fl
     from pipeline.fmg_data import (
+        HARD_NEGATIVES,
         CompositeConfig,
         CompositeSource,
-        composite_flare,
+        add_hard_negatives,
         darken_night,
-        render_streaks,
     )
 
     rng = np.random.default_rng(5)
-    comp = CompositeConfig(size=96, streak_prob=1.0, night_prob=1.0)
+    comp = CompositeConfig(size=96, night_prob=1.0)
     img = np.full((96, 96, 3), 0.6, np.float32)
     dark = darken_night(img, comp, rng)
     assert dark.shape == img.shape and dark.max() < 0.6 and dark[..., 2].min() >= dark[..., 0].max()
-    # a streak through the centre is long: bright far along its axis, dark across it
-    comp1 = CompositeConfig(size=96, streak_length=(0.5, 0.5), streak_width=(0.01, 0.01),
-                            streak_amplitude=(0.5, 0.5))
-    st = render_streaks((48.0, 48.0), 96, np.ones(3), comp1, np.random.default_rng(0))
-    lum = fl.luminance(st)
-    assert lum[48, 48] > 0.45 and (lum > 0.05).mean() < 0.25 and (lum > 0.05).sum() > 2 * 40
-    # streaks are labelled flare: masks grow with them on a night background
-    def frac(c, streaks):
-        r = np.random.default_rng(9)
-        return composite_flare(dark, fl.FlareConfig(), c, r, streaks=streaks)[1].mean()
-
-    assert frac(comp, True) > frac(comp, False)
-    # the evaluation set without extras does not depend on the extra options
-    bgs = [np.full((120, 120, 3), 128, np.uint8)]
+    # every kind of hard negative paints something bright (or reflects it), in range
+    base = np.random.default_rng(1).uniform(0.02, 0.2, (96, 96, 3)).astype(np.float32)
+    base[:40] = 0.9  # a bright top half for the reflection to mirror
+    for kind in HARD_NEGATIVES:
+        out = add_hard_negatives(base, np.random.default_rng(2), (kind,))
+        assert out.shape == base.shape and out.dtype == np.float32, kind
+        assert out.min() >= 0 and out.max() <= 1, kind
+        assert np.abs(out - base).max() > 0.1, kind
+    lamp = add_hard_negatives(np.zeros((96, 96, 3), np.float32), np.random.default_rng(3),
+                              ("lamp",))
+    assert fl.luminance(lamp).max() > 0.5  # a bright light, no flare around it
+    # hard negatives are never labelled flare
+    bgs = [np.full((120, 120, 3), 40, np.uint8)]
+    clean = CompositeConfig(size=96, flare_prob=0.0, clean_negative_prob=1.0,
+                            distractor_prob=0.0)
+    x, y = CompositeSource(bgs, comp=clean).batch(4, np.random.default_rng(4))
+    assert not y.any() and float(x.max()) > 0.5
+    # the evaluation set does not depend on the training-only options
     a = CompositeSource(bgs, comp=CompositeConfig(size=96)).batch(2, np.random.default_rng(1),
                                                                   train=False)
-    b = CompositeSource(bgs, comp=comp).batch(2, np.random.default_rng(1), train=False)
+    b = CompositeSource(bgs, comp=clean).batch(2, np.random.default_rng(1), train=False)
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and a[1].any()
+
+
+def test_training_flare_leaves_kinds_out():
+    from pipeline import flare as fl
+    from pipeline.errors import UserError
+    from pipeline.fmg_data import training_flare
+
+    assert training_flare().kinds == fl.KINDS
+    assert training_flare(("streaks",)).kinds == tuple(k for k in fl.KINDS if k != "streaks")
+    with pytest.raises(UserError, match="--without"):
+        training_flare(("lasers",))
+    with pytest.raises(UserError, match="no kind"):
+        training_flare(fl.KINDS)
 
 
 def test_split_keeps_heldout_scenes_out(tmp_path):
@@ -249,3 +266,53 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     after = load_file(str(w))
     assert before.keys() == after.keys() and all(torch.equal(before[k], after[k]) for k in before)
 
+
+
+def test_leave_one_kind_out_trains_and_scores(tmp_path):
+    """A leave-one-kind-out run at tiny size: trains without a kind (recorded in the
+    weights), then `fmg eval --per-kind` scores it on that kind beside another model."""
+    import json
+    import shutil
+
+    from gnfr.fmg import read_fmg_metadata
+    from pipeline import flare as fl
+    from workflows.cli import main
+
+    kermit = shared("scenes", "kermit")
+    data = tmp_path / "data"
+    for sub, name in (("scenes/kermit", "kermit000.jpg"), ("scenes/et", "kermit001.jpg")):
+        (data / sub).mkdir(parents=True)
+        shutil.copy(kermit / name, data / sub / name)
+    tiny = ["--data", str(data), "--iters", "2", "--batch", "2", "--size", "64", "--widths",
+            "8,8,16,16", "--depths", "1,1,1,1", "--head-width", "16", "--eval-every", "100",
+            "--val-count", "2"]
+    assert main(["fmg", "train", "--out", str(tmp_path / "loo"), "--without", "streaks",
+                 *tiny]) == 0
+    loo = tmp_path / "loo" / "fmg.safetensors"
+    meta = read_fmg_metadata(loo)
+    assert meta["without"] == "streaks" and "streaks" not in meta["kinds"].split(",")
+    # --init starts a run from other weights of the same shape
+    assert main(["fmg", "train", "--out", str(tmp_path / "all"), "--init", str(loo),
+                 *tiny]) == 0
+    allw = tmp_path / "all" / "fmg.safetensors"
+    assert read_fmg_metadata(allw)["without"] == ""
+    assert read_fmg_metadata(allw)["total_iters"] == "4"
+    assert main(["fmg", "eval", "--per-kind", "--weights", str(allw), "--loo", str(loo),
+                 "--data", str(data), "--count", "2", "--size", "64",
+                 "--out", str(tmp_path / "k.json")]) == 0
+    res = json.loads((tmp_path / "k.json").read_text())
+    assert list(res["kinds"]) == list(fl.KINDS)
+    for kind, row in res["kinds"].items():
+        assert 0 <= row["weights"]["mIoU"] <= 1 and row["flare_pixels"] > 0
+        assert ("without" in row) == (kind == "streaks")
+    assert res["kinds"]["streaks"]["without"]["steps"] == 2
+    # the overview image of masks on photos
+    jpg = tmp_path / "overlay.jpg"
+    assert main(["fmg", "overlay", str(kermit / "kermit000.jpg"), "--weights", str(allw),
+                 "--weights", str(loo), "--out", str(jpg), "--work-size", "64"]) == 0
+    import cv2
+
+    assert cv2.imread(str(jpg)).shape[1] == 3 * 480
+    # weights trained on every kind cannot stand in for a leave-one-kind-out model
+    assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
+                 "--count", "2", "--size", "64"]) != 0

@@ -62,30 +62,35 @@ class FMGTrainConfig:
     val_count: int = 32
     night_prob: float = 0.0
     """Probability of a night-darkened training background (``CompositeConfig``)."""
-    streak_prob: float = 0.0
-    """Probability of long streaks on a flared training composite (``CompositeConfig``)."""
+    without: tuple[str, ...] = ()
+    """Kinds of flare (of ``pipeline.flare.KINDS``) left out of training: a
+    leave-one-kind-out model; recorded in the weights' metadata (``without``)."""
+    init: Path | None = None
+    """FMG weights to start from (same widths, depths and head width) when the run folder has
+    no checkpoint; the step count starts at 0 (the card adds the init's steps)."""
     seed: int = 0
     device: str = "auto"
 
 
 def _device(name: str) -> str:
-    import torch
+    from pipeline.options import resolve_device
 
-    return ("cuda" if torch.cuda.is_available() else "cpu") if name == "auto" else name
+    return resolve_device(name)
 
 
-def _sources(data: Path, size: int, night_prob: float = 0.0, streak_prob: float = 0.0):
-    from pipeline import flare as fl
+def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = ()):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
         load_backgrounds,
         split_backgrounds,
+        training_flare,
     )
 
     train_p, val_p = split_backgrounds(data)
-    comp = CompositeConfig(size=size, night_prob=night_prob, streak_prob=streak_prob)
-    tr = CompositeSource(load_backgrounds(train_p, comp.preload_side), fl.FlareConfig(), comp)
+    comp = CompositeConfig(size=size, night_prob=night_prob)
+    tr = CompositeSource(load_backgrounds(train_p, comp.preload_side), training_flare(without),
+                         comp)
     va = load_backgrounds(val_p, comp.preload_side)
     return tr, va, comp, (len(train_p), len(val_p))
 
@@ -153,6 +158,20 @@ def load_checkpoint(out: Path, model, opt) -> int:
     return int(state["step"])
 
 
+def _load_init(model, path: Path) -> None:
+    """Copy the weights of an FMG file into ``model``; a one-line UserError when its shape
+    differs."""
+    from pipeline.mask import load_fmg_weights
+
+    src = load_fmg_weights(path)
+    if src.cfg.widths != model.cfg.widths or src.cfg.depths != model.cfg.depths or \
+            src.cfg.head_width != model.cfg.head_width:
+        raise UserError(f"--init {path}: widths {src.cfg.widths}, depths {src.cfg.depths}, "
+                        f"head width {src.cfg.head_width} differ from this run's; pass the "
+                        "same --widths/--depths/--head-width")
+    model.load_state_dict(src.state_dict())
+
+
 def _lr(cfg: FMGTrainConfig, step: int) -> float:
     warm = min(1.0, (step + 1) / 50)
     return cfg.lr * warm * max(0.0, 1 - step / max(cfg.iters, 1)) ** 0.9
@@ -171,14 +190,18 @@ def train(cfg: FMGTrainConfig) -> dict:
     dev = _device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
-                                          cfg.streak_prob)
-    info(f"fmg train: {counts[0]} training photos, {counts[1]} held out, device {dev}")
+                                          tuple(cfg.without))
+    info(f"fmg train: {counts[0]} training photos, {counts[1]} held out, device {dev}, "
+         f"kinds {','.join(src.flare_cfg.kinds)}")
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
                                 head_width=cfg.head_width)).to(dev)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     step = load_checkpoint(out, model, opt)
     if step:
         info(f"fmg train: resuming at step {step}")
+    elif cfg.init:
+        _load_init(model, Path(cfg.init))
+        info(f"fmg train: starting from {cfg.init}")
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
@@ -204,7 +227,12 @@ def train(cfg: FMGTrainConfig) -> dict:
             f.write(json.dumps(rec) + "\n")
         if step % cfg.ckpt_every == 0 or step == cfg.iters:
             save_checkpoint(out, model, opt, step)
-    meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str)}
+    meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
+            "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds)}
+    init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
+    if cfg.init:
+        meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
+    meta["total_iters"] = str(cfg.iters + init_steps)  # steps from scratch, init included
     with atomic_path(out / "fmg.safetensors") as tmp:
         save_fmg(tmp, model.cpu(), extra=meta)
     metrics = evaluate(out / "fmg.safetensors", Path(cfg.data), count=cfg.val_count * 2,
@@ -214,31 +242,31 @@ def train(cfg: FMGTrainConfig) -> dict:
 
 
 # --------------------------------------------------------------------------- evaluate
+def _heldout_backgrounds(data: Path, size: int) -> list:
+    from pipeline.fmg_data import CompositeConfig, load_backgrounds, split_backgrounds
+
+    return load_backgrounds(split_backgrounds(Path(data))[1], CompositeConfig(size=size)
+                            .preload_side)
+
+
 def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
              refine: bool = False, size: int = 256) -> dict:
     """mIoU / mAcc on ``count`` held-out composites (scenes in HELDOUT_SCENES + held-out
     backgrounds) at the cut the mask stage uses (the weights' calibrated one, else 0.5),
-    for the default flare settings, ``FlareConfig.unseen()`` and default
-    settings with night backgrounds (half) and streaks (all) (``night_streak``)."""
+    for the default flare settings (every kind), ``FlareConfig.unseen()`` and the default
+    settings with night backgrounds on half of them (``night``)."""
     from pipeline import flare as fl
-    from pipeline.fmg_data import (
-        CompositeConfig,
-        CompositeSource,
-        fixed_set,
-        load_backgrounds,
-        split_backgrounds,
-    )
+    from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
 
     model = load_fmg_weights(Path(weights))
     cut = resolve_threshold(MaskConfig(), Path(weights))  # the mask stage's default cut
     comp = CompositeConfig(size=size)
-    bgs = load_backgrounds(split_backgrounds(Path(data))[1], comp.preload_side)
+    bgs = _heldout_backgrounds(data, size)
     res = {"weights": str(weights), "count": count, "size": size, "seed": seed, "cut": cut}
-    extra = CompositeConfig(size=size, night_prob=0.5, streak_prob=1.0)
     rows = (("default", fl.FlareConfig(), comp, False),
             ("unseen", fl.FlareConfig.unseen(), comp, False),
-            ("night_streak", fl.FlareConfig(), extra, True))
+            ("night", fl.FlareConfig(), CompositeConfig(size=size, night_prob=0.5), True))
     for name, fcfg, c, extras in rows:
         imgs, masks = fixed_set(CompositeSource(bgs, fcfg, c), count, seed, extras)
         frac = {"flare_pixels": round(float(masks.mean()), 4)}
@@ -247,6 +275,78 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
             res[name + "_refined"] = {**score(model, imgs, masks, refine=True, cut=cut),
                                       **frac}
     return res
+
+
+PER_KIND_NIGHT = 0.3
+"""Share of night backgrounds in the per-kind evaluation composites."""
+
+
+def weights_info(path: Path) -> dict:
+    """What a weights file says about its training: steps, kinds left out, cut."""
+    from gnfr.fmg import read_fmg_metadata
+    from pipeline.mask import MaskConfig, resolve_threshold
+
+    meta = read_fmg_metadata(path)
+    without = tuple(k for k in meta.get("without", "").split(",") if k)
+    return {"weights": str(path), "without": without,
+            "steps": int(meta.get("total_iters", meta.get("iters", "0")) or 0),
+            "cut": resolve_threshold(MaskConfig(), Path(path))}
+
+
+def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
+                   seed: int = 2025, size: int = 256,
+                   kinds: tuple[str, ...] | None = None) -> dict:
+    """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` held-out composites flared
+    with that kind alone (``FlareConfig(kinds=(kind,))``; held-out scenes and backgrounds,
+    night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
+    and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
+    metadata ``without``). Each model is cut at its own calibrated threshold."""
+    from pipeline import flare as fl
+    from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
+    from pipeline.mask import load_fmg_weights
+
+    main = {**weights_info(Path(weights)), "model": load_fmg_weights(Path(weights))}
+    held = []
+    for w in loo:
+        info_w = weights_info(Path(w))
+        if not info_w["without"]:
+            raise UserError(f"--loo {w}: these weights were trained on every kind (no "
+                            "'without' in their metadata); train with --without KIND")
+        held.append({**info_w, "model": load_fmg_weights(Path(w))})
+    kinds = tuple(kinds or fl.KINDS)
+    bgs = _heldout_backgrounds(data, size)
+    comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
+    res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT,
+           "weights": {k: v for k, v in main.items() if k != "model"},
+           "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
+    for i, kind in enumerate(kinds):
+        src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
+        imgs, masks = fixed_set(src, count, seed + i, extras=True)
+        row = {"flare_pixels": round(float(masks.mean()), 4),
+               "weights": score(main["model"], imgs, masks, cut=main["cut"])}
+        for h in held:
+            if kind in h["without"]:
+                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"]),
+                                  "weights": h["weights"], "steps": h["steps"]}
+        res["kinds"][kind] = row
+    return res
+
+
+def format_kinds(res: dict) -> str:
+    """The per-kind table: trained without the kind, and ``weights``."""
+    w = res["weights"]
+    rows = [f"{res['count']} held-out composites per kind ({res['size']} px, night "
+            f"{res['night']:g}); flare IoU / mIoU / mAcc",
+            f"| kind | flare pixels | trained without it (steps) | {Path(w['weights']).name} "
+            f"({w['steps']} steps) |", "|---|---|---|---|"]
+
+    def cell(m: dict) -> str:
+        return f"{m['IoU_flare']:.3f} / {m['mIoU']:.3f} / {m['mAcc']:.3f}"
+
+    for kind, r in res["kinds"].items():
+        loo = f"{cell(r['without'])} ({r['without']['steps']})" if "without" in r else "-"
+        rows.append(f"| {kind} | {r['flare_pixels']:.3f} | {loo} | {cell(r['weights'])} |")
+    return "\n".join(rows)
 
 
 def format_metrics(m: dict) -> str:
@@ -260,6 +360,150 @@ def format_metrics(m: dict) -> str:
     return "\n".join(rows)
 
 
+# --------------------------------------------------------------------------- photo-size checks
+WORK_SIZE_PHOTOS = ("scenes/cyprus",)
+"""Held-out photos large enough (1500x1000) to flare at photo size for the working-size sweep."""
+CLEAN_SCENES = ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus")
+"""Clean photos of the test scenes scored by ``clean_fractions``."""
+
+
+def _photos(folder: Path, long_side: int | None = None) -> list:
+    """BGR uint8 photos of ``folder`` (not recursive), downscaled to ``long_side``."""
+    import cv2
+
+    from pipeline.fmg_data import IMAGE_EXTENSIONS
+
+    out = []
+    for p in sorted(folder.iterdir()):
+        if p.suffix.lower() not in IMAGE_EXTENSIONS or p.name.startswith("."):
+            continue
+        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
+        if img is None:
+            continue
+        if long_side and max(img.shape[:2]) > long_side:
+            s = long_side / max(img.shape[:2])
+            img = cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        out.append((p.name, img))
+    return out
+
+
+def work_size_sweep(weights: Path, data: Path, work_sizes: tuple[int, ...] = (384, 512, 768),
+                    kinds: tuple[str, ...] = ("streaks", "starburst"), photo_side: int = 1008,
+                    per_photo: int = 2, seed: int = 31) -> dict:
+    """Flare IoU (at the weights' cut) against the network's working size (long side given
+    to ``predict_probs``), on held-out photos (``WORK_SIZE_PHOTOS``) at long side
+    ``photo_side`` flared at that size with one kind alone (thin streaks and spikes), a third
+    of them darkened to night. Scored at photo size."""
+    import torch
+
+    from gnfr.fmg import confusion, seg_metrics
+    from pipeline import flare as fl
+    from pipeline.fmg_data import CompositeConfig, darken_night
+    from pipeline.mask import fmg_probs, load_fmg_weights
+
+    info_w = weights_info(Path(weights))
+    model = load_fmg_weights(Path(weights))
+    photos = [im for f in WORK_SIZE_PHOTOS for _, im in _photos(Path(data) / f, photo_side)]
+    res = {"weights": str(weights), "cut": info_w["cut"], "photo_side": photo_side,
+           "photos": len(photos) * per_photo, "kinds": {}}
+    for kind in kinds:
+        rng = np.random.default_rng(seed)
+        cfg = fl.FlareConfig(kinds=(kind,))
+        conf = {w: torch.zeros(2, 2, dtype=torch.long) for w in work_sizes}
+        for bgr in photos:
+            for _ in range(per_photo):
+                img = bgr[..., ::-1].astype(np.float32) / 255
+                if rng.random() < 1 / 3:
+                    img = darken_night(img, CompositeConfig(), rng)
+                flared, layers = fl.synthesize(img, cfg, rng)
+                im8 = np.clip(flared * 255 + 0.5, 0, 255).astype(np.uint8)[..., ::-1]
+                truth = torch.from_numpy(layers.mask)
+                for w in work_sizes:
+                    p = torch.from_numpy(fmg_probs(model, [np.ascontiguousarray(im8)], w)[0])
+                    conf[w] += confusion(p > info_w["cut"], truth)
+        res["kinds"][kind] = {str(w): seg_metrics(c) for w, c in conf.items()}
+    return res
+
+
+def format_work_sizes(res: dict) -> str:
+    sizes = list(next(iter(res["kinds"].values())))
+    rows = [f"flare IoU / mIoU against working size ({res['photos']} held-out photos at long "
+            f"side {res['photo_side']}, cut {res['cut']:g})",
+            "| kind | " + " | ".join(sizes) + " |", "|---" * (len(sizes) + 1) + "|"]
+    for kind, r in res["kinds"].items():
+        rows.append(f"| {kind} | " + " | ".join(
+            f"{r[w]['IoU_flare']:.3f} / {r[w]['mIoU']:.3f}" for w in sizes) + " |")
+    return "\n".join(rows)
+
+
+def clean_fractions(weights: Path, data: Path, work_size: int = 512,
+                    scenes: tuple[str, ...] = CLEAN_SCENES) -> dict:
+    """Fraction of pixels marked (at the weights' cut, network at ``work_size`` as in the
+    mask stage) on every clean photo of ``scenes`` at full size: mean and max per scene."""
+    from pipeline.mask import fmg_probs, load_fmg_weights
+
+    cut = weights_info(Path(weights))["cut"]
+    model = load_fmg_weights(Path(weights))
+    res = {"weights": str(weights), "cut": cut, "work_size": work_size, "scenes": {}}
+    for sc in scenes:
+        fr = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
+              for name, im in _photos(Path(data) / sc)}
+        v = list(fr.values())
+        res["scenes"][sc] = {"views": len(v), "mean": float(np.mean(v)), "max": float(max(v)),
+                             "over_10pct": int(sum(x > 0.10 for x in v)), "per_view": fr}
+    return res
+
+
+def format_clean(res: dict) -> str:
+    rows = [f"clean photos, pixels marked at cut {res['cut']:g}, network at {res['work_size']}",
+            "| scene | views | mean | max | views over 10 % |", "|---|---|---|---|---|"]
+    for sc, r in res["scenes"].items():
+        rows.append(f"| {sc} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
+                    f"| {r['over_10pct']} |")
+    return "\n".join(rows)
+
+
+def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
+                        work_size: int = 512, width: int = 480) -> dict:
+    """One JPEG: a row per photo, the photo then each model's mask (at its cut) outlined and
+    tinted red; returns the fraction of each photo each model marks."""
+    import cv2
+
+    from pipeline.mask import fmg_probs, load_fmg_weights
+
+    models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
+    rows, fracs = [], {}
+    for ph in photos:
+        img = cv2.imread(str(ph), cv2.IMREAD_COLOR)
+        s = width / img.shape[1]
+        tiles = [cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)]
+        for (cut, model), w in zip(models, weights, strict=True):
+            m = fmg_probs(model, [img], work_size)[0] > cut
+            fracs[f"{ph.name} {w}"] = float(m.mean())
+            ms = cv2.resize(m.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
+                            interpolation=cv2.INTER_NEAREST)
+            t = tiles[0].copy()
+            t[ms > 0] = (0.55 * t[ms > 0] + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
+            contours, _ = cv2.findContours(ms, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            cv2.drawContours(t, contours, -1, (0, 255, 255), 1)
+            cv2.putText(t, f"{Path(w).parent.name or Path(w).stem}: {100 * m.mean():.1f} %",
+                        (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
+            tiles.append(t)
+        rows.append(np.hstack(tiles))
+    atomic_imwrite_jpg(out, np.vstack(rows))
+    return fracs
+
+
+def atomic_imwrite_jpg(path: Path, img, quality: int = 80) -> None:
+    import cv2
+
+    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    if not ok:
+        raise UserError(f"cannot encode {path}")
+    with atomic_path(Path(path)) as tmp:
+        Path(tmp).write_bytes(buf.tobytes())
+
+
 # --------------------------------------------------------------------------- calibrate
 CALIBRATION_CUTS = tuple(round(0.3 + 0.05 * i, 2) for i in range(14))  # 0.30 .. 0.95
 CALIBRATION_TIE = 0.002
@@ -270,7 +514,7 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
               cuts: tuple[float, ...] = CALIBRATION_CUTS) -> dict:
     """Sweep the probability cut on fresh evaluation composites drawn from the *training*
     backgrounds and scenes (held-out scenes and backgrounds stay out: the cut is not tuned
-    on anything an evaluation scores), with night backgrounds and streaks on a share of them.
+    on anything an evaluation scores), with night backgrounds on a share of them.
 
     Per cut: flare IoU, mIoU and the ratio of marked to true flare pixels. ``best`` is the
     cut of highest flare IoU; cuts within ``CALIBRATION_TIE`` of it count as tied and the
@@ -291,7 +535,7 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
     from pipeline.mask import load_fmg_weights
 
     model = load_fmg_weights(Path(weights)).eval()
-    comp = CompositeConfig(size=size, night_prob=0.25, streak_prob=0.5)
+    comp = CompositeConfig(size=size, night_prob=0.25)
     src = CompositeSource(load_backgrounds(split_backgrounds(Path(data))[0], comp.preload_side),
                           fl.FlareConfig(), comp)
     imgs, masks = fixed_set(src, count, seed, extras=True)

@@ -41,38 +41,82 @@ def register(app: typer.Typer) -> None:
                                       "(twice as many at the end)."),
         night_prob: float = typer.Option(0.0, help="Probability of a night-darkened "
                                          "training background."),
-        streak_prob: float = typer.Option(0.0, help="Probability of long streaks through "
-                                          "the light on a flared training composite."),
+        without: str = typer.Option("", help="Kinds of flare to leave out of training "
+                                    "(comma-separated, of starburst,ghosts,streaks,glare,"
+                                    "scatter): a leave-one-kind-out model."),
+        init: Path = typer.Option(None, help="FMG weights to start from (same widths, "
+                                  "depths and head width) when OUT has no checkpoint."),
         device: str = typer.Option("auto", help="auto, cpu or cuda."),
     ) -> None:
         """Train the FMG on flare composited onto photos; held-out scenes are never seen."""
+        from pipeline.flare import parse_kinds
         from workflows.fmg_train import FMGTrainConfig, default_data, format_metrics, train
 
         cfg = FMGTrainConfig(out=out, data=data or default_data(), iters=iters, batch=batch,
                              size=size, widths=_ints(widths), depths=_ints(depths),
                              head_width=head_width, lr=lr, ckpt_every=ckpt_every,
                              eval_every=eval_every, val_count=val_count, device=device,
-                             night_prob=night_prob, streak_prob=streak_prob)
+                             night_prob=night_prob, init=init,
+                             without=parse_kinds(without, "--without") if without else ())
         typer.echo(format_metrics(train(cfg)))
 
     @fmg.command("eval")
     def eval_cmd(
         weights: Path = WEIGHTS,
         data: Path = DATA,
-        count: int = typer.Option(64, help="Held-out composites per flare setting."),
+        count: int = typer.Option(64, help="Held-out composites per flare setting (per kind "
+                                  "with --per-kind)."),
         size: int = typer.Option(256, help="Composite side in pixels."),
         refine: bool = typer.Option(False, "--refine/--no-refine",
                                     help="Also score guided-filter refined masks."),
+        per_kind: bool = typer.Option(False, "--per-kind/--no-per-kind", help="Score each "
+                                      "kind of flare alone (leave-one-kind-out table)."),
+        loo: list[Path] = typer.Option(None, "--loo", help="With --per-kind: weights trained "
+                                       "with `fmg train --without KIND`, scored on that kind "
+                                       "(repeat for several)."),
+        work_sizes: str = typer.Option("", help="Instead: flare IoU of thin streaks and "
+                                       "starbursts on held-out photos against the working "
+                                       "size, e.g. 384,512,768."),
+        clean: bool = typer.Option(False, "--clean/--no-clean", help="Instead: share of "
+                                   "pixels marked on the clean photos of the test scenes."),
+        work_size: int = typer.Option(512, help="With --clean: the network's working size "
+                                      "(long side), as the mask stage's --work-size."),
         out: Path = typer.Option(None, "--out", help="Write the metrics here (JSON)."),
     ) -> None:
-        """mIoU / mAcc on held-out composites, default and unseen flare settings."""
-        from pipeline.mask import DEFAULT_WEIGHTS
+        """mIoU / mAcc on held-out composites: default, unseen and night flare settings, or
+        per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
+        working-size sweep (--work-sizes) or clean photos (--clean)."""
+        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
         from pipeline.workspace import atomic_write_json
-        from workflows.fmg_train import default_data, evaluate, format_metrics
+        from workflows import fmg_train as ft
+        from workflows.fmg_train import (
+            default_data,
+            evaluate,
+            evaluate_kinds,
+            format_kinds,
+            format_metrics,
+        )
 
-        m = evaluate(weights or DEFAULT_WEIGHTS, data or default_data(), count, refine=refine,
-                     size=size)
-        typer.echo(format_metrics(m))
+        if loo and not per_kind:
+            raise typer.BadParameter("--loo needs --per-kind", param_hint="--loo")
+        if sum((per_kind, bool(work_sizes), clean)) > 1:
+            raise typer.BadParameter("give one of --per-kind, --work-sizes, --clean")
+        path = weights or DEFAULT_WEIGHTS
+        for w in (path, *(loo or ())):
+            load_fmg_weights(w)  # a missing or foreign file: one clear line
+        if work_sizes:
+            m = ft.work_size_sweep(path, data or default_data(), _ints(work_sizes))
+            typer.echo(ft.format_work_sizes(m))
+        elif clean:
+            m = ft.clean_fractions(path, data or default_data(), work_size)
+            typer.echo(ft.format_clean(m))
+        elif per_kind:
+            m = evaluate_kinds(path, data or default_data(), tuple(loo or ()), count,
+                               size=size)
+            typer.echo(format_kinds(m))
+        else:
+            m = evaluate(path, data or default_data(), count, refine=refine, size=size)
+            typer.echo(format_metrics(m))
         if out:
             atomic_write_json(out, m)
 
@@ -105,3 +149,22 @@ def register(app: typer.Typer) -> None:
         if write:
             write_threshold(path, res["best"])
             typer.echo(f"wrote threshold={res['best']:g} into {path}")
+
+    @fmg.command("overlay")
+    def overlay_cmd(
+        photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
+        weights: list[Path] = typer.Option(None, "--weights", help="FMG weights, one column "
+                                           "each (default: the shipped ones)."),
+        out: Path = typer.Option(..., "--out", help="The overview JPEG to write."),
+        work_size: int = typer.Option(512, help="The network's working size (long side)."),
+    ) -> None:
+        """One image: each photo beside each model's mask (red, outlined) at its cut."""
+        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
+        from workflows.fmg_train import real_flare_overview
+
+        ws = tuple(weights or (DEFAULT_WEIGHTS,))
+        for w in ws:
+            load_fmg_weights(w)
+        for k, v in real_flare_overview(ws, tuple(photos), out, work_size).items():
+            typer.echo(f"{k}: {100 * v:.2f} % marked")
+        typer.echo(f"wrote {out}")
