@@ -69,7 +69,34 @@ def main() -> None:
               else f"{v['psnr_flare']:.2f} / {v['psnr_flare_input']:.2f}")
         print(f"| {s} | {v['psnr']:.2f} / {v['psnr_input']:.2f} | {fl} |")
     if a.out:
-        a.out.write_text(json.dumps(res, indent=2))
+        res.update(run_facts(a.workspace))
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        a.out.write_text(json.dumps(res, indent=2) + "\n")
+
+
+def run_facts(ws: Path) -> dict:
+    """What made the workspace: stage seconds and parameters (manifest), the fine-tuned
+    checkpoint's provenance, the video's size and frame count, code and machine."""
+    import sys
+
+    sys.path.insert(0, str(REPO))
+    from gnfr.checkpoint import read_metadata
+    from pipeline.provenance import code_version, machine
+
+    man = json.loads((ws / "manifest.json").read_text())
+    stages = {k: {"seconds": v.get("seconds"), "status": v.get("status")}
+              for k, v in man["stages"].items()}
+    video = next(iter(sorted(ws.glob("*.mp4"))), None)
+    facts = {}
+    if video is not None and not video.stem.endswith("_compare"):
+        cap = cv2.VideoCapture(str(video))
+        facts = {"file": video.name, "frames": int(cap.get(cv2.CAP_PROP_FRAME_COUNT)),
+                 "width": int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+                 "height": int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))}
+    _, meta = read_metadata(ws / "model" / "gnfr.safetensors")
+    return {"workspace": str(ws), "stages": stages, "video": facts,
+            "model": {k: meta.get(k) for k in ("step", "preset", "provenance")},
+            "code": code_version(), "machine": machine()}
 
 
 if __name__ == "__main__":
