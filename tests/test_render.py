@@ -427,3 +427,24 @@ def test_hybrid_novel_frame_at_an_input_camera_reproduces_the_photo(hws, tmp_pat
     assert got.shape == orig.shape  # hybrid frames default to the input size
     inner = (slice(12, -12), slice(12, -12))  # the border only this photo sees: the network
     assert _psnr(got[inner], orig[inner]) > 30
+
+
+def test_depth_guided_samples_stay_in_their_band_and_equal_uniform_on_the_whole_ray():
+    from gnfr.geometry import sample_depths
+    from pipeline.render import DEPTH_BAND, split_guided
+
+    depth = torch.tensor([1.0, 2.0, 0.0, 4.0])
+    known = torch.tensor([True, True, False, True])
+    parts = split_guided(4, (depth, known), 8)
+    (ks, lo, hi, ns), (us, lo2, hi2, ns2) = parts
+    assert ks.tolist() == [0, 1, 3] and us.tolist() == [2] and ns == 8 and lo2 is None
+    t = sample_depths(lo, hi, ns, jitter=False)
+    d = depth[ks][:, None]
+    assert bool(((t >= d / DEPTH_BAND) & (t <= d * DEPTH_BAND)).all())
+    assert split_guided(4, (depth, known), 0)[0][0].tolist() == [0, 1, 2, 3]  # 0: off
+    # rays whose band is their whole near-far range sample exactly as the uniform render
+    d = torch.tensor([1.0, 3.0])
+    near, far = d / DEPTH_BAND, d * DEPTH_BAND
+    (_, lo, hi, n), _ = split_guided(2, (d, torch.tensor([True, True])), 24)
+    assert torch.allclose(sample_depths(lo, hi, n, jitter=False),
+                          sample_depths(near, far, 24, jitter=False), rtol=1e-6)

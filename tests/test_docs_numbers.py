@@ -1,0 +1,87 @@
+"""The README's and the model cards' numbers agree with the result files they quote.
+
+Each entry names a page, a JSON file under docs/results/, a path into it and how the page
+writes the number; the test fails when a result file is re-measured and the page is not
+updated (or the other way round), so published numbers cannot drift from their source.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = REPO / "docs" / "results"
+
+
+def _get(obj, path: str):
+    for part in path.split("/"):
+        obj = obj[int(part)] if isinstance(obj, list) else obj[part]
+    return obj
+
+
+def _fill(name: str, fill: str) -> dict:
+    rows = json.loads((RESULTS / "render_fill_cpu.json").read_text())["rows"]
+    return rows[[(r["fill"], r["size"][0] > 600) for r in rows].index((fill, name == "x2"))]
+
+
+FERN = "fern_llff_quick_cpu.json"
+SAMPLE = "sample_oneshot_cpu.json"
+CHECKS = [
+    # page, file, path, format
+    ("README.md", FERN, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("README.md", FERN, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
+    ("README.md", FERN, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
+    ("README.md", FERN, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
+    ("README.md", FERN, "published/0/psnr", "{:.2f}"),
+    ("README.md", FERN, "flare/methods/gnfr/inputs/psnr_flare", "{:.2f}"),
+    ("README.md", FERN, "flare/methods/gnt/inputs/psnr_flare", "{:.2f}"),
+    ("README.md", FERN, "flare/methods/input/inputs/psnr_flare", "{:.2f}"),
+    ("README.md", SAMPLE, "mean/psnr_flare", "{:.2f}"),
+    ("README.md", SAMPLE, "mean/psnr", "{:.2f}"),
+    ("README.md", SAMPLE, "mean/psnr_flare_input", "{:.2f}"),
+    ("README.md", SAMPLE, "mean/psnr_input", "{:.2f}"),
+    ("README.md", SAMPLE, "stages/depth/seconds", "| depth | {:.1f} |"),
+    ("README.md", SAMPLE, "stages/finetune/seconds", "{:.1f}"),
+    ("README.md", SAMPLE, "stages/render:interpolate/seconds", "{:.1f}"),
+    ("README.md", SAMPLE, "video/frames", "{} frames"),
+    ("README.md", "fill_ablation_dev_sceaux.json",
+     "rows/hybrid_guided_support2/psnr_flare", "{:.2f}"),
+    ("README.md", "fill_ablation_dev_sceaux.json", "rows/network/psnr_flare", "{:.2f}"),
+    ("README.md", "fill_ablation_dev_et.json", "rows/hybrid_guided_support2/psnr_flare",
+     "{:.2f}"),
+    ("README.md", "fill_ablation_dev_et.json", "rows/network/psnr_flare", "{:.2f}"),
+    ("docs/depth.md", "fill_ablation_dev_sceaux.json",
+     "rows/hybrid_guided_support1/psnr_flare", "{:.2f}"),
+    ("docs/depth.md", "fill_ablation_dev_et.json", "rows/hybrid_unguided/psnr_flare",
+     "{:.2f}"),
+    ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
+    ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
+]
+
+
+@pytest.mark.parametrize("page, file, path, fmt", CHECKS,
+                         ids=[f"{c[0]}:{c[1]}:{c[2]}" for c in CHECKS])
+def test_page_quotes_its_result_file(page, file, path, fmt):
+    value = _get(json.loads((RESULTS / file).read_text()), path)
+    text = (REPO / page).read_text()
+    assert fmt.format(value) in text, f"{page} should quote {fmt.format(value)} ({file}: {path})"
+
+
+@pytest.mark.parametrize("name", ["x1", "x2"])
+def test_readme_render_times_match(name):
+    text = (REPO / "README.md").read_text()
+    for fill in ("network", "hybrid"):
+        r = _fill(name, fill)
+        assert f"{r['s_per_frame']:.1f}" in text, (name, fill, r)
+
+
+def test_every_result_file_is_quoted_or_listed():
+    """No orphan result files: each is named in docs/results/README.md or a page."""
+    pages = "".join((REPO / p).read_text() for p in ("README.md", "docs/eval.md",
+                                                     "docs/depth.md", "docs/results/README.md",
+                                                     "gnfr/weights/gnfr.md"))
+    for f in RESULTS.glob("*.json"):
+        assert f.name in pages, f"{f.name} is quoted nowhere"
