@@ -57,6 +57,11 @@ CHECKS = [
      "rows/hybrid_guided_support1/psnr_flare", "{:.2f}"),
     ("docs/depth.md", "fill_ablation_dev_et.json", "rows/hybrid_unguided/psnr_flare",
      "{:.2f}"),
+    ("README.md", "bench_cpu.json", "results/cpu/train/end_to_end/it_per_s", "{:.2f}"),
+    ("README.md", "bench_cpu.json", "results/cpu/train/cached/it_per_s", "{:.2f}"),
+    ("README.md", "bench_cpu.json", "results/cpu/render/504x378/fast/s_per_frame", "{:.1f}"),
+    ("README.md", "bench_cpu.json", "results/cpu/render/1008x756/fast/s_per_frame",
+     "{:.1f}"),
     ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
     ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
 ]
