@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from gnfr.checkpoint import read_metadata
     from pipeline import render
-    from pipeline.provenance import code_version, machine
+    from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
     from workflows.eval import flared_views, load_synth, score_views
 
@@ -60,11 +60,8 @@ def main(argv: list[str] | None = None) -> int:
                                              ("step", "preset", "init", "init_sha256")},
            "finetune_record": {k: ws.stage_record("finetune").get(k)
                                for k in ("steps", "seconds", "params")},
-           "rows": rows, "code": code_version(), "machine": machine(),
-           "command": "python benchmarks/fill_ablation.py " + " ".join(argv or sys.argv[1:])}
-    if a.out:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(rec, indent=1) + "\n")
+           "rows": rows}
+    write_result(a.out, rec)
     return 0
 
 

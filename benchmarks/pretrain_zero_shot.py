@@ -33,8 +33,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from gnfr.checkpoint import read_metadata
     from pipeline import render
-    from pipeline.provenance import code_version, machine
     from pipeline.provenance import sha256 as file_sha256
+    from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
     from workflows.eval import load_synth, score_views
 
@@ -59,12 +59,8 @@ def main(argv: list[str] | None = None) -> int:
                          "render_s": round(time.perf_counter() - t0, 1)})
             print(json.dumps(rows[-1]), flush=True)
     rec = {"scene": str(a.scene), "origin": scene.origin, "heldout": scene.heldout,
-           "scale": a.scale, "fine_tuning": "none (zero-shot)", "rows": rows,
-           "code": code_version(), "machine": machine(),
-           "command": "python benchmarks/pretrain_zero_shot.py " + " ".join(argv or sys.argv[1:])}
-    if a.out:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(rec, indent=1) + "\n")
+           "scale": a.scale, "fine_tuning": "none (zero-shot)", "rows": rows}
+    write_result(a.out, rec)
     return 0
 
 

@@ -13,7 +13,6 @@ by the frames, sources encoded once per run as the stage does.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 import time
@@ -64,14 +63,10 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append({"size": [pcs[0].width, pcs[0].height], "fill": fill,
                              "s_per_frame": round(dt, 2)})
                 print(f"{pcs[0].width}x{pcs[0].height} {fill}: {dt:.1f} s/frame", flush=True)
-    from pipeline.provenance import code_version, machine
+    from pipeline.provenance import write_result
 
-    rec = {"workspace": str(ws.root), "frames": int(len(pick)), "rows": rows,
-           "code": code_version(), "machine": machine(),
-           "command": "python benchmarks/render_fill.py " + " ".join(argv or sys.argv[1:])}
-    if a.out:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(rec, indent=1) + "\n")
+    rec = {"workspace": str(ws.root), "frames": int(len(pick)), "rows": rows}
+    write_result(a.out, rec)
     return 0
 
 

@@ -8,6 +8,7 @@ describing it.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import platform
 import shlex
@@ -106,3 +107,15 @@ def command_line() -> str:
                  or Path(argv[0]).as_posix().endswith("workflows/cli.py")):
         argv[0] = "deflare-scene"
     return shlex.join(argv)
+
+
+def write_result(path: str | os.PathLike | None, record: dict) -> dict:
+    """``record`` stamped with the code version, the machine and the command line, written
+    as JSON to ``path`` (folders made; nothing written when ``path`` is None). Returns it."""
+    record = {**record, "code": code_version(), "machine": machine(),
+              "command": command_line()}
+    if path is not None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(record, indent=1, default=str) + "\n")
+    return record

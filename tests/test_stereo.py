@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
@@ -17,59 +16,22 @@ from pipeline.stereo import (
     sweep_depth,
     warp_sources,
 )
+from tests.fixtures import look_at
+from tests.fixtures import plane_views as fixture_plane_views
 
 W, H = 160, 120
 K = np.array([[150.0, 0, W / 2], [0, 150.0, H / 2], [0, 0, 1]])
 
 
-def look(center, target=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """c2w (OpenCV) at ``center`` looking at ``target`` with y roughly down."""
-    c, t = np.asarray(center, float), np.asarray(target, float)
-    z = (t - c) / np.linalg.norm(t - c)
-    x = np.cross(np.array([0.0, 1.0, 0.0]), z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    m = np.eye(4)
-    m[:3, :3] = np.stack([x, y, z], 1)
-    m[:3, 3] = c
-    return m
-
-
-def plane_views(rng, centers, plane_z=0.0, tilt=0.3):
-    """Views of a textured plane through world point (0, 0, plane_z) with normal tilted
-    about y; returns views and the true depth of the first."""
-    tex = cv2.resize(rng.random((48, 64, 3)).astype(np.float32), (640, 480),
-                     interpolation=cv2.INTER_CUBIC)
-    tex = cv2.GaussianBlur(tex, (0, 0), 1.0)
-    n = np.array([np.sin(tilt), 0.0, -np.cos(tilt)])
-    u = np.array([np.cos(tilt), 0.0, np.sin(tilt)])
-    v = np.array([0.0, 1.0, 0.0])
-    p0 = np.array([0.0, 0.0, plane_z])
-    # plane coordinates (a, b) in [-2, 2] x [-1.5, 1.5] -> texture pixels
-    A = np.array([[160.0, 0, 320], [0, 160.0, 240], [0, 0, 1]])  # (a, b, 1) -> tex px
-    views, depth0 = [], None
-    for i, c in enumerate(centers):
-        c2w = look(c)
-        w2c = np.linalg.inv(c2w)
-        # world plane point X = p0 + a u + b v; camera = R X + t
-        M = w2c[:3, :3] @ np.stack([u, v, p0], 1) + np.outer(w2c[:3, 3], [0, 0, 1])
-        Hp = K @ M @ np.linalg.inv(A)  # tex px -> image px (continuous)
-        half = np.array([[1, 0, 0.5], [0, 1, 0.5], [0, 0, 1.0]])
-        Hcv = np.linalg.inv(half) @ Hp @ half
-        img = cv2.warpPerspective(tex, Hcv, (W, H), flags=cv2.INTER_LINEAR)
-        views.append(PosedView(img, K.copy(), c2w))
-        if i == 0:
-            xs, ys = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
-            rays = np.stack([xs, ys, np.ones_like(xs)], -1) @ np.linalg.inv(K).T
-            d_w = rays @ c2w[:3, :3].T
-            t = ((p0 - c2w[:3, 3]) @ n) / (d_w @ n)
-            depth0 = t  # rays have camera z = 1, so t is z-depth
-    del n
-    return views, depth0
+def plane_views(rng, centers):
+    """PosedViews of a textured plane (tests.fixtures.plane_views) and the first view's true
+    depth."""
+    images, c2ws, depths = fixture_plane_views(rng, centers, K, (W, H))
+    return [PosedView(img, K.copy(), m) for img, m in zip(images, c2ws, strict=True)], depths[0]
 
 
 def test_homography_maps_plane_points():
-    c2w_t, c2w_s = look([0.0, 0.0, -3.0]), look([0.4, 0.1, -3.0])
+    c2w_t, c2w_s = look_at([0.0, 0.0, -3.0]), look_at([0.4, 0.1, -3.0])
     d = 2.7
     Hm = homography(K, c2w_t, K, c2w_s, d)
     px = np.array([37.5, 80.5])  # continuous target pixel
