@@ -66,40 +66,38 @@ def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
             for i, s in enumerate(stems)}
 
 
-def load_views(ws: Workspace, cams: Cameras, stems: list[str], with_depth: bool = False,
-               scale: float = 1.0) -> dict[str, PosedView]:
+def load_views(ws: Workspace, cams: Cameras, stems: list[str],
+               with_depth: bool = False) -> dict[str, PosedView]:
     """{stem: PosedView} of WS/images (float RGB), flare masks as validity where WS/masks
-    has them, and WS/depth where ``with_depth`` and present; at ``scale`` of WS/images."""
+    has them, and WS/depth where ``with_depth`` and present."""
     import cv2
 
     by = cams.by_stem()
     out = {}
     for s in stems:
-        f = by[s]
         img = cv2.imread(str(ws.images / f"{s}.png"), cv2.IMREAD_COLOR)
         if img is None:
             raise UserError(f"cannot read {ws.images / f'{s}.png'}: rerun `deflare-scene "
                             f"pose {ws.root}`")
-        K = np.array(f.K, float)
         mpath = ws.masks / f"{s}.png"
         m = cv2.imread(str(mpath), cv2.IMREAD_GRAYSCALE) if mpath.exists() else None
-        valid = None if m is None else m <= 127
-        depth = None
-        if with_depth and depth_path(ws, s).exists():
-            depth = np.load(depth_path(ws, s))["depth"].astype(np.float32)
-        if scale != 1.0:
-            h, w = max(8, round(img.shape[0] * scale)), max(8, round(img.shape[1] * scale))
-            K[0] *= w / img.shape[1]
-            K[1] *= h / img.shape[0]
-            img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
-            if valid is not None:
-                valid = cv2.resize(valid.astype(np.uint8), (w, h),
-                                   interpolation=cv2.INTER_NEAREST) > 0
-            if depth is not None:
-                depth = cv2.resize(depth, (w, h), interpolation=cv2.INTER_NEAREST)
-        out[s] = PosedView(img[..., ::-1].astype(np.float32) / 255.0, K, np.array(f.c2w),
-                           valid, depth)
+        depth = read_depth(ws, s)[0] if with_depth and depth_path(ws, s).exists() else None
+        out[s] = PosedView(img[..., ::-1].astype(np.float32) / 255.0, np.array(by[s].K, float),
+                           np.array(by[s].c2w), None if m is None else m <= 127, depth)
     return out
+
+
+def read_depth(ws: Workspace, stem: str, path: Path | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(depth float32, confidence) of WS/depth/<stem>.npz (or ``path``); a one-line error
+    naming the file when it is unreadable."""
+    path = path or depth_path(ws, stem)
+    try:
+        with np.load(path) as z:
+            return z["depth"].astype(np.float32), z["confidence"]
+    except (OSError, ValueError, KeyError, EOFError) as e:
+        raise UserError(f"{path} is unreadable ({type(e).__name__}): rerun "
+                        f"`deflare-scene depth {ws.root} --force`") from None
 
 
 def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
@@ -133,18 +131,18 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                sweep)
         with atomic_path(raw) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, depth=d, confidence=c.astype(np.float16))
+    confs = {}
     for s in cams.stems:
-        z = np.load(raw_dir / f"{s}.npz")
-        views[s].depth = z["depth"]
+        views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
     order = list(cams.stems)
+    idx = {t: i for i, t in enumerate(order)}
+    ordered = [views[t] for t in order]
     kept = []
     for s in order:
-        d = views[s].depth
-        conf = np.load(raw_dir / f"{s}.npz")["confidence"]
+        d, conf = views[s].depth, confs[s]
         if config.consistency > 0:
-            idx = {t: i for i, t in enumerate(order)}
-            cnt = consistency_count([views[t] for t in order], idx[s],
-                                    [idx[n] for n in near[s]], config.consistency)
+            cnt = consistency_count(ordered, idx[s], [idx[n] for n in near[s]],
+                                    config.consistency)
             d = np.where(cnt >= 1, d, 0).astype(np.float32)
             conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
         with atomic_path(depth_path(ws, s)) as tmp, open(tmp, "wb") as fh:

@@ -135,11 +135,6 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     ckpt = _checkpoint(ws, cfg.checkpoint)
     meta = _train_meta(ckpt)
     cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
-    if cfg.fill not in FILLS:
-        raise UserError(f"--fill {cfg.fill!r} is not known: use {' or '.join(FILLS)}")
-    if cfg.min_support < 1 or cfg.photo_sources < 1:
-        raise UserError(f"--min-support {cfg.min_support} / --photo-sources "
-                        f"{cfg.photo_sources}: both must be at least 1")
     use_photos = cfg.fill == "hybrid" and _depth_dir(ws).is_dir()
     if cfg.fill == "hybrid" and not use_photos:
         warn(f"render: no {_depth_dir(ws)} (run `deflare-scene depth {ws.root}`): GN-FR "
@@ -567,17 +562,10 @@ def _prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict, net_sc
     import torch
 
     from gnfr.geometry import image_pixels, pixel_rays
-    from pipeline.photo_fill import photo_fill, support_weight
 
     pc = job.camera
     H, W = pc.height, pc.width
-    c = np.asarray(pc.c2w, float)[:3, 3]
-    near_src = sorted((s for s in job.sources if s in photos),
-                      key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
-    srcs = [photos[s] for s in near_src[:cfg.photo_sources]]
-    pf = photo_fill(np.asarray(pc.K, float), np.asarray(pc.c2w, float), (W, H), srcs,
-                    near=job.near, far=job.far)
-    wgt = support_weight(pf.support, min(cfg.min_support, max(len(srcs), 1)))
+    colour, wgt, real_depth = _photo_fill(pc.K, pc.c2w, (W, H), job, photos, cfg)
     w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
     K = np.asarray(pc.K, float).copy()
     K[0] *= w / W
@@ -589,17 +577,16 @@ def _prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict, net_sc
     rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
                                 torch.tensor(pc.c2w, dtype=torch.float32),
                                 image_pixels(h, w)[sel])
-    real = (pf.depth > 0) & (pf.support >= cfg.depth_support)  # a depth photos agree on
-    d_lo = cv2.resize(np.where(real, pf.depth, 0).astype(np.float32), (w, h),
+    d_lo = cv2.resize(real_depth, (w, h),
                       interpolation=cv2.INTER_NEAREST).reshape(-1)[need.reshape(-1)]
     known = torch.from_numpy((d_lo > job.near) & (d_lo < job.far))
-    small_photo = cv2.resize(pf.colour, (w, h), interpolation=cv2.INTER_AREA)
+    small_photo = cv2.resize(colour, (w, h), interpolation=cv2.INTER_AREA)
 
     def compose(rgb):
         low = small_photo.copy()
         low[need] = rgb
         up = cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR)
-        out = up * (1 - wgt[..., None]) + pf.colour * wgt[..., None]
+        out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
         return _to_u8(out)
 
     return rays_o, rays_d, compose, (torch.from_numpy(d_lo), known)

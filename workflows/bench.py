@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import os
-import platform
 import threading
 import time
 from dataclasses import asdict, dataclass, replace
@@ -78,24 +77,10 @@ def effective(cfg: BenchConfig) -> BenchConfig:
 
 # --------------------------------------------------------------------------- machine
 def machine() -> dict:
-    import torch
+    """The machine the numbers were taken on (``pipeline.provenance.machine``)."""
+    from pipeline.provenance import machine as provenance_machine
 
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    info = {"cpu": cpu, "cores": os.cpu_count(), "torch_threads": torch.get_num_threads(),
-            "torch": torch.__version__, "python": platform.python_version(),
-            "platform": platform.platform(), "cuda": None}
-    if torch.cuda.is_available():
-        p = torch.cuda.get_device_properties(0)
-        info["cuda"] = {"name": p.name, "memory_gib": round(p.total_memory / 2**30, 1),
-                        "cuda": torch.version.cuda}
-    return info
+    return provenance_machine()
 
 
 # --------------------------------------------------------------------------- memory
