@@ -50,6 +50,12 @@ class FMGConfig:
     """Dropout before the classifier (training only)."""
     work_size: int = 512
     """Long side, in pixels, at which ``predict_probs`` runs the network by default."""
+    skip_width: int = 0
+    """Channels of the fine decoder (0: none, the paper's PSPNet). The decoder refines the
+    stride-8 logits at stride 4 with the backbone's first-stage features and then at the
+    input size with the image itself, so spikes and streaks a pixel or two wide can be
+    outlined. Its last convolutions start at zero: a network given a new decoder starts out
+    predicting what the PSPNet alone predicted (up to upsampling in two steps, not one)."""
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))
@@ -112,7 +118,12 @@ class DilatedResNet(nn.Module):
         self.layer4 = _stage(w[2], w[3], d[3], stride=1, dilation=4)  # stride 8, dilated
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.layer4(self.layer3(self.layer2(self.layer1(self.stem(x)))))
+        return self.features(x)[1]
+
+    def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(stride-4 features of the first stage, stride-8 features of the last)."""
+        f4 = self.layer1(self.stem(x))
+        return f4, self.layer4(self.layer3(self.layer2(f4)))
 
 
 class PyramidPooling(nn.Module):
@@ -136,6 +147,37 @@ class PyramidPooling(nn.Module):
         return torch.cat(outs, 1)
 
 
+def _conv_bn(cin: int, cout: int) -> nn.Sequential:
+    return nn.Sequential(nn.Conv2d(cin, cout, 3, padding=1, bias=False), nn.BatchNorm2d(cout),
+                         nn.ReLU(True))
+
+
+class FineDecoder(nn.Module):
+    """Residual refinement of coarse logits: stride 8 -> 4 with the first-stage features,
+    then -> input size with the (normalised) image. Both corrections start at zero."""
+
+    def __init__(self, skip_in: int, width: int):
+        super().__init__()
+        self.skip = nn.Sequential(nn.Conv2d(skip_in, width, 1, bias=False),
+                                  nn.BatchNorm2d(width), nn.ReLU(True))
+        self.mid = nn.Sequential(_conv_bn(width + 1, width), _conv_bn(width, width),
+                                 nn.Conv2d(width, 1, 1))
+        fine = max(8, width // 2)
+        self.full = nn.Sequential(nn.Conv2d(4, fine, 3, padding=1), nn.ReLU(True),
+                                  nn.Conv2d(fine, fine, 3, padding=1), nn.ReLU(True),
+                                  nn.Conv2d(fine, 1, 3, padding=1))
+        for last in (self.mid[-1], self.full[-1]):
+            nn.init.zeros_(last.weight)
+            nn.init.zeros_(last.bias)
+
+    def forward(self, coarse: torch.Tensor, f4: torch.Tensor,
+                image: torch.Tensor) -> torch.Tensor:
+        up = F.interpolate(coarse, size=f4.shape[-2:], mode="bilinear", align_corners=False)
+        mid = up + self.mid(torch.cat([up, self.skip(f4)], 1))           # [B, 1, H/4, W/4]
+        full = F.interpolate(mid, size=image.shape[-2:], mode="bilinear", align_corners=False)
+        return full + self.full(torch.cat([full, image], 1))             # [B, 1, H, W]
+
+
 class PSPNet(nn.Module):
     """FMG network: images [B, 3, H, W] in [0, 1] -> flare logits [B, 1, H, W]."""
 
@@ -148,13 +190,17 @@ class PSPNet(nn.Module):
             nn.Conv2d(self.ppm.out_channels, cfg.head_width, 3, padding=1, bias=False),
             nn.BatchNorm2d(cfg.head_width), nn.ReLU(True), nn.Dropout2d(cfg.dropout),
             nn.Conv2d(cfg.head_width, 1, 1))
+        self.decoder = FineDecoder(cfg.widths[0], cfg.skip_width) if cfg.skip_width else None
         self.register_buffer("mean", torch.tensor(_MEAN).view(1, 3, 1, 1), persistent=False)
         self.register_buffer("std", torch.tensor(_STD).view(1, 3, 1, 1), persistent=False)
 
     def forward(self, images: torch.Tensor) -> torch.Tensor:  # [B,3,H,W] -> [B,1,H,W]
         h, w = images.shape[-2:]
         x = (images - self.mean) / self.std
-        logits = self.head(self.ppm(self.backbone(x)))           # [B, 1, h/8, w/8]
+        f4, f8 = self.backbone.features(x)
+        logits = self.head(self.ppm(f8))                          # [B, 1, h/8, w/8]
+        if self.decoder is not None:
+            return self.decoder(logits, f4, x)
         return F.interpolate(logits, size=(h, w), mode="bilinear", align_corners=False)
 
 

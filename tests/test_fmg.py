@@ -316,3 +316,47 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path):
     # weights trained on every kind cannot stand in for a leave-one-kind-out model
     assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
                  "--count", "2", "--size", "64"]) != 0
+
+
+def _thin_lines(n: int, size: int = 64, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
+    """Dim textured images with 1-px bright lines at random angles; target = the lines."""
+    g = torch.Generator().manual_seed(seed)
+    x = 0.3 * torch.rand(n, 3, size, size, generator=g)
+    y = torch.zeros(n, 1, size, size)
+    t = torch.linspace(0, 1, 4 * size)
+    for i in range(n):
+        for _ in range(2):
+            p0, p1 = torch.rand(2, 2, generator=g) * (size - 1)
+            pts = (p0[None] + t[:, None] * (p1 - p0)[None]).round().long()
+            y[i, 0, pts[:, 1], pts[:, 0]] = 1.0
+    return torch.where(y > 0, torch.ones_like(x), x), y
+
+
+def test_fine_decoder_starts_at_the_pspnet_and_outlines_thin_lines():
+    torch.manual_seed(0)
+    plain = build_fmg(tiny_config())
+    fine = build_fmg(FMGConfig(**{**tiny_config().__dict__, "skip_width": 8}))
+    missing, unexpected = fine.load_state_dict(plain.state_dict(), strict=False)
+    assert not unexpected and missing and all(k.startswith("decoder.") for k in missing)
+    x, y = _thin_lines(6)
+    plain.eval(), fine.eval()
+    with torch.no_grad():  # zero-initialised corrections: the coarse logits, upsampled twice
+        coarse = plain.head(plain.ppm(plain.backbone((x - plain.mean) / plain.std)))
+        mid = F.interpolate(coarse, size=(16, 16), mode="bilinear", align_corners=False)
+        want = F.interpolate(mid, size=(64, 64), mode="bilinear", align_corners=False)
+        assert torch.allclose(fine(x), want, atol=1e-5)
+
+    def fit(model) -> float:
+        opt = torch.optim.Adam(model.parameters(), lr=1e-2)
+        model.train()
+        for _ in range(60):
+            loss = fmg_loss(model(x), y)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+        model.eval()
+        with torch.no_grad():
+            return seg_metrics(confusion(model(x) > 0, y > 0.5))["IoU_flare"]
+
+    iou_plain, iou_fine = fit(plain), fit(fine)
+    assert iou_fine > max(0.3, iou_plain + 0.15), (iou_plain, iou_fine)

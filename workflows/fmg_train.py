@@ -52,6 +52,9 @@ class FMGTrainConfig:
     """BasicBlocks per stage (ResNet-18: 2,2,2,2; ResNet-34: 3,4,6,3)."""
     head_width: int = 128
     """Channels of the head conv after pyramid pooling."""
+    skip_width: int = 0
+    """Channels of the fine decoder (stride 4, then input size; 0: none). ``--init`` from a
+    file without one starts the decoder at zero, i.e. at that file's predictions."""
     lr: float = 2e-3
     """Peak AdamW learning rate (poly decay, power 0.9, after a short warm-up)."""
     weight_decay: float = 1e-4
@@ -169,7 +172,10 @@ def _load_init(model, path: Path) -> None:
         raise UserError(f"--init {path}: widths {src.cfg.widths}, depths {src.cfg.depths}, "
                         f"head width {src.cfg.head_width} differ from this run's; pass the "
                         "same --widths/--depths/--head-width")
-    model.load_state_dict(src.state_dict())
+    missing, unexpected = model.load_state_dict(src.state_dict(), strict=False)
+    if unexpected or any(not k.startswith("decoder.") for k in missing):
+        raise UserError(f"--init {path}: its weights do not fit this run's network "
+                        f"(missing {missing[:3]}, unexpected {unexpected[:3]})")
 
 
 def _lr(cfg: FMGTrainConfig, step: int) -> float:
@@ -194,7 +200,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     info(f"fmg train: {counts[0]} training photos, {counts[1]} held out, device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
-                                head_width=cfg.head_width)).to(dev)
+                                head_width=cfg.head_width,
+                                skip_width=cfg.skip_width)).to(dev)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     step = load_checkpoint(out, model, opt)
     if step:

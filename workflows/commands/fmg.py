@@ -34,6 +34,8 @@ def register(app: typer.Typer) -> None:
                                    "(ResNet-18: 64,128,256,512)."),
         depths: str = typer.Option("2,2,2,2", help="Blocks per stage (ResNet-34: 3,4,6,3)."),
         head_width: int = typer.Option(128, help="Head channels."),
+        skip_width: int = typer.Option(0, help="Channels of the fine decoder (stride 4, "
+                                       "then input size; 0: none)."),
         lr: float = typer.Option(2e-3, help="Peak learning rate."),
         ckpt_every: int = typer.Option(100, help="Steps between checkpoints."),
         eval_every: int = typer.Option(500, help="Steps between validation scores."),
@@ -54,7 +56,8 @@ def register(app: typer.Typer) -> None:
 
         cfg = FMGTrainConfig(out=out, data=data or default_data(), iters=iters, batch=batch,
                              size=size, widths=_ints(widths), depths=_ints(depths),
-                             head_width=head_width, lr=lr, ckpt_every=ckpt_every,
+                             head_width=head_width, skip_width=skip_width, lr=lr,
+                             ckpt_every=ckpt_every,
                              eval_every=eval_every, val_count=val_count, device=device,
                              night_prob=night_prob, init=init,
                              without=parse_kinds(without, "--without") if without else ())
