@@ -41,9 +41,9 @@ class SourceViews:
     """Source views with their encoded feature maps (each view encoded once)."""
 
     images: torch.Tensor
-    """[V, 3, H, W] float colours in 0..1 (the resolution the features were computed at)."""
+    """[V, 3, H, W] float colours in 0..1 (sampled at this size; features may be coarser)."""
     feats: torch.Tensor
-    """[V, C, h, w] encoder features (h, w about H/4, W/4)."""
+    """[V, C, h, w] encoder features (h, w about H/4, W/4, times ``feature_scale``)."""
     K: torch.Tensor
     """[V, 3, 3] intrinsics of ``images`` (continuous-pixel convention, gnfr.geometry)."""
     c2w: torch.Tensor
@@ -62,17 +62,25 @@ class SourceViews:
     @classmethod
     def encode(cls, model: GNFR, images: torch.Tensor, K: torch.Tensor, c2w: torch.Tensor,
                masks: torch.Tensor | None, device, chunk: int = 4,
-               grad: bool = False) -> SourceViews:
-        """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3];
-        c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the graph
-        (end-to-end training); otherwise no gradients and bf16 autocast on CUDA."""
+               grad: bool = False, feature_scale: float = 1.0) -> SourceViews:
+        """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
+        ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
+        graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
+        ``feature_scale`` < 1 runs the encoder on the images downscaled by it (area filter)
+        while colours and masks are still sampled from ``images`` at their full size: the
+        feature maps cover the same field of view, so one projection serves both."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         feats = []
         ctx = contextlib.nullcontext() if grad else torch.no_grad()
         with ctx, autocast(device, enabled=not grad):
             for i in range(0, images.shape[0], chunk):
-                feats.append(model.encode(images[i:i + chunk]).float())
+                x = images[i:i + chunk]
+                if feature_scale != 1.0:
+                    H, W = x.shape[-2:]
+                    x = F.interpolate(x, size=(max(8, round(H * feature_scale)),
+                                               max(8, round(W * feature_scale))), mode="area")
+                feats.append(model.encode(x).float())
         return cls(images=images, feats=torch.cat(feats), K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
                    masks=None if masks is None else masks.to(device, torch.float32))

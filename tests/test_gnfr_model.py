@@ -125,3 +125,27 @@ def test_render_rays_is_deterministic_chunk_independent_and_flags_flare():
     # with every view flared, the fallback equals rendering with the Point Sampler off
     assert torch.allclose(c["rgb"][c["all_flared"] == 1], off["rgb"][c["all_flared"] == 1],
                           atol=1e-5)
+
+
+def test_full_size_colours_with_reduced_features():
+    """feature_scale encodes a downscaled copy but samples colours at full size: the same
+    features as encoding the downscaled images, and colours of the full-size images."""
+    torch.manual_seed(0)
+    model = GNFR(TINY).eval()
+    imgs, K, c2w, masks = _scene(H=48, W=64)
+    small = torch.nn.functional.interpolate(imgs, size=(24, 32), mode="area")
+    a = SourceViews.encode(model, imgs, K, c2w, masks, "cpu", feature_scale=0.5)
+    b = SourceViews.encode(model, small, K, c2w, None, "cpu")
+    assert a.images.shape[-2:] == (48, 64) and torch.allclose(a.feats, b.feats, atol=1e-6)
+    o, d = pixel_rays(K[0], c2w[0], image_pixels(48, 64)[::5])
+    t = torch.linspace(1.0, 3.0, 8).expand(o.shape[0], 8)
+    from gnfr.renderer import gather
+
+    pts = o[:, None] + t[..., None] * d[:, None]
+    rgb_feat, valid, _ = gather(a, torch.arange(1, 4), pts)
+    from gnfr.geometry import project, sample_bilinear
+
+    xy, _ = project(pts.reshape(-1, 3), K[1:4], torch.linalg.inv(c2w[1:4]))
+    want = sample_bilinear(imgs[1:4], xy, (48, 64))          # full-size colours
+    got = rgb_feat[..., :3].movedim(2, 0).reshape(3, -1, 3)
+    assert torch.allclose(got, want, atol=1e-6)
