@@ -142,15 +142,15 @@ def pretrain_scenes(tmp_path_factory):
 
 @pytest.fixture
 def steps_taken(monkeypatch):
-    """The step argument of every train_step the pretraining loop makes."""
-    import workflows.pretrain as wp
+    """The step argument of every train_step the training loop (gnfr.fit) makes."""
+    import gnfr.fit
 
-    taken, real = [], wp.train_step
+    taken, real = [], gnfr.fit.train_step
 
     def counting(model, opt, batch, *args):
         taken.append(args[-2])                       # (..., cfg, step, hook)
         return real(model, opt, batch, *args)
-    monkeypatch.setattr(wp, "train_step", counting)
+    monkeypatch.setattr(gnfr.fit, "train_step", counting)
     return taken
 
 
@@ -206,13 +206,14 @@ def test_init_from_weights_continues_their_step_count(pretrain_scenes, steps_tak
 def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_taken, tmp_path):
     from dataclasses import replace
 
+    import gnfr.fit
     import workflows.pretrain as wp
     from gnfr.train import PRESETS
 
     class Killed(Exception):
         pass
 
-    real = wp.train_step
+    real = gnfr.fit.train_step
 
     def dies_at_step_5(model, opt, batch, *args):
         if args[-2] == 5:
@@ -222,7 +223,7 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     config = wp.PretrainConfig(scenes=[pretrain_scenes], out=tmp_path / "run", preset="tiny",
                                iters=10, flare=False, device="cpu")
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(wp, "train_step", dies_at_step_5)
+        mp.setattr(gnfr.fit, "train_step", dies_at_step_5)
         with pytest.raises(Killed):
             wp.run(config, cfg)
     # steps 0..4 ran; the last checkpoint is the one after step index 3 (step count 4)
