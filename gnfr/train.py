@@ -1,9 +1,10 @@
-"""Training pieces: configs and presets, scene tensors, source banks, batch sampling,
-optimizer, one train step.
+"""GN-FR training pieces: presets, scene tensors, source banks, batch sampling, one step.
 
-The loop around ``train_step`` (schedule of logs and checkpoints, resume) is
-``gnfr.fit``; all state (model, optimizer, generator, step) is passed in here.
-Shapes: N scene views, Vs sources, R rays.
+Configs and presets, ``Scene`` tensors, ``SourceBank`` (a scene's views at source scale),
+batch sampling, the optimizer and its learning-rate schedule, one train step. The loop
+around ``train_step`` (metric lines, checkpoints, resume) is ``gnfr.fit``; all state
+(model, optimizer, generator, step) is passed in here. Shapes: N scene views, Vs sources,
+R rays.
 """
 
 from __future__ import annotations
