@@ -233,3 +233,31 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     assert steps_taken[5:] == list(range(4, 10))         # continued, not restarted
     assert torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)["step"] == 10
     assert _steps_logged(tmp_path / "run") == [5, 10]   # the killed run's 5 was dropped
+
+
+def test_resumes_a_train_state_of_the_existing_format(pretrain_scenes, steps_taken, tmp_path):
+    """OUT/ as pretraining has written it (weights + {"step", "optimizer", "rng"}): a run
+    in that folder goes on from the step, with the saved optimizer state."""
+    from gnfr.checkpoint import save_model
+    from gnfr.model import GNFR
+    from gnfr.train import PRESETS, make_optimizer
+
+    cfg = PRESETS["tiny"]
+    model = GNFR(cfg.model)
+    opt = make_optimizer(model, cfg)
+    for p in model.parameters():                       # an Adam state to carry over
+        p.grad = torch.ones_like(p)
+    opt.step()
+    out = tmp_path / "out"
+    out.mkdir()
+    save_model(out / "gnfr.safetensors", model, {"step": 7, "preset": "tiny"})
+    gen = torch.Generator().manual_seed(0)
+    torch.save({"step": 7, "optimizer": opt.state_dict(),
+                "rng": {"gen": gen.get_state(), "torch": torch.get_rng_state()}},
+               out / "train_state.pt")
+    _pretrain_cli(pretrain_scenes, out, 9)
+    assert steps_taken == [7, 8]
+    st = torch.load(out / "train_state.pt", weights_only=True)
+    assert list(st) == ["step", "optimizer", "rng"] and st["step"] == 9
+    assert all(int(s["step"]) == 1 + 2 for s in st["optimizer"]["state"].values())
+    assert _steps_logged(out) == [9]
