@@ -48,8 +48,8 @@ def synthetic_scene(n: int, W: int, H: int):
 
 
 def run_mode(preset: str, mode: str, steps: int, views: int, size: int) -> dict:
-    from gnfr.train import PRESETS, make_optimizer, sample_batch, train_step
-    from pipeline.finetune import prepare_sources
+    from gnfr.fit import StepInput, Trainer
+    from gnfr.train import PRESETS, prepare_sources, sample_batch
 
     cfg = PRESETS[preset]
     cfg = replace(cfg, cached_features=mode == "cached", reference=mode == "reference")
@@ -59,18 +59,17 @@ def run_mode(preset: str, mode: str, steps: int, views: int, size: int) -> dict:
     from gnfr.model import GNFR
 
     model = GNFR(cfg.model).to(device)
-    opt = make_optimizer(model, cfg)
+    tr = Trainer(model, cfg, gen=torch.Generator().manual_seed(0))
     t0 = time.perf_counter()
     bank, cache = prepare_sources(model, scene, cfg, device)
     prep = time.perf_counter() - t0
-    gen = torch.Generator().manual_seed(0)
     times = []
-    for s in range(steps + 1):
-        batch = sample_batch(scene, cfg, gen)
+    for _ in range(steps + 1):
+        inp = StepInput(sample_batch(scene, cfg, tr.gen), bank, cache)
         if device.type == "cuda":
             torch.cuda.synchronize()
         t = time.perf_counter()
-        train_step(model, opt, batch, bank, cache, cfg, s)
+        tr.train_one(inp)
         if device.type == "cuda":
             torch.cuda.synchronize()
         times.append(time.perf_counter() - t)

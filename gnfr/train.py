@@ -1,7 +1,10 @@
-"""Training: configs and presets, scene tensors, batch sampling, optimizer, one train step.
+"""GN-FR training pieces: presets, scene tensors, source banks, batch sampling, one step.
 
-The caller owns the loop (pipeline/finetune.py, workflows/pretrain.py); all state (model,
-optimizer, generator, step) is passed in. Shapes: N scene views, Vs sources, R rays.
+Configs and presets, ``Scene`` tensors, ``SourceBank`` (a scene's views at source scale),
+batch sampling, the optimizer and its learning-rate schedule, one train step. The loop
+around ``train_step`` (metric lines, checkpoints, resume) is ``gnfr.fit``; all state
+(model, optimizer, generator, step) is passed in here. Shapes: N scene views, Vs sources,
+R rays.
 """
 
 from __future__ import annotations
@@ -147,6 +150,54 @@ def downscale(scene: Scene, scale: float) -> tuple[torch.Tensor, torch.Tensor,
     return imgs, K, masks
 
 
+@dataclass(frozen=True, eq=False)
+class SourceBank:
+    """Every view of a scene at source scale, on the training device: what a training
+    step encodes its sources from (``SourceBank.of``; end-to-end mode encodes the batch's
+    sources each step, cached-feature mode all of them once, ``prepare_sources``)."""
+
+    images: torch.Tensor
+    """[N, 3, h, w] float 0..1."""
+    K: torch.Tensor
+    """[N, 3, 3] intrinsics of ``images``."""
+    masks: torch.Tensor | None
+    """[N, 1, h, w] float 1 = flare, or None (no masks)."""
+    c2w: torch.Tensor
+    """[N, 4, 4] float camera-to-world."""
+
+    @classmethod
+    def of(cls, scene: Scene, scale: float, device) -> SourceBank:
+        """The views of ``scene`` at ``scale`` of their resolution (``downscale``), on
+        ``device``."""
+        imgs, K, masks = downscale(scene, scale)
+        return cls(images=imgs.to(device), K=K.to(device),
+                   masks=None if masks is None else masks.to(device),
+                   c2w=scene.c2w.float().to(device))
+
+    def encode(self, model: GNFR, device, ids: torch.Tensor | None = None,
+               grad: bool = False) -> SourceViews:
+        """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
+        ``grad`` keeps the encoder's graph)."""
+        if ids is None:
+            return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
+                                      grad=grad)
+        return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
+                                  None if self.masks is None else self.masks[ids], device,
+                                  grad=grad)
+
+
+def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
+                    device) -> tuple[SourceBank, SourceViews | None]:
+    """(bank, cache): all views at source scale on ``device``, and in cached-feature mode
+    their features encoded once with the frozen encoder (which stops training)."""
+    bank = SourceBank.of(scene, cfg.source_scale, device)
+    cache = None
+    if cfg.cached_features:
+        model.encoder.requires_grad_(False)
+        cache = bank.encode(model, device)
+    return bank, cache
+
+
 @dataclass
 class Batch:
     target: int
@@ -205,16 +256,14 @@ def set_learning_rates(opt: torch.optim.Optimizer, cfg: TrainConfig, step: int) 
     return f
 
 
-def batch_sources(model: GNFR, batch: Batch, bank: tuple, cache: SourceViews | None,
+def batch_sources(model: GNFR, batch: Batch, bank: SourceBank, cache: SourceViews | None,
                   device) -> tuple[SourceViews, torch.Tensor]:
     """The SourceViews a step reads and the ids of its sources in it: the cached views as
     they are, or the batch's sources encoded now with gradients (end-to-end)."""
     if cache is not None:
         return cache, batch.sources.to(cache.images.device)
-    imgs, K, masks, c2w = bank
     ids = batch.sources
-    src = SourceViews.encode(model, imgs[ids], K[ids], c2w[ids],
-                             None if masks is None else masks[ids], device, grad=True)
+    src = bank.encode(model, device, ids, grad=True)
     return src, torch.arange(len(ids), device=src.images.device)
 
 
@@ -230,11 +279,12 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     return loss, {"psnr": mse_to_psnr(psnr_mse), "all_flared": float(out["all_flared"].mean())}
 
 
-def train_step(model: GNFR, opt: torch.optim.Optimizer, batch: Batch, bank: tuple,
+def train_step(model: GNFR, opt: torch.optim.Optimizer, batch: Batch, bank: SourceBank,
                cache: SourceViews | None, cfg: TrainConfig, step: int,
                grad_hook=None) -> dict:
-    """One optimizer step. ``bank`` = (images, K, masks, c2w) of all views at source
-    scale (see ``downscale``); ``cache`` the pre-encoded views in cached-feature mode.
+    """One optimizer step at the learning rates of ``step`` (``set_learning_rates``).
+    ``bank``: all views at source scale; ``cache`` the pre-encoded views in cached-feature
+    mode (``prepare_sources`` makes both).
     ``grad_hook`` (e.g. a DDP all-reduce) runs between backward and the update.
     Returns loss, psnr (non-flare pixels of the target), all_flared, lr factor."""
     model.train()

@@ -7,43 +7,36 @@ it stopped), ``metrics.jsonl`` and ``unseen.json`` (per target view, the fractio
 points that were on flare in every source view: regions no clean view saw).
 
 Presets: ``paper`` (GNT-sized, 50k steps, end-to-end; default with CUDA) and ``quick`` (a
-CPU-sized model; default without CUDA). See ``gnfr.train`` for what each sets.
+CPU-sized model; default without CUDA). See ``gnfr.train`` for what each sets. The training
+loop, checkpoint files and resume are ``gnfr.fit``'s; this stage resolves options and the
+start weights, and adds provenance, the unseen-region count and a progress display.
 """
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import torch
 
-from gnfr.checkpoint import (
-    CheckpointError,
-    load_train_state,
-    load_weights,
-    read_metadata,
-    save_model,
-    save_train_state,
+from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
+from gnfr.fit import (
+    METRICS_FILE,
+    MODEL_FILE,
+    STATE_FILE,
+    StepInput,
+    Trainer,
+    has_checkpoint,
+    render_meta,
 )
 from gnfr.model import GNFR
-from gnfr.renderer import SourceViews
-from gnfr.train import (
-    PRESETS,
-    Scene,
-    TrainConfig,
-    downscale,
-    make_optimizer,
-    sample_batch,
-    train_step,
-)
+from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import Workspace, atomic_write_json
 
 WEIGHTS_DIR = Path(__file__).resolve().parents[1] / "gnfr" / "weights"
-MODEL_FILE, STATE_FILE = "gnfr.safetensors", "train_state.pt"
 
 
 @dataclass
@@ -139,7 +132,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     scene = load_workspace(ws.root)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(run_), init=config.init,
                 preset=name)
-    outs = [ws.model / MODEL_FILE, ws.model / STATE_FILE, ws.model / "metrics.jsonl",
+    outs = [ws.model / MODEL_FILE, ws.model / STATE_FILE, ws.model / METRICS_FILE,
             ws.model / "unseen.json"]
     return run_.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
@@ -158,21 +151,7 @@ def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:
              f"{path or 'scratch'}: rerun with --force to retrain from it")
 
 
-# --------------------------------------------------------------------------- training loop
-def rng_state(gen: torch.Generator) -> dict:
-    st = {"gen": gen.get_state(), "torch": torch.get_rng_state()}
-    if torch.cuda.is_available():
-        st["cuda"] = torch.cuda.get_rng_state_all()
-    return st
-
-
-def set_rng_state(gen: torch.Generator, st: dict) -> None:
-    gen.set_state(st["gen"])
-    torch.set_rng_state(st["torch"])
-    if "cuda" in st and torch.cuda.is_available():
-        torch.cuda.set_rng_state_all(st["cuda"])
-
-
+# --------------------------------------------------------------------------- start weights
 def init_path(cfg: TrainConfig, init: str) -> Path | None:
     """The weight file ``init`` (auto | scratch | a path) resolves to; None = scratch."""
     if init == "auto":
@@ -215,27 +194,6 @@ def init_model(cfg: TrainConfig, device: torch.device, init: str) -> tuple[GNFR,
     return model.to(device), how
 
 
-def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
-    """Settings render needs besides the architecture (stored in the safetensors)."""
-    return {"step": step, "preset": preset, "samples": cfg.samples,
-            "eval_views": cfg.eval_views, "point_sampler": cfg.point_sampler,
-            "view_sampler": cfg.view_sampler, "mask_loss": cfg.mask_loss,
-            "source_scale": cfg.source_scale}
-
-
-def save_all(out: Path, model, opt, gen, step: int, cfg: TrainConfig, preset: str,
-             unseen: torch.Tensor, prov: dict | None = None, seconds: float = 0.0) -> None:
-    """Weights (with ``prov``, the run's provenance, plus steps done and training seconds
-    so far in the metadata) and the training state."""
-    meta = render_meta(cfg, preset, step)
-    if prov is not None:
-        meta["provenance"] = {**prov, "steps_done": step, "train_seconds": round(seconds, 1)}
-    save_model(out / MODEL_FILE, model, meta)
-    save_train_state(out / STATE_FILE, {"step": step, "optimizer": opt.state_dict(),
-                                        "rng": rng_state(gen), "unseen": unseen,
-                                        "seconds": float(seconds)})
-
-
 def run_provenance(cfg: TrainConfig, preset: str, device: torch.device, init: dict) -> dict:
     """What trains this checkpoint, stored in its metadata (``provenance``): the start
     (``init_record``), preset and every TrainConfig number, seed, cached or end-to-end,
@@ -257,96 +215,58 @@ def checkpoint_provenance(path: Path) -> dict | None:
         return None
 
 
-def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig, device: torch.device):
-    """(bank, cache): all views at source scale on ``device``, and in cached-feature mode
-    their features encoded once with the frozen encoder."""
-    imgs, K, masks = downscale(scene, cfg.source_scale)
-    c2w = scene.c2w.float()
-    bank = (imgs.to(device), K.to(device), None if masks is None else masks.to(device),
-            c2w.to(device))
-    cache = None
-    if cfg.cached_features:
-        model.encoder.requires_grad_(False)
-        cache = SourceViews.encode(model, *bank[:2], bank[3], bank[2], device)
-    return bank, cache
-
-
+# --------------------------------------------------------------------------- training
 def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume: bool = True,
         init: str = "auto", preset: str = "custom") -> dict:
-    """Train on ``scene``, checkpointing into ``out``; resumes from ``out`` when allowed."""
+    """Train on ``scene``, checkpointing into ``out``; resumes from ``out`` when allowed
+    (``gnfr.fit``: weights, optimizer, RNG and step; here also the unseen counts, training
+    seconds and the provenance's start)."""
+    from rich.progress import TextColumn
+
     out.mkdir(parents=True, exist_ok=True)
     gen = torch.Generator().manual_seed(cfg.seed)
     model, how = init_model(cfg, device, init)
-    opt = make_optimizer(model, cfg)
-    step, unseen = 0, torch.zeros(len(scene.stems), 2, dtype=torch.float64)
-    state_path = out / STATE_FILE
+    trainer = Trainer(model, cfg, gen=gen)
+    unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
     prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
-    seconds = 0.0
-    if resume and state_path.exists() and (out / MODEL_FILE).exists():
-        load_weights(model, out / MODEL_FILE)
-        st = load_train_state(state_path)
-        opt.load_state_dict(st["optimizer"])
-        set_rng_state(gen, st["rng"])
-        step, unseen = int(st["step"]), st["unseen"]
-        seconds = float(st.get("seconds", 0.0))
+    if resume and has_checkpoint(out):
+        unseen = trainer.restore(out)["unseen"]
         # the start is what the interrupted run began from, not what init resolves to now
         prev = checkpoint_provenance(out / MODEL_FILE)
         if prev is not None:
             prov["init"] = prev.get("init", prov["init"])
             prov["started"] = prev.get("started", prov["started"])
-            prov["resumed"] = [*prev.get("resumed", []), {"at_step": step, **{
+            prov["resumed"] = [*prev.get("resumed", []), {"at_step": trainer.step, **{
                 k: prov[k] for k in ("device_name", "code")}}]
-        info(f"finetune: resuming at step {step} of {cfg.iters}")
+        info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")
-    trim_metrics(out / "metrics.jsonl", step)
     bank, cache = prepare_sources(model, scene, cfg, device)
-    stats = _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset, prov,
-                  seconds)
+
+    def count_unseen(inp: StepInput, r: dict) -> None:
+        unseen[inp.batch.target] += torch.tensor([r["all_flared"], 1.0], dtype=torch.float64)
+
+    def meta(step: int, seconds: float) -> dict:
+        """Render settings, plus the provenance with steps done and training seconds."""
+        return {**render_meta(cfg, preset, step), "provenance": {
+            **prov, "steps_done": step, "train_seconds": round(seconds, 1)}}
+
+    cols = TextColumn("{task.fields[speed]} it/s  PSNR {task.fields[psnr]}")
+    with make_progress(cols) as prog:
+        task = prog.add_task("finetune", total=cfg.iters, completed=trainer.step, speed="-",
+                             psnr="-")
+
+        def report(step: int, speed: float, line: dict | None) -> None:
+            if line is not None:
+                prog.update(task, psnr=f"{line['psnr']:.2f}")
+            prog.update(task, completed=step, speed=f"{speed:.2f}")
+
+        stats = trainer.run(lambda g: StepInput(sample_batch(scene, cfg, g), bank, cache),
+                            out=out, meta=meta,
+                            state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
+                            after_step=count_unseen, report=report)
     _write_unseen(out / "unseen.json", scene, unseen)
     return {**stats, "init": prov["init"]}
-
-
-def _loop(model, opt, gen, scene, cfg, bank, cache, step, unseen, out, preset, prov=None,
-          seconds0: float = 0.0) -> dict:
-    from rich.progress import TextColumn
-
-    window, t0, done0 = [], time.time(), step
-    cols = TextColumn("{task.fields[speed]} it/s  PSNR {task.fields[psnr]}")
-    with open(out / "metrics.jsonl", "a") as metrics, make_progress(cols) as prog:
-        task = prog.add_task("finetune", total=cfg.iters, completed=step, speed="-",
-                             psnr="-")
-        while step < cfg.iters:
-            batch = sample_batch(scene, cfg, gen)
-            r = train_step(model, opt, batch, bank, cache, cfg, step)
-            unseen[batch.target] += torch.tensor([r["all_flared"], 1.0], dtype=torch.float64)
-            step += 1
-            window.append(r)
-            speed = (step - done0) / max(time.time() - t0, 1e-9)
-            if step % cfg.log_every == 0 or step == cfg.iters:
-                psnr = sum(x["psnr"] for x in window) / len(window)
-                rec = {"step": step, "loss": sum(x["loss"] for x in window) / len(window),
-                       "psnr": psnr, "all_flared": sum(x["all_flared"] for x in window)
-                       / len(window), "lr_factor": r["lr_factor"], "it_s": speed}
-                metrics.write(json.dumps(rec) + "\n")
-                metrics.flush()
-                window = []
-                prog.update(task, psnr=f"{psnr:.2f}")
-            if step % cfg.ckpt_every == 0 or step == cfg.iters:
-                save_all(out, model, opt, gen, step, cfg, preset, unseen, prov,
-                         seconds0 + time.time() - t0)
-            prog.update(task, completed=step, speed=f"{speed:.2f}")
-    return {"steps": step, "it_per_s": round((step - done0) / max(time.time() - t0, 1e-9), 3),
-            "train_seconds": round(seconds0 + time.time() - t0, 1)}
-
-
-def trim_metrics(path: Path, step: int) -> None:
-    """Drop metric lines past the checkpoint a run resumes from (all on a fresh start)."""
-    if not path.exists():
-        return
-    keep = [ln for ln in path.read_text().splitlines()
-            if ln.strip() and json.loads(ln)["step"] <= step]
-    path.write_text("".join(ln + "\n" for ln in keep))
 
 
 def _write_unseen(path: Path, scene: Scene, unseen: torch.Tensor) -> None:

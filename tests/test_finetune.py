@@ -106,3 +106,40 @@ def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     assert name == "quick" and not cfg_q.cached_features
     _, cfg_c = resolve(FinetuneConfig(device="cpu", cached_features=True), torch.device("cpu"))
     assert cfg_c.cached_features
+
+
+def _hand_written_checkpoint(out, scene, cfg, steps: int, extra: dict) -> None:
+    """WS/model/ as the stage has written it since train_state.pt got its keys: weights
+    with render settings in the metadata, {"step", "optimizer", "rng", **extra} beside."""
+    from gnfr.checkpoint import save_model
+    from gnfr.model import GNFR
+    from gnfr.train import SourceBank, make_optimizer, sample_batch, train_step
+
+    torch.manual_seed(cfg.seed)
+    model = GNFR(cfg.model)
+    opt, gen = make_optimizer(model, cfg), torch.Generator().manual_seed(cfg.seed)
+    bank = SourceBank.of(scene, cfg.source_scale, "cpu")
+    for step in range(steps):
+        train_step(model, opt, sample_batch(scene, cfg, gen), bank, None, cfg, step)
+    out.mkdir(parents=True, exist_ok=True)
+    save_model(out / "gnfr.safetensors", model, {"step": steps, "preset": "custom",
+                                                 "samples": cfg.samples})
+    torch.save({"step": steps, "optimizer": opt.state_dict(),
+                "rng": {"gen": gen.get_state(), "torch": torch.get_rng_state()}, **extra},
+               out / "train_state.pt")
+
+
+def test_resumes_a_model_folder_of_the_existing_format(tmp_path):
+    ws = masked_workspace(tmp_path / "ws")
+    scene = load_workspace(ws.root)
+    cfg = replace(TINY, iters=5)
+    unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
+    unseen[0] = torch.tensor([0.5, 3.0], dtype=torch.float64)
+    _hand_written_checkpoint(ws.model, scene, cfg, 3, {"unseen": unseen, "seconds": 100.0})
+    stats = fit(scene, cfg, torch.device("cpu"), ws.model, resume=True, init="scratch")
+    assert stats["steps"] == 5 and stats["train_seconds"] > 100.0
+    st = torch.load(ws.model / "train_state.pt", weights_only=True)
+    assert list(st) == ["step", "optimizer", "rng", "unseen", "seconds"] and st["step"] == 5
+    assert all(int(s["step"]) == 5 for s in st["optimizer"]["state"].values())  # Adam went on
+    assert int(st["unseen"][:, 1].sum()) == 3 + 2                # the saved counts went on too
+    assert [m["step"] for m in _metrics(ws.model / "metrics.jsonl")] == [5]

@@ -142,15 +142,15 @@ def pretrain_scenes(tmp_path_factory):
 
 @pytest.fixture
 def steps_taken(monkeypatch):
-    """The step argument of every train_step the pretraining loop makes."""
-    import workflows.pretrain as wp
+    """The step argument of every train_step the training loop (gnfr.fit) makes."""
+    import gnfr.fit
 
-    taken, real = [], wp.train_step
+    taken, real = [], gnfr.fit.train_step
 
     def counting(model, opt, batch, *args):
         taken.append(args[-2])                       # (..., cfg, step, hook)
         return real(model, opt, batch, *args)
-    monkeypatch.setattr(wp, "train_step", counting)
+    monkeypatch.setattr(gnfr.fit, "train_step", counting)
     return taken
 
 
@@ -206,13 +206,14 @@ def test_init_from_weights_continues_their_step_count(pretrain_scenes, steps_tak
 def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_taken, tmp_path):
     from dataclasses import replace
 
+    import gnfr.fit
     import workflows.pretrain as wp
     from gnfr.train import PRESETS
 
     class Killed(Exception):
         pass
 
-    real = wp.train_step
+    real = gnfr.fit.train_step
 
     def dies_at_step_5(model, opt, batch, *args):
         if args[-2] == 5:
@@ -222,7 +223,7 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     config = wp.PretrainConfig(scenes=[pretrain_scenes], out=tmp_path / "run", preset="tiny",
                                iters=10, flare=False, device="cpu")
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(wp, "train_step", dies_at_step_5)
+        mp.setattr(gnfr.fit, "train_step", dies_at_step_5)
         with pytest.raises(Killed):
             wp.run(config, cfg)
     # steps 0..4 ran; the last checkpoint is the one after step index 3 (step count 4)
@@ -232,3 +233,31 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     assert steps_taken[5:] == list(range(4, 10))         # continued, not restarted
     assert torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)["step"] == 10
     assert _steps_logged(tmp_path / "run") == [5, 10]   # the killed run's 5 was dropped
+
+
+def test_resumes_a_train_state_of_the_existing_format(pretrain_scenes, steps_taken, tmp_path):
+    """OUT/ as pretraining has written it (weights + {"step", "optimizer", "rng"}): a run
+    in that folder goes on from the step, with the saved optimizer state."""
+    from gnfr.checkpoint import save_model
+    from gnfr.model import GNFR
+    from gnfr.train import PRESETS, make_optimizer
+
+    cfg = PRESETS["tiny"]
+    model = GNFR(cfg.model)
+    opt = make_optimizer(model, cfg)
+    for p in model.parameters():                       # an Adam state to carry over
+        p.grad = torch.ones_like(p)
+    opt.step()
+    out = tmp_path / "out"
+    out.mkdir()
+    save_model(out / "gnfr.safetensors", model, {"step": 7, "preset": "tiny"})
+    gen = torch.Generator().manual_seed(0)
+    torch.save({"step": 7, "optimizer": opt.state_dict(),
+                "rng": {"gen": gen.get_state(), "torch": torch.get_rng_state()}},
+               out / "train_state.pt")
+    _pretrain_cli(pretrain_scenes, out, 9)
+    assert steps_taken == [7, 8]
+    st = torch.load(out / "train_state.pt", weights_only=True)
+    assert list(st) == ["step", "optimizer", "rng"] and st["step"] == 9
+    assert all(int(s["step"]) == 1 + 2 for s in st["optimizer"]["state"].values())
+    assert _steps_logged(out) == [9]

@@ -280,7 +280,7 @@ def test_overfit_scene_reproduces_the_input_views(tmp_path):
     from gnfr.checkpoint import save_model
     from gnfr.model import GNFR, GNFRConfig
     from gnfr.paths import PathCamera, path_to_json
-    from gnfr.train import QUICK, downscale, make_optimizer, sample_batch, train_step
+    from gnfr.train import QUICK, SourceBank, make_optimizer, sample_batch, train_step
     from pipeline.render import RenderConfig, run
     from pipeline.scene_data import load_workspace
 
@@ -309,8 +309,7 @@ def test_overfit_scene_reproduces_the_input_views(tmp_path):
     scene = load_workspace(ws.root)
     model = GNFR(cfg.model)
     opt, gen = make_optimizer(model, cfg), torch.Generator().manual_seed(0)
-    imgs, K, masks = downscale(scene, cfg.source_scale)
-    bank = (imgs, K, masks, scene.c2w.float())
+    bank = SourceBank.of(scene, cfg.source_scale, "cpu")
     for step in range(120):
         train_step(model, opt, sample_batch(scene, cfg, gen), bank, None, cfg, step)
     save_model(ws.model / "gnfr.safetensors", model,

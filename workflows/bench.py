@@ -211,26 +211,25 @@ def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
     """Training it/s and peak memory of one mode."""
     import torch
 
+    from gnfr.fit import StepInput, Trainer
     from gnfr.model import GNFR
-    from gnfr.train import make_optimizer, sample_batch, train_step
-    from pipeline.finetune import prepare_sources
+    from gnfr.train import prepare_sources, sample_batch
 
     tc = replace(tcfg, **TRAIN_MODES[mode])
     torch.manual_seed(0)
     model = GNFR(tc.model).to(device)
-    opt = make_optimizer(model, tc)
-    gen = torch.Generator().manual_seed(0)
+    tr = Trainer(model, tc, gen=torch.Generator().manual_seed(0))
     with PeakMemory(device) as mem:
         t0 = time.perf_counter()
         bank, cache = prepare_sources(model, scene, tc, torch.device(device))
         _sync(device)
         prep = time.perf_counter() - t0
-        for step in range(cfg.warmup):
-            train_step(model, opt, sample_batch(scene, tc, gen), bank, cache, tc, step)
+        for _ in range(cfg.warmup):
+            tr.train_one(StepInput(sample_batch(scene, tc, tr.gen), bank, cache))
         _sync(device)
         t0 = time.perf_counter()
-        for step in range(cfg.warmup, cfg.warmup + cfg.steps):
-            train_step(model, opt, sample_batch(scene, tc, gen), bank, cache, tc, step)
+        for _ in range(cfg.steps):
+            tr.train_one(StepInput(sample_batch(scene, tc, tr.gen), bank, cache))
         _sync(device)
         dt = time.perf_counter() - t0
     return {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,

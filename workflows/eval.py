@@ -522,7 +522,7 @@ def method_provenance(name: str, m: dict, base: Workspace) -> dict:
         used = {"input": [], "inpaint": ["masks"], "photos": ["masks", "depth"]}[name]
         return {"kind": "baseline", "uses": used}
     from gnfr.checkpoint import read_metadata
-    from pipeline.finetune import MODEL_FILE
+    from gnfr.fit import MODEL_FILE
     from pipeline.provenance import sha256
 
     vws = Workspace(m["workspace"])

@@ -11,33 +11,25 @@ Several processes: ``torchrun --nproc_per_node K -m workflows.pretrain ...`` (or
 averaged with an all-reduce (NCCL on CUDA, gloo on CPU), rank 0 writes checkpoints.
 A run resumes from ``OUT/train_state.pt`` (weights, optimizer, step); on resume each rank's
 sampler is re-seeded from (seed, rank, step), so a resumed run is statistically, not
-bitwise, the same as an uninterrupted one.
+bitwise, the same as an uninterrupted one. The loop itself, its files and resume are
+``gnfr.fit``'s (the same as fine-tuning's); a metrics line here is the logged step's own
+values and its scene.
 """
 
 from __future__ import annotations
 
-import json
 import os
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from gnfr.checkpoint import load_train_state, load_weights
-from gnfr.train import PRESETS, Scene, TrainConfig, make_optimizer, sample_batch, train_step
+from gnfr.fit import MODEL_FILE, StepInput, Trainer, has_checkpoint, last_record, render_meta
+from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
 from pipeline.datasets import HELDOUT_SCENES
 from pipeline.errors import UserError
-from pipeline.finetune import (
-    MODEL_FILE,
-    STATE_FILE,
-    init_model,
-    prepare_sources,
-    render_meta,
-    rng_state,
-    trim_metrics,
-)
+from pipeline.finetune import init_model, init_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 
@@ -126,10 +118,8 @@ def start_step(cfg: TrainConfig, init: str, preset: str) -> int:
     and step count go on where that run stopped; its optimizer state is not shipped), else 0.
     ``run`` refuses an ``iters`` that is not above it."""
     from gnfr.checkpoint import read_metadata
-    from pipeline.finetune import shipped_weights
 
-    path = shipped_weights(cfg) if init == "auto" else (None if init == "scratch"
-                                                        else Path(init))
+    path = init_path(cfg, init)
     if path is None or not Path(path).is_file():
         return 0
     _, meta = read_metadata(path)
@@ -185,61 +175,42 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     step = start_step(cfg, config.init, config.preset)
-    resume = (out / STATE_FILE).exists() and (out / MODEL_FILE).exists()
+    resume = has_checkpoint(out)
     if step and not resume and step >= cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
     scenes = load_scenes(config)
     model, how = init_model(cfg, device, config.init)
-    opt = make_optimizer(model, cfg)
+    trainer = Trainer(model, cfg, step=step)
     if step:
         how += f", continuing its step count at {step} (fresh optimizer state)"
-    if resume:
-        load_weights(model, out / MODEL_FILE)
-        st = load_train_state(out / STATE_FILE)
-        opt.load_state_dict(st["optimizer"])
-        step = int(st["step"])
-        how = f"resuming at step {step}"
-    if rank == 0:
-        trim_metrics(out / "metrics.jsonl", step)
+    if resume:  # weights, optimizer, step; the sampler is re-seeded below, not restored
+        trainer.restore(out, rng=False)
+        how = f"resuming at step {trainer.step}"
     if world > 1:
         broadcast_params(model)
     if rank == 0:
         info(f"pretrain: {len(scenes)} scenes, {world} process(es) on {device.type}, "
              f"{cfg.iters} steps, {how}")
-    gen = torch.Generator().manual_seed(cfg.seed * 1_000_003 + rank * 7919 + step)
+    trainer.gen = torch.Generator().manual_seed(cfg.seed * 1_000_003 + rank * 7919
+                                                + trainer.step)
     banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
-    _loop(model, opt, gen, scenes, banks, cfg, step, out, rank, world, config.preset)
+
+    def draw(gen: torch.Generator) -> StepInput:
+        """A random scene, then a batch of it."""
+        k = int(torch.randint(len(scenes), (1,), generator=gen))
+        return StepInput(sample_batch(scenes[k], cfg, gen), *banks[k],
+                         fields={"scene": scenes[k].name})
+
+    with make_progress() as prog:
+        task = prog.add_task("pretrain", total=cfg.iters, completed=trainer.step)
+        trainer.run(draw, out=out, meta=lambda st, _: render_meta(cfg, config.preset, st),
+                    record=last_record, grad_hook=allreduce_grads if world > 1 else None,
+                    writer=rank == 0,
+                    report=lambda st, _, __: prog.update(task, completed=st))
     if world > 1:
         torch.distributed.barrier()
     return out / MODEL_FILE
-
-
-def _loop(model, opt, gen, scenes, banks, cfg, step, out, rank, world, preset) -> None:
-    from gnfr.checkpoint import save_model, save_train_state
-
-    hook = allreduce_grads if world > 1 else None
-    t0, done0 = time.time(), step
-    with make_progress() as prog:
-        task = prog.add_task("pretrain", total=cfg.iters, completed=step)
-        while step < cfg.iters:
-            k = int(torch.randint(len(scenes), (1,), generator=gen))
-            batch = sample_batch(scenes[k], cfg, gen)
-            r = train_step(model, opt, batch, banks[k][0], banks[k][1], cfg, step, hook)
-            step += 1
-            prog.update(task, completed=step)
-            if rank != 0:
-                continue
-            if step % cfg.log_every == 0 or step == cfg.iters:
-                rec = {"step": step, "scene": scenes[k].name, **r,
-                       "it_s": (step - done0) / max(time.time() - t0, 1e-9)}
-                with open(out / "metrics.jsonl", "a") as f:
-                    f.write(json.dumps(rec) + "\n")
-            if step % cfg.ckpt_every == 0 or step == cfg.iters:
-                save_model(out / MODEL_FILE, model, render_meta(cfg, preset, step))
-                save_train_state(out / STATE_FILE, {"step": step,
-                                                    "optimizer": opt.state_dict(),
-                                                    "rng": rng_state(gen)})
 
 
 def export_fp16(run_weights: Path, dest: Path, extra: dict | None = None) -> Path:

@@ -1,0 +1,177 @@
+"""gnfr.fit, the training loop: steps and metric lines, interrupt and resume, file names."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from dataclasses import replace
+
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from gnfr.checkpoint import load_model, read_metadata
+from gnfr.fit import (
+    METRICS_FILE,
+    MODEL_FILE,
+    STATE_FILE,
+    StepInput,
+    Trainer,
+    checkpoint_files,
+    has_checkpoint,
+    last_record,
+    render_meta,
+)
+from gnfr.model import GNFR
+from gnfr.train import TINY, Scene, SourceBank, make_optimizer, prepare_sources, sample_batch
+
+CFG = replace(TINY, iters=6, rays=16, samples=6, log_every=1, ckpt_every=2,
+              model=replace(TINY.model, dropout=0.1))
+
+
+def tiny_scene(n: int = 5, W: int = 64, H: int = 48) -> Scene:
+    """Views on a short arc with smooth random textures, flare in the top-left of every
+    third view."""
+    g = torch.Generator().manual_seed(0)
+    base = torch.rand(n, 3, H // 4, W // 4, generator=g)
+    imgs = (torch.nn.functional.interpolate(base, size=(H, W), mode="bilinear") * 255)
+    K = torch.tensor([[0.8 * W, 0, W / 2], [0, 0.8 * W, H / 2], [0, 0, 1]],
+                     dtype=torch.float64).expand(n, 3, 3)
+    c2w = torch.eye(4, dtype=torch.float64).repeat(n, 1, 1)
+    ang = torch.linspace(-0.3, 0.3, n, dtype=torch.float64)
+    c2w[:, 0, 3], c2w[:, 2, 3] = ang.sin() * 3, -ang.cos() * 3
+    stems = [f"v{i}" for i in range(n)]
+    ranked = {s: [t for t in sorted(stems, key=lambda t: abs(int(t[1:]) - i)) if t != s]
+              for i, s in enumerate(stems)}
+    masks = torch.zeros(n, 1, H, W, dtype=torch.uint8)
+    masks[::3, :, : H // 4, : W // 4] = 1
+    return Scene(stems, imgs.to(torch.uint8), K, c2w, torch.full((n,), 1.5, dtype=torch.float64),
+                 torch.full((n,), 4.5, dtype=torch.float64), masks,
+                 {s: float(masks[i].float().mean()) for i, s in enumerate(stems)}, ranked,
+                 name="tiny")
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return tiny_scene()
+
+
+def new_trainer(cfg=CFG) -> Trainer:
+    torch.manual_seed(cfg.seed)
+    return Trainer(GNFR(cfg.model), cfg)
+
+
+def run(trainer: Trainer, scene: Scene, out, stop_at: int | None = None, **kw) -> dict:
+    """``trainer.run`` on ``scene``; ``stop_at``: the draw of that step raises (a kill)."""
+    bank, cache = prepare_sources(trainer.model, scene, trainer.cfg, "cpu")
+
+    def draw(gen):
+        if stop_at is not None and trainer.step == stop_at:
+            raise KeyboardInterrupt
+        return StepInput(sample_batch(scene, trainer.cfg, gen), bank, cache,
+                         fields={"scene": scene.name})
+
+    return trainer.run(draw, out=out, meta=lambda step, _: render_meta(trainer.cfg, "t", step),
+                       state=lambda step, sec: {"seconds": sec}, **kw)
+
+
+def lines(out) -> list[dict]:
+    return [json.loads(ln) for ln in (out / METRICS_FILE).read_text().splitlines()]
+
+
+def test_runs_its_steps_logs_and_checkpoints(scene, tmp_path):
+    cfg = replace(CFG, log_every=2, ckpt_every=4, iters=5)
+    tr = new_trainer(cfg)
+    seen, reports = [], []
+    stats = run(tr, scene, tmp_path, after_step=lambda inp, r: seen.append(inp.batch.target),
+                report=lambda step, it_s, line: reports.append((step, line is not None)))
+    assert tr.step == 5 and stats["steps"] == 5 and len(seen) == 5
+    assert reports == [(1, False), (2, True), (3, False), (4, True), (5, True)]
+    m = lines(tmp_path)
+    assert [r["step"] for r in m] == [2, 4, 5]                     # every 2 and the last
+    assert list(m[0]) == ["step", "loss", "psnr", "all_flared", "lr_factor", "it_s"]
+    assert all(r["lr_factor"] == 1.0 and r["loss"] > 0 for r in m)
+    st = torch.load(tmp_path / STATE_FILE, weights_only=True)
+    assert st["step"] == 5 and set(st) == {"step", "optimizer", "rng", "seconds"}
+    assert read_metadata(tmp_path / MODEL_FILE)[1]["step"] == 5
+    # a finished run trains no further and writes nothing more
+    stamp = (tmp_path / MODEL_FILE).stat().st_mtime_ns
+    assert run(tr, scene, tmp_path)["steps"] == 5
+    assert (tmp_path / MODEL_FILE).stat().st_mtime_ns == stamp and len(lines(tmp_path)) == 3
+
+
+def test_last_record_and_writer_false(scene, tmp_path):
+    tr = new_trainer(replace(CFG, iters=2))
+    run(tr, scene, tmp_path / "rank1", writer=False)               # a DDP rank other than 0
+    assert tr.step == 2 and not (tmp_path / "rank1").exists()
+    run(new_trainer(replace(CFG, iters=2)), scene, tmp_path / "rank0", record=last_record)
+    m = lines(tmp_path / "rank0")
+    assert [r["step"] for r in m] == [1, 2]
+    assert list(m[0]) == ["step", "scene", "loss", "psnr", "all_flared", "lr_factor", "it_s"]
+    assert m[0]["scene"] == "tiny"
+
+
+def test_interrupted_run_resumes_step_count_optimizer_and_rng(scene, tmp_path):
+    straight = new_trainer()
+    run(straight, scene, tmp_path / "straight")
+    killed = new_trainer()
+    with pytest.raises(KeyboardInterrupt):
+        run(killed, scene, tmp_path / "split", stop_at=5)           # steps 1..5 ran
+    assert killed.step == 5 and len(lines(tmp_path / "split")) == 5
+    saved = torch.load(tmp_path / "split" / STATE_FILE, weights_only=True)
+    assert saved["step"] == 4                                       # the last checkpoint
+    shutil.copytree(tmp_path / "split", tmp_path / "copy")
+    resumed = new_trainer()
+    resumed.restore(tmp_path / "split")
+    assert resumed.step == 4 and resumed.seconds == saved["seconds"] > 0
+    opt_state = resumed.opt.state_dict()["state"]
+    assert opt_state and all(int(s["step"]) == 4 for s in opt_state.values())
+    assert all(torch.equal(a["exp_avg"], b["exp_avg"])
+               for a, b in zip(opt_state.values(), saved["optimizer"]["state"].values(),
+                               strict=True))
+    stats = run(resumed, scene, tmp_path / "split")
+    assert stats["steps"] == 6 and resumed.seconds >= saved["seconds"]
+    a = load_file(str(tmp_path / "straight" / MODEL_FILE))
+    b = load_file(str(tmp_path / "split" / MODEL_FILE))
+    assert all(torch.equal(a[k], b[k]) for k in a)                  # bitwise the same run
+    strip = [{k: v for k, v in r.items() if k != "it_s"} for r in lines(tmp_path / "straight")]
+    assert [{k: v for k, v in r.items() if k != "it_s"} for r in lines(tmp_path / "split")] \
+        == strip                                                    # the killed 5 replaced
+    # control: the same resume with a fresh optimizer ends elsewhere
+    fresh = new_trainer()
+    fresh.restore(tmp_path / "copy")
+    fresh.opt = make_optimizer(fresh.model, CFG)
+    run(fresh, scene, tmp_path / "copy")
+    c = load_file(str(tmp_path / "copy" / MODEL_FILE))
+    assert fresh.step == 6 and not all(torch.equal(a[k], c[k]) for k in a)
+
+
+def test_checkpoint_file_names_and_contents(scene, tmp_path):
+    assert checkpoint_files(tmp_path) == (tmp_path / "gnfr.safetensors",
+                                          tmp_path / "train_state.pt")
+    assert (MODEL_FILE, STATE_FILE, METRICS_FILE) == ("gnfr.safetensors", "train_state.pt",
+                                                      "metrics.jsonl")
+    assert not has_checkpoint(tmp_path)
+    tr = new_trainer()
+    bank, _ = prepare_sources(tr.model, scene, CFG, "cpu")
+    tr.train_one(StepInput(sample_batch(scene, CFG, tr.gen), bank))
+    tr.save(tmp_path, {"step": tr.step, "note": "x"}, {"unseen": torch.ones(2)})
+    assert has_checkpoint(tmp_path)
+    st = torch.load(tmp_path / "train_state.pt", weights_only=True)
+    assert list(st) == ["step", "optimizer", "rng", "unseen"] and st["step"] == 1
+    assert set(st["rng"]) >= {"gen", "torch"}
+    assert read_metadata(tmp_path / "gnfr.safetensors")[1] == {"step": 1, "note": "x"}
+    assert load_model(tmp_path / "gnfr.safetensors").config == CFG.model
+    (tmp_path / "train_state.pt").unlink()
+    assert not has_checkpoint(tmp_path)                             # both files, or none
+
+
+def test_source_bank_fields(scene):
+    bank = SourceBank.of(scene, 0.5, "cpu")
+    assert bank.images.shape == (5, 3, 24, 32) and bank.images.dtype == torch.float32
+    assert bank.K.shape == (5, 3, 3) and bank.c2w.dtype == torch.float32
+    assert bank.masks.shape == (5, 1, 24, 32)
+    assert float(bank.K[0, 0, 2]) == pytest.approx(16.0)             # K rows scale with size
+    model = GNFR(CFG.model).eval()
+    assert bank.encode(model, "cpu", torch.tensor([1, 3])).images.shape[0] == 2
+    assert bank.encode(model, "cpu").feats.shape[0] == 5
