@@ -73,7 +73,7 @@ def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
     return {"step": step, "preset": preset, "samples": cfg.samples,
             "eval_views": cfg.eval_views, "point_sampler": cfg.point_sampler,
             "view_sampler": cfg.view_sampler, "mask_loss": cfg.mask_loss,
-            "source_scale": cfg.source_scale}
+            "source_scale": cfg.source_scale, "full_res_colour": cfg.full_res_colour}
 
 
 def trim_metrics(path: str | Path, step: int) -> None:

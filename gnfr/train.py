@@ -48,6 +48,9 @@ class TrainConfig:
     """Both learning rates are halved every this many steps."""
     source_scale: float = 1.0
     """Sources are encoded at this fraction of their resolution (targets stay full size)."""
+    full_res_colour: bool = False
+    """Sample the sources' colours (and flare masks) at their full resolution while the
+    encoder still sees them at ``source_scale``: sharp colours at the features' cost."""
     cached_features: bool = False
     """Encode every source once with a frozen encoder and reuse the features every step."""
     point_sampler: bool = True
@@ -164,15 +167,20 @@ class SourceBank:
     """[N, 1, h, w] float 1 = flare, or None (no masks)."""
     c2w: torch.Tensor
     """[N, 4, 4] float camera-to-world."""
+    feature_scale: float = 1.0
+    """The encoder sees ``images`` downscaled by this (``SourceViews.encode``)."""
 
     @classmethod
-    def of(cls, scene: Scene, scale: float, device) -> SourceBank:
+    def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False
+           ) -> SourceBank:
         """The views of ``scene`` at ``scale`` of their resolution (``downscale``), on
-        ``device``."""
-        imgs, K, masks = downscale(scene, scale)
+        ``device``; with ``full_res_colour`` the images stay at full resolution and only
+        the encoder sees them at ``scale``."""
+        imgs, K, masks = downscale(scene, 1.0 if full_res_colour else scale)
         return cls(images=imgs.to(device), K=K.to(device),
                    masks=None if masks is None else masks.to(device),
-                   c2w=scene.c2w.float().to(device))
+                   c2w=scene.c2w.float().to(device),
+                   feature_scale=scale if full_res_colour else 1.0)
 
     def encode(self, model: GNFR, device, ids: torch.Tensor | None = None,
                grad: bool = False) -> SourceViews:
@@ -180,17 +188,17 @@ class SourceBank:
         ``grad`` keeps the encoder's graph)."""
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
-                                      grad=grad)
+                                      grad=grad, feature_scale=self.feature_scale)
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
-                                  grad=grad)
+                                  grad=grad, feature_scale=self.feature_scale)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
                     device) -> tuple[SourceBank, SourceViews | None]:
     """(bank, cache): all views at source scale on ``device``, and in cached-feature mode
     their features encoded once with the frozen encoder (which stops training)."""
-    bank = SourceBank.of(scene, cfg.source_scale, device)
+    bank = SourceBank.of(scene, cfg.source_scale, device, cfg.full_res_colour)
     cache = None
     if cfg.cached_features:
         model.encoder.requires_grad_(False)

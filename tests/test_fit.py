@@ -175,3 +175,16 @@ def test_source_bank_fields(scene):
     model = GNFR(CFG.model).eval()
     assert bank.encode(model, "cpu", torch.tensor([1, 3])).images.shape[0] == 2
     assert bank.encode(model, "cpu").feats.shape[0] == 5
+
+
+def test_full_res_colour_bank_keeps_full_images_and_encodes_at_source_scale(scene):
+    small = SourceBank.of(scene, 0.5, "cpu")
+    full = SourceBank.of(scene, 0.5, "cpu", full_res_colour=True)
+    assert full.images.shape[-2:] == scene.images.shape[-2:]
+    assert small.images.shape[-1] == round(scene.images.shape[-1] * 0.5)
+    assert torch.allclose(full.K, scene.K.float()) and full.feature_scale == 0.5
+    torch.manual_seed(0)
+    model = GNFR(CFG.model).eval()
+    a, b = full.encode(model, "cpu"), small.encode(model, "cpu")
+    assert torch.allclose(a.feats, b.feats, atol=1e-5)  # the encoder saw the same images
+    assert a.images.shape[-2:] == scene.images.shape[-2:]
