@@ -222,7 +222,7 @@ def _exif_app1(orientation: int) -> bytes:
 
 
 def test_exif_kept_with_orientation_reset(tmp_path):
-    from pipeline.render_full import with_exif
+    from pipeline.render.full_res import with_exif
 
     img = np.zeros((20, 40, 3), np.uint8)
     img[:, :10] = 255

@@ -184,8 +184,8 @@ def full_dir(ws: Workspace) -> Path:
 
 
 def full_res_jobs(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
-    """Jobs of ``--full-res`` (see pipeline/render_full.py)."""
-    from pipeline.render_full import plan_full_res
+    """Jobs of ``--full-res`` (see pipeline/render/full_res.py)."""
+    from pipeline.render.full_res import plan_full_res
 
     return plan_full_res(ws, jobs, full_dir(ws))
 
@@ -522,7 +522,7 @@ def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> N
         ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, 95])
         if not ok:
             raise OSError(f"could not encode {path}")
-        from pipeline.render_full import with_exif
+        from pipeline.render.full_res import with_exif
 
         atomic_write_bytes(path, with_exif(buf.tobytes(), exif_from))
     else:
@@ -540,7 +540,7 @@ def prepare_job(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict | 
 
     if isinstance(job.camera, Frame):
         if "full" in job.extra:
-            from pipeline.render_full import prepare_full_res
+            from pipeline.render.full_res import prepare_full_res
 
             return prepare_full_res(job, cfg, ws)
         return _prepare_input(job, cfg, ws, photos)
