@@ -130,10 +130,11 @@ def test_mask_warped_through_the_distortion_model(tmp_path):
 
 def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
     import pipeline.render as R
+    import pipeline.render.engine as E  # where frames are written
 
     rays, enc = counters
     cfg = R.RenderConfig(path="interpolate", frames=4, size=(16, 12))
-    real, written = R.write_frame, []
+    real, written = E.write_frame, []
 
     def dying(path, rgb, exif=None):
         if len(written) == 2:
@@ -141,14 +142,14 @@ def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
         real(path, rgb, exif)
         written.append(path)
 
-    monkeypatch.setattr(R, "write_frame", dying)
+    monkeypatch.setattr(E, "write_frame", dying)
     with pytest.raises(KeyboardInterrupt):
         R.run(cfg, rws)
     out = rws.renders / "interpolate"
     assert sorted(p.name for p in out.glob("*.png")) == ["00000.png", "00001.png"]
     assert not list(out.glob(".*"))  # no half-written temporary left behind
     mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.png")}
-    monkeypatch.setattr(R, "write_frame", real)
+    monkeypatch.setattr(E, "write_frame", real)
     rays.calls = 0
     R.run(cfg, rws)
     assert rays.calls == 2  # only the two missing frames were rendered
@@ -222,7 +223,7 @@ def _exif_app1(orientation: int) -> bytes:
 
 
 def test_exif_kept_with_orientation_reset(tmp_path):
-    from pipeline.render.full_res import with_exif
+    from pipeline.render import with_exif
 
     img = np.zeros((20, 40, 3), np.uint8)
     img[:, :10] = 255
