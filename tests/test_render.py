@@ -262,6 +262,39 @@ def test_full_res_blends_into_the_original_photos(rws, counters):
     assert rays.calls == 2 and 48 * 64 <= rays.rays < 110 * 130 + 30 * 40
 
 
+def test_full_res_knows_raw_photos_from_decodes_record(tmp_path):
+    """Which file a view came from and whether it is raw come from decode's record; a
+    workspace whose record lists neither falls back to cameras.json's name and the suffix."""
+    from pipeline.cameras import Frame
+    from pipeline.render import FrameJob, FullRes, full_dir, plan_full_res
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for name in ("a.dng", "b.jpe", "c.jpg"):
+        (photos / name).write_bytes(b"x")
+    ws = Workspace.create(tmp_path / "ws", photos)
+    atomic_imwrite(ws.linear / "a.tiff", np.zeros((4, 4, 3), np.uint16))
+    frames = [Frame(n, n.split(".")[0], np.eye(3), 4, 4, np.eye(4), 0.1, 5.0)
+              for n in ("a.dng", "b.jpe", "c.jpg")]
+    jobs = [FrameJob(ws.deflared / f"{f.stem}.png", ["s"], 0.1, 5.0, f) for f in frames]
+
+    def planned():
+        return {j.camera.stem: (j.out.name, j.full_res) for j in plan_full_res(ws, jobs)}
+
+    guessed = planned()  # no record of raw stems: any suffix OpenCV does not read is raw
+    assert guessed["a"] == ("a.tiff", FullRes(ws.linear / "a.tiff", linear=True))
+    assert "b" not in guessed  # .jpe taken for raw; it has no WS/linear/b.tiff
+    assert guessed["c"] == ("c.jpg", FullRes(photos / "c.jpg", linear=False,
+                                             exif=photos / "c.jpg"))
+    ws.begin_stage("decode", {}, []).finish(
+        [ws.decoded], extra={"sources": {"a": "a.dng", "b": "b.jpe", "c": "c.jpg"},
+                             "raw": ["a"]})
+    known = planned()
+    assert known["b"] == ("b.png", FullRes(photos / "b.jpe", linear=False))
+    assert known["a"] == guessed["a"] and known["c"] == guessed["c"]
+    assert all(j.out.parent == full_dir(ws) for j in plan_full_res(ws, jobs))
+
+
 def _psnr(a: np.ndarray, b: np.ndarray) -> float:
     mse = np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2) / 255.0**2
     return float(-10 * np.log10(max(mse, 1e-10)))

@@ -3,7 +3,10 @@
 For each input photo (read from the photo folder recorded in the manifest, EXIF orientation
 applied) the flare region (the decoded-size mask warped through the camera model, scaled
 up, dilated and feathered) is rendered with the view's COLMAP camera scaled to the
-photo's size and blended into the photo. Output in ``WS/deflared_full/``:
+photo's size and blended into the photo. Which file each view came from, and whether it
+is camera raw, is read from decode's record in the manifest (for a workspace whose record
+does not list them: the file named in cameras.json, raw when OpenCV does not read its
+suffix). Output in ``WS/deflared_full/``:
 - 8-bit JPEG input -> ``<stem>.jpg`` (quality 95) with the photo's EXIF (orientation
   reset to 1, since the pixels are stored upright);
 - other input -> ``<stem>.png`` (16-bit for 16-bit input);
@@ -28,12 +31,20 @@ from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.workspace import Workspace
 
 READABLE = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
-"""Suffixes read as ordinary images (any other photo is taken for camera raw)."""
+"""Suffixes read as ordinary images when decode's record does not say which photos are raw."""
 
 
 def full_dir(ws: Workspace) -> Path:
     """``WS/deflared_full``: the full-resolution de-flared photos."""
     return ws.root / "deflared_full"
+
+
+def decoded_photos(ws: Workspace) -> tuple[dict[str, str], set[str] | None]:
+    """From decode's record in the manifest: ({stem: photo file name}, raw stems). The raw
+    stems are None when the record does not list them (a workspace made by hand)."""
+    rec = ws.stage_record("decode")
+    raw = rec.get("raw")
+    return dict(rec.get("sources") or {}), (set(raw) if raw is not None else None)
 
 
 def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
@@ -45,14 +56,16 @@ def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
              "skipping full-resolution output")
         return []
     out_dir = full_dir(ws)
+    names, raw = decoded_photos(ws)
     out = []
     for j in jobs:
         f = j.camera
-        src = photos / f.name
+        src = photos / names.get(f.stem, f.name)
         if not src.is_file():
             warn(f"--full-res: {src} is missing; {f.stem} skipped")
             continue
-        if src.suffix.lower() not in READABLE:  # camera raw
+        is_raw = f.stem in raw if raw is not None else src.suffix.lower() not in READABLE
+        if is_raw:
             lin = ws.linear / f"{f.stem}.tiff"
             if not lin.is_file():
                 warn(f"--full-res: {src.name} is a raw photo and {lin} is missing (decode "
