@@ -39,8 +39,8 @@ def to_u8(x: np.ndarray) -> np.ndarray:
 
 def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> None:
     """Write one RGB frame atomically: uint8 (PNG, JPEG with the EXIF of ``exif_from``) or
-    uint16 (TIFF). Looked up at call time by pipeline.render.engine, so tests can interrupt
-    it there."""
+    uint16 (TIFF). The engine calls it by its name in pipeline.render.engine, where tests
+    patch it to interrupt a render."""
     import cv2
 
     bgr = np.ascontiguousarray(rgb[..., ::-1])
