@@ -23,7 +23,8 @@ from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.errors import UserError
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
-from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
+from pipeline.render import decoded_camera, flare_mask_in, path_dir, path_poses, rendered_frames
+from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
 
 CV_GL = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenCV <-> OpenGL camera axes (flip y and z)
 
@@ -64,8 +65,8 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     validate(cfg)
     ws.require("pose")
     cams = load_cameras(ws.cameras_json)
-    frames_dir = ws.renders / Path(cfg.path).stem
-    frames = sorted(frames_dir.glob("*.png")) if frames_dir.is_dir() else []
+    frames_dir = path_dir(ws, cfg.path)
+    frames = rendered_frames(frames_dir)
     if not frames:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
                         f"render {ws.root} --path {cfg.path}` first")
@@ -177,16 +178,9 @@ def contact_sheet(tiles: list[np.ndarray], long_side: int = 2400) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- scene.glb
-def path_poses(frames_dir: Path) -> np.ndarray | None:
-    """[M, 4, 4] camera-to-world of a rendered path (its cameras.json), or None."""
-    f = frames_dir / "cameras.json"
-    if not f.is_file():
-        return None
-    return np.asarray([fr["c2w"] for fr in read_json(f)["frames"]], np.float64)
-
-
 def write_glb(ws: Workspace, cams: Cameras, frames_dir: Path) -> Path | None:
-    """Rewrite WS/scene.glb: its sparse points, the input cameras and the rendered path."""
+    """Rewrite WS/scene.glb: its sparse points, the input cameras and the rendered path
+    (the poses of ``frames_dir/cameras.json``, pipeline.render.path_poses)."""
     from pipeline.scene_glb import read_scene_points, write_scene_glb
 
     poses = path_poses(frames_dir)
@@ -258,8 +252,6 @@ def nerfstudio_transforms(ws: Workspace, cams: Cameras, with_masks: bool) -> dic
 def write_transforms(ws: Workspace, cams: Cameras) -> list[Path]:
     """WS/transforms.json and, when masks exist, WS/masks_nerfstudio/<stem>.png."""
     import cv2
-
-    from pipeline.render import decoded_camera, flare_mask_in
 
     with_masks = all((ws.masks / f"{f.stem}.png").exists() for f in cams.frames)
     data = nerfstudio_transforms(ws, cams, with_masks)

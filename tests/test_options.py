@@ -182,7 +182,7 @@ def test_one_device_resolver():
     assert resolve_device("cpu") == "cpu"
     assert resolve_device("auto") in ("cpu", "cuda")
     for bad in ("mps", "tpu9", "CPU", "cuda:x", "cuda0", ""):
-        for fn in (resolve_device, mask.pick_device, finetune.pick_device, render._device,
+        for fn in (resolve_device, mask.pick_device, finetune.pick_device, render.pick_device,
                    fmg_train._device):
             with pytest.raises(UserError, match="must be auto, cpu, cuda or cuda:N"):
                 fn(bad)

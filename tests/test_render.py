@@ -130,10 +130,11 @@ def test_mask_warped_through_the_distortion_model(tmp_path):
 
 def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
     import pipeline.render as R
+    import pipeline.render.engine as E  # where frames are written
 
     rays, enc = counters
     cfg = R.RenderConfig(path="interpolate", frames=4, size=(16, 12))
-    real, written = R.write_frame, []
+    real, written = E.write_frame, []
 
     def dying(path, rgb, exif=None):
         if len(written) == 2:
@@ -141,14 +142,14 @@ def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
         real(path, rgb, exif)
         written.append(path)
 
-    monkeypatch.setattr(R, "write_frame", dying)
+    monkeypatch.setattr(E, "write_frame", dying)
     with pytest.raises(KeyboardInterrupt):
         R.run(cfg, rws)
     out = rws.renders / "interpolate"
     assert sorted(p.name for p in out.glob("*.png")) == ["00000.png", "00001.png"]
     assert not list(out.glob(".*"))  # no half-written temporary left behind
     mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.png")}
-    monkeypatch.setattr(R, "write_frame", real)
+    monkeypatch.setattr(E, "write_frame", real)
     rays.calls = 0
     R.run(cfg, rws)
     assert rays.calls == 2  # only the two missing frames were rendered
@@ -222,7 +223,7 @@ def _exif_app1(orientation: int) -> bytes:
 
 
 def test_exif_kept_with_orientation_reset(tmp_path):
-    from pipeline.render_full import with_exif
+    from pipeline.render import with_exif
 
     img = np.zeros((20, 40, 3), np.uint8)
     img[:, :10] = 255
@@ -259,6 +260,39 @@ def test_full_res_blends_into_the_original_photos(rws, counters):
     # only flare pixels were rendered: one decoded-size view (a new setting rerenders
     # WS/deflared too) and the same view at full resolution
     assert rays.calls == 2 and 48 * 64 <= rays.rays < 110 * 130 + 30 * 40
+
+
+def test_full_res_knows_raw_photos_from_decodes_record(tmp_path):
+    """Which file a view came from and whether it is raw come from decode's record; a
+    workspace whose record lists neither falls back to cameras.json's name and the suffix."""
+    from pipeline.cameras import Frame
+    from pipeline.render import FrameJob, FullRes, full_dir, plan_full_res
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for name in ("a.dng", "b.jpe", "c.jpg"):
+        (photos / name).write_bytes(b"x")
+    ws = Workspace.create(tmp_path / "ws", photos)
+    atomic_imwrite(ws.linear / "a.tiff", np.zeros((4, 4, 3), np.uint16))
+    frames = [Frame(n, n.split(".")[0], np.eye(3), 4, 4, np.eye(4), 0.1, 5.0)
+              for n in ("a.dng", "b.jpe", "c.jpg")]
+    jobs = [FrameJob(ws.deflared / f"{f.stem}.png", ["s"], 0.1, 5.0, f) for f in frames]
+
+    def planned():
+        return {j.camera.stem: (j.out.name, j.full_res) for j in plan_full_res(ws, jobs)}
+
+    guessed = planned()  # no record of raw stems: any suffix OpenCV does not read is raw
+    assert guessed["a"] == ("a.tiff", FullRes(ws.linear / "a.tiff", linear=True))
+    assert "b" not in guessed  # .jpe taken for raw; it has no WS/linear/b.tiff
+    assert guessed["c"] == ("c.jpg", FullRes(photos / "c.jpg", linear=False,
+                                             exif=photos / "c.jpg"))
+    ws.begin_stage("decode", {}, []).finish(
+        [ws.decoded], extra={"sources": {"a": "a.dng", "b": "b.jpe", "c": "c.jpg"},
+                             "raw": ["a"]})
+    known = planned()
+    assert known["b"] == ("b.png", FullRes(photos / "b.jpe", linear=False))
+    assert known["a"] == guessed["a"] and known["c"] == guessed["c"]
+    assert all(j.out.parent == full_dir(ws) for j in plan_full_res(ws, jobs))
 
 
 def _psnr(a: np.ndarray, b: np.ndarray) -> float:

@@ -26,7 +26,7 @@ STAGES = {
     "decode": "pipeline.decode:DecodeConfig", "pose": "pipeline.pose:PoseConfig",
     "mask": "pipeline.mask:MaskConfig", "depth": "pipeline.depth:DepthConfig",
     "select": "pipeline.select:SelectConfig", "finetune": "pipeline.finetune:FinetuneConfig",
-    "render": "pipeline.render:RenderConfig", "export": "pipeline.export:ExportConfig",
+    "render": "pipeline.render.config:RenderConfig", "export": "pipeline.export:ExportConfig",
 }
 """The config class ("module:Class") of every stage the one-shot runs, in order."""
 DEFAULTS = {"render": {"path": "interpolate"}}

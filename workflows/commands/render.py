@@ -10,7 +10,8 @@ from workflows.config_cli import config_command
 
 
 def register(app: typer.Typer) -> None:
-    @config_command(app, "render", "pipeline.render:RenderConfig", aliases={"path": ("-p",)})
+    @config_command(app, "render", "pipeline.render.config:RenderConfig",
+                    aliases={"path": ("-p",)})
     def render_cmd(
         config,
         workspace: Path = typer.Argument(..., help="Workspace folder."),

@@ -1,12 +1,15 @@
-"""``render --path inputs --full-res``: de-flare the ORIGINAL photos at full resolution.
+"""Full-resolution de-flaring (``render --path inputs --full-res``) of the ORIGINAL photos.
 
 For each input photo (read from the photo folder recorded in the manifest, EXIF orientation
 applied) the flare region (the decoded-size mask warped through the camera model, scaled
 up, dilated and feathered) is rendered with the view's COLMAP camera scaled to the
-photo's size and blended into the photo. Output in ``WS/deflared_full/``:
+photo's size and blended into the photo. Which file each view came from, and whether it
+is camera raw, is read from decode's record in the manifest (for a workspace whose record
+does not list them: the file named in cameras.json, raw when OpenCV does not read its
+suffix). Output in ``WS/deflared_full/``:
 - 8-bit JPEG input -> ``<stem>.jpg`` (quality 95) with the photo's EXIF (orientation
   reset to 1, since the pixels are stored upright);
-- other 8-bit input -> ``<stem>.png``; 16-bit input -> ``<stem>.tiff`` (16-bit);
+- other input -> ``<stem>.png`` (16-bit for 16-bit input);
 - raw input -> ``<stem>.tiff``, 16-bit LINEAR, blended into ``WS/linear/<stem>.tiff``:
   the render is linearised (inverse sRGB) and mapped to the camera's linear RGB with
   per-channel gains fitted on the clean pixels of the decoded photo. Without
@@ -15,46 +18,65 @@ photo's size and blended into the photo. Output in ``WS/deflared_full/``:
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 import numpy as np
 
+from pipeline.errors import UserError
 from pipeline.progress import warn
+from pipeline.render.config import RenderConfig
+from pipeline.render.frames import read_rgb
+from pipeline.render.inputs import input_blend, input_rays, match_colours
+from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.workspace import Workspace
 
 READABLE = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
+"""Suffixes read as ordinary images when decode's record does not say which photos are raw."""
 
 
-def plan_full_res(ws: Workspace, jobs: list, out_dir: Path) -> list:
-    """FrameJobs for the photos that can be de-flared at full resolution."""
-    from pipeline.render import FrameJob
+def full_dir(ws: Workspace) -> Path:
+    """``WS/deflared_full``: the full-resolution de-flared photos."""
+    return ws.root / "deflared_full"
 
+
+def decoded_photos(ws: Workspace) -> tuple[dict[str, str], set[str] | None]:
+    """From decode's record in the manifest: ({stem: photo file name}, raw stems). The raw
+    stems are None when the record does not list them (a workspace made by hand)."""
+    rec = ws.stage_record("decode")
+    raw = rec.get("raw")
+    return dict(rec.get("sources") or {}), (set(raw) if raw is not None else None)
+
+
+def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
+    """FrameJobs (into :func:`full_dir`) for the input ``jobs`` whose photos can be
+    de-flared at full resolution."""
     photos = ws.photos_dir
     if photos is None or not photos.is_dir():
         warn(f"--full-res: the photo folder {photos} recorded in the manifest is not there; "
              "skipping full-resolution output")
         return []
+    out_dir = full_dir(ws)
+    names, raw = decoded_photos(ws)
     out = []
     for j in jobs:
         f = j.camera
-        src = photos / f.name
+        src = photos / names.get(f.stem, f.name)
         if not src.is_file():
             warn(f"--full-res: {src} is missing; {f.stem} skipped")
             continue
-        if src.suffix.lower() not in READABLE:  # camera raw
+        is_raw = f.stem in raw if raw is not None else src.suffix.lower() not in READABLE
+        if is_raw:
             lin = ws.linear / f"{f.stem}.tiff"
             if not lin.is_file():
                 warn(f"--full-res: {src.name} is a raw photo and {lin} is missing (decode "
                      "writes it for raw input); skipped")
                 continue
             out.append(FrameJob(out_dir / f"{f.stem}.tiff", j.sources, j.near, j.far, f,
-                                {"full": lin, "linear": True}))
+                                FullRes(lin, linear=True)))
             continue
         ext = ".jpg" if src.suffix.lower() in (".jpg", ".jpeg") else ".png"
         out.append(FrameJob(out_dir / f"{f.stem}{ext}", j.sources, j.near, j.far, f,
-                            {"full": src, "linear": False,
-                             "exif": src if ext == ".jpg" else None}))
+                            FullRes(src, linear=False, exif=src if ext == ".jpg" else None)))
     return out
 
 
@@ -64,13 +86,12 @@ def _read_any(path: Path) -> np.ndarray:
 
     img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
     if img is None:
-        from pipeline.errors import UserError
-
         raise UserError(f"cannot read {path} for --full-res")
     return img[..., ::-1].copy()
 
 
 def srgb_to_linear(x: np.ndarray) -> np.ndarray:
+    """Inverse sRGB transfer function (IEC 61966-2-1) of values in 0..1."""
     return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
@@ -87,28 +108,25 @@ def linear_gains(linear: np.ndarray, decoded: np.ndarray, clean: np.ndarray) -> 
     return np.median(ratio, axis=0) if len(ratio) else np.ones(3)
 
 
-def prepare_full_res(job, cfg, ws: Workspace):
-    """(rays_o, rays_d, compose) of a full-resolution job (see pipeline.render)."""
+def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepared:
+    """The rays and compose of a full-resolution job (no depth guide: network fill only)."""
     import cv2
 
-    from pipeline.render import input_blend, input_rays, match_colours, read_rgb
-
     f = job.camera
-    photo = _read_any(job.extra["full"])
+    full = job.full_res
+    photo = _read_any(full.photo)
     H, W = photo.shape[:2]
     decoded = read_rgb(ws.decoded / f"{f.stem}.png")
     dsize = (decoded.shape[1], decoded.shape[0])
     if abs(W / H - dsize[0] / dsize[1]) > 0.02:
-        from pipeline.errors import UserError
-
-        raise UserError(f"{job.extra['full']} ({W}x{H}) does not have the aspect of "
+        raise UserError(f"{full.photo} ({W}x{H}) does not have the aspect of "
                         f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
     alpha, ring = input_blend(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
     ring = None if ring is None else ring[rows, cols]
     peak = 65535.0 if photo.dtype == np.uint16 else 255.0
     gains = np.ones(3)
-    if job.extra["linear"]:
+    if full.linear:
         small = cv2.resize(photo.astype(np.float32) / peak, dsize, interpolation=cv2.INTER_AREA)
         clean = cv2.resize((alpha == 0).astype(np.uint8), dsize,
                            interpolation=cv2.INTER_NEAREST) > 0
@@ -117,50 +135,9 @@ def prepare_full_res(job, cfg, ws: Workspace):
     def compose(rgb):
         out = photo.astype(np.float32) / peak
         a = alpha[rows, cols, None]
-        new = srgb_to_linear(rgb) * gains if job.extra["linear"] else rgb
+        new = srgb_to_linear(rgb) * gains if full.linear else rgb
         new = match_colours(new, out[rows, cols], ring)  # in the output's own encoding
         out[rows, cols] = out[rows, cols] * (1 - a) + new * a
         return np.clip(np.rint(out * peak), 0, peak).astype(photo.dtype)
 
-    return rays_o, rays_d, compose
-
-
-# --------------------------------------------------------------------------- EXIF
-def _exif_segment(jpeg: bytes) -> bytes | None:
-    """The APP1 Exif segment (marker included) of a JPEG file, or None."""
-    i = 2
-    while i + 4 <= len(jpeg) and jpeg[i] == 0xFF:
-        marker, length = jpeg[i + 1], struct.unpack(">H", jpeg[i + 2:i + 4])[0]
-        if marker == 0xE1 and jpeg[i + 4:i + 10] == b"Exif\x00\x00":
-            return jpeg[i:i + 2 + length]
-        if marker == 0xDA:  # start of scan: no more metadata
-            return None
-        i += 2 + length
-    return None
-
-
-def _reset_orientation(seg: bytes) -> bytes:
-    """The Exif segment with IFD0's Orientation tag (0x0112) set to 1 (upright)."""
-    b = bytearray(seg)
-    tiff = 10  # marker (2) + length (2) + "Exif\0\0" (6)
-    end = "<" if b[tiff:tiff + 2] == b"II" else ">"
-    try:
-        ifd = tiff + struct.unpack(end + "I", b[tiff + 4:tiff + 8])[0]
-        n = struct.unpack(end + "H", b[ifd:ifd + 2])[0]
-        for k in range(n):
-            e = ifd + 2 + 12 * k
-            if struct.unpack(end + "H", b[e:e + 2])[0] == 0x0112:
-                b[e + 8:e + 10] = struct.pack(end + "H", 1)
-    except struct.error:  # truncated IFD: keep the segment as it is
-        pass
-    return bytes(b)
-
-
-def with_exif(jpeg: bytes, source: Path | None) -> bytes:
-    """``jpeg`` with the Exif segment of the JPEG file ``source`` (orientation reset)."""
-    if source is None:
-        return jpeg
-    seg = _exif_segment(Path(source).read_bytes())
-    if seg is None:
-        return jpeg
-    return jpeg[:2] + _reset_orientation(seg) + jpeg[2:]
+    return Prepared(rays_o, rays_d, compose)

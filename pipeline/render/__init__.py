@@ -1,0 +1,158 @@
+"""Stage `render`: de-flared input photos and novel camera paths from the fine-tuned model.
+
+``--path inputs`` renders every input photo at its own camera with its full COLMAP model
+(distortion included) at the size and framing of ``WS/decoded/<stem>.png`` into
+``WS/deflared/<stem>.png``. By default only the flare region is rendered (the FMG mask
+warped from ``WS/images`` geometry, dilated and feathered) and blended over the photo, so
+clean pixels keep their detail; ``blend="none"`` writes the full render. ``interpolate``,
+``spiral`` and a ``FILE.json`` path render novel cameras into ``WS/renders/<path>/``
+(numbered frames; ``<name>.png`` for a JSON path), with the path's cameras beside them in
+``cameras.json`` (the JSON path format, docs/camera_paths.md).
+
+Every source view needed by any frame is encoded ONCE into a feature cache
+(:class:`gnfr.renderer.SourceViews`) that all frames share. Frames are written atomically
+and skipped on restart. Sources: for an input view its ranked pool from ``WS/views.json``
+(itself excluded); for a novel frame every input view ranked by distance to the frame's
+centre; from either, the nearest-10-least-flared (``gnfr.view_sampler.eval_sources``).
+
+Modules (each imports only those listed before it): ``config`` (RenderConfig), ``jobs``
+(the typed FrameJob), ``frames`` (frame files), ``sources`` (source views, model),
+``plan`` (frame jobs, camera paths), ``fill`` (hybrid photo fill), ``inputs`` (input
+views), ``novel`` (novel frames), ``full_res`` (original photos), ``engine`` (rendering
+the jobs); this module is the stage entry and re-exports their public names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, replace
+from pathlib import Path
+
+from pipeline.cameras import load_cameras
+from pipeline.options import validate
+from pipeline.progress import info, warn
+from pipeline.render.config import FILLS, NAMED_PATHS, RenderConfig
+from pipeline.render.engine import (
+    CHUNK,
+    DEPTH_BAND,
+    default_chunk,
+    prepare_job,
+    render_jobs,
+    split_guided,
+)
+from pipeline.render.fill import depth_dir, fill_from_photos, photo_views
+from pipeline.render.frames import (
+    clear_frames,
+    path_dir,
+    path_poses,
+    read_rgb,
+    rendered_frames,
+    with_exif,
+    write_frame,
+    write_path_cameras,
+)
+from pipeline.render.full_res import full_dir, plan_full_res, prepare_full_res
+from pipeline.render.inputs import (
+    MATCH_GAIN,
+    MATCH_MIN_PIXELS,
+    RING_TOLERANCE,
+    blend_weights,
+    decoded_camera,
+    enclosed_holes,
+    flare_mask_in,
+    input_blend,
+    input_rays,
+    match_colours,
+    prepare_input,
+)
+from pipeline.render.jobs import FrameJob, FullRes, Prepared
+from pipeline.render.novel import prepare_hybrid_novel, prepare_novel
+from pipeline.render.plan import (
+    network_scale,
+    novel_depth_range,
+    novel_path,
+    novel_scale,
+    plan_jobs,
+    reference_frame,
+    resize_camera,
+)
+from pipeline.render.sources import (
+    encode_sources,
+    find_checkpoint,
+    input_sources,
+    load_model,
+    load_views,
+    novel_sources,
+    pick_device,
+    train_meta,
+)
+from pipeline.workspace import Workspace
+
+__all__ = [
+    "CHUNK", "DEPTH_BAND", "FILLS", "MATCH_GAIN", "MATCH_MIN_PIXELS", "NAMED_PATHS",
+    "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
+    "clear_frames", "decoded_camera", "default_chunk", "depth_dir", "enclosed_holes",
+    "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in", "full_dir",
+    "input_blend", "input_rays", "input_sources", "load_model", "load_views", "match_colours",
+    "network_scale", "novel_depth_range", "novel_path", "novel_scale", "novel_sources",
+    "path_dir", "path_poses", "photo_views", "pick_device", "plan_full_res", "plan_jobs",
+    "prepare_full_res", "prepare_hybrid_novel", "prepare_input", "prepare_job",
+    "prepare_novel", "read_rgb", "reference_frame", "render_jobs", "rendered_frames",
+    "resize_camera", "run", "split_guided", "train_meta", "with_exif", "write_frame",
+    "write_path_cameras",
+]
+
+
+def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
+    validate(cfg)
+    import torch
+
+    ws.require("pose")
+    cams = load_cameras(ws.cameras_json)
+    views = load_views(ws)
+    device = pick_device(cfg.device)
+    ckpt = find_checkpoint(ws, cfg.checkpoint)
+    meta = train_meta(ckpt)
+    cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
+    use_photos = cfg.fill == "hybrid" and depth_dir(ws).is_dir()
+    if cfg.fill == "hybrid" and not use_photos:
+        warn(f"render: no {depth_dir(ws)} (run `deflare-scene depth {ws.root}`): GN-FR "
+             "renders every pixel")
+        cfg = replace(cfg, fill="network")
+    key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
+                  or (64 if device.startswith("cuda") else 32))
+    params = {**asdict(cfg), "device": None, "chunk": None, "samples": samples,
+              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
+              "scale": novel_scale(cfg, device), "network_scale": network_scale(cfg, device),
+              "depth_samples": (int(cfg.depth_samples) if cfg.depth_samples is not None
+                                else max(4, samples // 3)) if cfg.fill == "hybrid" else 0,
+              "point_sampler": bool(meta.get("point_sampler", True))}
+    inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
+    inputs += [depth_dir(ws)] if use_photos else []
+    inputs += [ws.decoded] if key == "inputs" else []
+    inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
+    run_ = ws.begin_stage(f"render:{key}", params, inputs, force)
+    if run_.skip:
+        info(f"render {key}: up to date ({out_dir})")
+        return run_.outputs
+    if not ws.resumable(run_):
+        clear_frames(out_dir)
+    if key != "inputs":
+        write_path_cameras(out_dir, jobs)
+    full = plan_full_res(ws, jobs) if key == "inputs" and cfg.full_res else []
+    if full and not ws.resumable(run_):
+        clear_frames(full_dir(ws))
+    todo = [j for j in jobs + full if not j.out.exists()]
+    if len(todo) < len(jobs) + len(full):
+        info(f"render {key}: {len(jobs) + len(full) - len(todo)} of {len(jobs) + len(full)} "
+             "images already done")
+    if todo:
+        with torch.inference_mode():
+            model = load_model(ckpt, device)
+            stems = sorted({s for j in todo for s in j.sources})
+            src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"])
+            photos = photo_views(ws, cams, todo, cfg) if use_photos else None
+            render_jobs(model, src, index, todo, params, cfg, ws, photos)
+    outputs = [out_dir] + ([full_dir(ws)] if full else [])
+    return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])

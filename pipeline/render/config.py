@@ -1,0 +1,80 @@
+"""The render stage's options (:class:`RenderConfig`) and the names its paths and fills take."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pipeline.options import option
+
+NAMED_PATHS = ("inputs", "interpolate", "spiral")
+FILLS = ("hybrid", "network")
+
+
+@dataclass
+class RenderConfig:
+    """Options of the render stage."""
+
+    path: str = option("inputs", choices=NAMED_PATHS, suffix=".json")
+    """inputs, interpolate, spiral, or a camera-path FILE.json (docs/camera_paths.md)."""
+    frames: int | None = option(None, ge=1)
+    """Frames of an interpolate / spiral path (default: seconds x fps)."""
+    seconds: float = option(4.0, gt=0)
+    """Length of an interpolate / spiral path when ``frames`` is not given."""
+    fps: float = option(24.0, gt=0)
+    """Frame rate used with ``seconds`` to count frames."""
+    size: tuple[int, int] | None = option(None, ge=1, sep="x", metavar="WIDTHxHEIGHT")
+    """Render size (width, height) of novel frames; overrides ``scale``."""
+    scale: float | None = option(None, gt=0)
+    """Novel frames at this fraction of the input image size (default 1/4 on CPU, 1 on
+    CUDA; a JSON path keeps its own sizes unless ``scale`` or ``size`` is given)."""
+    chunk: int | None = option(None, ge=1)
+    """Rays per forward pass (default: ``default_chunk`` of the device; lower it if memory
+    runs out)."""
+    device: str = option("auto", device=True)
+    """auto (CUDA when available), cpu, cuda or cuda:N."""
+    samples: int | None = option(None, ge=1)
+    """Samples per ray (default: the checkpoint's training value, else 64 CUDA / 32 CPU)."""
+    blend: str = option("mask", choices=("mask", "none"))
+    """inputs: ``mask`` renders and replaces only the flare region; ``none`` the full image."""
+    dilate: float = option(0.01, ge=0)
+    """inputs: the flare mask is grown by this fraction of the image's long side."""
+    feather: float = option(0.01, ge=0)
+    """inputs: width of the soft blend edge as a fraction of the image's long side."""
+    color_match: bool = True
+    """inputs (with ``blend mask``): before blending, map the rendered fill's colours to the
+    photo by a per-channel gain and offset fitted on the rendered pixels just outside the
+    flare mask (the dilation ring, where both the render and the clean photo exist); this
+    removes the fill's colour and exposure drift (docs/eval.md)."""
+    full_res: bool = False
+    """inputs: also render the flare region at the original photo's full resolution and
+    blend it into the original (into WS/deflared_full/)."""
+    n_sources: int | None = option(None, ge=1)
+    """Source views per frame, the least flared of the nearest ``pool`` (default: the
+    checkpoint's eval_views, else 10)."""
+    pool: int = option(20, ge=1)
+    """Nearest views from which the ``n_sources`` least-flared are kept."""
+    source_scale: float | None = option(None, gt=0)
+    """Resolution of the encoded source views relative to WS/images (default: the
+    checkpoint's training value, else 1)."""
+    checkpoint: str | None = None
+    """Model weights (default: the latest checkpoint in WS/model/)."""
+    fill: str = option("hybrid", choices=FILLS)
+    """``hybrid``: where WS/depth exists (`deflare-scene depth`), pixels are taken from the
+    nearest photos warped by depth wherever ``min_support`` of them agree (flare masks and
+    occlusions respected), and GN-FR renders only the rest; ``network``: GN-FR renders every
+    pixel (docs/depth.md)."""
+    min_support: int = option(2, ge=1)
+    """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
+    photo_sources: int = option(4, ge=1)
+    """hybrid: nearest clean photos warped into each image."""
+    network_scale: float | None = option(None, gt=0)
+    """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
+    fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
+    on CUDA)."""
+    depth_samples: int | None = option(None, ge=0)
+    """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
+    with this many samples in a band around it instead of the full near-far range
+    (default: a third of ``samples``; 0 = off)."""
+    depth_support: int = option(2, ge=1)
+    """hybrid: photos that must agree on a pixel before its ray is sampled around their
+    depth (docs/depth.md: 2 was the best worst case on the development scenes)."""

@@ -1,0 +1,49 @@
+"""The hybrid fill's glue: the posed photos a render warps and their depth-warped fill."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.cameras import Cameras
+from pipeline.render.config import RenderConfig
+from pipeline.render.jobs import FrameJob
+from pipeline.workspace import Workspace
+
+
+def depth_dir(ws: Workspace) -> Path:
+    """WS/depth: the depth stage's per-view depth (``deflare-scene depth``)."""
+    return ws.root / "depth"
+
+
+def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:
+    """{stem: PosedView} (WS/images, flare masks, WS/depth) of every photo a job warps."""
+    from pipeline.depth import load_views
+
+    stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
+    return load_views(ws, cams, stems, with_depth=True)
+
+
+def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
+                     reference: tuple[np.ndarray, np.ndarray] | None = None):
+    """(colour [H, W, 3], weight [H, W], depth [H, W]: the splatted depth where some photo
+    agree on it, else 0) of the hybrid fill for one camera: the nearest
+    ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
+    gains matched to ``reference`` = (image, valid) when given (an input view's own clean
+    pixels)."""
+    from pipeline.photo_fill import photo_fill, support_weight
+
+    c = np.asarray(c2w, float)[:3, 3]
+    near = sorted((s for s in job.sources if s in photos),
+                  key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
+    srcs = [photos[s] for s in near[:cfg.photo_sources]]
+    if not srcs:
+        z = np.zeros(size[::-1], np.float32)
+        return np.zeros((size[1], size[0], 3), np.float32), z, z
+    ref, ref_valid = reference if reference is not None else (None, None)
+    pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
+                    reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
+    real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
+                    0).astype(np.float32)
+    return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs))), real

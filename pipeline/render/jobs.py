@@ -1,0 +1,66 @@
+"""The typed frame job (one image to render, optional full-res payload) and its prepared rays."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from pipeline.cameras import Frame
+
+if TYPE_CHECKING:  # gnfr is imported lazily (importing it sets OMP_WAIT_POLICY)
+    from gnfr.paths import PathCamera
+
+
+@dataclass(frozen=True)
+class FullRes:
+    """What a ``--full-res`` job blends into (see pipeline/render/full_res.py)."""
+
+    photo: Path
+    """The original photo, or ``WS/linear/<stem>.tiff`` for a camera raw photo."""
+    linear: bool
+    """True for a raw photo: the render is blended in linear camera RGB."""
+    exif: Path | None = None
+    """A JPEG whose Exif segment the written JPEG keeps (orientation reset)."""
+
+
+@dataclass
+class FrameJob:
+    """One image to render: where it goes, which camera, which sources, depth range.
+
+    ``camera`` is a :class:`pipeline.cameras.Frame` for an input view (de-flared at the
+    size of WS/decoded, or at the original photo's size when ``full_res`` is set) and a
+    ``gnfr.paths.PathCamera`` for a novel frame."""
+
+    out: Path
+    sources: list[str]
+    near: float
+    far: float
+    camera: Frame | PathCamera
+    full_res: FullRes | None = None
+
+    @property
+    def is_input(self) -> bool:
+        """An input view (its photo blended with the render), not a novel frame."""
+        return isinstance(self.camera, Frame)
+
+    @property
+    def exif(self) -> Path | None:
+        """The JPEG whose Exif the written frame keeps (full-resolution JPEGs only)."""
+        return self.full_res.exif if self.full_res is not None else None
+
+
+class Prepared(NamedTuple):
+    """A job ready to render: the rays GN-FR renders and how their colours become the image."""
+
+    rays_o: Any
+    """torch.Tensor [R, 3]: ray origins (R may be 0: nothing to render)."""
+    rays_d: Any
+    """torch.Tensor [R, 3]: ray directions."""
+    compose: Callable[[np.ndarray], np.ndarray]
+    """rgb [R, 3] float -> the frame [H, W, 3] (uint8, or uint16 for a 16-bit original)."""
+    guided: tuple[Any, Any] | None = None
+    """(depth [R], known [R] bool) tensors for depth-guided sampling, or None."""

@@ -1,0 +1,115 @@
+"""Frame planning: the jobs of a path, novel camera paths, their sizes and depth ranges."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.cameras import Cameras, Frame
+from pipeline.errors import UserError
+from pipeline.render.config import NAMED_PATHS, RenderConfig
+from pipeline.render.jobs import FrameJob
+from pipeline.render.sources import input_sources, novel_sources
+from pipeline.workspace import Workspace, read_json
+
+
+def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: dict,
+              device: str) -> tuple[str, Path, list[FrameJob]]:
+    """(path key, output folder, frame jobs) for ``cfg.path``."""
+    if cfg.path == "inputs":
+        if cfg.blend not in ("mask", "none"):
+            raise UserError(f"--blend {cfg.blend!r} is not known: use mask or none")
+        jobs = [FrameJob(ws.deflared / f"{f.stem}.png", input_sources(f.stem, views, cfg),
+                         f.near, f.far, f) for f in cams.frames]
+        return "inputs", ws.deflared, jobs
+    path_cams, key = novel_path(cfg, cams, device)
+    out_dir = ws.renders / key
+    jobs = []
+    for i, pc in enumerate(path_cams):
+        near, far = novel_depth_range(pc.c2w[:3, 3], cams)
+        name = pc.name if key not in NAMED_PATHS else f"{i:05d}"
+        jobs.append(FrameJob(out_dir / f"{name}.png", novel_sources(pc.c2w[:3, 3], cams, views,
+                                                                    cfg), near, far, pc))
+    return key, out_dir, jobs
+
+
+# --------------------------------------------------------------------------- cameras
+def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
+    """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json."""
+    from gnfr import paths
+
+    if cfg.path not in NAMED_PATHS:
+        file = Path(cfg.path)
+        if file.suffix.lower() != ".json":
+            raise UserError(f"--path {cfg.path}: use inputs, interpolate, spiral or a .json "
+                            "camera path file (docs/camera_paths.md)")
+        try:
+            pcs = paths.path_from_json(read_json(file))
+        except ValueError as e:
+            raise UserError(f"{file}: {e} (format: docs/camera_paths.md)") from None
+        if cfg.size or cfg.scale:
+            pcs = [resize_camera(pc, cfg, device) for pc in pcs]
+        return pcs, file.stem
+    if len(cams.frames) < 2:
+        raise UserError(f"--path {cfg.path} needs at least 2 posed views; the workspace has "
+                        f"{len(cams.frames)}")
+    n = cfg.frames or max(1, round(cfg.seconds * cfg.fps))
+    c2ws = np.stack([f.c2w for f in cams.frames])
+    if cfg.path == "interpolate":
+        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
+                                       up=paths.world_up(c2ws))
+    else:
+        near = np.array([f.near for f in cams.frames])
+        far = np.array([f.far for f in cams.frames])
+        poses = paths.spiral_path(c2ws, near, far, n)
+    ref = reference_frame(cams)
+    base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
+    base = resize_camera(base, cfg, device)
+    return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)
+            for i, p in enumerate(poses)], cfg.path
+
+
+def reference_frame(cams: Cameras) -> Frame:
+    """The first view with the most common image size (its K sets novel intrinsics)."""
+    sizes = [(f.width, f.height) for f in cams.frames]
+    common = max(set(sizes), key=sizes.count)
+    return cams.frames[sizes.index(common)]
+
+
+def resize_camera(pc, cfg: RenderConfig, device: str):
+    """A PathCamera scaled to ``cfg.size`` or by ``cfg.scale`` (default by device)."""
+    from gnfr.paths import PathCamera
+
+    if cfg.size:
+        W, H = (int(v) for v in cfg.size)
+    else:
+        s = novel_scale(cfg, device)
+        W, H = max(1, round(pc.width * s)), max(1, round(pc.height * s))
+    K = np.asarray(pc.K, np.float64).copy()
+    K[0] *= W / pc.width
+    K[1] *= H / pc.height
+    return PathCamera(pc.name, K, pc.c2w, W, H)
+
+
+def novel_scale(cfg: RenderConfig, device: str) -> float:
+    """Novel frames' size as a fraction of the input views': 1 on CUDA and with the hybrid
+    fill (the photos give the detail), 1/4 for the network alone on CPU."""
+    if cfg.scale:
+        return float(cfg.scale)
+    return 1.0 if device.startswith("cuda") or cfg.fill == "hybrid" else 0.25
+
+
+def network_scale(cfg: RenderConfig, device: str) -> float:
+    """Fraction of a hybrid novel frame's size at which GN-FR renders its uncovered pixels."""
+    if cfg.network_scale:
+        return float(cfg.network_scale)
+    return 1.0 if device.startswith("cuda") else 0.25
+
+
+def novel_depth_range(center: np.ndarray, cams: Cameras, k: int = 3) -> tuple[float, float]:
+    """(near, far) of a novel camera: the range spanned by its ``k`` nearest input views."""
+    d = np.linalg.norm(cams.centers() - center, axis=1)
+    idx = np.argsort(d, kind="stable")[:k]
+    return (float(min(cams.frames[i].near for i in idx)),
+            float(max(cams.frames[i].far for i in idx)))

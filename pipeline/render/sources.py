@@ -1,0 +1,159 @@
+"""Source views: choosing them per frame, the checkpoint and model, encoding them once."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.cameras import Cameras
+from pipeline.errors import UserError
+from pipeline.options import resolve_device
+from pipeline.progress import warn
+from pipeline.render.config import RenderConfig
+from pipeline.render.frames import read_rgb
+from pipeline.workspace import Workspace, read_json
+
+
+def _eval_sources(ranked: list[str], fractions: list[float], n: int, pool: int) -> list[str]:
+    """The least flared ``n`` of the nearest ``pool`` of ``ranked`` (gnfr.view_sampler)."""
+    from gnfr.view_sampler import eval_sources
+
+    return list(eval_sources(ranked, fractions, n=n, pool=pool))
+
+
+def input_sources(stem: str, views: dict, cfg: RenderConfig) -> list[str]:
+    """Sources of an input view: its ranked pool in views.json (itself excluded)."""
+    pool = [s for s in views[stem]["sources"] if s["stem"] != stem] if stem in views else []
+    if not pool:
+        raise UserError(f"{stem} has no source views in views.json: rerun "
+                        "`deflare-scene select WS`")
+    return _eval_sources([s["stem"] for s in pool], [s["flare_fraction"] for s in pool],
+                         cfg.n_sources, cfg.pool)
+
+
+def novel_sources(center: np.ndarray, cams: Cameras, views: dict,
+                  cfg: RenderConfig) -> list[str]:
+    """Sources of a novel camera: all input views ranked by distance to ``center``."""
+    d = np.linalg.norm(cams.centers() - center, axis=1)
+    ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
+    ranked = [s for s in ranked if s in views]
+    return _eval_sources(ranked, [views[s]["flare_fraction"] for s in ranked],
+                         cfg.n_sources, cfg.pool)
+
+
+def load_views(ws: Workspace) -> dict:
+    """{stem: record} of WS/views.json (select's ranked source pools and flare fractions)."""
+    if not ws.views_json.exists():
+        raise UserError(f"{ws.views_json} is missing: run `deflare-scene select {ws.root}` "
+                        "first")
+    return read_json(ws.views_json)["views"]
+
+
+# --------------------------------------------------------------------------- model, cache
+def pick_device(name: str) -> str:
+    """The torch device to render on (``pipeline.options.resolve_device``, the one resolver)."""
+    return resolve_device(name)
+
+
+def find_checkpoint(ws: Workspace, path: str | None) -> Path:
+    """The weights to render with: ``path``, else the newest checkpoint in WS/model/."""
+    if path:
+        p = Path(path)
+        if not p.is_file():
+            raise UserError(f"checkpoint {p} does not exist")
+        return p
+    found = ws.model / "gnfr.safetensors"  # what `finetune` writes (pipeline/finetune.py)
+    if not found.is_file():
+        cands = sorted(ws.model.glob("*.safetensors"), key=lambda p: p.stat().st_mtime)
+        found = cands[-1] if cands else None
+    if not found:
+        raise UserError(f"no model checkpoint in {ws.model}: run `deflare-scene finetune "
+                        f"{ws.root}` first (or pass --checkpoint FILE.safetensors)")
+    return Path(found)
+
+
+def train_meta(ckpt: Path) -> dict:
+    """Training settings recorded in a checkpoint's metadata (flattened one level)."""
+    try:
+        from gnfr.checkpoint import read_metadata
+
+        meta = read_metadata(ckpt)[1]
+    except Exception:  # unreadable metadata is reported when the model loads
+        return {}
+    flat = {}
+    for v in meta.values():
+        if isinstance(v, dict):
+            flat.update(v)
+    flat.update({k: v for k, v in meta.items() if not isinstance(v, dict)})
+    return flat
+
+
+def load_model(ckpt: Path, device: str):
+    """The GN-FR model of ``ckpt`` on ``device``; a UserError for an unusable checkpoint."""
+    from gnfr.checkpoint import CheckpointError
+    from gnfr.renderer import load_model as load_gnfr
+
+    try:
+        return load_gnfr(ckpt, device)
+    except CheckpointError as e:
+        raise UserError(f"{e}: retrain with `deflare-scene finetune WS --force`") from None
+
+
+def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
+                   scale: float = 1.0):
+    """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i}).
+
+    Images of different sizes are padded to the largest; the padding is marked as flare so
+    the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
+    """
+    import cv2
+    import torch
+
+    from gnfr.renderer import SourceViews
+
+    by = cams.by_stem()
+    imgs = [_resize_img(read_rgb(ws.images / f"{s}.png"), scale) for s in stems]
+    H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
+    have_masks = all((ws.masks / f"{s}.png").exists() for s in stems)
+    if not have_masks:
+        warn(f"no flare masks in {ws.masks} for every source: rendering without the Point "
+             "Sampler (run `deflare-scene mask WS`)")
+    padded = any(i.shape[:2] != (H, W) for i in imgs)
+    images = torch.zeros(len(stems), 3, H, W)
+    masks = torch.ones(len(stems), 1, H, W) if (have_masks or padded) else None
+    for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):
+        h, w = img.shape[:2]
+        images[v, :, :h, :w] = torch.from_numpy(img).permute(2, 0, 1).float() / 255
+        if masks is not None:
+            m = np.zeros((h, w), np.float32)
+            if have_masks:
+                m = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
+                if m is None or m.shape != (by[s].height, by[s].width):
+                    raise UserError(f"{ws.masks / f'{s}.png'} is unreadable or not the size "
+                                    "of its image: rerun `deflare-scene mask WS --force`")
+                m = (_resize_img(m, scale, like=img) > 127).astype(np.float32)
+            masks[v, 0, :h, :w] = torch.from_numpy(m)
+    K = np.stack([by[s].K for s in stems])
+    for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):  # exact K of resized images
+        K[v, 0] *= img.shape[1] / by[s].width
+        K[v, 1] *= img.shape[0] / by[s].height
+    K = torch.tensor(K, dtype=torch.float32)
+    c2w = torch.tensor(np.stack([by[s].c2w for s in stems]), dtype=torch.float32)
+    src = SourceViews.encode(model, images, K, c2w, masks, device)
+    return src, {s: i for i, s in enumerate(stems)}
+
+
+def _resize_img(img: np.ndarray, scale: float, like: np.ndarray | None = None) -> np.ndarray:
+    """Area-resize by ``scale`` (or to the size of ``like``)."""
+    import cv2
+
+    if like is not None:
+        h, w = like.shape[:2]
+    elif scale == 1.0:
+        return img
+    else:
+        h, w = max(8, round(img.shape[0] * scale)), max(8, round(img.shape[1] * scale))
+    if (h, w) == img.shape[:2]:
+        return img
+    return cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
