@@ -1,5 +1,7 @@
-"""Does pretraining help? Fine-tune the quick preset on the held-out sample scene from the
-shipped weights and from scratch at equal steps; training-ray PSNR and held-out-view PSNR.
+"""Benchmark: does pretraining help fine-tuning on the held-out sample scene?
+
+Fine-tune the quick preset on the held-out sample scene from the shipped weights and from
+scratch at equal steps; training-ray PSNR and held-out-view PSNR.
 
     python benchmarks/pretrain_eval.py --out /tmp/cyx --iters 500
 
@@ -48,8 +50,10 @@ def undistort(img: np.ndarray, frame: dict, nearest: bool = False) -> np.ndarray
 def build_workspace(root: Path) -> Path:
     """Posed, masked, selected workspace of the 8 training views (ground-truth cameras)."""
     from pipeline import mask, select
-    from pipeline.cameras import Cameras, Frame, save_cameras
+    from pipeline.cameras import Cameras, Frame
+    from pipeline.images import read_gray, read_image
     from pipeline.workspace import Workspace, atomic_imwrite
+    from pipeline.ws_files import write_cameras
 
     gt = json.loads((TRUTH / "cameras_gt.json").read_text())
     train = json.loads((TRUTH / "split.json").read_text())["train"]
@@ -62,10 +66,10 @@ def build_workspace(root: Path) -> Path:
     out = []
     for s in train:
         fr = frames[s]
-        img = undistort(cv2.imread(str(REPO / "samples" / "cyprus" / f"{s}.jpg")), fr)
-        atomic_imwrite(ws.images / f"{s}.png", img)
-        atomic_imwrite(ws.decoded / f"{s}.png", img)
-        m = undistort(cv2.imread(str(TRUTH / "masks_gt" / f"{s}.png"), 0), fr, nearest=True)
+        img = undistort(read_image(REPO / "samples" / "cyprus" / f"{s}.jpg", bgr=True), fr)
+        atomic_imwrite(ws.image_path(s), img)
+        atomic_imwrite(ws.decoded_path(s), img)
+        m = undistort(read_gray(TRUTH / "masks_gt" / f"{s}.png"), fr, nearest=True)
         cv2.imwrite(str(mdir / f"{s}.png"), m)
         W, H = fr["width"], fr["height"]
         K = np.array(fr["K"])
@@ -73,10 +77,9 @@ def build_workspace(root: Path) -> Path:
                          c2w=np.array(fr["c2w"]), near=fr["near"], far=fr["far"],
                          colmap_camera={"model": "PINHOLE", "width": W, "height": H,
                                         "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}))
-    save_cameras(ws.cameras_json, Cameras(frames=out,
-                                          colmap_to_world=np.array(gt["colmap_to_world"])))
+    write_cameras(ws, Cameras(frames=out, colmap_to_world=np.array(gt["colmap_to_world"])))
     for stage, outs in (("decode", [ws.decoded]), ("pose", [ws.images, ws.cameras_json])):
-        ws.begin_stage(stage, {"pretrain_eval": "gt cameras"}, []).finish(outs)
+        ws.record_stage(stage, {"pretrain_eval": "gt cameras"}, outs)
     mask.run(replace(mask.MaskConfig(), masks_dir=mdir), ws)
     select.run(select.SelectConfig(), ws)
     return root
@@ -89,6 +92,7 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
     from gnfr.renderer import SourceViews, render_rays
     from gnfr.train import downscale
     from gnfr.view_sampler import eval_sources
+    from pipeline.images import read_gray, read_image
     from pipeline.metrics import masked_psnr, psnr
 
     _, meta = read_metadata(model_path)
@@ -112,10 +116,9 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
         out = render_rays(model, src, ids, o, dd, torch.full((n,), fr["near"]),
                           torch.full((n,), fr["far"]), meta["samples"])
         pred = out["rgb"].reshape(H, W, 3).numpy()
-        clean = cv2.cvtColor(undistort(cv2.imread(str(TRUTH / "clean" / f"{s}.png")), fr),
-                             cv2.COLOR_BGR2RGB)
+        clean = undistort(read_image(TRUTH / "clean" / f"{s}.png"), fr)
         clean = cv2.resize(clean, (W, H), interpolation=cv2.INTER_AREA) / 255.0
-        fm = undistort(cv2.imread(str(TRUTH / "masks_gt" / f"{s}.png"), 0), fr, nearest=True)
+        fm = undistort(read_gray(TRUTH / "masks_gt" / f"{s}.png"), fr, nearest=True)
         fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > 127
         res[s] = {"psnr": round(psnr(pred, clean), 2),
                   "psnr_flare_region": round(masked_psnr(pred, clean, fm) or 0.0, 2)}
