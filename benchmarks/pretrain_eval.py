@@ -94,6 +94,7 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
     from gnfr.view_sampler import eval_sources
     from pipeline.images import read_gray, read_image
     from pipeline.metrics import masked_psnr, psnr
+    from pipeline.ws_files import MASK_THRESHOLD
 
     _, meta = read_metadata(model_path)
     model = load_model(model_path)
@@ -119,7 +120,7 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
         clean = undistort(read_image(TRUTH / "clean" / f"{s}.png"), fr)
         clean = cv2.resize(clean, (W, H), interpolation=cv2.INTER_AREA) / 255.0
         fm = undistort(read_gray(TRUTH / "masks_gt" / f"{s}.png"), fr, nearest=True)
-        fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > 127
+        fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > MASK_THRESHOLD
         res[s] = {"psnr": round(psnr(pred, clean), 2),
                   "psnr_flare_region": round(masked_psnr(pred, clean, fm) or 0.0, 2)}
         cv2.imwrite(str(model_path.with_name(f"{model_path.stem}_heldout_{s}.png")),
@@ -140,6 +141,7 @@ def main() -> None:
     from gnfr.train import QUICK
     from pipeline.finetune import fit
     from pipeline.scene_data import load_workspace
+    from pipeline.workspace import MODEL_FILE  # fit writes a WS/model-like folder
 
     root = build_workspace(a.out / "ws")
     scene = load_workspace(root)
@@ -162,7 +164,7 @@ def main() -> None:
         print(json.dumps({"variant": name, "iters": a.iters, "train_wall_s": round(wall),
                           "train_cpu_s": round(cpu), "load": round(os.getloadavg()[0], 1),
                           "train_psnr": curve,
-                          "heldout": render_heldout(out / "gnfr.safetensors", scene,
+                          "heldout": render_heldout(out / MODEL_FILE, scene,
                                                     a.render_scale)}), flush=True)
 
 

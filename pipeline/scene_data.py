@@ -295,7 +295,7 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
 def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
     """Load a workspace, an LLFF folder or a COLMAP workspace, whichever ``path`` is."""
     path = Path(path)
-    if (path / "cameras.json").is_file():
+    if Workspace(path).cameras_json.is_file():
         return load_workspace(path)
     if (path / "poses_bounds.npy").is_file():
         return load_llff(path, max_size)

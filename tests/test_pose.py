@@ -269,7 +269,7 @@ def _synthetic_workspace(root: Path, size: tuple[int, int]):
         sources[stem] = f"{stem}.jpg"
         atomic_imwrite(ws.decoded / f"{stem}.png",
                        rng.integers(0, 255, (size[1], size[0], 3), dtype=np.uint8))
-    ws.begin_stage("decode", {"test": 1}, []).finish([ws.decoded], extra={"sources": sources})
+    ws.record_stage("decode", {"test": 1}, [ws.decoded], extra={"sources": sources})
     return ws, rec, model
 
 
