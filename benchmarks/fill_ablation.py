@@ -1,7 +1,8 @@
-"""The fill's settings on an evaluated scene: re-render the de-flared inputs of a trained
-`eval` variant with each render setting and score them against the clean truth (whole
-image, flare region, SSIM), with the render time. Only the render changes; the model is
-the variant's.
+"""Benchmark of the render fill's settings on an evaluated scene (quality and time).
+
+Re-render the de-flared inputs of a trained `eval` variant with each render setting and
+score them against the clean truth (whole image, flare region, SSIM), with the render time.
+Only the render changes; the model is the variant's.
 
     python benchmarks/fill_ablation.py SCENE_SYNTH --out docs/results/fill_ablation_X.json
 
@@ -42,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.eval import flared_views, load_synth, score_views
 
     scene = load_synth(a.scene)
-    ws = Workspace(a.scene / "eval.ws" / "variants" / a.variant)
+    ws = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)
     stems = flared_views(scene)
     rows = {}
     for name, over in SETTINGS.items():
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
                       "psnr_flare": round(r["psnr_flare"], 3), "ssim": round(r["ssim"], 4),
                       "render_s": round(dt, 1)}
         print(name, json.dumps(rows[name]), flush=True)
-    _, meta = read_metadata(ws.model / "gnfr.safetensors")
+    _, meta = read_metadata(ws.model_file)
     rec = {"scene": str(a.scene), "origin": scene.origin, "variant": a.variant,
            "scored_views": stems, "model": {k: meta.get(k) for k in
                                              ("step", "preset", "init", "init_sha256")},

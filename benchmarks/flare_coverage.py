@@ -14,35 +14,28 @@ validity-only attention. Geometry only, no network.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 
-def _mask(path: Path, size: tuple[int, int]) -> np.ndarray:
-    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE) > 127
-    if m.shape != size[::-1]:
-        m = cv2.resize(m.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
-    return m
-
-
 def coverage(ws: Path, scene: Path, samples: int = 24, rays: int = 2000) -> dict[str, float]:
-    from pipeline.cameras import load_cameras
     from pipeline.render import RenderConfig, input_sources
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_cameras, read_mask, read_mask_file, read_views
 
-    cams = load_cameras(ws / "cameras.json").by_stem()
-    views = json.loads((ws / "views.json").read_text())["views"]
+    w = Workspace(ws)
+    cams = read_cameras(w).by_stem()
+    views = read_views(w).to_json()["views"]  # the JSON form render.input_sources takes
     cfg = RenderConfig(n_sources=6, pool=20)
-    masks = {s: _mask(ws / "masks" / f"{s}.png", (f.width, f.height)) for s, f in cams.items()}
+    masks = {s: read_mask(w, s, (f.width, f.height)) for s, f in cams.items()}
     out = {}
     for s in views:
         gt_path = scene / "masks_gt" / f"{s}.png"
         f = cams[s]
         if not gt_path.is_file():
             continue
-        gt = _mask(gt_path, (f.width, f.height))
+        gt = read_mask_file(gt_path, size=(f.width, f.height))
         if not gt.any():
             continue
         ys, xs = np.nonzero(gt)

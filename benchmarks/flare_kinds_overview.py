@@ -24,12 +24,14 @@ MAX_BYTES = 200_000
 
 def load_backgrounds(root: Path) -> list[np.ndarray]:
     """RGB uint8 photos under ``root`` (sorted), centre-cropped to 4:3 and resized to TILE."""
-    paths = sorted(p for p in root.rglob("*")
-                   if p.suffix.lower() in (".jpg", ".jpeg", ".png") and p.is_file())
+    from pipeline.errors import UserError
+    from pipeline.images import list_photos, read_image
+
     out = []
-    for p in paths:
-        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
-        if img is None or img.ndim != 3:
+    for p in list_photos(root, recursive=True):
+        try:
+            img = read_image(p, bgr=True)
+        except UserError:
             continue
         h, w = img.shape[:2]
         ch, cw = (h, h * 4 // 3) if w * 3 >= h * 4 else (w * 3 // 4, w)

@@ -1,5 +1,7 @@
-"""Decode throughput, pose time/registration, pose accuracy, and the pose stage's overhead
-over plain pycolmap, on the real scenes of ../shared/data.
+"""Benchmark of decode and pose on the real scenes of ../shared/data.
+
+Decode throughput, pose time/registration, pose accuracy, and the pose stage's overhead
+over plain pycolmap.
 
     python benchmarks/pose_decode.py                          # everything (several minutes)
     python benchmarks/pose_decode.py --only decode
@@ -87,7 +89,7 @@ def pose_scene(scene: str, tmp: Path, max_size: int, threads: int, plain: bool) 
     except Exception as e:  # noqa: BLE001 - a failed pose is a result here, not a crash
         ok = str(e)
     dt = time.perf_counter() - t
-    report = json.loads((Workspace.open(ws.root).colmap / "report.json").read_text())
+    report = json.loads(Workspace.open(ws.root).colmap_report.read_text())
     rec = {"scene": scene, "images": report["images"], "registered": report["registered"],
            "seconds": round(dt, 2), "stage_seconds": report.get("seconds"),
            "points3D": report["num_points3D"], "ok": ok,

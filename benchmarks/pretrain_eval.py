@@ -1,5 +1,7 @@
-"""Does pretraining help? Fine-tune the quick preset on the held-out sample scene from the
-shipped weights and from scratch at equal steps; training-ray PSNR and held-out-view PSNR.
+"""Benchmark: does pretraining help fine-tuning on the held-out sample scene?
+
+Fine-tune the quick preset on the held-out sample scene from the shipped weights and from
+scratch at equal steps; training-ray PSNR and held-out-view PSNR.
 
     python benchmarks/pretrain_eval.py --out /tmp/cyx --iters 500
 
@@ -48,8 +50,10 @@ def undistort(img: np.ndarray, frame: dict, nearest: bool = False) -> np.ndarray
 def build_workspace(root: Path) -> Path:
     """Posed, masked, selected workspace of the 8 training views (ground-truth cameras)."""
     from pipeline import mask, select
-    from pipeline.cameras import Cameras, Frame, save_cameras
+    from pipeline.cameras import Cameras, Frame
+    from pipeline.images import read_gray, read_image
     from pipeline.workspace import Workspace, atomic_imwrite
+    from pipeline.ws_files import write_cameras
 
     gt = json.loads((TRUTH / "cameras_gt.json").read_text())
     train = json.loads((TRUTH / "split.json").read_text())["train"]
@@ -62,10 +66,10 @@ def build_workspace(root: Path) -> Path:
     out = []
     for s in train:
         fr = frames[s]
-        img = undistort(cv2.imread(str(REPO / "samples" / "cyprus" / f"{s}.jpg")), fr)
-        atomic_imwrite(ws.images / f"{s}.png", img)
-        atomic_imwrite(ws.decoded / f"{s}.png", img)
-        m = undistort(cv2.imread(str(TRUTH / "masks_gt" / f"{s}.png"), 0), fr, nearest=True)
+        img = undistort(read_image(REPO / "samples" / "cyprus" / f"{s}.jpg", bgr=True), fr)
+        atomic_imwrite(ws.image_path(s), img)
+        atomic_imwrite(ws.decoded_path(s), img)
+        m = undistort(read_gray(TRUTH / "masks_gt" / f"{s}.png"), fr, nearest=True)
         cv2.imwrite(str(mdir / f"{s}.png"), m)
         W, H = fr["width"], fr["height"]
         K = np.array(fr["K"])
@@ -73,10 +77,9 @@ def build_workspace(root: Path) -> Path:
                          c2w=np.array(fr["c2w"]), near=fr["near"], far=fr["far"],
                          colmap_camera={"model": "PINHOLE", "width": W, "height": H,
                                         "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}))
-    save_cameras(ws.cameras_json, Cameras(frames=out,
-                                          colmap_to_world=np.array(gt["colmap_to_world"])))
+    write_cameras(ws, Cameras(frames=out, colmap_to_world=np.array(gt["colmap_to_world"])))
     for stage, outs in (("decode", [ws.decoded]), ("pose", [ws.images, ws.cameras_json])):
-        ws.begin_stage(stage, {"pretrain_eval": "gt cameras"}, []).finish(outs)
+        ws.record_stage(stage, {"pretrain_eval": "gt cameras"}, outs)
     mask.run(replace(mask.MaskConfig(), masks_dir=mdir), ws)
     select.run(select.SelectConfig(), ws)
     return root
@@ -89,7 +92,9 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
     from gnfr.renderer import SourceViews, render_rays
     from gnfr.train import downscale
     from gnfr.view_sampler import eval_sources
+    from pipeline.images import read_gray, read_image
     from pipeline.metrics import masked_psnr, psnr
+    from pipeline.ws_files import MASK_THRESHOLD
 
     _, meta = read_metadata(model_path)
     model = load_model(model_path)
@@ -112,11 +117,10 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
         out = render_rays(model, src, ids, o, dd, torch.full((n,), fr["near"]),
                           torch.full((n,), fr["far"]), meta["samples"])
         pred = out["rgb"].reshape(H, W, 3).numpy()
-        clean = cv2.cvtColor(undistort(cv2.imread(str(TRUTH / "clean" / f"{s}.png")), fr),
-                             cv2.COLOR_BGR2RGB)
+        clean = undistort(read_image(TRUTH / "clean" / f"{s}.png"), fr)
         clean = cv2.resize(clean, (W, H), interpolation=cv2.INTER_AREA) / 255.0
-        fm = undistort(cv2.imread(str(TRUTH / "masks_gt" / f"{s}.png"), 0), fr, nearest=True)
-        fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > 127
+        fm = undistort(read_gray(TRUTH / "masks_gt" / f"{s}.png"), fr, nearest=True)
+        fm = cv2.resize(fm, (W, H), interpolation=cv2.INTER_NEAREST) > MASK_THRESHOLD
         res[s] = {"psnr": round(psnr(pred, clean), 2),
                   "psnr_flare_region": round(masked_psnr(pred, clean, fm) or 0.0, 2)}
         cv2.imwrite(str(model_path.with_name(f"{model_path.stem}_heldout_{s}.png")),
@@ -137,6 +141,7 @@ def main() -> None:
     from gnfr.train import QUICK
     from pipeline.finetune import fit
     from pipeline.scene_data import load_workspace
+    from pipeline.workspace import MODEL_FILE  # fit writes a WS/model-like folder
 
     root = build_workspace(a.out / "ws")
     scene = load_workspace(root)
@@ -159,7 +164,7 @@ def main() -> None:
         print(json.dumps({"variant": name, "iters": a.iters, "train_wall_s": round(wall),
                           "train_cpu_s": round(cpu), "load": round(os.getloadavg()[0], 1),
                           "train_psnr": curve,
-                          "heldout": render_heldout(out / "gnfr.safetensors", scene,
+                          "heldout": render_heldout(out / MODEL_FILE, scene,
                                                     a.render_scale)}), flush=True)
 
 

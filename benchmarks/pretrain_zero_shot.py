@@ -1,7 +1,9 @@
-"""Zero-shot quality of pretrained GN-FR weights: render the held-out cameras of an
-evaluation workspace (`deflare-scene eval` builds one) with NO fine-tuning, network fill,
-and score them against the clean ground truth. A pretrained prior that generalizes better
-scores higher here; it is the cheapest honest comparison of two pretraining checkpoints.
+"""Benchmark of the zero-shot quality of pretrained GN-FR weights (no fine-tuning).
+
+Render the held-out cameras of an evaluation workspace (`deflare-scene eval` builds one)
+with NO fine-tuning, network fill, and score them against the clean ground truth. A
+pretrained prior that generalizes better scores higher here; it is the cheapest honest
+comparison of two pretraining checkpoints.
 
     python benchmarks/pretrain_zero_shot.py SCENE_SYNTH WEIGHTS [WEIGHTS ...] \
         --scale 0.5 --out docs/results/pretrain_zero_shot.json
@@ -39,19 +41,19 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.eval import load_synth, score_views
 
     scene = load_synth(a.scene)
-    base = a.scene / "eval.ws"
-    path_json = base / "eval" / "heldout_cameras.json"
+    base = Workspace(a.scene / "eval.ws")
+    path_json = base.eval / "heldout_cameras.json"
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for w in a.weights:
             ws_dir = Path(tmp) / w.stem
-            shutil.copytree(base, ws_dir, ignore=shutil.ignore_patterns("variants",
-                                                                        "baselines"))
+            shutil.copytree(base.root, ws_dir, ignore=shutil.ignore_patterns(
+                base.variants.name, base.baselines.name))
             ws = Workspace(ws_dir)
             t0 = time.perf_counter()
             render.run(render.RenderConfig(path=str(path_json), checkpoint=str(w),
                                            fill="network", scale=a.scale), ws, force=True)
-            res = score_views(scene, ws.renders / path_json.stem, scene.heldout, False)
+            res = score_views(scene, ws.render_dir(str(path_json)), scene.heldout, False)
             _, meta = read_metadata(w)
             rows.append({"weights": str(w), "sha256": file_sha256(w),
                          "step": meta.get("step"), "scenes": meta.get("pretrain_scenes"),

@@ -12,36 +12,31 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def _read(path: Path, shape: tuple[int, int] | None = None, gray: bool = False) -> np.ndarray:
-    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE if gray else cv2.IMREAD_COLOR)
-    if img is None:
-        raise SystemExit(f"error: cannot read {path}")
-    if shape is not None and img.shape[:2] != shape:
-        interp = cv2.INTER_NEAREST if gray else cv2.INTER_AREA
-        img = cv2.resize(img, (shape[1], shape[0]), interpolation=interp)
-    return img
+sys.path.insert(0, str(REPO))
 
 
 def score(ws: Path, truth: Path) -> dict:
     from pipeline import metrics
+    from pipeline.images import read_image
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_mask_file
 
     photos = {p.stem: p for p in (truth / "photos").iterdir() if p.is_file()}
     per = {}
-    for out in sorted((ws / "deflared").glob("*.png")):
+    for out in sorted(Workspace(ws).deflared.glob("*.png")):
         s = out.stem
-        pred = _read(out)
-        shape = pred.shape[:2]
-        gt = _read(truth / "clean" / f"{s}.png", shape)
-        flared = _read(photos[s], shape)
-        m = _read(truth / "masks_gt" / f"{s}.png", shape, gray=True) > 127
+        pred = read_image(out)
+        size = (pred.shape[1], pred.shape[0])
+        gt = read_image(truth / "clean" / f"{s}.png", size=size)
+        flared = read_image(photos[s], size=size)
+        m = read_mask_file(truth / "masks_gt" / f"{s}.png", size=size)
         per[s] = {"psnr": metrics.psnr(pred, gt), "psnr_input": metrics.psnr(flared, gt),
                   "psnr_flare": metrics.masked_psnr(pred, gt, m) if m.any() else None,
                   "psnr_flare_input": metrics.masked_psnr(flared, gt, m) if m.any() else None}
@@ -60,7 +55,12 @@ def main() -> None:
     ap.add_argument("--truth", type=Path, default=REPO / "samples" / "cyprus_truth")
     ap.add_argument("--out", type=Path, default=None, help="Also write the scores (JSON).")
     a = ap.parse_args()
-    res = score(a.workspace, a.truth)
+    from pipeline.errors import UserError
+
+    try:
+        res = score(a.workspace, a.truth)
+    except UserError as e:
+        raise SystemExit(f"error: {e}") from None
     print("| view | whole: de-flared / flared | flare region: de-flared / flared |")
     print("|---|---|---|")
     rows = [*res["views"].items(), ("**mean**", res["mean"])]
@@ -77,23 +77,21 @@ def main() -> None:
 def run_facts(ws: Path) -> dict:
     """What made the workspace: stage seconds and parameters (manifest), the fine-tuned
     checkpoint's provenance, the video's size and frame count, code and machine."""
-    import sys
-
-    sys.path.insert(0, str(REPO))
     from gnfr.checkpoint import read_metadata
     from pipeline.provenance import code_version, machine
+    from pipeline.workspace import Workspace
 
-    man = json.loads((ws / "manifest.json").read_text())
+    w = Workspace(ws)
     stages = {k: {"seconds": v.get("seconds"), "status": v.get("status")}
-              for k, v in man["stages"].items()}
-    video = next(iter(sorted(ws.glob("*.mp4"))), None)
+              for k, v in w.manifest()["stages"].items()}
+    video = w.video if w.video.exists() else None
     facts = {}
     if video is not None and not video.stem.endswith("_compare"):
         cap = cv2.VideoCapture(str(video))
         facts = {"file": video.name, "frames": int(cap.get(cv2.CAP_PROP_FRAME_COUNT)),
                  "width": int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
                  "height": int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))}
-    _, meta = read_metadata(ws / "model" / "gnfr.safetensors")
+    _, meta = read_metadata(w.model_file)
     return {"workspace": str(ws), "stages": stages, "video": facts,
             "model": {k: meta.get(k) for k in ("step", "preset", "provenance")},
             "code": code_version(), "machine": machine()}

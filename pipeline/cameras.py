@@ -6,6 +6,8 @@
              "c2w" (4x4 camera-to-world, OpenCV: x right, y down, z forward),
              "near", "far", "colmap_camera": {"model", "width", "height", "params"}}]}
 ```
+The normalised frame puts the scene's centre at the origin and the farthest camera at
+distance 1 (``normalising_scale``).
 """
 
 from __future__ import annotations
@@ -83,6 +85,16 @@ class Cameras:
     def centers(self) -> np.ndarray:
         """[N, 3] camera centres."""
         return np.stack([f.center for f in self.frames]) if self.frames else np.zeros((0, 3))
+
+
+def normalising_scale(centers: np.ndarray, origin: np.ndarray, min_radius: float = 0.0
+                      ) -> float:
+    """The scale of the normalised world frame: the farthest camera centre [N, 3] ends at
+    distance 1 from ``origin`` (the frame's new origin). ``min_radius`` floors the radius
+    (forward-facing captures whose cameras barely move); 1.0 when all centres coincide.
+    Every normalisation (pose, LLFF / COLMAP scenes, pretraining scenes) scales with this."""
+    radius = max(float(np.linalg.norm(np.asarray(centers) - origin, axis=1).max()), min_radius)
+    return 1.0 / radius if radius > 1e-12 else 1.0
 
 
 def save_cameras(path: str | os.PathLike, cams: Cameras) -> Path:

@@ -23,5 +23,3 @@ TRAIN_SCENES: tuple[str, ...] = ("et", "sceaux_castle", "sacre_coeur", "buddha",
                                  "fox", "dino", "maryrose", "tumbler", "lund")
 """Scenes training may use (dino cannot be posed; it only serves as FMG background; lund
 ships no poses and is posed by the pipeline)."""
-
-IMAGE_EXTENSIONS = (".jpg", ".jpeg", ".png", ".tif", ".tiff")

@@ -51,19 +51,19 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.colour import linear_to_srgb
 from pipeline.errors import UserError
+from pipeline.images import PHOTO_EXTS
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
-from pipeline.workspace import Workspace, atomic_imwrite
+from pipeline.workspace import Workspace, atomic_imwrite, default_workspace
 
 RAW_EXTS = frozenset({
     ".dng", ".nef", ".nrw", ".cr2", ".cr3", ".crw", ".arw", ".srf", ".sr2", ".raf", ".orf",
     ".rw2", ".rwl", ".pef", ".ptx", ".kdc", ".dcr", ".k25", ".srw", ".x3f", ".3fr", ".fff",
     ".iiq", ".mef", ".mos", ".mrw", ".erf", ".raw", ".dcs", ".cap", ".eip", ".gpr", ".ari",
     ".bay", ".rdc", ".sti", ".cs1", ".mdc"})
-"""Camera raw extensions (read with LibRaw)."""
-IMAGE_EXTS = frozenset({".jpg", ".jpeg", ".jpe", ".png", ".tif", ".tiff", ".bmp", ".webp"})
-"""Ordinary image extensions (read with OpenCV)."""
+"""Camera raw extensions (read with LibRaw); ordinary images: ``pipeline.images.PHOTO_EXTS``."""
 MIN_IMAGES = 3
 
 
@@ -100,7 +100,7 @@ def list_photos(photos: Path) -> list[Photo]:
     by_stem: dict[str, list[Path]] = {}
     for p in files:
         ext = p.suffix.lower()
-        if ext in RAW_EXTS or ext in IMAGE_EXTS:
+        if ext in RAW_EXTS or ext in PHOTO_EXTS:
             by_stem.setdefault(p.stem, []).append(p)
     if not by_stem:
         raise UserError(f"photo folder {photos} has no photos (no camera raw such as DNG/NEF/"
@@ -133,12 +133,6 @@ def resize_area(img: np.ndarray, max_size: int) -> np.ndarray:
     h, w = img.shape[:2]
     W, H = target_size(w, h, max_size)
     return img if (w, h) == (W, H) else cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
-
-
-def srgb_encode(linear: np.ndarray) -> np.ndarray:
-    """sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
-    x = np.clip(linear, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
 def jpeg_truncated(path: Path) -> bool:
@@ -220,19 +214,14 @@ def decode_raw(path: Path, cfg: DecodeConfig) -> tuple[np.ndarray, np.ndarray]:
         msg = e.args[0].decode() if e.args and isinstance(e.args[0], bytes) else str(e)
         raise DecodeError(f"not a readable raw file ({msg})") from None
     cam = resize_area(cam.astype(np.float32), cfg.max_size)
-    srgb = srgb_encode(resize_area(srgb_lin.astype(np.float32), cfg.max_size) / 65535.0)
+    srgb = linear_to_srgb(resize_area(srgb_lin.astype(np.float32), cfg.max_size) / 65535.0,
+                          exact=True)
     png = np.round(srgb * 255.0).astype(np.uint8)
     linear = np.clip(np.round(cam), 0, 65535).astype(np.uint16)
     return cv2.cvtColor(png, cv2.COLOR_RGB2BGR), cv2.cvtColor(linear, cv2.COLOR_RGB2BGR)
 
 
 # --------------------------------------------------------------------------- stage
-def default_workspace(photos: Path) -> Path:
-    """``<photos>.deflare`` beside the photo folder."""
-    photos = Path(photos).resolve()
-    return photos.with_name(photos.name + ".deflare")
-
-
 def _decode_one(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> Photo:
     """Decode ``photo`` (or, if it fails, a same-stem alternative); return the one used.
 
@@ -286,7 +275,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     resume = ws.resumable(run_)
     done, skipped, reused = {}, {}, 0
     for photo in track(chosen, "decode"):
-        png, tiff = ws.decoded / f"{photo.stem}.png", ws.linear / f"{photo.stem}.tiff"
+        png, tiff = ws.decoded_path(photo.stem), ws.linear_path(photo.stem)
         if resume and png.exists() and (tiff.exists() or not photo.is_raw):
             done[photo.stem], reused = photo, reused + 1
             continue

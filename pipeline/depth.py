@@ -18,12 +18,16 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.cameras import Cameras, load_cameras
+from pipeline.cameras import Cameras
 from pipeline.errors import UserError
 from pipeline.options import option, validate
 from pipeline.progress import info, track
 from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depth
-from pipeline.workspace import Workspace, atomic_path
+from pipeline.workspace import Workspace
+from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
+
+__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run"]
+# read_depth: pipeline/ws_files.py (the WS/depth reader), named here for its callers
 
 
 @dataclass
@@ -53,10 +57,6 @@ class DepthConfig:
         validate(self)
 
 
-def depth_path(ws: Workspace, stem: str) -> Path:
-    return ws.root / "depth" / f"{stem}.npz"
-
-
 def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
     """Per stem, the ``n`` other views with the nearest camera centres."""
     c = cams.centers()
@@ -70,45 +70,25 @@ def load_views(ws: Workspace, cams: Cameras, stems: list[str],
                with_depth: bool = False) -> dict[str, PosedView]:
     """{stem: PosedView} of WS/images (float RGB), flare masks as validity where WS/masks
     has them, and WS/depth where ``with_depth`` and present."""
-    import cv2
-
     by = cams.by_stem()
     out = {}
     for s in stems:
-        img = cv2.imread(str(ws.images / f"{s}.png"), cv2.IMREAD_COLOR)
-        if img is None:
-            raise UserError(f"cannot read {ws.images / f'{s}.png'}: rerun `deflare-scene "
-                            f"pose {ws.root}`")
-        mpath = ws.masks / f"{s}.png"
-        m = cv2.imread(str(mpath), cv2.IMREAD_GRAYSCALE) if mpath.exists() else None
-        depth = read_depth(ws, s)[0] if with_depth and depth_path(ws, s).exists() else None
-        out[s] = PosedView(img[..., ::-1].astype(np.float32) / 255.0, np.array(by[s].K, float),
-                           np.array(by[s].c2w), None if m is None else m <= 127, depth)
+        valid = ~read_mask(ws, s) if ws.mask_path(s).exists() else None
+        depth = read_depth(ws, s)[0] if with_depth and ws.depth_path(s).exists() else None
+        out[s] = PosedView(read_view_image(ws, s, as_float=True), np.array(by[s].K, float),
+                           np.array(by[s].c2w), valid, depth)
     return out
-
-
-def read_depth(ws: Workspace, stem: str, path: Path | None = None
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """(depth float32, confidence) of WS/depth/<stem>.npz (or ``path``); a one-line error
-    naming the file when it is unreadable."""
-    path = path or depth_path(ws, stem)
-    try:
-        with np.load(path) as z:
-            return z["depth"].astype(np.float32), z["confidence"]
-    except (OSError, ValueError, KeyError, EOFError) as e:
-        raise UserError(f"{path} is unreadable ({type(e).__name__}): rerun "
-                        f"`deflare-scene depth {ws.root} --force`") from None
 
 
 def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/depth/<stem>.npz for every view; returns [WS/depth]."""
     config.check()
     ws.require("pose")
-    cams = load_cameras(ws.cameras_json)
-    masks = [ws.masks / f"{s}.png" for s in cams.stems if (ws.masks / f"{s}.png").exists()]
+    cams = read_cameras(ws)
+    masks = [ws.mask_path(s) for s in cams.stems if ws.mask_path(s).exists()]
     run_ = ws.begin_stage("depth", asdict(config), [ws.cameras_json, ws.images, *masks],
                           force)
-    out_dir = ws.root / "depth"
+    out_dir = ws.depth
     if run_.skip:
         info(f"depth: up to date ({out_dir})")
         return run_.outputs
@@ -129,8 +109,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
             warnings.simplefilter("ignore", RuntimeWarning)
             d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
                                sweep)
-        with atomic_path(raw) as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, depth=d, confidence=c.astype(np.float16))
+        write_depth(raw, d, c, compressed=False)
     confs = {}
     for s in cams.stems:
         views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
@@ -145,8 +124,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                     config.consistency)
             d = np.where(cnt >= 1, d, 0).astype(np.float32)
             conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
-        with atomic_path(depth_path(ws, s)) as tmp, open(tmp, "wb") as fh:
-            np.savez_compressed(fh, depth=d, confidence=conf)
+        write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
     for p in raw_dir.iterdir():
         p.unlink()

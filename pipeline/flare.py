@@ -93,6 +93,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from pipeline.colour import fast_pow as _pow
+from pipeline.colour import image_to_linear, linear_to_srgb
 from pipeline.errors import UserError
 
 LAMBDA0 = 550.0  # nm, reference wavelength of the PSF grid
@@ -113,40 +115,7 @@ their own; only its glow near the light does."""
 
 
 # --------------------------------------------------------------------------- colour
-def _pow(x: np.ndarray, p: float) -> np.ndarray:
-    """``x ** p`` for x > 0 (float32, any shape) via OpenCV's fast exp/log."""
-    flat = np.maximum(x, np.float32(1e-12)).reshape(-1, 1)
-    return cv2.exp(cv2.log(flat) * np.float32(p)).reshape(x.shape)
-
-
-def srgb_to_linear(x: np.ndarray) -> np.ndarray:
-    """sRGB-encoded values in [0, 1] to linear light (IEC 61966-2-1), float32."""
-    x = np.clip(np.asarray(x, np.float32), 0.0, 1.0)
-    hi = _pow((x + np.float32(0.055)) * np.float32(1 / 1.055), 2.4)
-    return np.where(x <= 0.04045, x * np.float32(1 / 12.92), hi)
-
-
-def linear_to_srgb(x: np.ndarray) -> np.ndarray:
-    """Linear light in [0, 1] (clipped) to sRGB encoding, float32."""
-    x = np.clip(np.asarray(x, np.float32), 0.0, 1.0)
-    hi = np.float32(1.055) * _pow(x, 1 / 2.4) - np.float32(0.055)
-    return np.where(x <= 0.0031308, x * np.float32(12.92), hi)
-
-
-_SRGB8_TO_LINEAR = None
-
-
-def image_to_linear(image: np.ndarray) -> np.ndarray:
-    """[H, W, 3] uint8 (0-255, a table lookup) or float sRGB in [0, 1] -> float32 linear."""
-    global _SRGB8_TO_LINEAR
-    image = np.asarray(image)
-    if image.dtype == np.uint8:
-        if _SRGB8_TO_LINEAR is None:
-            _SRGB8_TO_LINEAR = srgb_to_linear(np.arange(256, dtype=np.float32) / 255)
-        return cv2.LUT(image, _SRGB8_TO_LINEAR)
-    return srgb_to_linear(image)
-
-
+# srgb_to_linear, linear_to_srgb, image_to_linear: pipeline/colour.py (the one sRGB pair)
 def to_float_image(image: np.ndarray) -> np.ndarray:
     """[H, W, 3] uint8 (0-255) or float (0-1) -> float32 in [0, 1]."""
     image = np.asarray(image)

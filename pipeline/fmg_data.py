@@ -29,8 +29,10 @@ import cv2
 import numpy as np
 
 from pipeline import flare as fl
-from pipeline.datasets import HELDOUT_SCENES, IMAGE_EXTENSIONS
+from pipeline.colour import linear_to_srgb, srgb_to_linear
+from pipeline.datasets import HELDOUT_SCENES
 from pipeline.errors import UserError
+from pipeline.images import list_photos, read_image
 
 HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage", "neon",
                                    "reflection")
@@ -77,8 +79,8 @@ class CompositeConfig:
 
 # --------------------------------------------------------------------------- backgrounds
 def find_images(root: Path) -> list[Path]:
-    return sorted(p for p in root.rglob("*") if p.is_file()
-                  and p.suffix.lower() in IMAGE_EXTENSIONS and not p.name.startswith("."))
+    """Every image under ``root`` (recursively; ``pipeline.images.PHOTO_EXTS``)."""
+    return list_photos(root, recursive=True)
 
 
 def split_backgrounds(data: Path) -> tuple[list[Path], list[Path]]:
@@ -97,16 +99,18 @@ def split_backgrounds(data: Path) -> tuple[list[Path], list[Path]]:
 
 
 def load_backgrounds(paths: list[Path], long_side: int) -> list[np.ndarray]:
-    """RGB uint8 images, downscaled so their long side is at most ``long_side``."""
+    """RGB uint8 images, downscaled so their long side is at most ``long_side`` (files
+    that cannot be read are left out)."""
     out = []
     for p in paths:
-        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
-        if img is None:
+        try:
+            img = read_image(p)
+        except UserError:
             continue
         s = long_side / max(img.shape[:2])
         if s < 1:
             img = cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
-        out.append(np.ascontiguousarray(img[..., ::-1]))
+        out.append(img)
     return out
 
 
@@ -266,7 +270,7 @@ def _neg_foliage(lin: np.ndarray, rng: np.random.Generator) -> None:
     own = own / (float(own.mean()) + 1e-3)
     tex = leaves * np.clip(0.5 + 0.5 * own, 0.2, 2.0)
     hue = rng.uniform(0, 40)  # red to orange
-    col = fl.srgb_to_linear(fl.hsv_rgb(hue, rng.uniform(0.6, 1.0)))
+    col = srgb_to_linear(fl.hsv_rgb(hue, rng.uniform(0.6, 1.0)))
     level = np.float32(np.exp(rng.uniform(np.log(0.1), np.log(0.9))))
     _blend(lin, alpha, level * tex[..., None] * col)
 
@@ -338,10 +342,10 @@ def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
     if kinds is None:
         n = int(rng.integers(1, 4))
         kinds = tuple(rng.choice(HARD_NEGATIVES, size=n, replace=False))
-    lin = np.ascontiguousarray(fl.srgb_to_linear(img), np.float32)
+    lin = np.ascontiguousarray(srgb_to_linear(img), np.float32)
     for k in sorted(kinds, key=lambda k: k == "reflection"):
         _NEGATIVES[k](lin, rng)
-    return fl.linear_to_srgb(lin).astype(np.float32)
+    return linear_to_srgb(lin).astype(np.float32)
 
 
 def training_flare(without: tuple[str, ...] = ()) -> fl.FlareConfig:
@@ -360,7 +364,7 @@ def darken_night(img: np.ndarray, cfg: CompositeConfig,
     with a random cool (blue) tint."""
     g = float(np.exp(rng.uniform(*np.log(cfg.night_gain))))
     tint = np.array([1.0 - rng.uniform(0, 0.3), 1.0 - rng.uniform(0, 0.15), 1.0], np.float32)
-    return fl.linear_to_srgb(fl.srgb_to_linear(img) * np.float32(g) * tint).astype(np.float32)
+    return linear_to_srgb(srgb_to_linear(img) * np.float32(g) * tint).astype(np.float32)
 
 
 def random_affine(cfg: CompositeConfig, center: tuple[float, float],
@@ -407,7 +411,7 @@ def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeC
     gain = float(rng.uniform(*flare_cfg.gain))
     noise = float(rng.uniform(*flare_cfg.noise))
     visible = fl.flare_mask(layers.flare, layers.core, flare_cfg,
-                            fl.srgb_to_linear(img) * gain)
+                            srgb_to_linear(img) * gain)
     layers = dataclasses.replace(layers, mask=label & visible)
     return fl.apply_flare(img, layers, rng, noise, gain), layers.mask
 

@@ -1,9 +1,10 @@
 """Stage `mask`: flare-occupancy masks for every view (FMG, or masks the user annotated).
 
 Reads ``WS/images/<stem>.png`` and writes
-- ``WS/masks/<stem>.png``: uint8, 255 = flare, same size as the image;
+- ``WS/masks/<stem>.png``: uint8, 255 = flare, same size as the image
+  (``pipeline.ws_files.write_mask``; read back with ``read_mask``);
 - ``WS/flare.json``: ``{"source": "fmg" | "masks:<dir>", "threshold", "weights",
-  "views": {"<stem>": {"flare_fraction": f, "source": ...}}}``;
+  "views": {"<stem>": {"flare_fraction": f, "source": ...}}}`` (``ws_files.FlareFile``);
 - ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage.
 
 The FMG runs batched at a working resolution (long side ``work_size``) and its probability
@@ -21,11 +22,21 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.datasets import IMAGE_EXTENSIONS
 from pipeline.errors import UserError
+from pipeline.images import image_size, is_photo
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, track
-from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
+from pipeline.workspace import Workspace, atomic_imwrite
+from pipeline.ws_files import (
+    FlareEntry,
+    FlareFile,
+    flare_fraction,
+    read_mask,
+    read_view_image,
+    view_stems,
+    write_flare,
+    write_mask,
+)
 
 DEFAULT_WEIGHTS = Path(__file__).resolve().parents[1] / "gnfr" / "weights" / "fmg.safetensors"
 """The FMG weights shipped with the package (see gnfr/weights/fmg.md)."""
@@ -93,11 +104,6 @@ def load_fmg_weights(path: Path, device: str = "cpu"):
         raise UserError(f"FMG weights {path} cannot be used ({e}): {how}") from None
 
 
-def pick_device(name: str) -> str:
-    """The FMG's torch device (``pipeline.options.resolve_device``)."""
-    return resolve_device(name)
-
-
 # --------------------------------------------------------------------------- FMG masks
 def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
                  eps: float = 1e-3) -> np.ndarray:
@@ -137,24 +143,22 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
     """Run the FMG on the views in ``stems`` and write their masks."""
     import torch
 
-    model = load_fmg_weights(weights_path(config), pick_device(config.device))
-    sizes = {s: _image_size(ws.images / f"{s}.png") for s in stems}
+    model = load_fmg_weights(weights_path(config), resolve_device(config.device))
+    sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
     batches = list(_batches(stems, sizes, config.batch))
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
-            imgs = [read_image(ws.images / f"{s}.png") for s in batch]
+            imgs = [read_view_image(ws, s, bgr=True) for s in batch]
             for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
                                  strict=True):
                 if config.refine:
                     p = refine_probs(img, p)
-                mask = np.where(p > config.threshold, 255, 0).astype(np.uint8)
-                atomic_imwrite(ws.masks / f"{s}.png", mask)
+                write_mask(ws, s, p > config.threshold)
 
 
 # --------------------------------------------------------------------------- given masks
 def find_given_mask(masks_dir: Path, stem: str) -> Path:
-    hits = sorted(p for p in masks_dir.iterdir()
-                  if p.stem == stem and p.suffix.lower() in IMAGE_EXTENSIONS)
+    hits = sorted(p for p in masks_dir.iterdir() if p.stem == stem and is_photo(p))
     if not hits:
         raise UserError(f"--masks {masks_dir} has no mask for view '{stem}': add "
                         f"{masks_dir / (stem + '.png')} (nonzero = flare)")
@@ -167,48 +171,17 @@ def write_given_masks(masks_dir: Path, ws: Workspace, stems: list[str]) -> None:
         raise UserError(f"--masks {masks_dir} is not a folder of mask images")
     srcs = {s: find_given_mask(masks_dir, s) for s in stems}   # all errors before writing
     for s in track(stems, "copying masks"):
+        # the user's file as it is (any depth, alpha): nonzero in any channel is flare
         m = cv2.imread(str(srcs[s]), cv2.IMREAD_UNCHANGED)
         if m is None:
             raise UserError(f"cannot read mask {srcs[s]}: save it as PNG/JPEG")
         if m.ndim == 3:
             m = m.max(axis=2)
-        h, w = _image_size(ws.images / f"{s}.png")
-        m = cv2.resize(m, (w, h), interpolation=cv2.INTER_NEAREST)
-        atomic_imwrite(ws.masks / f"{s}.png", np.where(m > 0, 255, 0).astype(np.uint8))
+        h, w = image_size(ws.image_path(s), fix=ws.rerun("pose"))
+        write_mask(ws, s, cv2.resize(m, (w, h), interpolation=cv2.INTER_NEAREST) > 0)
 
 
 # --------------------------------------------------------------------------- helpers
-def read_image(path: Path) -> np.ndarray:
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"cannot read {path}: rerun `deflare-scene pose` to rewrite it")
-    return img
-
-
-def _image_size(path: Path) -> tuple[int, int]:
-    return read_image(path).shape[:2]
-
-
-def read_mask(path: Path) -> np.ndarray:
-    """[H, W] bool flare mask from a WS/masks png."""
-    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    if m is None:
-        raise UserError(f"cannot read mask {path}: rerun `deflare-scene mask --force`")
-    return m > 127
-
-
-def flare_fraction(mask: np.ndarray) -> float:
-    """Fraction of pixels marked flare in a [H, W] bool / uint8 mask."""
-    return float(np.count_nonzero(mask)) / float(mask.size)
-
-
-def image_stems(ws: Workspace) -> list[str]:
-    stems = sorted(p.stem for p in ws.images.glob("*.png")) if ws.images.is_dir() else []
-    if not stems:
-        raise UserError(f"{ws.images} has no images: run `deflare-scene pose {ws.root}` first")
-    return stems
-
-
 def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int = 320,
                    cols: int | None = None) -> np.ndarray:
     """A BGR contact sheet: each (stem, image BGR, mask bool) tinted red where flare."""
@@ -237,7 +210,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
     validate(config)
     ws.require("pose")
-    stems = image_stems(ws)
+    stems = view_stems(ws)
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
         source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
@@ -258,7 +231,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for p in ws.masks.glob("*.png"):  # masks of views that no longer exist, or stale ones
         if p.stem not in stems or not ws.resumable(run_):
             p.unlink()
-    todo = [s for s in stems if not (ws.masks / f"{s}.png").exists()]
+    todo = [s for s in stems if not ws.mask_path(s).exists()]
     if todo and config.masks_dir is not None:
         write_given_masks(Path(config.masks_dir), ws, todo)
     elif todo:
@@ -268,18 +241,18 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
 
 def _summarise(config: MaskConfig, ws: Workspace, run_, stems: list[str], source: str,
                wid: str | None) -> list[Path]:
-    views, tiles = {}, []
+    flare, tiles = FlareFile(source, config.threshold, wid), []
     src = "fmg" if source == "fmg" else "masks"
     for s in stems:
-        m = read_mask(ws.masks / f"{s}.png")
-        views[s] = {"flare_fraction": round(flare_fraction(m), 6), "source": src}
-        tiles.append((s, read_image(ws.images / f"{s}.png"), m))
-    atomic_write_json(ws.flare_json, {"source": source, "threshold": config.threshold,
-                                      "weights": wid, "views": views})
+        m = read_mask(ws, s)
+        flare.views[s] = FlareEntry(round(flare_fraction(m), 6), src)
+        tiles.append((s, read_view_image(ws, s, bgr=True), m))
+    write_flare(ws, flare)
     atomic_imwrite(ws.masks_overview, overview_sheet(tiles), [cv2.IMWRITE_JPEG_QUALITY, 90])
-    worst = max(views, key=lambda s: views[s]["flare_fraction"])
+    frac = flare.fractions()
+    worst = max(frac, key=lambda s: frac[s])
     info(f"mask: {len(stems)} views, most flared {worst} "
-         f"({100 * views[worst]['flare_fraction']:.1f}%); see {ws.masks_overview}")
+         f"({100 * frac[worst]:.1f}%); see {ws.masks_overview}")
     return run_.finish([ws.masks, ws.flare_json, ws.masks_overview],
                        extra={"views": len(stems)},
                        versions=["torch", "opencv-contrib-python-headless"])
@@ -292,3 +265,4 @@ def stage_seconds(ws: Workspace) -> float:
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id"]
+# flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

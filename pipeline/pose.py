@@ -34,12 +34,14 @@ import numpy as np
 
 from pipeline import colmap_io
 from pipeline.camera_models import MODELS
-from pipeline.cameras import Cameras, Frame, save_cameras
+from pipeline.cameras import Cameras, Frame, normalising_scale
 from pipeline.errors import UserError
+from pipeline.images import read_image
 from pipeline.options import option, validate
 from pipeline.progress import console, info, make_progress, warn
 from pipeline.scene_glb import write_scene_glb
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
+from pipeline.ws_files import write_cameras
 
 MATCHERS = ("auto", "exhaustive", "sequential")
 
@@ -101,8 +103,7 @@ def normalising_transform(centers: np.ndarray, points: np.ndarray) -> np.ndarray
     farthest camera ends at distance 1.
     """
     origin = np.median(points, 0) if len(points) else centers.mean(0)
-    radius = np.linalg.norm(centers - origin, axis=1).max()
-    s = 1.0 / radius if radius > 1e-12 else 1.0
+    s = normalising_scale(centers, origin)
     T = np.eye(4)
     T[:3, :3] *= s
     T[:3, 3] = -s * origin
@@ -166,11 +167,11 @@ class Inputs:
     def of(cls, ws: Workspace) -> Inputs:
         sources = ws.stage_record("decode").get("sources") or {
             p.stem: p.name for p in ws.decoded.glob("*.png")}  # workspaces made by hand
-        stems = sorted(s for s in sources if (ws.decoded / f"{s}.png").is_file())
+        stems = sorted(s for s in sources if ws.decoded_path(s).is_file())
         if not stems:
             raise UserError(f"{ws.decoded} has no decoded images: rerun `deflare-scene decode "
                             "PHOTOS --out " + str(ws.root) + " --force`")
-        sizes = {s: png_size(ws.decoded / f"{s}.png") for s in stems}
+        sizes = {s: png_size(ws.decoded_path(s)) for s in stems}
         return cls(stems, sources, sizes, ws.photos_dir)
 
 
@@ -300,7 +301,7 @@ def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:
     import pycolmap
 
     pycolmap.set_random_seed(cfg.seed)
-    db = ws.colmap / "database.db"
+    db = ws.colmap_db
     if not resume and db.exists():
         db.unlink()
     ws.colmap.mkdir(parents=True, exist_ok=True)
@@ -370,7 +371,7 @@ def check_registration(report: dict, cfg: PoseConfig, ws: Workspace) -> None:
             "structure from motion needs overlapping photos of textured surfaces: take more "
             "photos 10-20 degrees apart with the same subject in view, avoid blur and plain "
             f"or shiny surfaces{hint}, or pass a reconstruction made "
-            f"elsewhere with --colmap-model (details: {ws.colmap / 'report.json'})")
+            f"elsewhere with --colmap-model (details: {ws.colmap_report})")
     if missing:
         warn(f"pose: {len(missing)} image(s) not registered and left out: {', '.join(missing)}")
 
@@ -408,7 +409,7 @@ def undistort(rec, ws: Workspace) -> dict:
             if im.camera_id not in maps:
                 maps[im.camera_id] = undistortion_map(rec.cameras[im.camera_id])
             pinhole, mx, my = maps[im.camera_id]
-            src = cv2.imread(str(ws.decoded / im.name), cv2.IMREAD_COLOR)
+            src = read_image(ws.decoded / im.name, bgr=True, fix=ws.rerun("decode"))
             out = cv2.remap(src, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
             atomic_imwrite(ws.images / im.name, out)
             pinholes[im.name] = pinhole
@@ -465,7 +466,7 @@ def _reconstruct(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> t
     """(reconstruction or None, model sizes, report extras): imported or solved."""
     if cfg.colmap_model:
         rec = colmap_io.import_model(cfg.colmap_model, inp.sizes)
-        (ws.colmap / "database.db").unlink(missing_ok=True)
+        ws.colmap_db.unlink(missing_ok=True)
         return rec, [rec.num_reg_images()], {"matcher": "imported",
                                              "colmap_model": str(cfg.colmap_model)}
     return solve(cfg, ws, inp, resume)
@@ -487,13 +488,13 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     with _ColmapLog(cfg.colmap_log):
         rec, model_sizes, extra = _reconstruct(cfg, ws, inp, ws.resumable(run_))
         report = registration_report(rec, inp, model_sizes, extra)
-        atomic_write_json(ws.colmap / "report.json", report)
+        atomic_write_json(ws.colmap_report, report)
         print_report(report)
         check_registration(report, cfg, ws)
-        colmap_io.write_model(rec, ws.colmap / "sparse" / "0")
+        colmap_io.write_model(rec, ws.colmap_model)
     pinholes = undistort(rec, ws)
     cams, world = build_cameras(rec, pinholes, inp, cfg.depth_margin)
-    save_cameras(ws.cameras_json, cams)
+    write_cameras(ws, cams)
     _, rgb = colmap_io.all_points(rec)
     write_scene_glb(ws.scene_glb, world, rgb, cams.frames)
     info(f"pose: {len(cams.frames)} views -> {ws.cameras_json}, {ws.images}, {ws.scene_glb}")

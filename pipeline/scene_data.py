@@ -1,13 +1,16 @@
-"""Scenes as training tensors (``gnfr.train.Scene``) from three layouts:
+"""Scenes as training tensors (``gnfr.train.Scene``) from a workspace, LLFF or COLMAP folder.
+
+Three layouts:
 
 * a deflare-scene workspace (``WS/images``, ``WS/cameras.json``, optional ``WS/masks`` and
-  ``WS/views.json``);
+  ``WS/views.json``, all read through ``pipeline.ws_files``);
 * an LLFF folder (``poses_bounds.npy`` + ``images/`` or ``images_<f>/``);
 * a COLMAP workspace (``sparse/`` or ``sparse/0`` + ``images/``), read by the small
   pure-python binary/text reader below (no pycolmap).
 
 LLFF and COLMAP scenes are brought into the workspace's normalised frame: camera centres
-centred at the origin within a sphere of radius about 1 (near/far scaled alike).
+centred at the origin within a sphere of radius about 1 (near/far scaled alike;
+``pipeline.cameras.normalising_scale``).
 """
 
 from __future__ import annotations
@@ -17,30 +20,19 @@ import struct
 from collections.abc import Sequence
 from pathlib import Path
 
-import cv2
 import numpy as np
 import torch
 
 from gnfr.train import Scene
-from pipeline.cameras import load_cameras
+from pipeline.cameras import normalising_scale
 from pipeline.errors import UserError
+from pipeline.images import image_size, is_photo, list_photos, read_image
 from pipeline.progress import warn
-from pipeline.workspace import read_json
-
-IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+from pipeline.workspace import Workspace
+from pipeline.ws_files import read_cameras, read_masks, read_views
 
 
 # --------------------------------------------------------------------------- helpers
-def read_rgb(path: Path, size_wh: tuple[int, int] | None = None) -> np.ndarray:
-    """[H, W, 3] uint8 RGB, resized (area) to ``size_wh`` when given."""
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"{path} could not be read as an image: replace or remove it")
-    if size_wh is not None and (img.shape[1], img.shape[0]) != tuple(size_wh):
-        img = cv2.resize(img, tuple(size_wh), interpolation=cv2.INTER_AREA)
-    return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
-
-
 def rank_by_distance(stems: Sequence[str], centers: np.ndarray) -> dict[str, list[str]]:
     """Per stem, every other stem by camera-centre distance, nearest first (stable)."""
     d = np.linalg.norm(centers[:, None] - centers[None], axis=-1)
@@ -77,9 +69,8 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
     workspace convention); returns scaled copies of c2w [N, 4, 4], near [N], far [N]."""
     c2w = c2w.copy()
     centre = c2w[:, :3, 3].mean(0)
-    radius = np.linalg.norm(c2w[:, :3, 3] - centre, axis=1).max()
     # forward-facing captures: keep the scene depth reasonable when cameras barely move
-    s = 1.0 / max(radius, 0.1 * float(np.median(near)), 1e-9)
+    s = normalising_scale(c2w[:, :3, 3], centre, min_radius=0.1 * float(np.median(near)))
     c2w[:, :3, 3] = (c2w[:, :3, 3] - centre) * s
     return c2w, near * s, far * s
 
@@ -87,57 +78,31 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 # --------------------------------------------------------------------------- workspace
 def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scene:
     """A workspace's posed views (and masks / views.json when present) as a Scene."""
-    root = Path(root)
-    cams = load_cameras(root / "cameras.json")
+    ws = Workspace(root)
+    cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
+    names = [f.stem for f in frames]
     size = (frames[0].width, frames[0].height)
     images, Ks = [], []
     for f in frames:
-        p = root / "images" / f"{f.stem}.png"
-        if not p.exists():
-            raise UserError(f"{p} is missing: rerun `deflare-scene pose {root} --force`")
-        images.append(read_rgb(p, size))
+        images.append(read_image(ws.image_path(f.stem), size=size, fix=ws.rerun("pose")))
         K = np.array(f.K, float)
         K[0] *= size[0] / f.width
         K[1] *= size[1] / f.height
         Ks.append(K)
-    masks = _workspace_masks(root, [f.stem for f in frames], size)
-    flare, ranked = _workspace_views(root, [f.stem for f in frames], masks)
-    return make_scene(root.name, [f.stem for f in frames], images, np.stack(Ks),
+    masks = None
+    if ws.masks.is_dir():
+        masks = list(read_masks(ws, names, size).values())
+    else:
+        warn(f"{ws.masks} is missing: treating every view as flare-free (run `deflare-scene "
+             f"mask {ws.root}` for GN-FR's flare handling)")
+    flare = ranked = None
+    if ws.views_json.exists():
+        views = read_views(ws)
+        flare, ranked = views.fractions(names), views.ranked(names)
+    return make_scene(Path(root).name, names, images, np.stack(Ks),
                       np.stack([f.c2w for f in frames]), np.array([f.near for f in frames]),
                       np.array([f.far for f in frames]), masks, flare, ranked)
-
-
-def _workspace_masks(root: Path, stems: list[str], size) -> list[np.ndarray] | None:
-    folder = root / "masks"
-    if not folder.is_dir():
-        warn(f"{folder} is missing: treating every view as flare-free (run `deflare-scene "
-             f"mask {root}` for GN-FR's flare handling)")
-        return None
-    out = []
-    for s in stems:
-        p = folder / f"{s}.png"
-        m = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
-        if m is None:
-            raise UserError(f"{p} is missing or unreadable: rerun `deflare-scene mask {root}`")
-        if (m.shape[1], m.shape[0]) != tuple(size):
-            m = cv2.resize(m, tuple(size), interpolation=cv2.INTER_NEAREST)
-        out.append(m > 127)
-    return out
-
-
-def _workspace_views(root: Path, stems: list[str], masks):
-    p = root / "views.json"
-    if not p.exists():
-        return None, None
-    views = read_json(p).get("views", {})
-    keep = set(stems)
-    flare = {s: float(views[s]["flare_fraction"]) if s in views else 0.0 for s in stems}
-    ranked = {s: [x["stem"] for x in views[s]["sources"] if x["stem"] in keep]
-              for s in stems if s in views}
-    if len(ranked) != len(stems):
-        return flare, None
-    return flare, ranked
 
 
 # --------------------------------------------------------------------------- LLFF
@@ -158,12 +123,12 @@ def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
     pb = np.load(folder / "poses_bounds.npy")
     poses, bounds = pb[:, :15].reshape(-1, 3, 5), pb[:, 15:17]
     img_dir = _llff_image_dir(folder, max_size)
-    files = sorted(p for p in img_dir.iterdir() if p.suffix.lower() in IMAGE_EXTS)
+    files = list_photos(img_dir)
     if len(files) != len(poses):
         raise UserError(f"{img_dir} has {len(files)} images but poses_bounds.npy "
                         f"{len(poses)} poses")
     H0, W0, f0 = poses[0, :, 4]
-    h, w = read_rgb(files[0]).shape[:2]
+    h, w = image_size(files[0])
     if abs((w / W0) / (h / H0) - 1) > 0.01:
         raise UserError(f"{files[0]} is {w}x{h} but poses_bounds.npy says {W0:.0f}x{H0:.0f} "
                         "(another aspect: rotated or cropped images?); use the images the "
@@ -172,7 +137,7 @@ def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
     W, H = round(w * s), round(h * s)
     K = np.array([[f0 * W / W0, 0, W / 2], [0, f0 * H / H0, H / 2], [0, 0, 1]])
     c2w, near, far = normalise(llff_to_opencv(poses), bounds[:, 0] * 0.9, bounds[:, 1] * 1.1)
-    images = [read_rgb(p, (W, H)) for p in files]
+    images = [read_image(p, size=(W, H)) for p in files]
     return make_scene(folder.name, [p.stem for p in files], images, np.tile(K, (len(files), 1, 1)),
                       c2w, near, far)
 
@@ -187,9 +152,12 @@ def _llff_image_dir(folder: Path, max_size: int) -> Path:
         raise UserError(f"{folder} has poses_bounds.npy but no images/ or images_<factor>/ "
                         "folder")
     for p in reversed(cands):  # the smallest images still at least max_size
-        first = next((x for x in sorted(p.iterdir()) if x.suffix.lower() in IMAGE_EXTS), None)
-        img = None if first is None else cv2.imread(str(first))
-        if img is not None and max(img.shape[:2]) >= max_size:
+        first = next((x for x in sorted(p.iterdir()) if is_photo(x)), None)
+        try:
+            big = first is not None and max(image_size(first)) >= max_size
+        except UserError:  # an unreadable image: this folder cannot serve
+            big = False
+        if big:
             return p
     return cands[0]
 
@@ -311,7 +279,7 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
         near, far = (np.percentile(z, 1) * 0.8, np.percentile(z, 99) * 1.2) if len(z) > 4 \
             else (0.1, 100.0)
         stems.append(Path(name).stem)
-        images.append(read_rgb(folder / "images" / name, (W, H)))
+        images.append(read_image(folder / "images" / name, size=(W, H)))
         Ks.append(K)
         c2ws.append(c2w)
         nears.append(near)
@@ -327,7 +295,7 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
 def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
     """Load a workspace, an LLFF folder or a COLMAP workspace, whichever ``path`` is."""
     path = Path(path)
-    if (path / "cameras.json").is_file():
+    if Workspace(path).cameras_json.is_file():
         return load_workspace(path)
     if (path / "poses_bounds.npy").is_file():
         return load_llff(path, max_size)

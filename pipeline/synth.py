@@ -31,10 +31,10 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
+from pipeline.cameras import Cameras, Frame, save_cameras
+from pipeline.colour import srgb_to_linear
 from pipeline.errors import UserError
 from pipeline.flare import (
     KINDS,
@@ -45,11 +45,11 @@ from pipeline.flare import (
     psf_bank,
     render_flare,
     sample_lens,
-    srgb_to_linear,
 )
 from pipeline.options import option, validate
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, atomic_write_text
+from pipeline.ws_files import read_cameras, read_view_image
 
 
 @dataclass
@@ -209,15 +209,12 @@ def _write_view(out: Path, stem: str, img: np.ndarray, layers: FlareLayers,
 
 def _read_image(ws: Workspace, frame: Frame) -> np.ndarray:
     """[H, W, 3] uint8 RGB of WS/images/<stem>.png, checked against cameras.json."""
-    path = ws.images / f"{frame.stem}.png"
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"{path} is missing or unreadable: rerun `deflare-scene pose "
-                        f"{ws.root} --force`")
+    img = read_view_image(ws, frame.stem)
     if img.shape[:2] != (frame.height, frame.width):
-        raise UserError(f"{path} is {img.shape[1]}x{img.shape[0]} but cameras.json says "
-                        f"{frame.width}x{frame.height}: rerun `deflare-scene pose --force`")
-    return img[..., ::-1]
+        raise UserError(f"{ws.image_path(frame.stem)} is {img.shape[1]}x{img.shape[0]} but "
+                        f"cameras.json says {frame.width}x{frame.height}: "
+                        f"{ws.rerun('pose')}")
+    return img
 
 
 def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
@@ -225,7 +222,7 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     validate(cfg)
     ws.require("pose")
     out = _check_out(cfg, ws)
-    cams = load_cameras(ws.cameras_json)
+    cams = read_cameras(ws)
     if len(cams.frames) < 3:
         raise UserError(f"{ws.cameras_json} has {len(cams.frames)} views; synth needs >= 3")
     held = set(heldout_indices(len(cams.frames), cfg.heldout, cfg.heldout_every))

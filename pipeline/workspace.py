@@ -1,7 +1,9 @@
-"""The workspace folder: layout, manifest bookkeeping and atomic writes.
+"""The workspace folder: its paths (each named once), manifest bookkeeping, atomic writes.
 
 One workspace (``WS``) per scene. The user's photo folder is only ever read; every
-output lives under ``WS`` (see ``docs/design.md`` for the contract). Each stage records
+output lives under ``WS`` (see ``docs/design.md`` for the contract). Every path under
+``WS`` is a ``Workspace`` property (or a per-view helper such as ``mask_path(stem)``);
+what the files hold is read and written by ``pipeline/ws_files.py``. Each stage records
 in ``WS/manifest.json`` its parameters, a digest of the inputs it read, the outputs it
 wrote, package versions and timing. A stage whose parameters and input digest are
 unchanged is skipped; since a stage's input digest covers the files earlier stages
@@ -9,7 +11,8 @@ wrote, rerunning an early stage makes every later one that read its outputs stal
 
 All writes go to a temporary name in the destination folder and are renamed into
 place (``os.replace`` is atomic on POSIX), so a run killed at any moment leaves either
-the old file or the new one, never half of one.
+the old file or the new one, never half of one. Outputs made outside a stage's own run
+(ground-truth cameras, linked images) are recorded with ``Workspace.record_stage``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,11 @@ from pipeline.errors import UserError
 
 SCHEMA_VERSION = 1
 MANIFEST = "manifest.json"
+WS_SUFFIX = ".deflare"
+"""A workspace's default name: ``<photos>.deflare`` beside the photo folder."""
+MODEL_FILE = "gnfr.safetensors"
+"""File name of the fine-tuned weights in WS/model (``Workspace.model_file``)."""
+TRAIN_STATE_FILE = "train_state.pt"
 
 
 # --------------------------------------------------------------------------- atomic writes
@@ -145,6 +153,12 @@ def package_versions(*names: str) -> dict[str, str]:
 
 
 # --------------------------------------------------------------------------- workspace
+def default_workspace(photos: str | os.PathLike) -> Path:
+    """``<photos>.deflare`` beside the photo folder: the workspace when no --out is given."""
+    photos = Path(photos).resolve()
+    return photos.with_name(photos.name + WS_SUFFIX)
+
+
 @dataclass
 class StageRun:
     """Bookkeeping of one stage execution; returned by :meth:`Workspace.begin_stage`."""
@@ -188,26 +202,94 @@ class Workspace:
     def __init__(self, root: str | os.PathLike):
         self.root = Path(root).resolve()
 
-    # layout ---------------------------------------------------------------
+    # layout: every path of the contract (docs/design.md), named once ------
     @property
     def manifest_path(self) -> Path:
         return self.root / MANIFEST
 
     decoded = property(lambda self: self.root / "decoded")
+    """WS/decoded/<stem>.png: 8-bit sRGB photos (decode)."""
     linear = property(lambda self: self.root / "linear")
+    """WS/linear/<stem>.tiff: 16-bit linear camera RGB of raw photos (decode)."""
     colmap = property(lambda self: self.root / "colmap")
+    """WS/colmap/: database.db, sparse/0/, report.json (pose)."""
+    colmap_db = property(lambda self: self.root / "colmap" / "database.db")
+    colmap_model = property(lambda self: self.root / "colmap" / "sparse" / "0")
+    colmap_report = property(lambda self: self.root / "colmap" / "report.json")
     images = property(lambda self: self.root / "images")
+    """WS/images/<stem>.png: undistorted pinhole images, what the model reads (pose)."""
     cameras_json = property(lambda self: self.root / "cameras.json")
     scene_glb = property(lambda self: self.root / "scene.glb")
     masks = property(lambda self: self.root / "masks")
+    """WS/masks/<stem>.png: 255 = flare (mask); read with pipeline.ws_files.read_mask."""
     flare_json = property(lambda self: self.root / "flare.json")
     masks_overview = property(lambda self: self.root / "masks_overview.jpg")
+    depth = property(lambda self: self.root / "depth")
+    """WS/depth/<stem>.npz: depth and confidence per view (depth)."""
     views_json = property(lambda self: self.root / "views.json")
     model = property(lambda self: self.root / "model")
+    """WS/model/: the fine-tuned GN-FR and its training state (finetune)."""
+    model_file = property(lambda self: self.root / "model" / MODEL_FILE)
+    """WS/model/gnfr.safetensors: the weights finetune writes and render reads."""
+    train_state = property(lambda self: self.root / "model" / TRAIN_STATE_FILE)
+    metrics_jsonl = property(lambda self: self.root / "model" / "metrics.jsonl")
+    unseen_json = property(lambda self: self.root / "model" / "unseen.json")
     deflared = property(lambda self: self.root / "deflared")
+    """WS/deflared/<stem>.png: render --path inputs."""
+    deflared_full = property(lambda self: self.root / "deflared_full")
+    """WS/deflared_full/<stem>.*: render --full-res."""
     renders = property(lambda self: self.root / "renders")
-    eval = property(lambda self: self.root / "eval")
+    """WS/renders/<path>/: renders of a named or JSON camera path."""
     transforms_json = property(lambda self: self.root / "transforms.json")
+    masks_nerfstudio = property(lambda self: self.root / "masks_nerfstudio")
+    eval = property(lambda self: self.root / "eval")
+    """WS/eval/: table.md, results.json, grid.jpg (eval)."""
+    variants = property(lambda self: self.root / "variants")
+    """WS/variants/<name>/: eval's per-variant workspaces."""
+    baselines = property(lambda self: self.root / "baselines")
+    """WS/baselines/<name>/: eval's baseline outputs."""
+
+    @property
+    def video(self) -> Path:
+        """WS/<scene>.mp4 (export)."""
+        return self.root / f"{self.scene_name}.mp4"
+
+    @property
+    def compare_video(self) -> Path:
+        """WS/<scene>_compare.mp4 (export)."""
+        return self.root / f"{self.scene_name}_compare.mp4"
+
+    @property
+    def compare_sheet(self) -> Path:
+        """WS/<scene>_compare.jpg (export)."""
+        return self.root / f"{self.scene_name}_compare.jpg"
+
+    # per-view files ---------------------------------------------------------
+    def decoded_path(self, stem: str) -> Path:
+        return self.decoded / f"{stem}.png"
+
+    def linear_path(self, stem: str) -> Path:
+        return self.linear / f"{stem}.tiff"
+
+    def image_path(self, stem: str) -> Path:
+        return self.images / f"{stem}.png"
+
+    def mask_path(self, stem: str) -> Path:
+        return self.masks / f"{stem}.png"
+
+    def depth_path(self, stem: str) -> Path:
+        return self.depth / f"{stem}.npz"
+
+    def deflared_path(self, stem: str) -> Path:
+        return self.deflared / f"{stem}.png"
+
+    def render_dir(self, path: str) -> Path:
+        """WS/renders/<path>/ of a named path or of a camera-path FILE.json (its stem)."""
+        return self.renders / Path(path).stem
+
+    def rerun(self, stage: str) -> str:
+        """What to tell a user whose file from ``stage`` is missing or broken."""
+        return f"rerun `deflare-scene {stage} {self.root} --force`"
 
     @property
     def scene_name(self) -> str:
@@ -216,7 +298,7 @@ class Workspace:
         if photos:
             return Path(photos).name
         name = self.root.name
-        return name[: -len(".deflare")] if name.endswith(".deflare") else name
+        return name.removesuffix(WS_SUFFIX)
 
     @property
     def photos_dir(self) -> Path | None:
@@ -282,6 +364,23 @@ class Workspace:
 
     def stage_record(self, stage: str) -> dict:
         return self.manifest()["stages"].get(stage, {})
+
+    def record_stage(self, name: str, params: dict, outputs: Iterable[str | os.PathLike],
+                     inputs: Iterable[str | os.PathLike] = (), extra: dict | None = None
+                     ) -> list[Path]:
+        """Record stage ``name`` as complete with ``outputs`` that were produced outside the
+        stage's own ``run()`` (ground-truth cameras, images linked or written by a tool).
+
+        The record has the shape a real run leaves (params, inputs digest, outputs,
+        versions, timing), so later stages' ``require`` and staleness checks treat it alike.
+        The one way to write such a record.
+        """
+        return self.begin_stage(name, params, inputs, force=True).finish(outputs, extra)
+
+    def copy_stage_records(self, other: Workspace, stages: Iterable[str]) -> None:
+        """Take ``other``'s manifest records of ``stages`` (a workspace sharing its files)."""
+        for stage in stages:
+            self.update_manifest(stage, other.stage_record(stage))
 
     def require(self, *stages: str) -> None:
         """Raise a clear error unless every named stage has completed."""

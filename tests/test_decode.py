@@ -72,11 +72,15 @@ def test_raw_manifest(raw_ws):
 
 
 def test_srgb_encode_properties():
+    from pipeline.colour import linear_to_srgb, srgb_to_linear
+
     x = np.linspace(0, 1, 1001)
-    y = decode.srgb_encode(x)
-    assert y[0] == 0 and abs(y[-1] - 1) < 1e-9
+    y = linear_to_srgb(x, exact=True)  # what decode encodes its 8-bit PNGs with
+    assert y.dtype == np.float64 and y[0] == 0 and abs(y[-1] - 1) < 1e-9
     assert np.all(np.diff(y) > 0)
-    assert abs(decode.srgb_encode(np.array([0.18]))[0] - 0.4614) < 1e-3  # mid grey
+    assert abs(linear_to_srgb(np.array([0.18]), exact=True)[0] - 0.4614) < 1e-3  # mid grey
+    np.testing.assert_allclose(srgb_to_linear(y, exact=True), x, atol=1e-12)
+    np.testing.assert_allclose(linear_to_srgb(x), y, atol=2e-6)  # the fast float32 path
     assert decode.target_size(4000, 3000, 1008) == (1008, 756)
     assert decode.target_size(400, 300, 1008) == (400, 300)  # never upscaled
     assert decode.target_size(400, 300, 0) == (400, 300)

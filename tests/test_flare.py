@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline import flare as F
+from pipeline.colour import linear_to_srgb, srgb_to_linear
 from pipeline.errors import UserError
 
 # a small bank keeps every test fast; the physics is the same as the default's
@@ -28,12 +29,12 @@ def small_cfg(**kw) -> F.FlareConfig:
     return F.FlareConfig(**{**SMALL, **kw})
 
 
-def test_srgb_linear_round_trip_and_monotonic():
+def test_srgb_linear_round_trip_and_monotonic():  # the one sRGB pair (pipeline/colour.py)
     x = np.linspace(0, 1, 1001, dtype=np.float32)
-    lin = F.srgb_to_linear(x)
+    lin = srgb_to_linear(x)
     assert np.all(np.diff(lin) > 0)
     assert abs(lin[500] - 0.2140) < 1e-3  # sRGB 0.5 is about 21% linear
-    np.testing.assert_allclose(F.linear_to_srgb(lin), x, atol=2e-6)
+    np.testing.assert_allclose(linear_to_srgb(lin), x, atol=2e-6)
 
 
 def test_psf_bank_normalised_non_negative_and_cached(tmp_path):
@@ -73,10 +74,10 @@ def test_energy_adds_in_linear_light():
     layers = F.render_flare(lens, (60.0, 40.0), img.shape[:2], rng, intensity=1.0)
     out = F.apply_flare(img, layers)
     assert out.dtype == np.float32 and out.shape == img.shape
-    expect = F.srgb_to_linear(img / 255.0) + layers.flare + layers.core
+    expect = srgb_to_linear(img / 255.0) + layers.flare + layers.core
     ok = expect < 0.999  # where nothing clipped
     assert ok.mean() > 0.3 and (~ok).any()
-    np.testing.assert_allclose(F.srgb_to_linear(out)[ok], expect[ok], atol=1e-5)
+    np.testing.assert_allclose(srgb_to_linear(out)[ok], expect[ok], atol=1e-5)
     np.testing.assert_allclose(out[expect >= 1], 1.0, atol=1e-6)  # clipped
     # float input in [0, 1] gives the same result as uint8
     np.testing.assert_allclose(F.apply_flare(img / 255.0, layers), out, atol=1e-6)
@@ -189,7 +190,7 @@ def kind_cfg(*kinds: str, **kw) -> F.FlareConfig:
 
 def documented_threshold(img: np.ndarray) -> float:
     """The mask rule on a uniform photo: max(MASK_THRESHOLD, MASK_RELATIVE x its luminance)."""
-    lum = float(F.srgb_to_linear(img[0, 0] / 255.0) @ F.LUMA)
+    lum = float(srgb_to_linear(img[0, 0] / 255.0) @ F.LUMA)
     return max(F.MASK_THRESHOLD, F.MASK_RELATIVE * lum)
 
 

@@ -40,8 +40,7 @@ def make_kermit_ws(root: Path, n: int = 6, scale: float = 0.5) -> Workspace:
                             colmap_camera={"model": "PINHOLE", "width": W, "height": H,
                                            "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}))
     save_cameras(ws.cameras_json, Cameras(frames=frames))
-    ws.begin_stage("pose", {"fixture": "kermit-circle"}, []).finish([ws.images,
-                                                                     ws.cameras_json])
+    ws.record_stage("pose", {"fixture": "kermit-circle"}, [ws.images, ws.cameras_json])
     return ws
 
 

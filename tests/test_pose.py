@@ -1,6 +1,8 @@
-"""Pose stage: real scenes (kermit, temple with ground truth, a forward walk in lund), the
-cameras.json contract, COLMAP model import on a synthetic reconstruction, the relaxed mapping
-retry on a synthetic forward walk, and the geometry helpers."""
+"""Pose stage: real scenes, the cameras.json contract, model import, retries, geometry.
+
+Real scenes: kermit, temple with ground truth, a forward walk in lund; COLMAP model import
+on a synthetic reconstruction, the relaxed mapping retry on a synthetic forward walk, and
+the geometry helpers."""
 
 from __future__ import annotations
 
@@ -267,7 +269,7 @@ def _synthetic_workspace(root: Path, size: tuple[int, int]):
         sources[stem] = f"{stem}.jpg"
         atomic_imwrite(ws.decoded / f"{stem}.png",
                        rng.integers(0, 255, (size[1], size[0], 3), dtype=np.uint8))
-    ws.begin_stage("decode", {"test": 1}, []).finish([ws.decoded], extra={"sources": sources})
+    ws.record_stage("decode", {"test": 1}, [ws.decoded], extra={"sources": sources})
     return ws, rec, model
 
 
@@ -347,7 +349,7 @@ def test_frustum_corners_project_to_image_corners():
 def test_plane_sweep_depth_agrees_with_the_sparse_points(kermit):
     """The depth stage on a real posed scene: where it gives a depth at a sparse point's
     pixel, the depth matches the point's (median relative error printed by the assert)."""
-    from pipeline.depth import DepthConfig, depth_path
+    from pipeline.depth import DepthConfig
     from pipeline.depth import run as depth_run
 
     depth_run(DepthConfig(), kermit)
@@ -357,7 +359,7 @@ def test_plane_sweep_depth_agrees_with_the_sparse_points(kermit):
     rel, covered = [], []
     for im in colmap_io.registered_images(rec):
         f = by[Path(im.name).stem]
-        d = np.load(depth_path(kermit, f.stem))["depth"]
+        d = np.load(kermit.depth_path(f.stem))["depth"]
         pts = colmap_io.points_seen(rec, im) @ T[:3, :3].T + T[:3, 3]
         cam = (pts - f.c2w[:3, 3]) @ f.c2w[:3, :3]
         uv = cam @ f.K.T

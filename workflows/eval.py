@@ -37,11 +37,20 @@ import cv2
 import numpy as np
 
 from pipeline import metrics
-from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
+from pipeline.cameras import Cameras, Frame, load_cameras
 from pipeline.datasets import HELDOUT_SCENES
 from pipeline.errors import UserError
+from pipeline.images import PHOTO_EXTS, read_image
 from pipeline.progress import info, track, warn
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json, read_json
+from pipeline.ws_files import (
+    read_cameras,
+    read_flare,
+    read_mask,
+    read_mask_file,
+    read_view_image,
+    write_cameras,
+)
 
 NEURAL = {
     "gnfr": {"point_sampler": True, "view_sampler": True, "mask_loss": True},
@@ -58,8 +67,15 @@ LABELS = {"gnfr": "GN-FR", "gnt": "GNT (all GN-FR parts off)",
           "no_ml": "GN-FR w/o masking loss", "input": "flared input (no removal)",
           "inpaint": "inpainting of the mask (OpenCV Telea)",
           "photos": "photos warped by plane-sweep depth, no network (Telea where none agree)"}
-LINKED = ("images", "decoded", "masks", "cameras.json", "views.json", "flare.json", "depth")
-"""What a variant workspace shares with the evaluation workspace (hard links)."""
+SHARED_STAGES = ("decode", "pose", "mask", "depth", "select")
+"""Stages whose outputs a variant workspace shares with the evaluation workspace."""
+
+
+def linked_paths(ws: Workspace) -> list[Path]:
+    """What a variant workspace shares with the evaluation workspace (hard links): the
+    outputs of ``SHARED_STAGES`` that the variant's finetune and render read."""
+    return [ws.images, ws.decoded, ws.masks, ws.cameras_json, ws.views_json, ws.flare_json,
+            ws.depth]
 
 
 @dataclass
@@ -154,9 +170,6 @@ def _origin(root: Path) -> str:
 
 
 # --------------------------------------------------------------------------- workspaces
-PHOTO_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
-
-
 def photo_path(root: Path, stem: str) -> Path | None:
     """The flared photo of ``stem`` in ``root/photos`` (synth writes PNG; the shipped sample
     keeps its photos as JPEG), or None."""
@@ -172,7 +185,7 @@ def place_photo(src: Path, dst: Path) -> None:
     if src.suffix.lower() == ".png":
         link_file(src, dst)
     elif not dst.exists():
-        atomic_imwrite(dst, cv2.imread(str(src), cv2.IMREAD_COLOR))
+        atomic_imwrite(dst, read_image(src, bgr=True))
 
 
 def link_file(src: Path, dst: Path) -> None:
@@ -223,22 +236,20 @@ def build_workspace(scene: SynthScene, out: Path, force: bool = False) -> Worksp
     frames = [pinhole_frame(by[s]) for s in scene.train]
     for s in scene.train:
         src = photo_path(scene.root, s)
-        place_photo(src, ws.images / f"{s}.png")
-        place_photo(src, ws.decoded / f"{s}.png")
-    save_cameras(ws.cameras_json, Cameras(frames, scene.cams.colmap_to_world))
-    ws.begin_stage("decode", {"linked_from": str(scene.root / "photos")}, []).finish(
-        [ws.decoded])
+        place_photo(src, ws.image_path(s))
+        place_photo(src, ws.decoded_path(s))
+    write_cameras(ws, Cameras(frames, scene.cams.colmap_to_world))
+    ws.record_stage("decode", {"linked_from": str(scene.root / "photos")}, [ws.decoded])
     run_.finish([ws.images, ws.cameras_json])
     return ws
 
 
 def variant_workspace(base: Workspace, name: str) -> Workspace:
     """WS/variants/<name>: a workspace sharing base's inputs and stage records."""
-    vws = Workspace.create(base.root / "variants" / name, base.photos_dir)
-    for item in LINKED:
-        sync_tree(base.root / item, vws.root / item)
-    for stage in ("decode", "pose", "mask", "depth", "select"):
-        vws.update_manifest(stage, base.stage_record(stage))
+    vws = Workspace.create(base.variants / name, base.photos_dir)
+    for path in linked_paths(base):
+        sync_tree(path, vws.root / path.relative_to(base.root))
+    vws.copy_stage_records(base, SHARED_STAGES)
     return vws
 
 
@@ -289,7 +300,7 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
     if path_json is not None:
         render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, **common), vws,
                    force=cfg.force)
-        out["heldout"] = vws.renders / path_json.stem
+        out["heldout"] = vws.render_dir(str(path_json))
     rec = vws.stage_record("finetune")
     out["train"] = {"seconds": rec.get("seconds"), "steps": rec.get("steps"),
                     "it_per_s": rec.get("it_per_s"),
@@ -300,11 +311,10 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
 
 def run_inpaint(scene: SynthScene, ws: Workspace, radius: int = 5) -> Path:
     """WS/baselines/inpaint/<stem>.png: each flared photo inpainted (Telea) in its mask."""
-    out = ws.root / "baselines" / "inpaint"
+    out = ws.baselines / "inpaint"
     for s in track(scene.train, "Inpainting (baseline)"):
-        img = cv2.imread(str(ws.images / f"{s}.png"), cv2.IMREAD_COLOR)
-        mask = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
-        m = cv2.dilate((mask > 127).astype(np.uint8), np.ones((3, 3), np.uint8))
+        img = read_view_image(ws, s, bgr=True)
+        m = cv2.dilate(read_mask(ws, s).astype(np.uint8), np.ones((3, 3), np.uint8))
         atomic_imwrite(out / f"{s}.png", cv2.inpaint(img, m, radius, cv2.INPAINT_TELEA))
     return out
 
@@ -320,10 +330,10 @@ def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
     from pipeline.depth import load_views, nearest_views
     from pipeline.photo_fill import photo_fill, support_weight
 
-    cams = load_cameras(ws.cameras_json)
+    cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, with_depth=True)
     near = nearest_views(cams, n_sources)
-    out = ws.root / "baselines" / "photos"
+    out = ws.baselines / "photos"
     for s in track(scene.train, "Photo fill (baseline)"):
         f, v = cams.by_stem()[s], views[s]
         flare = ~v.valid if v.valid is not None else np.zeros(v.image.shape[:2], bool)
@@ -341,7 +351,7 @@ def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
     if path_json is not None:
         from gnfr.paths import path_from_json
 
-        hout = ws.root / "baselines" / "photos_heldout"
+        hout = ws.baselines / "photos_heldout"
         centers = np.stack([views[s].c2w[:3, 3] for s in cams.stems])
         for pc in path_from_json(read_json(path_json)):
             W, H = max(1, round(pc.width * scale)), max(1, round(pc.height * scale))
@@ -363,12 +373,14 @@ def run_photos(scene: SynthScene, ws: Workspace, path_json: Path | None,
 # --------------------------------------------------------------------------- scoring
 def _read(path: Path, shape: tuple[int, int] | None = None) -> np.ndarray:
     """[H, W, 3] uint8 BGR, area-resized to ``shape`` (h, w) when given."""
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"{path} is missing or unreadable: rerun `deflare-scene eval`")
-    if shape is not None and img.shape[:2] != shape:
-        img = cv2.resize(img, (shape[1], shape[0]), interpolation=cv2.INTER_AREA)
-    return img
+    return read_image(path, bgr=True, size=None if shape is None else (shape[1], shape[0]),
+                      fix="rerun `deflare-scene eval`")
+
+
+def _truth_mask(scene: SynthScene, stem: str) -> np.ndarray:
+    """[H, W] bool ground-truth flare mask SCENE/masks_gt/<stem>.png."""
+    return read_mask_file(scene.root / "masks_gt" / f"{stem}.png",
+                          f"rerun `deflare-scene synth ... --out {scene.root} --force`")
 
 
 def score_views(scene: SynthScene, folder: Path, stems: list[str],
@@ -381,8 +393,7 @@ def score_views(scene: SynthScene, folder: Path, stems: list[str],
         gt = _read(scene.root / "clean" / f"{s}.png", pred.shape[:2])
         rec = {"psnr": metrics.psnr(pred, gt), "ssim": metrics.ssim(pred, gt)}
         if with_region:
-            m = cv2.imread(str(scene.root / "masks_gt" / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
-            rec["psnr_flare"] = metrics.masked_psnr(pred, gt, m > 127)
+            rec["psnr_flare"] = metrics.masked_psnr(pred, gt, _truth_mask(scene, s))
         per[s] = rec
     return {**summarise(per), "views": per}
 
@@ -400,17 +411,14 @@ def summarise(per: dict) -> dict:
 def flared_views(scene: SynthScene) -> list[str]:
     """Training views with flare in masks_gt (a clean view's input is its ground truth:
     scoring it would only add capped PSNRs)."""
-    return [s for s in scene.train if (cv2.imread(
-        str(scene.root / "masks_gt" / f"{s}.png"), cv2.IMREAD_GRAYSCALE) > 127).any()]
+    return [s for s in scene.train if _truth_mask(scene, s).any()]
 
 
 def fmg_scores(scene: SynthScene, ws: Workspace) -> dict:
     """The workspace masks against masks_gt on the training views (mIoU etc.)."""
     per = {}
     for s in scene.train:
-        pred = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_GRAYSCALE) > 127
-        true = cv2.imread(str(scene.root / "masks_gt" / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
-        per[s] = metrics.mask_scores(pred, true > 127)
+        per[s] = metrics.mask_scores(read_mask(ws, s), _truth_mask(scene, s))
     return {**summarise(per), "views": per}
 
 
@@ -475,7 +483,7 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
            "cameras": "ground truth (no pose noise)", "masks": cfg.masks,
            "budget": budget(cfg), "provenance": run_provenance(base), "methods": {}}
     res["mask_scores"] = fmg_scores(scene, base)
-    res["mask_threshold"] = read_json(base.flare_json).get("threshold")
+    res["mask_threshold"] = read_flare(base).threshold
     flared = flared_views(scene) or scene.train
     res["scored_input_views"] = flared
     for name, m in methods.items():
@@ -503,12 +511,14 @@ def run_provenance(ws: Workspace) -> dict:
                                      "started": rec.get("started"),
                                      "seconds": rec.get("seconds")}
 
-    flare = read_json(ws.flare_json) if ws.flare_json.exists() else {}
+    masks = {"source": None, "threshold": None, "weights": None}
+    if ws.flare_json.exists():
+        flare = read_flare(ws)
+        masks = {"source": flare.source, "threshold": flare.threshold,
+                 "weights": flare.weights}
     return {"code": code_version(), "machine": machine(), "command": command_line(),
             "scored": time.strftime("%Y-%m-%dT%H:%M:%S"), "workspace": str(ws.root),
-            "cameras": params("pose"),
-            "masks": {"source": flare.get("source"), "threshold": flare.get("threshold"),
-                      "weights": flare.get("weights"), "stage": params("mask")},
+            "cameras": params("pose"), "masks": {**masks, "stage": params("mask")},
             "depth": params("depth"), "select": params("select")}
 
 
@@ -522,11 +532,10 @@ def method_provenance(name: str, m: dict, base: Workspace) -> dict:
         used = {"input": [], "inpaint": ["masks"], "photos": ["masks", "depth"]}[name]
         return {"kind": "baseline", "uses": used}
     from gnfr.checkpoint import read_metadata
-    from gnfr.fit import MODEL_FILE
     from pipeline.provenance import sha256
 
     vws = Workspace(m["workspace"])
-    ckpt = vws.model / MODEL_FILE
+    ckpt = vws.model_file
     _, meta = read_metadata(ckpt)
     prov = meta.pop("provenance", None)
     fin = vws.stage_record("finetune")
@@ -713,8 +722,7 @@ def image_grid(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dic
                res: dict, height: int = 180) -> np.ndarray:
     """Rows: held-out views, then the most flared inputs; columns: input, every method
     (except the input baseline), ground truth."""
-    flare = {s: float((cv2.imread(str(scene.root / "masks_gt" / f"{s}.png"), 0) > 127).mean())
-             for s in scene.train}
+    flare = {s: float(_truth_mask(scene, s).mean()) for s in scene.train}
     train = sorted(flared_views(scene) or scene.train, key=lambda s: -flare[s])
     n_held = min(len(scene.heldout), max(1, cfg.grid_rows // 2))
     rows = scene.heldout[:n_held] + train[: max(0, cfg.grid_rows - n_held)]
@@ -724,7 +732,7 @@ def image_grid(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dic
     out = []
     for s in rows:
         held = s in scene.heldout
-        photo = None if held else _read(base.images / f"{s}.png")
+        photo = None if held else _read(base.image_path(s))
         tiles = [_tile(photo, size, f"{s} held-out" if held else f"{s} input")]
         for m in cols:
             key = "heldout" if held else "inputs"

@@ -1,5 +1,7 @@
-"""`deflare-scene eval-llff SCENE`: the field's yardstick, an LLFF scene in the standard
-protocol (every 8th view held out, train on the rest, score renders of the held-out views).
+"""`deflare-scene eval-llff SCENE`: GN-FR on an LLFF scene in the field's standard protocol.
+
+The field's yardstick: every 8th view held out, train on the rest, score renders of the
+held-out views.
 
 SCENE is an LLFF folder (``poses_bounds.npy`` + ``images/`` or ``images_<factor>/``), read
 with ``pipeline.scene_data.load_llff`` (its image folder choice, resize to ``max_size``,
@@ -29,11 +31,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from pipeline.cameras import Cameras, Frame, save_cameras
+from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
+from pipeline.images import image_size, list_photos
 from pipeline.progress import info
 from pipeline.workspace import (
     Workspace,
@@ -42,6 +44,7 @@ from pipeline.workspace import (
     atomic_write_text,
     read_json,
 )
+from pipeline.ws_files import read_cameras, write_cameras
 
 PUBLISHED = {
     "fern": [
@@ -135,7 +138,7 @@ def llff_cameras(sc, names: dict[str, str]) -> Cameras:
 def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False) -> Workspace:
     """OUT/posed: every view of the LLFF scene with its ground-truth camera (pose stage
     recorded as ground truth; images = decoded, pinhole)."""
-    from pipeline.scene_data import IMAGE_EXTS, _llff_image_dir, load_llff
+    from pipeline.scene_data import _llff_image_dir, load_llff
 
     folder = Path(folder).resolve()
     if not (folder / "poses_bounds.npy").is_file():
@@ -149,15 +152,13 @@ def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False)
     if run_.skip:
         return ws
     sc = load_llff(folder, max_size)
-    files = sorted(p for p in img_dir.iterdir() if p.suffix.lower() in IMAGE_EXTS)
-    names = {p.stem: p.name for p in files}
+    names = {p.stem: p.name for p in list_photos(img_dir)}  # the files load_llff read
     for i, s in enumerate(sc.stems):
         bgr = np.ascontiguousarray(sc.images[i].permute(1, 2, 0).numpy()[..., ::-1])
-        atomic_imwrite(ws.images / f"{s}.png", bgr)
-        atomic_imwrite(ws.decoded / f"{s}.png", bgr)
-    save_cameras(ws.cameras_json, llff_cameras(sc, names))
-    ws.begin_stage("decode", {"from": str(img_dir), "max_size": max_size}, []).finish(
-        [ws.decoded])
+        atomic_imwrite(ws.image_path(s), bgr)
+        atomic_imwrite(ws.decoded_path(s), bgr)
+    write_cameras(ws, llff_cameras(sc, names))
+    ws.record_stage("decode", {"from": str(img_dir), "max_size": max_size}, [ws.decoded])
     run_.finish([ws.images, ws.cameras_json], extra={"views": len(sc.stems)})
     return ws
 
@@ -167,16 +168,14 @@ def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[
     """A synth-style folder of the clean scene (no flare anywhere) for `eval`'s loaders."""
     from workflows.eval import link_file
 
-    cams = read_json(posed.cameras_json)
-    stems = [f["stem"] for f in cams["frames"]]
-    for s in stems:
-        src = posed.images / f"{s}.png"
+    for s in read_cameras(posed).stems:
+        src = posed.image_path(s)
         link_file(src, out / "clean" / f"{s}.png")
         if s in train:
             link_file(src, out / "photos" / f"{s}.png")
         m = out / "masks_gt" / f"{s}.png"
         if not m.exists():
-            h, w = cv2.imread(str(src), cv2.IMREAD_GRAYSCALE).shape
+            h, w = image_size(src, fix="rerun `deflare-scene eval-llff` with --force")
             atomic_imwrite(m, np.zeros((h, w), np.uint8))
     for p in (out / "photos").glob("*.png"):  # a changed split
         if p.stem not in train:
@@ -227,7 +226,7 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
             atomic_write_json(pj, read_json(path_json))
         render.run(RenderConfig(path=str(pj), scale=1.0, fill=fill, device=cfg.device,
                                 samples=cfg.samples), vws, force=cfg.force)
-        folder_out = vws.renders / pj.stem
+        folder_out = vws.render_dir(str(pj))
         methods[f"gnfr_{fill}"] = {
             "label": f"GN-FR, fill {fill}", "fill": fill,
             "heldout": ev.score_views(scene, folder_out, held, with_region=False),
@@ -271,7 +270,7 @@ def run(cfg: LlffEvalConfig) -> Path:
     folder = Path(cfg.scene).resolve()
     root = Path(cfg.out or Path.cwd() / f"{folder.name}.llff_eval").resolve()
     posed = posed_workspace(folder, root / "posed", cfg.max_size, cfg.force)
-    stems = [f["stem"] for f in read_json(posed.cameras_json)["frames"]]
+    stems = read_cameras(posed).stems
     train, held = llff_split(stems, cfg.every)
     info(f"eval-llff: {folder.name}: {len(train)} training views, held out {', '.join(held)}")
     sc = load_llff(folder, cfg.max_size)

@@ -21,8 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import UserError
+from pipeline.images import list_photos, read_image
+from pipeline.options import resolve_device
 from pipeline.progress import info
-from pipeline.workspace import atomic_path, atomic_write_json
+from pipeline.workspace import atomic_imwrite, atomic_path, atomic_write_json
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -73,12 +75,6 @@ class FMGTrainConfig:
     no checkpoint; the step count starts at 0 (the card adds the init's steps)."""
     seed: int = 0
     device: str = "auto"
-
-
-def _device(name: str) -> str:
-    from pipeline.options import resolve_device
-
-    return resolve_device(name)
 
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = ()):
@@ -193,7 +189,7 @@ def train(cfg: FMGTrainConfig) -> dict:
 
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
-    dev = _device(cfg.device)
+    dev = resolve_device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without))
@@ -378,14 +374,11 @@ def _photos(folder: Path, long_side: int | None = None) -> list:
     """BGR uint8 photos of ``folder`` (not recursive), downscaled to ``long_side``."""
     import cv2
 
-    from pipeline.fmg_data import IMAGE_EXTENSIONS
-
     out = []
-    for p in sorted(folder.iterdir()):
-        if p.suffix.lower() not in IMAGE_EXTENSIONS or p.name.startswith("."):
-            continue
-        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
-        if img is None:
+    for p in list_photos(folder):
+        try:
+            img = read_image(p, bgr=True)
+        except UserError:  # an unreadable file is left out
             continue
         if long_side and max(img.shape[:2]) > long_side:
             s = long_side / max(img.shape[:2])
@@ -481,7 +474,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
     for ph in photos:
-        img = cv2.imread(str(ph), cv2.IMREAD_COLOR)
+        img = read_image(ph, bgr=True)
         s = width / img.shape[1]
         tiles = [cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)]
         for (cut, model), w in zip(models, weights, strict=True):
@@ -497,18 +490,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
             tiles.append(t)
         rows.append(np.hstack(tiles))
-    atomic_imwrite_jpg(out, np.vstack(rows))
+    atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return fracs
-
-
-def atomic_imwrite_jpg(path: Path, img, quality: int = 80) -> None:
-    import cv2
-
-    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])
-    if not ok:
-        raise UserError(f"cannot encode {path}")
-    with atomic_path(Path(path)) as tmp:
-        Path(tmp).write_bytes(buf.tobytes())
 
 
 # --------------------------------------------------------------------------- calibrate

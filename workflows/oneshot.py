@@ -21,6 +21,7 @@ from typing import Any
 from pipeline.errors import UserError
 from pipeline.options import check_field, coerce, resolve_device, validate
 from pipeline.progress import info
+from pipeline.workspace import default_workspace
 
 STAGES = {
     "decode": "pipeline.decode:DecodeConfig", "pose": "pipeline.pose:PoseConfig",
@@ -55,11 +56,6 @@ class OneShotConfig:
     export)."""
     force: bool = False
     """Rerun every stage even when its inputs did not change."""
-
-
-def default_workspace(photos: Path) -> Path:
-    photos = Path(photos).resolve()
-    return photos.with_name(photos.name + ".deflare")
 
 
 def default_fps(device: str) -> float:
@@ -125,7 +121,7 @@ def run_all(cfg: OneShotConfig) -> Path:
     render.run(st["render"], ws, force=force)
     written = export.run(replace(st["export"], path=Path(st["render"].path).stem), ws,
                          force=force)
-    video = export.video_path(ws)
+    video = ws.video
     minutes = (time.time() - t0) / 60
     info(f"[green]done[/green] in {minutes:.1f} min: workspace {ws.root}")
     info(f"  de-flared photos: {ws.deflared}")

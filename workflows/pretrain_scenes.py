@@ -9,7 +9,8 @@
 * ``buddha``: ``projections/<stem>_P.txt`` 3x4 ``P = K [R | t]`` split with
   ``cv2.decomposeProjectionMatrix``.
 
-Cameras are centred and scaled into the unit sphere (the workspace convention). Without a
+Cameras are centred and scaled into the unit sphere (the workspace convention,
+``pipeline.cameras.normalising_scale``). Without a
 bounding box, near/far come from the point the optical axes converge on (least squares):
 an object around it of radius 0.6 x its mean camera distance. Scenes without cameras are
 posed with ``deflare-scene decode`` + ``pose`` instead (see gnfr/weights/gnfr.md).
@@ -24,8 +25,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.cameras import Cameras, Frame, save_cameras
+from pipeline.cameras import Cameras, Frame, normalising_scale
+from pipeline.images import read_image
 from pipeline.workspace import Workspace, atomic_imwrite
+from pipeline.ws_files import write_cameras
 
 BOXES = {"temple": [[-0.073568, 0.021728, -0.012445], [0.028855, 0.181892, 0.062736]],
          "dino": [[-0.061897, -0.018874, -0.057845], [0.010897, 0.068227, 0.015495]]}
@@ -59,19 +62,19 @@ def write_workspace(root: Path, photos: Path, views: list[tuple[str, np.ndarray,
     ws = Workspace.create(root, photos)
     c2w = np.stack([v[2] for v in views])
     centre = box.mean(0) if box is not None else converge_point(c2w)
-    s = 1.0 / np.linalg.norm(c2w[:, :3, 3] - centre, axis=1).max()
+    s = normalising_scale(c2w[:, :3, 3], centre)
     obj_r = (np.linalg.norm(box[1] - box[0]) / 2 * s if box is not None
              else 0.6 * np.linalg.norm(c2w[:, :3, 3] - centre, axis=1).mean() * s)
     frames = []
     for rel, K, m in views:
-        img = cv2.imread(str(photos / rel), cv2.IMREAD_COLOR)
+        img = read_image(photos / rel, bgr=True)
         h, w = img.shape[:2]
         f = min(1.0, max_size / max(h, w))
         W, H = round(w * f), round(h * f)
         img = cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
         stem = Path(rel).stem
-        atomic_imwrite(ws.images / f"{stem}.png", img)
-        atomic_imwrite(ws.decoded / f"{stem}.png", img)
+        atomic_imwrite(ws.image_path(stem), img)
+        atomic_imwrite(ws.decoded_path(stem), img)
         Ks = K.copy()
         Ks[0] *= W / w
         Ks[1] *= H / h
@@ -85,9 +88,9 @@ def write_workspace(root: Path, photos: Path, views: list[tuple[str, np.ndarray,
     sim = np.eye(4)
     sim[:3, :3] *= s
     sim[:3, 3] = -s * centre
-    save_cameras(ws.cameras_json, Cameras(frames=frames, colmap_to_world=sim))
+    write_cameras(ws, Cameras(frames=frames, colmap_to_world=sim))
     for stage, outs in (("decode", [ws.decoded]), ("pose", [ws.images, ws.cameras_json])):
-        ws.begin_stage(stage, {"pretrain_scenes": photos.name}, []).finish(outs)
+        ws.record_stage(stage, {"pretrain_scenes": photos.name}, outs)
     return root
 
 

@@ -1,0 +1,79 @@
+"""Photo file extensions and the one image reader (OpenCV; one-line errors naming the file).
+
+``PHOTO_EXTS`` are the ordinary image files the product reads (decode's input besides camera
+raw, hand-made masks, LLFF and COLMAP image folders, FMG backgrounds); camera raw extensions
+are ``pipeline.decode.RAW_EXTS``. ``read_image`` returns uint8 RGB (BGR on request, for
+OpenCV drawing and writing) and ``read_image_float`` float32 RGB in [0, 1]; a missing or
+unreadable file is a ``UserError`` naming it and what to do. Decoding user photos (16-bit,
+truncated JPEGs, raw) is ``pipeline.decode``'s job, not this module's.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.errors import UserError
+
+PHOTO_EXTS: tuple[str, ...] = (".png", ".jpg", ".jpeg", ".jpe", ".tif", ".tiff", ".bmp",
+                               ".webp")
+"""Ordinary image extensions (lower case), read with OpenCV; ``.png`` first, so a folder
+with two files of one stem prefers the lossless one."""
+
+
+def is_photo(path: str | os.PathLike) -> bool:
+    """True when ``path`` has one of ``PHOTO_EXTS`` (any case)."""
+    return Path(path).suffix.lower() in PHOTO_EXTS
+
+
+def list_photos(folder: str | os.PathLike, recursive: bool = False) -> list[Path]:
+    """Sorted image files (``PHOTO_EXTS``, hidden files left out) of ``folder``."""
+    folder = Path(folder)
+    found = folder.rglob("*") if recursive else folder.iterdir()
+    return sorted(p for p in found
+                  if p.is_file() and is_photo(p) and not p.name.startswith("."))
+
+
+def _unreadable(path: Path, fix: str | None) -> UserError:
+    what = "is missing" if not path.exists() else "is not a readable image"
+    return UserError(f"{path} {what}: {fix or 'replace or remove it'}")
+
+
+def read_image(path: str | os.PathLike, *, bgr: bool = False,
+               size: tuple[int, int] | None = None, fix: str | None = None) -> np.ndarray:
+    """[H, W, 3] uint8 RGB (or BGR with ``bgr``) of an image file, area-resized to ``size``
+    (width, height) when given and different. A missing or unreadable file is a one-line
+    ``UserError`` naming it; ``fix`` says what to do (default: replace or remove it)."""
+    import cv2
+
+    path = Path(path)
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise _unreadable(path, fix)
+    if size is not None and (img.shape[1], img.shape[0]) != tuple(size):
+        img = cv2.resize(img, tuple(size), interpolation=cv2.INTER_AREA)
+    return img if bgr else np.ascontiguousarray(img[..., ::-1])
+
+
+def read_image_float(path: str | os.PathLike, *, size: tuple[int, int] | None = None,
+                     fix: str | None = None) -> np.ndarray:
+    """[H, W, 3] float32 RGB in [0, 1] of an image file (see :func:`read_image`)."""
+    return read_image(path, size=size, fix=fix).astype(np.float32) / 255.0
+
+
+def read_gray(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
+    """[H, W] uint8 grey levels of an image file (masks); errors as :func:`read_image`."""
+    import cv2
+
+    path = Path(path)
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise _unreadable(path, fix)
+    return img
+
+
+def image_size(path: str | os.PathLike, *, fix: str | None = None) -> tuple[int, int]:
+    """(height, width) of an image file."""
+    return read_image(path, bgr=True, fix=fix).shape[:2]
