@@ -481,3 +481,25 @@ def test_depth_guided_samples_stay_in_their_band_and_equal_uniform_on_the_whole_
     (_, lo, hi, n), _ = split_guided(2, (d, torch.tensor([True, True])), 24)
     assert torch.allclose(sample_depths(lo, hi, n, jitter=False),
                           sample_depths(near, far, 24, jitter=False), rtol=1e-6)
+
+
+def test_full_res_colour_samples_sources_at_full_size(rws):
+    """--full-res-colour: the encoder sees the sources at source_scale, colours come from
+    WS/images at full size; the default follows the checkpoint (trained without it)."""
+    from pipeline.render import encode_sources, load_model
+    from pipeline.render.sources import find_checkpoint
+
+    cams = load_cameras(rws.cameras_json)
+    stems = [f.stem for f in cams.frames][:3]
+    model = load_model(find_checkpoint(rws, None), "cpu")
+    small, _ = encode_sources(model, rws, cams, stems, "cpu", 0.5)
+    full, _ = encode_sources(model, rws, cams, stems, "cpu", 0.5, full_res_colour=True)
+    f0 = cams.frames[0]
+    assert full.images.shape[-2:] == (f0.height, f0.width)
+    assert small.images.shape[-1] == round(f0.width * 0.5)
+    # the encoder saw the same half-size views (resized by torch, not OpenCV's uint8 area
+    # filter: close, not bit-equal)
+    assert full.feats.shape == small.feats.shape
+    diff = float((full.feats - small.feats).abs().mean())
+    assert diff < 0.1 * float(small.feats.abs().mean()), diff
+    assert torch.allclose(full.K[0], torch.tensor(f0.K, dtype=torch.float32))

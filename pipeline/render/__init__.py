@@ -124,6 +124,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "samples": samples,
               "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
+              "full_res_colour": bool(meta.get("full_res_colour", False)
+                                      if cfg.full_res_colour is None else cfg.full_res_colour),
               "scale": novel_scale(cfg, device), "network_scale": network_scale(cfg, device),
               "depth_samples": (int(cfg.depth_samples) if cfg.depth_samples is not None
                                 else max(4, samples // 3)) if cfg.fill == "hybrid" else 0,
@@ -151,7 +153,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         with torch.inference_mode():
             model = load_model(ckpt, device)
             stems = sorted({s for j in todo for s in j.sources})
-            src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"])
+            src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"],
+                                        params["full_res_colour"])
             photos = photo_views(ws, cams, todo, cfg) if use_photos else None
             render_jobs(model, src, index, todo, params, cfg, ws, photos)
     outputs = [out_dir] + ([full_dir(ws)] if full else [])

@@ -56,6 +56,9 @@ class RenderConfig:
     source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""
+    full_res_colour: bool | None = None
+    """Sample the sources' colours at the full size of WS/images while the encoder sees them
+    at ``source_scale`` (default: as the checkpoint was trained, else off)."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
     fill: str = option("hybrid", choices=FILLS)

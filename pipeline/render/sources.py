@@ -101,8 +101,10 @@ def load_model(ckpt: Path, device: str):
 
 
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
-                   scale: float = 1.0):
-    """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i}).
+                   scale: float = 1.0, full_res_colour: bool = False):
+    """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i});
+    with ``full_res_colour`` only the encoder sees them at ``scale``, colours and masks are
+    sampled at the full size.
 
     Images of different sizes are padded to the largest; the padding is marked as flare so
     the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
@@ -113,6 +115,7 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     from gnfr.renderer import SourceViews
 
     by = cams.by_stem()
+    feature_scale, scale = (scale, 1.0) if full_res_colour else (1.0, scale)
     imgs = [_resize_img(read_rgb(ws.images / f"{s}.png"), scale) for s in stems]
     H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
     have_masks = all((ws.masks / f"{s}.png").exists() for s in stems)
@@ -140,7 +143,8 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
         K[v, 1] *= img.shape[0] / by[s].height
     K = torch.tensor(K, dtype=torch.float32)
     c2w = torch.tensor(np.stack([by[s].c2w for s in stems]), dtype=torch.float32)
-    src = SourceViews.encode(model, images, K, c2w, masks, device)
+    src = SourceViews.encode(model, images, K, c2w, masks, device,
+                             feature_scale=feature_scale)
     return src, {s: i for i, s in enumerate(stems)}
 
 
