@@ -37,7 +37,7 @@ def _look_at(center: np.ndarray) -> np.ndarray:
 def tiny(tmp_path_factory) -> tuple[Path, Path]:
     """(photo folder, posed workspace) of 4 random 40x30 views: decode and pose complete,
     nothing else (no masks, model or renders). No real data, no SfM."""
-    from workflows.pretrain_scenes import write_workspace
+    from workflows.research.pretrain_scenes import write_workspace
 
     root = tmp_path_factory.mktemp("options")
     photos = root / "photos"
@@ -289,9 +289,9 @@ def test_oneshot_flags_and_set_reach_every_field():
 
 
 EXPLICIT = {  # commands that still declare their options by hand: (config, option -> field)
-    "eval": "workflows.eval:EvalConfig",
-    "eval-llff": "workflows.eval_llff:LlffEvalConfig",
-    "fmg train": "workflows.fmg_train:FMGTrainConfig",
+    "eval": "workflows.research.eval:EvalConfig",
+    "eval-llff": "workflows.research.eval_llff:LlffEvalConfig",
+    "fmg train": "workflows.research.fmg_train:FMGTrainConfig",
 }
 
 

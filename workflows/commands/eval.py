@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         after an interruption.
         """
         from pipeline.errors import UserError
-        from workflows.eval import EvalConfig, parse_variants, run
+        from workflows.research.eval import EvalConfig, parse_variants, run
 
         if preset not in ("auto", "paper", "quick", "tiny"):
             raise UserError(f"--preset {preset}: choose auto, paper, quick or tiny")

@@ -44,8 +44,8 @@ def register(app: typer.Typer) -> None:
         Every stage is resumable: rerun the same command after an interruption.
         """
         from pipeline.errors import UserError
-        from workflows.eval import parse_variants
-        from workflows.eval_llff import LlffEvalConfig, run
+        from workflows.research.eval import parse_variants
+        from workflows.research.eval_llff import LlffEvalConfig, run
 
         if preset not in ("auto", "paper", "quick", "tiny"):
             raise UserError(f"--preset {preset}: choose auto, paper, quick or tiny")

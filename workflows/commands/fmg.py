@@ -52,7 +52,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Train the FMG on flare composited onto photos; held-out scenes are never seen."""
         from pipeline.flare import parse_kinds
-        from workflows.fmg_train import FMGTrainConfig, default_data, format_metrics, train
+        from workflows.research.fmg_train import FMGTrainConfig, default_data, format_metrics, train
 
         cfg = FMGTrainConfig(out=out, data=data or default_data(), iters=iters, batch=batch,
                              size=size, widths=_ints(widths), depths=_ints(depths),
@@ -91,8 +91,8 @@ def register(app: typer.Typer) -> None:
         working-size sweep (--work-sizes) or clean photos (--clean)."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
         from pipeline.workspace import atomic_write_json
-        from workflows import fmg_train as ft
-        from workflows.fmg_train import (
+        from workflows.research import fmg_train as ft
+        from workflows.research.fmg_train import (
             default_data,
             evaluate,
             evaluate_kinds,
@@ -136,7 +136,7 @@ def register(app: typer.Typer) -> None:
         """Pick the flare probability cut of highest flare IoU on training-side composites."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
         from pipeline.workspace import atomic_write_json
-        from workflows.fmg_train import (
+        from workflows.research.fmg_train import (
             calibrate,
             default_data,
             format_calibration,
@@ -163,7 +163,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
-        from workflows.fmg_train import real_flare_overview
+        from workflows.research.fmg_train import real_flare_overview
 
         ws = tuple(weights or (DEFAULT_WEIGHTS,))
         for w in ws:

@@ -166,7 +166,7 @@ def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False)
 def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[str],
                       origin: str, every: int) -> Path:
     """A synth-style folder of the clean scene (no flare anywhere) for `eval`'s loaders."""
-    from workflows.eval import link_file
+    from workflows.research.eval import link_file
 
     for s in read_cameras(posed).stems:
         src = posed.image_path(s)
@@ -190,7 +190,7 @@ def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[
 
 # --------------------------------------------------------------------------- protocols
 def eval_config(cfg: LlffEvalConfig, scene: Path, out: Path, fill: str):
-    from workflows.eval import EvalConfig
+    from workflows.research.eval import EvalConfig
 
     return EvalConfig(scene=scene, out=out, masks="gt", preset=cfg.preset, iters=cfg.iters,
                       rays=cfg.rays, samples=cfg.samples, views=cfg.views, init=cfg.init,
@@ -205,7 +205,7 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
     with each fill at full size and scored."""
     from pipeline import depth, finetune, mask, render, select
     from pipeline.render import RenderConfig
-    from workflows import eval as ev
+    from workflows.research import eval as ev
 
     folder = write_clean_scene(posed, root / "clean_scene", train, held, origin, cfg.every)
     scene = ev.load_synth(folder)
@@ -245,7 +245,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
     with the true masks; returns eval's results."""
     from pipeline.synth import SynthConfig
     from pipeline.synth import run as synth_run
-    from workflows import eval as ev
+    from workflows.research import eval as ev
 
     out = root / "flare_scene"
     synth_run(SynthConfig(out=out, seed=cfg.flare_seed, heldout_every=cfg.every), posed,
@@ -296,8 +296,8 @@ def _f(v, fmt: str = "{:.2f}") -> str:
 
 
 def table_markdown(res: dict) -> str:
-    from workflows.eval import provenance_lines
-    from workflows.eval import table_markdown as eval_table
+    from workflows.research.eval import provenance_lines
+    from workflows.research.eval import table_markdown as eval_table
 
     c = res["clean"]
     b = c["budget"]

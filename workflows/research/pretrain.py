@@ -6,7 +6,7 @@ Scenes: deflare-scene workspaces, LLFF folders (``poses_bounds.npy``) and COLMAP
 (``pipeline.flare``) is imposed once per view at load time with its ground-truth mask, so the
 masking loss, Point Sampler and View Sampler train as in the paper.
 
-Several processes: ``torchrun --nproc_per_node K -m workflows.pretrain ...`` (or
+Several processes: ``torchrun --nproc_per_node K -m workflows.research.pretrain ...`` (or
 ``python -m torch.distributed.run``); each rank draws its own batches, gradients are
 averaged with an all-reduce (NCCL on CUDA, gloo on CPU), rank 0 writes checkpoints.
 A run resumes from ``OUT/train_state.pt`` (weights, optimizer, step); on resume each rank's
@@ -223,7 +223,7 @@ def export_fp16(run_weights: Path, dest: Path, extra: dict | None = None) -> Pat
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry for torchrun: ``python -m workflows.pretrain [options]`` (same as the CLI)."""
+    """Entry for torchrun: ``python -m workflows.research.pretrain [options]`` (same as the CLI)."""
     from workflows.cli import main as cli_main
 
     return cli_main(["pretrain", *(argv if argv is not None else __import__("sys").argv[1:])])

@@ -1,6 +1,7 @@
 """Posed pretraining workspaces from scenes that ship their own cameras (no SfM needed).
 
-    python -m workflows.pretrain_scenes OUT [--data /work/shared/data/scenes] [--max-size 504]
+    python -m workflows.research.pretrain_scenes OUT [--data /work/shared/data/scenes]
+        [--max-size 504]
 
 * ``temple``, ``dino``: Middlebury ``*_par.txt`` (K, R, t per image) and the data set's
   tight bounding box (near/far from it);

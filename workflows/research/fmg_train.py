@@ -26,7 +26,7 @@ from pipeline.options import resolve_device
 from pipeline.progress import info
 from pipeline.workspace import atomic_imwrite, atomic_path, atomic_write_json
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def default_data() -> Path:
