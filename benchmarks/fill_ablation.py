@@ -40,7 +40,8 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline import render
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
-    from workflows.research.eval import flared_views, load_synth, score_views
+    from workflows.research.eval.scene import flared_views, load_synth
+    from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
     ws = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)

@@ -38,7 +38,8 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.provenance import sha256 as file_sha256
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
-    from workflows.research.eval import load_synth, score_views
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
     base = Workspace(a.scene / "eval.ws")

@@ -15,7 +15,8 @@ from pipeline.synth import SynthConfig
 from pipeline.synth import run as synth_run
 from tests.fixtures import make_temple_workspace
 from workflows.cli import main
-from workflows.research.eval import link_file, parse_variants, sync_tree
+from workflows.research.eval.config import parse_variants
+from workflows.research.eval.workspaces import link_file, sync_tree
 
 SMALL = F.FlareConfig(psf_size=128, n_psfs=2, n_wavelengths=9, dust_count=(5, 20))
 
@@ -159,7 +160,7 @@ def test_sync_tree_links_and_prunes(tmp_path):
 
 
 def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
-    from workflows.research.eval import load_synth, photo_path
+    from workflows.research.eval.scene import load_synth, photo_path
 
     root = Path(__file__).resolve().parents[1] / "samples" / "cyprus_truth"
     scene = load_synth(root)

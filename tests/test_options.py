@@ -289,7 +289,7 @@ def test_oneshot_flags_and_set_reach_every_field():
 
 
 EXPLICIT = {  # commands that still declare their options by hand: (config, option -> field)
-    "eval": "workflows.research.eval:EvalConfig",
+    "eval": "workflows.research.eval.config:EvalConfig",
     "eval-llff": "workflows.research.eval_llff:LlffEvalConfig",
     "fmg train": "workflows.research.fmg_train:FMGTrainConfig",
 }

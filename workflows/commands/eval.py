@@ -49,7 +49,8 @@ def register(app: typer.Typer) -> None:
         after an interruption.
         """
         from pipeline.errors import UserError
-        from workflows.research.eval import EvalConfig, parse_variants, run
+        from workflows.research.eval import EvalConfig, run
+        from workflows.research.eval.config import parse_variants
 
         if preset not in ("auto", "paper", "quick", "tiny"):
             raise UserError(f"--preset {preset}: choose auto, paper, quick or tiny")

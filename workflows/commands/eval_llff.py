@@ -44,7 +44,7 @@ def register(app: typer.Typer) -> None:
         Every stage is resumable: rerun the same command after an interruption.
         """
         from pipeline.errors import UserError
-        from workflows.research.eval import parse_variants
+        from workflows.research.eval.config import parse_variants
         from workflows.research.eval_llff import LlffEvalConfig, run
 
         if preset not in ("auto", "paper", "quick", "tiny"):

@@ -166,7 +166,7 @@ def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False)
 def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[str],
                       origin: str, every: int) -> Path:
     """A synth-style folder of the clean scene (no flare anywhere) for `eval`'s loaders."""
-    from workflows.research.eval import link_file
+    from workflows.research.eval.workspaces import link_file
 
     for s in read_cameras(posed).stems:
         src = posed.image_path(s)
@@ -190,7 +190,7 @@ def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[
 
 # --------------------------------------------------------------------------- protocols
 def eval_config(cfg: LlffEvalConfig, scene: Path, out: Path, fill: str):
-    from workflows.research.eval import EvalConfig
+    from workflows.research.eval.config import EvalConfig
 
     return EvalConfig(scene=scene, out=out, masks="gt", preset=cfg.preset, iters=cfg.iters,
                       rays=cfg.rays, samples=cfg.samples, views=cfg.views, init=cfg.init,
@@ -205,20 +205,28 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
     with each fill at full size and scored."""
     from pipeline import depth, finetune, mask, render, select
     from pipeline.render import RenderConfig
-    from workflows.research import eval as ev
+    from workflows.research.eval.methods import finetune_config
+    from workflows.research.eval.provenance import budget, method_provenance, run_provenance
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.scoring import score_views
+    from workflows.research.eval.workspaces import (
+        build_workspace,
+        heldout_path_json,
+        variant_workspace,
+    )
 
     folder = write_clean_scene(posed, root / "clean_scene", train, held, origin, cfg.every)
-    scene = ev.load_synth(folder)
+    scene = load_synth(folder)
     ecfg = eval_config(cfg, folder, root / "clean.ws", cfg.fills[0])
-    base = ev.build_workspace(scene, root / "clean.ws", cfg.force)
+    base = build_workspace(scene, root / "clean.ws", cfg.force)
     mask.run(mask.MaskConfig(masks_dir=folder / "masks_gt", device=cfg.device), base,
              force=cfg.force)
     depth.run(depth.DepthConfig(), base, force=cfg.force)
     select.run(select.SelectConfig(), base, force=cfg.force)
-    path_json = ev.heldout_path_json(scene, base)
-    vws = ev.variant_workspace(base, "gnfr")
+    path_json = heldout_path_json(scene, base)
+    vws = variant_workspace(base, "gnfr")
     info(f"eval-llff: fine-tuning GN-FR on {len(train)} views in {vws.root}")
-    finetune.run(ev.finetune_config(ecfg, "gnfr"), vws, force=cfg.force)
+    finetune.run(finetune_config(ecfg, "gnfr"), vws, force=cfg.force)
     methods = {}
     for fill in cfg.fills:
         pj = base.eval / f"heldout_{fill}.json"
@@ -229,14 +237,14 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
         folder_out = vws.render_dir(str(pj))
         methods[f"gnfr_{fill}"] = {
             "label": f"GN-FR, fill {fill}", "fill": fill,
-            "heldout": ev.score_views(scene, folder_out, held, with_region=False),
+            "heldout": score_views(scene, folder_out, held, with_region=False),
             "renders": str(folder_out),
             "render_seconds": vws.stage_record(f"render:{pj.stem}").get("seconds")}
-    prov = ev.method_provenance("gnfr", {"workspace": vws.root}, base)  # after every render
+    prov = method_provenance("gnfr", {"workspace": vws.root}, base)  # after every render
     for m in methods.values():
         m["provenance"] = prov
     return {"scene": str(folder), "workspace": str(base.root),
-            "budget": ev.budget(ecfg), "provenance": ev.run_provenance(base),
+            "budget": budget(ecfg), "provenance": run_provenance(base),
             "methods": methods}
 
 
@@ -245,7 +253,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
     with the true masks; returns eval's results."""
     from pipeline.synth import SynthConfig
     from pipeline.synth import run as synth_run
-    from workflows.research import eval as ev
+    from workflows.research.eval import run as run_eval
 
     out = root / "flare_scene"
     synth_run(SynthConfig(out=out, seed=cfg.flare_seed, heldout_every=cfg.every), posed,
@@ -254,7 +262,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
     if got != held:
         raise UserError(f"{out}/split.json holds out {got}, not the LLFF views {held}: "
                         "rerun with --force")
-    folder = ev.run(eval_config(cfg, out, root / "flare.ws", cfg.fills[0]))
+    folder = run_eval(eval_config(cfg, out, root / "flare.ws", cfg.fills[0]))
     return read_json(folder / "results.json")
 
 
@@ -296,8 +304,8 @@ def _f(v, fmt: str = "{:.2f}") -> str:
 
 
 def table_markdown(res: dict) -> str:
-    from workflows.research.eval import provenance_lines
-    from workflows.research.eval import table_markdown as eval_table
+    from workflows.research.eval.report import provenance_lines
+    from workflows.research.eval.report import table_markdown as eval_table
 
     c = res["clean"]
     b = c["budget"]
