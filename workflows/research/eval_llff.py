@@ -36,6 +36,7 @@ import numpy as np
 from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
 from pipeline.images import image_size, list_photos
+from pipeline.options import option, validate
 from pipeline.progress import info
 from pipeline.workspace import (
     Workspace,
@@ -60,50 +61,55 @@ PUBLISHED = {
 }
 """Published per-scene numbers of the held-out views (PSNR dB, SSIM); None = to be cited."""
 
-FILLS = ("hybrid", "network")
-
 
 @dataclass
 class LlffEvalConfig:
     """Options of `deflare-scene eval-llff`."""
 
     scene: Path
-    """LLFF folder (poses_bounds.npy + images/ or images_<factor>/)."""
+    """LLFF folder (poses_bounds.npy + images/ or images_<factor>/), e.g.
+    ../shared/data/scenes/fern."""
     out: Path | None = None
-    """Output folder (default ./<scene name>.llff_eval)."""
-    every: int = 8
+    """Output folder (default ./<scene name>.llff_eval); results in OUT/results.json,
+    OUT/table.md."""
+    every: int = option(8, ge=2)
     """Hold out every K-th view (index % K == 0; the LLFF protocol is 8)."""
-    max_size: int = 504
+    max_size: int = option(504, ge=32)
     """Long side of the images (load_llff picks images_<factor> and resizes; LLFF: 504)."""
-    preset: str = "auto"
-    """Training preset (auto: paper on CUDA, quick on CPU)."""
-    iters: int | None = None
+    preset: str = option("auto", choices=("auto", "paper", "quick", "tiny"))
+    """Training preset: auto (paper on CUDA, quick on CPU) | quick | paper | tiny (smoke tests
+    only)."""
+    iters: int | None = option(None, ge=1)
     """Override the preset's steps."""
-    rays: int | None = None
+    rays: int | None = option(None, ge=1)
     """Override rays per step."""
-    samples: int | None = None
+    samples: int | None = option(None, ge=1)
     """Override samples per ray (training and rendering)."""
-    views: int | None = None
+    views: int | None = option(None, ge=1)
     """Override the number of source views."""
-    init: str = "auto"
+    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
     """Weights to start from: auto | scratch | FILE.safetensors (as finetune --init)."""
-    device: str = "auto"
-    """auto | cpu | cuda."""
-    seed: int = 0
+    device: str = option("auto", device=True)
+    """auto | cpu | cuda | cuda:N."""
+    seed: int = option(0, ge=0)
     """Training seed."""
-    fills: tuple[str, ...] = FILLS
-    """Render fills of the held-out views, each rendered and scored (render --fill)."""
+    fills: tuple[str, ...] = option(("hybrid", "network"), flag="--fill",
+                                    choices=("hybrid", "network"))
+    """Render fills of the held-out views, comma-separated (render --fill), each rendered and
+    scored; the flare protocol uses the first."""
     flare: bool = False
-    """Also the flare protocol: synthetic flare on the training views, eval with the true
-    masks."""
-    variants: tuple[str, ...] = ("gnfr", "gnt", "input")
+    """Also impose synthetic flare on the training views and compare GN-FR with vanilla GNT
+    (`eval` with the true masks)."""
+    variants: tuple[str, ...] = option(
+        ("gnfr", "gnt", "input"),
+        choices=("gnfr", "gnt", "no_ps", "no_vs", "no_ml", "input", "inpaint", "photos"))
     """Methods of the flare protocol (as `eval --variants`)."""
-    flare_seed: int = 0
+    flare_seed: int = option(0, ge=0)
     """Seed of the synthetic flare (synth --seed)."""
     force: bool = False
     """Redo every stage."""
     finetune_extra: dict = field(default_factory=dict)
-    """Extra FinetuneConfig fields (tests)."""
+    """Extra FinetuneConfig fields (Python API: tests)."""
 
 
 # --------------------------------------------------------------------------- the scene
@@ -271,10 +277,9 @@ def run(cfg: LlffEvalConfig) -> Path:
     from pipeline.scene_data import load_llff
 
     t0 = time.time()
-    bad = [f for f in cfg.fills if f not in FILLS]
-    if bad or not cfg.fills:
-        raise UserError(f"--fill {','.join(cfg.fills)}: use hybrid, network or both "
-                        "(comma-separated)")
+    validate(cfg)
+    if not cfg.fills:
+        raise UserError("--fill is empty: give hybrid, network or both (comma-separated)")
     folder = Path(cfg.scene).resolve()
     root = Path(cfg.out or Path.cwd() / f"{folder.name}.llff_eval").resolve()
     posed = posed_workspace(folder, root / "posed", cfg.max_size, cfg.force)

@@ -42,6 +42,7 @@ def run(cfg: EvalConfig) -> Path:
     from pipeline import depth, mask, select
     from pipeline.datasets import HELDOUT_SCENES
     from pipeline.errors import UserError
+    from pipeline.options import validate
     from pipeline.progress import warn
     from workflows.research.eval.methods import run_inpaint, run_neural, run_photos
     from workflows.research.eval.report import write_outputs
@@ -49,10 +50,9 @@ def run(cfg: EvalConfig) -> Path:
     from workflows.research.eval.scoring import score_all
     from workflows.research.eval.workspaces import build_workspace, heldout_path_json
 
-    if cfg.masks not in ("fmg", "gt"):
-        raise UserError(f"--masks {cfg.masks!r}: use fmg (the FMG network) or gt")
-    if not 0 < cfg.render_scale <= 1:
-        raise UserError(f"--render-scale {cfg.render_scale} must be in (0, 1]")
+    validate(cfg)
+    if not cfg.variants:
+        raise UserError(f"--variants is empty: give one or more of {', '.join(ALL_VARIANTS)}")
     scene = load_synth(cfg.scene)
     if scene.origin not in HELDOUT_SCENES:
         warn(f"eval: {scene.root} was made from '{scene.origin}', not one of the held-out "

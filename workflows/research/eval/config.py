@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pipeline.errors import UserError
+from pipeline.options import option
 
 NEURAL = {
     "gnfr": {"point_sampler": True, "view_sampler": True, "mask_loss": True},
@@ -31,53 +31,49 @@ class EvalConfig:
     """Options of `deflare-scene eval`."""
 
     scene: Path
-    """Folder written by `deflare-scene synth`."""
+    """Folder written by `deflare-scene synth` (use a scene of TEST_SCENES: fern, kermit or
+    cyprus)."""
     out: Path | None = None
-    """Evaluation workspace (default SCENE/eval.ws)."""
-    variants: tuple[str, ...] = ALL_VARIANTS
-    """Methods to score: gnfr, gnt, no_ps, no_vs, no_ml, input, inpaint, photos."""
-    masks: str = "fmg"
-    """fmg (shipped FMG weights, or ``fmg_weights``) | gt (SCENE/masks_gt)."""
+    """Evaluation workspace (default SCENE/eval.ws); results in OUT/eval/."""
+    variants: tuple[str, ...] = option(
+        ("gnfr", "gnt", "no_ps", "no_vs", "no_ml", "input", "inpaint", "photos"),
+        choices=("gnfr", "gnt", "no_ps", "no_vs", "no_ml", "input", "inpaint", "photos"))
+    """Comma-separated methods: gnfr, gnt (all GN-FR parts off), no_ps, no_vs, no_ml (single
+    ablations), input (flared photo), inpaint (OpenCV Telea), photos (warped by depth, no
+    network)."""
+    masks: str = option("fmg", choices=("fmg", "gt"))
+    """fmg (FMG network: the shipped weights, or ``fmg_weights``) | gt (SCENE/masks_gt)."""
     fmg_weights: Path | None = None
     """FMG weights for --masks fmg (default: the shipped ones)."""
-    preset: str = "auto"
-    """Training preset of every neural variant (auto: paper on CUDA, quick on CPU)."""
-    iters: int | None = None
+    preset: str = option("auto", choices=("auto", "paper", "quick", "tiny"))
+    """Training preset of every neural variant: auto (paper on CUDA, quick on CPU) | quick |
+    paper | tiny (smoke tests only)."""
+    iters: int | None = option(None, ge=1)
     """Override the preset's steps (the same for every variant)."""
-    rays: int | None = None
+    rays: int | None = option(None, ge=1)
     """Override rays per step."""
-    samples: int | None = None
+    samples: int | None = option(None, ge=1)
     """Override samples per ray (training and rendering)."""
-    views: int | None = None
+    views: int | None = option(None, ge=1)
     """Override the number of source views."""
-    init: str = "auto"
+    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
     """Weights to start from: auto | scratch | FILE.safetensors (as finetune --init)."""
-    render_scale: float = 0.5
-    """Held-out views are rendered (and scored) at this fraction of their size."""
-    device: str = "auto"
-    """auto | cpu | cuda."""
-    seed: int = 0
-    """Seed of every variant's training."""
+    render_scale: float = option(0.5, gt=0, le=1)
+    """Held-out views are rendered (and scored) at this fraction of full size (smaller is
+    faster)."""
+    device: str = option("auto", device=True)
+    """auto | cpu | cuda | cuda:N."""
+    seed: int = option(0, ge=0)
+    """Training seed of every variant."""
     color_match: bool = True
     """De-flared inputs with the render stage's colour match of the fill (as the product
-    writes them); false scores the raw fill blended in."""
-    fill: str = "hybrid"
+    writes them); --no-color-match scores the raw fill blended in."""
+    fill: str = option("hybrid", choices=("hybrid", "network"))
     """Render fill of the neural variants (render --fill): hybrid (photos warped by depth
     where they agree, the network elsewhere) | network (the network everywhere)."""
-    grid_rows: int = 4
-    """Views (rows) in grid.jpg: held-out views first, then the most flared inputs."""
+    grid_rows: int = option(4, ge=1)
+    """Views (rows) shown in grid.jpg: held-out views first, then the most flared inputs."""
     force: bool = False
     """Redo every stage."""
     finetune_extra: dict = field(default_factory=dict)
-    """Extra FinetuneConfig fields (tests, experiments)."""
-
-
-
-def parse_variants(text: str) -> tuple[str, ...]:
-    names = tuple(v.strip() for v in text.split(",") if v.strip())
-    bad = [v for v in names if v not in ALL_VARIANTS]
-    if bad or not names:
-        raise UserError(f"--variants {text!r}: unknown {', '.join(bad) or '(empty)'}; choose "
-                        f"from {','.join(ALL_VARIANTS)}")
-    return names
-
+    """Extra FinetuneConfig fields (Python API: tests, experiments)."""
