@@ -35,7 +35,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
 
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     from gnfr.checkpoint import read_metadata
     from pipeline import render
     from pipeline.provenance import write_result

@@ -30,7 +30,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scales", default="1,2", help="Frame sizes as multiples of the decoded size.")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
 
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     import numpy as np
 
     from gnfr.paths import PathCamera, path_to_json

@@ -9,16 +9,14 @@ subcommands run one stage each. Every command module in ``workflows/commands`` e
 from __future__ import annotations
 
 import importlib
-import os
 import sys
-
-# before torch loads: idle OpenMP threads sleep instead of spinning (20-30x faster training
-# steps on a busy 2-core machine; see docs/presets.md)
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import typer
 
 from pipeline.errors import UserError
+from workflows.threads import apply_thread_policy
+
+apply_thread_policy()  # when the CLI is imported, before any command loads torch
 
 app = typer.Typer(
     name="deflare-scene",

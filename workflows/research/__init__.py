@@ -5,3 +5,7 @@
 the flare mask network and ``bench`` measures speed. The product (``deflare-scene PHOTOS``
 and the stage commands) never imports this package.
 """
+
+from workflows.threads import apply_thread_policy
+
+apply_thread_policy()  # before any research module imports torch (workflows/threads.py)

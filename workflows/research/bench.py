@@ -361,16 +361,12 @@ def measure(isolate: bool, fn, *args) -> dict:
 
     import torch
 
+    from workflows.threads import apply_thread_policy
+
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
-                             initializer=_set_threads,
+                             initializer=apply_thread_policy,
                              initargs=(torch.get_num_threads(),)) as pool:
         return pool.submit(fn, *args).result()
-
-
-def _set_threads(n: int) -> None:
-    import torch
-
-    torch.set_num_threads(n)
 
 
 def default_devices() -> tuple[str, ...]:
