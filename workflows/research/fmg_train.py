@@ -530,20 +530,22 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "scenes": {}}
-    for sc in scenes:
-        fr = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
-              for name, im in _photos(Path(data) / sc)}
-        v = list(fr.values())
-        res["scenes"][sc] = {"views": len(v), "mean": float(np.mean(v)), "max": float(max(v)),
-                             "over_10pct": int(sum(x > 0.10 for x in v)), "per_view": fr}
+    for scene in scenes:
+        marked = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
+                  for name, im in _photos(Path(data) / scene)}
+        fractions = list(marked.values())
+        res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
+                                "max": float(max(fractions)),
+                                "over_10pct": int(sum(x > 0.10 for x in fractions)),
+                                "per_view": marked}
     return res
 
 
 def format_clean(res: dict) -> str:
     rows = [f"clean photos, pixels marked at cut {res['cut']:g}, network at {res['work_size']}",
             "| scene | views | mean | max | views over 10 % |", "|---|---|---|---|---|"]
-    for sc, r in res["scenes"].items():
-        rows.append(f"| {sc} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
+    for scene, r in res["scenes"].items():
+        rows.append(f"| {scene} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
                     f"| {r['over_10pct']} |")
     return "\n".join(rows)
 
@@ -558,22 +560,24 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
-    for ph in photos:
-        img = read_image(ph, bgr=True)
-        s = width / img.shape[1]
-        tiles = [cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)]
+    for photo in photos:
+        img = read_image(photo, bgr=True)
+        scale = width / img.shape[1]
+        tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         for (cut, model), w in zip(models, weights, strict=True):
-            m = fmg_probs(model, [img], work_size)[0] > cut
-            fracs[f"{ph.name} {w}"] = float(m.mean())
-            ms = cv2.resize(m.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
-                            interpolation=cv2.INTER_NEAREST)
-            t = tiles[0].copy()
-            t[ms > 0] = (0.55 * t[ms > 0] + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
-            contours, _ = cv2.findContours(ms, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-            cv2.drawContours(t, contours, -1, (0, 255, 255), 1)
-            cv2.putText(t, f"{Path(w).parent.name or Path(w).stem}: {100 * m.mean():.1f} %",
+            marked = fmg_probs(model, [img], work_size)[0] > cut
+            fracs[f"{photo.name} {w}"] = float(marked.mean())
+            small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
+                               interpolation=cv2.INTER_NEAREST)
+            tile = tiles[0].copy()
+            tile[small > 0] = (0.55 * tile[small > 0]
+                               + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
+            contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
+            cv2.putText(tile,
+                        f"{Path(w).parent.name or Path(w).stem}: {100 * marked.mean():.1f} %",
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
-            tiles.append(t)
+            tiles.append(tile)
         rows.append(np.hstack(tiles))
     atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return fracs

@@ -61,10 +61,11 @@ def run(cfg: EvalConfig) -> Path:
         warn("eval: the scene has no held-out views (synth --heldout N): novel-view scores "
              "are skipped")
     base = build_workspace(scene, Path(cfg.out or scene.root / "eval.ws"), cfg.force)
-    mcfg = mask.MaskConfig(masks_dir=scene.root / "masks_gt" if cfg.masks == "gt" else None,
-                           weights=cfg.fmg_weights, device=cfg.device)
+    mask_cfg = mask.MaskConfig(
+        masks_dir=scene.root / "masks_gt" if cfg.masks == "gt" else None,
+        weights=cfg.fmg_weights, device=cfg.device)
     try:
-        mask.run(mcfg, base, force=cfg.force)
+        mask.run(mask_cfg, base, force=cfg.force)
     except UserError as e:
         if cfg.masks != "fmg":
             raise

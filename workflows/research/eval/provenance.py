@@ -33,7 +33,7 @@ def run_provenance(ws: Workspace) -> dict:
             "depth": params("depth"), "select": params("select")}
 
 
-def method_provenance(name: str, m: dict, base: Workspace) -> dict:
+def method_provenance(name: str, method: dict, base: Workspace) -> dict:
     """What trained and rendered one method, read from its workspace: for a neural variant
     the checkpoint's metadata (``provenance`` written by finetune: start weights and their
     sha256, preset numbers, seed, steps done, device, training seconds, code), the
@@ -45,14 +45,15 @@ def method_provenance(name: str, m: dict, base: Workspace) -> dict:
     from gnfr.checkpoint import read_metadata
     from pipeline.provenance import sha256
 
-    vws = Workspace(m["workspace"])
-    ckpt = vws.model_file
+    variant_ws = Workspace(method["workspace"])
+    ckpt = variant_ws.model_file
     _, meta = read_metadata(ckpt)
     prov = meta.pop("provenance", None)
-    fin = vws.stage_record("finetune")
-    renders = {k: {"params": r.get("params"), "seconds": r.get("seconds"),
-                   "started": r.get("started"), "frames": r.get("frames")}
-               for k, r in vws.manifest()["stages"].items() if k.startswith("render:")}
+    fin = variant_ws.stage_record("finetune")
+    renders = {stage: {"params": rec.get("params"), "seconds": rec.get("seconds"),
+                       "started": rec.get("started"), "frames": rec.get("frames")}
+               for stage, rec in variant_ws.manifest()["stages"].items()
+               if stage.startswith("render:")}
     out = {"kind": "neural", "parts": NEURAL[name], "checkpoint": str(ckpt),
            "checkpoint_sha256": sha256(ckpt), "checkpoint_meta": meta,
            "trained": prov, "finetune_stage": {k: fin.get(k) for k in (
@@ -89,16 +90,16 @@ def budget(cfg: EvalConfig) -> dict:
     ``provenance`` (read from the checkpoint); the table reports that."""
     from pipeline.finetune import FinetuneConfig, pick_device, resolve, shipped_weights
 
-    fc = FinetuneConfig(preset=cfg.preset, iters=cfg.iters, rays=cfg.rays,
-                        samples=cfg.samples, views=cfg.views, device=cfg.device,
-                        init=cfg.init, **cfg.finetune_extra)
-    dev = pick_device(cfg.device)
-    preset, t = resolve(fc, dev)
-    return {"preset": preset, "device": dev.type, "iters": t.iters, "rays": t.rays,
-            "samples": t.samples, "depth": t.model.depth, "width": t.model.width,
-            "source_scale": t.source_scale, "eval_views": t.eval_views,
-            "cached_features": t.cached_features, "init": cfg.init,
-            "init_weights": _init_weights(cfg.init, shipped_weights(t)),
+    finetune_cfg = FinetuneConfig(preset=cfg.preset, iters=cfg.iters, rays=cfg.rays,
+                                  samples=cfg.samples, views=cfg.views, device=cfg.device,
+                                  init=cfg.init, **cfg.finetune_extra)
+    device = pick_device(cfg.device)
+    preset, train = resolve(finetune_cfg, device)
+    return {"preset": preset, "device": device.type, "iters": train.iters, "rays": train.rays,
+            "samples": train.samples, "depth": train.model.depth, "width": train.model.width,
+            "source_scale": train.source_scale, "eval_views": train.eval_views,
+            "cached_features": train.cached_features, "init": cfg.init,
+            "init_weights": _init_weights(cfg.init, shipped_weights(train)),
             "render_scale": cfg.render_scale, "seed": cfg.seed,
             "color_match": cfg.color_match, "fill": cfg.fill}
 

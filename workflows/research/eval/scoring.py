@@ -60,24 +60,27 @@ def fmg_scores(scene: SynthScene, ws: Workspace) -> dict:
 
 
 def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict) -> dict:
+    """results.json: the scene, the budget, provenance, mask scores and every method's
+    scores."""
     info("eval: scoring")
-    res = {"scene": str(scene.root), "origin": scene.origin,
-           "origin_is_heldout_scene": scene.origin in HELDOUT_SCENES,
-           "train_views": scene.train, "heldout_views": scene.heldout,
-           "cameras": "ground truth (no pose noise)", "masks": cfg.masks,
-           "budget": budget(cfg), "provenance": run_provenance(base), "methods": {}}
-    res["mask_scores"] = fmg_scores(scene, base)
-    res["mask_threshold"] = read_flare(base).threshold
+    results = {"scene": str(scene.root), "origin": scene.origin,
+               "origin_is_heldout_scene": scene.origin in HELDOUT_SCENES,
+               "train_views": scene.train, "heldout_views": scene.heldout,
+               "cameras": "ground truth (no pose noise)", "masks": cfg.masks,
+               "budget": budget(cfg), "provenance": run_provenance(base), "methods": {}}
+    results["mask_scores"] = fmg_scores(scene, base)
+    results["mask_threshold"] = read_flare(base).threshold
     flared = flared_views(scene) or scene.train
-    res["scored_input_views"] = flared
-    for name, m in methods.items():
-        r = {"label": LABELS[name],
-             "inputs": score_views(scene, m["inputs"], flared, with_region=True)}
-        if "heldout" in m:
-            r["heldout"] = score_views(scene, m["heldout"], scene.heldout, with_region=False)
-        if "train" in m:
-            r["train"] = m["train"]
-        r["provenance"] = method_provenance(name, m, base)
-        res["methods"][name] = r
-    return res
+    results["scored_input_views"] = flared
+    for name, method in methods.items():
+        row = {"label": LABELS[name],
+               "inputs": score_views(scene, method["inputs"], flared, with_region=True)}
+        if "heldout" in method:
+            row["heldout"] = score_views(scene, method["heldout"], scene.heldout,
+                                         with_region=False)
+        if "train" in method:
+            row["train"] = method["train"]
+        row["provenance"] = method_provenance(name, method, base)
+        results["methods"][name] = row
+    return results
 

@@ -71,39 +71,39 @@ def pinhole_frame(f: Frame) -> Frame:
 def build_workspace(scene: SynthScene, out: Path, force: bool = False) -> Workspace:
     """The posed evaluation workspace: training photos + ground-truth cameras."""
     ws = Workspace.create(out, scene.root / "photos")
-    run_ = ws.begin_stage("pose", {"cameras": "ground truth (synth cameras_gt.json)",
-                                   "scene": str(scene.root)},
-                          [scene.root / "photos", scene.root / "cameras_gt.json"], force)
-    if run_.skip:
+    stage = ws.begin_stage("pose", {"cameras": "ground truth (synth cameras_gt.json)",
+                                    "scene": str(scene.root)},
+                           [scene.root / "photos", scene.root / "cameras_gt.json"], force)
+    if stage.skip:
         return ws
-    by = scene.cams.by_stem()
-    frames = [pinhole_frame(by[s]) for s in scene.train]
-    for s in scene.train:
-        src = photo_path(scene.root, s)
-        place_photo(src, ws.image_path(s))
-        place_photo(src, ws.decoded_path(s))
+    by_stem = scene.cams.by_stem()
+    frames = [pinhole_frame(by_stem[stem]) for stem in scene.train]
+    for stem in scene.train:
+        src = photo_path(scene.root, stem)
+        place_photo(src, ws.image_path(stem))
+        place_photo(src, ws.decoded_path(stem))
     write_cameras(ws, Cameras(frames, scene.cams.colmap_to_world))
     ws.record_stage("decode", {"linked_from": str(scene.root / "photos")}, [ws.decoded])
-    run_.finish([ws.images, ws.cameras_json])
+    stage.finish([ws.images, ws.cameras_json])
     return ws
 
 
 def variant_workspace(base: Workspace, name: str) -> Workspace:
     """WS/variants/<name>: a workspace sharing base's inputs and stage records."""
-    vws = Workspace.create(base.variants / name, base.photos_dir)
+    variant_ws = Workspace.create(base.variants / name, base.photos_dir)
     for path in linked_paths(base):
-        sync_tree(path, vws.root / path.relative_to(base.root))
-    vws.copy_stage_records(base, SHARED_STAGES)
-    return vws
+        sync_tree(path, variant_ws.root / path.relative_to(base.root))
+    variant_ws.copy_stage_records(base, SHARED_STAGES)
+    return variant_ws
 
 
 def heldout_path_json(scene: SynthScene, ws: Workspace) -> Path:
     """WS/eval/heldout_cameras.json: the held-out cameras as a JSON camera path."""
     from gnfr.paths import PathCamera, path_to_json
 
-    by = scene.cams.by_stem()
-    cams = [PathCamera(s, by[s].K, by[s].c2w, by[s].width, by[s].height)
-            for s in scene.heldout]
+    by_stem = scene.cams.by_stem()
+    cams = [PathCamera(stem, by_stem[stem].K, by_stem[stem].c2w, by_stem[stem].width,
+                       by_stem[stem].height) for stem in scene.heldout]
     path = ws.eval / "heldout_cameras.json"
     data = path_to_json(cams)
     if not path.exists() or read_json(path) != _roundtrip(data):
@@ -112,5 +112,6 @@ def heldout_path_json(scene: SynthScene, ws: Workspace) -> Path:
 
 
 def _roundtrip(obj):
+    """``obj`` as it reads back from JSON (tuples become lists)."""
     return json.loads(json.dumps(obj))
 
