@@ -1,9 +1,10 @@
 """The ``deflare-scene`` command line (typer).
 
 ``deflare-scene ./photos`` (a folder as the first argument) runs the whole pipeline; the
-subcommands run one stage each. Every command module in ``workflows/commands`` exposes
-``register(app)``; heavy imports (torch, pycolmap, rawpy) happen inside the commands, so
-``--help`` is instant and the GPU machine (no pycolmap) can run the neural stages.
+subcommands run one stage each; the research tools (``RESEARCH_COMMANDS``) sit beside them.
+Every command module in ``workflows/commands`` exposes ``register(app)``; heavy imports
+(torch, pycolmap, rawpy) happen inside the commands, so ``--help`` is instant and the GPU
+machine (no pycolmap) can run the neural stages.
 """
 
 from __future__ import annotations
@@ -39,6 +40,9 @@ COMMAND_MODULES = [
     "run", "decode", "pose", "synth", "mask", "depth", "select", "finetune", "render", "export",
     "fmg", "pretrain", "eval", "eval_llff", "bench",
 ]
+RESEARCH_COMMANDS = ("synth", "fmg", "pretrain", "eval", "eval_llff", "bench")
+"""The research tools among them (their code: pipeline/synth.py, workflows/research/); the
+others are the product: the one-shot and one command per stage."""
 _registered = False
 
 

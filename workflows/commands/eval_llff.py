@@ -1,5 +1,7 @@
-"""`deflare-scene eval-llff SCENE`: novel-view PSNR / SSIM on an LLFF scene (every 8th view
-held out), with or without synthetic flare on the training views."""
+"""`deflare-scene eval-llff SCENE`: novel-view PSNR / SSIM on an LLFF scene (LLFF protocol).
+
+Every 8th view held out, with or without synthetic flare on the training views.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Training and evaluation of the FMG (flare mask PSPNet) on synthetic composites.
+"""Training, scoring and calibration of the FMG (flare mask PSPNet) on synthetic composites.
 
 ``train(cfg)`` owns the loop: AdamW with poly learning-rate decay, the 5:1 weighted BCE,
 a checkpoint every ``ckpt_every`` steps in ``out`` (``checkpoint.safetensors`` with fp32
@@ -6,7 +6,8 @@ weights + ``optimizer.pt`` with optimizer state and step, read back with
 ``torch.load(weights_only=True)``), so a rerun with the same ``out`` resumes. It ends by
 writing ``out/fmg.safetensors`` (fp16, config in the metadata) and ``out/metrics.json``.
 ``evaluate(weights, ...)`` scores mIoU / mAcc on held-out composites, with the default flare
-settings and with ``FlareConfig.unseen()``.
+settings and with ``FlareConfig.unseen()``. The options of each `deflare-scene fmg` command
+are a dataclass here (FMGTrainConfig, FMGEvalConfig, FMGCalibrateConfig, FMGOverlayConfig).
 """
 
 from __future__ import annotations
