@@ -35,12 +35,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
 
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     from gnfr.checkpoint import read_metadata
     from pipeline import render
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
-    from workflows.eval import flared_views, load_synth, score_views
+    from workflows.research.eval.scene import flared_views, load_synth
+    from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
     ws = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)

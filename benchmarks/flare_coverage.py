@@ -70,6 +70,9 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=24)
     ap.add_argument("--rays", type=int, default=2000)
     a = ap.parse_args()
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     res = coverage(a.workspace, a.scene, a.samples, a.rays)
     for s, v in res.items():
         print(f"{s}: {100 * v:.1f} % of flare-region points on flare in every source")

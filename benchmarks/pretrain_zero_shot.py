@@ -32,13 +32,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scale", type=float, default=0.5)
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
 
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     from gnfr.checkpoint import read_metadata
     from pipeline import render
     from pipeline.provenance import sha256 as file_sha256
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
-    from workflows.eval import load_synth, score_views
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
     base = Workspace(a.scene / "eval.ws")

@@ -1,6 +1,8 @@
-"""Seconds per novel frame: GN-FR everywhere (``--fill network``, 24 uniform samples) against
-the hybrid fill (photos warped by depth, GN-FR at 1/4 size on the rest with depth-guided
-samples), in the same run, on a workspace that has a fine-tuned model and WS/depth.
+"""Benchmark of seconds per novel frame: GN-FR everywhere against the hybrid fill, one run.
+
+GN-FR everywhere is ``--fill network`` (24 uniform samples); the hybrid fill warps photos by
+depth and renders GN-FR at 1/4 size on the rest with depth-guided samples. The workspace
+needs a fine-tuned model and WS/depth.
 
     python benchmarks/render_fill.py WS --frames 3 --out docs/results/render_fill.json
 
@@ -30,7 +32,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scales", default="1,2", help="Frame sizes as multiples of the decoded size.")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
 
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
     import numpy as np
 
     from gnfr.paths import PathCamera, path_to_json

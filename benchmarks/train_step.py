@@ -13,14 +13,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import resource
 import subprocess
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before torch loads (docs/presets.md)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code
+from workflows.threads import apply_thread_policy
+
+apply_thread_policy()  # before torch loads (workflows/threads.py)
 
 import torch  # noqa: E402
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-# before torch loads: idle OpenMP threads sleep instead of spinning (much faster on a busy
-# 2-core machine; see docs/presets.md)
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+from workflows.threads import apply_thread_policy
+
+apply_thread_policy()  # before torch loads (workflows/threads.py)
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("DEFLARE_SHARED_DATA", REPO.parent / "shared" / "data"))

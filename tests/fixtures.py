@@ -2,8 +2,8 @@
 
 ``make_temple_workspace`` turns Middlebury templeSparseRing (ground-truth K, R, t in
 ``templeSR_par.txt``) into a posed workspace (``images/``, ``decoded/``, ``cameras.json``,
-manifest with decode and pose complete) through ``workflows.pretrain_scenes`` (the same code
-that makes pretraining workspaces), so model, mask and render tests need not run SfM.
+manifest with decode and pose complete) through ``workflows.research.pretrain_scenes`` (the
+same code that makes pretraining workspaces), so model, mask and render tests need not run SfM.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 
 from pipeline.workspace import Workspace
 from tests.conftest import shared
-from workflows.pretrain_scenes import BOXES, middlebury, write_workspace
-from workflows.pretrain_scenes import read_par as read_temple_par
+from workflows.research.pretrain_scenes import BOXES, middlebury, write_workspace
+from workflows.research.pretrain_scenes import read_par as read_temple_par
 
 __all__ = ["look_at", "make_plane_workspace", "make_temple_workspace", "plane_views",
            "read_temple_par"]

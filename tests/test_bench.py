@@ -7,8 +7,8 @@ import json
 import pytest
 import torch
 
-from workflows.bench import PeakMemory, synthetic_scene
 from workflows.cli import main
+from workflows.research.bench import PeakMemory, synthetic_scene
 
 
 @pytest.fixture
@@ -65,7 +65,7 @@ def test_synthetic_scene_shapes():
 def test_measure_in_a_fresh_process():
     """Isolated CPU measurements run in a spawned process and return the same record."""
     from gnfr.train import PRESETS
-    from workflows.bench import BenchConfig, bench_train, effective, measure
+    from workflows.research.bench import BenchConfig, bench_train, effective, measure
 
     cfg = effective(BenchConfig(quick=True))
     scene = synthetic_scene(5, (64, 48))
@@ -79,7 +79,7 @@ def test_peak_memory_sees_an_allocation_and_its_release():
 
     import numpy as np
 
-    from workflows.bench import PeakMemory
+    from workflows.research.bench import PeakMemory
 
     with PeakMemory("cpu") as mem:
         a = np.ones(200 * 2**20 // 8)  # 200 MiB, touched

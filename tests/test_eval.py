@@ -15,7 +15,7 @@ from pipeline.synth import SynthConfig
 from pipeline.synth import run as synth_run
 from tests.fixtures import make_temple_workspace
 from workflows.cli import main
-from workflows.eval import link_file, parse_variants, sync_tree
+from workflows.research.eval.workspaces import link_file, sync_tree
 
 SMALL = F.FlareConfig(psf_size=128, n_psfs=2, n_wavelengths=9, dust_count=(5, 20))
 
@@ -134,11 +134,28 @@ def test_eval_fmg_masks_scored_against_truth(scene, tmp_path, capsys):
     assert "--masks gt" in capsys.readouterr().err
 
 
-def test_eval_rejects_bad_input(tmp_path, scene):
+def test_eval_rejects_bad_input(tmp_path, scene, capsys):
     assert main(["eval", str(tmp_path), "--masks", "gt"]) == 2          # not a synth folder
     assert main(["eval", str(scene), "--variants", "gnfr,nerf"]) == 2   # unknown variant
-    with pytest.raises(Exception, match="unknown nerf"):
-        parse_variants("gnfr,nerf")
+    assert "error: --variants gnfr,nerf: must be one or more of gnfr, gnt" in \
+        capsys.readouterr().err
+    assert not (scene / "eval.ws").exists()
+
+
+def test_variant_choices_are_the_variants():
+    """The option's choices and default (literals, read by the CLI without importing) are the
+    methods eval knows."""
+    import dataclasses
+
+    from workflows.research.eval import ALL_VARIANTS, EvalConfig
+    from workflows.research.eval.config import LABELS
+    from workflows.research.eval_llff import LlffEvalConfig
+
+    fields = {f.name: f for f in dataclasses.fields(EvalConfig)}
+    assert fields["variants"].metadata["choices"] == ALL_VARIANTS == tuple(LABELS)
+    assert fields["variants"].default == ALL_VARIANTS
+    llff = {f.name: f for f in dataclasses.fields(LlffEvalConfig)}
+    assert llff["variants"].metadata["choices"] == ALL_VARIANTS
 
 
 def test_sync_tree_links_and_prunes(tmp_path):
@@ -159,7 +176,7 @@ def test_sync_tree_links_and_prunes(tmp_path):
 
 
 def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
-    from workflows.eval import load_synth, photo_path
+    from workflows.research.eval.scene import load_synth, photo_path
 
     root = Path(__file__).resolve().parents[1] / "samples" / "cyprus_truth"
     scene = load_synth(root)

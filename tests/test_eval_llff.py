@@ -17,7 +17,7 @@ from pipeline.scene_data import load_llff
 from tests.conftest import shared
 from tests.test_llff import _look_at
 from workflows.cli import main
-from workflows.eval_llff import llff_split, posed_workspace
+from workflows.research.eval_llff import llff_split, posed_workspace
 
 H0, W0, F0 = 120, 160, 150.0
 """Full-size camera of the synthetic scene; images_2 holds 80x60."""

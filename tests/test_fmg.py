@@ -251,7 +251,7 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     steps = [json.loads(line)["step"] for line in (out / "log.jsonl").read_text().splitlines()]
     assert steps == [1, 2, 3]
     metrics = json.loads((out / "metrics.json").read_text())
-    from workflows.fmg_train import evaluate
+    from workflows.research.fmg_train import evaluate
 
     again = evaluate(out / "fmg.safetensors", data, count=4, size=64)  # val-count 2, doubled
     for row in ("default", "unseen", "night"):  # the file holds the final model's scores

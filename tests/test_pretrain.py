@@ -16,7 +16,7 @@ from pipeline.errors import UserError
 from pipeline.scene_data import load_colmap, load_llff, load_workspace, qvec_to_rotmat
 from tests.conftest import REPO
 from tests.fixtures import make_temple_workspace
-from workflows.pretrain import find_scenes
+from workflows.research.pretrain import find_scenes
 
 
 def _rotmat_to_qvec(R):
@@ -113,7 +113,7 @@ def test_torchrun_two_process_gloo_pretrain(tmp_path):
     out = tmp_path / "out"
     env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(REPO))
     cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone",
-           "--nproc_per_node", "2", "-m", "workflows.pretrain", str(tmp_path / "scenes"),
+           "--nproc_per_node", "2", "-m", "workflows.research.pretrain", str(tmp_path / "scenes"),
            "--out", str(out), "--preset", "tiny", "--iters", "6", "--no-flare",
            "--device", "cpu"]
     res = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True, timeout=120)
@@ -123,7 +123,7 @@ def test_torchrun_two_process_gloo_pretrain(tmp_path):
     state = torch.load(out / "train_state.pt", weights_only=True)
     assert state["step"] == 6
     # resuming a finished run (in-process, single rank) does nothing more and keeps the step
-    from workflows.pretrain import PretrainConfig, run
+    from workflows.research.pretrain import PretrainConfig, run
 
     stamp = (out / "gnfr.safetensors").stat().st_mtime_ns
     run(PretrainConfig(scenes=[tmp_path / "scenes"], out=out, preset="tiny", iters=6,
@@ -170,7 +170,7 @@ def _steps_logged(out) -> list[int]:
 def test_init_from_weights_continues_their_step_count(pretrain_scenes, steps_taken, tmp_path,
                                                       capsys):
     from gnfr.checkpoint import read_metadata
-    from workflows.pretrain import export_fp16, start_step
+    from workflows.research.pretrain import export_fp16, start_step
 
     _pretrain_cli(pretrain_scenes, tmp_path / "a", 6)
     assert steps_taken == list(range(6))
@@ -207,7 +207,7 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     from dataclasses import replace
 
     import gnfr.fit
-    import workflows.pretrain as wp
+    import workflows.research.pretrain as wp
     from gnfr.train import PRESETS
 
     class Killed(Exception):

@@ -1,24 +1,23 @@
 """The ``deflare-scene`` command line (typer).
 
 ``deflare-scene ./photos`` (a folder as the first argument) runs the whole pipeline; the
-subcommands run one stage each. Every command module in ``workflows/commands`` exposes
-``register(app)``; heavy imports (torch, pycolmap, rawpy) happen inside the commands, so
-``--help`` is instant and the GPU machine (no pycolmap) can run the neural stages.
+subcommands run one stage each; the research tools (``RESEARCH_COMMANDS``) sit beside them.
+Every command module in ``workflows/commands`` exposes ``register(app)``; heavy imports
+(torch, pycolmap, rawpy) happen inside the commands, so ``--help`` is instant and the GPU
+machine (no pycolmap) can run the neural stages.
 """
 
 from __future__ import annotations
 
 import importlib
-import os
 import sys
-
-# before torch loads: idle OpenMP threads sleep instead of spinning (20-30x faster training
-# steps on a busy 2-core machine; see docs/presets.md)
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import typer
 
 from pipeline.errors import UserError
+from workflows.threads import apply_thread_policy
+
+apply_thread_policy()  # when the CLI is imported, before any command loads torch
 
 app = typer.Typer(
     name="deflare-scene",
@@ -41,6 +40,9 @@ COMMAND_MODULES = [
     "run", "decode", "pose", "synth", "mask", "depth", "select", "finetune", "render", "export",
     "fmg", "pretrain", "eval", "eval_llff", "bench",
 ]
+RESEARCH_COMMANDS = ("synth", "fmg", "pretrain", "eval", "eval_llff", "bench")
+"""The research tools among them (their code: pipeline/synth.py, workflows/research/); the
+others are the product: the one-shot and one command per stage."""
 _registered = False
 
 

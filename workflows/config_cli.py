@@ -33,6 +33,7 @@ from typing import Any
 import typer
 from rich.markup import escape
 
+from pipeline.errors import UserError
 from pipeline.options import RULES, coerce, show
 
 REQUIRED = ...  # a field without a default: a required option
@@ -141,10 +142,16 @@ def help_text(spec: FieldSpec, specs: tuple[FieldSpec, ...] = ()) -> str:
 
 
 # --------------------------------------------------------------------------- typer params
+def repeatable(spec: FieldSpec) -> bool:
+    """Whether the field is a ``tuple[Path, ...]``: an option given once per path."""
+    return typing.get_origin(spec.base) is tuple and typing.get_args(spec.base) == (Path, ...)
+
+
 def settable(spec: FieldSpec) -> bool:
-    """Whether the CLI can write this field (a number, text, path, flag or tuple of them)."""
+    """Whether the CLI can write this field (a number, text, path, flag, tuple of them or
+    repeated paths)."""
     base = spec.base
-    if base in (int, float, str, bool, Path):
+    if base in (int, float, str, bool, Path) or repeatable(spec):
         return True
     args = typing.get_args(base)
     return typing.get_origin(base) is tuple and bool(args) and all(
@@ -161,6 +168,8 @@ def _option(spec: FieldSpec, specs: tuple[FieldSpec, ...], *, name: str | None =
         decls = (spec.flag if "/" in spec.flag else f"{spec.flag}/--no-{spec.flag[2:]}",)
         tp: Any = bool if default in (True, False) else typing.Optional[bool]  # noqa: UP045
         value = default
+    elif repeatable(spec):  # --loo A --loo B: a list, made a tuple by _value
+        decls, tp, value = (spec.flag,), typing.Optional[list[Path]], None  # noqa: UP045
     elif typing.get_origin(spec.base) is tuple:  # typed as text, parsed by options.coerce
         decls, tp = (spec.flag,), typing.Optional[str]  # noqa: UP045
         value = show(default, spec.rules.get("sep", ",")) if isinstance(default, tuple) \
@@ -171,15 +180,36 @@ def _option(spec: FieldSpec, specs: tuple[FieldSpec, ...], *, name: str | None =
         value = default
     value = None if value is FACTORY else value
     info = typer.Option(value, *decls, *aliases, help=text, metavar=spec.rules.get("metavar"),
-                        show_default=default not in (None, FACTORY, REQUIRED))
+                        show_default=default not in (None, FACTORY, REQUIRED, ()))
     return inspect.Parameter(name or spec.name, inspect.Parameter.KEYWORD_ONLY, default=info,
                              annotation=tp)
 
 
 def _value(spec: FieldSpec, given: Any) -> Any:
-    """An option's value as the field's type (tuples arrive as text)."""
-    if isinstance(given, str) and typing.get_origin(spec.base) is tuple:
-        return coerce(given, spec.type, f"{spec.flag} {show(given)}", spec.rules.get("metavar"))
+    """An option's value as the field's type. Repeated paths arrive as a list; other tuples
+    as text, parsed by ``coerce`` (blank text is the empty tuple where that is the field's
+    default) and, for text items with ``choices``, each item checked here: ``validate``
+    words its message for numbers."""
+    if repeatable(spec):
+        return tuple(given or ())
+    if not (isinstance(given, str) and typing.get_origin(spec.base) is tuple):
+        return given
+    if not given.strip() and spec.default == ():
+        return ()
+    where = f"{spec.flag} {show(given)}"
+    value = coerce(given, spec.type, where, spec.rules.get("metavar"))
+    choices = spec.rules.get("choices")
+    if isinstance(choices, tuple) and any(item not in choices for item in value):
+        raise UserError(f"{where}: must be one or more of {', '.join(choices)}, "
+                        "comma-separated")
+    return value
+
+
+def _explicit_value(spec: FieldSpec, given: Any) -> Any:
+    """An explicit parameter's value for the config: a list (a typer argument of several
+    values) becomes the tuple the field holds."""
+    if isinstance(given, list) and typing.get_origin(spec.base) is tuple:
+        return tuple(given)
     return given
 
 
@@ -225,10 +255,12 @@ GENERATED: dict[str, dict] = {}
 
 
 def config_command(app: typer.Typer, name: str, target: str, *, exclude: tuple[str, ...] = (),
-                   aliases: dict[str, tuple[str, ...]] | None = None) -> Callable:
+                   aliases: dict[str, tuple[str, ...]] | None = None,
+                   group: str = "") -> Callable:
     """Decorator: ``fn(config, **explicit)`` becomes command ``name`` with one option per
     field of ``target`` ("module:Class") that the CLI can set, except ``exclude`` (fields
-    left at their default) and those ``fn`` declares itself."""
+    left at their default) and those ``fn`` declares itself. ``group``: the name of the
+    command group ``app`` is (``fmg``), so GENERATED knows the command as ``fmg eval``."""
     from pipeline.options import validate
 
     def deco(fn: Callable) -> Callable:
@@ -236,20 +268,20 @@ def config_command(app: typer.Typer, name: str, target: str, *, exclude: tuple[s
         before, after = _explicit(fn, "config")
         own = {p.name for p in before + after}
         gen = [s for s in specs if s.name not in own and s.name not in exclude and settable(s)]
-        into_config = [s.name for s in specs if s.name in own]
+        into_config = [s for s in specs if s.name in own]
         params = before + [_option(s, specs, aliases=(aliases or {}).get(s.name, ()))
                            for s in gen] + after
 
         def call(kwargs: dict) -> Any:
             values = {s.name: _value(s, kwargs.pop(s.name)) for s in gen}
-            values.update({n: kwargs.pop(n) for n in into_config})
+            values.update({s.name: _explicit_value(s, kwargs.pop(s.name)) for s in into_config})
             factory = {s.name for s in specs if s.default is FACTORY}
             given = {k: v for k, v in values.items() if not (v is None and k in factory)}
             config = validate(load_class(target)(**given))
             return fn(config=config, **kwargs)
 
         _register(app, name, fn, params, call)
-        GENERATED[name] = {"target": target, "exclude": tuple(exclude),
+        GENERATED[f"{group} {name}".strip()] = {"target": target, "exclude": tuple(exclude),
                            "explicit": tuple(sorted(own)), "options": [s.name for s in gen]}
         return fn
 

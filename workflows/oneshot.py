@@ -109,17 +109,17 @@ def run_all(cfg: OneShotConfig) -> Path:
         raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
     from pipeline import decode, depth, export, finetune, mask, pose, render, select
 
-    st, force, t0 = cfg.stages, cfg.force, time.time()
+    stages, force, t0 = cfg.stages, cfg.force, time.time()
     ws_path = Path(cfg.out) if cfg.out else default_workspace(photos)
-    ws = decode.run(st["decode"], photos, ws_path, force=force)
-    pose.run(st["pose"], ws, force=force)
-    mask.run(st["mask"], ws, force=force)
-    depth.run(st["depth"], ws, force=force)
-    select.run(st["select"], ws, force=force)
-    finetune.run(st["finetune"], ws, force=force)
-    render.run(replace(st["render"], path="inputs"), ws, force=force)
-    render.run(st["render"], ws, force=force)
-    written = export.run(replace(st["export"], path=Path(st["render"].path).stem), ws,
+    ws = decode.run(stages["decode"], photos, ws_path, force=force)
+    pose.run(stages["pose"], ws, force=force)
+    mask.run(stages["mask"], ws, force=force)
+    depth.run(stages["depth"], ws, force=force)
+    select.run(stages["select"], ws, force=force)
+    finetune.run(stages["finetune"], ws, force=force)
+    render.run(replace(stages["render"], path="inputs"), ws, force=force)
+    render.run(stages["render"], ws, force=force)
+    written = export.run(replace(stages["export"], path=Path(stages["render"].path).stem), ws,
                          force=force)
     video = ws.video
     minutes = (time.time() - t0) / 60
@@ -127,7 +127,7 @@ def run_all(cfg: OneShotConfig) -> Path:
     info(f"  de-flared photos: {ws.deflared}")
     if video.exists():
         info(f"  video: {video}")
-    for p in written:
-        if p != video and p.suffix in (".mp4", ".jpg", ".glb", ".json"):
-            info(f"  {p.name}: {p}")
+    for path in written:
+        if path != video and path.suffix in (".mp4", ".jpg", ".glb", ".json"):
+            info(f"  {path.name}: {path}")
     return ws.root

@@ -1,0 +1,1 @@
+"""One module per `deflare-scene` command, each with ``register(app)`` (workflows/cli.py)."""

@@ -10,7 +10,7 @@ from workflows.config_cli import config_command
 
 
 def register(app: typer.Typer) -> None:
-    @config_command(app, "bench", "workflows.bench:BenchConfig", exclude=("devices",),
+    @config_command(app, "bench", "workflows.research.bench:BenchConfig", exclude=("devices",),
                     aliases={"out": ("-o",)})
     def bench_cmd(
         config,
@@ -19,7 +19,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Measure speed and peak memory on a synthetic scene (no data needed), each beside
         the plain fp32 reference path measured in the same run."""
-        from workflows.bench import print_table, run
+        from workflows.research.bench import print_table, run
 
         devices = () if device == "all" else tuple(d.strip() for d in device.split(","))
         record = run(replace(config, devices=devices))

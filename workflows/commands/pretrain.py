@@ -10,7 +10,7 @@ from workflows.config_cli import config_command
 
 
 def register(app: typer.Typer) -> None:
-    @config_command(app, "pretrain", "workflows.pretrain:PretrainConfig",
+    @config_command(app, "pretrain", "workflows.research.pretrain:PretrainConfig",
                     aliases={"out": ("-o",)})
     def pretrain_cmd(
         config,
@@ -18,7 +18,10 @@ def register(app: typer.Typer) -> None:
                                             "(poses_bounds.npy), COLMAP workspaces (sparse/ + "
                                             "images/), or folders of them."),
     ) -> None:
-        """Pretrain GN-FR; several GPUs: torchrun --nproc_per_node K -m workflows.pretrain."""
-        from workflows.pretrain import run
+        """Pretrain GN-FR across scenes.
+
+        Several GPUs: torchrun --nproc_per_node K -m workflows.research.pretrain SCENES...
+        """
+        from workflows.research.pretrain import run
 
         run(config)

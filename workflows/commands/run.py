@@ -60,9 +60,9 @@ def register(app: typer.Typer) -> None:
 
         if values["fps"] is None:
             values["fps"] = default_fps(values["device"])
-        st = _stage_configs()
+        configs = _stage_configs()
         for name, stages in FLAGS.items():
             for stage in stages:
-                st[stage] = replace(st[stage], **{name: values[name]})
-        st = apply_overrides(st, list(set_ or []))
-        run_all(OneShotConfig(photos=photos, out=out, stages=st, force=force))
+                configs[stage] = replace(configs[stage], **{name: values[name]})
+        configs = apply_overrides(configs, list(set_ or []))
+        run_all(OneShotConfig(photos=photos, out=out, stages=configs, force=force))

@@ -215,21 +215,21 @@ def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
     from gnfr.model import GNFR
     from gnfr.train import prepare_sources, sample_batch
 
-    tc = replace(tcfg, **TRAIN_MODES[mode])
+    train_cfg = replace(tcfg, **TRAIN_MODES[mode])
     torch.manual_seed(0)
-    model = GNFR(tc.model).to(device)
-    tr = Trainer(model, tc, gen=torch.Generator().manual_seed(0))
+    model = GNFR(train_cfg.model).to(device)
+    trainer = Trainer(model, train_cfg, gen=torch.Generator().manual_seed(0))
     with PeakMemory(device) as mem:
         t0 = time.perf_counter()
-        bank, cache = prepare_sources(model, scene, tc, torch.device(device))
+        bank, cache = prepare_sources(model, scene, train_cfg, torch.device(device))
         _sync(device)
         prep = time.perf_counter() - t0
         for _ in range(cfg.warmup):
-            tr.train_one(StepInput(sample_batch(scene, tc, tr.gen), bank, cache))
+            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank, cache))
         _sync(device)
         t0 = time.perf_counter()
         for _ in range(cfg.steps):
-            tr.train_one(StepInput(sample_batch(scene, tc, tr.gen), bank, cache))
+            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank, cache))
         _sync(device)
         dt = time.perf_counter() - t0
     return {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,
@@ -252,13 +252,13 @@ def _frame_rays(W: int, H: int, n_rays: int, c2w, device: str):
     return K, o.to(device), d.to(device)
 
 
-def _sources(scene, tc, size: tuple[int, int], n: int):
+def _sources(scene, train_cfg, size: tuple[int, int], n: int):
     """First ``n`` scene views resized to ``size`` x source_scale: images, K, masks, c2w."""
     import torch
     import torch.nn.functional as F
 
     W, H = size
-    w, h = max(8, round(W * tc.source_scale)), max(8, round(H * tc.source_scale))
+    w, h = max(8, round(W * train_cfg.source_scale)), max(8, round(H * train_cfg.source_scale))
     imgs = F.interpolate(scene.images[:n].float() / 255, size=(h, w), mode="area")
     masks = F.interpolate(scene.masks[:n].float(), size=(h, w), mode="area").round()
     K = torch.tensor([[0.9 * w, 0, w / 2], [0, 0.9 * w, h / 2], [0, 0, 1.0]]).expand(n, 3, 3)
@@ -361,16 +361,12 @@ def measure(isolate: bool, fn, *args) -> dict:
 
     import torch
 
+    from workflows.threads import apply_thread_policy
+
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
-                             initializer=_set_threads,
+                             initializer=apply_thread_policy,
                              initargs=(torch.get_num_threads(),)) as pool:
         return pool.submit(fn, *args).result()
-
-
-def _set_threads(n: int) -> None:
-    import torch
-
-    torch.set_num_threads(n)
 
 
 def default_devices() -> tuple[str, ...]:
@@ -422,34 +418,38 @@ def run(cfg: BenchConfig) -> dict:
 
 
 def print_table(record: dict) -> None:
+    """The record as a table on the terminal: fast beside reference, per device."""
     from rich.console import Console
     from rich.table import Table
 
-    m = record["machine"]
-    p = record["preset"]
-    s = record["settings"]
-    title = (f"deflare-scene bench: {m['cpu']} ({m['cores']} cores, {m['torch_threads']} torch "
-             f"threads), torch {m['torch']}"
-             + (f", {m['cuda']['name']}" if m.get("cuda") else ""))
-    t = Table(title=title, caption=f"preset {p['name']}: depth {p['depth']} width {p['width']}"
-              f", {p['rays']} rays x {p['samples']} samples per training step; render "
-              f"{s['samples'] or p['samples']} samples per ray, chunks of "
-              f"{s['chunk'] or '1024 (CUDA) / 256 (CPU)'} rays, "
-              f"rays timed per frame: {s['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
+    mach = record["machine"]
+    preset = record["preset"]
+    settings = record["settings"]
+    title = (f"deflare-scene bench: {mach['cpu']} ({mach['cores']} cores, "
+             f"{mach['torch_threads']} torch threads), torch {mach['torch']}"
+             + (f", {mach['cuda']['name']}" if mach.get("cuda") else ""))
+    table = Table(
+        title=title, caption=f"preset {preset['name']}: depth {preset['depth']} width "
+        f"{preset['width']}, {preset['rays']} rays x {preset['samples']} samples per training "
+        f"step; render {settings['samples'] or preset['samples']} samples per ray, chunks of "
+        f"{settings['chunk'] or '1024 (CUDA) / 256 (CPU)'} rays, "
+        f"rays timed per frame: {settings['rays'] or 'whole frame (CUDA) / 4096 (CPU)'}")
     for col in ("device", "measurement", "fast", "reference", "ref / fast", "peak MiB "
                 "fast / ref"):
-        t.add_column(col, justify="left" if col in ("device", "measurement") else "right")
-    for dev, r in record["results"].items():
-        tr = r["train"]
+        table.add_column(col, justify="left" if col in ("device", "measurement") else "right")
+    for device, results in record["results"].items():
+        train = results["train"]
         for mode in ("end_to_end", "cached"):
-            ref = tr["reference"]
-            t.add_row(dev, f"train it/s ({mode.replace('_', '-')})",
-                      f"{tr[mode]['it_per_s']:.2f}", f"{ref['it_per_s']:.2f}",
-                      f"{tr[mode]['it_per_s'] / ref['it_per_s']:.2f}x faster",
-                      f"{tr[mode]['peak_mib']:.0f} / {ref['peak_mib']:.0f}")
-        for size, rr in r["render"].items():
-            t.add_row(dev, f"render s/frame {size}", f"{rr['fast']['s_per_frame']:.2f}",
-                      f"{rr['reference']['s_per_frame']:.2f}",
-                      f"{rr['reference_over_fast']:.2f}x",
-                      f"{rr['fast']['peak_mib']:.0f} / {rr['reference']['peak_mib']:.0f}")
-    Console().print(t)
+            ref = train["reference"]
+            table.add_row(device, f"train it/s ({mode.replace('_', '-')})",
+                          f"{train[mode]['it_per_s']:.2f}", f"{ref['it_per_s']:.2f}",
+                          f"{train[mode]['it_per_s'] / ref['it_per_s']:.2f}x faster",
+                          f"{train[mode]['peak_mib']:.0f} / {ref['peak_mib']:.0f}")
+        for size, render in results["render"].items():
+            table.add_row(device, f"render s/frame {size}",
+                          f"{render['fast']['s_per_frame']:.2f}",
+                          f"{render['reference']['s_per_frame']:.2f}",
+                          f"{render['reference_over_fast']:.2f}x",
+                          f"{render['fast']['peak_mib']:.0f} / "
+                          f"{render['reference']['peak_mib']:.0f}")
+    Console().print(table)

@@ -36,6 +36,7 @@ import numpy as np
 from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
 from pipeline.images import image_size, list_photos
+from pipeline.options import option, validate
 from pipeline.progress import info
 from pipeline.workspace import (
     Workspace,
@@ -60,50 +61,55 @@ PUBLISHED = {
 }
 """Published per-scene numbers of the held-out views (PSNR dB, SSIM); None = to be cited."""
 
-FILLS = ("hybrid", "network")
-
 
 @dataclass
 class LlffEvalConfig:
     """Options of `deflare-scene eval-llff`."""
 
     scene: Path
-    """LLFF folder (poses_bounds.npy + images/ or images_<factor>/)."""
+    """LLFF folder (poses_bounds.npy + images/ or images_<factor>/), e.g.
+    ../shared/data/scenes/fern."""
     out: Path | None = None
-    """Output folder (default ./<scene name>.llff_eval)."""
-    every: int = 8
+    """Output folder (default ./<scene name>.llff_eval); results in OUT/results.json,
+    OUT/table.md."""
+    every: int = option(8, ge=2)
     """Hold out every K-th view (index % K == 0; the LLFF protocol is 8)."""
-    max_size: int = 504
+    max_size: int = option(504, ge=32)
     """Long side of the images (load_llff picks images_<factor> and resizes; LLFF: 504)."""
-    preset: str = "auto"
-    """Training preset (auto: paper on CUDA, quick on CPU)."""
-    iters: int | None = None
+    preset: str = option("auto", choices=("auto", "paper", "quick", "tiny"))
+    """Training preset: auto (paper on CUDA, quick on CPU) | quick | paper | tiny (smoke tests
+    only)."""
+    iters: int | None = option(None, ge=1)
     """Override the preset's steps."""
-    rays: int | None = None
+    rays: int | None = option(None, ge=1)
     """Override rays per step."""
-    samples: int | None = None
+    samples: int | None = option(None, ge=1)
     """Override samples per ray (training and rendering)."""
-    views: int | None = None
+    views: int | None = option(None, ge=1)
     """Override the number of source views."""
-    init: str = "auto"
+    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
     """Weights to start from: auto | scratch | FILE.safetensors (as finetune --init)."""
-    device: str = "auto"
-    """auto | cpu | cuda."""
-    seed: int = 0
+    device: str = option("auto", device=True)
+    """auto | cpu | cuda | cuda:N."""
+    seed: int = option(0, ge=0)
     """Training seed."""
-    fills: tuple[str, ...] = FILLS
-    """Render fills of the held-out views, each rendered and scored (render --fill)."""
+    fills: tuple[str, ...] = option(("hybrid", "network"), flag="--fill",
+                                    choices=("hybrid", "network"))
+    """Render fills of the held-out views, comma-separated (render --fill), each rendered and
+    scored; the flare protocol uses the first."""
     flare: bool = False
-    """Also the flare protocol: synthetic flare on the training views, eval with the true
-    masks."""
-    variants: tuple[str, ...] = ("gnfr", "gnt", "input")
+    """Also impose synthetic flare on the training views and compare GN-FR with vanilla GNT
+    (`eval` with the true masks)."""
+    variants: tuple[str, ...] = option(
+        ("gnfr", "gnt", "input"),
+        choices=("gnfr", "gnt", "no_ps", "no_vs", "no_ml", "input", "inpaint", "photos"))
     """Methods of the flare protocol (as `eval --variants`)."""
-    flare_seed: int = 0
+    flare_seed: int = option(0, ge=0)
     """Seed of the synthetic flare (synth --seed)."""
     force: bool = False
     """Redo every stage."""
     finetune_extra: dict = field(default_factory=dict)
-    """Extra FinetuneConfig fields (tests)."""
+    """Extra FinetuneConfig fields (Python API: tests)."""
 
 
 # --------------------------------------------------------------------------- the scene
@@ -120,18 +126,19 @@ def llff_split(stems: list[str], every: int) -> tuple[list[str], list[str]]:
 
 
 def pinhole(K: np.ndarray, W: int, H: int) -> dict:
+    """The COLMAP PINHOLE camera of ``K`` at W x H."""
     return {"model": "PINHOLE", "width": int(W), "height": int(H),
             "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
 
 
-def llff_cameras(sc, names: dict[str, str]) -> Cameras:
+def llff_cameras(llff, names: dict[str, str]) -> Cameras:
     """The cameras of a loaded LLFF scene (``gnfr.train.Scene``) as cameras.json frames."""
-    H, W = sc.images.shape[-2:]
+    H, W = llff.images.shape[-2:]
     frames = []
-    for i, s in enumerate(sc.stems):
-        K = sc.K[i].numpy()
-        frames.append(Frame(names[s], s, K, int(W), int(H), sc.c2w[i].numpy(),
-                            float(sc.near[i]), float(sc.far[i]), pinhole(K, W, H)))
+    for i, stem in enumerate(llff.stems):
+        K = llff.K[i].numpy()
+        frames.append(Frame(names[stem], stem, K, int(W), int(H), llff.c2w[i].numpy(),
+                            float(llff.near[i]), float(llff.far[i]), pinhole(K, W, H)))
     return Cameras(frames, np.eye(4))
 
 
@@ -148,38 +155,38 @@ def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False)
     ws = Workspace.create(out, folder)
     params = {"cameras": "ground truth (LLFF poses_bounds.npy, pipeline.scene_data.load_llff)",
               "scene": str(folder), "image_dir": img_dir.name, "max_size": max_size}
-    run_ = ws.begin_stage("pose", params, [folder / "poses_bounds.npy", img_dir], force)
-    if run_.skip:
+    stage = ws.begin_stage("pose", params, [folder / "poses_bounds.npy", img_dir], force)
+    if stage.skip:
         return ws
-    sc = load_llff(folder, max_size)
+    llff = load_llff(folder, max_size)
     names = {p.stem: p.name for p in list_photos(img_dir)}  # the files load_llff read
-    for i, s in enumerate(sc.stems):
-        bgr = np.ascontiguousarray(sc.images[i].permute(1, 2, 0).numpy()[..., ::-1])
-        atomic_imwrite(ws.image_path(s), bgr)
-        atomic_imwrite(ws.decoded_path(s), bgr)
-    write_cameras(ws, llff_cameras(sc, names))
+    for i, stem in enumerate(llff.stems):
+        bgr = np.ascontiguousarray(llff.images[i].permute(1, 2, 0).numpy()[..., ::-1])
+        atomic_imwrite(ws.image_path(stem), bgr)
+        atomic_imwrite(ws.decoded_path(stem), bgr)
+    write_cameras(ws, llff_cameras(llff, names))
     ws.record_stage("decode", {"from": str(img_dir), "max_size": max_size}, [ws.decoded])
-    run_.finish([ws.images, ws.cameras_json], extra={"views": len(sc.stems)})
+    stage.finish([ws.images, ws.cameras_json], extra={"views": len(llff.stems)})
     return ws
 
 
 def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[str],
                       origin: str, every: int) -> Path:
     """A synth-style folder of the clean scene (no flare anywhere) for `eval`'s loaders."""
-    from workflows.eval import link_file
+    from workflows.research.eval.workspaces import link_file
 
-    for s in read_cameras(posed).stems:
-        src = posed.image_path(s)
-        link_file(src, out / "clean" / f"{s}.png")
-        if s in train:
-            link_file(src, out / "photos" / f"{s}.png")
-        m = out / "masks_gt" / f"{s}.png"
-        if not m.exists():
+    for stem in read_cameras(posed).stems:
+        src = posed.image_path(stem)
+        link_file(src, out / "clean" / f"{stem}.png")
+        if stem in train:
+            link_file(src, out / "photos" / f"{stem}.png")
+        mask_path = out / "masks_gt" / f"{stem}.png"
+        if not mask_path.exists():
             h, w = image_size(src, fix="rerun `deflare-scene eval-llff` with --force")
-            atomic_imwrite(m, np.zeros((h, w), np.uint8))
-    for p in (out / "photos").glob("*.png"):  # a changed split
-        if p.stem not in train:
-            p.unlink()
+            atomic_imwrite(mask_path, np.zeros((h, w), np.uint8))
+    for photo in (out / "photos").glob("*.png"):  # a changed split
+        if photo.stem not in train:
+            photo.unlink()
     split = {"train": train, "heldout": held, "origin": origin, "protocol":
              f"LLFF: every {every}th view held out (index % {every} == 0), no flare"}
     if not (out / "split.json").exists() or read_json(out / "split.json") != split:
@@ -190,7 +197,8 @@ def write_clean_scene(posed: Workspace, out: Path, train: list[str], held: list[
 
 # --------------------------------------------------------------------------- protocols
 def eval_config(cfg: LlffEvalConfig, scene: Path, out: Path, fill: str):
-    from workflows.eval import EvalConfig
+    """The EvalConfig of a protocol: true masks, held-out views at full size."""
+    from workflows.research.eval.config import EvalConfig
 
     return EvalConfig(scene=scene, out=out, masks="gt", preset=cfg.preset, iters=cfg.iters,
                       rays=cfg.rays, samples=cfg.samples, views=cfg.views, init=cfg.init,
@@ -205,38 +213,46 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
     with each fill at full size and scored."""
     from pipeline import depth, finetune, mask, render, select
     from pipeline.render import RenderConfig
-    from workflows import eval as ev
+    from workflows.research.eval.methods import finetune_config
+    from workflows.research.eval.provenance import budget, method_provenance, run_provenance
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.scoring import score_views
+    from workflows.research.eval.workspaces import (
+        build_workspace,
+        heldout_path_json,
+        variant_workspace,
+    )
 
     folder = write_clean_scene(posed, root / "clean_scene", train, held, origin, cfg.every)
-    scene = ev.load_synth(folder)
-    ecfg = eval_config(cfg, folder, root / "clean.ws", cfg.fills[0])
-    base = ev.build_workspace(scene, root / "clean.ws", cfg.force)
+    scene = load_synth(folder)
+    eval_cfg = eval_config(cfg, folder, root / "clean.ws", cfg.fills[0])
+    base = build_workspace(scene, root / "clean.ws", cfg.force)
     mask.run(mask.MaskConfig(masks_dir=folder / "masks_gt", device=cfg.device), base,
              force=cfg.force)
     depth.run(depth.DepthConfig(), base, force=cfg.force)
     select.run(select.SelectConfig(), base, force=cfg.force)
-    path_json = ev.heldout_path_json(scene, base)
-    vws = ev.variant_workspace(base, "gnfr")
-    info(f"eval-llff: fine-tuning GN-FR on {len(train)} views in {vws.root}")
-    finetune.run(ev.finetune_config(ecfg, "gnfr"), vws, force=cfg.force)
+    path_json = heldout_path_json(scene, base)
+    variant_ws = variant_workspace(base, "gnfr")
+    info(f"eval-llff: fine-tuning GN-FR on {len(train)} views in {variant_ws.root}")
+    finetune.run(finetune_config(eval_cfg, "gnfr"), variant_ws, force=cfg.force)
     methods = {}
     for fill in cfg.fills:
-        pj = base.eval / f"heldout_{fill}.json"
-        if not pj.exists() or read_json(pj) != read_json(path_json):
-            atomic_write_json(pj, read_json(path_json))
-        render.run(RenderConfig(path=str(pj), scale=1.0, fill=fill, device=cfg.device,
-                                samples=cfg.samples), vws, force=cfg.force)
-        folder_out = vws.render_dir(str(pj))
+        fill_path = base.eval / f"heldout_{fill}.json"  # one camera path (render) per fill
+        if not fill_path.exists() or read_json(fill_path) != read_json(path_json):
+            atomic_write_json(fill_path, read_json(path_json))
+        render.run(RenderConfig(path=str(fill_path), scale=1.0, fill=fill, device=cfg.device,
+                                samples=cfg.samples), variant_ws, force=cfg.force)
+        renders = variant_ws.render_dir(str(fill_path))
         methods[f"gnfr_{fill}"] = {
             "label": f"GN-FR, fill {fill}", "fill": fill,
-            "heldout": ev.score_views(scene, folder_out, held, with_region=False),
-            "renders": str(folder_out),
-            "render_seconds": vws.stage_record(f"render:{pj.stem}").get("seconds")}
-    prov = ev.method_provenance("gnfr", {"workspace": vws.root}, base)  # after every render
-    for m in methods.values():
-        m["provenance"] = prov
+            "heldout": score_views(scene, renders, held, with_region=False),
+            "renders": str(renders),
+            "render_seconds": variant_ws.stage_record(f"render:{fill_path.stem}").get("seconds")}
+    prov = method_provenance("gnfr", {"workspace": variant_ws.root}, base)  # after renders
+    for method in methods.values():
+        method["provenance"] = prov
     return {"scene": str(folder), "workspace": str(base.root),
-            "budget": ev.budget(ecfg), "provenance": ev.run_provenance(base),
+            "budget": budget(eval_cfg), "provenance": run_provenance(base),
             "methods": methods}
 
 
@@ -245,7 +261,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
     with the true masks; returns eval's results."""
     from pipeline.synth import SynthConfig
     from pipeline.synth import run as synth_run
-    from workflows import eval as ev
+    from workflows.research.eval import run as run_eval
 
     out = root / "flare_scene"
     synth_run(SynthConfig(out=out, seed=cfg.flare_seed, heldout_every=cfg.every), posed,
@@ -254,7 +270,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
     if got != held:
         raise UserError(f"{out}/split.json holds out {got}, not the LLFF views {held}: "
                         "rerun with --force")
-    folder = ev.run(eval_config(cfg, out, root / "flare.ws", cfg.fills[0]))
+    folder = run_eval(eval_config(cfg, out, root / "flare.ws", cfg.fills[0]))
     return read_json(folder / "results.json")
 
 
@@ -263,18 +279,16 @@ def run(cfg: LlffEvalConfig) -> Path:
     from pipeline.scene_data import load_llff
 
     t0 = time.time()
-    bad = [f for f in cfg.fills if f not in FILLS]
-    if bad or not cfg.fills:
-        raise UserError(f"--fill {','.join(cfg.fills)}: use hybrid, network or both "
-                        "(comma-separated)")
+    validate(cfg)
+    if not cfg.fills:
+        raise UserError("--fill is empty: give hybrid, network or both (comma-separated)")
     folder = Path(cfg.scene).resolve()
     root = Path(cfg.out or Path.cwd() / f"{folder.name}.llff_eval").resolve()
     posed = posed_workspace(folder, root / "posed", cfg.max_size, cfg.force)
     stems = read_cameras(posed).stems
     train, held = llff_split(stems, cfg.every)
     info(f"eval-llff: {folder.name}: {len(train)} training views, held out {', '.join(held)}")
-    sc = load_llff(folder, cfg.max_size)
-    H, W = sc.images.shape[-2:]
+    H, W = load_llff(folder, cfg.max_size).images.shape[-2:]
     res = {"protocol": f"LLFF: every {cfg.every}th view held out (index % {cfg.every} == 0), "
                        "train on the rest, held-out renders at full size against the photos",
            "scene": str(folder), "origin": folder.name, "size": [int(W), int(H)],
@@ -291,34 +305,36 @@ def run(cfg: LlffEvalConfig) -> Path:
 
 
 # --------------------------------------------------------------------------- table
-def _f(v, fmt: str = "{:.2f}") -> str:
-    return "—" if v is None else fmt.format(v)
-
-
 def table_markdown(res: dict) -> str:
-    from workflows.eval import provenance_lines
-    from workflows.eval import table_markdown as eval_table
+    """OUT/table.md: the clean protocol's scores beside published ones (and the flare
+    protocol's table)."""
+    from workflows.research.eval.report import format_or_dash, provenance_lines
+    from workflows.research.eval.report import table_markdown as eval_table
 
-    c = res["clean"]
-    b = c["budget"]
+    clean = res["clean"]
+    budget = clean["budget"]
     lines = [f"# deflare-scene eval-llff: {res['origin']}", "",
              f"- Protocol: {res['protocol']}; {len(res['train_views'])} training views, "
              f"held out {', '.join(res['heldout_views'])}; {res['size'][0]}x{res['size'][1]}; "
              "ground-truth LLFF cameras.",
-             f"- Asked: preset `{b['preset']}` on {b['device']}, {b['iters']} steps, "
-             f"{b['rays']} rays x {b['samples']} samples, depth {b['depth']} width "
-             f"{b['width']}, `--init {b['init']}`.",
-             *provenance_lines(c), "",
+             f"- Asked: preset `{budget['preset']}` on {budget['device']}, "
+             f"{budget['iters']} steps, {budget['rays']} rays x {budget['samples']} samples, "
+             f"depth {budget['depth']} width {budget['width']}, `--init {budget['init']}`.",
+             *provenance_lines(clean), "",
              "| method | held-out PSNR | held-out SSIM | setting |", "|---|---:|---:|---|"]
-    for m in c["methods"].values():
-        sm = m["provenance"].get("summary") or {}
-        lines.append(f"| {m['label']} (this project) | {_f(m['heldout'].get('psnr'))} | "
-                     f"{_f(m['heldout'].get('ssim'), '{:.3f}')} | preset {sm.get('preset')}, "
-                     f"{sm.get('steps_done')} steps from {sm.get('trained_from')}, "
-                     f"{sm.get('device')} |")
-    for p in res["published"]:
-        lines.append(f"| {p['method']} (published) | {_f(p['psnr'])} | "
-                     f"{_f(p['ssim'], '{:.3f}')} | {p['setting']} |")
+    for method in clean["methods"].values():
+        summary = method["provenance"].get("summary") or {}
+        heldout = method["heldout"]
+        lines.append(f"| {method['label']} (this project) | "
+                     f"{format_or_dash(heldout.get('psnr'))} | "
+                     f"{format_or_dash(heldout.get('ssim'), '{:.3f}')} | preset "
+                     f"{summary.get('preset')}, {summary.get('steps_done')} steps from "
+                     f"{summary.get('trained_from')}, {summary.get('device')} |")
+    for published in res["published"]:
+        lines.append(f"| {published['method']} (published) | "
+                     f"{format_or_dash(published['psnr'])} | "
+                     f"{format_or_dash(published['ssim'], '{:.3f}')} | "
+                     f"{published['setting']} |")
     lines += ["", "PSNR in dB and SSIM (pipeline/metrics.py) of the held-out photos; "
               "published numbers are at the paper's full budget (GPU, 1008x756 for NeRF).", ""]
     if "flare" in res:

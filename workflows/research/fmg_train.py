@@ -1,4 +1,4 @@
-"""Training and evaluation of the FMG (flare mask PSPNet) on synthetic composites.
+"""Training, scoring and calibration of the FMG (flare mask PSPNet) on synthetic composites.
 
 ``train(cfg)`` owns the loop: AdamW with poly learning-rate decay, the 5:1 weighted BCE,
 a checkpoint every ``ckpt_every`` steps in ``out`` (``checkpoint.safetensors`` with fp32
@@ -6,7 +6,8 @@ weights + ``optimizer.pt`` with optimizer state and step, read back with
 ``torch.load(weights_only=True)``), so a rerun with the same ``out`` resumes. It ends by
 writing ``out/fmg.safetensors`` (fp16, config in the metadata) and ``out/metrics.json``.
 ``evaluate(weights, ...)`` scores mIoU / mAcc on held-out composites, with the default flare
-settings and with ``FlareConfig.unseen()``.
+settings and with ``FlareConfig.unseen()``. The options of each `deflare-scene fmg` command
+are a dataclass here (FMGTrainConfig, FMGEvalConfig, FMGCalibrateConfig, FMGOverlayConfig).
 """
 
 from __future__ import annotations
@@ -15,18 +16,18 @@ import json
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from pipeline.errors import UserError
 from pipeline.images import list_photos, read_image
-from pipeline.options import resolve_device
+from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info
 from pipeline.workspace import atomic_imwrite, atomic_path, atomic_write_json
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def default_data() -> Path:
@@ -39,42 +40,123 @@ class FMGTrainConfig:
     """Options of `deflare-scene fmg train`."""
 
     out: Path
-    """Run folder: checkpoints, log.jsonl, fmg.safetensors, metrics.json."""
+    """Run folder (resumes if it has a checkpoint): checkpoints, log.jsonl, metrics.json; the
+    result is OUT/fmg.safetensors."""
     data: Path = field(default_factory=default_data)
-    """Folder with backgrounds/ and scenes/ (images found recursively)."""
-    iters: int = 3000
+    """Folder with backgrounds/ and scenes/, images found recursively (default
+    $DEFLARE_SHARED_DATA or ../shared/data)."""
+    iters: int = option(3000, ge=1)
     """Optimizer steps."""
-    batch: int = 8
+    batch: int = option(8, ge=1)
     """Composites per step."""
-    size: int = 256
-    """Composite side (pixels)."""
-    widths: tuple[int, ...] = (32, 64, 128, 256)
+    size: int = option(256, ge=32)
+    """Composite side in pixels."""
+    widths: tuple[int, ...] = option((32, 64, 128, 256), ge=1)
     """Backbone stage widths (ResNet-18: 64,128,256,512)."""
-    depths: tuple[int, ...] = (2, 2, 2, 2)
+    depths: tuple[int, ...] = option((2, 2, 2, 2), ge=1)
     """BasicBlocks per stage (ResNet-18: 2,2,2,2; ResNet-34: 3,4,6,3)."""
-    head_width: int = 128
-    """Channels of the head conv after pyramid pooling."""
-    skip_width: int = 0
-    """Channels of the fine decoder (stride 4, then input size; 0: none). ``--init`` from a
+    head_width: int = option(128, ge=1)
+    """Head channels (the conv after pyramid pooling)."""
+    skip_width: int = option(0, ge=0)
+    """Channels of the fine decoder (stride 4, then input size; 0: none). ``init`` from a
     file without one starts the decoder at zero, i.e. at that file's predictions."""
-    lr: float = 2e-3
-    """Peak AdamW learning rate (poly decay, power 0.9, after a short warm-up)."""
-    weight_decay: float = 1e-4
-    ckpt_every: int = 100
+    lr: float = option(2e-3, gt=0)
+    """Peak learning rate (AdamW, poly decay with power 0.9 after a short warm-up)."""
+    weight_decay: float = option(1e-4, ge=0)
+    """AdamW weight decay (Python API)."""
+    ckpt_every: int = option(100, ge=1)
     """Steps between checkpoints."""
-    eval_every: int = 500
+    eval_every: int = option(500, ge=1)
     """Steps between validation scores (on ``val_count`` held-out composites)."""
-    val_count: int = 32
-    night_prob: float = 0.0
+    val_count: int = option(32, ge=1)
+    """Held-out composites scored during training (twice as many at the end)."""
+    night_prob: float = option(0.0, ge=0, le=1)
     """Probability of a night-darkened training background (``CompositeConfig``)."""
-    without: tuple[str, ...] = ()
-    """Kinds of flare (of ``pipeline.flare.KINDS``) left out of training: a
-    leave-one-kind-out model; recorded in the weights' metadata (``without``)."""
+    without: tuple[str, ...] = option(
+        (), choices=("starburst", "ghosts", "streaks", "glare", "scatter"))
+    """Kinds of flare to leave out of training (comma-separated, of
+    starburst,ghosts,streaks,glare,scatter): a leave-one-kind-out model; recorded in the
+    weights' metadata."""
     init: Path | None = None
-    """FMG weights to start from (same widths, depths and head width) when the run folder has
-    no checkpoint; the step count starts at 0 (the card adds the init's steps)."""
-    seed: int = 0
-    device: str = "auto"
+    """FMG weights to start from (same widths, depths and head width) when OUT has no
+    checkpoint; the step count starts at 0 (the card adds the init's steps)."""
+    seed: int = option(0, ge=0)
+    """Seed of initialisation and composites (Python API)."""
+    device: str = option("auto", device=True)
+    """auto, cpu, cuda or cuda:N."""
+
+
+@dataclass
+class FMGEvalConfig:
+    """Options of `deflare-scene fmg eval`: one of four scores of FMG weights."""
+
+    weights: Path | None = None
+    """FMG weights (default: the shipped ones)."""
+    data: Path = field(default_factory=default_data)
+    """Folder with backgrounds/ and scenes/."""
+    count: int = option(64, ge=1)
+    """Held-out composites per flare setting (per kind with ``per_kind``)."""
+    size: int = option(256, ge=32)
+    """Composite side in pixels."""
+    refine: bool = False
+    """Also score guided-filter refined masks."""
+    per_kind: bool = False
+    """Score each kind of flare alone (leave-one-kind-out table)."""
+    loo: tuple[Path, ...] = ()
+    """With ``per_kind``: weights trained with `fmg train --without KIND`, scored on that kind
+    (repeat for several)."""
+    work_sizes: tuple[int, ...] = option((), ge=32)
+    """Instead: flare IoU of thin streaks and starbursts on held-out photos against the
+    working size, e.g. 384,512,768."""
+    clean: bool = False
+    """Instead: share of pixels marked on the clean photos of the test scenes."""
+    work_size: int = option(512, ge=32)
+    """With ``clean``: the network's working size (long side), as the mask stage's
+    --work-size."""
+    out: Path | None = None
+    """Write the metrics here (JSON)."""
+
+
+@dataclass
+class FMGCalibrateConfig:
+    """Options of `deflare-scene fmg calibrate`."""
+
+    weights: Path | None = None
+    """FMG weights (default: the shipped ones)."""
+    data: Path = field(default_factory=default_data)
+    """Folder with backgrounds/ and scenes/."""
+    count: int = option(96, ge=1)
+    """Training-side composites to score."""
+    seed: int = option(7, ge=0)
+    """Seed of the composites."""
+    write: bool = False
+    """Store the best cut in the weights' metadata (the mask stage's default)."""
+    out: Path | None = None
+    """Write the sweep here (JSON)."""
+
+
+@dataclass(kw_only=True)
+class FMGOverlayConfig:
+    """Options of `deflare-scene fmg overlay`."""
+
+    photos: tuple[Path, ...]
+    """Photos to mask (e.g. real flare)."""
+    weights: tuple[Path, ...] = ()
+    """FMG weights, one column each (default: the shipped ones)."""
+    out: Path
+    """The overview JPEG to write."""
+    work_size: int = option(512, ge=32)
+    """The network's working size (long side)."""
+
+
+def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
+    """``cfg`` when it asks for one score (the composites, ``per_kind``, ``work_sizes`` or
+    ``clean``); else a one-line UserError."""
+    if cfg.loo and not cfg.per_kind:
+        raise UserError("--loo needs --per-kind")
+    if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
+        raise UserError("give one of --per-kind, --work-sizes, --clean")
+    return cfg
 
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = ()):
@@ -185,8 +267,12 @@ def train(cfg: FMGTrainConfig) -> dict:
     import torch
 
     from gnfr.fmg import FMGConfig, build_fmg, fmg_loss, save_fmg
+    from pipeline.flare import check_kinds
     from pipeline.fmg_data import fixed_set
 
+    validate(cfg)
+    if cfg.without:  # each kind once, in the order given
+        cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     dev = resolve_device(cfg.device)
@@ -445,20 +531,22 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "scenes": {}}
-    for sc in scenes:
-        fr = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
-              for name, im in _photos(Path(data) / sc)}
-        v = list(fr.values())
-        res["scenes"][sc] = {"views": len(v), "mean": float(np.mean(v)), "max": float(max(v)),
-                             "over_10pct": int(sum(x > 0.10 for x in v)), "per_view": fr}
+    for scene in scenes:
+        marked = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
+                  for name, im in _photos(Path(data) / scene)}
+        fractions = list(marked.values())
+        res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
+                                "max": float(max(fractions)),
+                                "over_10pct": int(sum(x > 0.10 for x in fractions)),
+                                "per_view": marked}
     return res
 
 
 def format_clean(res: dict) -> str:
     rows = [f"clean photos, pixels marked at cut {res['cut']:g}, network at {res['work_size']}",
             "| scene | views | mean | max | views over 10 % |", "|---|---|---|---|---|"]
-    for sc, r in res["scenes"].items():
-        rows.append(f"| {sc} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
+    for scene, r in res["scenes"].items():
+        rows.append(f"| {scene} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
                     f"| {r['over_10pct']} |")
     return "\n".join(rows)
 
@@ -473,22 +561,24 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
-    for ph in photos:
-        img = read_image(ph, bgr=True)
-        s = width / img.shape[1]
-        tiles = [cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)]
+    for photo in photos:
+        img = read_image(photo, bgr=True)
+        scale = width / img.shape[1]
+        tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         for (cut, model), w in zip(models, weights, strict=True):
-            m = fmg_probs(model, [img], work_size)[0] > cut
-            fracs[f"{ph.name} {w}"] = float(m.mean())
-            ms = cv2.resize(m.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
-                            interpolation=cv2.INTER_NEAREST)
-            t = tiles[0].copy()
-            t[ms > 0] = (0.55 * t[ms > 0] + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
-            contours, _ = cv2.findContours(ms, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-            cv2.drawContours(t, contours, -1, (0, 255, 255), 1)
-            cv2.putText(t, f"{Path(w).parent.name or Path(w).stem}: {100 * m.mean():.1f} %",
+            marked = fmg_probs(model, [img], work_size)[0] > cut
+            fracs[f"{photo.name} {w}"] = float(marked.mean())
+            small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
+                               interpolation=cv2.INTER_NEAREST)
+            tile = tiles[0].copy()
+            tile[small > 0] = (0.55 * tile[small > 0]
+                               + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
+            contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
+            cv2.putText(tile,
+                        f"{Path(w).parent.name or Path(w).stem}: {100 * marked.mean():.1f} %",
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
-            tiles.append(t)
+            tiles.append(tile)
         rows.append(np.hstack(tiles))
     atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return fracs

@@ -6,7 +6,7 @@ Scenes: deflare-scene workspaces, LLFF folders (``poses_bounds.npy``) and COLMAP
 (``pipeline.flare``) is imposed once per view at load time with its ground-truth mask, so the
 masking loss, Point Sampler and View Sampler train as in the paper.
 
-Several processes: ``torchrun --nproc_per_node K -m workflows.pretrain ...`` (or
+Several processes: ``torchrun --nproc_per_node K -m workflows.research.pretrain ...`` (or
 ``python -m torch.distributed.run``); each rank draws its own batches, gradients are
 averaged with an all-reduce (NCCL on CUDA, gloo on CPU), rank 0 writes checkpoints.
 A run resumes from ``OUT/train_state.pt`` (weights, optimizer, step); on resume each rank's
@@ -99,16 +99,17 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
 
 
 def load_scenes(config: PretrainConfig) -> list[Scene]:
+    """Every training scene of ``config.scenes``, with synthetic flare when asked."""
     from pipeline.progress import track
     from pipeline.scene_data import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes = []
-    for p in track(find_scenes(config.scenes), "loading scenes"):
-        sc = detect_and_load(p, config.max_size)
+    for folder in track(find_scenes(config.scenes), "loading scenes"):
+        scene = detect_and_load(folder, config.max_size)
         if config.flare:
-            sc = impose_flare(sc, config.flare_prob, rng)
-        scenes.append(sc)
+            scene = impose_flare(scene, config.flare_prob, rng)
+        scenes.append(scene)
     return scenes
 
 
@@ -168,20 +169,20 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     """Pretrain; returns the weight file. ``train`` overrides the preset entirely."""
     validate(config)
     rank, world, device = setup_distributed(config.device)
-    cfg = train or PRESETS[config.preset]
+    train_cfg = train or PRESETS[config.preset]
     if config.iters is not None:
-        cfg = replace(cfg, iters=config.iters)
-    cfg = replace(cfg, seed=config.seed)
+        train_cfg = replace(train_cfg, iters=config.iters)
+    train_cfg = replace(train_cfg, seed=config.seed)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
-    step = start_step(cfg, config.init, config.preset)
+    step = start_step(train_cfg, config.init, config.preset)
     resume = has_checkpoint(out)
-    if step and not resume and step >= cfg.iters:
+    if step and not resume and step >= train_cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
     scenes = load_scenes(config)
-    model, how = init_model(cfg, device, config.init)
-    trainer = Trainer(model, cfg, step=step)
+    model, how = init_model(train_cfg, device, config.init)
+    trainer = Trainer(model, train_cfg, step=step)
     if step:
         how += f", continuing its step count at {step} (fresh optimizer state)"
     if resume:  # weights, optimizer, step; the sampler is re-seeded below, not restored
@@ -191,23 +192,24 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         broadcast_params(model)
     if rank == 0:
         info(f"pretrain: {len(scenes)} scenes, {world} process(es) on {device.type}, "
-             f"{cfg.iters} steps, {how}")
-    trainer.gen = torch.Generator().manual_seed(cfg.seed * 1_000_003 + rank * 7919
+             f"{train_cfg.iters} steps, {how}")
+    trainer.gen = torch.Generator().manual_seed(train_cfg.seed * 1_000_003 + rank * 7919
                                                 + trainer.step)
-    banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
+    banks = [prepare_sources(model, scene, train_cfg, device) for scene in scenes]
 
     def draw(gen: torch.Generator) -> StepInput:
         """A random scene, then a batch of it."""
         k = int(torch.randint(len(scenes), (1,), generator=gen))
-        return StepInput(sample_batch(scenes[k], cfg, gen), *banks[k],
+        return StepInput(sample_batch(scenes[k], train_cfg, gen), *banks[k],
                          fields={"scene": scenes[k].name})
 
     with make_progress() as prog:
-        task = prog.add_task("pretrain", total=cfg.iters, completed=trainer.step)
-        trainer.run(draw, out=out, meta=lambda st, _: render_meta(cfg, config.preset, st),
+        task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
+        trainer.run(draw, out=out,
+                    meta=lambda at_step, _: render_meta(train_cfg, config.preset, at_step),
                     record=last_record, grad_hook=allreduce_grads if world > 1 else None,
                     writer=rank == 0,
-                    report=lambda st, _, __: prog.update(task, completed=st))
+                    report=lambda at_step, _, __: prog.update(task, completed=at_step))
     if world > 1:
         torch.distributed.barrier()
     return out / MODEL_FILE
@@ -223,7 +225,7 @@ def export_fp16(run_weights: Path, dest: Path, extra: dict | None = None) -> Pat
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry for torchrun: ``python -m workflows.pretrain [options]`` (same as the CLI)."""
+    """Entry for torchrun: ``python -m workflows.research.pretrain [options]`` (same as the CLI)."""
     from workflows.cli import main as cli_main
 
     return cli_main(["pretrain", *(argv if argv is not None else __import__("sys").argv[1:])])

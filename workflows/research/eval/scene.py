@@ -1,0 +1,83 @@
+"""A synth scene folder as eval reads it: its views, ground-truth cameras, clean images, masks."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.cameras import Cameras, load_cameras
+from pipeline.errors import UserError
+from pipeline.images import PHOTO_EXTS
+from pipeline.workspace import Workspace, read_json
+from pipeline.ws_files import read_mask_file
+
+
+@dataclass
+class SynthScene:
+    root: Path
+    cams: Cameras
+    """Ground-truth cameras of every view."""
+    train: list[str]
+    heldout: list[str]
+    origin: str
+    """Name of the photo folder the clean scene came from (e.g. kermit)."""
+
+
+def load_synth(root: Path) -> SynthScene:
+    """Read and check a synth output folder."""
+    root = Path(root).resolve()
+    for name in ("photos", "clean", "masks_gt", "cameras_gt.json", "split.json"):
+        if not (root / name).exists():
+            raise UserError(f"{root / name} is missing: SCENE must be a folder written by "
+                            "`deflare-scene synth WS --out SCENE`")
+    split = read_json(root / "split.json")
+    cams = load_cameras(root / "cameras_gt.json")
+    train, held = list(split.get("train", [])), list(split.get("heldout", []))
+    for s in train:
+        if photo_path(root, s) is None:
+            raise UserError(f"{root / 'photos' / (s + '.png')} is missing: rerun "
+                            f"`deflare-scene synth ... --out {root} --force`")
+    for s in train + held:
+        if not (root / "clean" / f"{s}.png").is_file() or s not in cams.by_stem():
+            raise UserError(f"{root}: view {s} has no clean image or camera: rerun synth")
+    return SynthScene(root, cams, train, held, scene_origin(root))
+
+
+def scene_origin(root: Path) -> str:
+    """The photo folder name of the clean scene synth read (``origin`` in split.json, else
+    the synth manifest, else the folder's own name)."""
+    origin = read_json(root / "split.json").get("origin")
+    if origin:
+        return str(origin)
+    try:
+        ws = Path(Workspace(root).stage_record("synth")["params"]["workspace"])
+        return Workspace(ws).scene_name if ws.exists() else ws.name
+    except (KeyError, TypeError, UserError):
+        return root.name
+
+
+
+def photo_path(root: Path, stem: str) -> Path | None:
+    """The flared photo of ``stem`` in ``root/photos`` (synth writes PNG; the shipped sample
+    keeps its photos as JPEG), or None."""
+    for ext in PHOTO_EXTS:
+        if (root / "photos" / f"{stem}{ext}").is_file():
+            return root / "photos" / f"{stem}{ext}"
+    return None
+
+
+
+def truth_mask(scene: SynthScene, stem: str) -> np.ndarray:
+    """[H, W] bool ground-truth flare mask SCENE/masks_gt/<stem>.png."""
+    return read_mask_file(scene.root / "masks_gt" / f"{stem}.png",
+                          f"rerun `deflare-scene synth ... --out {scene.root} --force`")
+
+
+
+def flared_views(scene: SynthScene) -> list[str]:
+    """Training views with flare in masks_gt (a clean view's input is its ground truth:
+    scoring it would only add capped PSNRs)."""
+    return [s for s in scene.train if truth_mask(scene, s).any()]
+
