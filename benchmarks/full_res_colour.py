@@ -32,7 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline import render
     from pipeline.provenance import sha256, write_result
     from pipeline.workspace import Workspace
-    from workflows.eval import flared_views, load_synth, score_views
+    from workflows.research.eval.scene import flared_views, load_synth
+    from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
     base = a.scene / "eval.ws"
