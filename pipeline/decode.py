@@ -53,7 +53,7 @@ import numpy as np
 
 from pipeline.colour import linear_to_srgb
 from pipeline.errors import UserError
-from pipeline.images import PHOTO_EXTS
+from pipeline.images import JPEG_EXTS, PHOTO_EXTS
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
 from pipeline.workspace import Workspace, atomic_imwrite, default_workspace
@@ -164,7 +164,7 @@ def decode_image(path: Path, max_size: int) -> np.ndarray:
     """JPEG/PNG/TIFF/... -> [H, W, 3] uint8 BGR, EXIF orientation applied, resized."""
     import cv2
 
-    if path.suffix.lower() in (".jpg", ".jpeg", ".jpe") and jpeg_truncated(path):
+    if path.suffix.lower() in JPEG_EXTS and jpeg_truncated(path):
         raise DecodeError("truncated JPEG (no end-of-image marker)")
     img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
     if img is None or img.size == 0:
