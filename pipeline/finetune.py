@@ -20,6 +20,7 @@ from pathlib import Path
 
 import torch
 
+from gnfr import WEIGHTS_DIR
 from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
 from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
@@ -27,8 +28,6 @@ from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batc
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import UNSEEN_FILE, Workspace, atomic_write_json
-
-WEIGHTS_DIR = Path(__file__).resolve().parents[1] / "gnfr" / "weights"
 
 
 @dataclass

@@ -69,6 +69,18 @@ def read_image_float(path: str | os.PathLike, *, size: tuple[int, int] | None = 
     return read_image(path, size=size, fix=fix).astype(np.float32) / 255.0
 
 
+def read_image_as_stored(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
+    """The image file's array as stored: [H, W] or [H, W, C] (BGR(A) channel order), any
+    bit depth, alpha kept (hand-made masks); errors as :func:`read_image`."""
+    import cv2
+
+    path = Path(path)
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise _unreadable(path, fix)
+    return img
+
+
 def read_gray(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
     """[H, W] uint8 grey levels of an image file (masks); errors as :func:`read_image`."""
     import cv2

@@ -97,7 +97,7 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
     dsize = (decoded.shape[1], decoded.shape[0])
     if abs(W / H - dsize[0] / dsize[1]) > 0.02:
         raise UserError(f"{full.photo} ({W}x{H}) does not have the aspect of "
-                        f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
+                        f"{ws.decoded_path(f.stem)} {dsize}: {ws.rerun('decode')}")
     alpha, ring = input_blend(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
     ring = None if ring is None else ring[rows, cols]
