@@ -219,6 +219,7 @@ def nerfstudio_transforms(ws: Workspace, cams: Cameras, with_masks: bool) -> dic
     original = all(mapped) and len(models) == 1
     out = {"camera_model": models.pop() if original else "PINHOLE",
            "applied_transform": np.asarray(cams.colmap_to_world)[:3].tolist(), "frames": []}
+
     def rel(path: Path) -> str:
         return path.relative_to(ws.root).as_posix()
 

@@ -7,8 +7,8 @@ photo's size and blended into the photo. Which file each view came from, and whe
 is camera raw, is read from decode's record in the manifest (for a workspace whose record
 does not list them: the file named in cameras.json, raw when its suffix is not one of
 ``pipeline.images.PHOTO_EXTS``). Output in ``WS/deflared_full/``:
-- 8-bit JPEG input (``JPEG_EXTS``) -> ``<stem>.jpg`` (quality 95) with the photo's EXIF (orientation
-  reset to 1, since the pixels are stored upright);
+- 8-bit JPEG input (``pipeline.images.JPEG_EXTS``) -> ``<stem>.jpg`` (quality 95) with the
+  photo's EXIF (orientation reset to 1, since the pixels are stored upright);
 - other input -> ``<stem>.png`` (16-bit for 16-bit input);
 - raw input -> ``<stem>.tiff``, 16-bit LINEAR, blended into ``WS/linear/<stem>.tiff``:
   the render is linearised (inverse sRGB) and mapped to the camera's linear RGB with
