@@ -7,5 +7,9 @@ when torch's OpenMP runtime loads, so entry points set it too.
 """
 
 import os
+from pathlib import Path
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
+"""The shipped weight files (gnfr.safetensors, fmg.safetensors) and their model cards."""

@@ -1,6 +1,7 @@
-"""Checkpoints: model weights as safetensors with the architecture in the metadata, and
-training state (optimizer, RNG, step) as a plain dict of tensors loaded with
-``torch.load(weights_only=True)``.
+"""Checkpoints: GN-FR weights as safetensors and the training state beside them.
+
+The weights carry the architecture in their metadata; the training state (optimizer, RNG,
+step) is a plain dict of tensors loaded with ``torch.load(weights_only=True)``.
 """
 
 from __future__ import annotations

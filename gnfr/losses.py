@@ -20,6 +20,15 @@ def masked_mse(pred: torch.Tensor, target: torch.Tensor,
     return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(1.0)
 
 
+PSNR_CAP = 100.0
+"""PSNR reported for a (numerically) zero error, in dB, so metric lines stay finite JSON:
+the cap of ``pipeline.metrics.PSNR_CAP`` (gnfr cannot import it; a test keeps them equal)."""
+
+
 def mse_to_psnr(mse: torch.Tensor | float) -> float:
+    """PSNR in dB of a mean squared error on [0, 1] data, capped at ``PSNR_CAP`` (a step
+    whose target rays are all flare has no error to measure)."""
     mse = float(mse)
-    return float("inf") if mse <= 0 else -10.0 * torch.log10(torch.tensor(mse)).item()
+    if mse <= 10.0 ** (-PSNR_CAP / 10.0):
+        return PSNR_CAP
+    return -10.0 * torch.log10(torch.tensor(mse)).item()

@@ -60,7 +60,8 @@ class TrainConfig:
     mask_loss: bool = True
     """GN-FR masking loss (off: MSE over every pixel)."""
     max_flare: float = MAX_FLARE
-    """Views with more flare than this are never targets (with the View Sampler)."""
+    """Views with more flare than this are never targets (with the View Sampler), unless the
+    scene lists its targets (``Scene.targets``: a workspace's views.json)."""
     reference: bool = False
     """Plain fp32 path: no autocast, no fused attention (for checks and timing)."""
     seed: int = 0
@@ -131,6 +132,10 @@ class Scene:
     ranked: dict[str, list[str]] = field(default_factory=dict)
     """Per stem, every other stem nearest first."""
     name: str = ""
+    targets: list[str] | None = None
+    """The views that may be training targets when the scene says so (a workspace's
+    views.json flags, set by pipeline.scene_data), else None: those within
+    ``TrainConfig.max_flare``. Derived from ``flare``: reset it when ``flare`` changes."""
 
     def index(self) -> dict[str, int]:
         return {s: i for i, s in enumerate(self.stems)}
@@ -224,14 +229,27 @@ class Batch:
     """[R] 1 where the target pixel is flare, or None."""
 
 
+def scene_targets(scene: Scene, cfg: TrainConfig) -> list[str]:
+    """The views a step may take as its target, in scene order: with the View Sampler the
+    scene's own ``targets`` when it lists them, else those within ``cfg.max_flare``
+    (``view_sampler.target_stems``); every view without it (the ablation)."""
+    if cfg.view_sampler and scene.targets is not None:
+        keep = set(scene.targets)
+        return [s for s in scene.stems if s in keep]
+    flare = {s: scene.flare.get(s, 0.0) for s in scene.stems}
+    return target_stems(flare, cfg.max_flare, cfg.view_sampler)
+
+
 def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
-    """Pick a target (never above the flare threshold with the View Sampler), its sources
-    (View Sampler) and ``cfg.rays`` random pixels of it with jittered sample depths."""
+    """Pick a target (:func:`scene_targets`), its sources (View Sampler) and ``cfg.rays``
+    random pixels of it with jittered sample depths."""
     idx = scene.index()
     flare = {s: scene.flare.get(s, 0.0) for s in scene.stems}
-    targets = target_stems(flare, cfg.max_flare, cfg.view_sampler)
+    targets = scene_targets(scene, cfg)
     if not targets:
-        raise ValueError(f"scene {scene.name}: no view has flare <= {cfg.max_flare}")
+        rule = ("its list of targets is empty" if cfg.view_sampler and scene.targets is not None
+                else f"no view has flare <= {cfg.max_flare}")
+        raise ValueError(f"scene {scene.name}: {rule}")
     tgt = targets[int(torch.randint(len(targets), (1,), generator=gen))]
     src = train_sources(scene.ranked[tgt], flare, gen, cfg.n_views, cfg.pool_k,
                         cfg.view_sampler)

@@ -1,5 +1,7 @@
-"""View transformer (vector attention across source views, with the Point Sampler) and ray
-transformer (multi-head self-attention along each ray), as in GNT.
+"""GNT's view and ray transformers, with GN-FR's Point Sampler in the view attention.
+
+The view transformer is vector attention across source views (with the Point Sampler); the
+ray transformer is multi-head self-attention along each ray.
 
 Shapes: R rays, S samples per ray, V source views, C channels (model width).
 

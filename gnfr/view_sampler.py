@@ -1,14 +1,17 @@
 """View Sampler (GN-FR): which views may be targets and which views serve as sources.
 
 Inputs are plain data: for each view a list of the other views ranked nearest first and a
-flare fraction per view (fraction of mask pixels that are flare).
+flare fraction per view (fraction of mask pixels that are flare). torch is imported only by
+the training draw, so the rules (``is_target``, ``pick_sources``) load without it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
-import torch
+if TYPE_CHECKING:
+    import torch
 
 MAX_FLARE = 0.1
 """A view with a larger flare fraction is never a training target (paper: 10%)."""
@@ -76,6 +79,8 @@ def train_sources(ranked_stems: Sequence[str], flare_fractions, generator: torch
     """Training sources for one target: N whole in ``n_range``, k uniform in ``k_range``;
     N of the round(k*N) nearest chosen by :func:`pick_sources`. With ``use_flare=False``
     (the no-view-sampler ablation) the N nearest views regardless of flare."""
+    import torch
+
     n = int(torch.randint(n_range[0], n_range[1] + 1, (1,), generator=generator))
     k = k_range[0] + (k_range[1] - k_range[0]) * float(torch.rand(1, generator=generator))
     ranked = list(ranked_stems)
@@ -87,8 +92,14 @@ def train_sources(ranked_stems: Sequence[str], flare_fractions, generator: torch
     return pick_sources(pool, fracs, n, tolerance)
 
 
+def is_target(fraction: float, max_flare: float = MAX_FLARE) -> bool:
+    """The target rule: a view with more flare than ``max_flare`` never trains (the one
+    definition; views.json's ``target`` flags are written with it)."""
+    return bool(fraction <= max_flare)
+
+
 def target_stems(flare_fractions: Mapping[str, float], max_flare: float = MAX_FLARE,
                  use_flare: bool = True) -> list[str]:
-    """Views that may be training targets: flare fraction <= ``max_flare`` (every view
-    when ``use_flare`` is False, the ablation)."""
-    return [s for s, f in flare_fractions.items() if not use_flare or f <= max_flare]
+    """Views that may be training targets by :func:`is_target` (every view when
+    ``use_flare`` is False, the ablation)."""
+    return [s for s, f in flare_fractions.items() if not use_flare or is_target(f, max_flare)]

@@ -1,0 +1,1 @@
+"""The deflare-scene stages (one module each) and the workspace contract they share."""

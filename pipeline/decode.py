@@ -46,6 +46,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -53,7 +54,7 @@ import numpy as np
 
 from pipeline.colour import linear_to_srgb
 from pipeline.errors import UserError
-from pipeline.images import PHOTO_EXTS
+from pipeline.images import JPEG_EXTS, PHOTO_EXTS
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
 from pipeline.workspace import Workspace, atomic_imwrite, default_workspace
@@ -164,7 +165,7 @@ def decode_image(path: Path, max_size: int) -> np.ndarray:
     """JPEG/PNG/TIFF/... -> [H, W, 3] uint8 BGR, EXIF orientation applied, resized."""
     import cv2
 
-    if path.suffix.lower() in (".jpg", ".jpeg", ".jpe") and jpeg_truncated(path):
+    if path.suffix.lower() in JPEG_EXTS and jpeg_truncated(path):
         raise DecodeError("truncated JPEG (no end-of-image marker)")
     img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
     if img is None or img.size == 0:
@@ -250,11 +251,13 @@ def _decode_file(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> None
     atomic_imwrite(png, bgr)
 
 
-def _remove_stale(folder: Path, keep: set[str], suffix: str) -> None:
+def _remove_stale(folder: Path, keep: set[str], path_of: Callable[[str], Path]) -> None:
+    """Remove the per-view files of ``folder`` (those ``path_of(stem)`` names, e.g.
+    ``Workspace.decoded_path``) whose stem is not in ``keep``."""
     if not folder.is_dir():
         return
     for p in folder.iterdir():
-        if p.is_file() and p.suffix == suffix and p.stem not in keep:
+        if p.is_file() and p == path_of(p.stem) and p.stem not in keep:
             p.unlink()
 
 
@@ -285,8 +288,8 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
             warn(f"skipping {e}; replace or remove the file")
             skipped[photo.path.name] = str(e)
     raw_stems = {s for s, p in done.items() if p.is_raw}
-    _remove_stale(ws.decoded, set(done), ".png")
-    _remove_stale(ws.linear, raw_stems, ".tiff")
+    _remove_stale(ws.decoded, set(done), ws.decoded_path)
+    _remove_stale(ws.linear, raw_stems, ws.linear_path)
     if len(done) < MIN_IMAGES:
         raise UserError(f"only {len(done)} of {len(chosen)} photos in {photos} could be "
                         f"decoded (skipped: {', '.join(skipped) or 'none'}): at least "

@@ -19,12 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.camera_models import CameraModel
-from pipeline.cameras import Cameras, Frame, load_cameras
+from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
+from pipeline.images import image_size, read_image
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
-from pipeline.render import decoded_camera, flare_mask_in, path_dir, path_poses, rendered_frames
+from pipeline.render import decoded_camera, flare_mask_in, path_poses, rendered_frames
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
+from pipeline.ws_files import has_masks, read_cameras, read_decoded, read_mask
 
 CV_GL = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenCV <-> OpenGL camera axes (flip y and z)
 
@@ -47,25 +49,13 @@ class ExportConfig:
     """Write WS/transforms.json and WS/masks_nerfstudio/ (nerfstudio format)."""
 
 
-def masks_nerfstudio(ws: Workspace) -> Path:
-    return ws.root / "masks_nerfstudio"
-
-
-def video_path(ws: Workspace) -> Path:
-    return ws.root / f"{ws.scene_name}.mp4"
-
-
-def compare_paths(ws: Workspace) -> tuple[Path, Path]:
-    return ws.root / f"{ws.scene_name}_compare.mp4", ws.root / f"{ws.scene_name}_compare.jpg"
-
-
 def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Export the rendered path ``cfg.path`` and what else the workspace has; returns the
     written paths. Nothing rendered on that path: a UserError saying what to run first."""
     validate(cfg)
     ws.require("pose")
-    cams = load_cameras(ws.cameras_json)
-    frames_dir = path_dir(ws, cfg.path)
+    cams = read_cameras(ws)
+    frames_dir = ws.render_dir(cfg.path)
     frames = rendered_frames(frames_dir)
     if not frames:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
@@ -75,7 +65,7 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if run_.skip:
         info("export: up to date")
         return run_.outputs
-    outs = [write_path_video(frames, video_path(ws), cfg.fps, cfg.crf)]
+    outs = [write_path_video(frames, ws.video, cfg.fps, cfg.crf)]
     if cfg.compare:
         outs += write_comparisons(ws, cams, cfg)
     if cfg.glb:
@@ -87,13 +77,8 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
 
 
 # --------------------------------------------------------------------------- videos
-def _read_rgb(path: Path) -> np.ndarray:
-    import cv2
-
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"cannot read {path}: delete it and rerun the stage that wrote it")
-    return img[..., ::-1]
+REWRITE = "delete it and rerun the stage that wrote it"
+"""What to do about an unreadable frame or photo (``pipeline.images.read_image``'s fix)."""
 
 
 def write_path_video(frames: list[Path], out: Path, fps: float, crf: int) -> Path:
@@ -103,7 +88,7 @@ def write_path_video(frames: list[Path], out: Path, fps: float, crf: int) -> Pat
     def gen():
         size = None
         for p in track(frames, f"video {out.name}"):
-            img = _read_rgb(p)
+            img = read_image(p, fix=REWRITE)
             if size and img.shape != size:
                 raise UserError(f"{p} is {img.shape[1]}x{img.shape[0]}, other frames are "
                                 f"{size[1]}x{size[0]}: rerender the path with --force")
@@ -136,18 +121,18 @@ def write_comparisons(ws: Workspace, cams: Cameras, cfg: ExportConfig) -> list[P
 
     from pipeline.video import write_video
 
-    stems = [f.stem for f in cams.frames if (ws.deflared / f"{f.stem}.png").exists()]
+    stems = [f.stem for f in cams.frames if ws.deflared_path(f.stem).exists()]
     if not stems:
         warn(f"no de-flared photos in {ws.deflared}: run `deflare-scene render {ws.root} "
              "--path inputs` first; skipping the comparisons")
         return []
-    height = _read_rgb(ws.decoded / f"{stems[0]}.png").shape[0]
-    pairs = [side_by_side(_read_rgb(ws.decoded / f"{s}.png"), _read_rgb(ws.deflared /
-                                                                         f"{s}.png"), height)
+    height = read_decoded(ws, stems[0]).shape[0]
+    pairs = [side_by_side(read_decoded(ws, s), read_image(ws.deflared_path(s), fix=REWRITE),
+                          height)
              for s in track(stems, "comparisons")]
     width = max(p.shape[1] for p in pairs)
     pairs = [np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0))) for p in pairs]
-    mp4, jpg = compare_paths(ws)
+    mp4, jpg = ws.compare_video, ws.compare_sheet
     # each view held for one second; frames repeated so any player shows them
     hold = max(1, round(cfg.fps))
     write_video(mp4, (p for p in pairs for _ in range(hold)), fps=cfg.fps, crf=cfg.crf)
@@ -234,16 +219,20 @@ def nerfstudio_transforms(ws: Workspace, cams: Cameras, with_masks: bool) -> dic
     original = all(mapped) and len(models) == 1
     out = {"camera_model": models.pop() if original else "PINHOLE",
            "applied_transform": np.asarray(cams.colmap_to_world)[:3].tolist(), "frames": []}
+
+    def rel(path: Path) -> str:
+        return path.relative_to(ws.root).as_posix()
+
     for f, m in zip(cams.frames, mapped, strict=True):
         if original:
-            entry = {"file_path": f"decoded/{f.stem}.png", **m[1]}
+            entry = {"file_path": rel(ws.decoded_path(f.stem)), **m[1]}
         else:
-            entry = {"file_path": f"images/{f.stem}.png", "fl_x": f.K[0, 0],
+            entry = {"file_path": rel(ws.image_path(f.stem)), "fl_x": f.K[0, 0],
                      "fl_y": f.K[1, 1], "cx": f.K[0, 2], "cy": f.K[1, 2],
                      "w": f.width, "h": f.height}
         entry["transform_matrix"] = (np.asarray(f.c2w) @ CV_GL).tolist()
         if with_masks:
-            entry["mask_path"] = f"masks_nerfstudio/{f.stem}.png"
+            entry["mask_path"] = rel(ws.masks_nerfstudio_path(f.stem))
         out["frames"].append({k: (float(v) if isinstance(v, np.floating) else v)
                               for k, v in entry.items()})
     return out
@@ -251,22 +240,21 @@ def nerfstudio_transforms(ws: Workspace, cams: Cameras, with_masks: bool) -> dic
 
 def write_transforms(ws: Workspace, cams: Cameras) -> list[Path]:
     """WS/transforms.json and, when masks exist, WS/masks_nerfstudio/<stem>.png."""
-    import cv2
-
-    with_masks = all((ws.masks / f"{f.stem}.png").exists() for f in cams.frames)
+    with_masks = has_masks(ws, cams.stems)
     data = nerfstudio_transforms(ws, cams, with_masks)
     outs = []
     if with_masks:
-        original = data["frames"][0]["file_path"].startswith("decoded/")
+        first = cams.frames[0]  # the original framing: decoded/ images, not images/
+        original = ws.root / data["frames"][0]["file_path"] == ws.decoded_path(first.stem)
         for f in track(cams.frames, "nerfstudio masks"):
             if original:
-                h, w = cv2.imread(str(ws.decoded / f"{f.stem}.png"), cv2.IMREAD_GRAYSCALE).shape
+                h, w = image_size(ws.decoded_path(f.stem), fix=ws.rerun("decode"))
                 flare = flare_mask_in(decoded_camera(f, w, h), f, ws)
             else:
-                flare = cv2.imread(str(ws.masks / f"{f.stem}.png"), cv2.IMREAD_GRAYSCALE) > 127
-            atomic_imwrite(masks_nerfstudio(ws) / f"{f.stem}.png",
+                flare = read_mask(ws, f.stem)
+            atomic_imwrite(ws.masks_nerfstudio_path(f.stem),
                            np.where(flare, 0, 255).astype(np.uint8))
-        outs.append(masks_nerfstudio(ws))
+        outs.append(ws.masks_nerfstudio)
     else:
         warn(f"no flare masks in {ws.masks}: transforms.json written without mask_path")
     atomic_write_json(ws.transforms_json, data)

@@ -20,23 +20,14 @@ from pathlib import Path
 
 import torch
 
+from gnfr import WEIGHTS_DIR
 from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
-from gnfr.fit import (
-    METRICS_FILE,
-    MODEL_FILE,
-    STATE_FILE,
-    StepInput,
-    Trainer,
-    has_checkpoint,
-    render_meta,
-)
+from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
 from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
-from pipeline.workspace import Workspace, atomic_write_json
-
-WEIGHTS_DIR = Path(__file__).resolve().parents[1] / "gnfr" / "weights"
+from pipeline.workspace import UNSEEN_FILE, Workspace, atomic_write_json
 
 
 @dataclass
@@ -132,21 +123,20 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     scene = load_workspace(ws.root)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(run_), init=config.init,
                 preset=name)
-    outs = [ws.model / MODEL_FILE, ws.model / STATE_FILE, ws.model / METRICS_FILE,
-            ws.model / "unseen.json"]
+    outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
     return run_.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
 
 def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:
     """Warn when the up-to-date model was started from other weights than ``init`` resolves
     to now (e.g. the shipped file changed): the stage params record only ``init``'s text."""
-    prev = checkpoint_provenance(ws.model / MODEL_FILE)
+    prev = checkpoint_provenance(ws.model_file)
     if prev is None:
         return
     path = init_path(cfg, init)
     now = None if path is None or not path.is_file() else init_record(init, path)["sha256"]
     if prev.get("init", {}).get("sha256") != now:
-        warn(f"finetune: {ws.model / MODEL_FILE} was trained from "
+        warn(f"finetune: {ws.model_file} was trained from "
              f"{prev.get('init', {}).get('weights')}, but --init {init} now resolves to "
              f"{path or 'scratch'}: rerun with --force to retrain from it")
 
@@ -232,7 +222,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     if resume and has_checkpoint(out):
         unseen = trainer.restore(out)["unseen"]
         # the start is what the interrupted run began from, not what init resolves to now
-        prev = checkpoint_provenance(out / MODEL_FILE)
+        prev = checkpoint_provenance(checkpoint_files(out)[0])
         if prev is not None:
             prov["init"] = prev.get("init", prov["init"])
             prov["started"] = prev.get("started", prov["started"])
@@ -265,7 +255,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                             out=out, meta=meta,
                             state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
                             after_step=count_unseen, report=report)
-    _write_unseen(out / "unseen.json", scene, unseen)
+    _write_unseen(out / UNSEEN_FILE, scene, unseen)
     return {**stats, "init": prov["init"]}
 
 

@@ -1,10 +1,11 @@
 """Photo file extensions and the one image reader (OpenCV; one-line errors naming the file).
 
 ``PHOTO_EXTS`` are the ordinary image files the product reads (decode's input besides camera
-raw, hand-made masks, LLFF and COLMAP image folders, FMG backgrounds); camera raw extensions
-are ``pipeline.decode.RAW_EXTS``. ``read_image`` returns uint8 RGB (BGR on request, for
-OpenCV drawing and writing) and ``read_image_float`` float32 RGB in [0, 1]; a missing or
-unreadable file is a ``UserError`` naming it and what to do. Decoding user photos (16-bit,
+raw, hand-made masks, LLFF and COLMAP image folders, FMG backgrounds), ``JPEG_EXTS`` those of
+them that are JPEG; camera raw extensions are ``pipeline.decode.RAW_EXTS``. ``read_image``
+returns uint8 RGB (BGR on request, for OpenCV drawing and writing; uint16 kept with
+``any_depth``) and ``read_image_float`` float32 RGB in [0, 1]; a missing or unreadable file
+is a ``UserError`` naming it and what to do. Decoding user photos (16-bit,
 truncated JPEGs, raw) is ``pipeline.decode``'s job, not this module's.
 """
 
@@ -21,6 +22,8 @@ PHOTO_EXTS: tuple[str, ...] = (".png", ".jpg", ".jpeg", ".jpe", ".tif", ".tiff",
                                ".webp")
 """Ordinary image extensions (lower case), read with OpenCV; ``.png`` first, so a folder
 with two files of one stem prefers the lossless one."""
+JPEG_EXTS: tuple[str, ...] = (".jpg", ".jpeg", ".jpe")
+"""The JPEG ones of ``PHOTO_EXTS`` (Exif carried over, truncation checked)."""
 
 
 def is_photo(path: str | os.PathLike) -> bool:
@@ -42,14 +45,17 @@ def _unreadable(path: Path, fix: str | None) -> UserError:
 
 
 def read_image(path: str | os.PathLike, *, bgr: bool = False,
-               size: tuple[int, int] | None = None, fix: str | None = None) -> np.ndarray:
-    """[H, W, 3] uint8 RGB (or BGR with ``bgr``) of an image file, area-resized to ``size``
-    (width, height) when given and different. A missing or unreadable file is a one-line
-    ``UserError`` naming it; ``fix`` says what to do (default: replace or remove it)."""
+               size: tuple[int, int] | None = None, fix: str | None = None,
+               any_depth: bool = False) -> np.ndarray:
+    """[H, W, 3] uint8 RGB (or BGR with ``bgr``) of an image file, EXIF orientation applied,
+    area-resized to ``size`` (width, height) when given and different; with ``any_depth`` a
+    16-bit file stays uint16. A missing or unreadable file is a one-line ``UserError``
+    naming it; ``fix`` says what to do (default: replace or remove it)."""
     import cv2
 
     path = Path(path)
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    flags = cv2.IMREAD_COLOR | (cv2.IMREAD_ANYDEPTH if any_depth else 0)
+    img = cv2.imread(str(path), flags)
     if img is None:
         raise _unreadable(path, fix)
     if size is not None and (img.shape[1], img.shape[0]) != tuple(size):
@@ -61,6 +67,18 @@ def read_image_float(path: str | os.PathLike, *, size: tuple[int, int] | None = 
                      fix: str | None = None) -> np.ndarray:
     """[H, W, 3] float32 RGB in [0, 1] of an image file (see :func:`read_image`)."""
     return read_image(path, size=size, fix=fix).astype(np.float32) / 255.0
+
+
+def read_image_as_stored(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
+    """The image file's array as stored: [H, W] or [H, W, C] (BGR(A) channel order), any
+    bit depth, alpha kept (hand-made masks); errors as :func:`read_image`."""
+    import cv2
+
+    path = Path(path)
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise _unreadable(path, fix)
+    return img
 
 
 def read_gray(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:

@@ -3,8 +3,8 @@
 Reads ``WS/images/<stem>.png`` and writes
 - ``WS/masks/<stem>.png``: uint8, 255 = flare, same size as the image
   (``pipeline.ws_files.write_mask``; read back with ``read_mask``);
-- ``WS/flare.json``: ``{"source": "fmg" | "masks:<dir>", "threshold", "weights",
-  "views": {"<stem>": {"flare_fraction": f, "source": ...}}}`` (``ws_files.FlareFile``);
+- ``WS/flare.json``: where the masks came from and each view's flare fraction
+  (``ws_files.FlareFile``);
 - ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage.
 
 The FMG runs batched at a working resolution (long side ``work_size``) and its probability
@@ -22,8 +22,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from gnfr import WEIGHTS_DIR
 from pipeline.errors import UserError
-from pipeline.images import image_size, is_photo
+from pipeline.images import image_size, is_photo, read_image_as_stored
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite
@@ -38,7 +39,7 @@ from pipeline.ws_files import (
     write_mask,
 )
 
-DEFAULT_WEIGHTS = Path(__file__).resolve().parents[1] / "gnfr" / "weights" / "fmg.safetensors"
+DEFAULT_WEIGHTS = WEIGHTS_DIR / "fmg.safetensors"
 """The FMG weights shipped with the package (see gnfr/weights/fmg.md)."""
 
 
@@ -172,9 +173,7 @@ def write_given_masks(masks_dir: Path, ws: Workspace, stems: list[str]) -> None:
     srcs = {s: find_given_mask(masks_dir, s) for s in stems}   # all errors before writing
     for s in track(stems, "copying masks"):
         # the user's file as it is (any depth, alpha): nonzero in any channel is flare
-        m = cv2.imread(str(srcs[s]), cv2.IMREAD_UNCHANGED)
-        if m is None:
-            raise UserError(f"cannot read mask {srcs[s]}: save it as PNG/JPEG")
+        m = read_image_as_stored(srcs[s], fix="save the mask as PNG/JPEG")
         if m.ndim == 3:
             m = m.max(axis=2)
         h, w = image_size(ws.image_path(s), fix=ws.rerun("pose"))

@@ -409,9 +409,10 @@ def undistort(rec, ws: Workspace) -> dict:
             if im.camera_id not in maps:
                 maps[im.camera_id] = undistortion_map(rec.cameras[im.camera_id])
             pinhole, mx, my = maps[im.camera_id]
-            src = read_image(ws.decoded / im.name, bgr=True, fix=ws.rerun("decode"))
+            stem = Path(im.name).stem  # COLMAP's name of WS/decoded/<stem>.png
+            src = read_image(ws.decoded_path(stem), bgr=True, fix=ws.rerun("decode"))
             out = cv2.remap(src, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-            atomic_imwrite(ws.images / im.name, out)
+            atomic_imwrite(ws.image_path(stem), out)
             pinholes[im.name] = pinhole
             prog.advance(task)
     for p in ws.images.iterdir():

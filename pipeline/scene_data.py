@@ -46,8 +46,9 @@ def rank_by_distance(stems: Sequence[str], centers: np.ndarray) -> dict[str, lis
 def make_scene(name: str, stems: list[str], images: list[np.ndarray], K: np.ndarray,
                c2w: np.ndarray, near: np.ndarray, far: np.ndarray,
                masks: list[np.ndarray] | None = None, flare: dict | None = None,
-               ranked: dict | None = None) -> Scene:
-    """Stack per-view arrays (images [H, W, 3] uint8, masks [H, W] bool) into a Scene."""
+               ranked: dict | None = None, targets: list[str] | None = None) -> Scene:
+    """Stack per-view arrays (images [H, W, 3] uint8, masks [H, W] bool) into a Scene;
+    ``targets`` None: the training targets follow ``TrainConfig.max_flare``."""
     imgs = torch.from_numpy(np.stack(images)).permute(0, 3, 1, 2).contiguous()
     m = None
     if masks is not None:
@@ -61,7 +62,7 @@ def make_scene(name: str, stems: list[str], images: list[np.ndarray], K: np.ndar
                  c2w=torch.as_tensor(c2w, dtype=torch.float64),
                  near=torch.as_tensor(near, dtype=torch.float64),
                  far=torch.as_tensor(far, dtype=torch.float64), masks=m, flare=flare,
-                 ranked=ranked, name=name)
+                 ranked=ranked, name=name, targets=targets)
 
 
 def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
@@ -77,7 +78,9 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 
 # --------------------------------------------------------------------------- workspace
 def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scene:
-    """A workspace's posed views (and masks / views.json when present) as a Scene."""
+    """A workspace's posed views (and masks / views.json when present) as a Scene. With
+    views.json its flags are the training targets (``ViewsFile.targets``, the rule select
+    applied with its --max-flare); without it the training config's max_flare decides."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
@@ -96,13 +99,14 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scen
     else:
         warn(f"{ws.masks} is missing: treating every view as flare-free (run `deflare-scene "
              f"mask {ws.root}` for GN-FR's flare handling)")
-    flare = ranked = None
+    flare = ranked = targets = None
     if ws.views_json.exists():
         views = read_views(ws)
         flare, ranked = views.fractions(names), views.ranked(names)
+        targets = views.targets()
     return make_scene(Path(root).name, names, images, np.stack(Ks),
                       np.stack([f.c2w for f in frames]), np.array([f.near for f in frames]),
-                      np.array([f.far for f in frames]), masks, flare, ranked)
+                      np.array([f.far for f in frames]), masks, flare, ranked, targets)
 
 
 # --------------------------------------------------------------------------- LLFF

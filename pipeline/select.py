@@ -1,16 +1,10 @@
 """Stage `select`: the View Sampler's rules, written to ``WS/views.json``.
 
-```
-{"max_flare": 0.1,
- "views": {"<stem>": {"flare_fraction": f, "target": bool,
-                      "sources": [{"stem": s, "distance": d, "flare_fraction": f}, ...]}}}
-```
-(``pipeline.ws_files.ViewsFile``). A view whose flare occupancy is above ``max_flare`` is
-never a training target (it can still be rendered as a novel view and still serve as a
-source where it is clean). Each view's ``sources`` lists every OTHER view, nearest camera
-centre first; training and rendering pick among the nearest with
-``gnfr.view_sampler.pick_sources`` (the least flared, fractions within its tolerance
-counting as equal and the nearer winning).
+Per view (format: ``pipeline.ws_files.ViewsFile``, docs/design.md): its flare fraction, its
+``target`` flag (flare at most ``max_flare``: what finetune trains on) and every OTHER view
+as a source, nearest camera centre first. A flared view can still be rendered and still
+serve as a source where it is clean; training and rendering choose among the nearest
+sources with ``gnfr.view_sampler.pick_sources``.
 """
 
 from __future__ import annotations

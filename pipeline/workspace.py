@@ -37,6 +37,13 @@ WS_SUFFIX = ".deflare"
 MODEL_FILE = "gnfr.safetensors"
 """File name of the fine-tuned weights in WS/model (``Workspace.model_file``)."""
 TRAIN_STATE_FILE = "train_state.pt"
+"""Training state in WS/model (``Workspace.train_state``)."""
+METRICS_FILE = "metrics.jsonl"
+"""Metric lines in WS/model (``Workspace.metrics_jsonl``)."""
+UNSEEN_FILE = "unseen.json"
+"""Per-target unseen fractions in WS/model (``Workspace.unseen_json``)."""
+PATH_CAMERAS_FILE = "cameras.json"
+"""The cameras of a rendered path, in its folder ``WS/renders/<path>/``."""
 
 
 # --------------------------------------------------------------------------- atomic writes
@@ -232,8 +239,8 @@ class Workspace:
     model_file = property(lambda self: self.root / "model" / MODEL_FILE)
     """WS/model/gnfr.safetensors: the weights finetune writes and render reads."""
     train_state = property(lambda self: self.root / "model" / TRAIN_STATE_FILE)
-    metrics_jsonl = property(lambda self: self.root / "model" / "metrics.jsonl")
-    unseen_json = property(lambda self: self.root / "model" / "unseen.json")
+    metrics_jsonl = property(lambda self: self.root / "model" / METRICS_FILE)
+    unseen_json = property(lambda self: self.root / "model" / UNSEEN_FILE)
     deflared = property(lambda self: self.root / "deflared")
     """WS/deflared/<stem>.png: render --path inputs."""
     deflared_full = property(lambda self: self.root / "deflared_full")
@@ -242,6 +249,7 @@ class Workspace:
     """WS/renders/<path>/: renders of a named or JSON camera path."""
     transforms_json = property(lambda self: self.root / "transforms.json")
     masks_nerfstudio = property(lambda self: self.root / "masks_nerfstudio")
+    """WS/masks_nerfstudio/<stem>.png: export's masks for nerfstudio, 0 = flare (ignore)."""
     eval = property(lambda self: self.root / "eval")
     """WS/eval/: table.md, results.json, grid.jpg (eval)."""
     variants = property(lambda self: self.root / "variants")
@@ -282,6 +290,13 @@ class Workspace:
 
     def deflared_path(self, stem: str) -> Path:
         return self.deflared / f"{stem}.png"
+
+    def deflared_full_path(self, stem: str, suffix: str) -> Path:
+        """WS/deflared_full/<stem><suffix> (``.jpg``, ``.png`` or ``.tiff`` by the photo)."""
+        return self.deflared_full / f"{stem}{suffix}"
+
+    def masks_nerfstudio_path(self, stem: str) -> Path:
+        return self.masks_nerfstudio / f"{stem}.png"
 
     def render_dir(self, path: str) -> Path:
         """WS/renders/<path>/ of a named path or of a camera-path FILE.json (its stem)."""

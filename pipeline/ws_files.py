@@ -5,6 +5,7 @@ module reads and writes what is in them (docs/design.md, "The workspace contract
 
 - ``WS/cameras.json``: ``Cameras`` / ``Frame`` (``pipeline/cameras.py``), ``read_cameras``,
   ``write_cameras``;
+- ``WS/decoded/<stem>.png``: ``read_decoded``;
 - ``WS/images/<stem>.png``: ``view_stems``, ``read_view_image``;
 - ``WS/masks/<stem>.png``: 255 = flare; ``read_mask`` / ``read_masks`` (a pixel is flare
   above ``MASK_THRESHOLD``), ``write_mask``, ``has_masks``, ``flare_fraction``;
@@ -28,17 +29,18 @@ from pathlib import Path
 
 import numpy as np
 
+from gnfr.view_sampler import is_target
 from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
 from pipeline.errors import UserError
 from pipeline.images import read_gray, read_image, read_image_float
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_path, atomic_write_json, read_json
 
 __all__ = [
-    "MASK_THRESHOLD", "Cameras", "Frame", "read_cameras", "write_cameras", "view_stems",
-    "read_view_image", "read_mask_file", "read_mask", "read_masks", "write_mask", "has_masks",
-    "flare_fraction", "read_depth", "write_depth", "FlareEntry", "FlareFile", "read_flare",
-    "write_flare", "SourceEntry", "ViewEntry", "ViewsFile", "is_target", "rank_sources",
-    "make_views", "read_views", "write_views",
+    "MASK_THRESHOLD", "Cameras", "Frame", "read_cameras", "write_cameras", "read_decoded",
+    "view_stems", "read_view_image", "read_mask_file", "read_mask", "read_masks", "write_mask",
+    "has_masks", "flare_fraction", "read_depth", "write_depth", "FlareEntry", "FlareFile",
+    "read_flare", "write_flare", "SourceEntry", "ViewEntry", "ViewsFile", "is_target",
+    "rank_sources", "make_views", "read_views", "write_views",
 ]
 
 
@@ -53,6 +55,11 @@ def write_cameras(ws: Workspace, cams: Cameras) -> Path:
 
 
 # --------------------------------------------------------------------------- images
+def read_decoded(ws: Workspace, stem: str) -> np.ndarray:
+    """WS/decoded/<stem>.png as [H, W, 3] uint8 RGB."""
+    return read_image(ws.decoded_path(stem), fix=ws.rerun("decode"))
+
+
 def view_stems(ws: Workspace) -> list[str]:
     """Stems of WS/images/*.png, sorted; a UserError when there are none."""
     stems = sorted(p.stem for p in ws.images.glob("*.png")) if ws.images.is_dir() else []
@@ -222,15 +229,10 @@ class ViewEntry:
 
     flare_fraction: float
     target: bool
-    """May be a training target: flare fraction at most ``max_flare`` (:func:`is_target`)."""
+    """May be a training target: flare fraction at most ``max_flare`` (``is_target``, the
+    rule of ``gnfr.view_sampler``)."""
     sources: list[SourceEntry] = field(default_factory=list)
     """Every other view, nearest camera centre first."""
-
-
-def is_target(fraction: float, max_flare: float) -> bool:
-    """The View Sampler's target rule: a view with more flare than ``max_flare`` never
-    trains (``gnfr.view_sampler.target_stems`` applies the same rule to a Scene)."""
-    return bool(fraction <= max_flare)
 
 
 @dataclass
@@ -248,6 +250,10 @@ class ViewsFile:
     views: dict[str, ViewEntry] = field(default_factory=dict)
 
     # the one filtering rule ----------------------------------------------
+    def __contains__(self, stem: object) -> bool:
+        """Whether views.json lists the view ``stem``."""
+        return stem in self.views
+
     def targets(self) -> list[str]:
         """Stems that may be training targets (their ``target`` flag)."""
         return [s for s, v in self.views.items() if v.target]

@@ -78,7 +78,7 @@ def ews(tmp_path):
 def test_export_writes_every_output(ews):
     import trimesh
 
-    from pipeline.export import ExportConfig, masks_nerfstudio, run
+    from pipeline.export import ExportConfig, run
     from tests.test_render import BOX, FLARED
 
     outs = run(ExportConfig(fps=6), ews)
@@ -108,7 +108,7 @@ def test_export_writes_every_output(ews):
             assert m[BOX].max() == 0 and m.mean() > 200  # flare = 0 (ignore), rest 255
         else:
             assert m.min() == 255
-    assert masks_nerfstudio(ews) in outs
+    assert ews.masks_nerfstudio in outs
     # up to date on a rerun
     assert run(ExportConfig(fps=6), ews) == sorted(outs)
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-import cv2
 import numpy as np
 import torch
 from safetensors.torch import load_file
@@ -14,6 +13,7 @@ from gnfr.checkpoint import load_model
 from gnfr.train import PRESETS, QUICK
 from pipeline.finetune import FinetuneConfig, fit, run
 from pipeline.scene_data import load_workspace
+from pipeline.ws_files import read_mask, read_view_image, view_stems, write_mask
 from tests.fixtures import make_temple_workspace
 
 TINY = replace(QUICK, model=replace(QUICK.model, enc_widths=(8, 16, 16), feat_ch=8, width=16,
@@ -32,7 +32,7 @@ def test_overfit_tiny_model_on_temple_psnr_rises(tmp_path):
     cfg = replace(TINY, iters=150, rays=64, samples=12, log_every=15, ckpt_every=1000,
                   lr_encoder=3e-3, lr_transformer=2e-3)
     fit(scene, cfg, torch.device("cpu"), ws.model, resume=False, init="scratch")
-    psnr = [m["psnr"] for m in _metrics(ws.model / "metrics.jsonl")]
+    psnr = [m["psnr"] for m in _metrics(ws.metrics_jsonl)]
     assert len(psnr) == 10
     assert np.mean(psnr[-2:]) > psnr[0] + 3.0, psnr
 
@@ -40,12 +40,10 @@ def test_overfit_tiny_model_on_temple_psnr_rises(tmp_path):
 def masked_workspace(root):
     """Five temple views with flare masks of growing size (the last above 10%)."""
     ws = make_temple_workspace(root, n_views=5, scale=0.2)
-    (ws.root / "masks").mkdir()
-    for i, f in enumerate(sorted(ws.images.iterdir())):
-        img = cv2.imread(str(f))
-        m = np.zeros(img.shape[:2], np.uint8)
-        m[: 4 + 8 * i, : 4 + 12 * i] = 255
-        cv2.imwrite(str(ws.root / "masks" / f.name), m)
+    for i, s in enumerate(view_stems(ws)):
+        m = np.zeros(read_view_image(ws, s).shape[:2], bool)
+        m[: 4 + 8 * i, : 4 + 12 * i] = True
+        write_mask(ws, s, m)
     return ws
 
 
@@ -77,12 +75,52 @@ def test_finetune_stage_writes_model_and_skips_when_up_to_date(tmp_path, monkeyp
     ws = masked_workspace(tmp_path / "ws")
     cfg = FinetuneConfig(preset="quick", init="scratch", device="cpu")
     outs = run(cfg, ws)
-    assert {p.name for p in outs} >= {"gnfr.safetensors", "metrics.jsonl", "unseen.json"}
-    model = load_model(ws.model / "gnfr.safetensors")
+    assert set(outs) == {ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json}
+    model = load_model(ws.model_file)
     assert model.config == TINY.model
-    stamp = (ws.model / "gnfr.safetensors").stat().st_mtime_ns
+    stamp = ws.model_file.stat().st_mtime_ns
     assert run(cfg, ws) == outs  # up to date: skipped, nothing rewritten
-    assert (ws.model / "gnfr.safetensors").stat().st_mtime_ns == stamp
+    assert ws.model_file.stat().st_mtime_ns == stamp
+
+
+def _select(ws, max_flare: float) -> list[str]:
+    """Write WS/views.json as `select --max-flare` does; returns its targets."""
+    from pipeline.ws_files import make_views, read_cameras, read_mask, write_views
+
+    cams = read_cameras(ws)
+    frac = {s: float(read_mask(ws, s).mean()) for s in cams.stems}
+    views = make_views(cams.stems, cams.centers(), frac, max_flare)
+    write_views(ws, views)
+    return views.targets()
+
+
+def test_training_targets_are_views_json_targets(tmp_path, monkeypatch):
+    """finetune trains on the views views.json flags as targets (select --max-flare), not on
+    a max_flare of its own: with --max-flare 0.2 the 15%-flared view trains, with 0.05 the
+    9% one does not (the training config's max_flare stays 0.1 in both)."""
+    import gnfr.train
+    from gnfr.train import sample_batch, scene_targets
+
+    ws = masked_workspace(tmp_path / "ws")
+    stems = view_stems(ws)
+    frac = {s: float(read_mask(ws, s).mean()) for s in stems}
+    assert 0.1 < frac[stems[4]] < 0.2 and 0.05 < frac[stems[3]] < 0.1
+    assert TINY.max_flare == 0.1
+    gen = torch.Generator().manual_seed(0)
+    for max_flare, expect in ((0.2, stems), (0.05, stems[:3])):
+        assert _select(ws, max_flare) == expect
+        scene = load_workspace(ws.root)
+        assert scene_targets(scene, TINY) == expect
+        drawn = {scene.stems[sample_batch(scene, TINY, gen).target] for _ in range(60)}
+        assert drawn == set(expect)
+    # without the View Sampler (ablation) every view is a target, whatever views.json says
+    assert scene_targets(scene, replace(TINY, view_sampler=False)) == stems
+    # the stage: unseen.json lists the views that were targets
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=30, ckpt_every=100))
+    _select(ws, 0.2)
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    trained = json.loads(ws.unseen_json.read_text())["views"]
+    assert set(trained) == set(stems)                      # the 15% view included
 
 
 def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
@@ -138,8 +176,8 @@ def test_resumes_a_model_folder_of_the_existing_format(tmp_path):
     _hand_written_checkpoint(ws.model, scene, cfg, 3, {"unseen": unseen, "seconds": 100.0})
     stats = fit(scene, cfg, torch.device("cpu"), ws.model, resume=True, init="scratch")
     assert stats["steps"] == 5 and stats["train_seconds"] > 100.0
-    st = torch.load(ws.model / "train_state.pt", weights_only=True)
+    st = torch.load(ws.train_state, weights_only=True)
     assert list(st) == ["step", "optimizer", "rng", "unseen", "seconds"] and st["step"] == 5
     assert all(int(s["step"]) == 5 for s in st["optimizer"]["state"].values())  # Adam went on
     assert int(st["unseen"][:, 1].sum()) == 3 + 2                # the saved counts went on too
-    assert [m["step"] for m in _metrics(ws.model / "metrics.jsonl")] == [5]
+    assert [m["step"] for m in _metrics(ws.metrics_jsonl)] == [5]

@@ -111,3 +111,18 @@ def test_flared_views_are_never_targets_unless_ablated():
     fl = {"a": 0.0, "b": 0.1, "c": 0.11, "d": 0.9}
     assert target_stems(fl, 0.1) == ["a", "b"]
     assert target_stems(fl, 0.1, use_flare=False) == ["a", "b", "c", "d"]
+    from gnfr.view_sampler import is_target  # the rule target_stems and views.json apply
+
+    assert is_target(0.1, 0.1) and not is_target(0.11, 0.1) and is_target(0.11, 0.2)
+
+
+def test_psnr_caps_agree_across_layers():
+    """gnfr's training PSNR and pipeline.metrics' PSNR: the same cap and the same values."""
+    from gnfr.losses import PSNR_CAP, mse_to_psnr
+    from pipeline import metrics
+
+    assert PSNR_CAP == metrics.PSNR_CAP
+    for mse in (0.0, 1e-12, 1e-10):
+        assert mse_to_psnr(mse) == metrics.mse_to_psnr(mse) == PSNR_CAP
+    for mse in (1e-9, 1e-3, 0.04, 1.0):
+        assert abs(mse_to_psnr(torch.tensor(mse)) - metrics.mse_to_psnr(mse)) < 1e-4

@@ -234,11 +234,12 @@ def test_every_default_config_is_valid():
 def test_one_device_resolver():
     from pipeline import finetune, render
 
-    # mask and fmg_train call resolve_device itself; finetune and render still wrap it
+    # every stage calls resolve_device; finetune.pick_device only makes it a torch.device
     assert resolve_device("cpu") == "cpu"
     assert resolve_device("auto") in ("cpu", "cuda")
+    assert not hasattr(render, "pick_device")
     for bad in ("mps", "tpu9", "CPU", "cuda:x", "cuda0", ""):
-        for fn in (resolve_device, finetune.pick_device, render.pick_device):
+        for fn in (resolve_device, finetune.pick_device):
             with pytest.raises(UserError, match="must be auto, cpu, cuda or cuda:N"):
                 fn(bad)
     assert str(finetune.pick_device("cpu")) == "cpu"

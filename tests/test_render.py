@@ -39,7 +39,7 @@ def make_render_ws(root: Path, n_views: int = 5, seed: int = 0) -> Workspace:
         frac[f.stem] = float((m > 0).mean())
     atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
     torch.manual_seed(seed)
-    save_model(ws.model / "gnfr.safetensors", GNFR(GNFRConfig(**TINY)),
+    save_model(ws.model_file, GNFR(GNFRConfig(**TINY)),
                {"samples": 4, "eval_views": 3, "source_scale": 0.5, "point_sampler": True})
     return ws
 
@@ -240,13 +240,13 @@ def test_exif_kept_with_orientation_reset(tmp_path):
 
 
 def test_full_res_blends_into_the_original_photos(rws, counters):
-    from pipeline.render import RenderConfig, full_dir, run
+    from pipeline.render import RenderConfig, run
 
     rays, enc = counters
     outs = run(RenderConfig(path="inputs", full_res=True), rws)
-    assert full_dir(rws) in outs
+    assert rws.deflared_full in outs
     photos = rws.photos_dir
-    got = cv2.imread(str(full_dir(rws) / f"{FLARED}.png"))
+    got = cv2.imread(str(rws.deflared_full_path(FLARED, ".png")))
     orig = cv2.imread(str(photos / f"{FLARED}.png"))
     assert got.shape == orig.shape == (480, 640, 3)  # the original's full resolution
     rows, cols = BOX
@@ -255,7 +255,7 @@ def test_full_res_blends_into_the_original_photos(rws, counters):
     far = np.ones(got.shape[:2], bool)
     far[big[0].start - 40:big[0].stop + 40, big[1].start - 40:big[1].stop + 40] = False
     assert np.array_equal(got[far], orig[far])  # the rest keeps every original pixel
-    other = cv2.imread(str(full_dir(rws) / "templeSR0001.png"))
+    other = cv2.imread(str(rws.deflared_full_path("templeSR0001", ".png")))
     assert np.array_equal(other, cv2.imread(str(photos / "templeSR0001.png")))
     # only flare pixels were rendered: one decoded-size view (a new setting rerenders
     # WS/deflared too) and the same view at full resolution
@@ -264,35 +264,40 @@ def test_full_res_blends_into_the_original_photos(rws, counters):
 
 def test_full_res_knows_raw_photos_from_decodes_record(tmp_path):
     """Which file a view came from and whether it is raw come from decode's record; a
-    workspace whose record lists neither falls back to cameras.json's name and the suffix."""
+    workspace whose record lists neither falls back to cameras.json's name and the suffix
+    (raw when it is not one of pipeline.images.PHOTO_EXTS)."""
     from pipeline.cameras import Frame
-    from pipeline.render import FrameJob, FullRes, full_dir, plan_full_res
+    from pipeline.render import FrameJob, FullRes, plan_full_res
 
     photos = tmp_path / "photos"
     photos.mkdir()
     for name in ("a.dng", "b.jpe", "c.jpg"):
         (photos / name).write_bytes(b"x")
     ws = Workspace.create(tmp_path / "ws", photos)
-    atomic_imwrite(ws.linear / "a.tiff", np.zeros((4, 4, 3), np.uint16))
+    atomic_imwrite(ws.linear_path("a"), np.zeros((4, 4, 3), np.uint16))
     frames = [Frame(n, n.split(".")[0], np.eye(3), 4, 4, np.eye(4), 0.1, 5.0)
-              for n in ("a.dng", "b.jpe", "c.jpg")]
-    jobs = [FrameJob(ws.deflared / f"{f.stem}.png", ["s"], 0.1, 5.0, f) for f in frames]
+              for n in ("a.dng", "b.jpe", "c.png")]  # cameras.json names c.png, not c.jpg
+    jobs = [FrameJob(ws.deflared_path(f.stem), ["s"], 0.1, 5.0, f) for f in frames]
 
     def planned():
         return {j.camera.stem: (j.out.name, j.full_res) for j in plan_full_res(ws, jobs)}
 
-    guessed = planned()  # no record of raw stems: any suffix OpenCV does not read is raw
-    assert guessed["a"] == ("a.tiff", FullRes(ws.linear / "a.tiff", linear=True))
-    assert "b" not in guessed  # .jpe taken for raw; it has no WS/linear/b.tiff
-    assert guessed["c"] == ("c.jpg", FullRes(photos / "c.jpg", linear=False,
-                                             exif=photos / "c.jpg"))
-    ws.begin_stage("decode", {}, []).finish(
-        [ws.decoded], extra={"sources": {"a": "a.dng", "b": "b.jpe", "c": "c.jpg"},
-                             "raw": ["a"]})
+    guessed = planned()  # no record: cameras.json's names, raw by suffix
+    assert guessed["a"] == ("a.tiff", FullRes(ws.linear_path("a"), linear=True))
+    assert guessed["b"] == ("b.jpg", FullRes(photos / "b.jpe", linear=False,
+                                             exif=photos / "b.jpe"))  # .jpe is a JPEG
+    assert "c" not in guessed  # photos/c.png does not exist
+    sources = {"a": "a.dng", "b": "b.jpe", "c": "c.jpg"}
+    ws.begin_stage("decode", {}, []).finish([ws.decoded], extra={"sources": sources,
+                                                                 "raw": ["a"]})
     known = planned()
-    assert known["b"] == ("b.png", FullRes(photos / "b.jpe", linear=False))
-    assert known["a"] == guessed["a"] and known["c"] == guessed["c"]
-    assert all(j.out.parent == full_dir(ws) for j in plan_full_res(ws, jobs))
+    assert known["c"] == ("c.jpg", FullRes(photos / "c.jpg", linear=False,
+                                           exif=photos / "c.jpg"))
+    assert known["a"] == guessed["a"] and known["b"] == guessed["b"]
+    assert all(j.out.parent == ws.deflared_full for j in plan_full_res(ws, jobs))
+    ws.begin_stage("decode", {}, []).finish([ws.decoded], extra={"sources": sources,
+                                                                 "raw": ["a", "b"]})
+    assert "b" not in planned()  # raw by the record whatever its suffix: no WS/linear/b.tiff
 
 
 def _psnr(a: np.ndarray, b: np.ndarray) -> float:
@@ -346,7 +351,7 @@ def test_overfit_scene_reproduces_the_input_views(tmp_path):
     bank = SourceBank.of(scene, cfg.source_scale, "cpu")
     for step in range(120):
         train_step(model, opt, sample_batch(scene, cfg, gen), bank, None, cfg, step)
-    save_model(ws.model / "gnfr.safetensors", model,
+    save_model(ws.model_file, model,
                {"samples": 8, "eval_views": 3, "source_scale": 0.5})
     after = score()
     mean_colour = np.mean([_psnr(np.broadcast_to(t.reshape(-1, 3).mean(0), t.shape), t)
@@ -413,7 +418,7 @@ def hws(tmp_path_factory):
         frac[f.stem] = float((m > 0).mean())
     atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
     torch.manual_seed(0)
-    save_model(ws.model / "gnfr.safetensors", GNFR(GNFRConfig(**TINY)),
+    save_model(ws.model_file, GNFR(GNFRConfig(**TINY)),
                {"samples": 4, "eval_views": 3, "source_scale": 0.5, "point_sampler": True})
     depth_run(DepthConfig(neighbours=3), ws)
     return ws

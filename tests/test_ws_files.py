@@ -72,9 +72,22 @@ def test_every_ws_path_is_a_property(tmp_path):
     assert ws.linear_path("a") == r / "linear" / "a.tiff"
     assert ws.render_dir("/some/where/path.json") == r / "renders" / "path"
     assert ws.video == r / "photos.mp4" and ws.compare_sheet == r / "photos_compare.jpg"
-    from pipeline import finetune  # its own constant must name the same file until it moves
+    assert ws.deflared_full_path("a", ".jpg") == r / "deflared_full" / "a.jpg"
+    assert ws.masks_nerfstudio_path("a") == r / "masks_nerfstudio" / "a.png"
 
-    assert finetune.MODEL_FILE == MODEL_FILE
+
+def test_model_file_names_agree_across_layers(tmp_path):
+    """WS/model is a gnfr run folder: pipeline.workspace names its files for the pipeline
+    layer, gnfr.fit for the gnfr layer (which cannot import pipeline); they must agree."""
+    from gnfr import fit
+    from pipeline import workspace
+
+    ws = tiny_ws(tmp_path)
+    assert (fit.MODEL_FILE, fit.STATE_FILE, fit.METRICS_FILE) == (
+        workspace.MODEL_FILE, workspace.TRAIN_STATE_FILE, workspace.METRICS_FILE)
+    assert fit.checkpoint_files(ws.model) == (ws.model_file, ws.train_state)
+    assert ws.metrics_jsonl == ws.model / fit.METRICS_FILE
+    assert MODEL_FILE == "gnfr.safetensors"
 
 
 def test_record_stage_is_a_complete_stage_record(tmp_path):
@@ -264,6 +277,11 @@ def test_views_one_filtering_rule(tmp_path):
     scene = load_workspace(ws.root, stems=["a", "b", "d"])
     assert scene.ranked == views.ranked(["a", "b", "d"])
     assert scene.flare == {"a": 0.0, "b": 0.3, "d": 0.1}
+    assert scene.targets == views.targets()                # the flags, not a max_flare
+    from gnfr.view_sampler import is_target
+    from pipeline.ws_files import is_target as ws_is_target
+
+    assert ws_is_target is is_target                       # one target rule
 
 
 def test_views_json_malformed_is_one_line(tmp_path):

@@ -27,8 +27,7 @@ from __future__ import annotations
 from dataclasses import asdict, replace
 from pathlib import Path
 
-from pipeline.cameras import load_cameras
-from pipeline.options import validate
+from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
 from pipeline.render.config import FILLS, NAMED_PATHS, RenderConfig
 from pipeline.render.engine import (
@@ -39,18 +38,16 @@ from pipeline.render.engine import (
     render_jobs,
     split_guided,
 )
-from pipeline.render.fill import depth_dir, fill_from_photos, photo_views
+from pipeline.render.fill import fill_from_photos, photo_views
 from pipeline.render.frames import (
     clear_frames,
-    path_dir,
     path_poses,
-    read_rgb,
     rendered_frames,
     with_exif,
     write_frame,
     write_path_cameras,
 )
-from pipeline.render.full_res import full_dir, plan_full_res, prepare_full_res
+from pipeline.render.full_res import plan_full_res, prepare_full_res
 from pipeline.render.inputs import (
     MATCH_GAIN,
     MATCH_MIN_PIXELS,
@@ -80,23 +77,22 @@ from pipeline.render.sources import (
     find_checkpoint,
     input_sources,
     load_model,
-    load_views,
     novel_sources,
-    pick_device,
     train_meta,
 )
 from pipeline.workspace import Workspace
+from pipeline.ws_files import read_cameras, read_views
 
 __all__ = [
     "CHUNK", "DEPTH_BAND", "FILLS", "MATCH_GAIN", "MATCH_MIN_PIXELS", "NAMED_PATHS",
     "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
-    "clear_frames", "decoded_camera", "default_chunk", "depth_dir", "enclosed_holes",
-    "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in", "full_dir",
-    "input_blend", "input_rays", "input_sources", "load_model", "load_views", "match_colours",
-    "network_scale", "novel_depth_range", "novel_path", "novel_scale", "novel_sources",
-    "path_dir", "path_poses", "photo_views", "pick_device", "plan_full_res", "plan_jobs",
-    "prepare_full_res", "prepare_hybrid_novel", "prepare_input", "prepare_job",
-    "prepare_novel", "read_rgb", "reference_frame", "render_jobs", "rendered_frames",
+    "clear_frames", "decoded_camera", "default_chunk", "enclosed_holes", "encode_sources",
+    "fill_from_photos", "find_checkpoint", "flare_mask_in", "input_blend", "input_rays",
+    "input_sources", "load_model", "match_colours", "network_scale", "novel_depth_range",
+    "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
+    "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
+    "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
+    "rendered_frames",
     "resize_camera", "run", "split_guided", "train_meta", "with_exif", "write_frame",
     "write_path_cameras",
 ]
@@ -108,15 +104,15 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     import torch
 
     ws.require("pose")
-    cams = load_cameras(ws.cameras_json)
-    views = load_views(ws)
-    device = pick_device(cfg.device)
+    cams = read_cameras(ws)
+    views = read_views(ws)
+    device = resolve_device(cfg.device)
     ckpt = find_checkpoint(ws, cfg.checkpoint)
     meta = train_meta(ckpt)
     cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
-    use_photos = cfg.fill == "hybrid" and depth_dir(ws).is_dir()
+    use_photos = cfg.fill == "hybrid" and ws.depth.is_dir()
     if cfg.fill == "hybrid" and not use_photos:
-        warn(f"render: no {depth_dir(ws)} (run `deflare-scene depth {ws.root}`): GN-FR "
+        warn(f"render: no {ws.depth} (run `deflare-scene depth {ws.root}`): GN-FR "
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
@@ -131,7 +127,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                 else max(4, samples // 3)) if cfg.fill == "hybrid" else 0,
               "point_sampler": bool(meta.get("point_sampler", True))}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
-    inputs += [depth_dir(ws)] if use_photos else []
+    inputs += [ws.depth] if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     run_ = ws.begin_stage(f"render:{key}", params, inputs, force)
@@ -144,7 +140,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         write_path_cameras(out_dir, jobs)
     full = plan_full_res(ws, jobs) if key == "inputs" and cfg.full_res else []
     if full and not ws.resumable(run_):
-        clear_frames(full_dir(ws))
+        clear_frames(ws.deflared_full)
     todo = [j for j in jobs + full if not j.out.exists()]
     if len(todo) < len(jobs) + len(full):
         info(f"render {key}: {len(jobs) + len(full) - len(todo)} of {len(jobs) + len(full)} "
@@ -157,5 +153,5 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                         params["full_res_colour"])
             photos = photo_views(ws, cams, todo, cfg) if use_photos else None
             render_jobs(model, src, index, todo, params, cfg, ws, photos)
-    outputs = [out_dir] + ([full_dir(ws)] if full else [])
+    outputs = [out_dir] + ([ws.deflared_full] if full else [])
     return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])

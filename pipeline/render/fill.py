@@ -2,19 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from pipeline.cameras import Cameras
 from pipeline.render.config import RenderConfig
 from pipeline.render.jobs import FrameJob
 from pipeline.workspace import Workspace
-
-
-def depth_dir(ws: Workspace) -> Path:
-    """WS/depth: the depth stage's per-view depth (``deflare-scene depth``)."""
-    return ws.root / "depth"
 
 
 def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:

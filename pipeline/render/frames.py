@@ -1,4 +1,4 @@
-"""Frame files: reading photos, writing frames (JPEG EXIF kept), rendered path folders."""
+"""Frame files: writing frames (JPEG EXIF kept), rendered path folders and their cameras."""
 
 from __future__ import annotations
 
@@ -7,31 +7,18 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.errors import UserError
+from pipeline.images import JPEG_EXTS, is_photo
 from pipeline.render.jobs import FrameJob
 from pipeline.workspace import (
-    Workspace,
+    PATH_CAMERAS_FILE,
     atomic_imwrite,
     atomic_write_bytes,
     atomic_write_json,
     read_json,
 )
 
-FRAME_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
-"""Image files the render stage writes (and removes before a different render)."""
-
 
 # --------------------------------------------------------------------------- pixels
-def read_rgb(path: Path) -> np.ndarray:
-    """[H, W, 3] uint8 RGB; a clear error if unreadable."""
-    import cv2
-
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise UserError(f"cannot read image {path}: rerun the stage that writes it")
-    return img[..., ::-1].copy()
-
-
 def to_u8(x: np.ndarray) -> np.ndarray:
     """Float RGB in 0..1 -> uint8 (rounded, clipped)."""
     return np.clip(np.rint(x * 255.0), 0, 255).astype(np.uint8)
@@ -44,7 +31,7 @@ def write_frame(path: Path, rgb: np.ndarray, exif_from: Path | None = None) -> N
     import cv2
 
     bgr = np.ascontiguousarray(rgb[..., ::-1])
-    if path.suffix.lower() in (".jpg", ".jpeg"):
+    if path.suffix.lower() in JPEG_EXTS:
         ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, 95])
         if not ok:
             raise OSError(f"could not encode {path}")
@@ -96,16 +83,17 @@ def with_exif(jpeg: bytes, source: Path | None) -> bytes:
 
 # --------------------------------------------------------------------------- folders
 def clear_frames(out_dir: Path) -> None:
-    """Remove frames of an earlier, different render of this path (not resumable)."""
+    """Remove the image files (``pipeline.images.PHOTO_EXTS``) of an earlier, different
+    render of this path (not resumable)."""
     if out_dir.is_dir():
         for p in out_dir.iterdir():
-            if p.is_file() and p.suffix.lower() in FRAME_SUFFIXES:
+            if p.is_file() and is_photo(p):
                 p.unlink()
 
 
 def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
-    """``out_dir/cameras.json``: the novel jobs' cameras in the JSON path format
-    (docs/camera_paths.md), each frame with its sources and near / far."""
+    """``out_dir/cameras.json`` (``PATH_CAMERAS_FILE``): the novel jobs' cameras in the JSON
+    path format (docs/camera_paths.md), each frame with its sources and near / far."""
     from gnfr.paths import PathCamera, path_to_json
 
     cams = [PathCamera(j.out.stem, j.camera.K, j.camera.c2w, j.camera.width, j.camera.height)
@@ -113,13 +101,7 @@ def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
     data = path_to_json(cams)
     for f, j in zip(data["frames"], jobs, strict=True):
         f["sources"], f["near"], f["far"] = j.sources, j.near, j.far
-    atomic_write_json(out_dir / "cameras.json", data)
-
-
-def path_dir(ws: Workspace, path: str) -> Path:
-    """``WS/renders/<key>``: the folder of a rendered path (``interpolate``, ``spiral``, or
-    the stem of a camera-path FILE.json)."""
-    return ws.renders / Path(path).stem
+    atomic_write_json(out_dir / PATH_CAMERAS_FILE, data)
 
 
 def rendered_frames(out_dir: Path) -> list[Path]:
@@ -129,7 +111,7 @@ def rendered_frames(out_dir: Path) -> list[Path]:
 
 def path_poses(out_dir: Path) -> np.ndarray | None:
     """[M, 4, 4] camera-to-world of a rendered path (its cameras.json), or None."""
-    f = out_dir / "cameras.json"
+    f = out_dir / PATH_CAMERAS_FILE
     if not f.is_file():
         return None
     return np.asarray([fr["c2w"] for fr in read_json(f)["frames"]], np.float64)

@@ -5,10 +5,10 @@ applied) the flare region (the decoded-size mask warped through the camera model
 up, dilated and feathered) is rendered with the view's COLMAP camera scaled to the
 photo's size and blended into the photo. Which file each view came from, and whether it
 is camera raw, is read from decode's record in the manifest (for a workspace whose record
-does not list them: the file named in cameras.json, raw when OpenCV does not read its
-suffix). Output in ``WS/deflared_full/``:
-- 8-bit JPEG input -> ``<stem>.jpg`` (quality 95) with the photo's EXIF (orientation
-  reset to 1, since the pixels are stored upright);
+does not list them: the file named in cameras.json, raw when its suffix is not one of
+``pipeline.images.PHOTO_EXTS``). Output in ``WS/deflared_full/``:
+- 8-bit JPEG input (``pipeline.images.JPEG_EXTS``) -> ``<stem>.jpg`` (quality 95) with the
+  photo's EXIF (orientation reset to 1, since the pixels are stored upright);
 - other input -> ``<stem>.png`` (16-bit for 16-bit input);
 - raw input -> ``<stem>.tiff``, 16-bit LINEAR, blended into ``WS/linear/<stem>.tiff``:
   the render is linearised (inverse sRGB) and mapped to the camera's linear RGB with
@@ -18,25 +18,17 @@ suffix). Output in ``WS/deflared_full/``:
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
+from pipeline.colour import srgb_to_linear
 from pipeline.errors import UserError
+from pipeline.images import JPEG_EXTS, is_photo, read_image
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
-from pipeline.render.frames import read_rgb
 from pipeline.render.inputs import input_blend, input_rays, match_colours
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.workspace import Workspace
-
-READABLE = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
-"""Suffixes read as ordinary images when decode's record does not say which photos are raw."""
-
-
-def full_dir(ws: Workspace) -> Path:
-    """``WS/deflared_full``: the full-resolution de-flared photos."""
-    return ws.root / "deflared_full"
+from pipeline.ws_files import read_decoded
 
 
 def decoded_photos(ws: Workspace) -> tuple[dict[str, str], set[str] | None]:
@@ -48,14 +40,13 @@ def decoded_photos(ws: Workspace) -> tuple[dict[str, str], set[str] | None]:
 
 
 def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
-    """FrameJobs (into :func:`full_dir`) for the input ``jobs`` whose photos can be
+    """FrameJobs (into WS/deflared_full) for the input ``jobs`` whose photos can be
     de-flared at full resolution."""
     photos = ws.photos_dir
     if photos is None or not photos.is_dir():
         warn(f"--full-res: the photo folder {photos} recorded in the manifest is not there; "
              "skipping full-resolution output")
         return []
-    out_dir = full_dir(ws)
     names, raw = decoded_photos(ws)
     out = []
     for j in jobs:
@@ -64,35 +55,21 @@ def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
         if not src.is_file():
             warn(f"--full-res: {src} is missing; {f.stem} skipped")
             continue
-        is_raw = f.stem in raw if raw is not None else src.suffix.lower() not in READABLE
+        is_raw = f.stem in raw if raw is not None else not is_photo(src)
         if is_raw:
-            lin = ws.linear / f"{f.stem}.tiff"
+            lin = ws.linear_path(f.stem)
             if not lin.is_file():
                 warn(f"--full-res: {src.name} is a raw photo and {lin} is missing (decode "
                      "writes it for raw input); skipped")
                 continue
-            out.append(FrameJob(out_dir / f"{f.stem}.tiff", j.sources, j.near, j.far, f,
-                                FullRes(lin, linear=True)))
+            out.append(FrameJob(ws.deflared_full_path(f.stem, ".tiff"), j.sources, j.near,
+                                j.far, f, FullRes(lin, linear=True)))
             continue
-        ext = ".jpg" if src.suffix.lower() in (".jpg", ".jpeg") else ".png"
-        out.append(FrameJob(out_dir / f"{f.stem}{ext}", j.sources, j.near, j.far, f,
-                            FullRes(src, linear=False, exif=src if ext == ".jpg" else None)))
+        jpeg = src.suffix.lower() in JPEG_EXTS
+        out.append(FrameJob(ws.deflared_full_path(f.stem, ".jpg" if jpeg else ".png"),
+                            j.sources, j.near, j.far, f,
+                            FullRes(src, linear=False, exif=src if jpeg else None)))
     return out
-
-
-def _read_any(path: Path) -> np.ndarray:
-    """[H, W, 3] RGB uint8 or uint16, EXIF orientation applied."""
-    import cv2
-
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
-    if img is None:
-        raise UserError(f"cannot read {path} for --full-res")
-    return img[..., ::-1].copy()
-
-
-def srgb_to_linear(x: np.ndarray) -> np.ndarray:
-    """Inverse sRGB transfer function (IEC 61966-2-1) of values in 0..1."""
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
 def linear_gains(linear: np.ndarray, decoded: np.ndarray, clean: np.ndarray) -> np.ndarray:
@@ -100,7 +77,7 @@ def linear_gains(linear: np.ndarray, decoded: np.ndarray, clean: np.ndarray) -> 
 
     linear: [h, w, 3] float at the decoded size; decoded: [h, w, 3] float 0..1; clean:
     [h, w] bool (not flare)."""
-    dec = srgb_to_linear(decoded)
+    dec = srgb_to_linear(decoded, exact=True)
     ok = clean & np.all((decoded > 0.05) & (decoded < 0.95), -1)
     if ok.sum() < 100:
         ok = np.all(dec > 1e-3, -1)
@@ -114,13 +91,13 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
 
     f = job.camera
     full = job.full_res
-    photo = _read_any(full.photo)
+    photo = read_image(full.photo, any_depth=True, fix="replace it, or render without --full-res")
     H, W = photo.shape[:2]
-    decoded = read_rgb(ws.decoded / f"{f.stem}.png")
+    decoded = read_decoded(ws, f.stem)
     dsize = (decoded.shape[1], decoded.shape[0])
     if abs(W / H - dsize[0] / dsize[1]) > 0.02:
         raise UserError(f"{full.photo} ({W}x{H}) does not have the aspect of "
-                        f"WS/decoded/{f.stem}.png {dsize}: rerun decode")
+                        f"{ws.decoded_path(f.stem)} {dsize}: {ws.rerun('decode')}")
     alpha, ring = input_blend(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
     ring = None if ring is None else ring[rows, cols]
@@ -135,7 +112,7 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
     def compose(rgb):
         out = photo.astype(np.float32) / peak
         a = alpha[rows, cols, None]
-        new = srgb_to_linear(rgb) * gains if full.linear else rgb
+        new = srgb_to_linear(rgb, exact=True) * gains if full.linear else rgb
         new = match_colours(new, out[rows, cols], ring)  # in the output's own encoding
         out[rows, cols] = out[rows, cols] * (1 - a) + new * a
         return np.clip(np.rint(out * peak), 0, peak).astype(photo.dtype)

@@ -9,9 +9,10 @@ from pipeline.cameras import Frame
 from pipeline.errors import UserError
 from pipeline.render.config import RenderConfig
 from pipeline.render.fill import fill_from_photos
-from pipeline.render.frames import read_rgb, to_u8
+from pipeline.render.frames import to_u8
 from pipeline.render.jobs import FrameJob, Prepared
 from pipeline.workspace import Workspace
+from pipeline.ws_files import MASK_THRESHOLD, read_decoded, read_mask, read_view_image
 
 
 def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
@@ -19,7 +20,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
     """An input view: the flare region (alpha > 0) filled by GN-FR or, in the hybrid fill,
     from the warped photos where they agree; each fill colour-matched on the ring."""
     frame = job.camera
-    photo = read_rgb(ws.decoded / f"{frame.stem}.png")
+    photo = read_decoded(ws, frame.stem)
     size = (photo.shape[1], photo.shape[0])
     alpha, ring = input_blend(frame, cfg, ws, size, size)
     region = alpha > 0.5 / 255
@@ -62,15 +63,16 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
 
 def own_clean_pixels(ws: Workspace, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
     """(image float [H, W, 3], valid [H, W]) of WS/images/<stem>.png outside its flare mask
-    grown by 2% of the long side: the reference the warped photos' gains are matched to."""
+    grown by 2% of the long side: the reference the warped photos' gains are matched to.
+    Without a mask (``blend none`` renders maskless views) every pixel is valid."""
     import cv2
 
-    img = read_rgb(ws.images / f"{frame.stem}.png").astype(np.float32) / 255.0
-    m = cv2.imread(str(ws.masks / f"{frame.stem}.png"), cv2.IMREAD_GRAYSCALE)
-    if m is None:
+    img = read_view_image(ws, frame.stem, as_float=True)
+    if not ws.mask_path(frame.stem).exists():
         return img, np.ones(img.shape[:2], bool)
-    r = max(1, round(0.02 * max(m.shape)))
-    grown = cv2.dilate((m > 127).astype(np.uint8), np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+    flare = read_mask(ws, frame.stem)
+    r = max(1, round(0.02 * max(flare.shape)))
+    grown = cv2.dilate(flare.astype(np.uint8), np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     return img, grown == 0
 
 
@@ -187,19 +189,21 @@ def decoded_camera(frame: Frame, width: int, height: int) -> CameraModel:
 
 
 def flare_mask_in(cam: CameraModel, frame: Frame, ws: Workspace) -> np.ndarray:
-    """[H, W] bool flare mask of WS/masks (WS/images geometry) warped into camera ``cam``."""
+    """[H, W] bool flare mask of WS/masks (WS/images geometry) warped into camera ``cam``:
+    the mask as 0/255 grey, bilinearly remapped, cut at ``MASK_THRESHOLD`` (flare where more
+    than half of the interpolated weight is)."""
     import cv2
 
-    path = ws.masks / f"{frame.stem}.png"
-    m = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    if m is None:
+    path = ws.mask_path(frame.stem)
+    if not path.exists():
         raise UserError(f"{path} is missing: run `deflare-scene mask {ws.root}` first, or "
                         "render the full image with --blend none")
-    pin = CameraModel.pinhole(frame.K, m.shape[1], m.shape[0])
+    flare = read_mask(ws, frame.stem)
+    pin = CameraModel.pinhole(frame.K, flare.shape[1], flare.shape[0])
     mx, my = warp_maps(pin, cam)
-    warped = cv2.remap(m.astype(np.float32), mx, my, cv2.INTER_LINEAR,
+    warped = cv2.remap(flare.astype(np.float32) * 255, mx, my, cv2.INTER_LINEAR,
                        borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    return warped > 127
+    return warped > MASK_THRESHOLD
 
 
 def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray:

@@ -12,19 +12,21 @@ from pipeline.render.config import NAMED_PATHS, RenderConfig
 from pipeline.render.jobs import FrameJob
 from pipeline.render.sources import input_sources, novel_sources
 from pipeline.workspace import Workspace, read_json
+from pipeline.ws_files import ViewsFile
 
 
-def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: dict,
+def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
               device: str) -> tuple[str, Path, list[FrameJob]]:
     """(path key, output folder, frame jobs) for ``cfg.path``."""
     if cfg.path == "inputs":
         if cfg.blend not in ("mask", "none"):
             raise UserError(f"--blend {cfg.blend!r} is not known: use mask or none")
-        jobs = [FrameJob(ws.deflared / f"{f.stem}.png", input_sources(f.stem, views, cfg),
-                         f.near, f.far, f) for f in cams.frames]
+        jobs = [FrameJob(ws.deflared_path(f.stem),
+                         input_sources(f.stem, views, cfg, among=cams.stems), f.near, f.far, f)
+                for f in cams.frames]
         return "inputs", ws.deflared, jobs
     path_cams, key = novel_path(cfg, cams, device)
-    out_dir = ws.renders / key
+    out_dir = ws.render_dir(cfg.path)
     jobs = []
     for i, pc in enumerate(path_cams):
         near, far = novel_depth_range(pc.c2w[:3, 3], cams)

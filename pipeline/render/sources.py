@@ -2,17 +2,23 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
 
 from pipeline.cameras import Cameras
 from pipeline.errors import UserError
-from pipeline.options import resolve_device
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
-from pipeline.render.frames import read_rgb
-from pipeline.workspace import Workspace, read_json
+from pipeline.workspace import Workspace
+from pipeline.ws_files import (
+    MASK_THRESHOLD,
+    ViewsFile,
+    has_masks,
+    read_mask,
+    read_view_image,
+)
 
 
 def _eval_sources(ranked: list[str], fractions: list[float], n: int, pool: int) -> list[str]:
@@ -22,48 +28,49 @@ def _eval_sources(ranked: list[str], fractions: list[float], n: int, pool: int) 
     return list(eval_sources(ranked, fractions, n=n, pool=pool))
 
 
-def input_sources(stem: str, views: dict, cfg: RenderConfig) -> list[str]:
-    """Sources of an input view: its ranked pool in views.json (itself excluded)."""
-    pool = [s for s in views[stem]["sources"] if s["stem"] != stem] if stem in views else []
+def _views_file(views: ViewsFile | Mapping) -> ViewsFile:
+    """``views`` as a ViewsFile; also accepts views.json's ``"views"`` mapping, the form
+    benchmarks/flare_coverage.py still passes."""
+    if isinstance(views, ViewsFile):
+        return views
+    return ViewsFile.from_json({"max_flare": None, "views": views})
+
+
+def input_sources(stem: str, views: ViewsFile | Mapping, cfg: RenderConfig,
+                  among: Iterable[str] | None = None) -> list[str]:
+    """Sources of an input view: its ranked pool in views.json (``ViewsFile.sources``:
+    itself excluded, only views in ``among`` when given)."""
+    views = _views_file(views)
+    pool = views.sources(stem, among)
     if not pool:
         raise UserError(f"{stem} has no source views in views.json: rerun "
                         "`deflare-scene select WS`")
-    return _eval_sources([s["stem"] for s in pool], [s["flare_fraction"] for s in pool],
-                         cfg.n_sources, cfg.pool)
+    fractions = views.fractions(pool)
+    return _eval_sources(pool, [fractions[s] for s in pool], cfg.n_sources, cfg.pool)
 
 
-def novel_sources(center: np.ndarray, cams: Cameras, views: dict,
+def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
                   cfg: RenderConfig) -> list[str]:
-    """Sources of a novel camera: all input views ranked by distance to ``center``."""
+    """Sources of a novel camera: the input views views.json lists, ranked by distance to
+    ``center``."""
+    views = _views_file(views)
     d = np.linalg.norm(cams.centers() - center, axis=1)
     ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
     ranked = [s for s in ranked if s in views]
-    return _eval_sources(ranked, [views[s]["flare_fraction"] for s in ranked],
-                         cfg.n_sources, cfg.pool)
-
-
-def load_views(ws: Workspace) -> dict:
-    """{stem: record} of WS/views.json (select's ranked source pools and flare fractions)."""
-    if not ws.views_json.exists():
-        raise UserError(f"{ws.views_json} is missing: run `deflare-scene select {ws.root}` "
-                        "first")
-    return read_json(ws.views_json)["views"]
+    fractions = views.fractions(ranked)
+    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg.n_sources, cfg.pool)
 
 
 # --------------------------------------------------------------------------- model, cache
-def pick_device(name: str) -> str:
-    """The torch device to render on (``pipeline.options.resolve_device``, the one resolver)."""
-    return resolve_device(name)
-
-
 def find_checkpoint(ws: Workspace, path: str | None) -> Path:
-    """The weights to render with: ``path``, else the newest checkpoint in WS/model/."""
+    """The weights to render with: ``path``, else WS/model/gnfr.safetensors
+    (``Workspace.model_file``), else the newest ``.safetensors`` in WS/model/."""
     if path:
         p = Path(path)
         if not p.is_file():
             raise UserError(f"checkpoint {p} does not exist")
         return p
-    found = ws.model / "gnfr.safetensors"  # what `finetune` writes (pipeline/finetune.py)
+    found = ws.model_file
     if not found.is_file():
         cands = sorted(ws.model.glob("*.safetensors"), key=lambda p: p.stat().st_mtime)
         found = cands[-1] if cands else None
@@ -109,16 +116,15 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     Images of different sizes are padded to the largest; the padding is marked as flare so
     the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
     """
-    import cv2
     import torch
 
     from gnfr.renderer import SourceViews
 
     by = cams.by_stem()
     feature_scale, scale = (scale, 1.0) if full_res_colour else (1.0, scale)
-    imgs = [_resize_img(read_rgb(ws.images / f"{s}.png"), scale) for s in stems]
+    imgs = [_resize_img(read_view_image(ws, s), scale) for s in stems]
     H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
-    have_masks = all((ws.masks / f"{s}.png").exists() for s in stems)
+    have_masks = has_masks(ws, stems)
     if not have_masks:
         warn(f"no flare masks in {ws.masks} for every source: rendering without the Point "
              "Sampler (run `deflare-scene mask WS`)")
@@ -131,11 +137,13 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
         if masks is not None:
             m = np.zeros((h, w), np.float32)
             if have_masks:
-                m = cv2.imread(str(ws.masks / f"{s}.png"), cv2.IMREAD_GRAYSCALE)
-                if m is None or m.shape != (by[s].height, by[s].width):
-                    raise UserError(f"{ws.masks / f'{s}.png'} is unreadable or not the size "
-                                    "of its image: rerun `deflare-scene mask WS --force`")
-                m = (_resize_img(m, scale, like=img) > 127).astype(np.float32)
+                flare = read_mask(ws, s)
+                if flare.shape != (by[s].height, by[s].width):
+                    raise UserError(f"{ws.mask_path(s)} is not the size of its image: "
+                                    f"{ws.rerun('mask')}")
+                # area-resized as 0/255 grey, then cut: flare where more than half is
+                grey = flare.astype(np.uint8) * 255
+                m = (_resize_img(grey, scale, like=img) > MASK_THRESHOLD).astype(np.float32)
             masks[v, 0, :h, :w] = torch.from_numpy(m)
     K = np.stack([by[s].K for s in stems])
     for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):  # exact K of resized images
