@@ -95,7 +95,8 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
         imgs[i] = torch.from_numpy(np.round(flared * 255).astype(np.uint8)).permute(2, 0, 1)
         masks[i, 0] = torch.from_numpy(layers.mask.astype(np.uint8))
     flare = {s: float(masks[i].float().mean()) for i, s in enumerate(scene.stems)}
-    return replace(scene, images=imgs, masks=masks, flare=flare)
+    # the synthetic flare changes which views may be targets: the rule decides again
+    return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
 
 
 def load_scenes(config: PretrainConfig) -> list[Scene]:
