@@ -1,5 +1,6 @@
-"""Full-size source colours (``render --full-res-colour``) against colours at source scale,
-with one trained checkpoint and no retraining: held-out novel views and de-flared inputs of
+"""Full-size source colours (`render --full-res-colour`) against colours at source scale.
+
+With one trained checkpoint and no retraining: held-out novel views and de-flared inputs of
 a `deflare-scene synth` scene whose `eval.ws` exists, for each fill.
 
     python benchmarks/full_res_colour.py SCENE_SYNTH CHECKPOINT --fills network,hybrid \

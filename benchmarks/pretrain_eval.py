@@ -144,7 +144,7 @@ def main() -> None:
     a = ap.parse_args()
     from gnfr.train import QUICK
     from pipeline.finetune import fit
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
     from pipeline.workspace import MODEL_FILE  # fit writes a WS/model-like folder
 
     root = build_workspace(a.out / "ws")

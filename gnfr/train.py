@@ -112,7 +112,7 @@ PRESETS = {"paper": PAPER, "quick": QUICK, "pretrain": PRETRAIN,
 
 @dataclass
 class Scene:
-    """One posed scene as tensors (filled by pipeline.scene_data)."""
+    """One posed scene as tensors (filled by pipeline.training_scenes)."""
 
     stems: list[str]
     images: torch.Tensor
@@ -134,7 +134,7 @@ class Scene:
     name: str = ""
     targets: list[str] | None = None
     """The views that may be training targets when the scene says so (a workspace's
-    views.json flags, set by pipeline.scene_data), else None: those within
+    views.json flags, set by pipeline.training_scenes), else None: those within
     ``TrainConfig.max_flare``. Derived from ``flare``: reset it when ``flare`` changes."""
 
     def index(self) -> dict[str, int]:

@@ -118,7 +118,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     info(f"finetune: preset '{name}' on {device.type} ({cfg.iters} steps, {cfg.rays} rays, "
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
          f"{'cached features' if cfg.cached_features else 'end-to-end'})")
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
 
     scene = load_workspace(ws.root)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(run_), init=config.init,

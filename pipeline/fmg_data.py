@@ -11,7 +11,7 @@ threshold), and the light core is never flare.
 
 Backgrounds are every image under ``<data>/backgrounds`` and ``<data>/scenes`` (found
 recursively), downscaled once into memory. Validation keeps whole scenes out
-(``pipeline.datasets.HELDOUT_SCENES``) plus a few held-out backgrounds. Training adds random
+(``pipeline.scene_splits.HELDOUT_SCENES``) plus a few held-out backgrounds. Training adds random
 crops, flips, colour jitter, night backgrounds, composites without flare, and **hard
 negatives**: bright things that are not flare, painted onto the background before any flare
 and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
@@ -30,9 +30,9 @@ import numpy as np
 
 from pipeline import flare as fl
 from pipeline.colour import linear_to_srgb, srgb_to_linear
-from pipeline.datasets import HELDOUT_SCENES
 from pipeline.errors import UserError
 from pipeline.images import list_photos, read_image
+from pipeline.scene_splits import HELDOUT_SCENES
 
 HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage", "neon",
                                    "reflection")

@@ -13,7 +13,7 @@ import torch
 
 from pipeline.cameras import load_cameras
 from pipeline.provenance import sha256
-from pipeline.scene_data import load_llff
+from pipeline.training_scenes import load_llff
 from tests.conftest import shared
 from tests.test_llff import _look_at
 from workflows.cli import main

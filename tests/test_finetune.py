@@ -12,7 +12,7 @@ from safetensors.torch import load_file
 from gnfr.checkpoint import load_model
 from gnfr.train import PRESETS, QUICK
 from pipeline.finetune import FinetuneConfig, fit, run
-from pipeline.scene_data import load_workspace
+from pipeline.training_scenes import load_workspace
 from pipeline.ws_files import read_mask, read_view_image, view_stems, write_mask
 from tests.fixtures import make_temple_workspace
 
@@ -125,8 +125,8 @@ def test_training_targets_are_views_json_targets(tmp_path, monkeypatch):
 
 def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     from gnfr.checkpoint import read_metadata
-    from pipeline.datasets import HELDOUT_SCENES
     from pipeline.finetune import WEIGHTS_DIR, resolve, shipped_weights
+    from pipeline.scene_splits import HELDOUT_SCENES
 
     path = WEIGHTS_DIR / "gnfr.safetensors"
     assert path.stat().st_size < 25 * 2**20

@@ -217,8 +217,8 @@ def test_training_flare_leaves_kinds_out():
 
 
 def test_split_keeps_heldout_scenes_out(tmp_path):
-    from pipeline.datasets import HELDOUT_SCENES
     from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds
+    from pipeline.scene_splits import HELDOUT_SCENES
 
     for rel in [f"scenes/{HELDOUT_SCENES[0]}/a.jpg", "scenes/et/sub/b.png",
                 f"backgrounds/x/{HELDOUT_BACKGROUNDS[0]}.png", "backgrounds/y.jpg",

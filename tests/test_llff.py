@@ -1,4 +1,4 @@
-"""LLFF scenes (``pipeline.scene_data.load_llff``): factor folders, axis order, bounds."""
+"""LLFF scenes (``pipeline.training_scenes.load_llff``): factor folders, axis order, bounds."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import torch
 
 from gnfr.geometry import project
 from pipeline.errors import UserError
-from pipeline.scene_data import load_llff
+from pipeline.training_scenes import load_llff
 from tests.conftest import shared
 
 H0, W0, F0 = 240, 320, 300.0

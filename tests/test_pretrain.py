@@ -13,7 +13,7 @@ import torch
 from gnfr.checkpoint import load_model
 from pipeline.cameras import load_cameras
 from pipeline.errors import UserError
-from pipeline.scene_data import load_colmap, load_llff, load_workspace, qvec_to_rotmat
+from pipeline.training_scenes import load_colmap, load_llff, load_workspace, qvec_to_rotmat
 from tests.conftest import REPO
 from tests.fixtures import make_temple_workspace
 from workflows.research.pretrain import find_scenes

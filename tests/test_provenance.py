@@ -10,7 +10,7 @@ import torch
 from gnfr.checkpoint import read_metadata
 from pipeline.finetune import checkpoint_provenance, fit
 from pipeline.provenance import code_version, machine, sha256
-from pipeline.scene_data import load_workspace
+from pipeline.training_scenes import load_workspace
 from tests.fixtures import make_temple_workspace
 from tests.test_finetune import TINY
 

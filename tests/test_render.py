@@ -321,7 +321,7 @@ def test_overfit_scene_reproduces_the_input_views(tmp_path):
     from gnfr.paths import PathCamera, path_to_json
     from gnfr.train import QUICK, SourceBank, make_optimizer, sample_batch, train_step
     from pipeline.render import RenderConfig, run
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
 
     ws = make_render_ws(tmp_path / "ws", n_views=6)
     cams = load_cameras(ws.cameras_json).frames[1:4]

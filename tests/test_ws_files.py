@@ -135,7 +135,7 @@ def test_one_photo_extension_list():
 def test_one_mask_threshold_everywhere(tmp_path):
     """Grey 127 is clear and 128 flare for every reader of WS/masks."""
     from pipeline.depth import load_views
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
 
     ws = tiny_ws(tmp_path)
     grey = np.zeros((12, 16), np.uint8)
@@ -168,7 +168,7 @@ def test_write_mask_round_trips(tmp_path):
 @pytest.mark.parametrize("broken", ["corrupt", "missing"])
 def test_bad_mask_is_one_line_user_error_naming_it(tmp_path, broken):
     from pipeline.depth import load_views
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
 
     ws = tiny_ws(tmp_path)
     for s in STEMS:
@@ -269,7 +269,7 @@ def test_views_one_filtering_rule(tmp_path):
     assert views.ranked(["a", "c"]) == {"a": ["c"], "c": ["a"]}
     assert views.ranked(["a", "zz"]) is None             # views.json does not list zz
     # the scene a model trains on uses the same rule
-    from pipeline.scene_data import load_workspace
+    from pipeline.training_scenes import load_workspace
 
     write_views(ws, views)
     for s in STEMS:

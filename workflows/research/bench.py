@@ -179,7 +179,7 @@ def synthetic_scene(n: int, size: tuple[int, int], seed: int = 0):
     import cv2
 
     from gnfr.paths import look_at
-    from pipeline.scene_data import make_scene
+    from pipeline.training_scenes import make_scene
 
     W, H = size
     rng = np.random.default_rng(seed)

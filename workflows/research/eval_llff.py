@@ -4,7 +4,7 @@ The field's yardstick: every 8th view held out, train on the rest, score renders
 held-out views.
 
 SCENE is an LLFF folder (``poses_bounds.npy`` + ``images/`` or ``images_<factor>/``), read
-with ``pipeline.scene_data.load_llff`` (its image folder choice, resize to ``max_size``,
+with ``pipeline.training_scenes.load_llff`` (its image folder choice, resize to ``max_size``,
 intrinsics and the normalised world frame). ``OUT`` (``--out``) holds
 ```
 OUT/posed/                  workspace of EVERY view with the ground-truth LLFF cameras
@@ -145,7 +145,7 @@ def llff_cameras(llff, names: dict[str, str]) -> Cameras:
 def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False) -> Workspace:
     """OUT/posed: every view of the LLFF scene with its ground-truth camera (pose stage
     recorded as ground truth; images = decoded, pinhole)."""
-    from pipeline.scene_data import _llff_image_dir, load_llff
+    from pipeline.training_scenes import _llff_image_dir, load_llff
 
     folder = Path(folder).resolve()
     if not (folder / "poses_bounds.npy").is_file():
@@ -153,7 +153,7 @@ def posed_workspace(folder: Path, out: Path, max_size: int, force: bool = False)
                         "folder (poses_bounds.npy + images/ or images_<factor>/)")
     img_dir = _llff_image_dir(folder, max_size)
     ws = Workspace.create(out, folder)
-    params = {"cameras": "ground truth (LLFF poses_bounds.npy, pipeline.scene_data.load_llff)",
+    params = {"cameras": "ground truth (LLFF poses_bounds.npy, pipeline.training_scenes.load_llff)",
               "scene": str(folder), "image_dir": img_dir.name, "max_size": max_size}
     stage = ws.begin_stage("pose", params, [folder / "poses_bounds.npy", img_dir], force)
     if stage.skip:
@@ -276,7 +276,7 @@ def run_flare(cfg: LlffEvalConfig, root: Path, posed: Workspace, held: list[str]
 
 def run(cfg: LlffEvalConfig) -> Path:
     """Run the protocol(s); returns OUT/results.json (and writes OUT/table.md)."""
-    from pipeline.scene_data import load_llff
+    from pipeline.training_scenes import load_llff
 
     t0 = time.time()
     validate(cfg)

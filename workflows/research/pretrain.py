@@ -2,7 +2,7 @@
 
 Scenes: deflare-scene workspaces, LLFF folders (``poses_bounds.npy``) and COLMAP workspaces
 (``sparse/`` + ``images/``), or folders holding such scenes. The held-out evaluation scenes
-(``pipeline.datasets.HELDOUT_SCENES``) are always left out. Optional synthetic flare
+(``pipeline.scene_splits.HELDOUT_SCENES``) are always left out. Optional synthetic flare
 (``pipeline.flare``) is imposed once per view at load time with its ground-truth mask, so the
 masking loss, Point Sampler and View Sampler train as in the paper.
 
@@ -27,11 +27,11 @@ import torch
 
 from gnfr.fit import MODEL_FILE, StepInput, Trainer, has_checkpoint, last_record, render_meta
 from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
-from pipeline.datasets import HELDOUT_SCENES
 from pipeline.errors import UserError
 from pipeline.finetune import init_model, init_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
+from pipeline.scene_splits import HELDOUT_SCENES
 
 
 @dataclass
@@ -102,7 +102,7 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
 def load_scenes(config: PretrainConfig) -> list[Scene]:
     """Every training scene of ``config.scenes``, with synthetic flare when asked."""
     from pipeline.progress import track
-    from pipeline.scene_data import detect_and_load
+    from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes = []

@@ -20,7 +20,7 @@ input views (``render --path inputs``: the product's de-flared photos, flare reg
 re-rendered and blended). Each variant's finetune and renders are workspace stages, so an
 interrupted evaluation resumes per variant; the scores are recomputed every run (seconds).
 
-Scenes: evaluate only scenes of ``pipeline.datasets.TEST_SCENES`` (fern, kermit, cyprus), which
+Scenes: evaluate only scenes of ``pipeline.scene_splits.TEST_SCENES`` (fern, kermit, cyprus), which
 no training run uses; another scene is evaluated with a warning recorded in the results.
 
 The package: ``config`` (EvalConfig, the variants), ``scene`` (reading SCENE), ``workspaces``
@@ -40,10 +40,10 @@ __all__ = ["ALL_VARIANTS", "NEURAL", "EvalConfig", "run"]
 def run(cfg: EvalConfig) -> Path:
     """Evaluate; returns WS/eval (table.md, results.json, grid.jpg)."""
     from pipeline import depth, mask, select
-    from pipeline.datasets import HELDOUT_SCENES
     from pipeline.errors import UserError
     from pipeline.options import validate
     from pipeline.progress import warn
+    from pipeline.scene_splits import HELDOUT_SCENES
     from workflows.research.eval.methods import run_inpaint, run_neural, run_photos
     from workflows.research.eval.report import write_outputs
     from workflows.research.eval.scene import load_synth

@@ -33,9 +33,9 @@ def format_or_dash(v, fmt: str = "{:.2f}") -> str:
 def table_markdown(res: dict) -> str:
     budget, mask_scores = res["budget"], res["mask_scores"]
     origin = res["origin"]
-    where = ("one of the held-out scenes (pipeline.datasets.HELDOUT_SCENES), never used for "
+    where = ("one of the held-out scenes (pipeline.scene_splits.HELDOUT_SCENES), never used for "
              "training" if res["origin_is_heldout_scene"] else
-             "NOT one of pipeline.datasets.HELDOUT_SCENES: a trained model may have seen it")
+             "NOT one of pipeline.scene_splits.HELDOUT_SCENES: a trained model may have seen it")
     if res["masks"] == "gt":
         masks = "ground truth masks_gt (`--masks gt`), so no FMG mIoU is measured"
     else:

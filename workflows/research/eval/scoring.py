@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from pipeline import metrics
-from pipeline.datasets import HELDOUT_SCENES
 from pipeline.images import read_image
 from pipeline.progress import info
+from pipeline.scene_splits import HELDOUT_SCENES
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_flare, read_mask
 from workflows.research.eval.config import LABELS, EvalConfig
