@@ -31,7 +31,7 @@ def register(app: typer.Typer) -> None:
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
         working-size sweep (--work-sizes) or clean photos (--clean)."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
-        from pipeline.workspace import atomic_write_json
+        from pipeline.provenance import sha256, write_result
         from workflows.research import fmg_train
 
         fmg_train.check_modes(config)
@@ -52,14 +52,14 @@ def register(app: typer.Typer) -> None:
             metrics = fmg_train.evaluate(weights, config.data, config.count,
                                          refine=config.refine, size=config.size)
             typer.echo(fmg_train.format_metrics(metrics))
-        if config.out:
-            atomic_write_json(config.out, metrics)
+        if config.out:  # stamped with the code, the machine, the command and the weights' hash
+            write_result(config.out, {**metrics, "weights_sha256": sha256(weights)})
 
     @config_command(fmg, "calibrate", f"{CONFIGS}:FMGCalibrateConfig", group="fmg")
     def calibrate_cmd(config) -> None:
         """Pick the flare probability cut of highest flare IoU on training-side composites."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
-        from pipeline.workspace import atomic_write_json
+        from pipeline.provenance import sha256, write_result
         from workflows.research.fmg_train import calibrate, format_calibration, write_threshold
 
         weights = config.weights or DEFAULT_WEIGHTS
@@ -67,7 +67,7 @@ def register(app: typer.Typer) -> None:
         sweep = calibrate(weights, config.data, config.count, config.seed)
         typer.echo(format_calibration(sweep))
         if config.out:
-            atomic_write_json(config.out, sweep)
+            write_result(config.out, {**sweep, "weights_sha256": sha256(weights)})
         if config.write:
             write_threshold(weights, sweep["best"])
             typer.echo(f"wrote threshold={sweep['best']:g} into {weights}")
