@@ -508,3 +508,36 @@ def test_full_res_colour_samples_sources_at_full_size(rws):
     diff = float((full.feats - small.feats).abs().mean())
     assert diff < 0.1 * float(small.feats.abs().mean()), diff
     assert torch.allclose(full.K[0], torch.tensor(f0.K, dtype=torch.float32))
+
+
+def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
+    """`render --path inputs` killed after two de-flared photos: a rerun renders only the
+    others and leaves the finished ones untouched."""
+    import pipeline.render as R
+    import pipeline.render.engine as E
+
+    cfg = R.RenderConfig(path="inputs", fill="network")
+    for p in rws.deflared.glob("*.png"):  # start from nothing (other tests render inputs)
+        p.unlink()
+    real, written = E.write_frame, []
+
+    def dying(path, rgb, exif=None):
+        if len(written) == 2:
+            raise KeyboardInterrupt
+        real(path, rgb, exif)
+        written.append(path)
+
+    monkeypatch.setattr(E, "write_frame", dying)
+    with pytest.raises(KeyboardInterrupt):
+        R.run(cfg, rws, force=True)
+    done = sorted(rws.deflared.glob("*.png"))
+    assert len(done) == 2 and not list(rws.deflared.glob(".*"))
+    mtimes = {p: p.stat().st_mtime_ns for p in done}
+    again: list[Path] = []
+    monkeypatch.setattr(E, "write_frame", lambda path, rgb, exif=None: (
+        again.append(path), real(path, rgb, exif)))
+    R.run(cfg, rws)
+    n = len(load_cameras(rws.cameras_json).frames)
+    assert len(list(rws.deflared.glob("*.png"))) == n
+    assert len(again) == n - 2 and not set(again) & set(done)  # only the missing photos
+    assert all(p.stat().st_mtime_ns == t for p, t in mtimes.items())
