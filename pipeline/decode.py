@@ -271,11 +271,11 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     photos = Path(photos)
     chosen = list_photos(photos)
     ws = Workspace.create(ws_path or default_workspace(photos), photos)
-    run_ = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force)
-    if run_.skip:
-        info(f"decode: up to date ({len(run_.previous.get('sources', {}))} images)")
+    stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force)
+    if stage_run.skip:
+        info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws
-    resume = ws.resumable(run_)
+    resume = ws.resumable(stage_run)
     done, skipped, reused = {}, {}, 0
     for photo in track(chosen, "decode"):
         png, tiff = ws.decoded_path(photo.stem), ws.linear_path(photo.stem)
@@ -299,7 +299,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         import shutil
 
         shutil.rmtree(ws.linear)
-    run_.finish(outputs, extra={
+    stage_run.finish(outputs, extra={
         "sources": {s: p.path.name for s, p in sorted(done.items())},
         "raw": sorted(raw_stems), "skipped": skipped},
         versions=["rawpy", "opencv-contrib-python-headless", "numpy"])

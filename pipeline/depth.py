@@ -86,17 +86,17 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     ws.require("pose")
     cams = read_cameras(ws)
     masks = [ws.mask_path(s) for s in cams.stems if ws.mask_path(s).exists()]
-    run_ = ws.begin_stage("depth", asdict(config), [ws.cameras_json, ws.images, *masks],
+    stage_run = ws.begin_stage("depth", asdict(config), [ws.cameras_json, ws.images, *masks],
                           force)
     out_dir = ws.depth
-    if run_.skip:
+    if stage_run.skip:
         info(f"depth: up to date ({out_dir})")
-        return run_.outputs
+        return stage_run.outputs
     if len(cams.stems) < 2:
         raise UserError(f"{ws.cameras_json}: depth needs at least 2 posed views")
     raw_dir = out_dir / ".raw"
     raw_dir.mkdir(parents=True, exist_ok=True)
-    keep_raw = ws.resumable(run_)
+    keep_raw = ws.resumable(stage_run)
     near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
     by = cams.by_stem()
@@ -129,7 +129,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for p in raw_dir.iterdir():
         p.unlink()
     raw_dir.rmdir()
-    run_.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
+    stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
     info(f"depth: {len(order)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average)")
     return [out_dir]

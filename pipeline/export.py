@@ -61,10 +61,10 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
                         f"render {ws.root} --path {cfg.path}` first")
     inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks]
-    run_ = ws.begin_stage("export", asdict(cfg), inputs, force)
-    if run_.skip:
+    stage_run = ws.begin_stage("export", asdict(cfg), inputs, force)
+    if stage_run.skip:
         info("export: up to date")
-        return run_.outputs
+        return stage_run.outputs
     outs = [write_path_video(frames, ws.video, cfg.fps, cfg.crf)]
     if cfg.compare:
         outs += write_comparisons(ws, cams, cfg)
@@ -73,7 +73,7 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
         outs += [glb] if glb else []
     if cfg.transforms:
         outs += write_transforms(ws, cams)
-    return run_.finish(outs, versions=["imageio-ffmpeg"])
+    return stage_run.finish(outs, versions=["imageio-ffmpeg"])
 
 
 # --------------------------------------------------------------------------- videos

@@ -110,21 +110,21 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     name, cfg = resolve(config, device)
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     params = {"preset": name, "init": config.init, "train": asdict(cfg)}
-    run_ = ws.begin_stage("finetune", params, inputs, force)
-    if run_.skip:
+    stage_run = ws.begin_stage("finetune", params, inputs, force)
+    if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)
-        return run_.outputs
+        return stage_run.outputs
     info(f"finetune: preset '{name}' on {device.type} ({cfg.iters} steps, {cfg.rays} rays, "
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
          f"{'cached features' if cfg.cached_features else 'end-to-end'})")
     from pipeline.training_scenes import load_workspace
 
     scene = load_workspace(ws.root)
-    stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(run_), init=config.init,
+    stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run), init=config.init,
                 preset=name)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
-    return run_.finish(outs, extra=stats, versions=["torch", "safetensors"])
+    return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
 
 def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:

@@ -222,23 +222,23 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
               if k not in ("device", "batch")}
     params["source"], params["weights"] = source, wid
-    run_ = ws.begin_stage("mask", params, inputs, force)
-    if run_.skip:
+    stage_run = ws.begin_stage("mask", params, inputs, force)
+    if stage_run.skip:
         info(f"mask: up to date ({ws.flare_json})")
-        return run_.outputs
+        return stage_run.outputs
     ws.masks.mkdir(parents=True, exist_ok=True)
     for p in ws.masks.glob("*.png"):  # masks of views that no longer exist, or stale ones
-        if p.stem not in stems or not ws.resumable(run_):
+        if p.stem not in stems or not ws.resumable(stage_run):
             p.unlink()
     todo = [s for s in stems if not ws.mask_path(s).exists()]
     if todo and config.masks_dir is not None:
         write_given_masks(Path(config.masks_dir), ws, todo)
     elif todo:
         write_fmg_masks(config, ws, todo)
-    return _summarise(config, ws, run_, stems, source, wid)
+    return _summarise(config, ws, stage_run, stems, source, wid)
 
 
-def _summarise(config: MaskConfig, ws: Workspace, run_, stems: list[str], source: str,
+def _summarise(config: MaskConfig, ws: Workspace, stage_run, stems: list[str], source: str,
                wid: str | None) -> list[Path]:
     flare, tiles = FlareFile(source, config.threshold, wid), []
     src = "fmg" if source == "fmg" else "masks"
@@ -252,7 +252,7 @@ def _summarise(config: MaskConfig, ws: Workspace, run_, stems: list[str], source
     worst = max(frac, key=lambda s: frac[s])
     info(f"mask: {len(stems)} views, most flared {worst} "
          f"({100 * frac[worst]:.1f}%); see {ws.masks_overview}")
-    return run_.finish([ws.masks, ws.flare_json, ws.masks_overview],
+    return stage_run.finish([ws.masks, ws.flare_json, ws.masks_overview],
                        extra={"views": len(stems)},
                        versions=["torch", "opencv-contrib-python-headless"])
 

@@ -481,13 +481,13 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     choose_matcher(cfg, inp.stems)  # validate the option before any work
     params = {k: v for k, v in asdict(cfg).items() if k not in ("colmap_log", "num_threads")}
     extra_inputs = [Path(cfg.colmap_model).resolve()] if cfg.colmap_model else []
-    run_ = ws.begin_stage("pose", params, [ws.decoded, *extra_inputs], force)
-    if run_.skip:
-        info(f"pose: up to date ({run_.previous.get('registered')} views posed)")
-        return run_.outputs
+    stage_run = ws.begin_stage("pose", params, [ws.decoded, *extra_inputs], force)
+    if stage_run.skip:
+        info(f"pose: up to date ({stage_run.previous.get('registered')} views posed)")
+        return stage_run.outputs
     ws.colmap.mkdir(parents=True, exist_ok=True)
     with _ColmapLog(cfg.colmap_log):
-        rec, model_sizes, extra = _reconstruct(cfg, ws, inp, ws.resumable(run_))
+        rec, model_sizes, extra = _reconstruct(cfg, ws, inp, ws.resumable(stage_run))
         report = registration_report(rec, inp, model_sizes, extra)
         atomic_write_json(ws.colmap_report, report)
         print_report(report)
@@ -499,7 +499,7 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     _, rgb = colmap_io.all_points(rec)
     write_scene_glb(ws.scene_glb, world, rgb, cams.frames)
     info(f"pose: {len(cams.frames)} views -> {ws.cameras_json}, {ws.images}, {ws.scene_glb}")
-    return run_.finish([ws.colmap, ws.images, ws.cameras_json, ws.scene_glb],
+    return stage_run.finish([ws.colmap, ws.images, ws.cameras_json, ws.scene_glb],
                        extra={"registered": report["registered"], "images": report["images"],
                               "matcher": report["matcher"]},
                        versions=["pycolmap", "trimesh"])

@@ -67,12 +67,12 @@ def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/views.json; returns the written paths."""
     validate(config)
     ws.require("pose", "mask")
-    run_ = ws.begin_stage("select", {"max_flare": config.max_flare,
+    stage_run = ws.begin_stage("select", {"max_flare": config.max_flare,
                                      "min_targets": config.min_targets},
                           [ws.cameras_json, ws.flare_json], force)
-    if run_.skip:
+    if stage_run.skip:
         info(f"select: up to date ({ws.views_json})")
-        return run_.outputs
+        return stage_run.outputs
     cams = read_cameras(ws)
     flare = read_flare(ws).fractions()
     missing = [s for s in cams.stems if s not in flare]
@@ -86,4 +86,4 @@ def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     n_t = len(views.targets())
     info(f"select: {n_t} of {len(views.views)} views are training targets "
          f"(flare <= {100 * config.max_flare:.0f}%)")
-    return run_.finish([ws.views_json], extra={"targets": n_t})
+    return stage_run.finish([ws.views_json], extra={"targets": n_t})

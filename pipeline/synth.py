@@ -227,12 +227,12 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError(f"{ws.cameras_json} has {len(cams.frames)} views; synth needs >= 3")
     held = set(heldout_indices(len(cams.frames), cfg.heldout, cfg.heldout_every))
     book = Workspace(out)
-    run_ = book.begin_stage("synth", {"workspace": str(ws.root), **cfg.params()},
+    stage_run = book.begin_stage("synth", {"workspace": str(ws.root), **cfg.params()},
                             [ws.images, ws.cameras_json], force)
-    if run_.skip:
+    if stage_run.skip:
         info(f"synth: {out} is up to date (use --force to redo)")
-        return run_.outputs
-    resume = book.resumable(run_)
+        return stage_run.outputs
+    resume = book.resumable(stage_run)
     rng = np.random.default_rng([cfg.seed, 0])
     lens = sample_lens(cfg.flare, rng)
     light = np.asarray(cfg.light, float) if cfg.light is not None else choose_light(cams, rng)
@@ -250,7 +250,7 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
             continue
         _write_view(out, frame.stem, img, layers, i not in held)
     _remove_stale(out / "photos", set(cams.stems) - {cams.stems[i] for i in held})
-    return run_.finish(_write_meta(cfg, out, ws, cams, held, light, lens, views))
+    return stage_run.finish(_write_meta(cfg, out, ws, cams, held, light, lens, views))
 
 
 def _remove_stale(folder: Path, keep: set[str]) -> None:

@@ -130,16 +130,16 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += [ws.depth] if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
-    run_ = ws.begin_stage(f"render:{key}", params, inputs, force)
-    if run_.skip:
+    stage_run = ws.begin_stage(f"render:{key}", params, inputs, force)
+    if stage_run.skip:
         info(f"render {key}: up to date ({out_dir})")
-        return run_.outputs
-    if not ws.resumable(run_):
+        return stage_run.outputs
+    if not ws.resumable(stage_run):
         clear_frames(out_dir)
     if key != "inputs":
         write_path_cameras(out_dir, jobs)
     full = plan_full_res(ws, jobs) if key == "inputs" and cfg.full_res else []
-    if full and not ws.resumable(run_):
+    if full and not ws.resumable(stage_run):
         clear_frames(ws.deflared_full)
     todo = [j for j in jobs + full if not j.out.exists()]
     if len(todo) < len(jobs) + len(full):
@@ -154,4 +154,4 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
             photos = photo_views(ws, cams, todo, cfg) if use_photos else None
             render_jobs(model, src, index, todo, params, cfg, ws, photos)
     outputs = [out_dir] + ([ws.deflared_full] if full else [])
-    return run_.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
+    return stage_run.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
