@@ -229,3 +229,13 @@ def test_the_checks_catch_deliberate_violations(tmp_path):
     clean = _tree(tmp_path / "clean", {"gnfr/__init__.py": "", "pipeline/__init__.py": "",
                                        "pipeline/x.py": "import gnfr\n"})
     assert find_cycle(import_graph(clean)) is None and layer_violations(clean) == []
+
+
+def test_tests_mirror_the_packages():
+    """tests/<package>/ for each package's tests; only project-wide checks at the top."""
+    tests = REPO / "tests"
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert folders == {"gnfr", "pipeline", "workflows"}
+    assert all((REPO / name / "__init__.py").exists() for name in folders)
+    top = {p.name for p in tests.glob("test_*.py")}
+    assert top == {"test_layers.py", "test_docs_numbers.py"}, top

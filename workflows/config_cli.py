@@ -5,7 +5,7 @@
 the name is the field's ``flag`` rule or ``--field-name`` (pipeline/options.py), the default
 the field's default, the help the field's docstring. The class is read from its source with
 ``ast`` (cached), so ``--help`` does not import the stage (or torch); defaults must therefore
-be literals, ``Path("...")`` or ``option(literal, ...)`` (tests/test_options.py checks the
+be literals, ``Path("...")`` or ``option(literal, ...)`` (tests/workflows/test_options.py checks the
 generated options against the imported dataclass). When the command runs, the config is
 built from the options and ``validate``d before ``fn`` is called.
 
@@ -251,7 +251,7 @@ def _register(app: typer.Typer, name: str, fn: Callable, params: list[inspect.Pa
 
 
 GENERATED: dict[str, dict] = {}
-"""What each generated command was built from (tests/test_options.py walks it)."""
+"""What each generated command was built from (tests/workflows/test_options.py walks it)."""
 
 
 def config_command(app: typer.Typer, name: str, target: str, *, exclude: tuple[str, ...] = (),

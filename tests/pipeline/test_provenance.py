@@ -12,7 +12,7 @@ from pipeline.finetune import checkpoint_provenance, fit
 from pipeline.provenance import code_version, machine, sha256
 from pipeline.training_scenes import load_workspace
 from tests.fixtures import make_temple_workspace
-from tests.test_finetune import TINY
+from tests.pipeline.test_finetune import TINY
 
 
 def test_code_version_names_commit_and_dirty_files():

@@ -14,7 +14,7 @@ from pipeline.errors import UserError
 from workflows.cli import main
 from workflows.oneshot import _stage_configs, apply_overrides
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "samples" / "cyprus"
 TRUTH = REPO / "samples" / "cyprus_truth"
 

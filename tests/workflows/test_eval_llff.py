@@ -15,7 +15,7 @@ from pipeline.cameras import load_cameras
 from pipeline.provenance import sha256
 from pipeline.training_scenes import load_llff
 from tests.conftest import shared
-from tests.test_llff import _look_at
+from tests.pipeline.test_llff import _look_at
 from workflows.cli import main
 from workflows.research.eval_llff import llff_split, posed_workspace
 

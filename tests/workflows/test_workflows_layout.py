@@ -10,7 +10,7 @@ import pytest
 
 from workflows.cli import COMMAND_MODULES, RESEARCH_COMMANDS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 MODULES = sorted([*(REPO / "workflows").rglob("*.py"), *(REPO / "benchmarks").glob("*.py")])
 
 

@@ -9,7 +9,7 @@ import torch
 from gnfr.geometry import image_pixels, pixel_rays
 from gnfr.model import GNFR, GNFRConfig
 from gnfr.renderer import SourceViews, forward_rays, render_rays
-from tests.test_gnfr_model import _scene
+from tests.gnfr.test_gnfr_model import _scene
 
 pytestmark = pytest.mark.gpu
 
@@ -79,7 +79,7 @@ def test_cuda_fmg_masks_match_the_cpu_masks():
 
     from gnfr.fmg import load_fmg, predict_probs
 
-    weights = Path(__file__).resolve().parents[1] / "gnfr" / "weights" / "fmg.safetensors"
+    weights = Path(__file__).resolve().parents[2] / "gnfr" / "weights" / "fmg.safetensors"
     g = torch.Generator().manual_seed(0)
     x = torch.rand(2, 3, 200, 300, generator=g)
     x[:, :, 60:120, 100:180] = 1.0  # a bright blob for the network to react to

@@ -9,7 +9,7 @@ import pytest
 
 from pipeline.workspace import Workspace
 from tests.conftest import shared
-from tests.test_mask_select import make_kermit_ws
+from tests.pipeline.test_mask_select import make_kermit_ws
 from workflows.cli import main
 
 

@@ -98,7 +98,7 @@ def test_cli_help_lists_commands(capsys):
 
     from workflows.cli import COMMAND_MODULES, command_names
 
-    modules = {p.stem for p in (Path(__file__).parents[1] / "workflows" / "commands").glob("*.py")}
+    modules = {p.stem for p in (Path(__file__).parents[2] / "workflows" / "commands").glob("*.py")}
     assert modules - {"__init__"} == set(COMMAND_MODULES)  # no command module left unregistered
     code = main(["--help"])
     out = capsys.readouterr().out

@@ -92,7 +92,7 @@ def test_eval_end_to_end(scene, tmp_path):
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
-        "eval_summary", Path(__file__).parents[1] / "benchmarks" / "eval_summary.py")
+        "eval_summary", Path(__file__).parents[2] / "benchmarks" / "eval_summary.py")
     summary = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(summary)
     gap = (res["methods"]["gnfr"]["inputs"]["psnr_flare"]
@@ -178,7 +178,7 @@ def test_sync_tree_links_and_prunes(tmp_path):
 def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
     from workflows.research.eval.scene import load_synth, photo_path
 
-    root = Path(__file__).resolve().parents[1] / "samples" / "cyprus_truth"
+    root = Path(__file__).resolve().parents[2] / "samples" / "cyprus_truth"
     scene = load_synth(root)
     assert len(scene.train) == 8 and len(scene.heldout) == 2 and scene.origin == "cyprus"
     assert all(photo_path(root, s).suffix == ".jpg" for s in scene.train)
