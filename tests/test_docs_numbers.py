@@ -28,7 +28,8 @@ def _fill(name: str, fill: str) -> dict:
 
 
 FERN = "fern_llff_quick_cpu.json"  # the 11 750-step weights (flare protocol, old rows)
-FERN2 = "fern_llff_quick_cpu_w18500.json"  # the shipped 18 500-step weights (clean)
+FERN2 = "fern_llff_quick_cpu_w27250.json"  # the shipped 27 250-step weights (clean)
+FERN18 = "fern_llff_quick_cpu_w18500.json"  # the 18 500-step weights (clean)
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
@@ -36,6 +37,8 @@ CHECKS = [
     ("README.md", FERN2, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
     ("README.md", FERN2, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
     ("README.md", FERN2, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
+    ("README.md", FERN18, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("README.md", FERN18, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
     ("README.md", FERN, "published/0/psnr", "{:.2f}"),
     ("README.md", FERN, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
