@@ -196,16 +196,20 @@ class FlareFile:
                    weights=d.get("weights"), views=views)
 
 
+def _read_stage_json(ws: Workspace, path: Path, stage: str, parse):
+    """``parse`` of the JSON file ``stage`` writes; a one-line error naming the file and the
+    command to run when it is missing or malformed."""
+    if not path.exists():
+        raise UserError(f"{path} is missing: run `deflare-scene {stage} {ws.root}` first")
+    try:
+        return parse(read_json(path))
+    except (KeyError, TypeError, ValueError, AttributeError) as e:
+        raise UserError(f"{path} is malformed ({e!r}): {ws.rerun(stage)}") from None
+
+
 def read_flare(ws: Workspace) -> FlareFile:
     """WS/flare.json; a one-line error when it is missing or malformed."""
-    if not ws.flare_json.exists():
-        raise UserError(f"{ws.flare_json} is missing: run `deflare-scene mask {ws.root}` "
-                        "first")
-    try:
-        return FlareFile.from_json(read_json(ws.flare_json))
-    except (KeyError, TypeError, ValueError, AttributeError) as e:
-        raise UserError(f"{ws.flare_json} is malformed ({e!r}): "
-                        f"{ws.rerun('mask')}") from None
+    return _read_stage_json(ws, ws.flare_json, "mask", FlareFile.from_json)
 
 
 def write_flare(ws: Workspace, flare: FlareFile) -> Path:
@@ -326,14 +330,7 @@ def make_views(stems: list[str], centers: np.ndarray, fractions: dict[str, float
 
 def read_views(ws: Workspace) -> ViewsFile:
     """WS/views.json; a one-line error when it is missing or malformed."""
-    if not ws.views_json.exists():
-        raise UserError(f"{ws.views_json} is missing: run `deflare-scene select {ws.root}` "
-                        "first")
-    try:
-        return ViewsFile.from_json(read_json(ws.views_json))
-    except (KeyError, TypeError, ValueError, AttributeError) as e:
-        raise UserError(f"{ws.views_json} is malformed ({e!r}): "
-                        f"{ws.rerun('select')}") from None
+    return _read_stage_json(ws, ws.views_json, "select", ViewsFile.from_json)
 
 
 def write_views(ws: Workspace, views: ViewsFile) -> Path:

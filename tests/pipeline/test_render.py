@@ -128,21 +128,27 @@ def test_mask_warped_through_the_distortion_model(tmp_path):
     assert np.hypot(*(pin - [u, v])) > 2.0
 
 
+def _dies_after(n: int, write_frame):
+    """``write_frame`` that writes ``n`` frames, then raises KeyboardInterrupt (a kill)."""
+    written = []
+
+    def dying(path, rgb, exif=None):
+        if len(written) == n:
+            raise KeyboardInterrupt
+        write_frame(path, rgb, exif)
+        written.append(path)
+
+    return dying
+
+
 def test_novel_path_resumes_after_a_kill(rws, counters, monkeypatch):
     import pipeline.render as R
     import pipeline.render.engine as E  # where frames are written
 
     rays, enc = counters
     cfg = R.RenderConfig(path="interpolate", frames=4, size=(16, 12))
-    real, written = E.write_frame, []
-
-    def dying(path, rgb, exif=None):
-        if len(written) == 2:
-            raise KeyboardInterrupt
-        real(path, rgb, exif)
-        written.append(path)
-
-    monkeypatch.setattr(E, "write_frame", dying)
+    real = E.write_frame
+    monkeypatch.setattr(E, "write_frame", _dies_after(2, real))
     with pytest.raises(KeyboardInterrupt):
         R.run(cfg, rws)
     out = rws.renders / "interpolate"
@@ -519,15 +525,8 @@ def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
     cfg = R.RenderConfig(path="inputs", fill="network")
     for p in rws.deflared.glob("*.png"):  # start from nothing (other tests render inputs)
         p.unlink()
-    real, written = E.write_frame, []
-
-    def dying(path, rgb, exif=None):
-        if len(written) == 2:
-            raise KeyboardInterrupt
-        real(path, rgb, exif)
-        written.append(path)
-
-    monkeypatch.setattr(E, "write_frame", dying)
+    real = E.write_frame
+    monkeypatch.setattr(E, "write_frame", _dies_after(2, real))
     with pytest.raises(KeyboardInterrupt):
         R.run(cfg, rws, force=True)
     done = sorted(rws.deflared.glob("*.png"))
