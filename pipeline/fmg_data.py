@@ -10,8 +10,9 @@ where the flare is not visible against the new background (the synthesizer's rel
 threshold), and the light core is never flare.
 
 Backgrounds are every image under ``<data>/backgrounds`` and ``<data>/scenes`` (found
-recursively), downscaled once into memory. Validation keeps whole scenes out
-(``pipeline.scene_splits.HELDOUT_SCENES``) plus a few held-out backgrounds. Training adds random
+recursively), downscaled once into memory, in three parts (``split_backgrounds``): training;
+development (``FMG_DEV_SCENES`` and ``DEV_BACKGROUNDS``: validation during training, choices);
+test (``HELDOUT_SCENES`` and ``HELDOUT_BACKGROUNDS``: reported only). Training adds random
 crops, flips, colour jitter, night backgrounds, composites without flare, and **hard
 negatives**: bright things that are not flare, painted onto the background before any flare
 and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
@@ -24,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -32,14 +34,17 @@ from pipeline import flare as fl
 from pipeline.colour import linear_to_srgb, srgb_to_linear
 from pipeline.errors import UserError
 from pipeline.images import list_photos, read_image
-from pipeline.scene_splits import HELDOUT_SCENES
+from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES
 
 HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage", "neon",
                                    "reflection")
 """Kinds of bright non-flare content ``add_hard_negatives`` paints (see its docstring)."""
 
 HELDOUT_BACKGROUNDS: tuple[str, ...] = ("coffee", "rocket", "grace_hopper")
-"""Stems of background photos kept out of FMG training (validation only)."""
+"""Stems of background photos kept out of FMG training and choices: test composites only."""
+
+DEV_BACKGROUNDS: tuple[str, ...] = ("astronaut", "chelsea")
+"""Stems of background photos kept out of FMG training for its development set."""
 
 
 @dataclass
@@ -83,19 +88,32 @@ def find_images(root: Path) -> list[Path]:
     return list_photos(root, recursive=True)
 
 
-def split_backgrounds(data: Path) -> tuple[list[Path], list[Path]]:
-    """(train, validation) image paths under ``data``/backgrounds and ``data``/scenes."""
+class PhotoSplit(NamedTuple):
+    """Background photo paths of the FMG's three parts."""
+
+    train: list[Path]
+    dev: list[Path]
+    """Development: validation during training and every choice (``FMG_DEV_SCENES``,
+    ``DEV_BACKGROUNDS``)."""
+    test: list[Path]
+    """Reported only (``HELDOUT_SCENES``, ``HELDOUT_BACKGROUNDS``)."""
+
+
+def split_backgrounds(data: Path) -> PhotoSplit:
+    """The image paths under ``data``/backgrounds and ``data``/scenes, split in three."""
     bg, sc = data / "backgrounds", data / "scenes"
     if not bg.is_dir() and not sc.is_dir():
         raise UserError(f"{data} has neither backgrounds/ nor scenes/: pass --data pointing "
                         "at a folder with photos in backgrounds/ and/or scenes/<scene>/")
-    train, val = [], []
+    parts = PhotoSplit([], [], [])
     for p in (find_images(bg) if bg.is_dir() else []):
-        (val if p.stem in HELDOUT_BACKGROUNDS else train).append(p)
+        (parts.test if p.stem in HELDOUT_BACKGROUNDS else parts.dev
+         if p.stem in DEV_BACKGROUNDS else parts.train).append(p)
     for p in (find_images(sc) if sc.is_dir() else []):
         scene = p.relative_to(sc).parts[0]
-        (val if scene in HELDOUT_SCENES else train).append(p)
-    return train, val
+        (parts.test if scene in HELDOUT_SCENES else parts.dev
+         if scene in FMG_DEV_SCENES else parts.train).append(p)
+    return parts
 
 
 def load_backgrounds(paths: list[Path], long_side: int) -> list[np.ndarray]:

@@ -19,6 +19,11 @@ DEV_SCENES: tuple[str, ...] = ("sceaux_castle", "et")
 also pretraining scenes (the shipped GN-FR weights saw them), so a network's numbers on
 them are optimistic; a choice between two settings of the same network is still fair."""
 
+FMG_DEV_SCENES: tuple[str, ...] = ("lund",)
+"""Scenes the FMG never trains on and makes its choices on (validation during training, which
+run ships, the cut): composites on their photos are the FMG's development set. GN-FR may still
+pretrain on them (the FMG and GN-FR are separate networks)."""
+
 TRAIN_SCENES: tuple[str, ...] = ("et", "sceaux_castle", "sacre_coeur", "buddha", "temple",
                                  "fox", "dino", "maryrose", "tumbler", "lund")
 """Scenes training may use (dino cannot be posed; it only serves as FMG background; lund

@@ -216,32 +216,48 @@ def test_training_flare_leaves_kinds_out():
         training_flare(fl.KINDS)
 
 
-def test_split_keeps_heldout_scenes_out(tmp_path):
-    from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds
-    from pipeline.scene_splits import HELDOUT_SCENES
+def test_split_keeps_test_and_dev_photos_out_of_training(tmp_path):
+    from pipeline.fmg_data import DEV_BACKGROUNDS, HELDOUT_BACKGROUNDS, split_backgrounds
+    from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES, TEST_SCENES
 
+    assert not set(FMG_DEV_SCENES) & set(TEST_SCENES)
+    assert not set(DEV_BACKGROUNDS) & set(HELDOUT_BACKGROUNDS)
     for rel in [f"scenes/{HELDOUT_SCENES[0]}/a.jpg", "scenes/et/sub/b.png",
+                f"scenes/{FMG_DEV_SCENES[0]}/images/c.jpg",
                 f"backgrounds/x/{HELDOUT_BACKGROUNDS[0]}.png", "backgrounds/y.jpg",
-                "backgrounds/notes.txt"]:
+                f"backgrounds/{DEV_BACKGROUNDS[0]}.png", "backgrounds/notes.txt"]:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
-    train, val = split_backgrounds(tmp_path)
-    assert sorted(p.name for p in train) == ["b.png", "y.jpg"]
-    assert sorted(p.name for p in val) == ["a.jpg", f"{HELDOUT_BACKGROUNDS[0]}.png"]
+    parts = split_backgrounds(tmp_path)
+    assert sorted(p.name for p in parts.train) == ["b.png", "y.jpg"]
+    assert sorted(p.name for p in parts.dev) == sorted(["c.jpg", f"{DEV_BACKGROUNDS[0]}.png"])
+    assert sorted(p.name for p in parts.test) == sorted(["a.jpg",
+                                                        f"{HELDOUT_BACKGROUNDS[0]}.png"])
 
 
-def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
-    import json
+def _tiny_data(tmp_path):
+    """A data folder with one photo in each part: training (scenes/et, a background),
+    development (the FMG's dev scene) and test (a test scene)."""
     import shutil
 
-    from workflows.cli import main
+    from pipeline.scene_splits import FMG_DEV_SCENES
 
     kermit = shared("scenes", "kermit")
     data = tmp_path / "data"
     for sub, name in (("scenes/kermit", "kermit000.jpg"), ("scenes/et", "kermit001.jpg"),
-                      ("backgrounds/misc", "kermit002.jpg")):
+                      ("backgrounds/misc", "kermit002.jpg"),
+                      (f"scenes/{FMG_DEV_SCENES[0]}", "kermit003.jpg")):
         (data / sub).mkdir(parents=True)
         shutil.copy(kermit / name, data / sub / name)
+    return data
+
+
+def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
+    import json
+
+    from workflows.cli import main
+
+    data = _tiny_data(tmp_path)
     out = tmp_path / "run"
     args = ["fmg", "train", "--out", str(out), "--data", str(data), "--batch", "2",
             "--size", "64", "--widths", "8,8,16,16", "--depths", "1,1,1,1", "--head-width",
@@ -253,8 +269,10 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     metrics = json.loads((out / "metrics.json").read_text())
     from workflows.research.fmg_train import evaluate
 
-    again = evaluate(out / "fmg.safetensors", data, count=4, size=64)  # val-count 2, doubled
-    for row in ("default", "unseen", "night"):  # the file holds the final model's scores
+    # the file holds the final model's scores on the development part (val-count 2, doubled)
+    again = evaluate(out / "fmg.safetensors", data, count=4, size=64, split="dev")
+    assert metrics["split"] == "dev"
+    for row in ("default", "unseen", "night"):
         assert metrics[row]["mIoU"] == pytest.approx(again[row]["mIoU"], abs=1e-9)
         assert metrics[row]["flare_pixels"] == again[row]["flare_pixels"] > 0
     model = load_fmg(out / "fmg.safetensors")
@@ -285,17 +303,12 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path):
     """A leave-one-kind-out run at tiny size: trains without a kind (recorded in the
     weights), then `fmg eval --per-kind` scores it on that kind beside another model."""
     import json
-    import shutil
 
     from gnfr.fmg import read_fmg_metadata
     from pipeline import flare as fl
     from workflows.cli import main
 
-    kermit = shared("scenes", "kermit")
-    data = tmp_path / "data"
-    for sub, name in (("scenes/kermit", "kermit000.jpg"), ("scenes/et", "kermit001.jpg")):
-        (data / sub).mkdir(parents=True)
-        shutil.copy(kermit / name, data / sub / name)
+    data = _tiny_data(tmp_path)
     tiny = ["--data", str(data), "--iters", "2", "--batch", "2", "--size", "64", "--widths",
             "8,8,16,16", "--depths", "1,1,1,1", "--head-width", "16", "--eval-every", "100",
             "--val-count", "2"]
@@ -321,7 +334,8 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path):
     assert res["kinds"]["streaks"]["without"]["steps"] == 2
     # the overview image of masks on photos
     jpg = tmp_path / "overlay.jpg"
-    assert main(["fmg", "overlay", str(kermit / "kermit000.jpg"), "--weights", str(allw),
+    photo = data / "scenes/kermit/kermit000.jpg"
+    assert main(["fmg", "overlay", str(photo), "--weights", str(allw),
                  "--weights", str(loo), "--out", str(jpg), "--work-size", "64"]) == 0
     import cv2
 

@@ -39,18 +39,21 @@ def register(app: typer.Typer) -> None:
         for path in (weights, *config.loo):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
         if config.work_sizes:
-            metrics = fmg_train.work_size_sweep(weights, config.data, config.work_sizes)
+            metrics = fmg_train.work_size_sweep(weights, config.data, config.work_sizes,
+                                                 split=config.split)
             typer.echo(fmg_train.format_work_sizes(metrics))
         elif config.clean:
-            metrics = fmg_train.clean_fractions(weights, config.data, config.work_size)
+            metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
+                                                 split=config.split)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
-                                               size=config.size)
+                                               size=config.size, split=config.split)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,
-                                         refine=config.refine, size=config.size)
+                                         refine=config.refine, size=config.size,
+                                         split=config.split)
             typer.echo(fmg_train.format_metrics(metrics))
         if config.out:  # stamped with the code, the machine, the command and the weights' hash
             write_result(config.out, {**metrics, "weights_sha256": sha256(weights)})

@@ -109,10 +109,14 @@ class FMGEvalConfig:
     """Instead: flare IoU of thin streaks and starbursts on held-out photos against the
     working size, e.g. 384,512,768."""
     clean: bool = False
-    """Instead: share of pixels marked on the clean photos of the test scenes."""
+    """Instead: share of pixels marked on clean photos (of the test scenes, or with ``--split
+    dev`` of the FMG's development scene)."""
     work_size: int = option(512, ge=32)
     """With ``clean``: the network's working size (long side), as the mask stage's
     --work-size."""
+    split: str = option("test", choices=("dev", "test"))
+    """Which held-out photos the composites use: dev (the FMG's development photos: make
+    choices here) or test (the test scenes and backgrounds: report only)."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -168,12 +172,12 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
         training_flare,
     )
 
-    train_p, val_p = split_backgrounds(data)
+    parts = split_backgrounds(data)
     comp = CompositeConfig(size=size, night_prob=night_prob)
-    tr = CompositeSource(load_backgrounds(train_p, comp.preload_side), training_flare(without),
-                         comp)
-    va = load_backgrounds(val_p, comp.preload_side)
-    return tr, va, comp, (len(train_p), len(val_p))
+    tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
+                         training_flare(without), comp)
+    va = _heldout_backgrounds(data, size, "dev")  # validation: the development part
+    return tr, va, comp, (len(parts.train), len(parts.dev), len(parts.test))
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
@@ -279,7 +283,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without))
-    info(f"fmg train: {counts[0]} training photos, {counts[1]} held out, device {dev}, "
+    info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
+         f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
                                 head_width=cfg.head_width,
@@ -325,23 +330,31 @@ def train(cfg: FMGTrainConfig) -> dict:
     with atomic_path(out / "fmg.safetensors") as tmp:
         save_fmg(tmp, model.cpu(), extra=meta)
     metrics = evaluate(out / "fmg.safetensors", Path(cfg.data), count=cfg.val_count * 2,
-                       size=cfg.size)
+                       size=cfg.size, split="dev")
     atomic_write_json(out / "metrics.json", metrics)
     return metrics
 
 
 # --------------------------------------------------------------------------- evaluate
-def _heldout_backgrounds(data: Path, size: int) -> list:
+def _heldout_backgrounds(data: Path, size: int, split: str) -> list:
+    """The ``split`` part's photos (``dev`` or ``test``; ``pipeline.fmg_data.PhotoSplit``)."""
     from pipeline.fmg_data import CompositeConfig, load_backgrounds, split_backgrounds
 
-    return load_backgrounds(split_backgrounds(Path(data))[1], CompositeConfig(size=size)
-                            .preload_side)
+    if split not in ("dev", "test"):
+        raise UserError(f"--split {split}: give dev (choices) or test (reports)")
+    photos = load_backgrounds(getattr(split_backgrounds(Path(data)), split),
+                              CompositeConfig(size=size).preload_side)
+    if not photos:
+        raise UserError(f"{data}: no readable {split} photos (see pipeline.fmg_data."
+                        "split_backgrounds for which scenes and backgrounds they are)")
+    return photos
 
 
 def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
-             refine: bool = False, size: int = 256) -> dict:
-    """mIoU / mAcc on ``count`` held-out composites (scenes in HELDOUT_SCENES + held-out
-    backgrounds) at the cut the mask stage uses (the weights' calibrated one, else 0.5),
+             refine: bool = False, size: int = 256, split: str = "test") -> dict:
+    """mIoU / mAcc on ``count`` composites of the ``split`` part (``test``: scenes in
+    HELDOUT_SCENES + held-out backgrounds; ``dev``: the FMG's development photos) at the cut
+    the mask stage uses (the weights' calibrated one, else 0.5),
     for the default flare settings (every kind), ``FlareConfig.unseen()`` and the default
     settings with night backgrounds on half of them (``night``)."""
     from pipeline import flare as fl
@@ -351,8 +364,9 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
     model = load_fmg_weights(Path(weights))
     cut = resolve_threshold(MaskConfig(), Path(weights))  # the mask stage's default cut
     comp = CompositeConfig(size=size)
-    bgs = _heldout_backgrounds(data, size)
-    res = {"weights": str(weights), "count": count, "size": size, "seed": seed, "cut": cut}
+    bgs = _heldout_backgrounds(data, size, split)
+    res = {"weights": str(weights), "count": count, "size": size, "seed": seed, "cut": cut,
+           "split": split}
     rows = (("default", fl.FlareConfig(), comp, False),
             ("unseen", fl.FlareConfig.unseen(), comp, False),
             ("night", fl.FlareConfig(), CompositeConfig(size=size, night_prob=0.5), True))
@@ -384,9 +398,10 @@ def weights_info(path: Path) -> dict:
 
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
-                   kinds: tuple[str, ...] | None = None) -> dict:
-    """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` held-out composites flared
-    with that kind alone (``FlareConfig(kinds=(kind,))``; held-out scenes and backgrounds,
+                   kinds: tuple[str, ...] | None = None, split: str = "test") -> dict:
+    """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
+    part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
+    scenes and backgrounds,
     night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold."""
@@ -403,9 +418,9 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                             "'without' in their metadata); train with --without KIND")
         held.append({**info_w, "model": load_fmg_weights(Path(w))})
     kinds = tuple(kinds or fl.KINDS)
-    bgs = _heldout_backgrounds(data, size)
+    bgs = _heldout_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
-    res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT,
+    res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
            "weights": {k: v for k, v in main.items() if k != "model"},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
@@ -450,10 +465,12 @@ def format_metrics(m: dict) -> str:
 
 
 # --------------------------------------------------------------------------- photo-size checks
-WORK_SIZE_PHOTOS = ("scenes/cyprus",)
-"""Held-out photos large enough (1500x1000) to flare at photo size for the working-size sweep."""
-CLEAN_SCENES = ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus")
-"""Clean photos of the test scenes scored by ``clean_fractions``."""
+WORK_SIZE_PHOTOS = {"test": ("scenes/cyprus",), "dev": ("scenes/lund/images",)}
+"""Per part, held-out photos large enough (1500x1000 and more) to flare at photo size for the
+working-size sweep."""
+CLEAN_SCENES = {"test": ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus"),
+                "dev": ("scenes/lund/images",)}
+"""Per part, the clean photos ``clean_fractions`` scores (test scenes; the FMG's dev scene)."""
 
 
 def _photos(folder: Path, long_side: int | None = None) -> list:
@@ -475,7 +492,7 @@ def _photos(folder: Path, long_side: int | None = None) -> list:
 
 def work_size_sweep(weights: Path, data: Path, work_sizes: tuple[int, ...] = (384, 512, 768),
                     kinds: tuple[str, ...] = ("streaks", "starburst"), photo_side: int = 1008,
-                    per_photo: int = 2, seed: int = 31) -> dict:
+                    per_photo: int = 2, seed: int = 31, split: str = "test") -> dict:
     """Flare IoU (at the weights' cut) against the network's working size (long side given
     to ``predict_probs``), on held-out photos (``WORK_SIZE_PHOTOS``) at long side
     ``photo_side`` flared at that size with one kind alone (thin streaks and spikes), a third
@@ -489,8 +506,9 @@ def work_size_sweep(weights: Path, data: Path, work_sizes: tuple[int, ...] = (38
 
     info_w = weights_info(Path(weights))
     model = load_fmg_weights(Path(weights))
-    photos = [im for f in WORK_SIZE_PHOTOS for _, im in _photos(Path(data) / f, photo_side)]
-    res = {"weights": str(weights), "cut": info_w["cut"], "photo_side": photo_side,
+    photos = [im for f in WORK_SIZE_PHOTOS[split]
+              for _, im in _photos(Path(data) / f, photo_side)]
+    res = {"weights": str(weights), "cut": info_w["cut"], "photo_side": photo_side, "split": split,
            "photos": len(photos) * per_photo, "kinds": {}}
     for kind in kinds:
         rng = np.random.default_rng(seed)
@@ -523,15 +541,16 @@ def format_work_sizes(res: dict) -> str:
 
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
-                    scenes: tuple[str, ...] = CLEAN_SCENES) -> dict:
+                    scenes: tuple[str, ...] | None = None, split: str = "test") -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size`` as in the
     mask stage) on every clean photo of ``scenes`` at full size: mean and max per scene."""
     from pipeline.mask import fmg_probs, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
-    res = {"weights": str(weights), "cut": cut, "work_size": work_size, "scenes": {}}
-    for scene in scenes:
+    res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
+           "scenes": {}}
+    for scene in scenes or CLEAN_SCENES[split]:
         marked = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
@@ -616,7 +635,8 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
 
     model = load_fmg_weights(Path(weights)).eval()
     comp = CompositeConfig(size=size, night_prob=0.25)
-    src = CompositeSource(load_backgrounds(split_backgrounds(Path(data))[0], comp.preload_side),
+    src = CompositeSource(load_backgrounds(split_backgrounds(Path(data)).train,
+                                           comp.preload_side),
                           fl.FlareConfig(), comp)
     imgs, masks = fixed_set(src, count, seed, extras=True)
     with torch.no_grad():
