@@ -11,7 +11,8 @@ threshold), and the light core is never flare.
 
 Backgrounds are every image under ``<data>/backgrounds`` and ``<data>/scenes`` (found
 recursively), downscaled once into memory, in three parts (``split_backgrounds``): training;
-development (``FMG_DEV_SCENES`` and ``DEV_BACKGROUNDS``: validation during training, choices);
+development (``FMG_DEV_SCENES``: validation during training, every choice; photos no shipped
+FMG has seen);
 test (``HELDOUT_SCENES`` and ``HELDOUT_BACKGROUNDS``: reported only). Training adds random
 crops, flips, colour jitter, night backgrounds, composites without flare, and **hard
 negatives**: bright things that are not flare, painted onto the background before any flare
@@ -43,9 +44,6 @@ HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage",
 HELDOUT_BACKGROUNDS: tuple[str, ...] = ("coffee", "rocket", "grace_hopper")
 """Stems of background photos kept out of FMG training and choices: test composites only."""
 
-DEV_BACKGROUNDS: tuple[str, ...] = ("astronaut", "chelsea")
-"""Stems of background photos kept out of FMG training for its development set."""
-
 
 @dataclass
 class CompositeConfig:
@@ -65,6 +63,8 @@ class CompositeConfig:
     """Probability of hard negatives (``add_hard_negatives``) on a flared training composite."""
     clean_negative_prob: float = 0.8
     """Probability of hard negatives on a training composite without flare."""
+    negatives: tuple[str, ...] = HARD_NEGATIVES
+    """Which kinds of hard negatives are drawn (of ``HARD_NEGATIVES``)."""
     rotation: tuple[float, float] = (-180.0, 180.0)
     """Affine rotation of the flare layer (degrees)."""
     scale: tuple[float, float] = (0.7, 1.4)
@@ -93,8 +93,7 @@ class PhotoSplit(NamedTuple):
 
     train: list[Path]
     dev: list[Path]
-    """Development: validation during training and every choice (``FMG_DEV_SCENES``,
-    ``DEV_BACKGROUNDS``)."""
+    """Development: validation during training and every choice (``FMG_DEV_SCENES``)."""
     test: list[Path]
     """Reported only (``HELDOUT_SCENES``, ``HELDOUT_BACKGROUNDS``)."""
 
@@ -107,8 +106,7 @@ def split_backgrounds(data: Path) -> PhotoSplit:
                         "at a folder with photos in backgrounds/ and/or scenes/<scene>/")
     parts = PhotoSplit([], [], [])
     for p in (find_images(bg) if bg.is_dir() else []):
-        (parts.test if p.stem in HELDOUT_BACKGROUNDS else parts.dev
-         if p.stem in DEV_BACKGROUNDS else parts.train).append(p)
+        (parts.test if p.stem in HELDOUT_BACKGROUNDS else parts.train).append(p)
     for p in (find_images(sc) if sc.is_dir() else []):
         scene = p.relative_to(sc).parts[0]
         (parts.test if scene in HELDOUT_SCENES else parts.dev
@@ -342,8 +340,9 @@ _NEGATIVES = {"lamp": _neg_lamp, "specular": _neg_specular, "sky": _neg_sky,
 
 
 def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
-                       kinds: tuple[str, ...] | None = None) -> np.ndarray:
-    """Paint 1-3 kinds of bright non-flare content (``HARD_NEGATIVES``, or ``kinds``) onto an
+                       kinds: tuple[str, ...] | None = None,
+                       pool: tuple[str, ...] = HARD_NEGATIVES) -> np.ndarray:
+    """Paint 1-3 kinds of bright non-flare content (drawn from ``pool``, or ``kinds``) onto an
     sRGB float image [S, S, 3], in linear light; returns the new sRGB float32 image.
 
     - ``lamp``: lamps and bare light cores (1-4 saturated discs, ellipses, lit windows; some
@@ -358,8 +357,8 @@ def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
     Nothing here is flare: composites keep their label (flare added later is masked where
     it is visible against this brighter background)."""
     if kinds is None:
-        n = int(rng.integers(1, 4))
-        kinds = tuple(rng.choice(HARD_NEGATIVES, size=n, replace=False))
+        n = min(int(rng.integers(1, 4)), len(pool))
+        kinds = tuple(rng.choice(pool, size=n, replace=False)) if n else ()
     lin = np.ascontiguousarray(srgb_to_linear(img), np.float32)
     for k in sorted(kinds, key=lambda k: k == "reflection"):
         _NEGATIVES[k](lin, rng)
@@ -461,7 +460,7 @@ class CompositeSource:
                 img = add_distractors(img, rng)
             flared = rng.random() < c.flare_prob
             if rng.random() < (c.negative_prob if flared else c.clean_negative_prob):
-                img = add_hard_negatives(img, rng)
+                img = add_hard_negatives(img, rng, pool=c.negatives)
             if not flared:
                 return img, np.zeros(img.shape[:2], bool)
         return composite_flare(img, self.flare_cfg, c, rng)

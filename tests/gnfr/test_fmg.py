@@ -217,22 +217,46 @@ def test_training_flare_leaves_kinds_out():
 
 
 def test_split_keeps_test_and_dev_photos_out_of_training(tmp_path):
-    from pipeline.fmg_data import DEV_BACKGROUNDS, HELDOUT_BACKGROUNDS, split_backgrounds
+    from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds
     from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES, TEST_SCENES
 
     assert not set(FMG_DEV_SCENES) & set(TEST_SCENES)
-    assert not set(DEV_BACKGROUNDS) & set(HELDOUT_BACKGROUNDS)
     for rel in [f"scenes/{HELDOUT_SCENES[0]}/a.jpg", "scenes/et/sub/b.png",
                 f"scenes/{FMG_DEV_SCENES[0]}/images/c.jpg",
                 f"backgrounds/x/{HELDOUT_BACKGROUNDS[0]}.png", "backgrounds/y.jpg",
-                f"backgrounds/{DEV_BACKGROUNDS[0]}.png", "backgrounds/notes.txt"]:
+                "backgrounds/notes.txt"]:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
     parts = split_backgrounds(tmp_path)
     assert sorted(p.name for p in parts.train) == ["b.png", "y.jpg"]
-    assert sorted(p.name for p in parts.dev) == sorted(["c.jpg", f"{DEV_BACKGROUNDS[0]}.png"])
+    assert [p.name for p in parts.dev] == ["c.jpg"]
     assert sorted(p.name for p in parts.test) == sorted(["a.jpg",
                                                         f"{HELDOUT_BACKGROUNDS[0]}.png"])
+
+
+def test_hard_negative_pool_is_respected():
+    """``CompositeConfig.negatives`` limits what is painted; `fmg train --negatives` defaults
+    to every kind."""
+    from pipeline import fmg_data as fd
+    from workflows.research.fmg_train import FMGTrainConfig
+
+    assert FMGTrainConfig.__dataclass_fields__["negatives"].default == fd.HARD_NEGATIVES
+    img = np.full((64, 64, 3), 0.2, np.float32)
+    calls = []
+    saved = dict(fd._NEGATIVES)
+    try:
+        for k in fd.HARD_NEGATIVES:
+            fd._NEGATIVES[k] = lambda lin, rng, k=k: calls.append(k)
+        rng = np.random.default_rng(0)
+        for _ in range(40):
+            fd.add_hard_negatives(img, rng, pool=("sky", "wall"))
+        assert set(calls) == {"sky", "wall"}
+        calls.clear()
+        for _ in range(40):
+            fd.add_hard_negatives(img, rng)
+        assert "neon" in calls and len(set(calls)) == len(fd.HARD_NEGATIVES)
+    finally:
+        fd._NEGATIVES.update(saved)
 
 
 def _tiny_data(tmp_path):

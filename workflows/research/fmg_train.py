@@ -77,6 +77,11 @@ class FMGTrainConfig:
     """Kinds of flare to leave out of training (comma-separated, of
     starburst,ghosts,streaks,glare,scatter): a leave-one-kind-out model; recorded in the
     weights' metadata."""
+    negatives: tuple[str, ...] = option(
+        ("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"),
+        choices=("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"))
+    """Kinds of hard negatives (bright non-flare content, ``pipeline.fmg_data.HARD_NEGATIVES``)
+    painted onto training composites (comma-separated); recorded in the weights' metadata."""
     init: Path | None = None
     """FMG weights to start from (same widths, depths and head width) when OUT has no
     checkpoint; the step count starts at 0 (the card adds the init's steps)."""
@@ -163,7 +168,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
     return cfg
 
 
-def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = ()):
+def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
+             negatives: tuple[str, ...] | None = None):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -174,6 +180,8 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
     parts = split_backgrounds(data)
     comp = CompositeConfig(size=size, night_prob=night_prob)
+    if negatives is not None:
+        comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
                          training_flare(without), comp)
     va = _heldout_backgrounds(data, size, "dev")  # validation: the development part
@@ -282,7 +290,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     dev = resolve_device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
-                                          tuple(cfg.without))
+                                          tuple(cfg.without), tuple(cfg.negatives))
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
