@@ -38,6 +38,9 @@ class TrainConfig:
     """Range of the number N of training source views (paper: 8..12)."""
     pool_k: tuple[float, float] = (1.0, 3.0)
     """Range of k: sources are drawn from the round(k*N) nearest views."""
+    random_sources: bool = False
+    """GNT's draw: the N sources in a random order of the pool instead of the nearest first
+    (the View Sampler's flare rule still applies)."""
     eval_views: int = 10
     """Source views at render / evaluation time (nearest least-flared)."""
     lr_encoder: float = 5e-4
@@ -252,7 +255,7 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
         raise ValueError(f"scene {scene.name}: {rule}")
     tgt = targets[int(torch.randint(len(targets), (1,), generator=gen))]
     src = train_sources(scene.ranked[tgt], flare, gen, cfg.n_views, cfg.pool_k,
-                        cfg.view_sampler)
+                        cfg.view_sampler, random_pick=cfg.random_sources)
     i = idx[tgt]
     H, W = scene.images.shape[-2:]
     flat = torch.randint(H * W, (cfg.rays,), generator=gen)

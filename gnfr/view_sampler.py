@@ -34,7 +34,8 @@ def _fractions(ranked: Sequence[str], flare: Mapping[str, float] | Sequence[floa
 
 
 def pick_sources(pool: Sequence[str], fracs: Sequence[float], n: int,
-                 tolerance: float = FLARE_TOLERANCE) -> list[str]:
+                 tolerance: float = FLARE_TOLERANCE,
+                 preference: Sequence[int] | None = None) -> list[str]:
     """The n sources of ``pool`` (views nearest first, flare fractions ``fracs`` aligned
     with it), returned nearest first. The one rule every source choice goes through.
 
@@ -48,11 +49,16 @@ def pick_sources(pool: Sequence[str], fracs: Sequence[float], n: int,
       cleanest view still available at that pick by more than ``tolerance``;
     - no chosen view is more flared than a view left out by more than ``tolerance``.
 
-    Deterministic: no randomness, ties in distance keep the pool order.
+    Deterministic: no randomness, ties in distance keep the pool order. ``preference`` (a
+    permutation of the pool's indices) replaces "nearest" in the rule above by "first in
+    ``preference``": a random permutation is GNT's random choice of sources inside the pool,
+    with the flare rule kept.
     """
     if len(fracs) != len(pool):
         raise ValueError(f"{len(pool)} views but {len(fracs)} flare fractions")
-    left = list(range(len(pool)))                    # indices, nearest first
+    if preference is not None and sorted(preference) != list(range(len(pool))):
+        raise ValueError(f"preference must be a permutation of 0..{len(pool) - 1}")
+    left = list(range(len(pool)) if preference is None else preference)
     picked = []
     for _ in range(min(n, len(pool))):
         cut = min(fracs[i] for i in left) + tolerance + _SLACK
@@ -75,21 +81,26 @@ def eval_sources(ranked_stems: Sequence[str], flare_fractions, n: int = 10,
 
 def train_sources(ranked_stems: Sequence[str], flare_fractions, generator: torch.Generator,
                   n_range: tuple[int, int] = (8, 12), k_range: tuple[float, float] = (1.0, 3.0),
-                  use_flare: bool = True, tolerance: float = FLARE_TOLERANCE) -> list[str]:
+                  use_flare: bool = True, tolerance: float = FLARE_TOLERANCE,
+                  random_pick: bool = False) -> list[str]:
     """Training sources for one target: N whole in ``n_range``, k uniform in ``k_range``;
-    N of the round(k*N) nearest chosen by :func:`pick_sources`. With ``use_flare=False``
-    (the no-view-sampler ablation) the N nearest views regardless of flare."""
+    N of the round(k*N) nearest chosen by :func:`pick_sources`, preferring the nearer views
+    or, with ``random_pick`` (GNT's draw), views in a random order. With ``use_flare=False``
+    (the no-view-sampler ablation) the N nearest views regardless of flare, or N random
+    ones of the pool with ``random_pick``."""
     import torch
 
     n = int(torch.randint(n_range[0], n_range[1] + 1, (1,), generator=generator))
     k = k_range[0] + (k_range[1] - k_range[0]) * float(torch.rand(1, generator=generator))
     ranked = list(ranked_stems)
-    if not use_flare:
-        return ranked[:n]
     pool = ranked[:max(n, round(k * n))]
+    order = (torch.randperm(len(pool), generator=generator).tolist() if random_pick
+             else None)
+    if not use_flare:
+        return [pool[i] for i in sorted(order[:n])] if random_pick else ranked[:n]
     fracs = _fractions(pool, flare_fractions if isinstance(flare_fractions, Mapping)
                        else list(flare_fractions)[:len(pool)])
-    return pick_sources(pool, fracs, n, tolerance)
+    return pick_sources(pool, fracs, n, tolerance, order)
 
 
 def is_target(fraction: float, max_flare: float = MAX_FLARE) -> bool:

@@ -55,6 +55,9 @@ class FinetuneConfig:
     """GN-FR View Sampler (False: ablation)."""
     mask_loss: bool = True
     """GN-FR masking loss (False: ablation)."""
+    random_sources: bool = False
+    """GNT's random choice of training sources inside the nearest pool (default: the nearest
+    least-flared; docs/presets.md has the measurement)."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -95,7 +98,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
         over.update(n_views=(config.views, config.views), eval_views=config.views)
     cfg = replace(cfg, **over, point_sampler=config.point_sampler,
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
-                  reference=config.reference, seed=config.seed)
+                  reference=config.reference, seed=config.seed,
+                  random_sources=config.random_sources)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)

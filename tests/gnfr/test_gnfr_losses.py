@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 
 from gnfr.losses import masked_mse
@@ -49,6 +50,28 @@ def test_train_sources_prefer_least_flared_within_the_pool():
         assert all(FLARE[o] >= worst - FLARE_TOLERANCE - 1e-9 for o in left_out)
     near = train_sources(RANKED, FLARE, g, use_flare=False)
     assert near == RANKED[:len(near)]
+
+
+def test_random_sources_vary_inside_the_pool_and_keep_the_flare_rule():
+    """GNT's draw: on a clean line of views the sources are no longer always the nearest N,
+    they stay inside the round(k*N) pool, and a heavily flared view still loses."""
+    clean = dict.fromkeys(LINE, 0.0) | {"v01": 0.3}
+    g = torch.Generator().manual_seed(0)
+    draws = [train_sources(LINE, clean, g, (4, 4), (2.0, 2.0), random_pick=True)
+             for _ in range(40)]
+    assert len({tuple(d) for d in draws}) > 10                # not one fixed set
+    for d in draws:
+        idx = [LINE.index(s) for s in d]
+        assert len(d) == 4 and idx == sorted(idx) and max(idx) < 8  # pool of 8, nearest first
+        assert "v01" not in d                                # 30 % flared: resolved
+    assert {s for d in draws for s in d} == set(LINE[:8]) - {"v01"}
+    nearest = train_sources(LINE, clean, g, (4, 4), (2.0, 2.0))
+    assert nearest == ["v00", "v02", "v03", "v04"]           # the default draw is unchanged
+    ablated = train_sources(LINE, clean, g, (4, 4), (2.0, 2.0), use_flare=False,
+                            random_pick=True)
+    assert len(ablated) == 4 and all(LINE.index(s) < 8 for s in ablated)
+    with pytest.raises(ValueError, match="permutation"):
+        pick_sources(["a", "b"], [0.0, 0.0], 1, preference=[0, 0])
 
 
 def test_eval_sources_deterministic_nearest_least_flared():
