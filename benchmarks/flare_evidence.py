@@ -1,5 +1,4 @@
-"""Flare evidence across views (an experiment, not in the product): masks from the FMG
-alone, from the evidence alone, and fused.
+"""Flare evidence across views, an experiment the product does not use: FMG, evidence, fused.
 
     python benchmarks/flare_evidence.py --scene SYNTH [--scene SYNTH ...] \
         [--clean WS ...] --work DIR [--out JSON]
