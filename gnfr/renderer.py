@@ -162,12 +162,12 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
                 t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
                 out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c,
                                    with_depth=with_depth)
-                for k in outs:
-                    outs[k].append(out[k].float().cpu())
+                for k in outs:  # kept on the device: one copy to the host at the end
+                    outs[k].append(out[k].float())
                 if progress is not None:
                     progress(min(i + chunk, rays_o.shape[0]))
     finally:
         model.train(was_training)
-    res = {k: torch.cat(v).clone() for k, v in outs.items()}  # outside: normal tensors
+    res = {k: torch.cat(v).cpu().clone() for k, v in outs.items()}  # outside: normal tensors
     res["rgb"] = res["rgb"].clamp(0, 1)
     return res
