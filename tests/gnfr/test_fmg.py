@@ -304,7 +304,7 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     assert main(["fmg", "eval", "--weights", str(out / "fmg.safetensors"), "--data", str(data),
                  "--count", "2", "--size", "64", "--out", str(tmp_path / "m.json")]) == 0
     assert json.loads((tmp_path / "m.json").read_text())["count"] == 2
-    # calibrate: sweep the cut on training-side composites and store the chosen one
+    # calibrate: sweep the cut on development composites and store the chosen one
     from safetensors.torch import load_file
 
     from gnfr.fmg import read_fmg_metadata

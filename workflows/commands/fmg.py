@@ -60,7 +60,7 @@ def register(app: typer.Typer) -> None:
 
     @config_command(fmg, "calibrate", f"{CONFIGS}:FMGCalibrateConfig", group="fmg")
     def calibrate_cmd(config) -> None:
-        """Pick the flare probability cut of highest flare IoU on training-side composites."""
+        """Pick the flare probability cut of highest flare IoU on development composites."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
         from pipeline.provenance import sha256, write_result
         from workflows.research.fmg_train import calibrate, format_calibration, write_threshold

@@ -128,14 +128,14 @@ class FMGEvalConfig:
 
 @dataclass
 class FMGCalibrateConfig:
-    """Options of `deflare-scene fmg calibrate`."""
+    """Options of `deflare-scene fmg calibrate` (composites of the development photos)."""
 
     weights: Path | None = None
     """FMG weights (default: the shipped ones)."""
     data: Path = field(default_factory=default_data)
     """Folder with backgrounds/ and scenes/."""
     count: int = option(96, ge=1)
-    """Training-side composites to score."""
+    """Development composites to score."""
     seed: int = option(7, ge=0)
     """Seed of the composites."""
     write: bool = False
@@ -619,9 +619,10 @@ CALIBRATION_TIE = 0.002
 
 def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: int = 256,
               cuts: tuple[float, ...] = CALIBRATION_CUTS) -> dict:
-    """Sweep the probability cut on fresh evaluation composites drawn from the *training*
-    backgrounds and scenes (held-out scenes and backgrounds stay out: the cut is not tuned
-    on anything an evaluation scores), with night backgrounds on a share of them.
+    """Sweep the probability cut on fresh composites drawn from the FMG's *development*
+    photos (``pipeline.fmg_data.PhotoSplit.dev``: never trained on, never reported; the test
+    scenes and backgrounds stay out, so the cut is not tuned on anything an evaluation
+    scores), with night backgrounds on a share of them.
 
     Per cut: flare IoU, mIoU and the ratio of marked to true flare pixels. ``best`` is the
     cut of highest flare IoU; cuts within ``CALIBRATION_TIE`` of it count as tied and the
@@ -643,7 +644,7 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
 
     model = load_fmg_weights(Path(weights)).eval()
     comp = CompositeConfig(size=size, night_prob=0.25)
-    src = CompositeSource(load_backgrounds(split_backgrounds(Path(data)).train,
+    src = CompositeSource(load_backgrounds(split_backgrounds(Path(data)).dev,
                                            comp.preload_side),
                           fl.FlareConfig(), comp)
     imgs, masks = fixed_set(src, count, seed, extras=True)
@@ -662,13 +663,13 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
     top = max(r["iou_flare"] for r in rows)
     near = [r for r in rows if r["iou_flare"] >= top - CALIBRATION_TIE]
     best = min(near, key=lambda r: abs(r["marked_over_true"] - 1.0))["cut"]
-    return {"weights": str(weights), "count": count, "seed": seed, "size": size,
+    return {"weights": str(weights), "count": count, "seed": seed, "size": size, "split": "dev",
             "true_flare_fraction": round(float(truth.float().mean()), 4), "rows": rows,
             "best": best}
 
 
 def format_calibration(res: dict) -> str:
-    lines = [f"{res['count']} training-side composites, true flare fraction "
+    lines = [f"{res['count']} development composites, true flare fraction "
              f"{res['true_flare_fraction']}",
              "| cut | flare IoU | mIoU | marked / true |", "|---|---|---|---|"]
     for r in res["rows"]:
