@@ -27,27 +27,7 @@ apply_thread_policy()  # before torch loads (workflows/threads.py)
 
 import torch  # noqa: E402
 
-
-def synthetic_scene(n: int, W: int, H: int):
-    from gnfr.train import Scene
-
-    g = torch.Generator().manual_seed(0)
-    base = torch.rand(1, 3, H // 16, W // 16, generator=g)
-    imgs = (torch.nn.functional.interpolate(base, size=(H, W), mode="bilinear") * 255)
-    imgs = imgs.to(torch.uint8).expand(n, 3, H, W).contiguous()
-    K = torch.tensor([[0.8 * W, 0, W / 2], [0, 0.8 * W, H / 2], [0, 0, 1]],
-                     dtype=torch.float64).expand(n, 3, 3)
-    c2w = torch.eye(4, dtype=torch.float64).repeat(n, 1, 1)
-    ang = torch.linspace(-0.3, 0.3, n, dtype=torch.float64)
-    c2w[:, 0, 3], c2w[:, 2, 3] = ang.sin() * 3, -ang.cos() * 3
-    stems = [f"v{i}" for i in range(n)]
-    ranked = {s: [t for t in sorted(stems, key=lambda t: abs(int(t[1:]) - i)) if t != s]
-              for i, s in enumerate(stems)}
-    masks = torch.zeros(n, 1, H, W, dtype=torch.uint8)
-    masks[::3, :, : H // 4, : W // 4] = 1
-    return Scene(stems, imgs, K, c2w, torch.full((n,), 1.5, dtype=torch.float64),
-                 torch.full((n,), 4.5, dtype=torch.float64), masks,
-                 {s: float(masks[i].float().mean()) for i, s in enumerate(stems)}, ranked)
+from workflows.research.bench import synthetic_scene  # noqa: E402
 
 
 def run_mode(preset: str, mode: str, steps: int, views: int, size: int) -> dict:
@@ -57,7 +37,7 @@ def run_mode(preset: str, mode: str, steps: int, views: int, size: int) -> dict:
     cfg = PRESETS[preset]
     cfg = replace(cfg, cached_features=mode == "cached", reference=mode == "reference")
     device = torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    scene = synthetic_scene(views, size, round(size * 0.75))
+    scene = synthetic_scene(views, (size, round(size * 0.75)))
     torch.manual_seed(0)
     from gnfr.model import GNFR
 
@@ -92,7 +72,7 @@ def render_speed(preset: str, views: int, size: int, n_rays: int) -> dict:
     from gnfr.train import PRESETS, downscale
 
     cfg = PRESETS[preset]
-    scene = synthetic_scene(views, size, round(size * 0.75))
+    scene = synthetic_scene(views, (size, round(size * 0.75)))
     model = GNFR(cfg.model).eval()
     imgs, K, masks = downscale(scene, cfg.source_scale)
     t = time.perf_counter()
