@@ -34,6 +34,19 @@ def _few_threads(monkeypatch):
     torch.set_num_threads(min(2, os.cpu_count() or 1))
 
 
+@pytest.fixture
+def one_torch_thread():
+    """One torch thread for the test (modules opt in with ``pytestmark =
+    pytest.mark.usefixtures("one_torch_thread")``): training-heavy tests on a shared 2-core
+    machine run far slower with oversubscribed threads."""
+    import torch
+
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False,
                      help="also run tests marked slow")

@@ -4,23 +4,13 @@ from __future__ import annotations
 
 import json
 
-import pytest
 import torch
 
 from workflows.cli import main
 from workflows.research.bench import PeakMemory, synthetic_scene
 
 
-@pytest.fixture
-def one_thread():
-    """One torch thread: on a shared 2-core machine oversubscribed threads are far slower."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
-def test_bench_quick_writes_json(tmp_path, one_thread):
+def test_bench_quick_writes_json(tmp_path, one_torch_thread):
     out = tmp_path / "bench.json"
     assert main(["bench", "--quick", "--device", "cpu", "--out", str(out)]) == 0
     rec = json.loads(out.read_text())

@@ -23,12 +23,7 @@ H0, W0, F0 = 120, 160, 150.0
 """Full-size camera of the synthetic scene; images_2 holds 80x60."""
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _llff_folder(folder, n: int = 10, factor: int = 2):
