@@ -76,7 +76,7 @@ def load_weights(model: GNFR, path: str | os.PathLike) -> dict:
     """Load weights into ``model``; CheckpointError when the architecture differs.
     Returns the extra metadata."""
     cfg, meta = read_metadata(path)
-    if cfg != model.config:
+    if cfg.architecture() != model.config.architecture():
         raise CheckpointError(f"{path} holds a different architecture ({cfg}) than the "
                               f"model ({model.config})")
     from safetensors.torch import load_file

@@ -41,6 +41,11 @@ class GNFRConfig:
     dropout: float = 0.0
     """Dropout in attention outputs and feed-forward layers (training only)."""
 
+    def architecture(self) -> GNFRConfig:
+        """This config with what holds no weights (``dropout``) at its default: two configs
+        with equal architectures load each other's weights."""
+        return dataclasses.replace(self, dropout=0.0)
+
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), sort_keys=True)
 

@@ -55,6 +55,9 @@ class FinetuneConfig:
     """GN-FR View Sampler (False: ablation)."""
     mask_loss: bool = True
     """GN-FR masking loss (False: ablation)."""
+    dropout: float | None = option(None, ge=0, lt=1)
+    """Dropout in the transformers while training (GNT: 0.1; default: the preset's, 0);
+    holds no weights, so any value starts from the same shipped weights."""
     random_sources: bool = False
     """GNT's random choice of training sources inside the nearest pool (default: the nearest
     least-flared; docs/presets.md has the measurement)."""
@@ -81,7 +84,7 @@ def shipped_weights(cfg: TrainConfig) -> Path | None:
             cfg_p, meta = read_metadata(p)
         except CheckpointError:
             continue
-        if cfg_p == cfg.model and meta.get("auto_init") is True:
+        if cfg_p.architecture() == cfg.model.architecture() and meta.get("auto_init") is True:
             return p
     return None
 
@@ -100,6 +103,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
                   random_sources=config.random_sources)
+    if config.dropout is not None:
+        cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)

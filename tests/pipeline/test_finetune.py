@@ -146,6 +146,28 @@ def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     assert cfg_c.cached_features
 
 
+def test_dropout_and_random_sources_keep_the_shipped_start():
+    """GNT's training details as finetune options: dropout holds no weights, so the shipped
+    file still matches (init auto) and loads; another width does not."""
+    import pytest
+
+    from gnfr.checkpoint import CheckpointError, load_weights
+    from gnfr.model import GNFR
+    from pipeline.finetune import init_model, resolve, shipped_weights
+
+    cpu = torch.device("cpu")
+    _, cfg = resolve(FinetuneConfig(device="cpu", dropout=0.1, random_sources=True), cpu)
+    assert cfg.model.dropout == 0.1 and cfg.random_sources
+    assert shipped_weights(cfg) == shipped_weights(QUICK) is not None
+    model, how = init_model(cfg, cpu, "auto")
+    assert "pretrained" in how and model.config.dropout == 0.1
+    drops = [m.p for m in model.modules() if isinstance(m, torch.nn.Dropout)]
+    assert drops and all(p == 0.1 for p in drops)
+    with pytest.raises(CheckpointError, match="architecture"):
+        load_weights(GNFR(replace(cfg.model, width=cfg.model.width * 2)),
+                     shipped_weights(QUICK))
+
+
 def _hand_written_checkpoint(out, scene, cfg, steps: int, extra: dict) -> None:
     """WS/model/ as the stage has written it since train_state.pt got its keys: weights
     with render settings in the metadata, {"step", "optimizer", "rng", **extra} beside."""
