@@ -70,6 +70,9 @@ CHECKS = [
      "{:.1f}"),
     ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
     ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for scene in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
 ]
 
 
