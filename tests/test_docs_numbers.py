@@ -73,6 +73,10 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
+    *[("docs/presets.md", "finetune_ab_random_sources_dev_sceaux.json", f"{row}/{m}",
+       "{:.3f}" if m.endswith("ssim") else "{:.2f}")
+      for row in ("base", "random_sources-true")
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
 ]
 
 
