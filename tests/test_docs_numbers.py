@@ -73,6 +73,11 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
+    *[("gnfr/weights/fmg.md", f"fmg_dev_per_kind_{run}.json", f"kinds/{kind}/weights/{m}",
+       "{:.3f}")
+      for run in ("shipped", "s3_all_negatives", "s3_no_neon")
+      for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")
+      for m in ("IoU_flare", "mIoU", "mAcc")],
     *[("docs/presets.md", "finetune_ab_random_sources_dev_sceaux.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for row in ("base", "random_sources-true")
