@@ -78,9 +78,9 @@ CHECKS = [
       for run in ("shipped", "s3_all_negatives", "s3_no_neon")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")
       for m in ("IoU_flare", "mIoU", "mAcc")],
-    *[("docs/presets.md", "finetune_ab_random_sources_dev_sceaux.json", f"{row}/{m}",
+    *[("docs/presets.md", f"finetune_ab_random_sources_dev_{scene}.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
-      for row in ("base", "random_sources-true")
+      for scene in ("sceaux", "et") for row in ("base", "random_sources-true")
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
 ]
 
