@@ -28,11 +28,16 @@ def _fill(name: str, fill: str) -> dict:
 
 
 FERN = "fern_llff_quick_cpu.json"  # the 11 750-step weights (flare protocol, old rows)
-FERN2 = "fern_llff_quick_cpu_w27250.json"  # the shipped 27 250-step weights (clean)
+FERN2 = "fern_llff_quick_cpu_w27250.json"  # the 27 250-step weights (clean)
 FERN18 = "fern_llff_quick_cpu_w18500.json"  # the 18 500-step weights (clean)
+FERN3 = "fern_llff_quick_cpu_w32500.json"  # the shipped 32 500-step weights (clean)
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
+    ("README.md", FERN3, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
+    ("README.md", FERN3, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
     ("README.md", FERN2, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN2, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
     ("README.md", FERN2, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
