@@ -50,6 +50,8 @@ CHECKS = [
     ("README.md", FERN, "flare/methods/gnfr/inputs/psnr_flare", "{:.2f}"),
     ("README.md", FERN, "flare/methods/gnt/inputs/psnr_flare", "{:.2f}"),
     ("README.md", FERN, "flare/methods/input/inputs/psnr_flare", "{:.2f}"),
+    ("README.md", "sample_oneshot_cpu_w32500.json", "mean/psnr_flare", "{:.2f}"),
+    ("README.md", "sample_oneshot_cpu_w32500.json", "mean/psnr", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_flare", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_flare_input", "{:.2f}"),
