@@ -119,28 +119,36 @@ def composites(n: int, size: int = 96, seed: int = 0):
     return src.batch(n, np.random.default_rng(seed), train=False)
 
 
-def test_tiny_fmg_overfits_composites():
-    torch.manual_seed(0)
-    x, y = composites(4)
-    assert 0.005 < float(y.mean()) < 0.8  # every composite has some flare, not all flare
-    model = build_fmg(tiny_config())
-    opt = torch.optim.Adam(model.parameters(), lr=1e-2)
-
-    def iou() -> float:
-        model.eval()
-        with torch.no_grad():
-            return seg_metrics(confusion(model(x) > 0, y > 0.5))["IoU_flare"]
-
-    iou0, losses = iou(), []
+def _fit(model, x, y, steps: int, lr: float = 1e-2) -> list[float]:
+    """``steps`` Adam steps of the FMG loss on one batch; the losses."""
+    opt = torch.optim.Adam(model.parameters(), lr=lr)
     model.train()
-    for _ in range(80):
+    losses = []
+    for _ in range(steps):
         loss = fmg_loss(model(x), y)
         opt.zero_grad()
         loss.backward()
         opt.step()
         losses.append(float(loss.detach()))
+    return losses
+
+
+def _flare_iou(model, x, y) -> float:
+    """Flare IoU of ``model`` (eval mode, logit cut 0) on one batch."""
+    model.eval()
+    with torch.no_grad():
+        return seg_metrics(confusion(model(x) > 0, y > 0.5))["IoU_flare"]
+
+
+def test_tiny_fmg_overfits_composites():
+    torch.manual_seed(0)
+    x, y = composites(4)
+    assert 0.005 < float(y.mean()) < 0.8  # every composite has some flare, not all flare
+    model = build_fmg(tiny_config())
+    iou0 = _flare_iou(model, x, y)
+    losses = _fit(model, x, y, 80)
     assert np.mean(losses[-5:]) < 0.5 * np.mean(losses[:5])
-    iou1 = iou()
+    iou1 = _flare_iou(model, x, y)
     assert iou1 > max(0.5, iou0 + 0.2), (iou0, iou1)
 
 
@@ -397,17 +405,7 @@ def test_fine_decoder_starts_at_the_pspnet_and_outlines_thin_lines():
         want = F.interpolate(mid, size=(64, 64), mode="bilinear", align_corners=False)
         assert torch.allclose(fine(x), want, atol=1e-5)
 
-    def fit(model) -> float:
-        opt = torch.optim.Adam(model.parameters(), lr=1e-2)
-        model.train()
-        for _ in range(60):
-            loss = fmg_loss(model(x), y)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-        model.eval()
-        with torch.no_grad():
-            return seg_metrics(confusion(model(x) > 0, y > 0.5))["IoU_flare"]
-
-    iou_plain, iou_fine = fit(plain), fit(fine)
+    _fit(plain, x, y, 60)
+    _fit(fine, x, y, 60)
+    iou_plain, iou_fine = _flare_iou(plain, x, y), _flare_iou(fine, x, y)
     assert iou_fine > max(0.3, iou_plain + 0.15), (iou_plain, iou_fine)

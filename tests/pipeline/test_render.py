@@ -20,27 +20,34 @@ FLARED = "templeSR0002"
 BOX = (slice(10, 22), slice(30, 46))  # rows, cols of the flare square in WS/images geometry
 
 
-def make_render_ws(root: Path, n_views: int = 5, seed: int = 0) -> Workspace:
-    """A posed temple workspace (160x120) with views.json, masks (one small flare square in
-    one view) and a tiny random GN-FR checkpoint at WS/model/gnfr.safetensors."""
+def add_masks_views_model(ws: Workspace, flared: str, box, seed: int) -> None:
+    """WS/masks (a flare square ``box`` in view ``flared``, none elsewhere), views.json and
+    a tiny random GN-FR checkpoint (``seed``) at WS/model/gnfr.safetensors."""
     from gnfr.checkpoint import save_model
     from gnfr.model import GNFR, GNFRConfig
     from pipeline.select import build_views
-    from tests.fixtures import make_temple_workspace
 
-    ws = make_temple_workspace(root, n_views=n_views, scale=0.25)
     cams = load_cameras(ws.cameras_json)
     frac = {}
     for f in cams.frames:
         m = np.zeros((f.height, f.width), np.uint8)
-        if f.stem == FLARED:
-            m[BOX] = 255
+        if f.stem == flared:
+            m[box] = 255
         atomic_imwrite(ws.masks / f"{f.stem}.png", m)
         frac[f.stem] = float((m > 0).mean())
     atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
     torch.manual_seed(seed)
     save_model(ws.model_file, GNFR(GNFRConfig(**TINY)),
                {"samples": 4, "eval_views": 3, "source_scale": 0.5, "point_sampler": True})
+
+
+def make_render_ws(root: Path, n_views: int = 5, seed: int = 0) -> Workspace:
+    """A posed temple workspace (160x120) with views.json, masks (one small flare square in
+    one view) and a tiny random GN-FR checkpoint at WS/model/gnfr.safetensors."""
+    from tests.fixtures import make_temple_workspace
+
+    ws = make_temple_workspace(root, n_views=n_views, scale=0.25)
+    add_masks_views_model(ws, FLARED, BOX, seed)
     return ws
 
 
@@ -406,26 +413,12 @@ def test_colour_match_undoes_a_gain_and_offset_fitted_on_the_ring():
 def hws(tmp_path_factory):
     """A textured-plane workspace (exact cameras) with a fake flare square in one view,
     views.json, a tiny random model, and WS/depth from the depth stage."""
-    from gnfr.checkpoint import save_model
-    from gnfr.model import GNFR, GNFRConfig
     from pipeline.depth import DepthConfig
     from pipeline.depth import run as depth_run
-    from pipeline.select import build_views
     from tests.fixtures import make_plane_workspace
 
     ws = make_plane_workspace(tmp_path_factory.mktemp("hybrid") / "ws")
-    cams = load_cameras(ws.cameras_json)
-    frac = {}
-    for f in cams.frames:
-        m = np.zeros((f.height, f.width), np.uint8)
-        if f.stem == HYBRID_FLARED:
-            m[HYBRID_BOX] = 255
-        atomic_imwrite(ws.masks / f"{f.stem}.png", m)
-        frac[f.stem] = float((m > 0).mean())
-    atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
-    torch.manual_seed(0)
-    save_model(ws.model_file, GNFR(GNFRConfig(**TINY)),
-               {"samples": 4, "eval_views": 3, "source_scale": 0.5, "point_sampler": True})
+    add_masks_views_model(ws, HYBRID_FLARED, HYBRID_BOX, 0)
     depth_run(DepthConfig(neighbours=3), ws)
     return ws
 

@@ -184,7 +184,7 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
                          training_flare(without), comp)
-    va = _heldout_backgrounds(data, size, "dev")  # validation: the development part
+    va = _part_backgrounds(data, size, "dev")  # validation: the development part
     return tr, va, comp, (len(parts.train), len(parts.dev), len(parts.test))
 
 
@@ -344,7 +344,7 @@ def train(cfg: FMGTrainConfig) -> dict:
 
 
 # --------------------------------------------------------------------------- evaluate
-def _heldout_backgrounds(data: Path, size: int, split: str) -> list:
+def _part_backgrounds(data: Path, size: int, split: str) -> list:
     """The ``split`` part's photos (``dev`` or ``test``; ``pipeline.fmg_data.PhotoSplit``)."""
     from pipeline.fmg_data import CompositeConfig, load_backgrounds, split_backgrounds
 
@@ -372,7 +372,7 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
     model = load_fmg_weights(Path(weights))
     cut = resolve_threshold(MaskConfig(), Path(weights))  # the mask stage's default cut
     comp = CompositeConfig(size=size)
-    bgs = _heldout_backgrounds(data, size, split)
+    bgs = _part_backgrounds(data, size, split)
     res = {"weights": str(weights), "count": count, "size": size, "seed": seed, "cut": cut,
            "split": split}
     rows = (("default", fl.FlareConfig(), comp, False),
@@ -426,7 +426,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                             "'without' in their metadata); train with --without KIND")
         held.append({**info_w, "model": load_fmg_weights(Path(w))})
     kinds = tuple(kinds or fl.KINDS)
-    bgs = _heldout_backgrounds(data, size, split)
+    bgs = _part_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
            "weights": {k: v for k, v in main.items() if k != "model"},
@@ -637,15 +637,12 @@ def calibrate(weights: Path, data: Path, count: int = 96, seed: int = 7, size: i
         CompositeConfig,
         CompositeSource,
         fixed_set,
-        load_backgrounds,
-        split_backgrounds,
     )
     from pipeline.mask import load_fmg_weights
 
     model = load_fmg_weights(Path(weights)).eval()
     comp = CompositeConfig(size=size, night_prob=0.25)
-    src = CompositeSource(load_backgrounds(split_backgrounds(Path(data)).dev,
-                                           comp.preload_side),
+    src = CompositeSource(_part_backgrounds(Path(data), size, "dev"),
                           fl.FlareConfig(), comp)
     imgs, masks = fixed_set(src, count, seed, extras=True)
     with torch.no_grad():
