@@ -210,15 +210,27 @@ def build_fmg(cfg: FMGConfig | None = None) -> PSPNet:
 
 # --------------------------------------------------------------------------- loss / metrics
 def fmg_loss(logits: torch.Tensor, target: torch.Tensor,
-             flare_weight: float = FLARE_WEIGHT) -> torch.Tensor:
-    """Class-weighted binary cross-entropy, averaged over all pixels.
+             flare_weight: float = FLARE_WEIGHT, dice: float = 0.0) -> torch.Tensor:
+    """Class-weighted binary cross-entropy, averaged over all pixels, plus ``dice`` x the
+    soft-Dice loss of the flare class.
 
     logits [B, 1, H, W]; target [B, 1, H, W] in {0, 1} (1 = flare). Each pixel's BCE is
-    multiplied by ``flare_weight`` where the target is flare and by 1 elsewhere.
+    multiplied by ``flare_weight`` where the target is flare and by 1 elsewhere. The Dice
+    term is ``1 - 2 sum(p t) / (sum(p) + sum(t) + 1)`` per composite with flare, averaged
+    over those: a composite's thin flare weighs as much as another's large flare (clean
+    composites are left to the BCE, whose Dice would be 1 whatever is marked).
     """
     target = target.to(logits.dtype)
     weight = 1.0 + (flare_weight - 1.0) * target
-    return F.binary_cross_entropy_with_logits(logits, target, weight=weight)
+    loss = F.binary_cross_entropy_with_logits(logits, target, weight=weight)
+    if dice:
+        p = torch.sigmoid(logits).flatten(1)
+        t = target.flatten(1)
+        has = t.sum(1) > 0
+        if has.any():
+            d = 1 - 2 * (p * t).sum(1) / (p.sum(1) + t.sum(1) + 1.0)
+            loss = loss + dice * d[has].mean()
+    return loss
 
 
 def confusion(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:

@@ -86,8 +86,9 @@ import colorsys
 import dataclasses
 import hashlib
 import json
+import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -412,6 +413,16 @@ class FlareConfig:
         """The probability of ``kind`` when it is one of several ``kinds``."""
         return self.scatter_prob if kind == "scatter" else getattr(self, kind).prob
 
+    def with_kind_probs(self, probs: dict[str, float]) -> FlareConfig:
+        """A copy in which each kind of ``probs`` is drawn with the given probability."""
+        out = replace(self)
+        for kind, p in probs.items():
+            if kind == "scatter":
+                out.scatter_prob = p
+            else:
+                setattr(out, kind, replace(getattr(self, kind), prob=p))
+        return out
+
     def bank_fields(self) -> dict:
         names = ("psf_size", "n_psfs", "n_wavelengths", "aperture_radius", "aperture_blades",
                  "dust_count", "dust_radius", "scratch_count", "scratch_width",
@@ -435,6 +446,27 @@ def check_kinds(kinds, option: str = "--kinds") -> tuple[str, ...]:
     if not kinds:
         raise UserError(f"{option} is empty: give one or more of {allowed}")
     return tuple(dict.fromkeys(kinds))
+
+
+def parse_kind_probs(items, option: str = "--kind-probs") -> dict[str, float]:
+    """('streaks=0.7', 'ghosts=0.6') or 'streaks=0.7,ghosts=0.6' -> {'streaks': 0.7, ...};
+    a one-line :class:`UserError` naming ``option`` for an unknown kind or a probability
+    outside [0, 1]."""
+    items = items.split(",") if isinstance(items, str) else items
+    out: dict[str, float] = {}
+    for item in (i.strip() for i in items):
+        if not item:
+            continue
+        kind, sep, value = item.partition("=")
+        try:
+            p = float(value)
+        except ValueError:
+            p = math.nan
+        if not sep or not 0 <= p <= 1:
+            raise UserError(f"{option} {item!r}: give KIND=P with P between 0 and 1, e.g. "
+                            "streaks=0.7")
+        out[check_kinds((kind.strip(),), option)[0]] = p
+    return out
 
 
 def parse_kinds(text: str, option: str = "--kinds") -> tuple[str, ...]:

@@ -365,14 +365,16 @@ def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
     return linear_to_srgb(lin).astype(np.float32)
 
 
-def training_flare(without: tuple[str, ...] = ()) -> fl.FlareConfig:
+def training_flare(without: tuple[str, ...] = (),
+                   kind_probs: dict[str, float] | None = None) -> fl.FlareConfig:
     """The flare of FMG training composites: default ``FlareConfig`` with every kind of
-    ``flare.KINDS`` except those in ``without`` (a leave-one-kind-out model)."""
+    ``flare.KINDS`` except those in ``without`` (a leave-one-kind-out model), each kind of
+    ``kind_probs`` drawn with the probability given there."""
     without = fl.check_kinds(without, "--without") if without else ()
     kinds = tuple(k for k in fl.KINDS if k not in without)
     if not kinds:
         raise UserError("--without leaves no kind of flare to train on")
-    return fl.FlareConfig(kinds=kinds)
+    return fl.FlareConfig(kinds=kinds).with_kind_probs(kind_probs or {})
 
 
 def darken_night(img: np.ndarray, cfg: CompositeConfig,

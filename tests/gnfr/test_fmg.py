@@ -65,6 +65,24 @@ def test_weighted_bce_matches_manual():
     assert lf.item() == pytest.approx(5 * ln.item())
 
 
+def test_dice_term_weighs_thin_flare_like_large_flare():
+    target = torch.zeros(2, 1, 16, 16)
+    target[0, :, 8, 2:14] = 1  # a thin line of 12 pixels
+    target[1, :, 2:14, 2:14] = 1  # a block of 144
+    logits = torch.full_like(target, -6.0)  # both missed entirely
+    bce = fmg_loss(logits, target)
+    with_dice = fmg_loss(logits, target, dice=1.0)
+    assert with_dice.item() == pytest.approx(bce.item() + 1.0, abs=0.02)  # Dice ~1 for each
+    # perfect on the block, missed on the thin line: Dice still charges about a half
+    logits[1] = torch.where(target[1] > 0, 6.0, -6.0)
+    extra = fmg_loss(logits, target, dice=1.0) - fmg_loss(logits, target)
+    assert extra.item() == pytest.approx(0.5, abs=0.02)
+    # clean composites add no Dice term (it would be a constant 1)
+    clean = torch.zeros(1, 1, 4, 4)
+    z = torch.zeros(1, 1, 4, 4)
+    assert fmg_loss(z, clean, dice=3.0).item() == pytest.approx(fmg_loss(z, clean).item())
+
+
 def test_seg_metrics_definitions():
     target = torch.tensor([0, 0, 0, 0, 1, 1, 1, 0])
     pred = torch.tensor([0, 0, 1, 0, 1, 1, 0, 0])

@@ -385,6 +385,23 @@ def test_unknown_kind_is_a_user_error():
     assert F.parse_kinds(" ghosts, glare,ghosts") == ("ghosts", "glare")
 
 
+def test_kind_probs_change_how_often_a_kind_is_drawn():
+    probs = F.parse_kind_probs("streaks=0.9, scatter=0.1")
+    assert probs == {"streaks": 0.9, "scatter": 0.1}
+    cfg = F.FlareConfig().with_kind_probs(probs)
+    assert cfg.kind_prob("streaks") == 0.9 and cfg.kind_prob("scatter") == 0.1
+    assert cfg.kind_prob("ghosts") == F.FlareConfig().kind_prob("ghosts")
+    assert F.FlareConfig().kind_prob("streaks") == 0.35  # the default is untouched
+    rng = np.random.default_rng(0)
+    drawn = [F._draw_kinds(cfg, rng) for _ in range(400)]
+    assert sum("streaks" in d for d in drawn) / 400 > 0.8
+    assert sum("scatter" in d for d in drawn) / 400 < 0.2
+    for bad, msg in (("streaks=1.5", "between 0 and 1"), ("streaks", "KIND=P"),
+                     ("sun=0.5", "unknown flare kind 'sun'")):
+        with pytest.raises(UserError, match=msg):
+            F.parse_kind_probs(bad)
+
+
 def test_summary_of_every_kind_is_json():
     import json
 

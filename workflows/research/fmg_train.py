@@ -82,6 +82,14 @@ class FMGTrainConfig:
         choices=("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"))
     """Kinds of hard negatives (bright non-flare content, ``pipeline.fmg_data.HARD_NEGATIVES``)
     painted onto training composites (comma-separated); recorded in the weights' metadata."""
+    kind_probs: tuple[str, ...] = ()
+    """KIND=P pairs (comma-separated, e.g. streaks=0.7,ghosts=0.7): draw these kinds of flare
+    with probability P instead of their ``FlareConfig`` default; recorded in the weights'
+    metadata."""
+    dice: float = option(0.0, ge=0)
+    """Weight of a soft-Dice term on the flare class added to the weighted BCE (0: BCE
+    only). Dice scores each composite's flare as a whole, so thin flare counts as much as
+    large flare."""
     init: Path | None = None
     """FMG weights to start from (same widths, depths and head width) when OUT has no
     checkpoint; the step count starts at 0 (the card adds the init's steps)."""
@@ -169,7 +177,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
 
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
-             negatives: tuple[str, ...] | None = None):
+             negatives: tuple[str, ...] | None = None,
+             kind_probs: dict[str, float] | None = None):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -183,7 +192,7 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
     if negatives is not None:
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
-                         training_flare(without), comp)
+                         training_flare(without, kind_probs), comp)
     va = _part_backgrounds(data, size, "dev")  # validation: the development part
     return tr, va, comp, (len(parts.train), len(parts.dev), len(parts.test))
 
@@ -279,10 +288,11 @@ def train(cfg: FMGTrainConfig) -> dict:
     import torch
 
     from gnfr.fmg import FMGConfig, build_fmg, fmg_loss, save_fmg
-    from pipeline.flare import check_kinds
+    from pipeline.flare import check_kinds, parse_kind_probs
     from pipeline.fmg_data import fixed_set
 
     validate(cfg)
+    kind_probs = parse_kind_probs(cfg.kind_probs)
     if cfg.without:  # each kind once, in the order given
         cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
     out = Path(cfg.out)
@@ -290,7 +300,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     dev = resolve_device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
-                                          tuple(cfg.without), tuple(cfg.negatives))
+                                          tuple(cfg.without), tuple(cfg.negatives),
+                                          kind_probs)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
@@ -314,7 +325,7 @@ def train(cfg: FMGTrainConfig) -> dict:
         x, y = src.batch(cfg.batch, rng)
         for g in opt.param_groups:
             g["lr"] = _lr(cfg, step)
-        loss = fmg_loss(model(x.to(dev)), y.to(dev))
+        loss = fmg_loss(model(x.to(dev)), y.to(dev), dice=cfg.dice)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -330,7 +341,9 @@ def train(cfg: FMGTrainConfig) -> dict:
         if step % cfg.ckpt_every == 0 or step == cfg.iters:
             save_checkpoint(out, model, opt, step)
     meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
-            "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds)}
+            "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds),
+            "kind_probs": json.dumps({k: src.flare_cfg.kind_prob(k)
+                                      for k in src.flare_cfg.kinds})}
     init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
     if cfg.init:
         meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
