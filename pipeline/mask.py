@@ -58,6 +58,10 @@ class MaskConfig:
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
+    rays: bool = False
+    """Also mark flare rays, starburst spikes and streaks running straight out of a
+    saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
+    FMG's mask."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -130,6 +134,34 @@ def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int) -> list[np.nd
     return list(probs[:, 0].cpu().numpy())
 
 
+def ray_marks(image_bgr: np.ndarray, work_size: int) -> np.ndarray:
+    """[H, W] bool flare rays (``pipeline.flare_rays.ray_mask``) of a BGR uint8 image, found
+    at long side ``work_size`` (never upscaled) and brought back to the image's size."""
+    from pipeline.flare_rays import ray_mask
+
+    h, w = image_bgr.shape[:2]
+    s = min(1.0, work_size / max(h, w))
+    small = image_bgr if s == 1.0 else cv2.resize(image_bgr, (max(1, round(w * s)),
+                                                             max(1, round(h * s))),
+                                                  interpolation=cv2.INTER_AREA)
+    marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0)
+    if s == 1.0:
+        return marks
+    return cv2.resize(marks.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
+
+
+def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
+                rays: bool = False, refine: bool = False,
+                probs: np.ndarray | None = None) -> np.ndarray:
+    """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
+    already computed) refined if asked, cut at ``cut``, with the flare rays if ``rays``."""
+    p = fmg_probs(model, [image_bgr], work_size)[0] if probs is None else probs
+    if refine:
+        p = refine_probs(image_bgr, p)
+    marks = p > cut
+    return marks | ray_marks(image_bgr, work_size) if rays else marks
+
+
 def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
     """Group stems of one image size into batches of at most n."""
     by_size: dict[tuple[int, int], list[str]] = {}
@@ -152,9 +184,8 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
             for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
                                  strict=True):
-                if config.refine:
-                    p = refine_probs(img, p)
-                write_mask(ws, s, p > config.threshold)
+                write_mask(ws, s, flare_marks(model, img, config.threshold, config.work_size,
+                                              config.rays, config.refine, probs=p))
 
 
 # --------------------------------------------------------------------------- given masks
@@ -263,5 +294,6 @@ def stage_seconds(ws: Workspace) -> float:
 
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
-           "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id"]
+           "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
+           "flare_marks", "ray_marks"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

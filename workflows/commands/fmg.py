@@ -44,11 +44,12 @@ def register(app: typer.Typer) -> None:
             typer.echo(fmg_train.format_work_sizes(metrics))
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
-                                                 split=config.split)
+                                                 split=config.split, rays=config.rays)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
-                                               size=config.size, split=config.split)
+                                               size=config.size, split=config.split,
+                                               rays=config.rays)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,
@@ -87,7 +88,8 @@ def register(app: typer.Typer) -> None:
         weights = config.weights or (DEFAULT_WEIGHTS,)
         for path in weights:
             load_fmg_weights(path)
-        marked = real_flare_overview(weights, config.photos, config.out, config.work_size)
+        marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
+                                     rays=config.rays)
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         typer.echo(f"wrote {config.out}")

@@ -130,6 +130,9 @@ class FMGEvalConfig:
     split: str = option("test", choices=("dev", "test"))
     """Which held-out photos the composites use: dev (the FMG's development photos: make
     choices here) or test (the test scenes and backgrounds: report only)."""
+    rays: bool = False
+    """Score the FMG's masks with the flare rays added (the mask stage's --rays), with
+    --per-kind or --clean."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -164,6 +167,8 @@ class FMGOverlayConfig:
     """The overview JPEG to write."""
     work_size: int = option(512, ge=32)
     """The network's working size (long side)."""
+    rays: bool = False
+    """Add the flare rays to each model's mask (the mask stage's --rays)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -171,6 +176,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
     ``clean``); else a one-line UserError."""
     if cfg.loo and not cfg.per_kind:
         raise UserError("--loo needs --per-kind")
+    if cfg.rays and not (cfg.per_kind or cfg.clean):
+        raise UserError("--rays needs --per-kind or --clean")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean")
     return cfg
@@ -198,9 +205,9 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
-          cut: float = 0.5) -> dict[str, float]:
+          cut: float = 0.5, rays: bool = False) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
-    flare where the probability exceeds ``cut``."""
+    flare where the probability exceeds ``cut`` (or, with ``rays``, on a flare ray)."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
@@ -214,8 +221,21 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             p = torch.sigmoid(model(x)).cpu()
             if refine:
                 p = _refine_batch(x.cpu(), p)
-            conf += confusion(p > cut, masks[i:i + batch] > 0.5)
+            marked = p > cut
+            if rays:
+                marked |= _ray_batch(x.cpu())
+            conf += confusion(marked, masks[i:i + batch] > 0.5)
     return seg_metrics(conf)
+
+
+def _ray_batch(x):
+    """[N, 1, S, S] bool flare rays of images [N, 3, S, S] (sRGB 0..1)."""
+    import torch
+
+    from pipeline.flare_rays import ray_mask
+
+    return torch.stack([torch.from_numpy(ray_mask(np.ascontiguousarray(
+        xi.permute(1, 2, 0).numpy())))[None] for xi in x])
 
 
 def _refine_batch(x, p):
@@ -419,13 +439,15 @@ def weights_info(path: Path) -> dict:
 
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
-                   kinds: tuple[str, ...] | None = None, split: str = "test") -> dict:
+                   kinds: tuple[str, ...] | None = None, split: str = "test",
+                   rays: bool = False) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
     night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
-    metadata ``without``). Each model is cut at its own calibrated threshold."""
+    metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
+    the flare rays are added to every model's mask."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -442,16 +464,16 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     bgs = _part_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
-           "weights": {k: v for k, v in main.items() if k != "model"},
+           "rays": rays, "weights": {k: v for k, v in main.items() if k != "model"},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
         imgs, masks = fixed_set(src, count, seed + i, extras=True)
         row = {"flare_pixels": round(float(masks.mean()), 4),
-               "weights": score(main["model"], imgs, masks, cut=main["cut"])}
+               "weights": score(main["model"], imgs, masks, cut=main["cut"], rays=rays)}
         for h in held:
             if kind in h["without"]:
-                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"]),
+                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], rays=rays),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
@@ -562,17 +584,19 @@ def format_work_sizes(res: dict) -> str:
 
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
-                    scenes: tuple[str, ...] | None = None, split: str = "test") -> dict:
-    """Fraction of pixels marked (at the weights' cut, network at ``work_size`` as in the
-    mask stage) on every clean photo of ``scenes`` at full size: mean and max per scene."""
-    from pipeline.mask import fmg_probs, load_fmg_weights
+                    scenes: tuple[str, ...] | None = None, split: str = "test",
+                    rays: bool = False) -> dict:
+    """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
+    added with ``rays``: as in the mask stage) on every clean photo of ``scenes`` at full
+    size: mean and max per scene."""
+    from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
-           "scenes": {}}
+           "rays": rays, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
-        marked = {name: float((fmg_probs(model, [im], work_size)[0] > cut).mean())
+        marked = {name: float(flare_marks(model, im, cut, work_size, rays).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
@@ -592,12 +616,13 @@ def format_clean(res: dict) -> str:
 
 
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
-                        work_size: int = 512, width: int = 480) -> dict:
-    """One JPEG: a row per photo, the photo then each model's mask (at its cut) outlined and
-    tinted red; returns the fraction of each photo each model marks."""
+                        work_size: int = 512, width: int = 480, rays: bool = False) -> dict:
+    """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
+    rays if ``rays``) outlined and tinted red; returns the fraction of each photo each model
+    marks."""
     import cv2
 
-    from pipeline.mask import fmg_probs, load_fmg_weights
+    from pipeline.mask import flare_marks, load_fmg_weights
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
@@ -606,7 +631,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         scale = width / img.shape[1]
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         for (cut, model), w in zip(models, weights, strict=True):
-            marked = fmg_probs(model, [img], work_size)[0] > cut
+            marked = flare_marks(model, img, cut, work_size, rays)
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
@@ -616,7 +641,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             cv2.putText(tile,
-                        f"{Path(w).parent.name or Path(w).stem}: {100 * marked.mean():.1f} %",
+                        f"{Path(w).parent.name or Path(w).stem}{' + rays' if rays else ''}: "
+                        f"{100 * marked.mean():.1f} %",
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
             tiles.append(tile)
         rows.append(np.hstack(tiles))

@@ -1,0 +1,219 @@
+"""Flare rays: starburst spikes and streaks found as light running straight out of a light.
+
+The FMG marks the glow around a light well but loses thin spikes and long streaks drawn
+differently from its training flare (gnfr/weights/fmg.md). Those two kinds share a geometry
+no scene has by chance: they leave the light source along straight lines. In polar
+coordinates about the light (rows = angle, columns = radius) a spike or streak is a row that
+stays brighter than its angular neighbourhood from the light outwards; scene structure and
+texture are not consistently brighter along one ray for long, and a round glow is as bright
+at every angle. The rule (``ray_mask``):
+
+1. **Lights**: connected regions of saturated pixels (any channel >= ``saturated``), no
+   larger than ``max_light`` of the image (the sky or a white wall is not a light); the
+   ``max_lights`` largest are kept.
+2. **Polar resampling** of linear-light luminance about each light's centre (``cv2.warpPolar``,
+   one column per pixel of radius, angles at about two pixels of arc at the far corner).
+3. **Background** at each angle and radius: the median over ``window`` degrees either side
+   (``samples`` angles): spikes and streaks, narrow in angle, drop out of it; a round glow
+   and the scene stay in.
+4. **Excess** over the background, in linear light, against the synthesizer's own mask rule:
+   ``excess > max(abs_threshold, rel_threshold x background)`` (``pipeline.flare``:
+   0.012 and 0.1).
+5. **Runs from the light**: along each angle, the pixels above the rule that connect to the
+   light (gaps up to ``gap`` of the diagonal closed; saturated pixels count as connected
+   but are not marked, being the light and its core); runs shorter than ``min_length`` of
+   the diagonal are dropped.
+6. Back to the image (inverse polar map), the union over lights.
+
+It marks nothing around a bare lamp or a specular highlight (no excess along a ray), and
+nothing on a photo without a saturated light. It does not find ghosts (discs away from the
+light) or veiling glare (round): those stay the FMG's. The mask stage adds it to the FMG's
+mask with ``--rays`` (docs/flare_kinds.md, "What the masks catch").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.colour import srgb_to_linear
+from pipeline.options import option
+
+LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
+"""Rec. 709 luminance weights (linear RGB)."""
+
+
+@dataclass
+class RayConfig:
+    """Parameters of the flare-ray rule (module docstring)."""
+
+    saturated: float = option(0.98, gt=0, le=1)
+    """sRGB level (0..1) from which a pixel counts as saturated (a light)."""
+    min_light: int = option(2, ge=1)
+    """Fewest saturated pixels of a light."""
+    max_light: float = option(0.003, gt=0, le=1)
+    """Largest light, as a fraction of the image (larger saturated regions are not lights)."""
+    compact: float = option(0.5, ge=0, le=1)
+    """Least share of its bounding box a light fills (a disc fills 0.79; the ragged saturated
+    patches of a sunlit wall fill less)."""
+    isolation: float = option(0.4, ge=0, le=1)
+    """Largest share of bright pixels (any channel >= 0.9) in the ring from 1 % to 4 % of
+    the diagonal around a light: a lamp or the sun stands alone; the saturated bits of
+    clouds, white walls and sunlit ground are surrounded by more of the same."""
+    max_lights: int = option(6, ge=1)
+    """Lights per image (the largest)."""
+    window: float = option(45.0, gt=0, le=90)
+    """Half-width (degrees) of the angular neighbourhood whose median is the background."""
+    quantile: float = option(0.5, gt=0, lt=1)
+    """Which quantile of the neighbourhood is the background (0.5: the median; lower stays
+    at the scene where several spikes share the neighbourhood)."""
+    samples: int = option(31, ge=3)
+    """Angles sampled across the neighbourhood for the median."""
+    abs_threshold: float = option(0.012, gt=0)
+    """Excess (linear luminance) above which a pixel may be flare."""
+    rel_threshold: float = option(0.1, ge=0)
+    """... and above this fraction of the background."""
+    flanks: tuple[float, ...] = option((0.01, 0.03, 0.08), gt=0)
+    """Distances (fraction of the diagonal, across the ray) at which both sides of a ray
+    pixel must be darker by the rule, at one distance at least: a spike or streak is a
+    ridge, a radial scene edge a step (one side as bright)."""
+    run_window: float = option(0.02, ge=0)
+    """Length (fraction of the diagonal) of the window along a ray over which ...
+    ``density`` of the pixels must pass the rule for a run to go on."""
+    slack: float = option(0.0, ge=0)
+    """Distance from the light (fraction of the diagonal) within which a run may begin
+    (near the light broad streaks and the glow leave no ray narrow enough to see)."""
+    density: float = option(0.6, gt=0, le=1)
+    """... at least this share (texture passes the rule here and there, a spike all along)."""
+    min_length: float = option(0.05, gt=0)
+    """Shortest run kept, fraction of the image diagonal."""
+
+
+def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
+    """(x, y, radius) of the lights of sRGB ``img`` [H, W, 3] float 0..1: saturated regions
+    of ``min_light`` pixels up to ``max_light`` of the image, largest first."""
+    sat = (img.max(-1) >= cfg.saturated).astype(np.uint8)
+    n, _, stats, cents = cv2.connectedComponentsWithStats(sat, connectivity=8)
+    area_max = cfg.max_light * sat.size
+    area = stats[:, cv2.CC_STAT_AREA]
+    box = stats[:, cv2.CC_STAT_WIDTH] * stats[:, cv2.CC_STAT_HEIGHT]
+    lights = [(int(area[i]), i) for i in range(1, n)
+              if cfg.min_light <= area[i] <= area_max and area[i] >= cfg.compact * box[i]]
+    lights.sort(reverse=True)
+    bright = img.max(-1) >= 0.9
+    h, w = sat.shape
+    diag = float(np.hypot(h, w))
+    yy, xx = np.mgrid[0:h, 0:w]
+    out = []
+    for a, i in lights:
+        x, y = cents[i]
+        rad = float(np.sqrt(a / np.pi))
+        d = np.hypot(xx - x, yy - y)
+        ring = (d >= rad + 0.01 * diag) & (d <= rad + 0.04 * diag)
+        if ring.any() and bright[ring].mean() > cfg.isolation:
+            continue
+        out.append((float(x), float(y), rad))
+        if len(out) == cfg.max_lights:
+            break
+    return out
+
+
+def _angular_median(p: np.ndarray, window: float, samples: int, bins: int = 240,
+                    quantile: float = 0.5) -> np.ndarray:
+    """Median over ``samples`` angles within +-``window`` degrees of each row of the polar
+    image ``p`` [A, R] (rows = angles over 360 degrees, wrapping), computed on ``bins``
+    angles (area-averaged) and interpolated back to A rows. NaN (outside the image) is left
+    out of the median."""
+    a = p.shape[0]
+    valid = np.isfinite(p)
+    coarse = cv2.resize(np.where(valid, p, 0).astype(np.float32), (p.shape[1], bins),
+                        interpolation=cv2.INTER_AREA)
+    cover = cv2.resize(valid.astype(np.float32), (p.shape[1], bins),
+                       interpolation=cv2.INTER_AREA)
+    coarse = np.where(cover > 0.5, coarse / np.maximum(cover, 1e-6), np.nan)
+    offs = np.round(np.linspace(-window, window, samples) / 360.0 * bins).astype(int)
+    stack = np.sort(np.stack([np.roll(coarse, -o, axis=0) for o in offs], 0), axis=0)
+    n = np.isfinite(stack).sum(0)  # NaN sorts last
+    k = np.clip(np.round(quantile * (n - 1)), 0, None).astype(int)[None]
+    med = np.take_along_axis(stack, k, 0)[0]
+    med = np.where((n > 0) & np.isfinite(med), med, 0.0).astype(np.float32)
+    ext = np.concatenate([med[-1:], med, med[:1]], 0)  # wrap for the interpolation
+    rows = (np.arange(a) + 0.5) * bins / a - 0.5 + 1  # row centres in ``ext`` coordinates
+    i0 = np.clip(np.floor(rows).astype(int), 0, bins)
+    t = (rows - i0)[:, None].astype(np.float32)
+    return ext[i0] * (1 - t) + ext[i0 + 1] * t
+
+
+def _ridge(pol: np.ndarray, thresh: np.ndarray, dist: float, na: int,
+           rmax: float) -> np.ndarray:
+    """[A, R] bool: pixels of the polar image ``pol`` brighter by ``thresh`` than both
+    pixels ``dist`` pixels away across the ray (at their radius), on either side."""
+    a, r = pol.shape
+    radius = (np.arange(r) + 0.5) * rmax / r
+    shift = np.clip(np.round(dist / np.maximum(radius, 1e-6) / (2 * np.pi) * na), 1, a // 4)
+    rows = np.arange(a)[:, None]
+    cols = np.arange(r)[None, :]
+    s = shift.astype(int)[None, :]
+    side = np.maximum(pol[(rows - s) % a, cols], pol[(rows + s) % a, cols])
+    return pol - side > thresh
+
+
+def _runs_from_light(on: np.ndarray, linked: np.ndarray, start: int, window: int,
+                     density: float, min_len: int, slack: int = 0) -> np.ndarray:
+    """[A, R] bool: per row, the ``on`` pixels of the run that starts at column ``start``
+    and goes on while at least ``density`` of the ``window`` columns centred on each column
+    are ``on`` or ``linked`` (``linked`` pixels alone also continue it); runs shorter than
+    ``min_len`` columns are dropped."""
+    a, r = on.shape
+    both = (on | linked).astype(np.float32)
+    if window > 1:
+        dense = cv2.blur(both, (window, 1), borderType=cv2.BORDER_REPLICATE) >= density
+    else:
+        dense = both > 0
+    cont = dense | linked
+    cont[:, :start + slack] = True  # inside the light, and where a run may begin
+    cols = np.arange(r)[None, :]
+    stop = np.where(~cont, cols, r).min(1)  # first column that breaks the run
+    run = (cols >= start) & (cols < stop[:, None]) & ((stop - start) >= min_len)[:, None]
+    return run & on
+
+
+def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
+    """[H, W] bool: pixels of flare rays (spikes, streaks) of sRGB ``img`` [H, W, 3] float
+    0..1 (see the module docstring)."""
+    cfg = cfg or RayConfig()
+    h, w = img.shape[:2]
+    out = np.zeros((h, w), bool)
+    lights = find_lights(img, cfg)
+    if not lights:
+        return out
+    lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32) @ LUMA).astype(np.float32)
+    sat = (img.max(-1) >= cfg.saturated).astype(np.float32)
+    ones = np.ones((h, w), np.float32)
+    diag = float(np.hypot(h, w))
+    for x, y, rad in lights:
+        rmax = float(max(np.hypot(cx - x, cy - y) for cx in (0, w) for cy in (0, h)))
+        nr = max(8, int(np.ceil(rmax)))
+        na = int(np.clip(np.pi * rmax, 360, 2048))
+        flags = cv2.WARP_POLAR_LINEAR | cv2.INTER_LINEAR | cv2.WARP_FILL_OUTLIERS
+        pol = cv2.warpPolar(lum, (nr, na), (x, y), rmax, flags)
+        inside = cv2.warpPolar(ones, (nr, na), (x, y), rmax, flags) > 0.99
+        psat = cv2.warpPolar(sat, (nr, na), (x, y), rmax, flags) > 0.5
+        p = np.where(inside, pol, np.nan).astype(np.float32)
+        bg = _angular_median(p, cfg.window, cfg.samples, quantile=cfg.quantile)
+        excess = np.where(inside, pol - bg, 0.0)
+        thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * bg)
+        ridge = np.zeros_like(inside)
+        for d in cfg.flanks:
+            ridge |= _ridge(pol, thresh, d * diag, na, rmax)
+        on = (excess > thresh) & ridge & inside & ~psat
+        start = int(np.ceil(rad)) + 1
+        run = _runs_from_light(on, psat, start, max(1, int(round(cfg.run_window * diag))),
+                               cfg.density, max(1, int(round(cfg.min_length * diag))),
+                               int(round(cfg.slack * diag)))
+        back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
+                             flags | cv2.WARP_INVERSE_MAP)
+        out |= back > 0.5
+    return out
