@@ -87,6 +87,9 @@ class RayConfig:
     (near the light broad streaks and the glow leave no ray narrow enough to see)."""
     density: float = option(0.6, gt=0, le=1)
     """... at least this share (texture passes the rule here and there, a spike all along)."""
+    fade: float = option(1.5, ge=0)
+    """Least ratio of a run's mean excess over its first half to its second half (0: no
+    test): the light of a spike or streak fades away from the lamp."""
     min_length: float = option(0.05, gt=0)
     """Shortest run kept, fraction of the image diagonal."""
 
@@ -177,7 +180,22 @@ def _runs_from_light(on: np.ndarray, linked: np.ndarray, start: int, window: int
     cols = np.arange(r)[None, :]
     stop = np.where(~cont, cols, r).min(1)  # first column that breaks the run
     run = (cols >= start) & (cols < stop[:, None]) & ((stop - start) >= min_len)[:, None]
-    return run & on
+    return run & on, stop
+
+
+def _fading(run: np.ndarray, excess: np.ndarray, start: int, stop: np.ndarray,
+            ratio: float) -> np.ndarray:
+    """[A] bool: rows whose run is brighter over the excess in its first half than in its
+    second by ``ratio``: light from the lamp fades along a spike or streak; a cloud or a wall
+    that happens to lie along the ray does not."""
+    e = np.where(run, excess, 0.0)
+    c = np.concatenate([np.zeros((e.shape[0], 1)), np.cumsum(e, 1)], 1)
+    n = np.concatenate([np.zeros((e.shape[0], 1)), np.cumsum(run, 1)], 1)
+    rows = np.arange(e.shape[0])
+    half = (start + stop) // 2
+    first = (c[rows, half] - c[rows, start]) / np.maximum(n[rows, half] - n[rows, start], 1)
+    second = (c[rows, stop] - c[rows, half]) / np.maximum(n[rows, stop] - n[rows, half], 1)
+    return first >= ratio * second
 
 
 def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
@@ -210,9 +228,12 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
             ridge |= _ridge(pol, thresh, d * diag, na, rmax)
         on = (excess > thresh) & ridge & inside & ~psat
         start = int(np.ceil(rad)) + 1
-        run = _runs_from_light(on, psat, start, max(1, int(round(cfg.run_window * diag))),
-                               cfg.density, max(1, int(round(cfg.min_length * diag))),
-                               int(round(cfg.slack * diag)))
+        run, stop = _runs_from_light(on, psat, start,
+                                     max(1, int(round(cfg.run_window * diag))), cfg.density,
+                                     max(1, int(round(cfg.min_length * diag))),
+                                     int(round(cfg.slack * diag)))
+        if cfg.fade > 0:
+            run &= _fading(run, excess, min(start, nr), np.maximum(stop, start), cfg.fade)[:, None]
         back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
                              flags | cv2.WARP_INVERSE_MAP)
         out |= back > 0.5

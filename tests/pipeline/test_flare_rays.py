@@ -1,0 +1,143 @@
+"""Flare rays (pipeline/flare_rays.py): spikes and streaks out of a light, nothing else."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.colour import linear_to_srgb, srgb_to_linear
+from pipeline.flare_rays import RayConfig, find_lights, ray_mask
+
+S = 256
+C = (100.0, 120.0)  # the light, off-centre
+
+
+def _scene(seed: int = 0) -> np.ndarray:
+    """A dusk scene in linear light: smooth gradient plus fine texture, no light."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:S, 0:S].astype(np.float32)
+    base = 0.02 + 0.03 * yy / S
+    tex = 0.01 * rng.random((S, S)).astype(np.float32)
+    return np.repeat((base + tex)[..., None], 3, -1)
+
+
+def _polar():
+    yy, xx = np.mgrid[0:S, 0:S].astype(np.float32)
+    dx, dy = xx - C[0], yy - C[1]
+    return np.hypot(dx, dy), np.arctan2(dy, dx)
+
+
+def _core(lin: np.ndarray, radius: float = 3.0) -> np.ndarray:
+    r, _ = _polar()
+    lin[r <= radius] = 4.0
+    return lin
+
+
+def _spikes(n: int = 8, length: float = 150.0, width: float = 1.2, amp: float = 0.4):
+    """[S, S] linear light of ``n`` thin spikes from the light, fading along them, and the
+    pixels where they add more than 0.05 (clearly visible)."""
+    r, th = _polar()
+    light = np.zeros((S, S), np.float32)
+    for k in range(n):
+        a = 2 * np.pi * k / n + 0.1
+        along = r * np.cos(th - a)
+        across = r * np.sin(th - a)
+        fall = np.clip(1 - along / length, 0, 1) ** 2 * (along > 0)
+        light += amp * fall * np.exp(-0.5 * (across / width) ** 2)
+    return light, (light > 0.05) & (r > 5)
+
+
+def _srgb(lin: np.ndarray) -> np.ndarray:
+    return np.clip(linear_to_srgb(np.clip(lin, 0, None)), 0, 1).astype(np.float32)
+
+
+def test_spikes_out_of_a_light_are_marked_and_little_else():
+    light, visible = _spikes()
+    img = _srgb(_core(_scene() + light[..., None]))
+    marked = ray_mask(img)
+    recall = (marked & visible).sum() / visible.sum()
+    near = np.zeros_like(visible)
+    near[:, :] = light > 0.003  # within the spikes' faint tails
+    precision = (marked & near).sum() / max(marked.sum(), 1)
+    assert recall > 0.6, recall
+    assert precision > 0.9, precision
+
+
+def test_a_bare_lamp_and_its_round_glow_are_not_rays():
+    r, _ = _polar()
+    glow = 0.5 * (1 + (r / 12.0) ** 2) ** -2  # a glow as bright at every angle
+    img = _srgb(_core(_scene() + glow[..., None]))
+    assert len(find_lights(img, RayConfig())) == 1
+    assert ray_mask(img).mean() < 1e-3
+
+
+def test_no_saturated_light_no_rays():
+    light, _ = _spikes()
+    img = _srgb(_scene() + 0.3 * light[..., None])  # spikes, but no light to leave
+    assert find_lights(img, RayConfig()) == []
+    assert not ray_mask(img).any()
+
+
+def test_a_bright_edge_along_a_ray_is_a_step_not_a_ridge():
+    """A sunlit wall whose edge runs straight away from the light: one side of the edge is
+    as bright as the ray, so it is no spike."""
+    _, th = _polar()
+    lin = _scene()
+    wedge = (th > 0.3) & (th < 1.9)
+    lin[wedge] += 0.25
+    img = _srgb(_core(lin))
+    assert ray_mask(img).mean() < 2e-3
+
+
+def test_large_saturated_areas_are_not_lights():
+    lin = _scene()
+    lin[:60] = 3.0  # a blown-out sky: 23 % of the image
+    img = _srgb(lin)
+    assert find_lights(img, RayConfig()) == []
+    assert find_lights(img, RayConfig(max_light=0.5)) != []  # it is saturated
+
+
+def test_bad_polar_input_never_leaks_garbage():
+    """A light in the corner: most of the polar image lies outside the photo."""
+    lin = _scene()
+    lin[:4, :4] = 4.0
+    marked = ray_mask(_srgb(lin))
+    assert marked.shape == (S, S) and marked.mean() < 1e-3
+
+
+@pytest.mark.parametrize("fade, kept", [(0.0, True), (1.5, False)])
+def test_fade_test_drops_rays_that_do_not_fade(fade, kept):
+    """A bright band whose light grows away from the light (a cloud lying along the ray)
+    passes the ridge rule but not the fade test."""
+    r, th = _polar()
+    band = 0.3 * np.exp(-0.5 * ((r * np.sin(th - 0.1)) / 5.0) ** 2) * (np.cos(th - 0.1) > 0)
+    band *= 0.4 + 0.6 * np.clip(r / 150.0, 0, 1)
+    img = _srgb(_core(_scene() + band[..., None]))
+    marked = ray_mask(img, RayConfig(fade=fade))
+    assert (marked.sum() > 50) == kept
+
+
+def test_linear_round_trip_used_by_the_fixtures():
+    x = np.linspace(0, 1, 11, dtype=np.float32)
+    assert np.allclose(srgb_to_linear(linear_to_srgb(x)), x, atol=1e-4)
+
+
+def test_mask_stage_adds_rays_to_the_fmg_mask_at_working_size():
+    import cv2
+
+    from pipeline.mask import flare_marks, ray_marks
+
+    light, visible = _spikes()
+    img = _srgb(_core(_scene() + light[..., None]))
+    bgr = (img[..., ::-1] * 255 + 0.5).astype(np.uint8)
+    big = cv2.resize(bgr, (2 * S, 2 * S), interpolation=cv2.INTER_NEAREST)  # exact 2x
+    probs = np.zeros((2 * S, 2 * S), np.float32)
+    probs[:20, :20] = 0.9  # what the FMG marked
+    rays = ray_marks(big, work_size=S)  # found at 256, brought back to 512
+    assert rays.shape == (2 * S, 2 * S)
+    up = cv2.resize(visible.astype(np.uint8), (2 * S, 2 * S),
+                    interpolation=cv2.INTER_NEAREST) > 0
+    assert (rays & up).sum() / up.sum() > 0.5
+    plain = flare_marks(None, big, 0.5, S, rays=False, probs=probs)
+    both = flare_marks(None, big, 0.5, S, rays=True, probs=probs)
+    assert plain.sum() == 400 and np.array_equal(both, plain | rays)
