@@ -9,26 +9,32 @@ texture are not consistently brighter along one ray for long, and a round glow i
 at every angle. The rule (``ray_mask``):
 
 1. **Lights**: connected regions of saturated pixels (any channel >= ``saturated``), no
-   larger than ``max_light`` of the image (the sky or a white wall is not a light); the
+   larger than ``max_light`` of the image and filling at least ``compact`` of their bounding
+   box (the sky, a white wall, a ragged sunlit patch are not lights), with few bright pixels
+   around them (``isolation``: a bit of a white cloud is surrounded by more cloud); the
    ``max_lights`` largest are kept.
 2. **Polar resampling** of linear-light luminance about each light's centre (``cv2.warpPolar``,
-   one column per pixel of radius, angles at about two pixels of arc at the far corner).
-3. **Background** at each angle and radius: the median over ``window`` degrees either side
-   (``samples`` angles): spikes and streaks, narrow in angle, drop out of it; a round glow
-   and the scene stay in.
-4. **Excess** over the background, in linear light, against the synthesizer's own mask rule:
-   ``excess > max(abs_threshold, rel_threshold x background)`` (``pipeline.flare``:
-   0.012 and 0.1).
-5. **Runs from the light**: along each angle, the pixels above the rule that connect to the
-   light (gaps up to ``gap`` of the diagonal closed; saturated pixels count as connected
-   but are not marked, being the light and its core); runs shorter than ``min_length`` of
-   the diagonal are dropped.
+   one column per pixel of radius, about two pixels of arc per row at the far corner).
+3. **Background** at each angle and radius: the ``quantile`` (0.3) of ``samples`` angles
+   within ``window`` degrees either side: spikes and streaks, narrow in angle, drop out of
+   it; a round glow and the scene stay in.
+4. **The rule**: a pixel may be flare where its excess over the background, in linear light,
+   passes the synthesizer's own mask rule, ``excess > max(abs_threshold, rel_threshold x
+   background)`` (``pipeline.flare``: 0.012 and 0.1), and it is a **ridge**: brighter by the
+   same amount than both pixels at one of the ``flanks`` distances either side across the
+   ray (a radial scene edge is a step: one side is as bright).
+5. **Runs from the light**: along each angle, the run starting at the light goes on while
+   ``density`` of a ``run_window`` window passes the rule (saturated pixels, the light and
+   its core, continue a run but are not marked); runs shorter than ``min_length`` of the
+   diagonal are dropped, and so are runs that do not **fade**: the mean excess over the
+   first half must be ``fade`` times that over the second (a cloud or a wall lying along
+   the ray is as bright far from the light as near it).
 6. Back to the image (inverse polar map), the union over lights.
 
 It marks nothing around a bare lamp or a specular highlight (no excess along a ray), and
 nothing on a photo without a saturated light. It does not find ghosts (discs away from the
 light) or veiling glare (round): those stay the FMG's. The mask stage adds it to the FMG's
-mask with ``--rays`` (docs/flare_kinds.md, "What the masks catch").
+mask (``mask --rays``, the default; gnfr/weights/fmg.md, "Flare rays", has its scores).
 """
 
 from __future__ import annotations
@@ -66,7 +72,7 @@ class RayConfig:
     """Lights per image (the largest)."""
     window: float = option(45.0, gt=0, le=90)
     """Half-width (degrees) of the angular neighbourhood whose median is the background."""
-    quantile: float = option(0.5, gt=0, lt=1)
+    quantile: float = option(0.3, gt=0, lt=1)
     """Which quantile of the neighbourhood is the background (0.5: the median; lower stays
     at the scene where several spikes share the neighbourhood)."""
     samples: int = option(31, ge=3)

@@ -58,10 +58,10 @@ class MaskConfig:
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
-    rays: bool = False
+    rays: bool = True
     """Also mark flare rays, starburst spikes and streaks running straight out of a
     saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
-    FMG's mask."""
+    FMG's mask (gnfr/weights/fmg.md, "Flare rays")."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
