@@ -85,6 +85,14 @@ CHECKS = [
       for run in ("shipped", "s3_all_negatives", "s3_no_neon")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")
       for m in ("IoU_flare", "mIoU", "mAcc")],
+    *[("gnfr/weights/fmg.md", f"fmg_{part}_per_kind_{run}.json", f"kinds/{kind}/weights/IoU_flare",
+       "{:.3f}")
+      for part, runs in (("dev", ("s4_kind_share", "s4_dice", "w2400_rays", "s4_dice_rays")),
+                         ("test", ("w2400", "w2400_rays", "s4_dice", "s4_dice_rays")))
+      for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
     *[("docs/presets.md", f"finetune_ab_random_sources_dev_{scene}.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("base", "random_sources-true")
@@ -106,6 +114,21 @@ def test_readme_render_times_match(name):
     for fill in ("network", "hybrid"):
         r = _fill(name, fill)
         assert f"{r['s_per_frame']:.1f}" in text, (name, fill, r)
+
+
+FMG_CLEAN = [(f"fmg_{part}_clean_{run}.json", scene)
+             for part, scenes, runs in (
+                 ("dev", ("scenes/lund/images",), ("s4_dice", "w2400_rays", "s4_dice_rays")),
+                 ("test", ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus"),
+                  ("w2400", "w2400_rays", "s4_dice", "s4_dice_rays")))
+             for run in runs for scene in scenes]
+
+
+@pytest.mark.parametrize("file, scene", FMG_CLEAN, ids=[f"{f}:{s}" for f, s in FMG_CLEAN])
+def test_fmg_card_quotes_clean_fractions(file, scene):
+    r = json.loads((RESULTS / file).read_text())["scenes"][scene]
+    cell = f"{100 * r['mean']:.2f} % / {100 * r['max']:.2f} %"
+    assert cell in (REPO / "gnfr/weights/fmg.md").read_text(), (file, scene, cell)
 
 
 def test_every_result_file_is_quoted_or_listed():
