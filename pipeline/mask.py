@@ -58,10 +58,12 @@ class MaskConfig:
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
-    rays: bool = True
+    rays: bool = False
     """Also mark flare rays, starburst spikes and streaks running straight out of a
     saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
-    FMG's mask (gnfr/weights/fmg.md, "Flare rays")."""
+    FMG's mask. Off by default: it helps on night photos with lamp streaks and on the
+    FMG's development composites, but marked more of a daylight development scene than it
+    found there (gnfr/weights/fmg.md, "Fourth session")."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)

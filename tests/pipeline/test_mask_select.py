@@ -252,9 +252,9 @@ def test_mask_stage_refine_option(kermit_ws, tiny_weights):
                  "--threshold", "0.4"]) == 0
     rec = ws.stage_record("mask")
     assert rec["params"]["refine"] is True and rec["params"]["threshold"] == 0.4
-    assert rec["params"]["rays"] is True  # the default
+    assert rec["params"]["rays"] is False  # the default
     assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--refine",
-                 "--threshold", "0.4", "--no-rays"]) == 0  # a new option redoes the masks
-    assert ws.stage_record("mask")["params"]["rays"] is False
+                 "--threshold", "0.4", "--rays"]) == 0  # a new option redoes the masks
+    assert ws.stage_record("mask")["params"]["rays"] is True
     assert ws.stage_record("mask")["started"] != rec["started"]
     assert json.loads(ws.flare_json.read_text())["threshold"] == 0.4
