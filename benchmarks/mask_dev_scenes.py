@@ -1,0 +1,74 @@
+"""Benchmark of flare masks on real multi-view scenes with synthetic flare and true masks.
+
+The FMG's own scores use single composites; this scores what the mask stage would write on
+the photos of `deflare-scene synth` folders (their `photos/` and `masks_gt/`), for several
+FMG weight files, with and without the flare rays (`mask --rays`): flare IoU and the share
+of pixels marked outside the true flare. Use development scenes to choose.
+
+    python benchmarks/mask_dev_scenes.py SYNTH [SYNTH ...] --weights A.safetensors \
+        --weights B.safetensors --out docs/results/mask_dev_scenes.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512) -> dict:
+    """Pooled flare IoU and marked-outside-truth share over the views of one synth folder."""
+    import cv2
+
+    from pipeline.images import list_photos
+    from pipeline.mask import flare_marks
+
+    inter = union = outside = pixels = truth = views = 0
+    for photo in list_photos(synth / "photos"):
+        gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
+        if gt_path is None:
+            continue
+        img = cv2.imread(str(photo))
+        gt = cv2.imread(str(gt_path), cv2.IMREAD_GRAYSCALE) > 127
+        m = flare_marks(model, img, cut, work_size, rays)
+        inter += int((m & gt).sum())
+        union += int((m | gt).sum())
+        outside += int((m & ~gt).sum())
+        pixels += gt.size
+        truth += int(gt.sum())
+        views += 1
+    return {"views": views, "flare_iou": inter / max(union, 1),
+            "marked_outside": outside / max(pixels, 1), "truth_share": truth / max(pixels, 1)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenes", type=Path, nargs="+")
+    ap.add_argument("--weights", type=Path, action="append", required=True)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
+    from pipeline.provenance import sha256, write_result
+
+    rows = []
+    for w in a.weights:
+        model = load_fmg_weights(w)
+        cut = resolve_threshold(MaskConfig(), w)
+        for rays in (False, True):
+            for scene in a.scenes:
+                r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
+                     "scene": scene.name, **score_scene(model, cut, scene, rays)}
+                rows.append(r)
+                print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
+                      f"{r['flare_iou']:.3f}, marked outside the flare "
+                      f"{100 * r['marked_outside']:.2f} % (truth {100 * r['truth_share']:.2f} %)",
+                      flush=True)
+    write_result(a.out, {"rows": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
