@@ -90,6 +90,10 @@ CHECKS = [
       for part, runs in (("dev", ("s4_kind_share", "s4_dice", "w2400_rays", "s4_dice_rays")),
                          ("test", ("w2400", "w2400_rays", "s4_dice", "s4_dice_rays")))
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("gnfr/weights/fmg.md", "mask_dev_scenes.json", f"rows/{i}/flare_iou", "{:.3f}")
+      for i in range(8)],
+    *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
+       "{:.2f}") for m in ("psnr", "psnr_flare")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
