@@ -30,10 +30,16 @@ def _fill(name: str, fill: str) -> dict:
 FERN = "fern_llff_quick_cpu.json"  # the 11 750-step weights (flare protocol, old rows)
 FERN2 = "fern_llff_quick_cpu_w27250.json"  # the 27 250-step weights (clean)
 FERN18 = "fern_llff_quick_cpu_w18500.json"  # the 18 500-step weights (clean)
-FERN3 = "fern_llff_quick_cpu_w32500.json"  # the shipped 32 500-step weights (clean)
+FERN3 = "fern_llff_quick_cpu_w32500.json"  # the 32 500-step weights (clean)
+FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (clean)
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("README.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
     ("README.md", FERN3, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
