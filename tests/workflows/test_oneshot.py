@@ -111,10 +111,10 @@ def test_default_path_removes_the_flare_on_the_sample(tmp_path, capsys):
     against the sample's clean truth inside the true flare region. Flare adds light: the
     flared photos are brighter than the truth there (about +32 of 255 on average). The
     de-flared photos must remove most of that excess (a fill that leaves the flare in keeps
-    it all) without losing more than 1 dB of PSNR against the flared photos (a grey, black
-    or misplaced fill loses several). At this budget the fill does not yet beat the flared
-    photos' PSNR (measured: +0.1 dB on average, -1.6 to +2.4 per view); at 504 px and 3000
-    steps it does (README)."""
+    it all) and beat the flared photos' PSNR there on average by 0.3 dB (a fill that leaves
+    the flare scores 0, a grey, black or misplaced one loses several dB). Measured with the
+    42 250-step weights: +0.91 dB on average (-2.3 to +3.6 per view; older weights gave
+    +0.1); at 504 px and 3000 steps +1.6 (README)."""
     ws = tmp_path / "cyprus.deflare"
     args = ["--max-size", "200", "--preset", "quick", "--iters", "150", "--frames", "4",
             "--fps", "4", "--device", "cpu", "--set", "pose.num_threads=1"]
@@ -141,7 +141,7 @@ def test_default_path_removes_the_flare_on_the_sample(tmp_path, capsys):
     assert len(gains) >= 4
     assert np.mean(excess_in) > 15  # the sample's flare is there to remove
     assert np.mean(excess_out) < 0.65 * np.mean(excess_in), (excess_out, excess_in)
-    assert np.mean(gains) > -1.0, f"flare-region PSNR gain over the flared photos {gains}"
+    assert np.mean(gains) > 0.3, f"flare-region PSNR gain over the flared photos {gains}"
     facts = _video_facts(ws / "cyprus.mp4")
     assert facts["codec"] == "h264" and facts["pix_fmt"] == "yuv420p" and facts["faststart"]
     assert facts["size"][0] % 2 == 0 and facts["size"][1] % 2 == 0
