@@ -71,12 +71,13 @@ class RayConfig:
     max_lights: int = option(6, ge=1)
     """Lights per image (the largest)."""
     window: float = option(45.0, gt=0, le=90)
-    """Half-width (degrees) of the angular neighbourhood whose median is the background."""
+    """Half-width (degrees) of the angular neighbourhood whose ``quantile`` is the
+    background."""
     quantile: float = option(0.3, gt=0, lt=1)
     """Which quantile of the neighbourhood is the background (0.5: the median; lower stays
     at the scene where several spikes share the neighbourhood)."""
     samples: int = option(31, ge=3)
-    """Angles sampled across the neighbourhood for the median."""
+    """Angles sampled across the neighbourhood for the background."""
     abs_threshold: float = option(0.012, gt=0)
     """Excess (linear luminance) above which a pixel may be flare."""
     rel_threshold: float = option(0.1, ge=0)
@@ -102,7 +103,8 @@ class RayConfig:
 
 def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
     """(x, y, radius) of the lights of sRGB ``img`` [H, W, 3] float 0..1: saturated regions
-    of ``min_light`` pixels up to ``max_light`` of the image, largest first."""
+    of ``min_light`` pixels up to ``max_light`` of the image, ``compact`` and isolated
+    (``isolation``), largest first (at most ``max_lights``)."""
     sat = (img.max(-1) >= cfg.saturated).astype(np.uint8)
     n, _, stats, cents = cv2.connectedComponentsWithStats(sat, connectivity=8)
     area_max = cfg.max_light * sat.size
@@ -114,14 +116,17 @@ def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, flo
     bright = img.max(-1) >= 0.9
     h, w = sat.shape
     diag = float(np.hypot(h, w))
-    yy, xx = np.mgrid[0:h, 0:w]
     out = []
     for a, i in lights:
         x, y = cents[i]
         rad = float(np.sqrt(a / np.pi))
+        r_out = rad + 0.04 * diag  # the ring, looked at in its own window only
+        x0, x1 = max(0, int(x - r_out)), min(w, int(x + r_out) + 2)
+        y0, y1 = max(0, int(y - r_out)), min(h, int(y + r_out) + 2)
+        yy, xx = np.mgrid[y0:y1, x0:x1]
         d = np.hypot(xx - x, yy - y)
-        ring = (d >= rad + 0.01 * diag) & (d <= rad + 0.04 * diag)
-        if ring.any() and bright[ring].mean() > cfg.isolation:
+        ring = (d >= rad + 0.01 * diag) & (d <= r_out)
+        if ring.any() and bright[y0:y1, x0:x1][ring].mean() > cfg.isolation:
             continue
         out.append((float(x), float(y), rad))
         if len(out) == cfg.max_lights:
@@ -129,12 +134,12 @@ def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, flo
     return out
 
 
-def _angular_median(p: np.ndarray, window: float, samples: int, bins: int = 240,
-                    quantile: float = 0.5) -> np.ndarray:
-    """Median over ``samples`` angles within +-``window`` degrees of each row of the polar
-    image ``p`` [A, R] (rows = angles over 360 degrees, wrapping), computed on ``bins``
-    angles (area-averaged) and interpolated back to A rows. NaN (outside the image) is left
-    out of the median."""
+def _angular_quantile(p: np.ndarray, window: float, samples: int, bins: int = 240,
+                      quantile: float = 0.5) -> np.ndarray:
+    """The ``quantile`` of ``samples`` angles within +-``window`` degrees of each row of
+    the polar image ``p`` [A, R] (rows = angles over 360 degrees, wrapping), computed on
+    ``bins`` angles (area-averaged) and interpolated back to A rows. NaN (outside the
+    image) is left out."""
     a = p.shape[0]
     valid = np.isfinite(p)
     coarse = cv2.resize(np.where(valid, p, 0).astype(np.float32), (p.shape[1], bins),
@@ -226,7 +231,7 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
         inside = cv2.warpPolar(ones, (nr, na), (x, y), rmax, flags) > 0.99
         psat = cv2.warpPolar(sat, (nr, na), (x, y), rmax, flags) > 0.5
         p = np.where(inside, pol, np.nan).astype(np.float32)
-        bg = _angular_median(p, cfg.window, cfg.samples, quantile=cfg.quantile)
+        bg = _angular_quantile(p, cfg.window, cfg.samples, quantile=cfg.quantile)
         excess = np.where(inside, pol - bg, 0.0)
         thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * bg)
         ridge = np.zeros_like(inside)
