@@ -205,9 +205,10 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
-          cut: float = 0.5, rays: bool = False) -> dict[str, float]:
+          cut: float = 0.5, also=None) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
-    flare where the probability exceeds ``cut`` (or, with ``rays``, on a flare ray)."""
+    flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
+    the images' flare rays, ``ray_batch``) is set."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
@@ -222,13 +223,13 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             if refine:
                 p = _refine_batch(x.cpu(), p)
             marked = p > cut
-            if rays:
-                marked |= _ray_batch(x.cpu())
+            if also is not None:
+                marked |= also[i:i + batch]
             conf += confusion(marked, masks[i:i + batch] > 0.5)
     return seg_metrics(conf)
 
 
-def _ray_batch(x):
+def ray_batch(x):
     """[N, 1, S, S] bool flare rays of images [N, 3, S, S] (sRGB 0..1)."""
     import torch
 
@@ -469,11 +470,12 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
         imgs, masks = fixed_set(src, count, seed + i, extras=True)
+        ray = ray_batch(imgs) if rays else None  # the same for every model: found once
         row = {"flare_pixels": round(float(masks.mean()), 4),
-               "weights": score(main["model"], imgs, masks, cut=main["cut"], rays=rays)}
+               "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray)}
         for h in held:
             if kind in h["without"]:
-                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], rays=rays),
+                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
