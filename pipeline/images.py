@@ -44,6 +44,18 @@ def _unreadable(path: Path, fix: str | None) -> UserError:
     return UserError(f"{path} {what}: {fix or 'replace or remove it'}")
 
 
+def _imread(path: str | os.PathLike, flags: int, fix: str | None) -> np.ndarray:
+    """``cv2.imread`` of a file that exists (a missing one is not handed to OpenCV, which
+    would print its own warning), else the one-line ``UserError`` of ``_unreadable``."""
+    import cv2
+
+    path = Path(path)
+    img = cv2.imread(str(path), flags) if path.is_file() else None
+    if img is None:
+        raise _unreadable(path, fix)
+    return img
+
+
 def read_image(path: str | os.PathLike, *, bgr: bool = False,
                size: tuple[int, int] | None = None, fix: str | None = None,
                any_depth: bool = False) -> np.ndarray:
@@ -53,11 +65,8 @@ def read_image(path: str | os.PathLike, *, bgr: bool = False,
     naming it; ``fix`` says what to do (default: replace or remove it)."""
     import cv2
 
-    path = Path(path)
     flags = cv2.IMREAD_COLOR | (cv2.IMREAD_ANYDEPTH if any_depth else 0)
-    img = cv2.imread(str(path), flags)
-    if img is None:
-        raise _unreadable(path, fix)
+    img = _imread(path, flags, fix)
     if size is not None and (img.shape[1], img.shape[0]) != tuple(size):
         img = cv2.resize(img, tuple(size), interpolation=cv2.INTER_AREA)
     return img if bgr else np.ascontiguousarray(img[..., ::-1])
@@ -74,22 +83,14 @@ def read_image_as_stored(path: str | os.PathLike, *, fix: str | None = None) -> 
     bit depth, alpha kept (hand-made masks); errors as :func:`read_image`."""
     import cv2
 
-    path = Path(path)
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise _unreadable(path, fix)
-    return img
+    return _imread(path, cv2.IMREAD_UNCHANGED, fix)
 
 
 def read_gray(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
     """[H, W] uint8 grey levels of an image file (masks); errors as :func:`read_image`."""
     import cv2
 
-    path = Path(path)
-    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    if img is None:
-        raise _unreadable(path, fix)
-    return img
+    return _imread(path, cv2.IMREAD_GRAYSCALE, fix)
 
 
 def image_size(path: str | os.PathLike, *, fix: str | None = None) -> tuple[int, int]:
