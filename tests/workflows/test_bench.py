@@ -79,3 +79,46 @@ def test_peak_memory_sees_an_allocation_and_its_release():
     with PeakMemory("cpu") as small:
         time.sleep(0.02)
     assert small.mib < 50
+
+
+def _snapshot(root):
+    """{relative path: bytes} of every file under ``root``."""
+    return {p.relative_to(root): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_bench_workspace_times_both_fills_and_leaves_the_workspace_as_it_was(
+        tmp_path, one_torch_thread):
+    """--workspace: GN-FR alone and the hybrid fill, each width, rendered by the stage in a
+    scratch workspace; the user's workspace is byte-for-byte unchanged and has no renders."""
+    from pipeline.depth import DepthConfig
+    from pipeline.depth import run as depth_run
+    from tests.fixtures import make_plane_workspace
+    from tests.pipeline.test_render import add_masks_views_model
+    ws = make_plane_workspace(tmp_path / "ws")
+    add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
+    depth_run(DepthConfig(neighbours=3), ws)
+    before = _snapshot(ws.root)
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--quick", "--device", "cpu", "--workspace", str(ws.root),
+                 "--out", str(out)]) == 0
+    assert _snapshot(ws.root) == before and not ws.renders.exists()
+    rec = json.loads(out.read_text())["results"]["cpu"]["render_workspace"]
+    assert rec["frames"] == 1 and rec["workspace"] == str(ws.root)
+    got = {(tuple(r["size"]), r["fill"]): r["s_per_frame"] for r in rec["rows"]}
+    # 160x120 photos: the path's aspect is kept at each width
+    assert set(got) == {((w, h), f) for w, h in ((48, 36), (96, 72))
+                        for f in ("network", "hybrid")}
+    assert all(v > 0 for v in got.values())
+
+
+def test_bench_workspace_without_depth_is_one_line_and_exit_2(tmp_path, capsys):
+    from tests.fixtures import make_plane_workspace
+    from tests.pipeline.test_render import add_masks_views_model
+
+    ws = make_plane_workspace(tmp_path / "ws")
+    add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
+    out = tmp_path / "b.json"
+    assert main(["bench", "--quick", "--workspace", str(ws.root), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(ws.depth) in err[0] and "deflare-scene depth" in err[0]
+    assert not out.exists()

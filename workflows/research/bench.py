@@ -15,6 +15,13 @@ device (CPU, and CUDA when present) it measures, in the same process and run:
 - peak memory of each measurement: CUDA ``torch.cuda.max_memory_allocated``; CPU the peak
   resident set size above the level at the start of the measurement, sampled every 5 ms
   (psutil when installed, else /proc/self/statm, else ``resource`` maxrss).
+
+With ``workspace`` (a workspace with a fine-tuned model and WS/depth, e.g. the sample's after
+the one-shot) it also times what a user's video costs: frames of the workspace's
+interpolate path, 504 and 1008 px wide, rendered by the render stage itself with GN-FR
+alone (every pixel, uniform samples) and with the default hybrid fill (photos warped by
+depth, GN-FR on the rest with depth-guided samples), in the same run. The stage runs in a
+scratch workspace of hard links; the given workspace is only read.
 """
 
 from __future__ import annotations
@@ -31,6 +38,8 @@ import numpy as np
 from pipeline.options import option
 
 SIZES = ((504, 378), (1008, 756))
+FILL_WIDTHS = (504, 1008)
+"""Frame widths of the workspace measurement (the path camera's aspect is kept)."""
 
 
 @dataclass
@@ -62,9 +71,16 @@ class BenchConfig:
     isolate: bool = True
     """CPU: run each measurement in a fresh process, so its peak RSS is its own (the
     allocator keeps memory freed by an earlier measurement)."""
+    workspace: Path | None = None
+    """Also time novel frames of this workspace's video path (it needs WS/model and
+    WS/depth, e.g. samples/cyprus.deflare after the one-shot): GN-FR alone beside the
+    hybrid fill, 504 and 1008 px wide. Only read: the render runs in a scratch copy."""
+    fill_frames: int = option(1, ge=1)
+    """Frames of the path timed per width and fill (``workspace``)."""
     quick: bool = False
     """A small fast run (tests): 2 steps, 1 warm-up, 128 rays, 8 samples per frame, no
-    process isolation (CPU peak memory then depends on the order of measurements)."""
+    process isolation (CPU peak memory then depends on the order of measurements),
+    workspace frames 48 and 96 px wide."""
 
 
 def effective(cfg: BenchConfig) -> BenchConfig:
@@ -351,6 +367,70 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     return out
 
 
+def fill_widths(cfg: BenchConfig) -> tuple[int, ...]:
+    return (48, 96) if cfg.quick else FILL_WIDTHS
+
+
+def check_workspace(path: Path) -> tuple:
+    """(workspace, checkpoint) of ``--workspace``, or the one-line error of what it lacks."""
+    from pipeline import render
+    from pipeline.errors import UserError
+    from pipeline.workspace import Workspace
+
+    ws = Workspace.open(path)
+    ws.require("pose")
+    ckpt = render.find_checkpoint(ws, None)
+    if not ws.depth.is_dir():
+        raise UserError(f"{ws.depth} is missing: run `deflare-scene depth {ws.root}` first "
+                        "(the hybrid fill the bench compares needs it)")
+    return ws, ckpt
+
+
+def bench_fill(cfg: BenchConfig, device: str) -> dict:
+    """Seconds per novel frame of the workspace's interpolate path at each of
+    ``fill_widths``: the render stage with ``--fill network`` and with ``--fill hybrid``,
+    same frames, same run. A frame's time is the stage's wall time (model load and source
+    encoding included, as a user's render pays them) over the frames."""
+    import tempfile
+
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline import render
+    from pipeline.workspace import atomic_write_json
+    from pipeline.ws_files import read_cameras
+    from workflows.research.eval.workspaces import shared_workspace
+
+    base, ckpt = check_workspace(cfg.workspace)
+    n = cfg.fill_frames
+    path, _ = render.novel_path(render.RenderConfig(path="interpolate", frames=max(4 * n, 8)),
+                                read_cameras(base), device)
+    pick = np.linspace(0, len(path) - 1, n).round().astype(int)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="deflare-bench-") as tmp:
+        ws = shared_workspace(base, Path(tmp) / "ws")
+        for width in fill_widths(cfg):
+            cams = []
+            for i in pick:
+                s = width / path[i].width
+                K = np.asarray(path[i].K, float).copy()
+                K[:2] *= s
+                cams.append(PathCamera(f"f{i:03d}", K, path[i].c2w, width,
+                                       max(8, round(path[i].height * s))))
+            pj = Path(tmp) / f"frames_{width}.json"
+            atomic_write_json(pj, path_to_json(cams))
+            for fill in ("network", "hybrid"):
+                rc = render.RenderConfig(path=str(pj), fill=fill, device=device,
+                                         checkpoint=str(ckpt), chunk=cfg.chunk,
+                                         samples=cfg.samples)
+                _sync(device)
+                t0 = time.perf_counter()
+                render.run(rc, ws, force=True)
+                _sync(device)
+                rows.append({"size": [width, cams[0].height], "fill": fill,
+                             "s_per_frame": (time.perf_counter() - t0) / len(cams)})
+    return {"workspace": str(base.root), "checkpoint": str(ckpt), "frames": int(n),
+            "rows": rows}
+
+
 # --------------------------------------------------------------------------- entry point
 def measure(isolate: bool, fn, *args) -> dict:
     """``fn(*args)``, in a fresh spawned process when ``isolate`` (same torch threads)."""
@@ -392,10 +472,14 @@ def run(cfg: BenchConfig) -> dict:
         if d not in ("cpu", "cuda"):
             raise UserError(f"--device {d}: must be all, cpu or cuda")
         resolve_device(d)  # cuda without a GPU: the one message
+    if cfg.workspace is not None:
+        check_workspace(cfg.workspace)  # fail before the long synthetic measurements
     tcfg = PRESETS[cfg.preset]
     scene = synthetic_scene(cfg.views, cfg.train_size)
     record = {"machine": machine(), "settings": {**asdict(cfg), "out": str(cfg.out),
-                                                   "devices": list(devices)},
+                                                   "devices": list(devices),
+                                                   "workspace": cfg.workspace and
+                                                   str(cfg.workspace)},
               "preset": {"name": cfg.preset, "rays": tcfg.rays, "samples": tcfg.samples,
                          "depth": tcfg.model.depth, "width": tcfg.model.width,
                          "source_scale": tcfg.source_scale, "n_views": list(tcfg.n_views),
@@ -411,6 +495,9 @@ def run(cfg: BenchConfig) -> dict:
             info(f"bench: {dev} rendering {W}x{H}")
             res["render"][f"{W}x{H}"] = measure(iso, bench_render, cfg, tcfg, scene, dev,
                                                 (W, H))
+        if cfg.workspace is not None:
+            info(f"bench: {dev} novel frames of {cfg.workspace}, GN-FR alone and hybrid")
+            res["render_workspace"] = bench_fill(cfg, dev)
         record["results"][dev] = res
     record["memory_method"] = {d: memory_method(d) for d in devices}
     atomic_write_json(cfg.out, record)
@@ -452,4 +539,12 @@ def print_table(record: dict) -> None:
                           f"{render['reference_over_fast']:.2f}x",
                           f"{render['fast']['peak_mib']:.0f} / "
                           f"{render['reference']['peak_mib']:.0f}")
+        fill = results.get("render_workspace")
+        if fill:
+            by = {(tuple(r["size"]), r["fill"]): r["s_per_frame"] for r in fill["rows"]}
+            for size in dict.fromkeys(tuple(r["size"]) for r in fill["rows"]):
+                net, hyb = by[size, "network"], by[size, "hybrid"]
+                table.add_row(device, f"video frame {size[0]}x{size[1]}, s (fast: hybrid "
+                              "fill, ref: GN-FR alone)", f"{hyb:.2f}", f"{net:.2f}",
+                              f"{net / hyb:.2f}x", "")
     Console().print(table)

@@ -90,11 +90,19 @@ def build_workspace(scene: SynthScene, out: Path, force: bool = False) -> Worksp
 
 def variant_workspace(base: Workspace, name: str) -> Workspace:
     """WS/variants/<name>: a workspace sharing base's inputs and stage records."""
-    variant_ws = Workspace.create(base.variants / name, base.photos_dir)
+    return shared_workspace(base, base.variants / name)
+
+
+def shared_workspace(base: Workspace, root: Path) -> Workspace:
+    """A workspace at ``root`` sharing base's ``linked_paths`` (hard links, copies across
+    devices; paths base lacks are skipped) and the records of ``SHARED_STAGES`` it has:
+    later stages run there without writing into ``base``."""
+    ws = Workspace.create(root, base.photos_dir)
     for path in linked_paths(base):
-        sync_tree(path, variant_ws.root / path.relative_to(base.root))
-    variant_ws.copy_stage_records(base, SHARED_STAGES)
-    return variant_ws
+        if path.exists():
+            sync_tree(path, ws.root / path.relative_to(base.root))
+    ws.copy_stage_records(base, [s for s in SHARED_STAGES if base.stage_record(s)])
+    return ws
 
 
 def heldout_path_json(scene: SynthScene, ws: Workspace) -> Path:
