@@ -30,6 +30,9 @@ def test_bench_quick_writes_json(tmp_path, one_torch_thread):
         # the reference re-encodes its sources for the frame: that time is in its frame
         assert rr["reference"]["s_per_frame"] >= rr["reference"]["encode_per_frame_s"] > 0
     assert "cpu" in rec["memory_method"]
+    from pipeline.provenance import code_version
+
+    assert rec["code"] == json.loads(json.dumps(code_version())) and rec["command"]
 
 
 def test_bench_rejects_unknown_device(tmp_path):

@@ -515,6 +515,9 @@ def run(cfg: BenchConfig) -> dict:
             res["render_workspace"] = bench_fill(cfg, dev)
         record["results"][dev] = res
     record["memory_method"] = {d: memory_method(d) for d in devices}
+    from pipeline.provenance import code_version, command_line
+
+    record["code"], record["command"] = code_version(), command_line()
     atomic_write_json(cfg.out, record)
     return record
 
