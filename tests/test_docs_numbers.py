@@ -23,7 +23,8 @@ def _get(obj, path: str):
 
 
 def _fill(name: str, fill: str) -> dict:
-    rows = json.loads((RESULTS / "render_fill_cpu.json").read_text())["rows"]
+    bench = json.loads((RESULTS / "bench_cpu.json").read_text())
+    rows = bench["results"]["cpu"]["render_workspace"]["rows"]
     return rows[[(r["fill"], r["size"][0] > 600) for r in rows].index((fill, name == "x2"))]
 
 
@@ -78,6 +79,7 @@ CHECKS = [
      "{:.2f}"),
     ("README.md", "bench_cpu.json", "results/cpu/train/end_to_end/it_per_s", "{:.2f}"),
     ("README.md", "bench_cpu.json", "results/cpu/train/cached/it_per_s", "{:.2f}"),
+    ("README.md", "bench_cpu.json", "results/cpu/train/reference/it_per_s", "{:.2f}"),
     ("README.md", "bench_cpu.json", "results/cpu/render/504x378/fast/s_per_frame", "{:.1f}"),
     ("README.md", "bench_cpu.json", "results/cpu/render/1008x756/fast/s_per_frame",
      "{:.1f}"),
@@ -121,9 +123,10 @@ def test_page_quotes_its_result_file(page, file, path, fmt):
 @pytest.mark.parametrize("name", ["x1", "x2"])
 def test_readme_render_times_match(name):
     text = (REPO / "README.md").read_text()
-    for fill in ("network", "hybrid"):
-        r = _fill(name, fill)
-        assert f"{r['s_per_frame']:.1f}" in text, (name, fill, r)
+    net, hyb = _fill(name, "network"), _fill(name, "hybrid")
+    row = (f"| {net['size'][0]}x{net['size'][1]} | {net['s_per_frame']:.1f} s | "
+           f"{hyb['s_per_frame']:.1f} s | {net['s_per_frame'] / hyb['s_per_frame']:.0f}x |")
+    assert net["size"] == hyb["size"] and row in text, row
 
 
 FMG_CLEAN = [(f"fmg_{part}_clean_{run}.json", scene)
