@@ -99,6 +99,13 @@ class RayConfig:
     test): the light of a spike or streak fades away from the lamp."""
     min_length: float = option(0.05, gt=0)
     """Shortest run kept, fraction of the image diagonal."""
+    min_rays: int = option(1, ge=1)
+    """Fewest separate rays (runs at angles at least ``ray_gap`` degrees apart) a light
+    must send out for any of them to be kept: a starburst has 4 or more spikes and a
+    streak leaves the light both ways; a scene line that happens to start at a bright
+    object usually gives one."""
+    ray_gap: float = option(10.0, gt=0)
+    """Angular gap (degrees) that separates two rays of one light (``min_rays``)."""
 
 
 def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
@@ -209,6 +216,17 @@ def _fading(run: np.ndarray, excess: np.ndarray, start: int, stop: np.ndarray,
     return first >= ratio * second
 
 
+def count_rays(rows: np.ndarray, gap: float) -> int:
+    """Separate rays among the angles ``rows`` [A] bool (all 360 degrees, wrapping): groups
+    of marked angles split by at least ``gap`` degrees of unmarked ones."""
+    a = rows.shape[0]
+    idx = np.flatnonzero(rows)
+    if len(idx) == 0:
+        return 0
+    steps = np.diff(np.concatenate([idx, idx[:1] + a]))  # to the next marked row, wrapping
+    return max(1, int((steps > gap / 360.0 * a).sum()))
+
+
 def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
     """[H, W] bool: pixels of flare rays (spikes, streaks) of sRGB ``img`` [H, W, 3] float
     0..1 (see the module docstring)."""
@@ -245,6 +263,8 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
                                      int(round(cfg.slack * diag)))
         if cfg.fade > 0:
             run &= _fading(run, excess, min(start, nr), np.maximum(stop, start), cfg.fade)[:, None]
+        if cfg.min_rays > 1 and count_rays(run.any(1), cfg.ray_gap) < cfg.min_rays:
+            continue
         back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
                              flags | cv2.WARP_INVERSE_MAP)
         out |= back > 0.5
