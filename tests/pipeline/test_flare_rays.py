@@ -145,3 +145,32 @@ def test_mask_stage_adds_rays_to_the_fmg_mask_at_working_size():
     plain = flare_marks(None, big, 0.5, S, rays=False, probs=probs)
     both = flare_marks(None, big, 0.5, S, rays=True, probs=probs)
     assert plain.sum() == 400 and np.array_equal(both, plain | rays)
+
+
+def test_count_rays_groups_angles_split_by_the_gap():
+    from pipeline.flare_rays import count_rays
+
+    rows = np.zeros(360, bool)
+    assert count_rays(rows, 10.0) == 0
+    rows[5:8] = True
+    assert count_rays(rows, 10.0) == 1
+    rows[100:103] = True
+    assert count_rays(rows, 10.0) == 2
+    rows[358:360] = True  # wraps onto the first group: still two
+    assert count_rays(rows, 10.0) == 2
+    rows[12] = True  # 4 degrees from the first group: the same ray
+    assert count_rays(rows, 10.0) == 2
+
+
+def test_min_rays_drops_a_light_with_one_ray_and_keeps_a_starburst():
+    """One spike from a light (a scene line starting at a bright object looks like this) is
+    kept with min_rays 1 and dropped with 2; an 8-spike starburst survives min_rays 3."""
+    one, _ = _spikes(n=1)
+    img = _srgb(_core(_scene() + one[..., None]))
+    assert ray_mask(img, RayConfig(min_rays=1)).sum() > 50
+    assert not ray_mask(img, RayConfig(min_rays=2)).any()
+    star, visible = _spikes(n=8)
+    img = _srgb(_core(_scene() + star[..., None]))
+    kept = ray_mask(img, RayConfig(min_rays=3))
+    assert (kept == ray_mask(img, RayConfig(min_rays=1))).all()
+    assert (kept & visible).sum() > 0.6 * visible.sum()
