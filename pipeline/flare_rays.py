@@ -29,12 +29,16 @@ at every angle. The rule (``ray_mask``):
    diagonal are dropped, and so are runs that do not **fade**: the mean excess over the
    first half must be ``fade`` times that over the second (a cloud or a wall lying along
    the ray is as bright far from the light as near it).
-6. Back to the image (inverse polar map), the union over lights.
+6. **Several rays**: a light keeps its runs only if they leave it in at least
+   ``min_rays`` (3) separate directions (``ray_gap`` degrees apart): a starburst does; a
+   kerb, a roof edge or a white cord that starts at a bright object gives one or two.
+7. Back to the image (inverse polar map), the union over lights.
 
 It marks nothing around a bare lamp or a specular highlight (no excess along a ray), and
 nothing on a photo without a saturated light. It does not find ghosts (discs away from the
 light) or veiling glare (round): those stay the FMG's. The mask stage adds it to the FMG's
-mask (``mask --rays``, the default; gnfr/weights/fmg.md, "Flare rays", has its scores).
+mask (on by default, ``mask --no-rays`` to leave it out; gnfr/weights/fmg.md, "Fifth
+session", has its scores).
 """
 
 from __future__ import annotations
@@ -99,11 +103,13 @@ class RayConfig:
     test): the light of a spike or streak fades away from the lamp."""
     min_length: float = option(0.05, gt=0)
     """Shortest run kept, fraction of the image diagonal."""
-    min_rays: int = option(1, ge=1)
+    min_rays: int = option(3, ge=1)
     """Fewest separate rays (runs at angles at least ``ray_gap`` degrees apart) a light
-    must send out for any of them to be kept: a starburst has 4 or more spikes and a
-    streak leaves the light both ways; a scene line that happens to start at a bright
-    object usually gives one."""
+    must send out for any of them to be kept: a starburst has 4 or more spikes; a scene
+    line or two that happen to start at a bright object (a roof edge, a kerb, a white
+    cord) give one or two. 3 was chosen on the development scenes (gnfr/weights/fmg.md,
+    "Fifth session"): 1 and 2 marked kerbs and roof edges of a daylight scene; 3 loses a
+    little of the single streaks (they leave a light in one or two directions)."""
     ray_gap: float = option(10.0, gt=0)
     """Angular gap (degrees) that separates two rays of one light (``min_rays``)."""
 

@@ -58,12 +58,13 @@ class MaskConfig:
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
-    rays: bool = False
+    rays: bool = True
     """Also mark flare rays, starburst spikes and streaks running straight out of a
     saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
-    FMG's mask. Off by default: it helps on night photos with lamp streaks and on the
-    FMG's development composites, but marked more of a daylight development scene than it
-    found there (gnfr/weights/fmg.md, "Fourth session")."""
+    FMG's mask. On by default since the fifth session (a light must send out three
+    separate rays, which removed the rays' false marks on the daylight development
+    scenes); ``--no-rays`` for the FMG alone (gnfr/weights/fmg.md, "Fifth session").
+    """
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)

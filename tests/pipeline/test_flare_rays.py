@@ -112,13 +112,15 @@ def test_fade_test_drops_rays_that_do_not_fade():
     band = 0.3 * np.exp(-0.5 * ((r * np.sin(th - 0.1)) / 5.0) ** 2) * (np.cos(th - 0.1) > 0)
     band *= 0.2 + 0.8 * np.clip(r / 150.0, 0, 1)
     img = _srgb(_core(_scene() + band[..., None]))
-    without = ray_mask(img, RayConfig(fade=0.0)).sum()
-    with_fade = ray_mask(img, RayConfig(fade=1.5)).sum()
+    # one band, one spike: min_rays 1, so that only the fade test decides
+    without = ray_mask(img, RayConfig(fade=0.0, min_rays=1)).sum()
+    with_fade = ray_mask(img, RayConfig(fade=1.5, min_rays=1)).sum()
     assert without > 500 and with_fade < 0.25 * without, (without, with_fade)
     # a spike that fades keeps its marks under the same test
     light, visible = _spikes(n=1)
     spike = _srgb(_core(_scene() + light[..., None]))
-    assert (ray_mask(spike, RayConfig(fade=1.5)) & visible).sum() > 0.6 * visible.sum()
+    assert ((ray_mask(spike, RayConfig(fade=1.5, min_rays=1)) & visible).sum()
+            > 0.6 * visible.sum())
 
 
 def test_linear_round_trip_used_by_the_fixtures():

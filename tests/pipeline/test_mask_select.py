@@ -252,11 +252,11 @@ def test_mask_stage_refine_option(kermit_ws, tiny_weights):
                  "--threshold", "0.4"]) == 0
     rec = ws.stage_record("mask")
     assert rec["params"]["refine"] is True and rec["params"]["threshold"] == 0.4
-    assert rec["params"]["rays"] is False  # the default
+    assert rec["params"]["rays"] is True  # the default
     first = next(ws.masks.glob("*.png"))
     before = first.stat().st_mtime_ns
     assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--refine",
-                 "--threshold", "0.4", "--rays"]) == 0  # a new option redoes the masks
-    assert ws.stage_record("mask")["params"]["rays"] is True
+                 "--threshold", "0.4", "--no-rays"]) == 0  # a new option redoes the masks
+    assert ws.stage_record("mask")["params"]["rays"] is False
     assert first.stat().st_mtime_ns != before
     assert json.loads(ws.flare_json.read_text())["threshold"] == 0.4
