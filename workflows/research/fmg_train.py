@@ -131,8 +131,8 @@ class FMGEvalConfig:
     """Which held-out photos the composites use: dev (the FMG's development photos: make
     choices here) or test (the test scenes and backgrounds: report only)."""
     rays: bool = False
-    """Score the FMG's masks with the flare rays added (the mask stage's --rays), with
-    --per-kind or --clean."""
+    """Score the FMG's masks with the flare rays added (as the mask stage does unless
+    --no-rays), with --per-kind or --clean."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -168,7 +168,7 @@ class FMGOverlayConfig:
     work_size: int = option(512, ge=32)
     """The network's working size (long side)."""
     rays: bool = False
-    """Add the flare rays to each model's mask (the mask stage's --rays)."""
+    """Add the flare rays to each model's mask (as the mask stage does unless --no-rays)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
