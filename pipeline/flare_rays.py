@@ -112,6 +112,9 @@ class RayConfig:
     little of the single streaks (they leave a light in one or two directions)."""
     ray_gap: float = option(10.0, gt=0)
     """Angular gap (degrees) that separates two rays of one light (``min_rays``)."""
+    opposite: float = option(0.0, ge=0, le=90)
+    """With ``min_rays`` > 2: two rays also suffice when they leave the light in opposite
+    directions within this many degrees (a streak runs through the light); 0: off."""
 
 
 def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
@@ -222,15 +225,42 @@ def _fading(run: np.ndarray, excess: np.ndarray, start: int, stop: np.ndarray,
     return first >= ratio * second
 
 
-def count_rays(rows: np.ndarray, gap: float) -> int:
-    """Separate rays among the angles ``rows`` [A] bool (all 360 degrees, wrapping): groups
-    of marked angles split by at least ``gap`` degrees of unmarked ones."""
+def ray_directions(rows: np.ndarray, gap: float) -> list[float]:
+    """Directions (degrees, 0..360) of the separate rays among the angles ``rows`` [A] bool
+    (all 360 degrees, wrapping): groups of marked angles split by at least ``gap`` degrees
+    of unmarked ones, each at its middle angle."""
     a = rows.shape[0]
     idx = np.flatnonzero(rows)
     if len(idx) == 0:
-        return 0
+        return []
     steps = np.diff(np.concatenate([idx, idx[:1] + a]))  # to the next marked row, wrapping
-    return max(1, int((steps > gap / 360.0 * a).sum()))
+    ends = np.flatnonzero(steps > gap / 360.0 * a)
+    if len(ends) == 0:  # one group all round (or gaps all smaller than ``gap``)
+        return [float(np.degrees(np.angle(np.exp(2j * np.pi * idx / a).mean())) % 360.0)]
+    out = []
+    starts = (ends[:-1] + 1).tolist()
+    starts.insert(0, (ends[-1] + 1) % len(idx))
+    for s, e in zip(starts, ends, strict=True):
+        group = idx[s:e + 1] if s <= e else np.concatenate([idx[s:], idx[:e + 1] + a])
+        out.append(float((group.mean() + 0.5) * 360.0 / a % 360.0))
+    return out
+
+
+def count_rays(rows: np.ndarray, gap: float) -> int:
+    """Separate rays among the angles ``rows`` [A] bool (``ray_directions``)."""
+    return len(ray_directions(rows, gap))
+
+
+def enough_rays(directions: list[float], cfg: RayConfig) -> bool:
+    """Whether a light's rays look like flare: at least ``min_rays`` of them, or (with
+    ``opposite``) two leaving it in opposite directions, as a streak through the light does."""
+    if len(directions) >= cfg.min_rays:
+        return True
+    if cfg.opposite > 0:
+        d = np.asarray(directions)
+        diff = np.abs((d[:, None] - d[None, :]) % 360.0 - 180.0)
+        return bool((diff <= cfg.opposite).any())
+    return False
 
 
 def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
@@ -269,7 +299,7 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
                                      int(round(cfg.slack * diag)))
         if cfg.fade > 0:
             run &= _fading(run, excess, min(start, nr), np.maximum(stop, start), cfg.fade)[:, None]
-        if cfg.min_rays > 1 and count_rays(run.any(1), cfg.ray_gap) < cfg.min_rays:
+        if cfg.min_rays > 1 and not enough_rays(ray_directions(run.any(1), cfg.ray_gap), cfg):
             continue
         back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
                              flags | cv2.WARP_INVERSE_MAP)
