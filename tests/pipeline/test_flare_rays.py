@@ -164,6 +164,33 @@ def test_count_rays_groups_angles_split_by_the_gap():
     assert count_rays(rows, 10.0) == 2
 
 
+def test_ray_directions_are_the_middles_of_the_groups():
+    from pipeline.flare_rays import ray_directions
+
+    rows = np.zeros(720, bool)  # half a degree per row
+    rows[20:40] = True  # 10..20 degrees
+    rows[700:720] = True  # 350..360: apart from the first by 10 degrees of gap
+    rows[380:400] = True  # 190..200
+    got = ray_directions(rows, 5.0)
+    assert np.allclose(sorted(got), [15.0, 195.0, 355.0], atol=0.5)
+    assert ray_directions(rows, 15.0) != got and len(ray_directions(rows, 15.0)) == 2
+
+
+def test_opposite_rays_are_enough_others_are_not():
+    """min_rays 3 with ``opposite``: a streak through the light (two rays 180 degrees
+    apart) is kept; two rays at a right angle (a corner of scene lines) are not."""
+    from pipeline.flare_rays import enough_rays
+
+    cfg = RayConfig(min_rays=3, opposite=8.0)
+    assert enough_rays([10.0, 192.0], cfg) and not enough_rays([10.0, 100.0], cfg)
+    assert not enough_rays([10.0, 192.0], RayConfig(min_rays=3, opposite=0.0))
+    assert enough_rays([10.0, 100.0, 250.0], cfg) and not enough_rays([10.0], cfg)
+    two, _ = _spikes(n=2)  # two spikes, opposite
+    img = _srgb(_core(_scene() + two[..., None]))
+    assert not ray_mask(img, RayConfig(min_rays=3)).any()
+    assert ray_mask(img, RayConfig(min_rays=3, opposite=8.0)).sum() > 50
+
+
 def test_min_rays_drops_a_light_with_one_ray_and_keeps_a_starburst():
     """One spike from a light (a scene line starting at a bright object looks like this) is
     kept with min_rays 1 and dropped with 2; an 8-spike starburst survives min_rays 3."""
