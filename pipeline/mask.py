@@ -65,6 +65,13 @@ class MaskConfig:
     separate rays, which removed the rays' false marks on the daylight development
     scenes); ``--no-rays`` for the FMG alone (gnfr/weights/fmg.md, "Fifth session").
     """
+    ray_min: int | None = option(None, ge=1)
+    """Fewest separate rays a light must send out for its rays to be marked (default: the
+    rule's, 3). Night photos with long lamp streaks (one or two rays per lamp): 1, or keep
+    3 and give ``ray_opposite``; both mark more scene lines on daylight photos."""
+    ray_opposite: float | None = option(None, ge=0, le=90)
+    """Degrees within which two rays leaving a light in opposite directions (a streak
+    through it) also count as enough (default: the rule's, 0 = off)."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -137,9 +144,10 @@ def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int) -> list[np.nd
     return list(probs[:, 0].cpu().numpy())
 
 
-def ray_marks(image_bgr: np.ndarray, work_size: int) -> np.ndarray:
-    """[H, W] bool flare rays (``pipeline.flare_rays.ray_mask``) of a BGR uint8 image, found
-    at long side ``work_size`` (never upscaled) and brought back to the image's size."""
+def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray:
+    """[H, W] bool flare rays (``pipeline.flare_rays.ray_mask`` with ``ray_cfg``, default
+    its RayConfig) of a BGR uint8 image, found at long side ``work_size`` (never upscaled)
+    and brought back to the image's size."""
     from pipeline.flare_rays import ray_mask
 
     h, w = image_bgr.shape[:2]
@@ -147,7 +155,7 @@ def ray_marks(image_bgr: np.ndarray, work_size: int) -> np.ndarray:
     small = image_bgr if s == 1.0 else cv2.resize(image_bgr, (max(1, round(w * s)),
                                                              max(1, round(h * s))),
                                                   interpolation=cv2.INTER_AREA)
-    marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0)
+    marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0, ray_cfg)
     if s == 1.0:
         return marks
     return cv2.resize(marks.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
@@ -155,14 +163,25 @@ def ray_marks(image_bgr: np.ndarray, work_size: int) -> np.ndarray:
 
 def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
-                probs: np.ndarray | None = None) -> np.ndarray:
+                probs: np.ndarray | None = None, ray_cfg=None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
-    already computed) refined if asked, cut at ``cut``, with the flare rays if ``rays``."""
+    already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
+    ``rays``."""
     p = fmg_probs(model, [image_bgr], work_size)[0] if probs is None else probs
     if refine:
         p = refine_probs(image_bgr, p)
     marks = p > cut
-    return marks | ray_marks(image_bgr, work_size) if rays else marks
+    return marks | ray_marks(image_bgr, work_size, ray_cfg) if rays else marks
+
+
+def ray_config(config: MaskConfig):
+    """The flare-ray rule of the mask stage: RayConfig's defaults with ``ray_min`` and
+    ``ray_opposite`` where given."""
+    from pipeline.flare_rays import RayConfig
+
+    over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite))
+            if v is not None}
+    return RayConfig(**over)
 
 
 def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
@@ -188,7 +207,8 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
             for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
                                  strict=True):
                 write_mask(ws, s, flare_marks(model, img, config.threshold, config.work_size,
-                                              config.rays, config.refine, probs=p))
+                                              config.rays, config.refine, probs=p,
+                                              ray_cfg=ray_config(config)))
 
 
 # --------------------------------------------------------------------------- given masks
@@ -298,5 +318,5 @@ def stage_seconds(ws: Workspace) -> float:
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
-           "flare_marks", "ray_marks"]
+           "flare_marks", "ray_config", "ray_marks"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

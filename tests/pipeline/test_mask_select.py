@@ -258,5 +258,18 @@ def test_mask_stage_refine_option(kermit_ws, tiny_weights):
     assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--refine",
                  "--threshold", "0.4", "--no-rays"]) == 0  # a new option redoes the masks
     assert ws.stage_record("mask")["params"]["rays"] is False
+    assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--refine",
+                 "--threshold", "0.4", "--ray-min", "1", "--ray-opposite", "8"]) == 0
+    params = ws.stage_record("mask")["params"]
+    assert params["rays"] is True and params["ray_min"] == 1 and params["ray_opposite"] == 8
     assert first.stat().st_mtime_ns != before
     assert json.loads(ws.flare_json.read_text())["threshold"] == 0.4
+
+
+def test_ray_config_of_the_mask_stage():
+    from pipeline.flare_rays import RayConfig
+    from pipeline.mask import MaskConfig, ray_config
+
+    assert ray_config(MaskConfig()) == RayConfig()
+    assert ray_config(MaskConfig(ray_min=1, ray_opposite=8.0)) == RayConfig(min_rays=1,
+                                                                           opposite=8.0)
