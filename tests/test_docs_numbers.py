@@ -100,6 +100,10 @@ CHECKS = [
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "mask_dev_scenes.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in range(8)],
+    *[("gnfr/weights/fmg.md", f"fmg_{part}_per_kind_w2400_rays_{run}.json",
+       f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
+      for part, runs in (("dev", ("min2", "min3", "min3_opp8")), ("test", ("min3",)))
+      for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
        "{:.2f}") for m in ("psnr", "psnr_flare")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
@@ -151,3 +155,26 @@ def test_every_result_file_is_quoted_or_listed():
                                                      "gnfr/weights/gnfr.md"))
     for f in RESULTS.glob("*.json"):
         assert f.name in pages, f"{f.name} is quoted nowhere"
+
+
+RAY_RUNS = ("min2", "min3", "min3_opp8")
+
+
+@pytest.mark.parametrize("run", RAY_RUNS)
+def test_fmg_card_fifth_session_mask_rows(run):
+    """The fifth-session table's clean-lund and development-scene cells of each candidate."""
+    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    clean = json.loads((RESULTS / f"fmg_dev_clean_w2400_rays_{run}.json").read_text())
+    assert f"{100 * clean['scenes']['scenes/lund/images']['mean']:.2f} %" in text
+    rows = json.loads((RESULTS / f"mask_dev_scenes_rays_{run}.json").read_text())["rows"]
+    for r in rows:
+        assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, (run, r)
+
+
+def test_fmg_card_fifth_session_test_clean_row():
+    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    for run in ("w2400", "w2400_rays", "w2400_rays_min3"):
+        sc = json.loads((RESULTS / f"fmg_test_clean_{run}.json").read_text())["scenes"]
+        cell = " / ".join(f"{100 * sc[k]['mean']:.2f}" for k in
+                          ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus")) + " %"
+        assert cell in text, (run, cell)
