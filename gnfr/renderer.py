@@ -138,7 +138,7 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
 def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                 rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
                 chunk: int = 1024, point_sampler: bool = True, progress=None,
-                with_depth: bool = True) -> dict:
+                with_depth: bool = True, pad: bool = False) -> dict:
     """Render rays deterministically in chunks.
 
     src_ids: [Vs] long (which cached views to use); rays_o, rays_d: [R, 3] (``rays_d`` with
@@ -146,6 +146,9 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
     optional callable given the number of rays finished after each chunk.
     Returns rgb [R, 3] (clamped to 0..1), depth [R] (only ``with_depth``), all_flared [R]
     (see forward_rays).
+    ``pad``: the last, shorter chunk is padded to ``chunk`` rays (its last ray repeated,
+    the extra outputs dropped), so every forward pass has one shape: a model compiled
+    with ``torch.compile(dynamic=False)`` then compiles once, not once per frame.
     Runs under ``torch.inference_mode``; the returned tensors are ordinary tensors.
     """
     was_training = model.training
@@ -159,11 +162,16 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
             for i in range(0, rays_o.shape[0], chunk):
                 sl = slice(i, i + chunk)
                 o, d = rays_o[sl].to(device, torch.float32), rays_d[sl].to(device, torch.float32)
-                t = sample_depths(near[sl].to(o), far[sl].to(o), n_samples, jitter=False)
+                lo, hi = near[sl].to(o), far[sl].to(o)
+                n = o.shape[0]
+                if pad and n < chunk:
+                    o, d, lo, hi = (torch.cat([x, x[-1:].expand(chunk - n, *x.shape[1:])])
+                                    for x in (o, d, lo, hi))
+                t = sample_depths(lo, hi, n_samples, jitter=False)
                 out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c,
                                    with_depth=with_depth)
                 for k in outs:  # kept on the device: one copy to the host at the end
-                    outs[k].append(out[k].float())
+                    outs[k].append(out[k][:n].float())
                 if progress is not None:
                     progress(min(i + chunk, rays_o.shape[0]))
     finally:

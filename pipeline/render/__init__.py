@@ -118,7 +118,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
-    params = {**asdict(cfg), "device": None, "chunk": None, "samples": samples,
+    params = {**asdict(cfg), "device": None, "chunk": None, "compile": None, "samples": samples,
               "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
               "full_res_colour": bool(meta.get("full_res_colour", False)
                                       if cfg.full_res_colour is None else cfg.full_res_colour),
@@ -152,6 +152,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
             src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"],
                                         params["full_res_colour"])
             photos = photo_views(ws, cams, todo, cfg) if use_photos else None
+            if cfg.compile:  # after encoding: only the rays' forward pass is compiled
+                model = torch.compile(model, dynamic=False)
             render_jobs(model, src, index, todo, params, cfg, ws, photos)
     outputs = [out_dir] + ([ws.deflared_full] if full else [])
     return stage_run.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])

@@ -59,6 +59,12 @@ class RenderConfig:
     full_res_colour: bool | None = None
     """Sample the sources' colours at the full size of WS/images while the encoder sees them
     at ``source_scale`` (default: as the checkpoint was trained, else off)."""
+    compile: bool = False
+    """Compile GN-FR's forward pass with ``torch.compile`` (chunks padded to one shape so it
+    compiles once). On the 2-core CPU it made GN-FR's rays about 1.4x faster after about a
+    minute of compiling (`python benchmarks/render_compile.py`): worth it for renders
+    where GN-FR draws most pixels (``--fill network``, large frames), not for the default
+    hybrid video of a small scene. Needs a C++ compiler on CPU."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
     fill: str = option("hybrid", choices=FILLS)

@@ -54,7 +54,8 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                                       far[idx] if hi is None else hi, ns or params["samples"],
                                       chunk=chunk, point_sampler=params["point_sampler"],
                                       progress=lambda k, o=offset: prog.update(
-                                          t_rays, completed=o + k), with_depth=False)
+                                          t_rays, completed=o + k), with_depth=False,
+                                      pad=cfg.compile)
                     rgb[idx.numpy()] = out["rgb"].numpy()
                     offset += len(idx)
             write_frame(job.out, compose(rgb), job.exif)

@@ -127,6 +127,26 @@ def test_render_rays_is_deterministic_chunk_independent_and_flags_flare():
                           atol=1e-5)
 
 
+def test_padded_chunks_give_the_same_rays_in_one_shape():
+    """``pad``: 200 rays in chunks of 64 run as four 64-ray passes (the last padded) and
+    give the unpadded result, trimmed to the 200 rays."""
+    torch.manual_seed(0)
+    model = GNFR(TINY)
+    imgs, K, c2w, masks = _scene()
+    src = SourceViews.encode(model, imgs, K, c2w, masks, "cpu")
+    o, d = pixel_rays(K[0], c2w[0], image_pixels(40, 56)[:200])
+    near, far = torch.full((200,), 1.0), torch.full((200,), 3.0)
+    shapes = []
+    hook = model.register_forward_hook(lambda m, args, out: shapes.append(args[0].shape[0]))
+    a = render_rays(model, src, torch.arange(1, 4), o, d, near, far, 16, chunk=64, pad=True)
+    hook.remove()
+    b = render_rays(model, src, torch.arange(1, 4), o, d, near, far, 16, chunk=64)
+    assert shapes == [64, 64, 64, 64]
+    assert a["rgb"].shape == (200, 3) and a["all_flared"].shape == (200,)
+    assert torch.allclose(a["rgb"], b["rgb"], atol=1e-5)
+    assert torch.allclose(a["depth"], b["depth"], atol=1e-4)
+
+
 def test_full_size_colours_with_reduced_features():
     """feature_scale encodes a downscaled copy but samples colours at full size: the same
     features as encoding the downscaled images, and colours of the full-size images."""

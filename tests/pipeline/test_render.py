@@ -533,3 +533,28 @@ def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
     assert len(list(rws.deflared.glob("*.png"))) == n
     assert len(again) == n - 2 and not set(again) & set(done)  # only the missing photos
     assert all(p.stat().st_mtime_ns == t for p, t in mtimes.items())
+
+
+def test_render_compile_wraps_the_model_once_and_changes_nothing(rws, monkeypatch):
+    """--compile: torch.compile(dynamic=False) is applied once per render, chunks are
+    padded to one shape, and the frames equal the uncompiled ones (the setting is not part
+    of the stage's parameters: it changes speed, not output)."""
+    import pipeline.render as R
+
+    calls = []
+
+    def fake_compile(model, **kw):  # the wiring, without minutes of compiling
+        calls.append(kw)
+        return model
+
+    cfg = R.RenderConfig(path="interpolate", frames=2, size=(20, 15), chunk=64)
+    R.run(cfg, rws, force=True)
+    out = rws.renders / "interpolate"
+    plain = {p.name: cv2.imread(str(p)) for p in out.glob("*.png")}
+    monkeypatch.setattr(torch, "compile", fake_compile)
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), chunk=64, compile=True),
+          rws, force=True)
+    assert calls == [{"dynamic": False}]
+    for name, img in plain.items():
+        assert np.abs(cv2.imread(str(out / name)).astype(int) - img).max() <= 1
+    assert rws.stage_record("render:interpolate")["params"]["compile"] is None
