@@ -6,7 +6,8 @@
 A random model of the preset (speed does not depend on the weights) renders ``--rays`` rays
 of a 504x378 frame of the bench's synthetic scene in the render stage's chunks, padded to
 one shape as the stage does with --compile. Reported: the compile time (the first compiled
-pass minus an eager one) and the fastest of ``--repeats`` passes of each.
+pass minus the fastest compiled one; inductor's caches off unless ``--warm-cache``, so it is
+what a first render pays) and the fastest of ``--repeats`` passes of each.
 """
 
 from __future__ import annotations
@@ -27,7 +28,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--warm-cache", action="store_true",
+                    help="Let inductor reuse compiled kernels of earlier runs (default: a cold "
+                    "compile, what a first render pays).")
     a = ap.parse_args(argv)
+    import os
+
+    if not a.warm_cache:
+        os.environ["TORCHINDUCTOR_FORCE_DISABLE_CACHES"] = "1"
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -71,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
             comp.append(one(compiled))
             eager.append(one(model))
     rec = {"preset": a.preset, "rays": len(o), "chunk": chunk, "samples": tcfg.samples,
+           "compile_cache": "warm" if a.warm_cache else "disabled (cold compile)",
            "device": a.device, "eager_s": min(eager), "compiled_s": min(comp),
            "speedup": min(eager) / min(comp), "compile_s": first - min(comp),
            "eager_all_s": eager, "compiled_all_s": comp,
