@@ -61,10 +61,10 @@ class RenderConfig:
     at ``source_scale`` (default: as the checkpoint was trained, else off)."""
     compile: bool = False
     """Compile GN-FR's forward pass with ``torch.compile`` (chunks padded to one shape so it
-    compiles once). On the 2-core CPU it made GN-FR's rays about 1.4x faster after about a
-    minute of compiling (`python benchmarks/render_compile.py`): worth it for renders
-    where GN-FR draws most pixels (``--fill network``, large frames), not for the default
-    hybrid video of a small scene. Needs a C++ compiler on CPU."""
+    compiles once). On the 2-core CPU it made GN-FR's rays 1.3x faster after about 20 s of
+    compiling (`python benchmarks/render_compile.py`, docs/results/render_compile_cpu.json):
+    worth it where GN-FR draws most pixels (``--fill network``, large frames), not for the
+    default hybrid video of a small scene. Needs a C++ compiler on CPU."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
     fill: str = option("hybrid", choices=FILLS)
