@@ -246,11 +246,6 @@ def ray_directions(rows: np.ndarray, gap: float) -> list[float]:
     return out
 
 
-def count_rays(rows: np.ndarray, gap: float) -> int:
-    """Separate rays among the angles ``rows`` [A] bool (``ray_directions``)."""
-    return len(ray_directions(rows, gap))
-
-
 def enough_rays(directions: list[float], cfg: RayConfig) -> bool:
     """Whether a light's rays look like flare: at least ``min_rays`` of them, or (with
     ``opposite``) two leaving it in opposite directions, as a streak through the light does."""

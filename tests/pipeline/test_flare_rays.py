@@ -149,8 +149,11 @@ def test_mask_stage_adds_rays_to_the_fmg_mask_at_working_size():
     assert plain.sum() == 400 and np.array_equal(both, plain | rays)
 
 
-def test_count_rays_groups_angles_split_by_the_gap():
-    from pipeline.flare_rays import count_rays
+def test_ray_directions_count_groups_split_by_the_gap():
+    from pipeline.flare_rays import ray_directions
+
+    def count_rays(rows, gap):
+        return len(ray_directions(rows, gap))
 
     rows = np.zeros(360, bool)
     assert count_rays(rows, 10.0) == 0
