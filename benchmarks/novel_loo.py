@@ -1,0 +1,85 @@
+"""Leave-one-out novel views of an evaluated synth scene, for comparing render settings.
+
+    python benchmarks/novel_loo.py SCENE_SYNTH [--variant gnfr] [--scale 0.5] \
+        [--set render.FIELD=VALUE ...] --out JSON
+
+`deflare-scene eval` holds out few cameras (2 per development scene): too few to choose a
+render setting. This renders every training camera of the eval's variant as a novel frame
+(the render stage, a JSON camera path) in a scratch workspace whose views.json lacks that
+view, so neither GN-FR's sources nor the photo fill see its photo, and scores it against
+the clean photo (PSNR, SSIM). Bias: the fine-tuned model trained on that view as a target,
+so the network's part is optimistic. Use it to compare settings of the render (the fill,
+its compositing) on one model, not to compare models.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene", type=Path)
+    ap.add_argument("--variant", default="gnfr")
+    ap.add_argument("--scale", type=float, default=0.5)
+    ap.add_argument("--set", dest="sets", action="append", default=[],
+                    help="render.FIELD=VALUE, as the one-shot's --set")
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
+    from dataclasses import asdict
+
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline import render
+    from pipeline.provenance import write_result
+    from pipeline.workspace import Workspace, atomic_write_json
+    from pipeline.ws_files import ViewsFile, read_views, write_views
+    from workflows.oneshot import apply_overrides
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.scoring import score_views
+    from workflows.research.eval.workspaces import shared_workspace
+
+    cfg = apply_overrides({"render": render.RenderConfig(scale=a.scale)}, a.sets)["render"]
+    scene = load_synth(a.scene)
+    base = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)
+    ckpt = render.find_checkpoint(base, cfg.checkpoint)
+    views = read_views(base)
+    by_stem = scene.cams.by_stem()
+    with tempfile.TemporaryDirectory(prefix="deflare-loo-") as tmp:
+        frames = Path(tmp) / "frames"
+        frames.mkdir()
+        for stem in scene.train:
+            ws = shared_workspace(base, Path(tmp) / f"ws_{stem}")
+            ws.views_json.unlink()  # a hard link: write a new file, not into base's
+            write_views(ws, ViewsFile(views.max_flare, {s: v for s, v in views.views.items()
+                                                       if s != stem}))
+            f = by_stem[stem]
+            pj = Path(tmp) / f"{stem}.json"
+            atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
+                                                           f.height)]))
+            render.run(cfg.__class__(**{**asdict(cfg), "path": str(pj),
+                                        "checkpoint": str(ckpt)}), ws, force=True)
+            shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
+        r = score_views(scene, frames, scene.train, with_region=False)
+    rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),
+           "render": {k: v for k, v in asdict(cfg).items() if k != "path"},
+           "sets": a.sets, "views": scene.train, "psnr": r["psnr"], "ssim": r["ssim"],
+           "per_view": {k: {m: round(v[m], 4) for m in ("psnr", "ssim")}
+                        for k, v in r["views"].items()}}
+    print(json.dumps({k: rec[k] for k in ("sets", "psnr", "ssim")}), flush=True)
+    write_result(a.out, rec)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
