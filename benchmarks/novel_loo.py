@@ -8,8 +8,9 @@ render setting. This renders every training camera of the eval's variant as a no
 (the render stage, a JSON camera path) in a scratch workspace whose views.json lacks that
 view, so neither GN-FR's sources nor the photo fill see its photo, and scores it against
 the clean photo (PSNR, SSIM). Bias: the fine-tuned model trained on that view as a target,
-so the network's part is optimistic. Use it to compare settings of the render (the fill,
-its compositing) on one model, not to compare models.
+so the network's part is optimistic: settings that let GN-FR draw more look better than
+they are (docs/depth.md, "Leave-one-out views"). Use it for settings that leave the
+network's share alone, on one model; not to compare the network with the photos, nor models.
 """
 
 from __future__ import annotations

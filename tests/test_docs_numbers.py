@@ -82,6 +82,9 @@ CHECKS = [
     ("README.md", "bench_cpu.json", "results/cpu/train/end_to_end/it_per_s", "{:.2f}"),
     ("README.md", "bench_cpu.json", "results/cpu/train/cached/it_per_s", "{:.2f}"),
     ("README.md", "bench_cpu.json", "results/cpu/train/reference/it_per_s", "{:.2f}"),
+    *[("docs/depth.md", f"novel_loo_dev_{scene}_{fill}.json", m, "{:.2f}" if m == "psnr"
+       else "{:.3f}") for scene in ("sceaux", "et") for fill in ("hybrid", "network")
+      for m in ("psnr", "ssim")],
     ("README.md", "render_compile_cpu.json", "speedup", "{:.2f}x faster"),
     ("README.md", "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
     ("README.md", "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
@@ -112,6 +115,9 @@ CHECKS = [
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
        "{:.2f}") for m in ("psnr", "psnr_flare")],
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w60000.json", f"rows/0/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
