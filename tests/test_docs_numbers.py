@@ -115,6 +115,9 @@ CHECKS = [
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
        "{:.2f}") for m in ("psnr", "psnr_flare")],
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w{step}.json", f"rows/0/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for step in (65250,) for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w60000.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
