@@ -21,9 +21,7 @@ sys.path.insert(0, str(ROOT))
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder."""
-    import cv2
-
-    from pipeline.images import list_photos
+    from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
 
     inter = union = outside = pixels = truth = views = 0
@@ -31,8 +29,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
         gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
         if gt_path is None:
             continue
-        img = cv2.imread(str(photo))
-        gt = cv2.imread(str(gt_path), cv2.IMREAD_GRAYSCALE) > 127
+        img = read_image(photo, bgr=True)
+        gt = read_gray(gt_path) > 127
         m = flare_marks(model, img, cut, work_size, rays)
         inter += int((m & gt).sum())
         union += int((m | gt).sum())

@@ -38,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
-    from dataclasses import asdict
+    from dataclasses import asdict, replace
 
     from gnfr.paths import PathCamera, path_to_json
     from pipeline import render
@@ -68,8 +68,7 @@ def main(argv: list[str] | None = None) -> int:
             pj = Path(tmp) / f"{stem}.json"
             atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
                                                            f.height)]))
-            render.run(cfg.__class__(**{**asdict(cfg), "path": str(pj),
-                                        "checkpoint": str(ckpt)}), ws, force=True)
+            render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
         r = score_views(scene, frames, scene.train, with_region=False)
     rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),

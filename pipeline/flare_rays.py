@@ -237,13 +237,10 @@ def ray_directions(rows: np.ndarray, gap: float) -> list[float]:
     ends = np.flatnonzero(steps > gap / 360.0 * a)
     if len(ends) == 0:  # one group all round (or gaps all smaller than ``gap``)
         return [float(np.degrees(np.angle(np.exp(2j * np.pi * idx / a).mean())) % 360.0)]
-    out = []
-    starts = (ends[:-1] + 1).tolist()
-    starts.insert(0, (ends[-1] + 1) % len(idx))
-    for s, e in zip(starts, ends, strict=True):
-        group = idx[s:e + 1] if s <= e else np.concatenate([idx[s:], idx[:e + 1] + a])
-        out.append(float((group.mean() + 0.5) * 360.0 / a % 360.0))
-    return out
+    first = ends[-1] + 1  # a group starts after the last gap: unroll the circle there
+    order = np.concatenate([idx[first:], idx[:first] + a])
+    groups = np.split(order, np.flatnonzero(np.diff(order) > gap / 360.0 * a) + 1)
+    return [float((g.mean() + 0.5) * 360.0 / a % 360.0) for g in groups]
 
 
 def enough_rays(directions: list[float], cfg: RayConfig) -> bool:

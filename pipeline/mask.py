@@ -201,6 +201,7 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
     model = load_fmg_weights(weights_path(config), resolve_device(config.device))
     sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
     batches = list(_batches(stems, sizes, config.batch))
+    rule = ray_config(config)
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
@@ -208,7 +209,7 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
                                  strict=True):
                 write_mask(ws, s, flare_marks(model, img, config.threshold, config.work_size,
                                               config.rays, config.refine, probs=p,
-                                              ray_cfg=ray_config(config)))
+                                              ray_cfg=rule))
 
 
 # --------------------------------------------------------------------------- given masks

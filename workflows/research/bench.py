@@ -386,10 +386,11 @@ def check_workspace(path: Path) -> tuple:
     return ws, ckpt
 
 
-def bench_fill(cfg: BenchConfig, device: str) -> dict:
+def bench_fill(cfg: BenchConfig, device: str, checked: tuple | None = None) -> dict:
     """Seconds per novel frame of the workspace's interpolate path at each of
     ``fill_widths``: the render stage with ``--fill network`` and with ``--fill hybrid``,
-    same frames, same run. A frame's time is the stage's wall time (model load and source
+    same frames, same run (``checked``: ``check_workspace``'s answer, if already had). A
+    frame's time is the stage's wall time (model load and source
     encoding included, as a user's render pays them) over the frames. After an untimed
     warm-up render of both fills at a small size, every (width, fill) is rendered
     ``repeats`` times, alternating, and the fastest counts: on a shared machine one pass
@@ -402,7 +403,7 @@ def bench_fill(cfg: BenchConfig, device: str) -> dict:
     from pipeline.ws_files import read_cameras
     from workflows.research.eval.workspaces import shared_workspace
 
-    base, ckpt = check_workspace(cfg.workspace)
+    base, ckpt = checked or check_workspace(cfg.workspace)
     n = cfg.fill_frames
     path, _ = render.novel_path(render.RenderConfig(path="interpolate", frames=max(4 * n, 8)),
                                 read_cameras(base), device)
@@ -487,8 +488,8 @@ def run(cfg: BenchConfig) -> dict:
         if d not in ("cpu", "cuda"):
             raise UserError(f"--device {d}: must be all, cpu or cuda")
         resolve_device(d)  # cuda without a GPU: the one message
-    if cfg.workspace is not None:
-        check_workspace(cfg.workspace)  # fail before the long synthetic measurements
+    # the workspace is checked before the long synthetic measurements, and only once
+    checked = check_workspace(cfg.workspace) if cfg.workspace is not None else None
     tcfg = PRESETS[cfg.preset]
     scene = synthetic_scene(cfg.views, cfg.train_size)
     record = {"machine": machine(), "settings": {**asdict(cfg), "out": str(cfg.out),
@@ -512,7 +513,7 @@ def run(cfg: BenchConfig) -> dict:
                                                 (W, H))
         if cfg.workspace is not None:
             info(f"bench: {dev} novel frames of {cfg.workspace}, GN-FR alone and hybrid")
-            res["render_workspace"] = bench_fill(cfg, dev)
+            res["render_workspace"] = bench_fill(cfg, dev, checked)
         record["results"][dev] = res
     record["memory_method"] = {d: memory_method(d) for d in devices}
     from pipeline.provenance import code_version, command_line

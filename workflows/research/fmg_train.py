@@ -624,7 +624,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     marks."""
     import cv2
 
-    from pipeline.mask import flare_marks, load_fmg_weights
+    from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
@@ -632,8 +632,9 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         img = read_image(photo, bgr=True)
         scale = width / img.shape[1]
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
+        ray = ray_marks(img, work_size) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
-            marked = flare_marks(model, img, cut, work_size, rays)
+            marked = flare_marks(model, img, cut, work_size) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
