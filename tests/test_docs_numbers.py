@@ -197,3 +197,13 @@ def test_fmg_card_fifth_session_test_clean_row():
         cell = " / ".join(f"{100 * sc[k]['mean']:.2f}" for k in
                           ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus")) + " %"
         assert cell in text, (run, cell)
+
+
+def test_fmg_card_quotes_the_rays_on_the_real_photos():
+    text = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    marked = json.loads((RESULTS / "rays_real_photos.json").read_text())["marked"]
+    for setting in ("min_rays_1", "min_rays_3_opposite_8"):
+        cell = " and ".join(f"{100 * marked[p][setting]:.2f} %" for p in ("input1.png",
+                                                                           "input2.png"))
+        assert cell in text, (setting, cell)
+    assert all(f"{100 * m['min_rays_3']:.2f} % with 3 rays" in text for m in marked.values())
