@@ -85,6 +85,10 @@ CHECKS = [
     *[("docs/depth.md", f"novel_loo_dev_{scene}_{fill}.json", m, "{:.2f}" if m == "psnr"
        else "{:.3f}") for scene in ("sceaux", "et") for fill in ("hybrid", "network")
       for m in ("psnr", "ssim")],
+    ("README.md", "bench_cpu_c426ab3.json", "results/cpu/train/end_to_end/it_per_s", "{:.2f}"),
+    ("README.md", "bench_cpu_c426ab3.json", "results/cpu/train/cached/it_per_s", "{:.2f}"),
+    ("README.md", "bench_cpu_c426ab3.json", "results/cpu/render/504x378/fast/s_per_frame",
+     "{:.1f} s"),
     ("README.md", "render_compile_cpu.json", "speedup", "{:.2f}x faster"),
     ("README.md", "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
     ("README.md", "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
