@@ -7,7 +7,9 @@ Only the render changes; the model is the variant's.
     python benchmarks/fill_ablation.py SCENE_SYNTH --out docs/results/fill_ablation_X.json
 
 Settings: network (GN-FR everywhere), hybrid without depth-guided samples, hybrid with
-guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2).
+guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2), and the
+default hybrid and the network fill without the flare layer (``--flare-layer 0``: the
+region replaced by the fill). ``--settings a,b`` runs only those.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ SETTINGS = {
     "hybrid_unguided": {"fill": "hybrid", "depth_samples": 0},
     "hybrid_guided_support1": {"fill": "hybrid", "depth_support": 1},
     "hybrid_guided_support2": {"fill": "hybrid", "depth_support": 2},
+    "hybrid_no_flare_layer": {"fill": "hybrid", "flare_layer": 0.0},
+    "network_no_flare_layer": {"fill": "network", "flare_layer": 0.0},
 }
 
 
@@ -34,7 +38,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("scene", type=Path)
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--settings", default=",".join(SETTINGS),
+                    help="comma-separated names of SETTINGS to run (default: all)")
     a = ap.parse_args(argv)
+    names = [n for n in a.settings.split(",") if n]
+    unknown = sorted(set(names) - set(SETTINGS))
+    if unknown:
+        ap.error(f"unknown settings {unknown}; known: {', '.join(SETTINGS)}")
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -49,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     ws = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)
     stems = flared_views(scene)
     rows = {}
-    for name, over in SETTINGS.items():
+    for name in names:
+        over = SETTINGS[name]
         t0 = time.perf_counter()
         render.run(render.RenderConfig(path="inputs", **over), ws, force=True)
         dt = time.perf_counter() - t0

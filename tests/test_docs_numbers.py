@@ -82,6 +82,11 @@ CHECKS = [
     *[("docs/depth.md", f"novel_loo_dev_{scene}_{fill}.json", m, "{:.2f}" if m == "psnr"
        else "{:.3f}") for scene in ("sceaux", "et") for fill in ("hybrid", "network")
       for m in ("psnr", "ssim")],
+    # the flare layer (sixth session): the render stage's rows and the variants
+    *[("docs/depth.md", f"fill_flare_layer_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.3f}" if m == "ssim" else "{:.2f}") for scene in ("sceaux", "et", "sceaux_streaks")
+      for row in ("hybrid_guided_support2", "hybrid_no_flare_layer")
+      for m in ("psnr_flare", "psnr", "ssim")],
     # the final bench run (README tables) and the earlier one quoted for the drift
     *[("README.md", "bench_cpu.json", f"results/cpu/{path}", fmt) for path, fmt in (
         ("train/end_to_end/it_per_s", "{:.2f}"), ("train/cached/it_per_s", "{:.2f}"),
@@ -209,3 +214,17 @@ def test_fmg_card_quotes_the_rays_on_the_real_photos():
                                                                            "input2.png"))
         assert cell in text, (setting, cell)
     assert all(f"{100 * m['min_rays_3']:.2f} % with 3 rays" in text for m in marked.values())
+
+
+@pytest.mark.parametrize("scene, row", [
+    ("sceaux_synth", "flared input"), ("sceaux_synth", "scale_0.06"),
+    ("sceaux_synth", "scale_0.12 (default)"), ("et_synth", "flared input"),
+    ("et_synth", "scale_0.12 (default)"), ("sceaux_ghosts", "flared input"),
+    ("sceaux_ghosts", "scale_0.12 (default)"), ("sceaux_ghosts", "norm_0.12")])
+def test_depth_doc_quotes_the_flare_layer_variants(scene, row):
+    """docs/depth.md's flare-layer paragraph and table against the variants file (keyed by
+    the scene folders' paths, so not reachable by the '/'-separated paths above)."""
+    scenes = json.loads((RESULTS / "flare_layer_variants_dev.json").read_text())["scenes"]
+    (rows,) = [v["rows"] for k, v in scenes.items() if Path(k).name == scene]
+    value = f"{rows[row]['psnr_flare']:.2f}"
+    assert value in (REPO / "docs" / "depth.md").read_text(), (scene, row, value)

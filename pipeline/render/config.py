@@ -45,6 +45,11 @@ class RenderConfig:
     photo by a per-channel gain and offset fitted on the rendered pixels just outside the
     flare mask (the dilation ring, where both the render and the clean photo exist); this
     removes the fill's colour and exposure drift (docs/eval.md)."""
+    flare_layer: float = option(0.12, ge=0)
+    """inputs (with ``blend mask``): inside the flare region keep the photo's own pixels
+    minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
+    of this fraction of the long side), so the scene's detail seen through the flare stays;
+    clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""

@@ -25,6 +25,7 @@ from pipeline.errors import UserError
 from pipeline.images import JPEG_EXTS, is_photo, read_image
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
+from pipeline.render.flare_layer import subtract_flare_layer
 from pipeline.render.inputs import input_blend, input_rays, match_colours
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.workspace import Workspace
@@ -114,7 +115,10 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
         a = alpha[rows, cols, None]
         new = srgb_to_linear(rgb, exact=True) * gains if full.linear else rgb
         new = match_colours(new, out[rows, cols], ring)  # in the output's own encoding
-        out[rows, cols] = out[rows, cols] * (1 - a) + new * a
-        return np.clip(np.rint(out * peak), 0, peak).astype(photo.dtype)
+        filled = out.copy()
+        filled[rows, cols] = out[rows, cols] * (1 - a) + new * a
+        if cfg.blend == "mask":
+            filled = subtract_flare_layer(out, filled, alpha, cfg.flare_layer, full.linear)
+        return np.clip(np.rint(filled * peak), 0, peak).astype(photo.dtype)
 
     return Prepared(rays_o, rays_d, compose)

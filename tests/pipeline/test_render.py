@@ -82,7 +82,7 @@ def test_inputs_replace_only_the_flare_region(rws, counters):
     from pipeline.render import RenderConfig, blend_weights, flare_mask_in, run
 
     rays, enc = counters
-    outs = run(RenderConfig(path="inputs"), rws)
+    outs = run(RenderConfig(path="inputs", flare_layer=0), rws)  # the fill as it is
     assert outs == [rws.deflared]
     cams = load_cameras(rws.cameras_json)
     assert enc.calls == 1  # every source view encoded once, in one cache
@@ -103,7 +103,7 @@ def test_inputs_replace_only_the_flare_region(rws, counters):
         assert np.abs(got[BOX].astype(int) - orig[BOX]).mean() > 1  # replaced there
     assert rays.calls == 1
     # rerun: the stage is up to date, nothing is rendered or encoded again
-    run(RenderConfig(path="inputs"), rws)
+    run(RenderConfig(path="inputs", flare_layer=0), rws)
     assert (rays.calls, enc.calls) == (1, 1)
 
 
@@ -256,7 +256,7 @@ def test_full_res_blends_into_the_original_photos(rws, counters):
     from pipeline.render import RenderConfig, run
 
     rays, enc = counters
-    outs = run(RenderConfig(path="inputs", full_res=True), rws)
+    outs = run(RenderConfig(path="inputs", full_res=True, flare_layer=0), rws)
     assert rws.deflared_full in outs
     photos = rws.photos_dir
     got = cv2.imread(str(rws.deflared_full_path(FLARED, ".png")))
@@ -434,13 +434,13 @@ def test_hybrid_inputs_fill_the_flare_region_from_the_photos(hws, counters):
     from pipeline.render import RenderConfig, blend_weights, decoded_camera, flare_mask_in, run
 
     rays, _ = counters
-    run(RenderConfig(path="inputs", fill="hybrid", color_match=False), hws)
+    run(RenderConfig(path="inputs", fill="hybrid", color_match=False, flare_layer=0), hws)
     f = load_cameras(hws.cameras_json).by_stem()[HYBRID_FLARED]
     got = cv2.imread(str(hws.deflared / f"{HYBRID_FLARED}.png")).astype(int)
     orig = cv2.imread(str(hws.decoded / f"{HYBRID_FLARED}.png")).astype(int)
     hybrid_err = np.abs(got[HYBRID_BOX] - orig[HYBRID_BOX]).mean()
     hybrid_rays = rays.rays
-    run(RenderConfig(path="inputs", fill="network", color_match=False), hws)
+    run(RenderConfig(path="inputs", fill="network", color_match=False, flare_layer=0), hws)
     net = cv2.imread(str(hws.deflared / f"{HYBRID_FLARED}.png")).astype(int)
     net_err = np.abs(net[HYBRID_BOX] - orig[HYBRID_BOX]).mean()
     alpha = blend_weights(flare_mask_in(decoded_camera(f, f.width, f.height), f, hws),

@@ -1,0 +1,79 @@
+"""Keep the photo's own detail inside its flare region: subtract a smooth flare layer.
+
+Flare is light added to the scene's light. Much of it (veiling glare, the glow around a
+light, dirty-aperture scatter) is smooth, and the scene's texture stays visible through it;
+a fill (GN-FR, or photos warped by depth) has the scene's colours but rarely its finest
+detail. So inside the blend region the de-flared photo is the photo minus a flare layer,
+
+    layer = max(0, G_sigma * (photo - fill))          (linear light)
+    out   = photo - layer
+
+where G_sigma is a Gaussian of ``smooth`` x the long side. The layer is blurred over the
+whole image with the zeros outside the blend region left in (not normalised by the mask),
+so small or thin flare regions lose only part of their difference; on the development
+scenes this beat a mask-normalised layer (docs/depth.md, "The photo's own detail").
+Where the photo is clipped (the flare's saturated core) it holds no scene detail and the
+fill stays. The layer is never negative: flare only adds light.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.colour import linear_to_srgb, srgb_to_linear
+
+SMOOTH_SIZE = 256
+"""The layer is blurred at this long side and resized back (it is smooth by construction;
+this keeps a large Gaussian cheap on full-resolution photos)."""
+CLIPPED = 0.95
+"""A pixel with any channel at or above this (sRGB-encoded) counts as clipped."""
+
+
+def lowpass(x: np.ndarray, smooth: float) -> np.ndarray:
+    """[H, W, C] float32 blurred by a Gaussian of ``smooth`` x the long side (computed at
+    ``SMOOTH_SIZE`` and resized back)."""
+    import cv2
+
+    h, w = x.shape[:2]
+    k = min(1.0, SMOOTH_SIZE / max(h, w))
+    small = cv2.resize(x, (max(1, round(w * k)), max(1, round(h * k))),
+                       interpolation=cv2.INTER_AREA) if k < 1 else x
+    sigma = smooth * max(small.shape[:2])
+    small = cv2.GaussianBlur(small, (0, 0), sigma)
+    if small.ndim == 2:
+        small = small[..., None]
+    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(x.shape) \
+        if k < 1 else small.reshape(x.shape)
+
+
+def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:
+    """[H, W] bool: pixels with a channel at or above ``CLIPPED``, grown by a few pixels
+    (the clipped core's blooming edge carries no detail either)."""
+    import cv2
+
+    r = max(2, round(0.004 * max(photo_srgb.shape[:2])))
+    hot = (photo_srgb.max(-1) >= CLIPPED).astype(np.uint8)
+    return cv2.dilate(hot, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
+
+
+def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
+                         smooth: float, linear: bool = False) -> np.ndarray:
+    """The de-flared photo with the photo's detail kept inside the blend region.
+
+    photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
+    region replaced by the fill (same encoding: sRGB, or linear light with ``linear``);
+    alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
+    encoding. ``smooth`` <= 0 returns ``filled`` unchanged.
+    """
+    if smooth <= 0 or not (alpha > 0).any():
+        return filled
+    if linear:
+        p, f = photo.astype(np.float32), filled.astype(np.float32)
+        srgb = linear_to_srgb(p)
+    else:
+        p, f = srgb_to_linear(photo), srgb_to_linear(filled)
+        srgb = photo
+    layer = np.maximum(lowpass(p - f, smooth), 0.0)
+    w = (alpha * ~clipped_pixels(srgb)).astype(np.float32)[..., None]
+    out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
+    return out if linear else linear_to_srgb(out)
