@@ -175,8 +175,8 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
 
 
 def ray_config(config: MaskConfig):
-    """The flare-ray rule of the mask stage: RayConfig's defaults with ``ray_min`` and
-    ``ray_opposite`` where given."""
+    """The flare-ray rule of the mask stage (or of any config with ``ray_min`` and
+    ``ray_opposite``, e.g. `fmg eval`'s): RayConfig's defaults with those where given."""
     from pipeline.flare_rays import RayConfig
 
     over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite))

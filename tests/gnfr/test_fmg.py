@@ -349,7 +349,7 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
 
 
 
-def test_leave_one_kind_out_trains_and_scores(tmp_path):
+def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     """A leave-one-kind-out run at tiny size: trains without a kind (recorded in the
     weights), then `fmg eval --per-kind` scores it on that kind beside another model."""
     import json
@@ -382,6 +382,17 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path):
         assert row["flare_pixels"] > 0
         assert ("without" in row) == (kind == "streaks")
     assert res["kinds"]["streaks"]["without"]["steps"] == 2
+    # --ray-min / --ray-opposite reach the ray rule the scores use, and are recorded
+    import pipeline.flare_rays as fr
+
+    seen, real = [], fr.ray_mask
+    monkeypatch.setattr(fr, "ray_mask", lambda img, cfg=None: seen.append(cfg) or real(img, cfg))
+    assert main(["fmg", "eval", "--per-kind", "--weights", str(allw), "--data", str(data),
+                 "--count", "2", "--size", "64", "--rays", "--ray-min", "1",
+                 "--ray-opposite", "8", "--out", str(tmp_path / "r.json")]) == 0
+    assert seen and all((c.min_rays, c.opposite) == (1, 8.0) for c in seen)
+    rule = json.loads((tmp_path / "r.json").read_text())["ray_rule"]
+    assert (rule["min_rays"], rule["opposite"]) == (1, 8.0)
     # the overview image of masks on photos
     jpg = tmp_path / "overlay.jpg"
     photo = data / "scenes/kermit/kermit000.jpg"

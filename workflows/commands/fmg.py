@@ -30,11 +30,12 @@ def register(app: typer.Typer) -> None:
         """mIoU / mAcc on held-out composites: default, unseen and night flare settings, or
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
         working-size sweep (--work-sizes) or clean photos (--clean)."""
-        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
+        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights, ray_config
         from pipeline.provenance import sha256, write_result
         from workflows.research import fmg_train
 
         fmg_train.check_modes(config)
+        rule = ray_config(config)
         weights = config.weights or DEFAULT_WEIGHTS
         for path in (weights, *config.loo):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
@@ -44,12 +45,13 @@ def register(app: typer.Typer) -> None:
             typer.echo(fmg_train.format_work_sizes(metrics))
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
-                                                 split=config.split, rays=config.rays)
+                                                 split=config.split, rays=config.rays,
+                                                 ray_cfg=rule)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
-                                               rays=config.rays)
+                                               rays=config.rays, ray_cfg=rule)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,
@@ -82,14 +84,15 @@ def register(app: typer.Typer) -> None:
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
-        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
-        from workflows.research.fmg_train import real_flare_overview
+        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights, ray_config
+        from workflows.research.fmg_train import check_ray_rule, real_flare_overview
 
+        check_ray_rule(config)
         weights = config.weights or (DEFAULT_WEIGHTS,)
         for path in weights:
             load_fmg_weights(path)
         marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
-                                     rays=config.rays)
+                                     rays=config.rays, ray_cfg=ray_config(config))
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         typer.echo(f"wrote {config.out}")

@@ -133,6 +133,10 @@ class FMGEvalConfig:
     rays: bool = False
     """Score the FMG's masks with the flare rays added (as the mask stage does unless
     --no-rays), with --per-kind or --clean."""
+    ray_min: int | None = option(None, ge=1)
+    """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
+    ray_opposite: float | None = option(None, ge=0, le=90)
+    """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -169,6 +173,10 @@ class FMGOverlayConfig:
     """The network's working size (long side)."""
     rays: bool = False
     """Add the flare rays to each model's mask (as the mask stage does unless --no-rays)."""
+    ray_min: int | None = option(None, ge=1)
+    """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
+    ray_opposite: float | None = option(None, ge=0, le=90)
+    """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -178,9 +186,17 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--loo needs --per-kind")
     if cfg.rays and not (cfg.per_kind or cfg.clean):
         raise UserError("--rays needs --per-kind or --clean")
+    check_ray_rule(cfg)
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean")
     return cfg
+
+
+def check_ray_rule(cfg) -> None:
+    """A one-line UserError when ``ray_min`` or ``ray_opposite`` is given without ``rays``
+    (they would silently change nothing)."""
+    if not cfg.rays and (cfg.ray_min is not None or cfg.ray_opposite is not None):
+        raise UserError("--ray-min and --ray-opposite set the flare rays' rule: add --rays")
 
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
@@ -229,14 +245,15 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     return seg_metrics(conf)
 
 
-def ray_batch(x):
-    """[N, 1, S, S] bool flare rays of images [N, 3, S, S] (sRGB 0..1)."""
+def ray_batch(x, ray_cfg=None):
+    """[N, 1, S, S] bool flare rays (rule ``ray_cfg``, default RayConfig's) of images
+    [N, 3, S, S] (sRGB 0..1)."""
     import torch
 
     from pipeline.flare_rays import ray_mask
 
     return torch.stack([torch.from_numpy(ray_mask(np.ascontiguousarray(
-        xi.permute(1, 2, 0).numpy())))[None] for xi in x])
+        xi.permute(1, 2, 0).numpy()), ray_cfg))[None] for xi in x])
 
 
 def _refine_batch(x, p):
@@ -438,17 +455,26 @@ def weights_info(path: Path) -> dict:
             "cut": resolve_threshold(MaskConfig(), Path(path))}
 
 
+def _ray_rule(rays: bool, ray_cfg) -> dict | None:
+    """The ray rule a result used (RayConfig's fields), None without rays."""
+    from dataclasses import asdict
+
+    from pipeline.flare_rays import RayConfig
+
+    return asdict(ray_cfg or RayConfig()) if rays else None
+
+
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
-                   rays: bool = False) -> dict:
+                   rays: bool = False, ray_cfg=None) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
     night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
-    the flare rays are added to every model's mask."""
+    the flare rays (rule ``ray_cfg``) are added to every model's mask."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -465,12 +491,13 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     bgs = _part_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
-           "rays": rays, "weights": {k: v for k, v in main.items() if k != "model"},
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
+           "weights": {k: v for k, v in main.items() if k != "model"},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
         imgs, masks = fixed_set(src, count, seed + i, extras=True)
-        ray = ray_batch(imgs) if rays else None  # the same for every model: found once
+        ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
                "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray)}
         for h in held:
@@ -587,18 +614,19 @@ def format_work_sizes(res: dict) -> str:
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
-                    rays: bool = False) -> dict:
+                    rays: bool = False, ray_cfg=None) -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
-    added with ``rays``: as in the mask stage) on every clean photo of ``scenes`` at full
-    size: mean and max per scene."""
+    added with ``rays`` by rule ``ray_cfg``: as in the mask stage) on every clean photo of
+    ``scenes`` at full size: mean and max per scene."""
     from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
-           "rays": rays, "scenes": {}}
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
-        marked = {name: float(flare_marks(model, im, cut, work_size, rays).mean())
+        marked = {name: float(flare_marks(model, im, cut, work_size, rays,
+                                          ray_cfg=ray_cfg).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
@@ -618,10 +646,11 @@ def format_clean(res: dict) -> str:
 
 
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
-                        work_size: int = 512, width: int = 480, rays: bool = False) -> dict:
+                        work_size: int = 512, width: int = 480, rays: bool = False,
+                        ray_cfg=None) -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
-    rays if ``rays``) outlined and tinted red; returns the fraction of each photo each model
-    marks."""
+    rays of rule ``ray_cfg`` if ``rays``) outlined and tinted red; returns the fraction of
+    each photo each model marks."""
     import cv2
 
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
@@ -632,7 +661,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         img = read_image(photo, bgr=True)
         scale = width / img.shape[1]
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
-        ray = ray_marks(img, work_size) if rays else False  # the same for every model
+        ray = ray_marks(img, work_size, ray_cfg) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
             marked = flare_marks(model, img, cut, work_size) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
