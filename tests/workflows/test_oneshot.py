@@ -111,10 +111,12 @@ def test_default_path_removes_the_flare_on_the_sample(tmp_path, capsys):
     against the sample's clean truth inside the true flare region. Flare adds light: the
     flared photos are brighter than the truth there (about +32 of 255 on average). The
     de-flared photos must remove most of that excess (a fill that leaves the flare in keeps
-    it all) and beat the flared photos' PSNR there on average by 0.3 dB (a fill that leaves
-    the flare scores 0, a grey, black or misplaced one loses several dB). Measured with the
-    42 250-step weights: +0.91 dB on average (-2.3 to +3.6 per view; older weights gave
-    +0.1); at 504 px and 3000 steps +1.6 (README)."""
+    it all; one that over-darkens it overshoots) and beat the flared photos' PSNR there by
+    3 dB on average and by 1 dB in every view (a fill that leaves the flare scores 0, a
+    grey, black or misplaced one loses several dB). Measured with the 42 250-step weights
+    and the flare layer (render --flare-layer, the photo's own detail kept): +4.9 dB on
+    average, +2.5 to +6.7 per view, excess -1 of +32; with the fill pasted
+    (--flare-layer 0) +0.9 dB, -2.3 to +3.6 per view, excess +13."""
     ws = tmp_path / "cyprus.deflare"
     args = ["--max-size", "200", "--preset", "quick", "--iters", "150", "--frames", "4",
             "--fps", "4", "--device", "cpu", "--set", "pose.num_threads=1"]
@@ -140,8 +142,9 @@ def test_default_path_removes_the_flare_on_the_sample(tmp_path, capsys):
         excess_in.append(float((flared.astype(float) - truth)[m].mean()))
     assert len(gains) >= 4
     assert np.mean(excess_in) > 15  # the sample's flare is there to remove
-    assert np.mean(excess_out) < 0.65 * np.mean(excess_in), (excess_out, excess_in)
-    assert np.mean(gains) > 0.3, f"flare-region PSNR gain over the flared photos {gains}"
+    assert abs(np.mean(excess_out)) < 0.3 * np.mean(excess_in), (excess_out, excess_in)
+    assert np.mean(gains) > 3.0 and min(gains) > 1.0, \
+        f"flare-region PSNR gain over the flared photos {gains}"
     facts = _video_facts(ws / "cyprus.mp4")
     assert facts["codec"] == "h264" and facts["pix_fmt"] == "yuv420p" and facts["faststart"]
     assert facts["size"][0] % 2 == 0 and facts["size"][1] % 2 == 0
