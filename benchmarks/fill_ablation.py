@@ -37,6 +37,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", type=Path)
     ap.add_argument("--variant", default="gnfr")
+    ap.add_argument("--eval-ws", type=Path, default=None,
+                    help="the eval workspace (default SCENE/eval.ws; e.g. an arm of "
+                         "benchmarks/finetune_ab.py, WORK/<arm>.ws)")
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--settings", default=",".join(SETTINGS),
                     help="comma-separated names of SETTINGS to run (default: all)")
@@ -56,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
-    ws = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)
+    ws = Workspace(Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
     stems = flared_views(scene)
     rows = {}
     for name in names:
@@ -71,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         print(name, json.dumps(rows[name]), flush=True)
     _, meta = read_metadata(ws.model_file)
     rec = {"scene": str(a.scene), "origin": scene.origin, "variant": a.variant,
+           "eval_ws": str(a.eval_ws or a.scene / "eval.ws"),
            "scored_views": stems, "model": {k: meta.get(k) for k in
                                              ("step", "preset", "init", "init_sha256")},
            "finetune_record": {k: ws.stage_record("finetune").get(k)

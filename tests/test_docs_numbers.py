@@ -87,6 +87,9 @@ CHECKS = [
        "{:.3f}" if m == "ssim" else "{:.2f}") for scene in ("sceaux", "et", "sceaux_streaks")
       for row in ("hybrid_guided_support2", "hybrid_no_flare_layer")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/presets.md", f"finetune_ab_random_sources_dev_{scene}_flare_layer_{arm}.json",
+       f"rows/hybrid_guided_support2/{m}", "{:.2f}") for scene in ("sceaux", "et")
+      for arm in ("base", "random_sources-true") for m in ("psnr_flare", "psnr")],
     # the final bench run (README tables) and the earlier one quoted for the drift
     *[("README.md", "bench_cpu.json", f"results/cpu/{path}", fmt) for path, fmt in (
         ("train/end_to_end/it_per_s", "{:.2f}"), ("train/cached/it_per_s", "{:.2f}"),
