@@ -41,6 +41,8 @@ CHECKS = [
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[("README.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
