@@ -41,6 +41,11 @@ CHECKS = [
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+       f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}") for m in ("gnfr", "gnt", "input")],
+    *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+       f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
+      for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
