@@ -46,6 +46,10 @@ CHECKS = [
     *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[("docs/eval.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+       f"flare/methods/{m}/{part}", "{:.3f}" if part.endswith("ssim") else "{:.2f}")
+      for m in ("gnfr", "gnt") for part in ("inputs/psnr_flare", "inputs/psnr",
+                                             "heldout/psnr", "heldout/ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
