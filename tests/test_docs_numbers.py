@@ -50,6 +50,9 @@ CHECKS = [
        f"flare/methods/{m}/{part}", "{:.3f}" if part.endswith("ssim") else "{:.2f}")
       for m in ("gnfr", "gnt") for part in ("inputs/psnr_flare", "inputs/psnr",
                                              "heldout/psnr", "heldout/ssim")],
+    *[("README.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+       f"methods/{m}/inputs/{k}", "{:.3f}" if k == "ssim" else "{:.2f}")
+      for m in ("gnfr", "input") for k in ("psnr_flare", "psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
