@@ -245,3 +245,18 @@ def test_depth_doc_quotes_the_flare_layer_variants(scene, row):
     (rows,) = [v["rows"] for k, v in scenes.items() if Path(k).name == scene]
     value = f"{rows[row]['psnr_flare']:.2f}"
     assert value in (REPO / "docs" / "depth.md").read_text(), (scene, row, value)
+
+
+def test_fmg_card_sixth_session_candidate_e():
+    """The sixth-session table's E column: per-kind flare IoU, clean lund, development scenes
+    (rays on, as the mask stage runs them)."""
+    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    kinds = json.loads((RESULTS / "fmg_dev_per_kind_s6_E_rays.json").read_text())["kinds"]
+    for kind, row in kinds.items():
+        assert f"| {kind} | " in text and f"{row['weights']['IoU_flare']:.3f} |" in text, kind
+    lund = json.loads((RESULTS / "fmg_dev_clean_s6_E_rays.json").read_text())[
+        "scenes"]["scenes/lund/images"]
+    assert f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %" in text
+    rows = json.loads((RESULTS / "mask_dev_scenes_s6_E.json").read_text())["rows"]
+    for r in (r for r in rows if r["rays"]):
+        assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, r
