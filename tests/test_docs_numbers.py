@@ -53,6 +53,9 @@ CHECKS = [
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
        f"methods/{m}/inputs/{k}", "{:.3f}" if k == "ssim" else "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr", "ssim")],
+    ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
+    ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
+     "{:.1f}"),
     *[("README.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
