@@ -36,14 +36,18 @@ def lowpass(x: np.ndarray, smooth: float) -> np.ndarray:
 
     h, w = x.shape[:2]
     k = min(1.0, SMOOTH_SIZE / max(h, w))
-    small = cv2.resize(x, (max(1, round(w * k)), max(1, round(h * k))),
-                       interpolation=cv2.INTER_AREA) if k < 1 else x
-    sigma = smooth * max(small.shape[:2])
-    small = cv2.GaussianBlur(small, (0, 0), sigma)
-    if small.ndim == 2:
-        small = small[..., None]
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(x.shape) \
-        if k < 1 else small.reshape(x.shape)
+    small = x if k == 1 else cv2.resize(x, (max(1, round(w * k)), max(1, round(h * k))),
+                                        interpolation=cv2.INTER_AREA)
+    out = cv2.GaussianBlur(small, (0, 0), smooth * max(small.shape[:2]))
+    if k < 1:
+        out = cv2.resize(out, (w, h), interpolation=cv2.INTER_LINEAR)
+    return out.reshape(x.shape)  # OpenCV drops a single channel
+
+
+def layer_scale(cfg) -> float:
+    """The flare layer's scale for a render config: ``flare_layer`` when only the flare
+    region is blended (``blend mask``), 0 (off) when the whole image is rendered."""
+    return cfg.flare_layer if cfg.blend == "mask" else 0.0
 
 
 def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:

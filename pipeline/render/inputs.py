@@ -9,7 +9,7 @@ from pipeline.cameras import Frame
 from pipeline.errors import UserError
 from pipeline.render.config import RenderConfig
 from pipeline.render.fill import fill_from_photos
-from pipeline.render.flare_layer import subtract_flare_layer
+from pipeline.render.flare_layer import layer_scale, subtract_flare_layer
 from pipeline.render.frames import to_u8
 from pipeline.render.jobs import FrameJob, Prepared
 from pipeline.workspace import Workspace
@@ -57,9 +57,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
             fill = fill * (1 - wgt[..., None]) + pc * wgt[..., None]
         a = alpha[..., None]
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
-        if cfg.blend == "mask":
-            filled = subtract_flare_layer(out, filled, alpha, cfg.flare_layer)
-        return to_u8(filled)
+        return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg)))
 
     return Prepared(rays_o, rays_d, compose, guided)
 
