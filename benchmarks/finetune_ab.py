@@ -3,6 +3,9 @@
     python benchmarks/finetune_ab.py SCENE --set random_sources=true --work DIR \
         [--preset quick] [--iters N] [--out JSON]
 
+A ``--set`` of an `eval` option (``init=FILE.safetensors``) sets that option of the second
+run; any other names a FinetuneConfig field.
+
 Runs `deflare-scene eval SCENE --variants gnfr` twice, in DIR/base.ws (the defaults) and
 DIR/<name>.ws (the defaults plus the ``--set`` FinetuneConfig fields), with the same preset,
 steps, seed, masks and fill, and reports both rows (held-out novel views, de-flared inputs
@@ -14,6 +17,7 @@ second experiment with the same budget. Make choices with it on development scen
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
@@ -57,11 +61,14 @@ def main() -> None:
     from workflows.research.eval import EvalConfig, run
 
     extra = parse_sets(a.sets)
-    name = "_".join(f"{k}-{v}" for k, v in extra.items()).lower()
+    name = "_".join(f"{k}-{Path(str(v)).stem}" for k, v in extra.items()).lower()
     res = {"scene": str(a.scene), "preset": a.preset, "iters": a.iters, "set": extra}
+    own = {f.name for f in dataclasses.fields(EvalConfig)}  # e.g. init: eval's own option
     for label, fields in (("base", {}), (name, extra)):
+        top = {k: v for k, v in fields.items() if k in own}
+        rest = {k: v for k, v in fields.items() if k not in own}
         out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
-                             preset=a.preset, iters=a.iters, finetune_extra=fields))
+                             preset=a.preset, iters=a.iters, finetune_extra=rest, **top))
         res[label] = row(out / "results.json")
         r = res[label]
         print(f"{label}: held-out {r['heldout_psnr']:.2f} / {r['heldout_ssim']:.3f}, inputs "

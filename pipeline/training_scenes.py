@@ -6,7 +6,10 @@ Three layouts:
   ``WS/views.json``, all read through ``pipeline.ws_files``);
 * an LLFF folder (``poses_bounds.npy`` + ``images/`` or ``images_<f>/``);
 * a COLMAP workspace (``sparse/`` or ``sparse/0`` + ``images/``), read by the small
-  pure-python binary/text reader below (no pycolmap).
+  pure-python binary/text reader below (no pycolmap);
+* a scene pack (``DIR/scene_pack.npz``, written by ``save_pack``): any of the above as loaded,
+  its views as JPEG bytes beside their cameras, one small file to move training data to
+  another machine (a GPU's: ``python -m workflows.research.scene_pack``).
 
 LLFF and COLMAP scenes are brought into the workspace's normalised frame: camera centres
 centred at the origin within a sphere of radius about 1 (near/far scaled alike;
@@ -297,8 +300,11 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
 
 
 def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
-    """Load a workspace, an LLFF folder or a COLMAP workspace, whichever ``path`` is."""
+    """Load a workspace, an LLFF folder, a COLMAP workspace or a scene pack, whichever
+    ``path`` is."""
     path = Path(path)
+    if (path / PACK_FILE).is_file():
+        return load_pack(path, max_size)
     if Workspace(path).cameras_json.is_file():
         return load_workspace(path)
     if (path / "poses_bounds.npy").is_file():
@@ -306,4 +312,73 @@ def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
     if (path / "images").is_dir():
         return load_colmap(path, max_size)
     raise UserError(f"{path} is not a workspace (cameras.json), an LLFF scene "
-                    "(poses_bounds.npy) or a COLMAP workspace (sparse/ + images/)")
+                    "(poses_bounds.npy), a COLMAP workspace (sparse/ + images/) or a scene "
+                    f"pack ({PACK_FILE})")
+
+
+# --------------------------------------------------------------------------- scene packs
+PACK_FILE = "scene_pack.npz"
+
+
+def save_pack(scene: Scene, folder: str | Path, quality: int = 95) -> Path:
+    """``scene`` as ``folder/scene_pack.npz``: views as JPEG (``quality``), intrinsics,
+    OpenCV c2w, near/far, masks bit-packed when the scene has them, targets. What it drops:
+    the exact pixels (JPEG), and ``ranked``/``flare`` (recomputed from cameras and masks)."""
+    import cv2
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    blobs = []
+    for img in scene.images.permute(0, 2, 3, 1).numpy():
+        ok, buf = cv2.imencode(".jpg", np.ascontiguousarray(img[..., ::-1]),
+                               [cv2.IMWRITE_JPEG_QUALITY, quality])
+        if not ok:
+            raise UserError(f"{scene.name}: a view could not be encoded as JPEG")
+        blobs.append(buf.ravel())
+    extra = {}
+    if scene.masks is not None:
+        extra["masks"] = np.packbits(scene.masks.numpy().astype(bool), axis=-1)
+    if scene.targets is not None:
+        extra["targets"] = np.array(scene.targets)
+    out = folder / PACK_FILE
+    tmp = out.with_suffix(".tmp.npz")
+    np.savez(tmp, name=np.array(scene.name), stems=np.array(scene.stems),
+             jpeg=np.concatenate(blobs), offsets=np.cumsum([0] + [len(b) for b in blobs]),
+             K=scene.K.numpy(), c2w=scene.c2w.numpy(), near=scene.near.numpy(),
+             far=scene.far.numpy(), **extra)
+    tmp.replace(out)
+    return out
+
+
+def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
+    """A scene pack as a Scene, shrunk (intrinsics alike) when its long side exceeds
+    ``max_size``; never enlarged."""
+    import cv2
+
+    path = Path(folder) / PACK_FILE
+    try:
+        d = np.load(path, allow_pickle=False)
+        off, blob = d["offsets"], d["jpeg"]
+        images = [cv2.imdecode(blob[a:b], cv2.IMREAD_COLOR)[..., ::-1]
+                  for a, b in zip(off[:-1], off[1:], strict=True)]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise UserError(f"{path}: not a readable scene pack ({e}); write it again with "
+                        "`python -m workflows.research.scene_pack`") from e
+    h, w = images[0].shape[:2]
+    K = d["K"].copy()
+    masks = None
+    if "masks" in d:
+        masks = list(np.unpackbits(d["masks"], axis=-1, count=w)[:, 0].astype(bool))
+    s = min(1.0, max_size / max(h, w))
+    if s < 1.0:
+        W, H = round(w * s), round(h * s)
+        images = [cv2.resize(im, (W, H), interpolation=cv2.INTER_AREA) for im in images]
+        if masks is not None:
+            masks = [cv2.resize(m.astype(np.uint8), (W, H), interpolation=cv2.INTER_NEAREST)
+                     .astype(bool) for m in masks]
+        K[:, 0] *= W / w
+        K[:, 1] *= H / h
+    images = [np.ascontiguousarray(im) for im in images]
+    targets = [str(t) for t in d["targets"]] if "targets" in d else None
+    return make_scene(str(d["name"]), [str(t) for t in d["stems"]], images, K, d["c2w"],
+                      d["near"], d["far"], masks, targets=targets)

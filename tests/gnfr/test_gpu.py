@@ -48,7 +48,11 @@ def test_cuda_bf16_render_matches_the_fp32_cpu_render():
     assert float(err.mean()) < 5e-3 and float(err.max()) < 5e-2, (err.mean(), err.max())
     rel = ((gpu["depth"] - cpu["depth"]).abs() / cpu["depth"]).max()
     assert float(rel) < 2e-2
-    assert torch.equal(gpu["all_flared"], cpu["all_flared"])  # masks are exact, not bf16
+    # masks are sampled in fp32, not bf16: the same samples fall on flare on both devices
+    # (all_flared is a fraction of the 24 samples; its float mean may differ in the last bit
+    # between CPU and CUDA, as seen on an H100, so compare the counts)
+    assert float(cpu["all_flared"].max()) > 0  # the check sees flared samples at all
+    assert torch.equal((gpu["all_flared"] * 24).round(), (cpu["all_flared"] * 24).round())
 
 
 def test_cuda_fused_forward_and_backward_match_the_reference():

@@ -156,3 +156,35 @@ def test_fern_near_far_from_bounds(fern):
     # one scale for the whole scene: ratios of the bounds survive (with the 0.9 / 1.1 margins)
     assert np.allclose(far / near, bounds[:, 1] * 1.1 / (bounds[:, 0] * 0.9))
     assert np.allclose(near / near[0], bounds[:, 0] / bounds[0, 0])
+
+
+def test_scene_pack_round_trip_and_shrink(tmp_path):
+    """A scene pack (the file that carries training scenes to a GPU machine) keeps cameras
+    exactly, images within JPEG error, masks exactly; a smaller max_size shrinks K alike."""
+    from pipeline.training_scenes import PACK_FILE, detect_and_load, save_pack
+    from workflows.research.pretrain import find_scenes
+
+    (tmp_path / "llff").mkdir()
+    _synthetic_llff(tmp_path / "llff")
+    sc = load_llff(tmp_path / "llff")
+    # smooth images (JPEG is exact enough on them) and a mask that is not all one value
+    yy, xx = np.mgrid[:sc.images.shape[2], :sc.images.shape[3]]
+    smooth = np.stack([(xx * 3) % 256, (yy * 4) % 256, (xx + yy) % 256], 0).astype(np.uint8)
+    sc.images[:] = torch.from_numpy(smooth)
+    masks = torch.zeros(4, 1, *sc.images.shape[2:], dtype=torch.uint8)
+    masks[1, 0, 5:20, 7:31] = 1
+    sc.masks = masks
+    save_pack(sc, tmp_path / "packs" / "llff")
+    assert (tmp_path / "packs" / "llff" / PACK_FILE).is_file()
+    assert find_scenes([tmp_path / "packs"]) == [tmp_path / "packs" / "llff"]
+    back = detect_and_load(tmp_path / "packs" / "llff", max_size=504)
+    assert back.stems == sc.stems and back.name == sc.name
+    for a in ("K", "c2w", "near", "far"):
+        assert torch.equal(getattr(back, a), getattr(sc, a)), a
+    err = (back.images.float() - sc.images.float()).abs().mean()
+    assert float(err) < 3.0, float(err)
+    assert torch.equal(back.masks, masks)
+    assert back.flare[sc.stems[1]] > 0 and back.flare[sc.stems[0]] == 0
+    small = detect_and_load(tmp_path / "packs" / "llff", max_size=40)
+    assert small.images.shape[-1] == 40 and small.images.shape[-2] == 30
+    assert torch.allclose(small.K[:, :2], sc.K[:, :2] / 2)

@@ -32,6 +32,7 @@ from pipeline.finetune import init_model, init_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.scene_splits import HELDOUT_SCENES
+from pipeline.training_scenes import PACK_FILE
 
 
 @dataclass
@@ -47,6 +48,8 @@ class PretrainConfig:
     preset (docs/presets.md)."""
     iters: int | None = option(None, ge=1)
     """Override the preset's number of steps."""
+    ckpt_every: int | None = option(None, ge=1)
+    """Override the preset's steps between checkpoints (a lent GPU that may go away: often)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -65,6 +68,7 @@ def find_scenes(paths: list[Path]) -> list[Path]:
     """Scene folders among ``paths`` and their sub-folders, held-out scenes removed."""
     def is_scene(p: Path) -> bool:
         return (p / "cameras.json").is_file() or (p / "poses_bounds.npy").is_file() or (
+            p / PACK_FILE).is_file() or (
             (p / "images").is_dir() and ((p / "sparse").is_dir()))
     found = []
     for p in paths:
@@ -173,6 +177,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     train_cfg = train or PRESETS[config.preset]
     if config.iters is not None:
         train_cfg = replace(train_cfg, iters=config.iters)
+    if config.ckpt_every is not None:
+        train_cfg = replace(train_cfg, ckpt_every=config.ckpt_every)
     train_cfg = replace(train_cfg, seed=config.seed)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
