@@ -53,6 +53,19 @@ CHECKS = [
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
        f"methods/{m}/inputs/{k}", "{:.3f}" if k == "ssim" else "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr", "ssim")],
+    *[("README.md", "fern_llff_paper_cuda_h100_ptp5000.json",
+       f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
+      for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[(page, "bench_paper_cuda_h100.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
+      for page in ("README.md", "docs/presets.md") for mode in ("end_to_end", "cached")],
+    *[(page, "bench_paper_cuda_h100.json", f"results/cuda/render/{size}/fast/s_per_frame",
+       "{:.2f} s") for page in ("README.md", "docs/presets.md")
+      for size in ("504x378", "1008x756")],
+    *[("docs/presets.md", f"bench_{p}_cuda_h100{sfx}.json", f"results/cuda/train/{mode}/it_per_s",
+       "{:.2f}") for p, sfx, mode in (("paper", "", "reference"), ("paper", "_1008", "end_to_end"),
+                                      ("paper", "_1008", "reference"), ("quick", "", "end_to_end"),
+                                      ("quick", "", "reference"))],
+    ("docs/presets.md", "render_compile_cuda_h100_paper.json", "speedup", "{:.2f}x"),
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
      "{:.1f}"),

@@ -72,6 +72,9 @@ class FMGTrainConfig:
     """Held-out composites scored during training (twice as many at the end)."""
     night_prob: float = option(0.0, ge=0, le=1)
     """Probability of a night-darkened training background (``CompositeConfig``)."""
+    flare_prob: float = option(0.8, ge=0, le=1)
+    """Probability that a training composite has flare; the rest are clean photos (with hard
+    negatives at ``CompositeConfig.clean_negative_prob``) that teach 'nothing here'."""
     without: tuple[str, ...] = option(
         (), choices=("starburst", "ghosts", "streaks", "glare", "scatter"))
     """Kinds of flare to leave out of training (comma-separated, of
@@ -201,7 +204,7 @@ def check_ray_rule(cfg) -> None:
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
              negatives: tuple[str, ...] | None = None,
-             kind_probs: dict[str, float] | None = None):
+             kind_probs: dict[str, float] | None = None, flare_prob: float = 0.8):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -211,7 +214,7 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
     )
 
     parts = split_backgrounds(data)
-    comp = CompositeConfig(size=size, night_prob=night_prob)
+    comp = CompositeConfig(size=size, night_prob=night_prob, flare_prob=flare_prob)
     if negatives is not None:
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
@@ -339,7 +342,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without), tuple(cfg.negatives),
-                                          kind_probs)
+                                          kind_probs, cfg.flare_prob)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
