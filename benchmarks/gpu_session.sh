@@ -10,6 +10,10 @@
 #             machine), exports its weights at the end
 #   fern      stops the pretraining, exports, then fern in the LLFF protocol at `paper`
 #             from the exported weights (ITERS steps)
+#   devab     the development A/B that decides `auto_init` of gnfr_paper.safetensors
+#             (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set
+#             (copy its photos/ clean/ masks_gt/ cameras_gt.json split.json to
+#             .carry/dev/et_synth) from scratch and from the file
 # Weights come back as $OUT/ptp.part_* (fp16, split under the tool's 16 MiB per file):
 # `cat ptp.part_* > ptp.safetensors` here.
 set -u
@@ -58,6 +62,12 @@ fern)
   cli eval-llff .carry/fern --out /root/fern --preset paper --init /root/ptp16.safetensors \
     --iters $ITERS --device cuda 2>&1 | tail -15
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/fern_table.md
+  exit 0 ;;
+devab)
+  pkill -f "pretrain .carry/packs"
+  python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
+    --set init=gnfr/weights/gnfr_paper.safetensors --work /root/ab \
+    --out $OUT/finetune_ab_paper_init_dev_et.json 2>&1 | tail -5
   exit 0 ;;
 esac
 while [ "$(left)" -gt 15 ] && running; do sleep 10; done
