@@ -13,7 +13,9 @@ Variants: the layer's scale (fraction of the long side); ``norm``: the blurred d
 divided by the blurred mask (the whole difference removed even in small regions);
 ``floor``: the result kept at least this fraction of the fill; ``cap``: the result kept
 at most the fill plus this (linear) tolerance plus ``rel`` x the fill (sharp flare above
-the fill removed); ``noclip``: clipped pixels left out of the layer.
+the fill removed); ``noclip``: clipped pixels left out of the layer; ``resid``: after the
+layer, the part of what is left above the fill (mean over channels) that exceeds ``resid`` x
+its median magnitude over the mask is removed too (for thin sharp flare; seventh session).
 """
 
 from __future__ import annotations
@@ -35,11 +37,12 @@ VARIANTS = {
     "cap_0.01": {"cap": 0.01}, "cap_0.03": {"cap": 0.03}, "cap_0.1": {"cap": 0.1},
     "cap_0+0.5f": {"cap": 0.0, "rel": 0.5}, "cap_0+1.0f": {"cap": 0.0, "rel": 1.0},
     "noclip": {"noclip": True},
+    "resid_1": {"resid": 1.0}, "resid_2": {"resid": 2.0}, "resid_3": {"resid": 3.0},
 }
 
 
 def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, rel=0.0,
-            noclip=False):
+            noclip=False, resid=None):
     """uint8 BGR result of one variant (fill, photo: uint8 BGR; mask: [H, W] bool)."""
     import numpy as np
 
@@ -60,6 +63,9 @@ def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, re
         c = np.maximum(c, floor * f)
     if cap is not None:
         c = np.minimum(c, f + cap + rel * f)
+    if resid is not None and mask.any():
+        y = (c - f).mean(-1)
+        c = c - (np.maximum(y - resid * np.median(np.abs(y[mask])), 0.0) * m)[..., None]
     w = (m * ~clip)[..., None]
     out = f * (1 - w) + np.clip(c, 0.0, 1.0) * w
     return np.clip(linear_to_srgb(out) * 255 + 0.5, 0, 255).astype(np.uint8)

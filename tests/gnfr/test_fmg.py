@@ -438,3 +438,28 @@ def test_fine_decoder_starts_at_the_pspnet_and_outlines_thin_lines():
     _fit(fine, x, y, 60)
     iou_plain, iou_fine = _flare_iou(plain, x, y), _flare_iou(fine, x, y)
     assert iou_fine > max(0.3, iou_plain + 0.15), (iou_plain, iou_fine)
+
+
+def test_fmg_train_flare_prob_sets_the_share_of_clean_composites():
+    """`fmg train --flare-prob` reaches the composites: 0 gives only clean training
+    composites (empty masks), 1 flare on most (an invisible draw leaves a mask empty)."""
+    from pathlib import Path
+    from unittest import mock
+
+    import pipeline.fmg_data as fd
+    from workflows.research.fmg_train import FMGTrainConfig, _sources
+
+    assert FMGTrainConfig.__dataclass_fields__["flare_prob"].default == 0.8
+    bgs = [np.random.default_rng(i).uniform(0.1, 0.6, (96, 128, 3)).astype(np.float32)
+           for i in range(3)]
+    split = fd.PhotoSplit(train=[Path("a")], dev=[], test=[])
+    with mock.patch.object(fd, "split_backgrounds", return_value=split), \
+            mock.patch.object(fd, "load_backgrounds", return_value=bgs), \
+            mock.patch("workflows.research.fmg_train._part_backgrounds", return_value=[]):
+        shares = {}
+        for p in (0.0, 1.0):
+            src, _, comp, _ = _sources(Path("unused"), 64, flare_prob=p)
+            assert comp.flare_prob == p
+            rng = np.random.default_rng(0)
+            shares[p] = np.mean([src.sample(rng)[1].any() for _ in range(12)])
+    assert shares[0.0] == 0.0 and shares[1.0] > 0.5, shares
