@@ -1,74 +1,107 @@
 #!/bin/bash
 # Work for a lent CUDA machine (the `device` tool), one phase per call, each ending inside
-# the tool's 10-minute limit. Run from the repo root there, with the training data carried:
-#   python -m workflows.research.scene_pack SCENES... --out .carry/packs   # here, on CPU
-#   cp -r ../shared/data/scenes/fern .carry/fern; pip download trimesh -d .carry/whl
-# phases:
-#   check     gpu-marked tests, bench (paper/quick, 504 and 1008 px), render --compile,
-#             then paper pretraining started in the background until the call's end
-#   continue  keeps the pretraining going (resumes from .carry/ptp.safetensors on a fresh
-#             machine), exports its weights at the end
-#   fern      stops the pretraining, exports, then fern in the LLFF protocol at `paper`
-#             from the exported weights (ITERS steps)
-#   devab     the development A/B that decides `auto_init` of gnfr_paper.safetensors
-#             (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set
-#             (copy its photos/ clean/ masks_gt/ cameras_gt.json split.json to
-#             .carry/dev/et_synth) from scratch and from the file
-# Weights come back as $OUT/ptp.part_* (fp16, split under the tool's 16 MiB per file):
-# `cat ptp.part_* > ptp.safetensors` here.
+# the tool's 10-minute limit. Run from the repo root there. Prepare here, on CPU, the data
+# it carries (.carry/ is ignored by git: `echo .carry/ >> .git/info/exclude`):
+#   python -m workflows.research.scene_pack SCENES... --out .carry/packs      # GN-FR, 16 MB
+#   python -m workflows.research.scene_pack --fmg-photos ../shared/data --out .carry/fmgdata \
+#       --quality 85                                                          # FMG, ~14 MB
+#   mkdir -p .carry/dev/et_synth; cp -r SYNTH/{photos,clean,masks_gt,cameras_gt.json,split.json} \
+#       .carry/dev/et_synth          # devab; pip download trimesh -d .carry/whl (eval-llff)
+# and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
+# devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl): the repo (30 MB with the
+# paper weights) and the carried folders must stay under 64 MiB together (check with du).
+# Phases (bash benchmarks/gpu_session.sh PHASE [END_SECONDS] [ITERS]):
+#   check   gpu-marked tests and the bench (paper / quick, 504 and 1008 px), render --compile
+#   train   GN-FR `paper` pretraining and the full-width FMG training side by side on the
+#           GPU (the pretraining's small batches leave it mostly idle), started in the
+#           background if not running (from gnfr/weights/gnfr_paper.safetensors and
+#           .carry/fmg_init.safetensors when present, else scratch), until END; then both
+#           exported (fp16, split under the tool's 16 MiB per file)
+#   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
+#           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
+#           scratch and from the file (resumes: run it again if a call ends first)
+#   fern    fern in the LLFF protocol at `paper` from the latest paper weights (ITERS steps)
+# Back here: `cat ptp.part_* > gnfr_paper.safetensors`, `cat fmg.part_* > fmg.safetensors`.
 set -u
-PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-3000}
+PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
 T0=$(date +%s)
 export PYTHONPATH=$PWD PYTHONUNBUFFERED=1
-python3 -m pip install -q --no-index --no-deps --target /tmp/site .carry/whl/*.whl 2>/dev/null \
-  && export PYTHONPATH=$PWD:/tmp/site
-RUN=/root/ptp
+if ls .carry/whl/*.whl > /dev/null 2>&1; then
+  python3 -m pip install -q --no-index --no-deps --target /tmp/site .carry/whl/*.whl \
+    && export PYTHONPATH=$PWD:/tmp/site
+fi
+PT=/root/ptp; FM=/root/fmg
 cli() { python3 -m workflows.cli "$@"; }
 left() { echo $(( END - ($(date +%s) - T0) )); }
-export_w() {  # fp16 weights of the run's last checkpoint, split for the trip back
-  [ -f $RUN/gnfr.safetensors ] || { echo "no checkpoint yet"; return; }
-  python3 -c "from pathlib import Path; from workflows.research.pretrain import export_fp16; \
-export_fp16(Path('$RUN/gnfr.safetensors'), Path('/root/ptp16.safetensors'), \
-{'pretrain_scenes': sorted(p.name for p in Path('.carry/packs').iterdir()), \
- 'synthetic_flare': True, 'auto_init': False})" && \
-  split -b 15000000 /root/ptp16.safetensors $OUT/ptp.part_
-  cp $RUN/metrics.jsonl $OUT/ptp_metrics.jsonl 2>/dev/null; tail -c 20000 /root/ptp.log > $OUT/ptp_log.txt
-}
+running() { pgrep -f "$1" > /dev/null; }
 start_pt() {
   local init=scratch
-  [ -d $RUN ] || { [ -f .carry/ptp.safetensors ] && init=.carry/ptp.safetensors; }
-  setsid nohup python3 -m workflows.cli pretrain .carry/packs --out $RUN --preset pretrain \
-    --device cuda --seed 1 --ckpt-every 500 --init $init >> /root/ptp.log 2>&1 < /dev/null &
-  echo "pretraining started (init $init)"
+  [ -f gnfr/weights/gnfr_paper.safetensors ] && init=gnfr/weights/gnfr_paper.safetensors
+  [ -f $PT/train_state.pt ] && init=scratch   # the run folder resumes by itself
+  setsid nohup python3 -m workflows.cli pretrain .carry/packs --out $PT --preset pretrain \
+    --device cuda --seed 1 --ckpt-every 500 --iters 500000 --init $init \
+    >> /root/ptp.log 2>&1 < /dev/null &
+  echo "GN-FR pretraining started (init $init)"
 }
-running() { pgrep -f "pretrain .carry/packs" > /dev/null; }
+start_fmg() {
+  local init=()
+  [ -f .carry/fmg_init.safetensors ] && [ ! -f $FM/checkpoint.safetensors ] \
+    && init=(--init .carry/fmg_init.safetensors)
+  setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
+    --device cuda --iters 20000 --batch 16 --size 256 --widths 64,128,256,512 \
+    --depths 2,2,2,2 --skip-width 32 --ckpt-every 200 --eval-every 2000 --night-prob 0.35 \
+    --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
+    >> /root/fmg.log 2>&1 < /dev/null &
+  echo "FMG training started (${init[*]:-scratch})"
+}
+export_pt() {
+  [ -f $PT/gnfr.safetensors ] || { echo "no GN-FR checkpoint yet"; return; }
+  python3 -c "from pathlib import Path; from workflows.research.pretrain import export_fp16; \
+export_fp16(Path('$PT/gnfr.safetensors'), Path('/root/ptp16.safetensors'), \
+{'pretrain_scenes': sorted(p.name for p in Path('.carry/packs').iterdir()), \
+ 'synthetic_flare': True, 'auto_init': False})" && \
+    split -b 15000000 /root/ptp16.safetensors $OUT/ptp.part_
+  cp $PT/metrics.jsonl $OUT/ptp_metrics.jsonl 2>/dev/null
+}
+export_fmg() {
+  [ -f $FM/checkpoint.safetensors ] || { echo "no FMG checkpoint yet"; return; }
+  python3 -c "from pathlib import Path; from workflows.research.fmg_train import \
+export_checkpoint; export_checkpoint(Path('$FM'), Path('/root/fmg16.safetensors'))" && \
+    split -b 15000000 /root/fmg16.safetensors $OUT/fmg.part_
+  cp $FM/log.jsonl $OUT/fmg_log.jsonl 2>/dev/null
+}
 case $PHASE in
 check)
   nvidia-smi -L; python3 -c "import torch; print(torch.__version__, torch.cuda.get_device_name())"
-  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider 2>&1 | tee $OUT/gpu_tests.log | tail -5
+  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA 2>&1 \
+    | tee $OUT/gpu_tests.log | tail -6
   for p in paper quick; do
-    cli bench --preset $p --device cuda --out $OUT/bench_${p}_cuda.json 2>&1 | tail -4; done
+    cli bench --preset $p --device cuda --out $OUT/bench_${p}_cuda.json 2>&1 | tail -2; done
   cli bench --preset paper --device cuda --train-size 1008x756 \
-    --out $OUT/bench_paper_cuda_1008.json 2>&1 | tail -4
+    --out $OUT/bench_paper_cuda_1008.json 2>&1 | tail -2
   python3 benchmarks/render_compile.py --preset paper --device cuda \
-    --out $OUT/render_compile_cuda_paper.json 2>&1 | tail -4
-  start_pt ;;
-continue)
-  running || start_pt ;;
-fern)
-  pkill -f "pretrain .carry/packs"; sleep 5
-  [ -f $RUN/gnfr.safetensors ] || { mkdir -p $RUN; cp .carry/ptp.safetensors $RUN/gnfr.safetensors; }
-  export_w
-  cli eval-llff .carry/fern --out /root/fern --preset paper --init /root/ptp16.safetensors \
-    --iters $ITERS --device cuda 2>&1 | tail -15
-  cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/fern_table.md
+    --out $OUT/render_compile_cuda_paper.json 2>&1 | tail -2
+  exit 0 ;;
+train)
+  running "pretrain .carry/packs" || start_pt
+  running "fmg train --out $FM" || start_fmg
+  while [ "$(left)" -gt 40 ]; do sleep 10; done
+  tail -2 /root/ptp.log; tail -2 /root/fmg.log; export_pt; export_fmg
+  tail -c 4000 /root/fmg.log > $OUT/fmg_log.txt; ls -la $OUT
   exit 0 ;;
 devab)
-  pkill -f "pretrain .carry/packs"
+  pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"
   python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
     --set init=gnfr/weights/gnfr_paper.safetensors --work /root/ab \
     --out $OUT/finetune_ab_paper_init_dev_et.json 2>&1 | tail -5
   exit 0 ;;
+fern)
+  pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"; sleep 5
+  init=gnfr/weights/gnfr_paper.safetensors
+  [ -f $PT/gnfr.safetensors ] && export_pt && init=/root/ptp16.safetensors
+  cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
+    --iters $ITERS --device cuda 2>&1 | tail -15
+  cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
+  exit 0 ;;
+*) echo "unknown phase $PHASE (check, train, devab, fern)"; exit 2 ;;
 esac
-while [ "$(left)" -gt 15 ] && running; do sleep 10; done
-tail -3 /root/ptp.log; export_w; ls -la $OUT

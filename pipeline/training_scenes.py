@@ -364,11 +364,33 @@ def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise UserError(f"{path}: not a readable scene pack ({e}); write it again with "
                         "`python -m workflows.research.scene_pack`") from e
-    h, w = images[0].shape[:2]
-    K = d["K"].copy()
+    w = images[0].shape[1]
     masks = None
     if "masks" in d:
         masks = list(np.unpackbits(d["masks"], axis=-1, count=w)[:, 0].astype(bool))
+    images, masks, K = _shrink(images, masks, d["K"], max_size)
+    targets = [str(t) for t in d["targets"]] if "targets" in d else None
+    return make_scene(str(d["name"]), [str(t) for t in d["stems"]], images, K, d["c2w"],
+                      d["near"], d["far"], masks, targets=targets)
+
+
+def shrink_scene(scene: Scene, max_size: int) -> Scene:
+    """``scene`` with views (masks, intrinsics alike) shrunk to ``max_size`` on the long
+    side when larger; never enlarged."""
+    masks = None if scene.masks is None else list(scene.masks[:, 0].numpy().astype(bool))
+    images, masks, K = _shrink(list(scene.images.permute(0, 2, 3, 1).numpy()), masks,
+                               scene.K.numpy(), max_size)
+    return make_scene(scene.name, scene.stems, images, K, scene.c2w.numpy(),
+                      scene.near.numpy(), scene.far.numpy(), masks, targets=scene.targets)
+
+
+def _shrink(images: list[np.ndarray], masks: list[np.ndarray] | None, K: np.ndarray,
+            max_size: int):
+    """(images, masks, K [N, 3, 3]) shrunk so the long side is at most ``max_size``."""
+    import cv2
+
+    h, w = images[0].shape[:2]
+    K = np.array(K, dtype=np.float64, copy=True)
     s = min(1.0, max_size / max(h, w))
     if s < 1.0:
         W, H = round(w * s), round(h * s)
@@ -378,7 +400,4 @@ def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
                      .astype(bool) for m in masks]
         K[:, 0] *= W / w
         K[:, 1] *= H / h
-    images = [np.ascontiguousarray(im) for im in images]
-    targets = [str(t) for t in d["targets"]] if "targets" in d else None
-    return make_scene(str(d["name"]), [str(t) for t in d["stems"]], images, K, d["c2w"],
-                      d["near"], d["far"], masks, targets=targets)
+    return [np.ascontiguousarray(im) for im in images], masks, K

@@ -463,3 +463,23 @@ def test_fmg_train_flare_prob_sets_the_share_of_clean_composites():
             rng = np.random.default_rng(0)
             shares[p] = np.mean([src.sample(rng)[1].any() for _ in range(12)])
     assert shares[0.0] == 0.0 and shares[1.0] > 0.5, shares
+
+
+def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_path):
+    """A run cut short (a lent GPU given back) leaves fp16 weights from its checkpoint."""
+    from workflows.research.fmg_train import export_checkpoint, save_checkpoint, weights_info
+
+    torch.manual_seed(0)
+    model = build_fmg(tiny_config())
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    save_checkpoint(tmp_path, model, opt, 7)
+    dest = export_checkpoint(tmp_path, tmp_path / "fmg.safetensors", init_steps=100)
+    assert weights_info(dest)["steps"] == 107
+    back = load_fmg(dest)
+    for (k, a), (_, b) in zip(model.state_dict().items(), back.state_dict().items(),
+                              strict=True):
+        if a.is_floating_point():
+            assert torch.allclose(a, b.float(), atol=2e-3, rtol=2e-3), k
+    from pipeline.errors import UserError
+    with pytest.raises(UserError, match="no checkpoint"):
+        export_checkpoint(tmp_path / "empty", tmp_path / "x.safetensors")

@@ -188,3 +188,17 @@ def test_scene_pack_round_trip_and_shrink(tmp_path):
     small = detect_and_load(tmp_path / "packs" / "llff", max_size=40)
     assert small.images.shape[-1] == 40 and small.images.shape[-2] == 30
     assert torch.allclose(small.K[:, :2], sc.K[:, :2] / 2)
+
+
+def test_shrink_scene_scales_views_masks_and_K(tmp_path):
+    from pipeline.training_scenes import shrink_scene
+
+    _synthetic_llff(tmp_path)
+    sc = load_llff(tmp_path)  # 80x60
+    sc.masks = torch.zeros(4, 1, 60, 80, dtype=torch.uint8)
+    sc.masks[2, 0, 10:30, 20:60] = 1
+    small = shrink_scene(sc, 40)
+    assert small.images.shape == (4, 3, 30, 40) and small.masks.shape == (4, 1, 30, 40)
+    assert torch.allclose(small.K[:, :2], sc.K[:, :2] / 2)
+    assert int(small.masks[2].sum()) == 200 and int(small.masks[[0, 1, 3]].sum()) == 0
+    assert shrink_scene(sc, 504).images.shape == sc.images.shape  # never enlarged

@@ -283,6 +283,30 @@ def save_checkpoint(out: Path, model, opt, step: int) -> None:
         torch.save({"optimizer": opt.state_dict(), "step": step}, tmp)
 
 
+def export_checkpoint(out: Path, dest: Path, init_steps: int = 0,
+                      extra: dict[str, str] | None = None) -> Path:
+    """A run's latest checkpoint (``out/checkpoint.safetensors``, fp32) as fp16 FMG weights
+    at ``dest`` (as ``fmg.safetensors`` at the end of a run, with ``iters`` and
+    ``total_iters`` = the checkpoint's step plus ``init_steps``, the steps of the run's
+    ``--init`` file): a run cut short, e.g. on a lent GPU, still leaves weights that
+    ``--init`` continues and ``fmg eval`` scores."""
+    from safetensors import safe_open
+    from safetensors.torch import load_file
+
+    from gnfr.fmg import FMGConfig, build_fmg, save_fmg
+
+    ck = out / "checkpoint.safetensors"
+    if not ck.is_file():
+        raise UserError(f"{out} has no checkpoint.safetensors: nothing to export")
+    with safe_open(str(ck), "pt") as f:
+        meta = f.metadata() or {}
+    model = build_fmg(FMGConfig.from_json(meta["config"]))
+    model.load_state_dict(load_file(str(ck)))
+    step = int(meta.get("step", "0"))
+    return save_fmg(dest, model, extra={"iters": str(step), "total_iters": str(step + init_steps),
+                                        **(extra or {})})
+
+
 def load_checkpoint(out: Path, model, opt) -> int:
     """Restore weights and optimizer from ``out``; returns the step (0 when none)."""
     import torch
