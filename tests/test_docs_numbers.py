@@ -266,6 +266,17 @@ def test_depth_doc_quotes_the_flare_layer_variants(scene, row):
     assert value in (REPO / "docs" / "depth.md").read_text(), (scene, row, value)
 
 
+@pytest.mark.parametrize("scene", ["sceaux_synth", "et_synth", "sceaux_ghosts"])
+def test_depth_doc_quotes_the_residual_variants(scene):
+    """The seventh session's resid_2 sentence: PSNR and SSIM of resid_2 and the default."""
+    scenes = json.loads((RESULTS / "flare_layer_variants_dev_s7.json").read_text())["scenes"]
+    (rows,) = [v["rows"] for k, v in scenes.items() if Path(k).name == scene]
+    text = (REPO / "docs" / "depth.md").read_text()
+    for row in ("resid_2", "scale_0.12 (default)"):
+        for cell in (f"{rows[row]['psnr_flare']:.2f}", f"{rows[row]['ssim']:.4f}"):
+            assert cell in text, (scene, row, cell)
+
+
 def test_fmg_card_sixth_session_candidate_e():
     """The sixth-session table's E column: per-kind flare IoU, clean lund, development scenes
     (rays on, as the mask stage runs them)."""
