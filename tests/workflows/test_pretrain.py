@@ -261,3 +261,15 @@ def test_resumes_a_train_state_of_the_existing_format(pretrain_scenes, steps_tak
     assert list(st) == ["step", "optimizer", "rng"] and st["step"] == 9
     assert all(int(s["step"]) == 1 + 2 for s in st["optimizer"]["state"].values())
     assert _steps_logged(out) == [9]
+
+
+def test_pretrain_options_reach_the_run(pretrain_scenes, tmp_path):
+    """--full-res-colour is recorded in the weights (render follows it); off by default."""
+    from gnfr.checkpoint import read_metadata
+
+    _pretrain_cli(pretrain_scenes, tmp_path / "f", 4, "--full-res-colour", "--ckpt-every", "2")
+    _, meta = read_metadata(tmp_path / "f" / "gnfr.safetensors")
+    assert meta["full_res_colour"] is True and meta["step"] == 4
+    _pretrain_cli(pretrain_scenes, tmp_path / "p", 2)
+    _, meta = read_metadata(tmp_path / "p" / "gnfr.safetensors")
+    assert meta["full_res_colour"] is False

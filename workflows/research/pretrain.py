@@ -50,6 +50,10 @@ class PretrainConfig:
     """Override the preset's number of steps."""
     ckpt_every: int | None = option(None, ge=1)
     """Override the preset's steps between checkpoints (a lent GPU that may go away: often)."""
+    full_res_colour: bool = False
+    """Sample the sources' colours at their full resolution while the encoder sees them at
+    the preset's ``source_scale`` (``TrainConfig.full_res_colour``; recorded in the weights,
+    and render follows it)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -179,6 +183,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         train_cfg = replace(train_cfg, iters=config.iters)
     if config.ckpt_every is not None:
         train_cfg = replace(train_cfg, ckpt_every=config.ckpt_every)
+    if config.full_res_colour:
+        train_cfg = replace(train_cfg, full_res_colour=True)
     train_cfg = replace(train_cfg, seed=config.seed)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
