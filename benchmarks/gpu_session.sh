@@ -30,7 +30,7 @@ if ls .carry/whl/*.whl > /dev/null 2>&1; then
   python3 -m pip install -q --no-index --no-deps --target /tmp/site .carry/whl/*.whl \
     && export PYTHONPATH=$PWD:/tmp/site
 fi
-PT=/root/ptp; FM=/root/fmg
+PT=${PT:-/root/ptp}; FM=${FM:-/root/fmg}; DEV=${DEV:-cuda}   # PT, FM, DEV=cpu: a dry run here
 cli() { python3 -m workflows.cli "$@"; }
 left() { echo $(( END - ($(date +%s) - T0) )); }
 running() { pgrep -f "$1" > /dev/null; }
@@ -39,8 +39,8 @@ start_pt() {
   [ -f gnfr/weights/gnfr_paper.safetensors ] && init=gnfr/weights/gnfr_paper.safetensors
   [ -f $PT/train_state.pt ] && init=scratch   # the run folder resumes by itself
   setsid nohup python3 -m workflows.cli pretrain .carry/packs --out $PT --preset pretrain \
-    --device cuda --seed 1 --ckpt-every 500 --iters 500000 --init $init \
-    >> /root/ptp.log 2>&1 < /dev/null &
+    --device $DEV --seed 1 --ckpt-every ${CKPT:-500} --iters 500000 --init $init \
+    >> $PT.log 2>&1 < /dev/null &
   echo "GN-FR pretraining started (init $init)"
 }
 start_fmg() {
@@ -48,26 +48,26 @@ start_fmg() {
   [ -f .carry/fmg_init.safetensors ] && [ ! -f $FM/checkpoint.safetensors ] \
     && init=(--init .carry/fmg_init.safetensors)
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
-    --device cuda --iters 20000 --batch 16 --size 256 --widths 64,128,256,512 \
-    --depths 2,2,2,2 --skip-width 32 --ckpt-every 200 --eval-every 2000 --night-prob 0.35 \
+    --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
+    --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 --night-prob 0.35 \
     --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
-    >> /root/fmg.log 2>&1 < /dev/null &
+    >> $FM.log 2>&1 < /dev/null &
   echo "FMG training started (${init[*]:-scratch})"
 }
 export_pt() {
   [ -f $PT/gnfr.safetensors ] || { echo "no GN-FR checkpoint yet"; return; }
   python3 -c "from pathlib import Path; from workflows.research.pretrain import export_fp16; \
-export_fp16(Path('$PT/gnfr.safetensors'), Path('/root/ptp16.safetensors'), \
+export_fp16(Path('$PT/gnfr.safetensors'), Path('${PT}16.safetensors'), \
 {'pretrain_scenes': sorted(p.name for p in Path('.carry/packs').iterdir()), \
  'synthetic_flare': True, 'auto_init': False})" && \
-    split -b 15000000 /root/ptp16.safetensors $OUT/ptp.part_
+    split -b 15000000 ${PT}16.safetensors $OUT/ptp.part_
   cp $PT/metrics.jsonl $OUT/ptp_metrics.jsonl 2>/dev/null
 }
 export_fmg() {
   [ -f $FM/checkpoint.safetensors ] || { echo "no FMG checkpoint yet"; return; }
   python3 -c "from pathlib import Path; from workflows.research.fmg_train import \
-export_checkpoint; export_checkpoint(Path('$FM'), Path('/root/fmg16.safetensors'))" && \
-    split -b 15000000 /root/fmg16.safetensors $OUT/fmg.part_
+export_checkpoint; export_checkpoint(Path('$FM'), Path('${FM}16.safetensors'))" && \
+    split -b 15000000 ${FM}16.safetensors $OUT/fmg.part_
   cp $FM/log.jsonl $OUT/fmg_log.jsonl 2>/dev/null
 }
 case $PHASE in
@@ -86,8 +86,8 @@ train)
   running "pretrain .carry/packs" || start_pt
   running "fmg train --out $FM" || start_fmg
   while [ "$(left)" -gt 40 ]; do sleep 10; done
-  tail -2 /root/ptp.log; tail -2 /root/fmg.log; export_pt; export_fmg
-  tail -c 4000 /root/fmg.log > $OUT/fmg_log.txt; ls -la $OUT
+  tail -2 $PT.log; tail -2 $FM.log; export_pt; export_fmg
+  tail -c 4000 $FM.log > $OUT/fmg_log.txt; ls -la $OUT
   exit 0 ;;
 devab)
   pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"
@@ -98,7 +98,7 @@ devab)
 fern)
   pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"; sleep 5
   init=gnfr/weights/gnfr_paper.safetensors
-  [ -f $PT/gnfr.safetensors ] && export_pt && init=/root/ptp16.safetensors
+  [ -f $PT/gnfr.safetensors ] && export_pt && init=${PT}16.safetensors
   cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
     --iters $ITERS --device cuda 2>&1 | tail -15
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
