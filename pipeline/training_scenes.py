@@ -357,10 +357,14 @@ def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
 
     path = Path(folder) / PACK_FILE
     try:
-        d = np.load(path, allow_pickle=False)
+        with np.load(path, allow_pickle=False) as npz:
+            d = {k: npz[k] for k in npz.files}
         off, blob = d["offsets"], d["jpeg"]
         images = [cv2.imdecode(blob[a:b], cv2.IMREAD_COLOR)[..., ::-1]
                   for a, b in zip(off[:-1], off[1:], strict=True)]
+        missing = {"name", "stems", "K", "c2w", "near", "far"} - set(d)
+        if missing or not images or any(im is None for im in images):
+            raise ValueError(f"missing {sorted(missing)}" if missing else "bad JPEG data")
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise UserError(f"{path}: not a readable scene pack ({e}); write it again with "
                         "`python -m workflows.research.scene_pack`") from e

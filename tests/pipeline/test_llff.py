@@ -202,3 +202,13 @@ def test_shrink_scene_scales_views_masks_and_K(tmp_path):
     assert torch.allclose(small.K[:, :2], sc.K[:, :2] / 2)
     assert int(small.masks[2].sum()) == 200 and int(small.masks[[0, 1, 3]].sum()) == 0
     assert shrink_scene(sc, 504).images.shape == sc.images.shape  # never enlarged
+
+
+def test_a_damaged_scene_pack_is_one_clear_error(tmp_path):
+    from pipeline.errors import UserError
+    from pipeline.training_scenes import PACK_FILE, detect_and_load
+
+    (tmp_path / "s").mkdir()
+    np.savez(tmp_path / "s" / PACK_FILE, stems=np.array(["a"]))  # fields missing
+    with pytest.raises(UserError, match="not a readable scene pack.*scene_pack"):
+        detect_and_load(tmp_path / "s")

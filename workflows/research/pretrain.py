@@ -79,7 +79,7 @@ def find_scenes(paths: list[Path]) -> list[Path]:
         cands = [p] if is_scene(p) else sorted(q for q in p.iterdir() if q.is_dir()
                                                and is_scene(q)) if p.is_dir() else []
         if not cands:
-            raise UserError(f"{p} holds no scene (workspace, LLFF or COLMAP folder)")
+            raise UserError(f"{p} holds no scene (workspace, LLFF or COLMAP folder, scene pack)")
         found += cands
     kept = [p for p in found if p.name.removesuffix(".deflare") not in HELDOUT_SCENES]
     for p in sorted(set(found) - set(kept)):

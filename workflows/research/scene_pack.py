@@ -29,7 +29,7 @@ def pack_fmg_photos(data: Path, out: Path, long_side: int = 512, quality: int = 
 
     from pipeline.fmg_data import find_images, load_backgrounds
 
-    n = 0
+    written: set[Path] = set()
     for sub in ("backgrounds", "scenes"):
         if not (data / sub).is_dir():
             continue
@@ -38,10 +38,13 @@ def pack_fmg_photos(data: Path, out: Path, long_side: int = 512, quality: int = 
             if not imgs:
                 continue
             dest = out / p.relative_to(data).with_suffix(".jpg")
+            if dest in written:  # x.png beside x.jpg: one would overwrite the other
+                raise UserError(f"{p}: another photo of that folder has the same name; "
+                                "rename one of them")
+            written.add(dest)
             dest.parent.mkdir(parents=True, exist_ok=True)
             cv2.imwrite(str(dest), imgs[0][..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
-            n += 1
-    return n
+    return len(written)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,21 +55,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("scenes", type=Path, nargs="*")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--max-size", type=int, default=504)
-    ap.add_argument("--quality", type=int, default=95, help="JPEG quality (1-100)")
+    ap.add_argument("--quality", type=int, default=None,
+                    help="JPEG quality, 1-100 (default 95 for scenes, 92 for --fmg-photos)")
     ap.add_argument("--fmg-photos", type=Path, default=None,
                     help="DATA folder (backgrounds/, scenes/) whose FMG photos to copy")
     args = ap.parse_args(argv)
-    if args.fmg_photos is not None:
-        n = pack_fmg_photos(args.fmg_photos, args.out, quality=min(args.quality, 92))
-        info(f"{n} photos of {args.fmg_photos} -> {args.out}")
-        return 0
-    if not args.scenes:
-        raise SystemExit("error: give scene folders to pack, or --fmg-photos DATA")
+    if args.quality is not None and not 1 <= args.quality <= 100:
+        raise SystemExit(f"error: --quality {args.quality}: give 1-100")
     try:
+        if args.fmg_photos is not None:
+            n = pack_fmg_photos(args.fmg_photos, args.out, quality=args.quality or 92)
+            info(f"{n} photos of {args.fmg_photos} -> {args.out}")
+            return 0
+        if not args.scenes:
+            raise SystemExit("error: give scene folders to pack, or --fmg-photos DATA")
         for folder in find_scenes(args.scenes):
             # workspaces load at their own size: packs are all at most --max-size
             scene = shrink_scene(detect_and_load(folder, args.max_size), args.max_size)
-            path = save_pack(scene, args.out / folder.name, args.quality)
+            path = save_pack(scene, args.out / folder.name, args.quality or 95)
             info(f"{folder} -> {path} ({len(scene.stems)} views, "
                  f"{path.stat().st_size / 2**20:.1f} MiB)")
     except UserError as e:
