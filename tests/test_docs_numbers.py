@@ -277,16 +277,17 @@ def test_depth_doc_quotes_the_residual_variants(scene):
             assert cell in text, (scene, row, cell)
 
 
-def test_fmg_card_sixth_session_candidate_e():
-    """The sixth-session table's E column: per-kind flare IoU, clean lund, development scenes
-    (rays on, as the mask stage runs them)."""
+@pytest.mark.parametrize("run", ["s6_E", "s7_F"])
+def test_fmg_card_candidates_e_and_f(run):
+    """The sixth/seventh-session tables' E and F columns: per-kind flare IoU, clean lund,
+    development scenes (rays on, as the mask stage runs them)."""
     text = (REPO / "gnfr/weights/fmg.md").read_text()
-    kinds = json.loads((RESULTS / "fmg_dev_per_kind_s6_E_rays.json").read_text())["kinds"]
+    kinds = json.loads((RESULTS / f"fmg_dev_per_kind_{run}_rays.json").read_text())["kinds"]
     for kind, row in kinds.items():
         assert f"| {kind} | " in text and f"{row['weights']['IoU_flare']:.3f} |" in text, kind
-    lund = json.loads((RESULTS / "fmg_dev_clean_s6_E_rays.json").read_text())[
+    lund = json.loads((RESULTS / f"fmg_dev_clean_{run}_rays.json").read_text())[
         "scenes"]["scenes/lund/images"]
     assert f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %" in text
-    rows = json.loads((RESULTS / "mask_dev_scenes_s6_E.json").read_text())["rows"]
+    rows = json.loads((RESULTS / f"mask_dev_scenes_{run}.json").read_text())["rows"]
     for r in (r for r in rows if r["rays"]):
         assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, r
