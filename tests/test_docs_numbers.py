@@ -66,6 +66,10 @@ CHECKS = [
                                       ("paper", "_1008", "reference"), ("quick", "", "end_to_end"),
                                       ("quick", "", "reference"))],
     ("docs/presets.md", "render_compile_cuda_h100_paper.json", "speedup", "{:.2f}x"),
+    *[(page, f"pretrain_zero_shot_{scene}_frc56250.json", f"rows/{i}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for page in ("gnfr/weights/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
+      for i in (0, 1) for m in ("psnr", "ssim")],
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
      "{:.1f}"),
