@@ -281,7 +281,7 @@ def test_depth_doc_quotes_the_residual_variants(scene):
             assert cell in text, (scene, row, cell)
 
 
-@pytest.mark.parametrize("run", ["s6_E", "s7_F"])
+@pytest.mark.parametrize("run", ["s6_E", "s7_F", "s7_G"])
 def test_fmg_card_candidates_e_and_f(run):
     """The sixth/seventh-session tables' E and F columns: per-kind flare IoU, clean lund,
     development scenes (rays on, as the mask stage runs them)."""
