@@ -34,6 +34,9 @@ from pipeline.progress import warn
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_masks, read_views
 
+PACK_FILE = "scene_pack.npz"
+"""A scene pack's file name (``save_pack``)."""
+
 
 # --------------------------------------------------------------------------- helpers
 def rank_by_distance(stems: Sequence[str], centers: np.ndarray) -> dict[str, list[str]]:
@@ -249,10 +252,17 @@ def colmap_K(model: str, params: np.ndarray) -> np.ndarray:
     return np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]])
 
 
-def colmap_model_dir(folder: Path) -> Path:
+def _colmap_model_dir(folder: Path) -> Path | None:
     for cand in (folder / "sparse" / "0", folder / "sparse", folder):
         if (cand / "cameras.bin").is_file() or (cand / "cameras.txt").is_file():
             return cand
+    return None
+
+
+def colmap_model_dir(folder: Path) -> Path:
+    found = _colmap_model_dir(folder)
+    if found is not None:
+        return found
     raise UserError(f"{folder} has no COLMAP model (cameras.bin/.txt in sparse/0, sparse/ "
                     "or the folder itself)")
 
@@ -299,27 +309,42 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
     return make_scene(folder.name, stems, images, np.stack(Ks), c2w, near, far)
 
 
-def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
-    """Load a workspace, an LLFF folder, a COLMAP workspace or a scene pack, whichever
-    ``path`` is."""
+def scene_layout(path: str | Path) -> str | None:
+    """Which of the layouts above the folder ``path`` holds: ``pack``, ``workspace``,
+    ``llff`` or ``colmap`` (``images/`` and a model in ``sparse/0``, ``sparse/`` or the
+    folder itself); None when it holds no scene. The one test that both
+    ``detect_and_load`` and ``pretrain``'s scene search use."""
     path = Path(path)
     if (path / PACK_FILE).is_file():
-        return load_pack(path, max_size)
+        return "pack"
     if Workspace(path).cameras_json.is_file():
-        return load_workspace(path)
+        return "workspace"
     if (path / "poses_bounds.npy").is_file():
+        return "llff"
+    if (path / "images").is_dir() and _colmap_model_dir(path) is not None:
+        return "colmap"
+    return None
+
+
+def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
+    """Load a workspace, an LLFF folder, a COLMAP workspace or a scene pack, whichever
+    ``path`` is (``scene_layout``)."""
+    path = Path(path)
+    layout = scene_layout(path)
+    if layout == "pack":
+        return load_pack(path, max_size)
+    if layout == "workspace":
+        return load_workspace(path)
+    if layout == "llff":
         return load_llff(path, max_size)
-    if (path / "images").is_dir():
+    if layout == "colmap":
         return load_colmap(path, max_size)
     raise UserError(f"{path} is not a workspace (cameras.json), an LLFF scene "
-                    "(poses_bounds.npy), a COLMAP workspace (sparse/ + images/) or a scene "
-                    f"pack ({PACK_FILE})")
+                    "(poses_bounds.npy), a COLMAP workspace (images/ + a model in sparse/) "
+                    f"or a scene pack ({PACK_FILE})")
 
 
 # --------------------------------------------------------------------------- scene packs
-PACK_FILE = "scene_pack.npz"
-
-
 def save_pack(scene: Scene, folder: str | Path, quality: int = 95) -> Path:
     """``scene`` as ``folder/scene_pack.npz``: views as JPEG (``quality``), intrinsics,
     OpenCV c2w, near/far, masks bit-packed when the scene has them, targets. What it drops:

@@ -290,19 +290,13 @@ def export_checkpoint(out: Path, dest: Path, init_steps: int = 0,
     ``total_iters`` = the checkpoint's step plus ``init_steps``, the steps of the run's
     ``--init`` file): a run cut short, e.g. on a lent GPU, still leaves weights that
     ``--init`` continues and ``fmg eval`` scores."""
-    from safetensors import safe_open
-    from safetensors.torch import load_file
-
-    from gnfr.fmg import FMGConfig, build_fmg, save_fmg
+    from gnfr.fmg import load_fmg, read_fmg_metadata, save_fmg
 
     ck = out / "checkpoint.safetensors"
     if not ck.is_file():
         raise UserError(f"{out} has no checkpoint.safetensors: nothing to export")
-    with safe_open(str(ck), "pt") as f:
-        meta = f.metadata() or {}
-    model = build_fmg(FMGConfig.from_json(meta["config"]))
-    model.load_state_dict(load_file(str(ck)))
-    step = int(meta.get("step", "0"))
+    model = load_fmg(ck)  # the checkpoint carries the config in its metadata too
+    step = int(read_fmg_metadata(ck).get("step", "0"))
     return save_fmg(dest, model, extra={"iters": str(step), "total_iters": str(step + init_steps),
                                         **(extra or {})})
 

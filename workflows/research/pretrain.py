@@ -32,7 +32,7 @@ from pipeline.finetune import init_model, init_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.scene_splits import HELDOUT_SCENES
-from pipeline.training_scenes import PACK_FILE
+from pipeline.training_scenes import scene_layout
 
 
 @dataclass
@@ -70,14 +70,10 @@ class PretrainConfig:
 
 def find_scenes(paths: list[Path]) -> list[Path]:
     """Scene folders among ``paths`` and their sub-folders, held-out scenes removed."""
-    def is_scene(p: Path) -> bool:
-        return (p / "cameras.json").is_file() or (p / "poses_bounds.npy").is_file() or (
-            p / PACK_FILE).is_file() or (
-            (p / "images").is_dir() and ((p / "sparse").is_dir()))
     found = []
     for p in paths:
-        cands = [p] if is_scene(p) else sorted(q for q in p.iterdir() if q.is_dir()
-                                               and is_scene(q)) if p.is_dir() else []
+        cands = [p] if scene_layout(p) else sorted(
+            q for q in p.iterdir() if q.is_dir() and scene_layout(q)) if p.is_dir() else []
         if not cands:
             raise UserError(f"{p} holds no scene (workspace, LLFF or COLMAP folder, scene pack)")
         found += cands
@@ -107,14 +103,15 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
     return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
 
 
-def load_scenes(config: PretrainConfig) -> list[Scene]:
-    """Every training scene of ``config.scenes``, with synthetic flare when asked."""
+def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> list[Scene]:
+    """Every training scene of ``config.scenes`` (or the ``folders`` already found in
+    them), with synthetic flare when asked."""
     from pipeline.progress import track
     from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes = []
-    for folder in track(find_scenes(config.scenes), "loading scenes"):
+    for folder in track(folders or find_scenes(config.scenes), "loading scenes"):
         scene = detect_and_load(folder, config.max_size)
         if config.flare:
             scene = impose_flare(scene, config.flare_prob, rng)
@@ -186,6 +183,7 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if config.full_res_colour:
         train_cfg = replace(train_cfg, full_res_colour=True)
     train_cfg = replace(train_cfg, seed=config.seed)
+    folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     step = start_step(train_cfg, config.init, config.preset)
@@ -193,7 +191,7 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if step and not resume and step >= train_cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
-    scenes = load_scenes(config)
+    scenes = load_scenes(config, folders)
     model, how = init_model(train_cfg, device, config.init)
     trainer = Trainer(model, train_cfg, step=step)
     if step:
