@@ -273,3 +273,21 @@ def test_pretrain_options_reach_the_run(pretrain_scenes, tmp_path):
     _pretrain_cli(pretrain_scenes, tmp_path / "p", 2)
     _, meta = read_metadata(tmp_path / "p" / "gnfr.safetensors")
     assert meta["full_res_colour"] is False
+
+
+def test_pretrain_dropout_reaches_the_transformers(pretrain_scenes, tmp_path, monkeypatch):
+    """--dropout sets the transformers' dropout of the model that trains (0 without it)."""
+    import workflows.research.pretrain as pt
+
+    seen = []
+    real = pt.init_model
+
+    def spy(cfg, device, init):
+        model, how = real(cfg, device, init)
+        seen.append({m.p for m in model.modules() if isinstance(m, torch.nn.Dropout)})
+        return model, how
+
+    monkeypatch.setattr(pt, "init_model", spy)
+    _pretrain_cli(pretrain_scenes, tmp_path / "d", 2, "--dropout", "0.1")
+    _pretrain_cli(pretrain_scenes, tmp_path / "n", 2)
+    assert seen == [{0.1}, {0.0}]

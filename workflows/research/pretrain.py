@@ -54,6 +54,9 @@ class PretrainConfig:
     """Sample the sources' colours at their full resolution while the encoder sees them at
     the preset's ``source_scale`` (``TrainConfig.full_res_colour``; recorded in the weights,
     and render follows it)."""
+    dropout: float | None = option(None, ge=0, lt=1)
+    """Dropout in the view and ray transformers while pretraining (GNT's 0.1; holds no
+    weights, so it needs no new architecture and renders ignore it)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -182,6 +185,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         train_cfg = replace(train_cfg, ckpt_every=config.ckpt_every)
     if config.full_res_colour:
         train_cfg = replace(train_cfg, full_res_colour=True)
+    if config.dropout is not None:
+        train_cfg = replace(train_cfg, model=replace(train_cfg.model, dropout=config.dropout))
     train_cfg = replace(train_cfg, seed=config.seed)
     folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
