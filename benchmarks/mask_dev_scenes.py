@@ -15,16 +15,33 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
+BAND = 0.02
+"""Width of the band around the true flare, as a share of the long side, inside which a
+mark outside the flare counts as ``marked_near`` (a wider halo) rather than ``marked_far``."""
+
+
+def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
+    """Pixels within ``band`` x the long side of the true flare, the flare itself excluded."""
+    import cv2
+
+    r = max(1, round(band * max(truth.shape)))
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return (cv2.dilate(truth.astype(np.uint8), disk) > 0) & ~truth
+
+
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512) -> dict:
-    """Pooled flare IoU and marked-outside-truth share over the views of one synth folder."""
+    """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
+    the latter split into a band around the flare (``marked_near``) and beyond it."""
     from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
 
-    inter = union = outside = pixels = truth = views = 0
+    inter = union = outside = near = pixels = truth = views = 0
     for photo in list_photos(synth / "photos"):
         gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
         if gt_path is None:
@@ -35,11 +52,13 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
         inter += int((m & gt).sum())
         union += int((m | gt).sum())
         outside += int((m & ~gt).sum())
+        near += int((m & near_band(gt)).sum())
         pixels += gt.size
         truth += int(gt.sum())
         views += 1
     return {"views": views, "flare_iou": inter / max(union, 1),
-            "marked_outside": outside / max(pixels, 1), "truth_share": truth / max(pixels, 1)}
+            "marked_outside": outside / max(pixels, 1), "marked_near": near / max(pixels, 1),
+            "marked_far": (outside - near) / max(pixels, 1), "truth_share": truth / max(pixels, 1)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -62,7 +81,8 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(r)
                 print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
                       f"{r['flare_iou']:.3f}, marked outside the flare "
-                      f"{100 * r['marked_outside']:.2f} % (truth {100 * r['truth_share']:.2f} %)",
+                      f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
+                      f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %)",
                       flush=True)
     write_result(a.out, {"rows": rows})
     return 0

@@ -177,3 +177,33 @@ def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():
     assert len(scene.train) == 8 and len(scene.heldout) == 2 and scene.origin == "cyprus"
     assert all(photo_path(root, s).suffix == ".jpg" for s in scene.train)
     assert photo_path(root, scene.heldout[0]) is None  # held-out views are not photos
+
+
+def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
+    """benchmarks/mask_downstream.py reruns the mask stage with each weight file on a copy
+    of the evaluated variant and scores the re-rendered de-flared inputs; the evaluated
+    workspace (true masks) is left as it was."""
+    import importlib.util
+
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
+                 "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
+                 "--device", "cpu"]) == 0
+    src_masks = out / "variants" / "gnfr" / "masks"
+    before = {p.name: p.read_bytes() for p in src_masks.iterdir()}
+    spec = importlib.util.spec_from_file_location(
+        "mask_downstream", Path(__file__).parents[2] / "benchmarks" / "mask_downstream.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    shipped = Path(__file__).parents[2] / "gnfr" / "weights" / "fmg.safetensors"
+    res = tmp_path / "down.json"
+    assert bench.main([str(scene), "--eval-ws", str(out), "--weights", str(shipped),
+                       "--work", str(tmp_path / "work"), "--out", str(res)]) == 0
+    rows = json.loads(res.read_text())["rows"]
+    assert len(rows) == 1 and rows[0]["weights"] == str(shipped)
+    assert all(math.isfinite(rows[0][k]) and rows[0][k] > 0 for k in ("psnr", "psnr_flare", "ssim"))
+    assert {p.name: p.read_bytes() for p in src_masks.iterdir()} == before
+    copy = next((tmp_path / "work").iterdir()) / "gnfr"
+    rec = json.loads((copy / "manifest.json").read_text())["stages"]["mask"]["params"]
+    # the copy's masks are the FMG's, not the truth
+    assert rec["weights"].startswith("fmg.safetensors@sha256:") and rec["masks_dir"] is None
