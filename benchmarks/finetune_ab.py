@@ -51,6 +51,9 @@ def main() -> None:
     ap.add_argument("--set", dest="sets", action="append", required=True)
     ap.add_argument("--work", type=Path, required=True)
     ap.add_argument("--preset", default="quick")
+    ap.add_argument("--masks", default="fmg", choices=("fmg", "gt"),
+                    help="both arms' masks: the FMG's (default) or the synth folder's true "
+                         "ones (e.g. a flare-free scene, where they are empty)")
     ap.add_argument("--iters", type=int)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
@@ -62,17 +65,21 @@ def main() -> None:
 
     extra = parse_sets(a.sets)
     name = "_".join(f"{k}-{Path(str(v)).stem}" for k, v in extra.items()).lower()
-    res = {"scene": str(a.scene), "preset": a.preset, "iters": a.iters, "set": extra}
+    res = {"scene": str(a.scene), "preset": a.preset, "iters": a.iters, "masks": a.masks,
+           "set": extra}
     own = {f.name for f in dataclasses.fields(EvalConfig)}  # e.g. init: eval's own option
     for label, fields in (("base", {}), (name, extra)):
         top = {k: v for k, v in fields.items() if k in own}
         rest = {k: v for k, v in fields.items() if k not in own}
         out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
-                             preset=a.preset, iters=a.iters, finetune_extra=rest, **top))
+                             preset=a.preset, iters=a.iters, masks=a.masks,
+                             finetune_extra=rest, **top))
         res[label] = row(out / "results.json")
         r = res[label]
+        region = r["flare_region_psnr"]
         print(f"{label}: held-out {r['heldout_psnr']:.2f} / {r['heldout_ssim']:.3f}, inputs "
-              f"{r['inputs_psnr']:.2f}, flare region {r['flare_region_psnr']:.2f}, "
+              f"{r['inputs_psnr']:.2f}, flare region "
+              f"{'-' if region is None else f'{region:.2f}'}, "
               f"{r['train']['it_per_s']:.2f} it/s")
     write_result(a.out, res)
 

@@ -18,6 +18,7 @@ import argparse
 import shutil
 import sys
 import time
+from itertools import product
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,6 +32,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--eval-ws", type=Path, default=None,
                     help="the eval workspace, with one scene (default SCENE/eval.ws)")
+    ap.add_argument("--cuts", default="",
+                    help="comma-separated probability cuts to score each weight file at "
+                         "(default: the file's calibrated cut only)")
     ap.add_argument("--work", type=Path, required=True,
                     help="scratch folder for the copied workspaces (reused when present)")
     ap.add_argument("--out", type=Path, default=None)
@@ -46,6 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.research.eval.scene import flared_views, load_synth
     from workflows.research.eval.scoring import score_views
 
+    cuts = [float(c) for c in a.cuts.split(",") if c] or [None]
     rows = []
     for scene_dir in a.scenes:
         scene = load_synth(scene_dir)
@@ -54,21 +59,23 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"{src} has no fine-tuned model: run `deflare-scene eval "
                              f"{scene_dir}` first")
         stems = flared_views(scene)
-        for i, w in enumerate(a.weights):
-            dest = a.work / f"{scene_dir.name}_{i}_{w.parent.name}" / a.variant
+        for (i, w), cut in product(enumerate(a.weights), cuts):
+            tag = "" if cut is None else f"_cut{cut:g}"
+            dest = a.work / f"{scene_dir.name}_{i}_{w.parent.name}{tag}" / a.variant
             if not dest.exists():
                 shutil.copytree(src, dest, symlinks=True)
             ws = Workspace(dest)
-            mask.run(mask.MaskConfig(weights=w), ws, force=True)
+            mask.run(mask.MaskConfig(weights=w, threshold=cut), ws, force=True)
             t0 = time.perf_counter()
             render.run(render.RenderConfig(path="inputs"), ws, force=True)
             r = score_views(scene, ws.deflared, stems, with_region=True)
             row = {"scene": scene_dir.name, "weights": str(w), "sha256": sha256(w),
+                   "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), w),
                    "psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
                    "ssim": round(r["ssim"], 4),
                    "render_s": round(time.perf_counter() - t0, 1)}
             rows.append(row)
-            print(scene_dir.name, w, f"PSNR {row['psnr']:.2f}, flare region "
+            print(scene_dir.name, w, f"cut {row['cut']:g}: PSNR {row['psnr']:.2f}, flare region "
                   f"{row['psnr_flare']:.2f}, SSIM {row['ssim']:.4f}", flush=True)
     write_result(a.out, {"variant": a.variant, "scored_views": "flared views of each scene",
                          "rows": rows})
