@@ -295,3 +295,18 @@ def test_fmg_card_candidates_e_and_f(run):
     rows = json.loads((RESULTS / f"mask_dev_scenes_{run}.json").read_text())["rows"]
     for r in (r for r in rows if r["rays"]):
         assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, r
+
+
+def test_fmg_card_eighth_session_tables():
+    """The eighth session's two tables: marks near / far from the flare, and the de-flared
+    photos each file's masks give (rays on, as the mask stage runs them)."""
+    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    text = text[text.index("## Eighth session"):]
+    rows = json.loads((RESULTS / "mask_dev_scenes_band_s8.json").read_text())["rows"]
+    for r in (r for r in rows if r["rays"]):
+        cell = (f"{r['flare_iou']:.3f} / {100 * r['marked_near']:.2f} % / "
+                f"{100 * r['marked_far']:.2f} %")
+        assert cell in text, cell
+    for r in json.loads((RESULTS / "mask_downstream_dev_s8_F.json").read_text())["rows"]:
+        cell = f"{r['psnr']:.2f} / {r['psnr_flare']:.2f} / {r['ssim']:.4f}"
+        assert cell in text, cell
