@@ -15,7 +15,9 @@ divided by the blurred mask (the whole difference removed even in small regions)
 at most the fill plus this (linear) tolerance plus ``rel`` x the fill (sharp flare above
 the fill removed); ``noclip``: clipped pixels left out of the layer; ``resid``: after the
 layer, the part of what is left above the fill (mean over channels) that exceeds ``resid`` x
-its median magnitude over the mask is removed too (for thin sharp flare; seventh session).
+its median magnitude over the mask is removed too (for thin sharp flare; seventh session);
+``shrink``: the layer lowered by this (linear) amount, so differences smaller than it are
+left in the photo (faint flare kept rather than the fill's error; eighth session).
 """
 
 from __future__ import annotations
@@ -38,11 +40,13 @@ VARIANTS = {
     "cap_0+0.5f": {"cap": 0.0, "rel": 0.5}, "cap_0+1.0f": {"cap": 0.0, "rel": 1.0},
     "noclip": {"noclip": True},
     "resid_1": {"resid": 1.0}, "resid_2": {"resid": 2.0}, "resid_3": {"resid": 3.0},
+    "shrink_0.003": {"shrink": 0.003}, "shrink_0.01": {"shrink": 0.01},
+    "shrink_0.03": {"shrink": 0.03},
 }
 
 
 def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, rel=0.0,
-            noclip=False, resid=None):
+            noclip=False, resid=None, shrink=None):
     """uint8 BGR result of one variant (fill, photo: uint8 BGR; mask: [H, W] bool)."""
     import numpy as np
 
@@ -58,6 +62,8 @@ def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, re
     layer = lowpass(d, smooth)
     if norm:
         layer = layer / np.maximum(lowpass(m[..., None], smooth), 1e-4)
+    if shrink is not None:
+        layer = layer - shrink
     c = p - np.maximum(layer, 0.0)
     if floor is not None:
         c = np.maximum(c, floor * f)
