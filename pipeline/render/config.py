@@ -50,10 +50,6 @@ class RenderConfig:
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
     clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
-    layer_floor: float = option(0.0, ge=0)
-    """inputs (with ``flare_layer``): the flare layer is lowered by this much (linear
-    light), so differences between the photo and the fill smaller than it stay in the
-    photo: faint flare kept rather than replaced by the fill's error (docs/depth.md)."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""

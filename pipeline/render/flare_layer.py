@@ -61,15 +61,13 @@ def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:
 
 
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
-                         smooth: float, linear: bool = False, floor: float = 0.0) -> np.ndarray:
+                         smooth: float, linear: bool = False) -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
     region replaced by the fill (same encoding: sRGB, or linear light with ``linear``);
     alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
-    encoding. ``smooth`` <= 0 returns ``filled`` unchanged. ``floor`` (linear light) is
-    taken off the layer: a difference from the fill smaller than it is left in the photo,
-    as the fill's own error rather than flare.
+    encoding. ``smooth`` <= 0 returns ``filled`` unchanged.
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -79,7 +77,7 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    layer = np.maximum(lowpass(p - f, smooth) - floor, 0.0)
+    layer = np.maximum(lowpass(p - f, smooth), 0.0)
     w = (alpha * ~clipped_pixels(srgb)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
     return out if linear else linear_to_srgb(out)

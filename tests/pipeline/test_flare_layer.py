@@ -96,30 +96,3 @@ def test_lowpass_is_resolution_independent():
     b = cv2.resize(lowpass(big, 0.1), (80, 60), interpolation=cv2.INTER_AREA)
     assert np.abs(a - b).mean() < 0.01
     assert a.std() < 0.5 * small.std()  # and it does smooth
-
-
-def test_layer_floor_keeps_faint_differences_and_lowers_strong_ones():
-    """``floor`` is taken off the layer: a difference from the fill below it (faint flare,
-    or the fill's own error) leaves the photo as it is; a strong flare loses all but it."""
-    scene = textured_scene(seed=3)
-    h, w = scene.shape[:2]
-    alpha = np.zeros((h, w), np.float32)
-    alpha[20:100, 30:130] = 1
-    region = alpha > 0
-    for added, kept in ((0.004, True), (0.3, False)):
-        lin_photo = np.clip(scene + added * alpha[..., None], 0, 1)
-        # the fill: the true scene inside the region (so the plain layer removes it all)
-        lin_filled = np.where(region[..., None], scene, lin_photo)
-        photo, filled = linear_to_srgb(lin_photo), linear_to_srgb(lin_filled)
-        plain = srgb_to_linear(subtract_flare_layer(photo, filled, alpha, 0.12))
-        floored = srgb_to_linear(subtract_flare_layer(photo, filled, alpha, 0.12, floor=0.01))
-        inner = np.zeros_like(region)
-        inner[45:75, 60:100] = True  # away from the region's edge
-        # the plain layer removes most of the added light away from the region's edge
-        assert np.abs(plain - scene)[inner].max() < 0.2 * added
-        if kept:   # a layer below the floor: the photo, flare and all
-            assert np.abs(floored - lin_photo)[inner].max() < 1e-3
-        else:      # far above it: exactly the floor more is left than without it
-            assert np.abs((floored - plain)[inner] - 0.01).max() < 1e-3
-    # outside the blend region nothing changes
-    assert np.abs(floored - lin_photo)[~region].max() < 1e-3
