@@ -310,3 +310,14 @@ def test_fmg_card_eighth_session_tables():
     for r in json.loads((RESULTS / "mask_downstream_dev_s8_F.json").read_text())["rows"]:
         cell = f"{r['psnr']:.2f} / {r['psnr_flare']:.2f} / {r['ssim']:.4f}"
         assert cell in text, cell
+
+
+def test_depth_md_shrink_sentence():
+    """The eighth session's shrink_t sentence: flare-region PSNR of shrink_t and the default."""
+    scenes = json.loads((RESULTS / "flare_layer_variants_dev_s8.json").read_text())["scenes"]
+    rows = {Path(k).name: v["rows"] for k, v in scenes.items()}
+    text = (REPO / "docs" / "depth.md").read_text()
+    text = text[text.index("Eighth session, for faint flare"):]
+    for scene in ("sceaux_synth", "et_synth"):
+        for row in ("shrink_0.003", "shrink_0.03", "scale_0.12 (default)"):
+            assert f"{rows[scene][row]['psnr_flare']:.2f}" in text, (scene, row)
