@@ -14,6 +14,7 @@ start weights, and adds provenance, the unseen-region count and a progress displ
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -58,9 +59,10 @@ class FinetuneConfig:
     dropout: float | None = option(None, ge=0, lt=1)
     """Dropout in the transformers while training (GNT: 0.1; default: the preset's, 0);
     holds no weights, so any value starts from the same shipped weights."""
-    random_sources: bool = False
-    """GNT's random choice of training sources inside the nearest pool (default: the nearest
-    least-flared; docs/presets.md has the measurement)."""
+    random_sources: bool | None = option(None, flag="--random-sources/--nearest-sources")
+    """GNT's random choice of training sources inside the nearest pool, or always the
+    nearest least-flared. Default: random on a scene where no view has a marked pixel (better
+    novel views there), nearest otherwise (better de-flared photos); docs/presets.md."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -102,7 +104,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     cfg = replace(cfg, **over, point_sampler=config.point_sampler,
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
-                  random_sources=config.random_sources)
+                  random_sources=bool(config.random_sources))
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
@@ -117,6 +119,9 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     ws.require("pose")
     device = pick_device(config.device)
     name, cfg = resolve(config, device)
+    if config.random_sources is None and flare_free(ws):
+        cfg = replace(cfg, random_sources=True)
+        info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     params = {"preset": name, "init": config.init, "train": asdict(cfg)}
     stage_run = ws.begin_stage("finetune", params, inputs, force)
@@ -134,6 +139,15 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
                 preset=name)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
+
+
+def flare_free(ws: Workspace) -> bool:
+    """True when no view of ``ws`` has a marked flare pixel (WS/flare.json), or when the
+    workspace has no masks at all (every view is then trained on as flare-free)."""
+    if not ws.flare_json.is_file():
+        return True
+    views = json.loads(ws.flare_json.read_text()).get("views", {})
+    return all(float(v.get("flare_fraction", 0)) == 0 for v in views.values())
 
 
 def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:

@@ -203,3 +203,33 @@ def test_resumes_a_model_folder_of_the_existing_format(tmp_path):
     assert all(int(s["step"]) == 5 for s in st["optimizer"]["state"].values())  # Adam went on
     assert int(st["unseen"][:, 1].sum()) == 3 + 2                # the saved counts went on too
     assert [m["step"] for m in _metrics(ws.metrics_jsonl)] == [5]
+
+
+def test_random_sources_default_follows_the_masks(tmp_path, monkeypatch):
+    """Unset, random sources go on only where no view has a marked pixel (measured on a
+    flare-free development scene, docs/presets.md); --random-sources / --nearest-sources
+    decide it either way."""
+    import pipeline.finetune as ft
+
+    seen = []
+
+    def fake_fit(scene, cfg, *a, **k):
+        seen.append(cfg.random_sources)
+        return {}
+
+    monkeypatch.setattr(ft, "fit", fake_fit)
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.25)
+    assert ft.flare_free(ws)                                   # no mask stage yet
+    views = {s: {"flare_fraction": 0.0, "source": "fmg"} for s in view_stems(ws)}
+    ws.flare_json.write_text(json.dumps({"views": views}))
+    assert ft.flare_free(ws)
+    expect = []
+    for fractions, flag, want in ((0.0, None, True), (0.0, False, False),
+                                  (0.002, None, False), (0.002, True, True)):
+        views[next(iter(views))]["flare_fraction"] = fractions
+        ws.flare_json.write_text(json.dumps({"views": views}))
+        assert ft.flare_free(ws) == (fractions == 0)
+        ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
+                              random_sources=flag), ws, force=True)
+        expect.append(want)
+    assert seen == expect
