@@ -36,6 +36,9 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("docs/presets.md", "finetune_ab_random_sources_dev_et_clean.json", f"{row}/heldout_{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
     *[("README.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
