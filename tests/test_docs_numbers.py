@@ -36,6 +36,12 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("docs/eval.md", "fern_llff_quick_cpu_w42250_random_sources.json",
+       f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
+      for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_dropout55250.json", f"rows/{i}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for s in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
     *[("docs/presets.md", "finetune_ab_random_sources_dev_et_clean.json", f"{row}/heldout_{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
