@@ -14,7 +14,6 @@ start weights, and adds provenance, the unseen-region count and a progress displ
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -144,10 +143,11 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
 def flare_free(ws: Workspace) -> bool:
     """True when no view of ``ws`` has a marked flare pixel (WS/flare.json), or when the
     workspace has no masks at all (every view is then trained on as flare-free)."""
+    from pipeline.ws_files import read_flare
+
     if not ws.flare_json.is_file():
         return True
-    views = json.loads(ws.flare_json.read_text()).get("views", {})
-    return all(float(v.get("flare_fraction", 0)) == 0 for v in views.values())
+    return all(f == 0 for f in read_flare(ws).fractions().values())
 
 
 def _check_init(ws: Workspace, cfg: TrainConfig, init: str) -> None:
