@@ -291,3 +291,23 @@ def test_pretrain_dropout_reaches_the_transformers(pretrain_scenes, tmp_path, mo
     _pretrain_cli(pretrain_scenes, tmp_path / "d", 2, "--dropout", "0.1")
     _pretrain_cli(pretrain_scenes, tmp_path / "n", 2)
     assert seen == [{0.1}, {0.0}]
+
+
+def test_pretrain_random_sources_reach_the_source_draw(pretrain_scenes, tmp_path, monkeypatch):
+    """--random-sources makes every training step draw its sources in GNT's random order of
+    the pool; without it they are the nearest first."""
+    import gnfr.train as gt
+
+    flags = []
+    real = gt.train_sources
+
+    def spy(*args, **kwargs):
+        flags.append(kwargs["random_pick"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(gt, "train_sources", spy)
+    _pretrain_cli(pretrain_scenes, tmp_path / "r", 2, "--random-sources")
+    n_random = len(flags)
+    _pretrain_cli(pretrain_scenes, tmp_path / "n", 2)
+    assert n_random >= 2 and set(flags[:n_random]) == {True}
+    assert len(flags) > n_random and set(flags[n_random:]) == {False}

@@ -57,6 +57,9 @@ class PretrainConfig:
     dropout: float | None = option(None, ge=0, lt=1)
     """Dropout in the view and ray transformers while pretraining (GNT's 0.1; holds no
     weights, so it needs no new architecture and renders ignore it)."""
+    random_sources: bool = False
+    """GNT's draw of the N sources in a random order of the round(k N) nearest pool instead of
+    the nearest first (``TrainConfig.random_sources``; the View Sampler's flare rule kept)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -187,6 +190,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         train_cfg = replace(train_cfg, full_res_colour=True)
     if config.dropout is not None:
         train_cfg = replace(train_cfg, model=replace(train_cfg.model, dropout=config.dropout))
+    if config.random_sources:
+        train_cfg = replace(train_cfg, random_sources=True)
     train_cfg = replace(train_cfg, seed=config.seed)
     folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
