@@ -1,7 +1,7 @@
 """Leave-one-out novel views of an evaluated synth scene, for comparing render settings.
 
     python benchmarks/novel_loo.py SCENE_SYNTH [--variant gnfr] [--scale 0.5] \
-        [--set render.FIELD=VALUE ...] --out JSON
+        [--set render.FIELD=VALUE ...] [--eval-ws DIR] [--heldout] --out JSON
 
 `deflare-scene eval` holds out few cameras (2 per development scene): too few to choose a
 render setting. This renders every training camera of the eval's variant as a novel frame
@@ -11,6 +11,11 @@ the clean photo (PSNR, SSIM). Bias: the fine-tuned model trained on that view as
 so the network's part is optimistic: settings that let GN-FR draw more look better than
 they are (docs/depth.md, "Leave-one-out views"). Use it for settings that leave the
 network's share alone, on one model; not to compare the network with the photos, nor models.
+
+``--heldout`` renders the eval's held-out cameras instead, from the whole workspace (no view
+removed): unbiased (the model never saw them), but only as many views as the split holds.
+``--eval-ws`` names the evaluation workspace (default SCENE/eval.ws; finetune_ab.py writes
+DIR/base.ws).
 """
 
 from __future__ import annotations
@@ -33,6 +38,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scale", type=float, default=0.5)
     ap.add_argument("--set", dest="sets", action="append", default=[],
                     help="render.FIELD=VALUE, as the one-shot's --set")
+    ap.add_argument("--eval-ws", type=Path, default=None,
+                    help="evaluation workspace (default SCENE/eval.ws)")
+    ap.add_argument("--heldout", action="store_true",
+                    help="render the held-out cameras from the whole workspace instead")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from workflows.threads import apply_thread_policy
@@ -52,28 +61,31 @@ def main(argv: list[str] | None = None) -> int:
 
     cfg = apply_overrides({"render": render.RenderConfig(scale=a.scale)}, a.sets)["render"]
     scene = load_synth(a.scene)
-    base = Workspace(Workspace(a.scene / "eval.ws").variants / a.variant)
+    base = Workspace(Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
     ckpt = render.find_checkpoint(base, cfg.checkpoint)
     views = read_views(base)
     by_stem = scene.cams.by_stem()
     with tempfile.TemporaryDirectory(prefix="deflare-loo-") as tmp:
         frames = Path(tmp) / "frames"
         frames.mkdir()
-        for stem in scene.train:
+        stems = scene.heldout if a.heldout else scene.train
+        for stem in stems:
             ws = shared_workspace(base, Path(tmp) / f"ws_{stem}")
-            ws.views_json.unlink()  # a hard link: write a new file, not into base's
-            write_views(ws, ViewsFile(views.max_flare, {s: v for s, v in views.views.items()
-                                                       if s != stem}))
+            if not a.heldout:  # leave this view out of the sources and the photo fill
+                ws.views_json.unlink()  # a hard link: write a new file, not into base's
+                write_views(ws, ViewsFile(views.max_flare, {
+                    s: v for s, v in views.views.items() if s != stem}))
             f = by_stem[stem]
             pj = Path(tmp) / f"{stem}.json"
             atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
                                                            f.height)]))
             render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
-        r = score_views(scene, frames, scene.train, with_region=False)
+        r = score_views(scene, frames, stems, with_region=False)
     rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),
            "render": {k: v for k, v in asdict(cfg).items() if k != "path"},
-           "sets": a.sets, "views": scene.train, "psnr": r["psnr"], "ssim": r["ssim"],
+           "sets": a.sets, "heldout": a.heldout, "views": stems,
+           "psnr": r["psnr"], "ssim": r["ssim"],
            "per_view": {k: {m: round(v[m], 4) for m in ("psnr", "ssim")}
                         for k, v in r["views"].items()}}
     print(json.dumps({k: rec[k] for k in ("sets", "psnr", "ssim")}), flush=True)
