@@ -207,3 +207,29 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
     rec = json.loads((copy / "manifest.json").read_text())["stages"]["mask"]["params"]
     # the copy's masks are the FMG's, not the truth
     assert rec["weights"].startswith("fmg.safetensors@sha256:") and rec["masks_dir"] is None
+
+
+def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
+    """benchmarks/novel_loo.py scores the eval's held-out cameras with --heldout and every
+    training camera otherwise, and leaves the evaluated variant's views.json as it was."""
+    import importlib.util
+
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
+                 "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
+                 "--device", "cpu"]) == 0
+    views_json = out / "variants" / "gnfr" / "views.json"
+    before = views_json.read_bytes()
+    spec = importlib.util.spec_from_file_location(
+        "novel_loo", Path(__file__).parents[2] / "benchmarks" / "novel_loo.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    split = json.loads((scene / "split.json").read_text())
+    for flag, stems in (([], split["train"]), (["--heldout"], split["heldout"])):
+        res = tmp_path / f"loo{len(flag)}.json"
+        assert bench.main([str(scene), "--eval-ws", str(out), "--scale", "0.25",
+                           "--set", "render.fill=network", *flag, "--out", str(res)]) == 0
+        rec = json.loads(res.read_text())
+        assert rec["views"] == stems and sorted(rec["per_view"]) == sorted(stems)
+        assert rec["heldout"] is bool(flag) and 0 < rec["psnr"] < 60 and 0 < rec["ssim"] <= 1
+    assert views_json.read_bytes() == before
