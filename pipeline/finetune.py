@@ -62,6 +62,9 @@ class FinetuneConfig:
     """GNT's random choice of training sources inside the nearest pool, or always the
     nearest least-flared. Default: random on a scene where no view has a marked pixel (better
     novel views there), nearest otherwise (better de-flared photos); docs/presets.md."""
+    lr_scale: float | None = option(None, gt=0)
+    """Multiply both of the preset's learning rates (encoder and transformers) by this
+    (default 1; docs/presets.md)."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -106,6 +109,9 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   random_sources=bool(config.random_sources))
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
+    if config.lr_scale is not None:
+        cfg = replace(cfg, lr_encoder=cfg.lr_encoder * config.lr_scale,
+                      lr_transformer=cfg.lr_transformer * config.lr_scale)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)

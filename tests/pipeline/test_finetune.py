@@ -168,6 +168,24 @@ def test_dropout_and_random_sources_keep_the_shipped_start():
                      shipped_weights(QUICK))
 
 
+def test_lr_scale_scales_both_learning_rates():
+    """--lr-scale multiplies the preset's encoder and transformer rates, and the optimizer
+    starts from the scaled rates; unset, the preset's rates stay."""
+    from gnfr.model import GNFR
+    from gnfr.train import make_optimizer
+    from pipeline.finetune import resolve
+
+    cpu = torch.device("cpu")
+    _, plain = resolve(FinetuneConfig(device="cpu", preset="quick"), cpu)
+    assert (plain.lr_encoder, plain.lr_transformer) == (QUICK.lr_encoder, QUICK.lr_transformer)
+    _, half = resolve(FinetuneConfig(device="cpu", preset="quick", lr_scale=0.5), cpu)
+    assert half.lr_encoder == QUICK.lr_encoder * 0.5
+    assert half.lr_transformer == QUICK.lr_transformer * 0.5
+    opt = make_optimizer(GNFR(half.model), half)
+    assert {g["name"]: g["lr"] for g in opt.param_groups} == {
+        "encoder": half.lr_encoder, "transformer": half.lr_transformer}
+
+
 def _hand_written_checkpoint(out, scene, cfg, steps: int, extra: dict) -> None:
     """WS/model/ as the stage has written it since train_state.pt got its keys: weights
     with render settings in the metadata, {"step", "optimizer", "rng", **extra} beside."""
