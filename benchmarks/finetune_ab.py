@@ -36,6 +36,13 @@ def parse_sets(items: list[str]) -> dict:
     return out
 
 
+def arm_label(value) -> str:
+    """A value as it names the second arm: a weight file by its stem, anything else as
+    written (``0.5`` stays ``0.5``; before the ninth session it became ``0``)."""
+    text = str(value)
+    return Path(text).stem if text.endswith(".safetensors") else text
+
+
 def row(results: Path) -> dict:
     """The gnfr row of an eval's results.json, without the per-view detail."""
     g = json.loads(results.read_text())["methods"]["gnfr"]
@@ -64,7 +71,7 @@ def main() -> None:
     from workflows.research.eval import EvalConfig, run
 
     extra = parse_sets(a.sets)
-    name = "_".join(f"{k}-{Path(str(v)).stem}" for k, v in extra.items()).lower()
+    name = "_".join(f"{k}-{arm_label(v)}" for k, v in extra.items()).lower()
     res = {"scene": str(a.scene), "preset": a.preset, "iters": a.iters, "masks": a.masks,
            "set": extra}
     own = {f.name for f in dataclasses.fields(EvalConfig)}  # e.g. init: eval's own option

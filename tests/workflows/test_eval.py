@@ -233,3 +233,17 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
         assert rec["views"] == stems and sorted(rec["per_view"]) == sorted(stems)
         assert rec["heldout"] is bool(flag) and 0 < rec["psnr"] < 60 and 0 < rec["ssim"] <= 1
     assert views_json.read_bytes() == before
+
+
+def test_finetune_ab_names_its_second_arm_by_the_values():
+    """benchmarks/finetune_ab.py names the second arm's workspace and result key by the
+    values set: numbers as written, weight files by their stem."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "finetune_ab", Path(__file__).parents[2] / "benchmarks" / "finetune_ab.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    sets = bench.parse_sets(["lr_scale=0.5", "init=gnfr/weights/gnfr_paper.safetensors"])
+    assert sets == {"lr_scale": 0.5, "init": "gnfr/weights/gnfr_paper.safetensors"}
+    assert [bench.arm_label(v) for v in sets.values()] == ["0.5", "gnfr_paper"]
