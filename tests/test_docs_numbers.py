@@ -42,6 +42,10 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_dropout55250.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for s in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
+    *[("docs/presets.md", f"finetune_ab_lr_scale_dev_{scene}.json", f"{row}/{m}",
+       "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
+      for scene in ("et", "sceaux") for row in ("base", "lr_scale-0")
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
     *[("docs/presets.md", "finetune_ab_random_sources_dev_et_clean.json", f"{row}/heldout_{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
