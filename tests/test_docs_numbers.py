@@ -132,6 +132,18 @@ CHECKS = [
     *[("docs/depth.md", f"novel_loo_dev_{scene}_{fill}.json", m, "{:.2f}" if m == "psnr"
        else "{:.3f}") for scene in ("sceaux", "et") for fill in ("hybrid", "network")
       for m in ("psnr", "ssim")],
+    # render-time settings of a quick model (ninth session)
+    *[("docs/depth.md", "render_settings_dev_s9.json", f"rows/{key}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for key in [f"{sc}_{mode}_{tag}" for sc in ("et", "sceaux") for mode in ("held", "loo")
+                  for tag in ("none", "n_sources8", "samples48", "network_scale0.5",
+                              "network_scale1.0", "photo_sources6")]
+      + [f"s25_{sc}_{mode}_{tag}" for sc in ("et", "sceaux") for mode in ("held", "loo")
+         for tag in ("none", "network_scale0.5")]
+      + [f"c_{m}_s{fs}_{mode}_{tag}" for m in ("etrs", "sceauxrs", "etclean")
+         for fs in ("0.25", "1.0") for mode in ("held", "loo")
+         for tag in ("none", "network_scale0.5")]
+      for m in ("psnr", "ssim")],
     # the flare layer (sixth session): the render stage's rows and the variants
     *[("docs/depth.md", f"fill_flare_layer_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.3f}" if m == "ssim" else "{:.2f}") for scene in ("sceaux", "et", "sceaux_streaks")
