@@ -3,8 +3,8 @@
     python benchmarks/finetune_ab.py SCENE --set random_sources=true --work DIR \
         [--preset quick] [--iters N] [--out JSON]
 
-A ``--set`` of an `eval` option (``init=FILE.safetensors``) sets that option of the second
-run; any other names a FinetuneConfig field.
+A ``--set`` of an `eval` option (``init=FILE.safetensors``, ``iters=N``) sets that option of
+the second run; any other names a FinetuneConfig field.
 
 Runs `deflare-scene eval SCENE --variants gnfr` twice, in DIR/base.ws (the defaults) and
 DIR/<name>.ws (the defaults plus the ``--set`` FinetuneConfig fields), with the same preset,
@@ -78,9 +78,9 @@ def main() -> None:
     for label, fields in (("base", {}), (name, extra)):
         top = {k: v for k, v in fields.items() if k in own}
         rest = {k: v for k, v in fields.items() if k not in own}
+        opts = {"preset": a.preset, "iters": a.iters, "masks": a.masks, **top}  # --set wins
         out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
-                             preset=a.preset, iters=a.iters, masks=a.masks,
-                             finetune_extra=rest, **top))
+                             finetune_extra=rest, **opts))
         res[label] = row(out / "results.json")
         r = res[label]
         region = r["flare_region_psnr"]
