@@ -20,7 +20,9 @@
 #   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
 #           scratch and from the file (resumes: run it again if a call ends first)
-#   fern    fern in the LLFF protocol at `paper` from the latest paper weights (ITERS steps)
+#   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps)
+# devab and fern keep the trainings going beside them (started if their data is there) and
+# export both at END, like train; carry each folder once: what a call does not name stays.
 # Back here: `cat ptp.part_* > gnfr_paper.safetensors`, `cat fmg.part_* > fmg.safetensors`.
 set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
@@ -51,6 +53,7 @@ start_fmg() {
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 --night-prob 0.35 \
     --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
+    --workers ${FMG_WORKERS:-10} \
     >> $FM.log 2>&1 < /dev/null &
   echo "FMG training started (${init[*]:-scratch})"
 }
@@ -70,6 +73,16 @@ export_checkpoint; export_checkpoint(Path('$FM'), Path('${FM}16.safetensors'))" 
     split -b 15000000 ${FM}16.safetensors $OUT/fmg.part_
   cp $FM/log.jsonl $OUT/fmg_log.jsonl 2>/dev/null
 }
+train_on() {   # both trainings run on in the background across calls (setsid)
+  [ -d .carry/packs ] && { running "pretrain .carry/packs" || start_pt; }
+  [ -d .carry/fmgdata ] && { running "fmg train --out $FM" || start_fmg; }
+  return 0
+}
+until_end_then_export() {
+  while [ "$(left)" -gt 40 ]; do sleep 10; done
+  tail -2 $PT.log; tail -2 $FM.log; export_pt; export_fmg
+  tail -c 4000 $FM.log > $OUT/fmg_log.txt; tail -c 4000 $PT.log > $OUT/ptp_log.txt; ls -la $OUT
+}
 case $PHASE in
 check)
   nvidia-smi -L; python3 -c "import torch; print(torch.__version__, torch.cuda.get_device_name())"
@@ -83,25 +96,25 @@ check)
     --out $OUT/render_compile_cuda_paper.json 2>&1 | tail -2
   exit 0 ;;
 train)
-  running "pretrain .carry/packs" || start_pt
-  running "fmg train --out $FM" || start_fmg
-  while [ "$(left)" -gt 40 ]; do sleep 10; done
-  tail -2 $PT.log; tail -2 $FM.log; export_pt; export_fmg
-  tail -c 4000 $FM.log > $OUT/fmg_log.txt; ls -la $OUT
+  train_on
+  until_end_then_export
   exit 0 ;;
 devab)
-  pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"
+  train_on   # the A/B shares the GPU with the trainings: its scores, not its speed, count
   python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
     --set init=gnfr/weights/gnfr_paper.safetensors --work /root/ab \
     --out $OUT/finetune_ab_paper_init_dev_et.json 2>&1 | tail -5
+  until_end_then_export
   exit 0 ;;
 fern)
-  pkill -f "pretrain .carry/packs"; pkill -f "fmg train --out $FM"; sleep 5
   init=gnfr/weights/gnfr_paper.safetensors
-  [ -f $PT/gnfr.safetensors ] && export_pt && init=${PT}16.safetensors
+  [ -f $PT/gnfr.safetensors ] && export_pt && cp ${PT}16.safetensors /root/fern_init.safetensors \
+    && init=/root/fern_init.safetensors
+  train_on
   cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
     --iters $ITERS --device cuda 2>&1 | tail -15
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
+  until_end_then_export
   exit 0 ;;
 *) echo "unknown phase $PHASE (check, train, devab, fern)"; exit 2 ;;
 esac

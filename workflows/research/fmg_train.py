@@ -100,6 +100,11 @@ class FMGTrainConfig:
     """Seed of initialisation and composites (Python API)."""
     device: str = option("auto", device=True)
     """auto, cpu, cuda or cuda:N."""
+    workers: int = option(0, ge=0)
+    """Processes that draw the training composites ahead of the optimizer (0: drawn in this
+    process, one random stream; N: step s's composites from a generator seeded by (seed, s),
+    so the draw does not depend on N and a resumed run goes on with the same composites).
+    Use most of a GPU machine's cores: drawing composites is what limits a GPU run."""
 
 
 @dataclass
@@ -342,46 +347,76 @@ def _lr(cfg: FMGTrainConfig, step: int) -> float:
 
 
 # --------------------------------------------------------------------------- train
-def train(cfg: FMGTrainConfig) -> dict:
-    """Train (or resume) an FMG; returns the final metrics."""
-    import torch
+_POOL_SOURCE = None
+"""The training composites' source, inherited by the forked batch workers."""
 
-    from gnfr.fmg import FMGConfig, build_fmg, fmg_loss, save_fmg
-    from pipeline.flare import check_kinds, parse_kind_probs
-    from pipeline.fmg_data import fixed_set
 
-    validate(cfg)
-    kind_probs = parse_kind_probs(cfg.kind_probs)
-    if cfg.without:  # each kind once, in the order given
-        cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    dev = resolve_device(cfg.device)
-    torch.manual_seed(cfg.seed)
-    src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
-                                          tuple(cfg.without), tuple(cfg.negatives),
-                                          kind_probs, cfg.flare_prob)
-    info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
-         f"{counts[2]} test (never seen), device {dev}, "
-         f"kinds {','.join(src.flare_cfg.kinds)}")
-    model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
-                                head_width=cfg.head_width,
-                                skip_width=cfg.skip_width)).to(dev)
-    opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
-    step = load_checkpoint(out, model, opt)
-    if step:
-        info(f"fmg train: resuming at step {step}")
-    elif cfg.init:
-        _load_init(model, Path(cfg.init))
-        info(f"fmg train: starting from {cfg.init}")
-    from pipeline.fmg_data import CompositeSource
+def _pool_init() -> None:
+    import cv2
 
-    val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
-    rng = np.random.default_rng([cfg.seed, step])
+    cv2.setNumThreads(1)
+
+
+def _pool_batch(job: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Step ``job[2]``'s composites as numpy arrays: a forked child does no torch work (its
+    thread pools do not survive a fork)."""
+    n, seed, step = job
+    rng = np.random.default_rng([seed, step, 1])
+    pairs = [_POOL_SOURCE.sample(rng) for _ in range(n)]
+    return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+
+class TrainBatches:
+    """One batch of training composites per step, from ``begin``'s step on. With ``workers`` > 0 a
+    pool of forked processes draws ``2 x workers`` steps ahead; step s's batch comes from a
+    generator seeded by (seed, s) whatever the number of workers. Forked before any CUDA
+    work (the workers only draw composites)."""
+
+    def __init__(self, src, n: int, seed: int, workers: int = 0):
+        self.src, self.n, self.seed, self.workers = src, n, seed, workers
+        self.pool, self.ahead = None, []
+        self.begin(0)
+        if workers:
+            import multiprocessing as mp
+
+            global _POOL_SOURCE
+            _POOL_SOURCE = src
+            self.pool = mp.get_context("fork").Pool(workers, initializer=_pool_init)
+
+    def begin(self, start: int) -> None:
+        """Draw from step ``start`` on (a resumed run's step)."""
+        self.rng = np.random.default_rng([self.seed, start])
+        self.queued = start
+
+    def next(self):
+        if self.pool is None:
+            return self.src.batch(self.n, self.rng)
+        while len(self.ahead) < 2 * self.workers:
+            self.ahead.append(self.pool.apply_async(_pool_batch,
+                                                    ((self.n, self.seed, self.queued),)))
+            self.queued += 1
+        import torch
+
+        x, y = self.ahead.pop(0).get()
+        return (torch.from_numpy(x).permute(0, 3, 1, 2).contiguous(),
+                torch.from_numpy(y)[:, None].float())
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.terminate()
+            self.pool.join()
+            self.pool = None
+
+
+def _fit(cfg: FMGTrainConfig, model, opt, batches: TrainBatches, step: int, val, dev,
+         out: Path) -> None:
+    """The optimizer loop from ``step`` to ``cfg.iters``: log, validation, checkpoints."""
+    from gnfr.fmg import fmg_loss
+
     t0, log = time.time(), out / "log.jsonl"
     while step < cfg.iters:
         model.train()
-        x, y = src.batch(cfg.batch, rng)
+        x, y = batches.next()
         for g in opt.param_groups:
             g["lr"] = _lr(cfg, step)
         loss = fmg_loss(model(x.to(dev)), y.to(dev), dice=cfg.dice)
@@ -399,6 +434,49 @@ def train(cfg: FMGTrainConfig) -> dict:
             f.write(json.dumps(rec) + "\n")
         if step % cfg.ckpt_every == 0 or step == cfg.iters:
             save_checkpoint(out, model, opt, step)
+
+
+def train(cfg: FMGTrainConfig) -> dict:
+    """Train (or resume) an FMG; returns the final metrics."""
+    import torch
+
+    from gnfr.fmg import FMGConfig, build_fmg, save_fmg
+    from pipeline.flare import check_kinds, parse_kind_probs
+    from pipeline.fmg_data import fixed_set
+
+    validate(cfg)
+    kind_probs = parse_kind_probs(cfg.kind_probs)
+    if cfg.without:  # each kind once, in the order given
+        cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    dev = resolve_device(cfg.device)
+    torch.manual_seed(cfg.seed)
+    src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
+                                          tuple(cfg.without), tuple(cfg.negatives),
+                                          kind_probs, cfg.flare_prob)
+    info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
+         f"{counts[2]} test (never seen), device {dev}, "
+         f"kinds {','.join(src.flare_cfg.kinds)}")
+    batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # forks before CUDA
+    model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
+                                head_width=cfg.head_width,
+                                skip_width=cfg.skip_width)).to(dev)
+    opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    step = load_checkpoint(out, model, opt)
+    if step:
+        info(f"fmg train: resuming at step {step}")
+    elif cfg.init:
+        _load_init(model, Path(cfg.init))
+        info(f"fmg train: starting from {cfg.init}")
+    from pipeline.fmg_data import CompositeSource
+
+    val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
+    batches.begin(step)
+    try:
+        _fit(cfg, model, opt, batches, step, val, dev, out)
+    finally:
+        batches.close()
     meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
             "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds),
             "kind_probs": json.dumps({k: src.flare_cfg.kind_prob(k)
