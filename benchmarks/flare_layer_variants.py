@@ -17,7 +17,10 @@ the fill removed); ``noclip``: clipped pixels left out of the layer; ``resid``: 
 layer, the part of what is left above the fill (mean over channels) that exceeds ``resid`` x
 its median magnitude over the mask is removed too (for thin sharp flare; seventh session);
 ``shrink``: the layer lowered by this (linear) amount, so differences smaller than it are
-left in the photo (faint flare kept rather than the fill's error; eighth session).
+left in the photo (faint flare kept rather than the fill's error; eighth session);
+``bias``: the fill first corrected by its local error on the ring (render
+``--layer-bias``, ``pipeline.render.flare_layer.local_bias``; the ring is the render stage's:
+the mask dilated by ``RenderConfig.dilate``, less the mask; ninth session).
 """
 
 from __future__ import annotations
@@ -42,20 +45,38 @@ VARIANTS = {
     "resid_1": {"resid": 1.0}, "resid_2": {"resid": 2.0}, "resid_3": {"resid": 3.0},
     "shrink_0.003": {"shrink": 0.003}, "shrink_0.01": {"shrink": 0.01},
     "shrink_0.03": {"shrink": 0.03},
+    "bias_0.03": {"bias": 0.03}, "bias_0.06": {"bias": 0.06}, "bias_0.12": {"bias": 0.12},
+    "bias_0.25": {"bias": 0.25},
 }
 
 
+def ring_of(mask):
+    """The render stage's colour-match ring of a mask: grown by RenderConfig.dilate x the
+    long side (elliptic), less the mask (pipeline.render.inputs.input_blend)."""
+    import cv2
+    import numpy as np
+
+    from pipeline.render import RenderConfig
+
+    r = max(1, round(RenderConfig.dilate * max(mask.shape)))
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return (cv2.dilate(mask.astype(np.uint8), k) > 0) & ~mask
+
+
 def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, rel=0.0,
-            noclip=False, resid=None, shrink=None):
+            noclip=False, resid=None, shrink=None, bias=None):
     """uint8 BGR result of one variant (fill, photo: uint8 BGR; mask: [H, W] bool)."""
     import numpy as np
 
     from pipeline.colour import linear_to_srgb, srgb_to_linear
-    from pipeline.render.flare_layer import clipped_pixels, lowpass
+    from pipeline.render.flare_layer import clipped_pixels, local_bias, lowpass
 
     p, f = srgb_to_linear(photo / 255.0), srgb_to_linear(fill / 255.0)
     clip = clipped_pixels(photo / 255.0)
     m = mask.astype(np.float32)
+    if bias is not None:
+        f = np.where(mask[..., None], np.maximum(f + local_bias(p - f, ring_of(mask), bias),
+                                                 0.0), f)
     d = (p - f) * m[..., None]
     if noclip:
         d = d * (~clip)[..., None]
@@ -82,7 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("scenes", type=Path, nargs="+")
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--only", default="",
+                    help="comma-separated name prefixes of the variants to score (default all)")
     a = ap.parse_args(argv)
+    keep = tuple(x for x in a.only.split(",") if x)
+    variants = {k: v for k, v in VARIANTS.items() if not keep or k.startswith(keep)}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -95,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.research.eval.scene import flared_views, load_synth, truth_mask
     from workflows.research.eval.scoring import read_bgr
 
-    rec = {"variants": VARIANTS, "scenes": {}}
+    rec = {"variants": variants, "scenes": {}}
     for root in a.scenes:
         scene = load_synth(root)
         ws = Workspace(Workspace(root / "eval.ws").variants / a.variant)
@@ -109,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
             tm = truth_mask(scene, s)
             m = cv2.resize(tm.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
             outs = {"fill pasted": fill, "flared input": photo}
-            outs.update({k: variant(fill, photo, m, **kw) for k, kw in VARIANTS.items()})
+            outs.update({k: variant(fill, photo, m, **kw) for k, kw in variants.items()})
             for k, v in outs.items():
                 per.setdefault(k, []).append((metrics.masked_psnr(v, gt, tm),
                                               metrics.psnr(v, gt), metrics.ssim(v, gt)))

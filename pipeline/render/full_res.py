@@ -101,7 +101,7 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
                         f"{ws.decoded_path(f.stem)} {dsize}: {ws.rerun('decode')}")
     alpha, ring = input_blend(f, cfg, ws, (W, H), dsize)
     rays_o, rays_d, rows, cols = input_rays(f, alpha, W, H)
-    ring = None if ring is None else ring[rows, cols]
+    ring_px = None if ring is None else ring[rows, cols]
     peak = 65535.0 if photo.dtype == np.uint16 else 255.0
     gains = np.ones(3)
     if full.linear:
@@ -114,10 +114,11 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
         out = photo.astype(np.float32) / peak
         a = alpha[rows, cols, None]
         new = srgb_to_linear(rgb, exact=True) * gains if full.linear else rgb
-        new = match_colours(new, out[rows, cols], ring)  # in the output's own encoding
+        new = match_colours(new, out[rows, cols], ring_px)  # in the output's own encoding
         filled = out.copy()
         filled[rows, cols] = out[rows, cols] * (1 - a) + new * a
-        filled = subtract_flare_layer(out, filled, alpha, layer_scale(cfg), full.linear)
+        filled = subtract_flare_layer(out, filled, alpha, layer_scale(cfg), full.linear,
+                                      ring=ring, bias=cfg.layer_bias)
         return np.clip(np.rint(filled * peak), 0, peak).astype(photo.dtype)
 
     return Prepared(rays_o, rays_d, compose)
