@@ -47,6 +47,9 @@ VARIANTS = {
     "shrink_0.03": {"shrink": 0.03},
     "bias_0.03": {"bias": 0.03}, "bias_0.06": {"bias": 0.06}, "bias_0.12": {"bias": 0.12},
     "bias_0.25": {"bias": 0.25},
+    "bias_0.06+norm_0.12": {"bias": 0.06, "norm": True},
+    "bias_0.12+norm_0.12": {"bias": 0.12, "norm": True},
+    "bias_0.12+norm_0.25": {"bias": 0.12, "norm": True, "smooth": 0.25},
 }
 
 
