@@ -379,6 +379,9 @@ class TrainBatches:
         if workers:
             import multiprocessing as mp
 
+            if "fork" not in mp.get_all_start_methods():
+                raise UserError("--workers needs processes started by fork (Linux, macOS); "
+                                "use --workers 0 on this system")
             global _POOL_SOURCE
             _POOL_SOURCE = src
             self.pool = mp.get_context("fork").Pool(workers, initializer=_pool_init)
