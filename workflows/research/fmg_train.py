@@ -348,18 +348,22 @@ def _lr(cfg: FMGTrainConfig, step: int) -> float:
 
 # --------------------------------------------------------------------------- train
 _POOL_SOURCE = None
-"""The training composites' source, inherited by the forked batch workers."""
+"""The training composites' source, sent once to each batch worker when it starts."""
+
+_WORKER_WAIT_S = 600.0
+"""How long the training loop waits for one step's composites before it gives up."""
 
 
-def _pool_init() -> None:
+def _pool_init(src) -> None:
+    global _POOL_SOURCE
     import cv2
 
-    cv2.setNumThreads(1)
+    cv2.setNumThreads(1)  # a fresh process (spawned): its thread pool is its own
+    _POOL_SOURCE = src
 
 
 def _pool_batch(job: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Step ``job[2]``'s composites as numpy arrays: a forked child does no torch work (its
-    thread pools do not survive a fork)."""
+    """Step ``job[2]``'s composites as numpy arrays (the worker does no torch work)."""
     n, seed, step = job
     rng = np.random.default_rng([seed, step, 1])
     pairs = [_POOL_SOURCE.sample(rng) for _ in range(n)]
@@ -368,9 +372,12 @@ def _pool_batch(job: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
 
 class TrainBatches:
     """One batch of training composites per step, from ``begin``'s step on. With ``workers`` > 0 a
-    pool of forked processes draws ``2 x workers`` steps ahead; step s's batch comes from a
-    generator seeded by (seed, s) whatever the number of workers. Forked before any CUDA
-    work (the workers only draw composites)."""
+    pool of worker processes draws ``2 x workers`` steps ahead; step s's batch comes from a
+    generator seeded by (seed, s) whatever the number of workers.
+
+    The workers are spawned, not forked: a child forked from a process whose OpenCV or torch
+    thread pools have run can deadlock in them (it did, in CI, inside ``cv2.setNumThreads``),
+    so each worker is a fresh interpreter that receives the source once, pickled."""
 
     def __init__(self, src, n: int, seed: int, workers: int = 0):
         self.src, self.n, self.seed, self.workers = src, n, seed, workers
@@ -379,12 +386,8 @@ class TrainBatches:
         if workers:
             import multiprocessing as mp
 
-            if "fork" not in mp.get_all_start_methods():
-                raise UserError("--workers needs processes started by fork (Linux, macOS); "
-                                "use --workers 0 on this system")
-            global _POOL_SOURCE
-            _POOL_SOURCE = src
-            self.pool = mp.get_context("fork").Pool(workers, initializer=_pool_init)
+            self.pool = mp.get_context("spawn").Pool(workers, initializer=_pool_init,
+                                                     initargs=(src,))
 
     def begin(self, start: int) -> None:
         """Draw from step ``start`` on (a resumed run's step)."""
@@ -398,9 +401,16 @@ class TrainBatches:
             self.ahead.append(self.pool.apply_async(_pool_batch,
                                                     ((self.n, self.seed, self.queued),)))
             self.queued += 1
+        from multiprocessing import TimeoutError as mp_TimeoutError
+
         import torch
 
-        x, y = self.ahead.pop(0).get()
+        try:
+            x, y = self.ahead.pop(0).get(timeout=_WORKER_WAIT_S)
+        except mp_TimeoutError:
+            self.close()
+            raise UserError(f"fmg train: no composites from the {self.workers} batch workers in "
+                            f"{_WORKER_WAIT_S:.0f} s; rerun with --workers 0") from None
         return (torch.from_numpy(x).permute(0, 3, 1, 2).contiguous(),
                 torch.from_numpy(y)[:, None].float())
 
@@ -461,7 +471,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
-    batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # forks before CUDA
+    batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # workers start before CUDA
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
                                 head_width=cfg.head_width,
                                 skip_width=cfg.skip_width)).to(dev)
