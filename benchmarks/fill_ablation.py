@@ -30,8 +30,6 @@ SETTINGS = {
     "hybrid_guided_support2": {"fill": "hybrid", "depth_support": 2},
     "hybrid_no_flare_layer": {"fill": "hybrid", "flare_layer": 0.0},
     "network_no_flare_layer": {"fill": "network", "flare_layer": 0.0},
-    **{f"hybrid_layer_bias_{b}": {"fill": "hybrid", "layer_bias": b}
-       for b in (0.03, 0.06, 0.12, 0.25)},
 }
 
 

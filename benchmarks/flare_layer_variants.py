@@ -18,9 +18,10 @@ layer, the part of what is left above the fill (mean over channels) that exceeds
 its median magnitude over the mask is removed too (for thin sharp flare; seventh session);
 ``shrink``: the layer lowered by this (linear) amount, so differences smaller than it are
 left in the photo (faint flare kept rather than the fill's error; eighth session);
-``bias``: the fill first corrected by its local error on the ring (render
-``--layer-bias``, ``pipeline.render.flare_layer.local_bias``; the ring is the render stage's:
-the mask dilated by ``RenderConfig.dilate``, less the mask; ninth session).
+``bias``: the fill first corrected by its local error on the ring (``local_bias`` below; the
+ring is the render stage's: the mask dilated by ``RenderConfig.dilate``, less the mask; ninth
+session; the render option it was tried as, ``--layer-bias``, was removed in the eleventh
+after it failed its rule, docs/depth.md).
 """
 
 from __future__ import annotations
@@ -53,6 +54,23 @@ VARIANTS = {
 }
 
 
+BIAS_SUPPORT = 0.01
+"""Normalised averages with less ring weight than this (of a full neighbourhood) are faded
+towards no correction: far from every ring pixel the fill's error is not known."""
+
+
+def local_bias(error, ring, smooth: float):
+    """[H, W, C] the fill's local error: ``error`` [H, W, C] (photo - fill, linear) averaged
+    over the ``ring`` [H, W] bool pixels by a Gaussian of ``smooth`` x the long side
+    (normalised convolution), faded to 0 where the ring's weight is under BIAS_SUPPORT."""
+    import numpy as np
+
+    from pipeline.render.flare_layer import lowpass
+
+    r = ring.astype(np.float32)[..., None]
+    return lowpass(error * r, smooth) / np.maximum(lowpass(r, smooth), BIAS_SUPPORT)
+
+
 def ring_of(mask):
     """The render stage's colour-match ring of a mask: grown by RenderConfig.dilate x the
     long side (elliptic), less the mask (pipeline.render.inputs.input_blend)."""
@@ -72,7 +90,7 @@ def variant(fill, photo, mask, smooth=0.12, norm=False, floor=None, cap=None, re
     import numpy as np
 
     from pipeline.colour import linear_to_srgb, srgb_to_linear
-    from pipeline.render.flare_layer import clipped_pixels, local_bias, lowpass
+    from pipeline.render.flare_layer import clipped_pixels, lowpass
 
     p, f = srgb_to_linear(photo / 255.0), srgb_to_linear(fill / 255.0)
     clip = clipped_pixels(photo / 255.0)

@@ -204,6 +204,14 @@ CHECKS = [
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("base", "random_sources-true")
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
+    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_H_rays.json", f"kinds/{kind}/weights/IoU_flare",
+       "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("gnfr/weights/fmg.md", "mask_dev_scenes_H.json", f"rows/{i}/flare_iou", "{:.3f}")
+      for i in (2, 3, 6, 7)],
+    *[("docs/depth.md", f"fill_layer_bias_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_layer_bias_0.25")
+      for m in ("psnr_flare", "psnr", "ssim")],
 ]
 
 

@@ -50,11 +50,6 @@ class RenderConfig:
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
     clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
-    layer_bias: float = option(0.0, ge=0)
-    """inputs (with ``flare_layer`` and ``color_match``): before the flare layer, correct
-    the fill by its local error on the ring (the photo minus the fill there, averaged by a
-    normalised Gaussian of this fraction of the long side), so faint flare is measured
-    against the scene rather than the fill's drift. 0: off (docs/depth.md)."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""

@@ -66,31 +66,14 @@ def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:
     return cv2.dilate(hot, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
 
 
-BIAS_SUPPORT = 0.01
-"""Normalised averages with less ring weight than this (of a full neighbourhood) are faded
-towards no correction: far from every ring pixel the fill's error is not known."""
-
-
-def local_bias(error: np.ndarray, ring: np.ndarray, smooth: float) -> np.ndarray:
-    """[H, W, C] the fill's local error: ``error`` [H, W, C] (photo - fill, linear) averaged
-    over the ``ring`` [H, W] bool pixels by a Gaussian of ``smooth`` x the long side
-    (normalised convolution), faded to 0 where the ring's weight is under BIAS_SUPPORT."""
-    r = ring.astype(np.float32)[..., None]
-    num = lowpass(error * r, smooth)
-    den = lowpass(r, smooth)
-    return num / np.maximum(den, BIAS_SUPPORT)
-
-
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
-                         smooth: float, linear: bool = False, ring: np.ndarray | None = None,
-                         bias: float = 0.0) -> np.ndarray:
+                         smooth: float, linear: bool = False) -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
     region replaced by the fill (same encoding: sRGB, or linear light with ``linear``);
-    alpha: [H, W] blend weight of the fill (0 outside the region). ``ring`` [H, W] bool and
-    ``bias`` > 0: correct the fill by its local error on the ring first (``local_bias``).
-    Returns the same encoding. ``smooth`` <= 0 returns ``filled`` unchanged.
+    alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
+    encoding. ``smooth`` <= 0 returns ``filled`` unchanged.
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -100,9 +83,6 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    if bias > 0 and ring is not None and ring.any():
-        inside = (alpha > 0)[..., None]
-        f = np.where(inside, np.maximum(f + local_bias(p - f, ring, bias), 0.0), f)
     layer = np.maximum(lowpass(p - f, smooth), 0.0)
     w = (alpha * ~clipped_pixels(srgb)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w

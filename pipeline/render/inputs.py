@@ -57,8 +57,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
             fill = fill * (1 - wgt[..., None]) + pc * wgt[..., None]
         a = alpha[..., None]
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
-        return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg), ring=ring,
-                                          bias=cfg.layer_bias))
+        return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg)))
 
     return Prepared(rays_o, rays_d, compose, guided)
 
