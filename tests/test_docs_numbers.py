@@ -212,6 +212,9 @@ CHECKS = [
        "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "mask_dev_scenes_H.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in (2, 3, 6, 7)],
+    *[("gnfr/weights/fmg.md", "mask_downstream_dev_H.json", f"rows/{i}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for i in range(4) for m in ("psnr", "psnr_flare", "ssim")],
     *[("docs/depth.md", f"fill_layer_bias_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_layer_bias_0.25")
