@@ -214,6 +214,10 @@ CHECKS = [
        "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "mask_dev_scenes_H.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in (2, 3, 6, 7)],
+    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_I_rays.json", f"kinds/{kind}/weights/IoU_flare",
+       "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("gnfr/weights/fmg.md", "mask_dev_scenes_I.json", f"rows/{i}/flare_iou", "{:.3f}")
+      for i in (2, 3, 6, 7)],
     *[("gnfr/weights/fmg.md", "mask_downstream_dev_cuts.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for i in range(6) for m in ("psnr", "psnr_flare", "ssim")],
