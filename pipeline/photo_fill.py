@@ -73,14 +73,48 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
 
 
 def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> np.ndarray:
-    """[H, W] float 0..1 weight of the photo fill: 1 where ``support >= min_support``, eroded
-    by one pixel (edges of the warped region are where depth is least sure) and feathered
-    over ``feather`` pixels towards the network's fill."""
+    """[H, W] float 0..1 weight of the photo fill: 1 where ``support >= min_support`` (or
+    where ``support`` is a bool mask that is set), eroded by one pixel (edges of the warped
+    region are where depth is least sure) and feathered over ``feather`` pixels towards the
+    network's fill."""
     import cv2
 
-    ok = (support >= min_support).astype(np.uint8)
+    ok = (support if support.dtype == bool else support >= min_support).astype(np.uint8)
     ok = cv2.erode(ok, np.ones((3, 3), np.uint8))
     if feather <= 0:
         return ok.astype(np.float32)
     dist = cv2.distanceTransform(ok, cv2.DIST_L2, 3)
     return np.clip(dist / feather, 0.0, 1.0).astype(np.float32)
+
+
+def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Fill the small holes of the photos' agreed region from the agreed pixels around them.
+
+    ``ok`` [H, W] bool marks where the photos agree (``support >= min_support``). A hole (a
+    connected part of ``~ok``, 8-connected) whose pixels all lie within ``radius`` pixels of
+    an agreed pixel (its widest inscribed disc has at most that radius) gets the agreed
+    colours around it, averaged by a Gaussian of that radius normalised by the agreed
+    pixels' weight, and counts as agreed. Larger holes are left for the network. Returns
+    (colour, ok) as new arrays."""
+    import cv2
+
+    holes = ~ok
+    if radius <= 0 or not holes.any() or not ok.any():
+        return colour, ok
+    dist = cv2.distanceTransform(holes.astype(np.uint8), cv2.DIST_L2, 3)
+    n, labels = cv2.connectedComponents(holes.astype(np.uint8), connectivity=8)
+    widest = np.zeros(n, np.float32)
+    np.maximum.at(widest, labels[holes], dist[holes])
+    small = holes & (widest[labels] <= radius)
+    if not small.any():
+        return colour, ok
+    w = ok.astype(np.float32)
+    c = np.where(ok[..., None], np.nan_to_num(colour), 0.0).astype(np.float32)
+    k = 2 * int(np.ceil(3 * radius)) + 1
+    num = cv2.GaussianBlur(c, (k, k), radius)
+    den = cv2.GaussianBlur(w, (k, k), radius)
+    small &= den > 1e-3
+    out = colour.copy()
+    out[small] = num[small] / den[small][:, None]
+    return out, ok | small

@@ -85,6 +85,11 @@ class RenderConfig:
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
     fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
     on CUDA)."""
+    close_holes: float = option(0.0, ge=0, le=0.1)
+    """hybrid novel frames: holes in the photos' agreed region whose pixels all lie within
+    this fraction of the frame's long side of agreed pixels are filled from the photo
+    pixels around them instead of by GN-FR at ``network_scale`` (0 = off; docs/depth.md,
+    "Small holes")."""
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
     with this many samples in a band around it instead of the full near-far range

@@ -19,13 +19,16 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
 
 
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
-                     reference: tuple[np.ndarray, np.ndarray] | None = None):
+                     reference: tuple[np.ndarray, np.ndarray] | None = None,
+                     close_holes: float = 0.0):
     """(colour [H, W, 3], weight [H, W], depth [H, W]: the splatted depth where some photo
     agree on it, else 0) of the hybrid fill for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
-    pixels)."""
-    from pipeline.photo_fill import photo_fill, support_weight
+    pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
+    long side in radius are filled from the photos around them
+    (:func:`pipeline.photo_fill.close_small_holes`)."""
+    from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
 
     c = np.asarray(c2w, float)[:3, 3]
     near = sorted((s for s in job.sources if s in photos),
@@ -39,4 +42,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
                     reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
                     0).astype(np.float32)
-    return pf.colour, support_weight(pf.support, min(cfg.min_support, len(srcs))), real
+    ok = pf.support >= min(cfg.min_support, len(srcs))
+    colour = pf.colour
+    if close_holes > 0:
+        colour, ok = close_small_holes(colour, ok, close_holes * max(size))
+    return colour, support_weight(ok, 0), real

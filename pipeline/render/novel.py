@@ -40,7 +40,8 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
 
     pc = job.camera
     H, W = pc.height, pc.width
-    colour, wgt, real_depth = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos, cfg)
+    colour, wgt, real_depth = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos, cfg,
+                                                close_holes=cfg.close_holes)
     w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
     K = np.asarray(pc.K, float).copy()
     K[0] *= w / W
