@@ -1,7 +1,7 @@
 """Leave-one-out novel views of an evaluated synth scene, for comparing render settings.
 
     python benchmarks/novel_loo.py SCENE_SYNTH [--variant gnfr] [--scale 0.5] \
-        [--set render.FIELD=VALUE ...] [--eval-ws DIR] [--heldout] --out JSON
+        [--set render.FIELD=VALUE ...] [--eval-ws DIR] [--heldout] [--frames DIR] --out JSON
 
 `deflare-scene eval` holds out few cameras (2 per development scene): too few to choose a
 render setting. This renders every training camera of the eval's variant as a novel frame
@@ -42,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="evaluation workspace (default SCENE/eval.ws)")
     ap.add_argument("--heldout", action="store_true",
                     help="render the held-out cameras from the whole workspace instead")
+    ap.add_argument("--frames", type=Path, default=None,
+                    help="also keep the rendered frames in this folder")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from workflows.threads import apply_thread_policy
@@ -82,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
             render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
         r = score_views(scene, frames, stems, with_region=False)
+        if a.frames is not None:
+            shutil.copytree(frames, a.frames, dirs_exist_ok=True)
     rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),
            "render": {k: v for k, v in asdict(cfg).items() if k != "path"},
            "sets": a.sets, "heldout": a.heldout, "views": stems,

@@ -227,6 +227,10 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", "mask_downstream_dev_H.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for i in range(4) for m in ("psnr", "psnr_flare", "ssim")],
+    *[("docs/depth.md", f"novel_{split}_close_holes_dev_{scene}_{f}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for split in ("loo", "heldout") for scene in ("sceaux", "et")
+      for f in ("0", "0.004", "0.008", "0.016") for m in ("psnr", "ssim")],
     *[("docs/depth.md", f"fill_layer_bias_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_layer_bias_0.25")

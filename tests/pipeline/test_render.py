@@ -558,3 +558,29 @@ def test_render_compile_wraps_the_model_once_and_changes_nothing(rws, monkeypatc
     for name, img in plain.items():
         assert np.abs(cv2.imread(str(out / name)).astype(int) - img).max() <= 1
     assert rws.stage_record("render:interpolate")["params"]["compile"] is None
+
+
+def test_close_holes_gives_the_photos_the_specks_of_a_novel_frame(hws, tmp_path, counters):
+    """A frame between two cameras: with --close-holes the network renders fewer rays (the
+    small holes of the photos' agreed region are the photos' now), and the frame stays as
+    close to the plane's texture as without."""
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.render import RenderConfig, run
+
+    rays, _ = counters
+    cams = load_cameras(hws.cameras_json).by_stem()
+    a, b = cams["plane01"], cams["plane03"]
+    c2w = a.c2w.copy()
+    c2w[:3, 3] = 0.5 * (a.c2w[:3, 3] + b.c2w[:3, 3])
+    path = tmp_path / "between.json"
+    atomic_write_json(path, path_to_json([PathCamera("v", a.K, c2w, a.width, a.height)]))
+    frames = {}
+    for close in (0.0, 0.03):
+        before = rays.rays
+        run(RenderConfig(path=str(path), fill="hybrid", close_holes=close,
+                         network_scale=1.0), hws, force=True)
+        frames[close] = (rays.rays - before,
+                         cv2.imread(str(hws.renders / "between" / "v.png")).astype(int))
+    assert frames[0.03][0] < frames[0.0][0], (frames[0.03][0], frames[0.0][0])
+    inner = (slice(12, -12), slice(12, -12))
+    assert _psnr(frames[0.03][1][inner], frames[0.0][1][inner]) > 25

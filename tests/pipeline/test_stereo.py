@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.photo_fill import photo_fill, support_weight
+from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
 from pipeline.stereo import (
     PosedView,
     SweepConfig,
@@ -115,3 +115,31 @@ def test_depth_config_rejects_bad_values(bad):
 
     with pytest.raises(UserError, match="--"):
         DepthConfig(**bad).check()
+
+
+def test_close_small_holes_fills_specks_and_leaves_large_holes():
+    """Specks and a thin crack of the agreed region take the colours around them; a hole
+    wider than the radius stays the network's, and agreed pixels keep their colour."""
+    rng = np.random.default_rng(0)
+    h, w = 64, 96
+    yy, xx = np.mgrid[0:h, 0:w]
+    truth = np.stack([xx / w, yy / h, 0.5 + 0 * xx], -1).astype(np.float32)  # smooth ramp
+    ok = np.ones((h, w), bool)
+    specks = [(10, 10), (20, 50), (40, 30)]
+    for y, x in specks:
+        ok[y:y + 2, x:x + 2] = False
+    ok[50, 5:60] = False                       # a one-pixel crack
+    ok[5:35, 65:90] = False                    # a large hole: radius about 12 px
+    colour = truth.copy()
+    colour[~ok] = np.nan                       # what fuse leaves where the photos disagree
+    colour[~ok & (rng.random((h, w)) < 0.5)] = 0.0
+    out, ok2 = close_small_holes(colour, ok, radius=3.0)
+    for y, x in specks:
+        assert ok2[y, x] and np.abs(out[y, x] - truth[y, x]).max() < 0.03
+    assert ok2[50, 5:60].all()
+    assert not ok2[20, 77] and not ok2[5:35, 65:90].any()
+    assert np.array_equal(out[ok], colour[ok])
+    wt = support_weight(ok2, 0)
+    assert wt[10, 10] == 1.0 and wt[20, 77] == 0.0
+    same, same_ok = close_small_holes(colour, ok, radius=0.0)
+    assert same is colour and same_ok is ok
