@@ -65,11 +65,17 @@ CHECKS = [
        f"flare/methods/{m}/{part}", "{:.3f}" if part.endswith("ssim") else "{:.2f}")
       for m in ("gnfr", "gnt") for part in ("inputs/psnr_flare", "inputs/psnr",
                                              "heldout/psnr", "heldout/ssim")],
-    *[("README.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+    *[("README.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
-    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/ssim", "{:.3f}") for m in ("gnfr", "input")],
+    ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json", "mask_scores/iou_flare",
+     "{:.3f}"),
+    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+       f"methods/gnfr/inputs/{k}", "{:.2f}") for k in ("psnr_flare", "psnr")],
+    ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+     "methods/gnfr/inputs/ssim", "{:.3f}"),
     *[("README.md", "fern_llff_paper_cuda_h100_ptp5000.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
