@@ -30,6 +30,7 @@ SETTINGS = {
     "hybrid_guided_support2": {"fill": "hybrid", "depth_support": 2},
     "hybrid_no_flare_layer": {"fill": "hybrid", "flare_layer": 0.0},
     "network_no_flare_layer": {"fill": "network", "flare_layer": 0.0},
+    "hybrid_beyond_4": {"fill": "hybrid", "beyond_planes": 4},
 }
 
 

@@ -47,7 +47,8 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                sources: list[PosedView], agree: float = 0.08,
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
-               near: float | None = None, far: float | None = None) -> PhotoFill:
+               near: float | None = None, far: float | None = None,
+               beyond: int = 0) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
@@ -55,11 +56,12 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     a plane sweep for the depth on which the sources agree best (``stereo.sweep_consensus``,
     kept where their colour variance is below CONSENSUS_VAR), the rest by interpolation
     (``stereo.fill_holes``); the agreement test then decides whether the photos support
-    the depth."""
+    the depth. ``beyond``: planes of that sweep past ``far`` (``stereo.beyond_depths``)."""
     depth = splat_depth(K, c2w, size, sources, fill=2)
     if dense and near is not None and (depth <= 0).any():
         holes = depth <= 0
-        cdepth, cost = sweep_consensus(K, c2w, size, sources, near, far, where=holes)
+        cdepth, cost = sweep_consensus(K, c2w, size, sources, near, far, where=holes,
+                                       beyond=beyond)
         ok = holes & (cost < CONSENSUS_VAR)
         depth[ok] = cdepth[ok]
     if dense:

@@ -78,6 +78,18 @@ def inverse_depths(near: float, far: float, n: int) -> np.ndarray:
     return 1.0 / np.linspace(1.0 / near, 1.0 / far, n)
 
 
+BEYOND_FAR = 100.0
+"""The farthest plane of a consensus sweep's planes past its far bound, in units of it."""
+
+
+def beyond_depths(far: float, n: int) -> np.ndarray:
+    """[n] depths past ``far``, uniform in inverse depth from ``far`` (excluded) to
+    ``BEYOND_FAR * far`` (included)."""
+    if n <= 0:
+        return np.zeros(0)
+    return 1.0 / np.linspace(1.0 / far, 1.0 / (BEYOND_FAR * far), n + 1)[1:]
+
+
 def _grey(img: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(img @ np.array([0.299, 0.587, 0.114], np.float32))
 
@@ -145,13 +157,16 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
 
 def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                     sources: list[PosedView], near: float, far: float, planes: int = 32,
-                    window: int = 5, where: np.ndarray | None = None
+                    window: int = 5, where: np.ndarray | None = None, beyond: int = 0
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Depth of a camera that has no photo of its own (a novel frame, or pixels no depth map
     covers): per plane the sources are warped in and a pixel's cost is the windowed mean of
     the variance of their colours (sources under flare or out of view left out; fewer than
     two: no cost). Returns (depth [H, W], cost [H, W]; inf where never two sources saw the
-    pixel). ``where`` [H, W] bool limits the work to the bounding box of those pixels."""
+    pixel). ``where`` [H, W] bool limits the work to the bounding box of those pixels.
+    ``beyond`` > 0 adds that many planes past ``far`` (:func:`beyond_depths`), out to
+    ``BEYOND_FAR`` times it, where distant scenery and the sky are warped all but as a
+    rotation."""
     W, H = size
     depth = np.zeros((H, W), np.float32)
     best = np.full((H, W), np.inf, np.float32)
@@ -169,7 +184,7 @@ def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                else s.valid.astype(np.float32)) for s in sources]
     sub_best = best[r0:r1, c0:c1]
     sub_depth = depth[r0:r1, c0:c1]
-    for d in inverse_depths(near, far, planes):
+    for d in np.concatenate([inverse_depths(near, far, planes), beyond_depths(far, beyond)]):
         n = np.zeros((ch, cw), np.float32)
         s1 = np.zeros((ch, cw, 3), np.float32)
         s2 = np.zeros((ch, cw), np.float32)

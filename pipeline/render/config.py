@@ -85,6 +85,10 @@ class RenderConfig:
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
     fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
     on CUDA)."""
+    beyond_planes: int = option(0, ge=0, le=64)
+    """hybrid: planes past the far bound (out to 100 times it) in the sweep that finds a depth
+    where no depth map reaches, so distant scenery and the sky can be taken from the photos
+    (0 = off; docs/depth.md, "Beyond the far bound")."""
     close_holes: float = option(0.0, ge=0, le=0.1)
     """hybrid novel frames: holes in the photos' agreed region whose pixels all lie within
     this fraction of the frame's long side of agreed pixels are filled from the photo

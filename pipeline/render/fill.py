@@ -39,7 +39,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         return np.zeros((size[1], size[0], 3), np.float32), z, z
     ref, ref_valid = reference if reference is not None else (None, None)
     pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
-                    reference=ref, ref_valid=ref_valid, near=job.near, far=job.far)
+                    reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
+                    beyond=cfg.beyond_planes)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
                     0).astype(np.float32)
     ok = pf.support >= min(cfg.min_support, len(srcs))
