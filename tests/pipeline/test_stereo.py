@@ -7,12 +7,15 @@ import pytest
 
 from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
 from pipeline.stereo import (
+    BEYOND_FAR,
     PosedView,
     SweepConfig,
     backproject,
+    beyond_depths,
     homography,
     project_points,
     splat_depth,
+    sweep_consensus,
     sweep_depth,
     warp_sources,
 )
@@ -143,3 +146,26 @@ def test_close_small_holes_fills_specks_and_leaves_large_holes():
     assert wt[10, 10] == 1.0 and wt[20, 77] == 0.0
     same, same_ok = close_small_holes(colour, ok, radius=0.0)
     assert same is colour and same_ok is ok
+
+
+def test_beyond_planes_reach_a_surface_past_the_far_bound():
+    """A textured plane at 3 units, swept with a far bound of 1.5: the planes between the
+    bounds cannot make the sources agree; planes past it (out to BEYOND_FAR x far) can."""
+    d = beyond_depths(1.0, 8)
+    assert len(d) == 8 and (np.diff(d) > 0).all() and d[0] > 1.0
+    assert d[-1] == pytest.approx(BEYOND_FAR) and len(beyond_depths(1.0, 0)) == 0
+    rng = np.random.default_rng(2)
+    images, c2ws, depths = fixture_plane_views(
+        rng, [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0], [0.0, 0.3, -3.0]],
+        K, (W, H), tilt=0.0)  # fronto-parallel at depth 3; a plane past far=1.5 is at 2.97
+    views = [PosedView(img, K.copy(), m) for img, m in zip(images, c2ws, strict=True)]
+    true = depths[0]
+    inner = (slice(20, -20), slice(20, -20))
+    costs, errs = {}, {}
+    for beyond in (0, 8):
+        depth, cost = sweep_consensus(K, views[0].c2w, (W, H), views[1:], 0.8, 1.5,
+                                      beyond=beyond)
+        costs[beyond] = np.median(cost[inner])
+        errs[beyond] = np.median(np.abs(depth[inner] - true[inner]) / true[inner])
+    assert costs[8] < 0.5 * costs[0], costs
+    assert errs[8] < 0.2 < errs[0], errs
