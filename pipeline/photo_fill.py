@@ -18,6 +18,7 @@ import numpy as np
 
 from pipeline.stereo import (
     PosedView,
+    Warped,
     fill_holes,
     fuse,
     match_gains,
@@ -41,6 +42,8 @@ class PhotoFill:
     """[H, W] int: neighbours that agree on the colour."""
     depth: np.ndarray
     """[H, W] float32 splatted z-depth (0 = no neighbour saw the surface)."""
+    warped: Warped | None = None
+    """Each source warped into the camera (gains matched), nearest first."""
 
 
 def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
@@ -71,7 +74,7 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN medians where none sees
         colour, support = fuse(w, agree)
-    return PhotoFill(colour, support, depth)
+    return PhotoFill(colour, support, depth, w)
 
 
 def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> np.ndarray:
@@ -120,3 +123,42 @@ def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
     out = colour.copy()
     out[small] = num[small] / den[small][:, None]
     return out, ok | small
+
+
+def network_vote(net: np.ndarray, warped: Warped, scale: float, tol: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Sharp photo colours where a single photo agrees with the network.
+
+    Where fewer than ``min_support`` photos agree, the network's render (``net`` [H, W, 3],
+    drawn at ``scale`` of the frame's size and upsampled) is a second opinion: each warped
+    source is brought to the network's resolution the same way (area-averaged over its own
+    valid pixels to ``scale``, then bilinearly upsampled), and at every pixel the source
+    closest to ``net`` there (largest channel difference) wins if that difference is below
+    ``tol``; its full-resolution colour is returned. The network vouches for the colour at
+    its own scale, the photo adds the detail the network cannot draw. Returns (colour [H, W,
+    3], ok [H, W] bool)."""
+    import cv2
+
+    H, W = net.shape[:2]
+    w, h = max(1, round(W * scale)), max(1, round(H * scale))
+    best = np.full((H, W), np.inf, np.float32)
+    colour = np.zeros((H, W, 3), np.float32)
+    for k in range(warped.colours.shape[0]):
+        ok = warped.ok[k].astype(np.float32)
+        if not ok.any():
+            continue
+        c = np.nan_to_num(warped.colours[k]) * ok[..., None]
+        if (w, h) != (W, H):
+            num = cv2.resize(cv2.resize(c, (w, h), interpolation=cv2.INTER_AREA), (W, H),
+                             interpolation=cv2.INTER_LINEAR)
+            den = cv2.resize(cv2.resize(ok, (w, h), interpolation=cv2.INTER_AREA), (W, H),
+                             interpolation=cv2.INTER_LINEAR)
+        else:
+            num, den = c, ok
+        low = num / np.maximum(den, 1e-6)[..., None]
+        diff = np.abs(low - net).max(-1)
+        diff[(warped.ok[k] == 0) | (den < 0.5)] = np.inf  # mostly unseen at the coarse scale
+        win = diff < best  # strict: ties go to the nearer source (earlier k)
+        best[win] = diff[win]
+        colour[win] = warped.colours[k][win]
+    return colour, best < tol

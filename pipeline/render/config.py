@@ -94,6 +94,12 @@ class RenderConfig:
     this fraction of the frame's long side of agreed pixels are filled from the photo
     pixels around them instead of by GN-FR at ``network_scale`` (0 = off; docs/depth.md,
     "Small holes")."""
+    network_vote: float = option(0.0, ge=0, le=1)
+    """hybrid novel frames: where fewer than ``min_support`` photos agree, the photo whose
+    colour, brought to GN-FR's ``network_scale``, lies closest to GN-FR's render and within
+    this (largest channel difference, 0..1 colours) is taken there at full resolution: the
+    network vouches for the colour, the photo adds the detail (0 = off; docs/depth.md,
+    "The network's vote")."""
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
     with this many samples in a band around it instead of the full near-far range

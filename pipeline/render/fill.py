@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from pipeline.cameras import Cameras
@@ -18,11 +20,23 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
     return load_views(ws, cams, stems, with_depth=True)
 
 
+class HybridFill(NamedTuple):
+    """The photos' share of one camera's hybrid fill."""
+
+    colour: np.ndarray
+    """[H, W, 3] float32 0..1 agreed colour of the photos."""
+    weight: np.ndarray
+    """[H, W] float32 0..1 weight of ``colour`` over the network's fill."""
+    depth: np.ndarray
+    """[H, W] float32 splatted depth where ``depth_support`` photos agree on it, else 0."""
+    warped: object = None
+    """:class:`pipeline.stereo.Warped`: each photo warped into the camera (None: no photo)."""
+
+
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                      reference: tuple[np.ndarray, np.ndarray] | None = None,
-                     close_holes: float = 0.0):
-    """(colour [H, W, 3], weight [H, W], depth [H, W]: the splatted depth where some photo
-    agree on it, else 0) of the hybrid fill for one camera: the nearest
+                     close_holes: float = 0.0) -> HybridFill:
+    """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
     pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
@@ -36,7 +50,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
     if not srcs:
         z = np.zeros(size[::-1], np.float32)
-        return np.zeros((size[1], size[0], 3), np.float32), z, z
+        return HybridFill(np.zeros((size[1], size[0], 3), np.float32), z, z)
     ref, ref_valid = reference if reference is not None else (None, None)
     pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
                     reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
@@ -47,4 +61,4 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     colour = pf.colour
     if close_holes > 0:
         colour, ok = close_small_holes(colour, ok, close_holes * max(size))
-    return colour, support_weight(ok, 0), real
+    return HybridFill(colour, support_weight(ok, 0), real, pf.warped)

@@ -27,8 +27,9 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
     region = alpha > 0.5 / 255
     wgt = colour = depth = None
     if photos is not None and region.any():
-        colour, wgt, depth = fill_from_photos(frame.K, frame.c2w, (frame.width, frame.height),
-                                              job, photos, cfg, own_clean_pixels(ws, frame))
+        colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w,
+                                                 (frame.width, frame.height), job, photos,
+                                                 cfg, own_clean_pixels(ws, frame))
         colour, wgt, depth = to_decoded(frame, size, colour, wgt, depth)
         if ring is not None:
             wgt = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0, region, ring)

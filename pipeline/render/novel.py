@@ -40,8 +40,8 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
 
     pc = job.camera
     H, W = pc.height, pc.width
-    colour, wgt, real_depth = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos, cfg,
-                                                close_holes=cfg.close_holes)
+    colour, wgt, real_depth, warped = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos,
+                                                        cfg, close_holes=cfg.close_holes)
     w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
     K = np.asarray(pc.K, float).copy()
     K[0] *= w / W
@@ -63,6 +63,12 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
         low[need] = rgb
         up = cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR)
         out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
+        if cfg.network_vote > 0 and warped is not None:
+            from pipeline.photo_fill import network_vote, support_weight
+
+            vc, vok = network_vote(up, warped, net_scale, cfg.network_vote)
+            vw = (support_weight(vok & (wgt < 1), 0) * (1 - wgt))[..., None]
+            out = out * (1 - vw) + vc * vw
         return to_u8(out)
 
     return Prepared(rays_o, rays_d, compose, (torch.from_numpy(d_lo), known))

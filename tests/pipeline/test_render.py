@@ -584,3 +584,30 @@ def test_close_holes_gives_the_photos_the_specks_of_a_novel_frame(hws, tmp_path,
     assert frames[0.03][0] < frames[0.0][0], (frames[0.03][0], frames[0.0][0])
     inner = (slice(12, -12), slice(12, -12))
     assert _psnr(frames[0.03][1][inner], frames[0.0][1][inner]) > 25
+
+
+def test_network_vote_takes_single_photos_only_where_the_network_agrees(hws, tmp_path):
+    """A frame between two cameras with a strict agreement rule (every photo must agree),
+    so GN-FR (random here) draws much of it. With --network-vote at its loosest every pixel
+    some photo sees is taken from the photos: the frame approaches the photos' own fill
+    (min_support 1); at a tolerance no random network meets, the frame is unchanged."""
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.render import RenderConfig, run
+
+    cams = load_cameras(hws.cameras_json).by_stem()
+    a, b = cams["plane01"], cams["plane03"]
+    c2w = a.c2w.copy()
+    c2w[:3, 3] = 0.5 * (a.c2w[:3, 3] + b.c2w[:3, 3])
+    path = tmp_path / "between.json"
+    atomic_write_json(path, path_to_json([PathCamera("v", a.K, c2w, a.width, a.height)]))
+    frames = {}
+    for key, support, vote in (("photos", 1, 0.0), ("strict", 4, 0.0), ("vote", 4, 1.0),
+                               ("tight", 4, 1e-6)):
+        run(RenderConfig(path=str(path), fill="hybrid", min_support=support,
+                         network_vote=vote, network_scale=0.5), hws, force=True)
+        frames[key] = cv2.imread(str(hws.renders / "between" / "v.png")).astype(int)
+    inner = (slice(12, -12), slice(12, -12))
+    strict = _psnr(frames["strict"][inner], frames["photos"][inner])
+    voted = _psnr(frames["vote"][inner], frames["photos"][inner])
+    assert voted > strict + 3, (voted, strict)
+    assert np.abs(frames["tight"] - frames["strict"]).max() <= 1

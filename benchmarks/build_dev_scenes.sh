@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Build the two development scenes every render/fill/mask rule of docs/depth.md and
+# gnfr/weights/fmg.md is scored on: sceaux_castle and et from ../shared/data/scenes, decoded
+# at 504 px, posed, given synthetic flare of every kind (2 views held out) and evaluated
+# (GN-FR fine-tuned with the true masks, quick preset, CPU). About 45 minutes on one core.
+#   bash benchmarks/build_dev_scenes.sh [OUT=/work/dev] [DATA=../shared/data/scenes]
+# Writes OUT/{sceaux,et}_ws (posed workspaces) and OUT/{sceaux,et}_synth (the scenes, with
+# eval.ws/variants/gnfr/model/gnfr.safetensors). Safe to rerun: every stage resumes.
+set -euo pipefail
+OUT=${1:-/work/dev}
+DATA=${2:-$(cd "$(dirname "$0")/../.." && pwd)/shared/data/scenes}
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
+mkdir -p "$OUT"
+for pair in sceaux:sceaux_castle et:et; do
+  short=${pair%%:*}; name=${pair#*:}
+  [ -d "$DATA/$name" ] || { echo "no $DATA/$name: pass the scenes folder as the second argument" >&2; exit 2; }
+  deflare-scene decode "$DATA/$name" --out "$OUT/${short}_ws" --max-size 504
+  deflare-scene pose "$OUT/${short}_ws"
+  deflare-scene synth "$OUT/${short}_ws" --out "$OUT/${short}_synth" --heldout 2
+  deflare-scene eval "$OUT/${short}_synth" --variants gnfr,input --masks gt \
+      --render-scale 0.5 --device cpu
+done
