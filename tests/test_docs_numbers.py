@@ -237,6 +237,14 @@ CHECKS = [
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for split in ("loo", "heldout") for scene in ("sceaux", "et")
       for f in ("0", "0.004", "0.008", "0.016") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"novel_{split}_s13_dev_{scene}_{v}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for split in ("loo", "heldout") for scene in ("sceaux", "et")
+      for v in ("base", "beyond_4", "vote_0.05", "vote_0.1") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_layer_bias_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_layer_bias_0.25")
