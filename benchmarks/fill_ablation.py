@@ -31,6 +31,8 @@ SETTINGS = {
     "hybrid_no_flare_layer": {"fill": "hybrid", "flare_layer": 0.0},
     "network_no_flare_layer": {"fill": "network", "flare_layer": 0.0},
     "hybrid_beyond_4": {"fill": "hybrid", "beyond_planes": 4},
+    **{f"hybrid_layer_local_{v}": {"fill": "hybrid", "flare_layer_local": v}
+       for v in (0.005, 0.01, 0.02)},
 }
 
 

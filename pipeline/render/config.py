@@ -50,6 +50,10 @@ class RenderConfig:
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
     clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
+    flare_layer_local: float = option(0.0, ge=0)
+    """inputs: cap the flare layer by the photo's difference from the fill blurred at this
+    much smaller fraction of the long side, so the wide layer does not carry a light's
+    bright core into its dark surroundings (0 = off; docs/depth.md, "A black halo")."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""

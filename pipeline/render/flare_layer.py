@@ -15,11 +15,11 @@ scenes this beat a mask-normalised layer (docs/depth.md, "The photo's own detail
 Where the photo is clipped (the flare's saturated core) it holds no scene detail and the
 fill stays. The layer is never negative: flare only adds light.
 
-With ``bias`` > 0 the fill is first corrected by its local error: on the ring (clean photo
-pixels just outside the flare mask where the fill was rendered too) ``photo - fill`` is the
-fill's own error, and its normalised Gaussian average (``bias`` x the long side) carries it
-into the flare region next to it. Faint flare is then measured against a fill whose local
-colour drift is gone, rather than against the drift itself.
+With ``local`` > 0 the layer is also capped by the photo's difference from the fill blurred at
+that much smaller scale, ``min(G_smooth * d, G_local * d)``: the glow around a light falls off
+faster than the wide Gaussian, which otherwise carries the core's large difference into the
+dark surroundings and subtracts it there (a black halo around the light); detail finer than
+the local scale is still kept.
 """
 
 from __future__ import annotations
@@ -67,13 +67,15 @@ def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:
 
 
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
-                         smooth: float, linear: bool = False) -> np.ndarray:
+                         smooth: float, linear: bool = False,
+                         local: float = 0.0) -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
     region replaced by the fill (same encoding: sRGB, or linear light with ``linear``);
     alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
-    encoding. ``smooth`` <= 0 returns ``filled`` unchanged.
+    encoding. ``smooth`` <= 0 returns ``filled`` unchanged. ``local`` > 0 caps the layer by
+    the difference blurred at that fraction of the long side (computed at full size).
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -83,7 +85,13 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    layer = np.maximum(lowpass(p - f, smooth), 0.0)
+    layer = lowpass(p - f, smooth)
+    if local > 0:
+        import cv2
+
+        near = cv2.GaussianBlur(p - f, (0, 0), local * max(p.shape[:2]))
+        layer = np.minimum(layer, near.reshape(layer.shape))
+    layer = np.maximum(layer, 0.0)
     w = (alpha * ~clipped_pixels(srgb)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
     return out if linear else linear_to_srgb(out)
