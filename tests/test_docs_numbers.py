@@ -241,6 +241,12 @@ CHECKS = [
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for split in ("loo", "heldout") for scene in ("sceaux", "et")
       for v in ("base", "beyond_4", "vote_0.05", "vote_0.1") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"fill_layer_local_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et")
+      for row in ("hybrid_guided_support2", "hybrid_layer_local_0.005",
+                  "hybrid_layer_local_0.01", "hybrid_layer_local_0.02")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
