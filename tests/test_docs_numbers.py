@@ -247,6 +247,10 @@ CHECKS = [
       for row in ("hybrid_guided_support2", "hybrid_layer_local_0.005",
                   "hybrid_layer_local_0.01", "hybrid_layer_local_0.02")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"fill_min_region_dev_{scene}.json", f"rows/{row}/psnr_flare", "{:.2f}")
+      for scene in ("sceaux", "et")
+      for row in ("hybrid_guided_support2", "hybrid_min_region_0.0001",
+                  "hybrid_min_region_0.0004", "hybrid_min_region_0.001")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
