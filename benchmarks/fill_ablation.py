@@ -33,7 +33,6 @@ SETTINGS = {
     "hybrid_beyond_4": {"fill": "hybrid", "beyond_planes": 4},
     **{f"hybrid_layer_local_{v}": {"fill": "hybrid", "flare_layer_local": v}
        for v in (0.005, 0.01, 0.02)},
-    **{f"hybrid_min_region_{v}": {"fill": "hybrid", "min_region": v} for v in (1e-4, 4e-4, 1e-3)},
 }
 
 

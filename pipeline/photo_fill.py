@@ -92,21 +92,6 @@ def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> n
     return np.clip(dist / feather, 0.0, 1.0).astype(np.float32)
 
 
-def drop_specks(ok: np.ndarray, min_area: float) -> np.ndarray:
-    """``ok`` [H, W] bool without its connected parts (8-connected) of fewer than
-    ``min_area`` pixels: specks where two warped photos agree by chance at a wrong depth
-    (the agreement test is per pixel, and in a flared or textureless region many depths pass
-    it somewhere). Returns a new array (``ok`` itself when ``min_area`` <= 1)."""
-    import cv2
-
-    if min_area <= 1 or not ok.any():
-        return ok
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(ok.astype(np.uint8), connectivity=8)
-    keep = stats[:, cv2.CC_STAT_AREA] >= min_area
-    keep[0] = False  # the background label
-    return keep[labels]
-
-
 def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Fill the small holes of the photos' agreed region from the agreed pixels around them.

@@ -83,10 +83,6 @@ class RenderConfig:
     pixel (docs/depth.md)."""
     min_support: int = option(2, ge=1)
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
-    min_region: float = option(0.0, ge=0, le=1)
-    """hybrid: connected parts of the photos' agreed region smaller than this fraction of the
-    image's area are left to GN-FR: specks where two photos agree by chance at a wrong depth
-    (0 = off; docs/depth.md, "Specks of chance agreement")."""
     photo_sources: int = option(4, ge=1)
     """hybrid: nearest clean photos warped into each image."""
     network_scale: float | None = option(None, gt=0)

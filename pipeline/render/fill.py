@@ -39,11 +39,10 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
-    pixels); parts of the agreed region under ``cfg.min_region`` of the image's area are
-    dropped (:func:`pipeline.photo_fill.drop_specks`). ``close_holes`` > 0: holes of the
-    agreed region up to that fraction of the long side in radius are filled from the
-    photos around them (:func:`pipeline.photo_fill.close_small_holes`)."""
-    from pipeline.photo_fill import close_small_holes, drop_specks, photo_fill, support_weight
+    pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
+    long side in radius are filled from the photos around them
+    (:func:`pipeline.photo_fill.close_small_holes`)."""
+    from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
 
     c = np.asarray(c2w, float)[:3, 3]
     near = sorted((s for s in job.sources if s in photos),
@@ -59,8 +58,6 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
                     0).astype(np.float32)
     ok = pf.support >= min(cfg.min_support, len(srcs))
-    if cfg.min_region > 0:
-        ok = drop_specks(ok, cfg.min_region * size[0] * size[1])
     colour = pf.colour
     if close_holes > 0:
         colour, ok = close_small_holes(colour, ok, close_holes * max(size))

@@ -611,17 +611,3 @@ def test_network_vote_takes_single_photos_only_where_the_network_agrees(hws, tmp
     voted = _psnr(frames["vote"][inner], frames["photos"][inner])
     assert voted > strict + 3, (voted, strict)
     assert np.abs(frames["tight"] - frames["strict"]).max() <= 1
-
-
-def test_min_region_leaves_small_parts_of_the_agreed_region_to_the_network(hws, counters):
-    """The flared view's fill: parts of the photos' agreed region under --min-region of the
-    image go to GN-FR, which then renders more rays; at 0 nothing is dropped."""
-    from pipeline.render import RenderConfig, run
-
-    rays, _ = counters
-    drawn = {}
-    for area in (0.0, 1.0):  # 1: every part is smaller than the image
-        before = rays.rays
-        run(RenderConfig(path="inputs", fill="hybrid", min_region=area), hws, force=True)
-        drawn[area] = rays.rays - before
-    assert drawn[1.0] > 2 * drawn[0.0] > 0, drawn

@@ -199,17 +199,3 @@ def test_network_vote_takes_the_photo_that_agrees_with_the_network_sharp():
         assert not (got & ~right).any()  # the wrong photo is never taken
     far = np.zeros_like(net)  # every photo is at least 0.2 away from it
     assert not network_vote(far, Warped(np.stack([truth, wrong]), ok), 0.25, 0.1)[1].any()
-
-
-def test_drop_specks_keeps_regions_and_drops_chance_specks():
-    from pipeline.photo_fill import drop_specks
-
-    ok = np.zeros((40, 60), bool)
-    ok[5:15, 5:25] = True  # a region of 200 pixels
-    ok[30:32, 40:42] = True  # a speck of 4
-    ok[20, 50] = True  # a single pixel
-    ok[25:28, 10:13] = True  # 9 pixels
-    out = drop_specks(ok, 10)
-    assert out[5:15, 5:25].all() and out.sum() == 200
-    assert drop_specks(ok, 9).sum() == 209
-    assert drop_specks(ok, 0) is ok and ok.sum() == 214  # the input is not modified
