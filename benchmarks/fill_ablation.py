@@ -33,6 +33,7 @@ SETTINGS = {
     "hybrid_beyond_4": {"fill": "hybrid", "beyond_planes": 4},
     **{f"hybrid_layer_local_{v}": {"fill": "hybrid", "flare_layer_local": v}
        for v in (0.005, 0.01, 0.02)},
+    "hybrid_clipped_all": {"fill": "hybrid", "clipped": "all"},
 }
 
 

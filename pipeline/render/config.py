@@ -50,6 +50,10 @@ class RenderConfig:
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
     clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
+    clipped: str = option("any", choices=("any", "all"))
+    """inputs, with the flare layer: a photo pixel counts as clipped (no detail left: the fill
+    stays there) when ``any`` of its channels reaches 0.95 (also a bright blue sky) or only
+    when ``all`` do (white: the flare's saturated core; docs/depth.md, "Clipped pixels")."""
     flare_layer_local: float = option(0.0, ge=0)
     """inputs: cap the flare layer by the photo's difference from the fill blurred at this
     much smaller fraction of the long side, so the wide layer does not carry a light's

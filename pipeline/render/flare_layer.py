@@ -56,19 +56,21 @@ def layer_scale(cfg) -> float:
     return cfg.flare_layer if cfg.blend == "mask" else 0.0
 
 
-def clipped_pixels(photo_srgb: np.ndarray) -> np.ndarray:
-    """[H, W] bool: pixels with a channel at or above ``CLIPPED``, grown by a few pixels
-    (the clipped core's blooming edge carries no detail either)."""
+def clipped_pixels(photo_srgb: np.ndarray, channels: str = "any") -> np.ndarray:
+    """[H, W] bool: pixels with ``channels`` ("any" or "all") at or above ``CLIPPED``, grown
+    by a few pixels (the clipped core's blooming edge carries no detail either). "any" also
+    counts a bright blue sky or a saturated colour; "all" only white (the flare's core)."""
     import cv2
 
     r = max(2, round(0.004 * max(photo_srgb.shape[:2])))
-    hot = (photo_srgb.max(-1) >= CLIPPED).astype(np.uint8)
+    top = photo_srgb.max(-1) if channels == "any" else photo_srgb.min(-1)
+    hot = (top >= CLIPPED).astype(np.uint8)
     return cv2.dilate(hot, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
 
 
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
                          smooth: float, linear: bool = False,
-                         local: float = 0.0) -> np.ndarray:
+                         local: float = 0.0, clipped: str = "any") -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
@@ -76,6 +78,7 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
     encoding. ``smooth`` <= 0 returns ``filled`` unchanged. ``local`` > 0 caps the layer by
     the difference blurred at that fraction of the long side (computed at full size).
+    ``clipped``: which pixels keep the fill (:func:`clipped_pixels`' ``channels``).
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -92,6 +95,6 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
         near = cv2.GaussianBlur(p - f, (0, 0), local * max(p.shape[:2]))
         layer = np.minimum(layer, near.reshape(layer.shape))
     layer = np.maximum(layer, 0.0)
-    w = (alpha * ~clipped_pixels(srgb)).astype(np.float32)[..., None]
+    w = (alpha * ~clipped_pixels(srgb, clipped)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
     return out if linear else linear_to_srgb(out)

@@ -59,7 +59,8 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
         a = alpha[..., None]
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
         return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg),
-                                          local=cfg.flare_layer_local))
+                                          local=cfg.flare_layer_local,
+                                          clipped=cfg.clipped))
 
     return Prepared(rays_o, rays_d, compose, guided)
 

@@ -72,6 +72,17 @@ def test_off_brighter_fill_and_clipped_pixels():
     assert clipped_pixels(hot)[53:67, 73:87].all() and not clipped_pixels(hot)[:20].any()
     out = subtract_flare_layer(hot, filled, alpha, 0.12)
     assert np.abs(out - filled)[55:65, 75:85].max() < 1 / 255
+    # a saturated colour (one channel at 1, a bright blue sky) is clipped for "any" only:
+    # with "all" the layer is subtracted there too, and a white core still keeps the fill
+    sky = photo.copy()
+    sky[35:50, 45:60, 2] = 1.0
+    assert clipped_pixels(sky)[40:45, 50:55].all()
+    assert not clipped_pixels(sky, "all")[35:50, 45:60].any()
+    assert clipped_pixels(hot, "all")[55:65, 75:85].all()
+    out_all = subtract_flare_layer(sky, filled, alpha, 0.12, clipped="all")
+    out_any = subtract_flare_layer(sky, filled, alpha, 0.12)
+    assert np.abs(out_any - filled)[38:47, 48:57].max() < 1 / 255
+    assert np.abs(out_all - sky)[38:47, 48:57].max() < 2 / 255  # fill brighter: no layer
 
 
 def test_linear_photos_give_the_same_result_as_srgb():
