@@ -251,6 +251,10 @@ CHECKS = [
       for scene in ("sceaux", "et")
       for row in ("hybrid_guided_support2", "hybrid_min_region_0.0001",
                   "hybrid_min_region_0.0004", "hybrid_min_region_0.001")],
+    *[("docs/depth.md", f"fill_clipped_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_clipped_all")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
