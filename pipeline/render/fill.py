@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -10,6 +10,9 @@ from pipeline.cameras import Cameras
 from pipeline.render.config import RenderConfig
 from pipeline.render.jobs import FrameJob
 from pipeline.workspace import Workspace
+
+if TYPE_CHECKING:
+    from pipeline.stereo import Warped
 
 
 def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:
@@ -29,8 +32,8 @@ class HybridFill(NamedTuple):
     """[H, W] float32 0..1 weight of ``colour`` over the network's fill."""
     depth: np.ndarray
     """[H, W] float32 splatted depth where ``depth_support`` photos agree on it, else 0."""
-    warped: object = None
-    """:class:`pipeline.stereo.Warped`: each photo warped into the camera (None: no photo)."""
+    warped: Warped | None = None
+    """Each photo warped into the camera, gains matched (None: no photo)."""
 
 
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
