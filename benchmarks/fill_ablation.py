@@ -34,6 +34,7 @@ SETTINGS = {
     **{f"hybrid_layer_local_{v}": {"fill": "hybrid", "flare_layer_local": v}
        for v in (0.005, 0.01, 0.02)},
     "hybrid_clipped_all": {"fill": "hybrid", "clipped": "all"},
+    **{f"hybrid_layer_adapt_{v}": {"fill": "hybrid", "flare_layer_adapt": v} for v in (0.5, 1.0)},
 }
 
 

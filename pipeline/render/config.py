@@ -50,6 +50,10 @@ class RenderConfig:
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
     clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
+    flare_layer_adapt: float = option(0.0, ge=0)
+    """inputs: each connected part of the flare region gets a flare layer of this many times
+    its equivalent radius (at most ``flare_layer``), so a compact ghost is measured at its own
+    scale (0 = one width for all; docs/depth.md, "A layer per flare")."""
     clipped: str = option("any", choices=("any", "all"))
     """inputs, with the flare layer: a photo pixel counts as clipped (no detail left: the fill
     stays there) when ``any`` of its channels reaches 0.95 (also a bright blue sky) or only

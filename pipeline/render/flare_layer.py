@@ -68,9 +68,37 @@ def clipped_pixels(photo_srgb: np.ndarray, channels: str = "any") -> np.ndarray:
     return cv2.dilate(hot, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
 
 
+ADAPT_LEVELS = 5
+"""Widths an adaptive layer chooses from: ``smooth`` / 2**j, j < ADAPT_LEVELS."""
+
+
+def adaptive_layer(diff: np.ndarray, region: np.ndarray, smooth: float, adapt: float
+                   ) -> np.ndarray:
+    """The flare layer with a width per connected part of ``region`` (8-connected): a part of
+    area A gets a Gaussian of ``adapt`` x sqrt(A / pi) pixels, rounded to the nearest of
+    ``smooth`` / 2**j of the long side (j < ADAPT_LEVELS) and never wider than ``smooth``. A
+    compact ghost is then measured at its own scale, not averaged with the clean pixels
+    around it; a wide glare keeps the wide layer. ``diff`` [H, W, 3] (zero outside the
+    region); returns the blurred (signed) difference."""
+    import cv2
+
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(region.astype(np.uint8),
+                                                           connectivity=8)
+    long_side = max(region.shape)
+    want = adapt * np.sqrt(stats[:, cv2.CC_STAT_AREA] / np.pi) / (smooth * long_side)
+    level = np.clip(np.round(-np.log2(np.maximum(want, 1e-9))), 0, ADAPT_LEVELS - 1)
+    level = level.astype(int)
+    out = np.zeros_like(diff)
+    for j in np.unique(level[1:]):
+        part = (level == j)[labels] & region
+        out += lowpass(diff * part[..., None], smooth / 2**j)
+    return out
+
+
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
                          smooth: float, linear: bool = False,
-                         local: float = 0.0, clipped: str = "any") -> np.ndarray:
+                         local: float = 0.0, clipped: str = "any",
+                         adapt: float = 0.0) -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
@@ -79,6 +107,8 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     encoding. ``smooth`` <= 0 returns ``filled`` unchanged. ``local`` > 0 caps the layer by
     the difference blurred at that fraction of the long side (computed at full size).
     ``clipped``: which pixels keep the fill (:func:`clipped_pixels`' ``channels``).
+    ``adapt`` > 0: each connected part of the blend region gets its own layer width,
+    ``adapt`` x its equivalent radius (at most ``smooth``; :func:`adaptive_layer`).
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -88,7 +118,8 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    layer = lowpass(p - f, smooth)
+    layer = (adaptive_layer(p - f, alpha > 0, smooth, adapt) if adapt > 0
+             else lowpass(p - f, smooth))
     if local > 0:
         import cv2
 

@@ -60,7 +60,8 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
         return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg),
                                           local=cfg.flare_layer_local,
-                                          clipped=cfg.clipped))
+                                          clipped=cfg.clipped,
+                                          adapt=cfg.flare_layer_adapt))
 
     return Prepared(rays_o, rays_d, compose, guided)
 

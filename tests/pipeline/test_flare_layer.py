@@ -130,3 +130,36 @@ def test_local_bias_is_the_rings_error_nearby_and_fades_far_from_it():
     b = local_bias(err, ring, 0.03)
     assert abs(b[32, 30, 0] - 0.05) < 0.005  # next to the ring: its error
     assert abs(b[32, 250, 0]) < 0.005  # far from every ring pixel: no correction
+
+
+def test_adaptive_layer_removes_a_compact_ghost_the_wide_layer_leaves():
+    """A small uniform ghost disc (radius 8 px on a 400 px photo, the layer 48 px wide): the
+    one-width layer averages it with the clean pixels around and removes a fraction; a layer
+    of the disc's own width removes most of it, the photo's texture inside kept. A wide glow
+    in the same photo (another part of the region) keeps the wide layer."""
+    from pipeline.render.flare_layer import adaptive_layer
+
+    scene = textured_scene(h=100, w=400, seed=3)
+    h, w = scene.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    disc = ((yy - 50) ** 2 + (xx - 300) ** 2) <= 8 ** 2
+    ghost = 0.2 * disc[..., None] * np.array([0.8, 1.0, 1.0], np.float32)
+    g, glow_mask = glow(h, w, 50, 60, 80, 0.15)
+    region = disc | glow_mask
+    photo = linear_to_srgb(np.clip(scene + ghost + g, 0, 1))
+    filled = linear_to_srgb(np.where(region[..., None], lowpass(scene, 0.05),
+                                     srgb_to_linear(photo)))
+    alpha = region.astype(np.float32)
+    truth = (linear_to_srgb(scene) * 255).round().astype(np.uint8)
+    u8 = lambda x: (np.clip(x, 0, 1) * 255).round().astype(np.uint8)  # noqa: E731
+    wide = subtract_flare_layer(photo, filled, alpha, 0.12)
+    own = subtract_flare_layer(photo, filled, alpha, 0.12, adapt=0.5)
+    p_wide = metrics.masked_psnr(u8(wide), truth, disc)
+    p_own = metrics.masked_psnr(u8(own), truth, disc)
+    assert p_own > p_wide + 6, (p_own, p_wide)
+    # the glow's part (far larger than 0.5 x its radius caps) is unchanged by adapt
+    assert np.abs(u8(own).astype(int) - u8(wide))[:, :150].max() <= 1
+    # the per-part layer of a region that is one part wider than the cap is the wide layer
+    d = srgb_to_linear(photo) - srgb_to_linear(filled)
+    assert np.allclose(adaptive_layer(d * glow_mask[..., None], glow_mask, 0.12, 0.5),
+                       lowpass(d * glow_mask[..., None], 0.12), atol=1e-6)
