@@ -255,6 +255,11 @@ CHECKS = [
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_clipped_all")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"fill_layer_adapt_dev_{scene}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et")
+      for row in ("hybrid_guided_support2", "hybrid_layer_adapt_0.5", "hybrid_layer_adapt_1.0")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
