@@ -94,6 +94,11 @@ CHECKS = [
       for page in ("gnfr/weights/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
       for i in (0, 1) for m in ("psnr", "ssim")],
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
+    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "stages/finetune/seconds", "{:.1f}"),
+    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "stages/render:interpolate/seconds",
+     "{:.1f}"),
+    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr", "{:.2f}"),
+    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr_flare", "{:.2f}"),
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
      "{:.1f}"),
     *[("README.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
@@ -260,6 +265,9 @@ CHECKS = [
       for scene in ("sceaux", "et")
       for row in ("hybrid_guided_support2", "hybrid_layer_adapt_0.5", "hybrid_layer_adapt_1.0")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"fill_layer_adapt_nc_dev_{scene}.json",
+       f"rows/hybrid_layer_adapt_0.5_no_cores/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et") for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
