@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# Build the two development scenes every render/fill/mask rule of docs/depth.md and
-# gnfr/weights/fmg.md is scored on: sceaux_castle and et from ../shared/data/scenes, decoded
+# Build the development scenes the render/fill/mask rules of docs/depth.md and
+# gnfr/weights/fmg.md are scored on: sceaux_castle and et (and lund, the thirteenth session's
+# confirmation scene; 15 of its 29 photos pose) from ../shared/data/scenes, decoded
 # at 504 px, posed, given synthetic flare of every kind (2 views held out; sceaux_castle
-# seed 0: 2 of its 9 training views under 10 % flare, et seed 3: all 7) and evaluated
-# (GN-FR fine-tuned with the true masks, quick preset, CPU). About 45 minutes on one core.
+# seed 0: 2 of its 9 training views under 10 % flare, et seed 3: all 7, lund seed 0: 12 of
+# 13) and evaluated
+# (GN-FR fine-tuned with the true masks, quick preset, CPU). About 10 minutes a scene on one
+# core.
 #   bash benchmarks/build_dev_scenes.sh [OUT=/work/dev] [DATA=../shared/data/scenes]
-# Writes OUT/{sceaux,et}_ws (posed workspaces) and OUT/{sceaux,et}_synth (the scenes, with
+# Writes OUT/{sceaux,et,lund}_ws (posed workspaces) and OUT/{sceaux,et,lund}_synth (with
 # eval.ws/variants/gnfr/model/gnfr.safetensors). Safe to rerun: every stage resumes.
 set -euo pipefail
 OUT=${1:-/work/dev}
@@ -13,7 +16,7 @@ DATA=${2:-$(cd "$(dirname "$0")/../.." && pwd)/shared/data/scenes}
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 mkdir -p "$OUT"
 # seeds of the flare draw: et's seed 0 flares every view above the 10 % rule (no target)
-for spec in sceaux:sceaux_castle:0 et:et:3; do
+for spec in sceaux:sceaux_castle:0 et:et:3 lund:lund/images:0; do
   IFS=: read -r short name seed <<< "$spec"
   [ -d "$DATA/$name" ] || { echo "no $DATA/$name: pass the scenes folder as the second argument" >&2; exit 2; }
   deflare-scene decode "$DATA/$name" --out "$OUT/${short}_ws" --max-size 504
