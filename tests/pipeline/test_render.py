@@ -560,20 +560,27 @@ def test_render_compile_wraps_the_model_once_and_changes_nothing(rws, monkeypatc
     assert rws.stage_record("render:interpolate")["params"]["compile"] is None
 
 
-def test_close_holes_gives_the_photos_the_specks_of_a_novel_frame(hws, tmp_path, counters):
-    """A frame between two cameras: with --close-holes the network renders fewer rays (the
-    small holes of the photos' agreed region are the photos' now), and the frame stays as
-    close to the plane's texture as without."""
+def _path_between(ws, tmp_path) -> Path:
+    """A camera path file of one frame halfway between plane01 and plane03."""
     from gnfr.paths import PathCamera, path_to_json
-    from pipeline.render import RenderConfig, run
 
-    rays, _ = counters
-    cams = load_cameras(hws.cameras_json).by_stem()
+    cams = load_cameras(ws.cameras_json).by_stem()
     a, b = cams["plane01"], cams["plane03"]
     c2w = a.c2w.copy()
     c2w[:3, 3] = 0.5 * (a.c2w[:3, 3] + b.c2w[:3, 3])
     path = tmp_path / "between.json"
     atomic_write_json(path, path_to_json([PathCamera("v", a.K, c2w, a.width, a.height)]))
+    return path
+
+
+def test_close_holes_gives_the_photos_the_specks_of_a_novel_frame(hws, tmp_path, counters):
+    """A frame between two cameras: with --close-holes the network renders fewer rays (the
+    small holes of the photos' agreed region are the photos' now), and the frame stays as
+    close to the plane's texture as without."""
+    from pipeline.render import RenderConfig, run
+
+    rays, _ = counters
+    path = _path_between(hws, tmp_path)
     frames = {}
     for close in (0.0, 0.03):
         before = rays.rays
@@ -591,15 +598,9 @@ def test_network_vote_takes_single_photos_only_where_the_network_agrees(hws, tmp
     so GN-FR (random here) draws much of it. With --network-vote at its loosest every pixel
     some photo sees is taken from the photos: the frame approaches the photos' own fill
     (min_support 1); at a tolerance no random network meets, the frame is unchanged."""
-    from gnfr.paths import PathCamera, path_to_json
     from pipeline.render import RenderConfig, run
 
-    cams = load_cameras(hws.cameras_json).by_stem()
-    a, b = cams["plane01"], cams["plane03"]
-    c2w = a.c2w.copy()
-    c2w[:3, 3] = 0.5 * (a.c2w[:3, 3] + b.c2w[:3, 3])
-    path = tmp_path / "between.json"
-    atomic_write_json(path, path_to_json([PathCamera("v", a.K, c2w, a.width, a.height)]))
+    path = _path_between(hws, tmp_path)
     frames = {}
     for key, support, vote in (("photos", 1, 0.0), ("strict", 4, 0.0), ("vote", 4, 1.0),
                                ("tight", 4, 1e-6)):
