@@ -35,11 +35,6 @@ SETTINGS = {
        for v in (0.005, 0.01, 0.02)},
     "hybrid_clipped_all": {"fill": "hybrid", "clipped": "all"},
     **{f"hybrid_layer_adapt_{v}": {"fill": "hybrid", "flare_layer_adapt": v} for v in (0.5, 1.0)},
-    "hybrid_layer_adapt_0.5_no_cores": {"fill": "hybrid", "flare_layer_adapt": 0.5,
-                                        "flare_layer_adapt_cores": False},
-    "hybrid_clipped_all_adapt_0.5_no_cores": {"fill": "hybrid", "clipped": "all",
-                                              "flare_layer_adapt": 0.5,
-                                              "flare_layer_adapt_cores": False},
 }
 
 

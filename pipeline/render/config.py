@@ -54,9 +54,6 @@ class RenderConfig:
     """inputs: each connected part of the flare region gets a flare layer of this many times
     its equivalent radius (at most ``flare_layer``), so a compact ghost is measured at its own
     scale (0 = one width for all; docs/depth.md, "A layer per flare")."""
-    flare_layer_adapt_cores: bool = True
-    """inputs, with ``flare_layer_adapt``: also adapt the parts of the flare region that hold
-    clipped pixels (a light's core); off, they keep the ``flare_layer`` width."""
     clipped: str = option("any", choices=("any", "all"))
     """inputs, with the flare layer: a photo pixel counts as clipped (no detail left: the fill
     stays there) when ``any`` of its channels reaches 0.95 (also a bright blue sky) or only

@@ -72,15 +72,14 @@ ADAPT_LEVELS = 5
 """Widths an adaptive layer chooses from: ``smooth`` / 2**j, j < ADAPT_LEVELS."""
 
 
-def adaptive_layer(diff: np.ndarray, region: np.ndarray, smooth: float, adapt: float,
-                   wide: np.ndarray | None = None) -> np.ndarray:
+def adaptive_layer(diff: np.ndarray, region: np.ndarray, smooth: float, adapt: float
+                   ) -> np.ndarray:
     """The flare layer with a width per connected part of ``region`` (8-connected): a part of
     area A gets a Gaussian of ``adapt`` x sqrt(A / pi) pixels, rounded to the nearest of
     ``smooth`` / 2**j of the long side (j < ADAPT_LEVELS) and never wider than ``smooth``. A
     compact ghost is then measured at its own scale, not averaged with the clean pixels
     around it; a wide glare keeps the wide layer. ``diff`` [H, W, 3] (zero outside the
-    region); returns the blurred (signed) difference. Parts that touch ``wide`` [H, W] bool
-    (e.g. a light's clipped core) keep the ``smooth`` width."""
+    region); returns the blurred (signed) difference."""
     import cv2
 
     n, labels, stats, _ = cv2.connectedComponentsWithStats(region.astype(np.uint8),
@@ -89,9 +88,6 @@ def adaptive_layer(diff: np.ndarray, region: np.ndarray, smooth: float, adapt: f
     want = adapt * np.sqrt(stats[:, cv2.CC_STAT_AREA] / np.pi) / (smooth * long_side)
     level = np.clip(np.round(-np.log2(np.maximum(want, 1e-9))), 0, ADAPT_LEVELS - 1)
     level = level.astype(int)
-    if wide is not None:
-        touched = np.unique(labels[wide & region])
-        level[touched] = 0
     out = np.zeros_like(diff)
     for j in np.unique(level[1:]):
         part = (level == j)[labels] & region
@@ -102,7 +98,7 @@ def adaptive_layer(diff: np.ndarray, region: np.ndarray, smooth: float, adapt: f
 def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray,
                          smooth: float, linear: bool = False,
                          local: float = 0.0, clipped: str = "any",
-                         adapt: float = 0.0, adapt_cores: bool = True) -> np.ndarray:
+                         adapt: float = 0.0) -> np.ndarray:
     """The de-flared photo with the photo's detail kept inside the blend region.
 
     photo, filled: [H, W, 3] float in [0, 1], the photo and the photo with its flare
@@ -112,8 +108,7 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     the difference blurred at that fraction of the long side (computed at full size).
     ``clipped``: which pixels keep the fill (:func:`clipped_pixels`' ``channels``).
     ``adapt`` > 0: each connected part of the blend region gets its own layer width,
-    ``adapt`` x its equivalent radius (at most ``smooth``; :func:`adaptive_layer`); with
-    ``adapt_cores`` False, parts holding clipped pixels keep the ``smooth`` width.
+    ``adapt`` x its equivalent radius (at most ``smooth``; :func:`adaptive_layer`).
     """
     if smooth <= 0 or not (alpha > 0).any():
         return filled
@@ -123,18 +118,14 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    clip = clipped_pixels(srgb, clipped)
-    if adapt > 0:
-        layer = adaptive_layer(p - f, alpha > 0, smooth, adapt,
-                               None if adapt_cores else clip)
-    else:
-        layer = lowpass(p - f, smooth)
+    layer = (adaptive_layer(p - f, alpha > 0, smooth, adapt) if adapt > 0
+             else lowpass(p - f, smooth))
     if local > 0:
         import cv2
 
         near = cv2.GaussianBlur(p - f, (0, 0), local * max(p.shape[:2]))
         layer = np.minimum(layer, near.reshape(layer.shape))
     layer = np.maximum(layer, 0.0)
-    w = (alpha * ~clip).astype(np.float32)[..., None]
+    w = (alpha * ~clipped_pixels(srgb, clipped)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
     return out if linear else linear_to_srgb(out)

@@ -119,8 +119,7 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
         filled[rows, cols] = out[rows, cols] * (1 - a) + new * a
         filled = subtract_flare_layer(out, filled, alpha, layer_scale(cfg), full.linear,
                                       local=cfg.flare_layer_local, clipped=cfg.clipped,
-                                      adapt=cfg.flare_layer_adapt,
-                                      adapt_cores=cfg.flare_layer_adapt_cores)
+                                      adapt=cfg.flare_layer_adapt)
         return np.clip(np.rint(filled * peak), 0, peak).astype(photo.dtype)
 
     return Prepared(rays_o, rays_d, compose)

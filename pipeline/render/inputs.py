@@ -61,8 +61,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
         return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg),
                                           local=cfg.flare_layer_local,
                                           clipped=cfg.clipped,
-                                          adapt=cfg.flare_layer_adapt,
-                                          adapt_cores=cfg.flare_layer_adapt_cores))
+                                          adapt=cfg.flare_layer_adapt))
 
     return Prepared(rays_o, rays_d, compose, guided)
 
