@@ -5,6 +5,7 @@
 #   python -m workflows.research.scene_pack SCENES... --out .carry/packs      # GN-FR, 16 MB
 #   python -m workflows.research.scene_pack --fmg-photos ../shared/data --out .carry/fmgdata \
 #       --quality 85                                                          # FMG, ~14 MB
+#   bash benchmarks/build_dev_scenes.sh /work/dev      # SYNTH=/work/dev/et_synth (CPU, ~10 min)
 #   mkdir -p .carry/dev/et_synth; cp -r SYNTH/{photos,clean,masks_gt,cameras_gt.json,split.json} \
 #       .carry/dev/et_synth          # devab; pip download trimesh -d .carry/whl (eval-llff)
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
