@@ -277,6 +277,9 @@ CHECKS = [
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for row in ("hybrid_clipped_all", "hybrid_layer_adapt_0.5", "hybrid_layer_local_0.02")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"fill_layer_bias_adapt_dev_{scene}.json",
+       f"rows/hybrid_layer_adapt_0.5_bias_0.05/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
+      for scene in ("sceaux", "et") for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"fill_beyond_dev_{scene}.json", f"rows/{row}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("hybrid_guided_support2", "hybrid_beyond_4")
