@@ -35,8 +35,6 @@ SETTINGS = {
        for v in (0.005, 0.01, 0.02)},
     "hybrid_clipped_all": {"fill": "hybrid", "clipped": "all"},
     **{f"hybrid_layer_adapt_{v}": {"fill": "hybrid", "flare_layer_adapt": v} for v in (0.5, 1.0)},
-    "hybrid_layer_adapt_0.5_bias_0.05": {"fill": "hybrid", "flare_layer_adapt": 0.5,
-                                         "fill_bias": 0.05},
 }
 
 

@@ -54,11 +54,6 @@ class RenderConfig:
     """inputs: each connected part of the flare region gets a flare layer of this many times
     its equivalent radius (at most ``flare_layer``), so a compact ghost is measured at its own
     scale (0 = one width for all; docs/depth.md, "A layer per flare")."""
-    fill_bias: float = option(0.0, ge=0)
-    """inputs, with the colour match: the fill's own local error on the ring around the flare
-    (photo minus fill), averaged by a Gaussian of this fraction of the long side, is taken out
-    of the fill before the flare layer is measured against it (0 = off; docs/depth.md, "A
-    layer per flare")."""
     clipped: str = option("any", choices=("any", "all"))
     """inputs, with the flare layer: a photo pixel counts as clipped (no detail left: the fill
     stays there) when ``any`` of its channels reaches 0.95 (also a bright blue sky) or only

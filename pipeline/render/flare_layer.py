@@ -68,27 +68,6 @@ def clipped_pixels(photo_srgb: np.ndarray, channels: str = "any") -> np.ndarray:
     return cv2.dilate(hot, np.ones((2 * r + 1, 2 * r + 1), np.uint8)) > 0
 
 
-BIAS_FLOOR = 0.05
-"""A fill correction is divided by the ring's blurred weight, at least this: far from the ring
-the correction fades instead of being extrapolated."""
-
-
-def correct_fill(photo: np.ndarray, fill: np.ndarray, ring: np.ndarray, scale: float,
-                 linear: bool = False) -> np.ndarray:
-    """The fill with its local error taken out: on ``ring`` [H, W] bool (clean photo pixels
-    where the fill was rendered too) ``photo - fill`` is the fill's own error; its average
-    under a Gaussian of ``scale`` x the long side, normalised by the ring's weight (at least
-    ``BIAS_FLOOR``), is added to the fill everywhere (linear light). Same encoding in and out."""
-    if scale <= 0 or not ring.any():
-        return fill
-    p, f = ((photo, fill) if linear else (srgb_to_linear(photo), srgb_to_linear(fill)))
-    w = ring.astype(np.float32)[..., None]
-    num = lowpass((p - f) * w, scale)
-    den = lowpass(w, scale)
-    out = np.clip(f + num / np.maximum(den, BIAS_FLOOR), 0.0, 1.0).astype(np.float32)
-    return out if linear else linear_to_srgb(out)
-
-
 ADAPT_LEVELS = 5
 """Widths an adaptive layer chooses from: ``smooth`` / 2**j, j < ADAPT_LEVELS."""
 

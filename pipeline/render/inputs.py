@@ -9,7 +9,7 @@ from pipeline.cameras import Frame
 from pipeline.errors import UserError
 from pipeline.render.config import RenderConfig
 from pipeline.render.fill import fill_from_photos
-from pipeline.render.flare_layer import correct_fill, layer_scale, subtract_flare_layer
+from pipeline.render.flare_layer import layer_scale, subtract_flare_layer
 from pipeline.render.frames import to_u8
 from pipeline.render.jobs import FrameJob, Prepared
 from pipeline.workspace import Workspace
@@ -57,12 +57,6 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
                                    (ring & (wgt >= 1)).reshape(-1)).reshape(out.shape)
             fill = fill * (1 - wgt[..., None]) + pc * wgt[..., None]
         a = alpha[..., None]
-        if cfg.fill_bias > 0 and ring is not None:
-            drawn = np.zeros(ring.shape, bool)  # ring pixels where a fill exists
-            drawn[rows, cols] = True
-            if wgt is not None:
-                drawn |= wgt > 0
-            fill = correct_fill(out, fill, ring & drawn, cfg.fill_bias)
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
         return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg),
                                           local=cfg.flare_layer_local,

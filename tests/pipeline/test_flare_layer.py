@@ -163,21 +163,3 @@ def test_adaptive_layer_removes_a_compact_ghost_the_wide_layer_leaves():
     d = srgb_to_linear(photo) - srgb_to_linear(filled)
     assert np.allclose(adaptive_layer(d * glow_mask[..., None], glow_mask, 0.12, 0.5),
                        lowpass(d * glow_mask[..., None], 0.12), atol=1e-6)
-
-
-def test_correct_fill_takes_out_the_fills_local_error_measured_on_the_ring():
-    """A fill 0.1 too bright (linear) around a region: measured on the ring, the error is
-    taken out inside the region; far from any ring pixel the correction fades; off at 0."""
-    from pipeline.render.flare_layer import correct_fill
-
-    scene = textured_scene(h=120, w=160, seed=4)
-    photo = linear_to_srgb(scene)
-    fill = linear_to_srgb(np.clip(scene + 0.1, 0, 1))
-    ring = np.zeros(scene.shape[:2], bool)
-    ring[30:90, 40:48] = ring[30:90, 72:80] = True  # clean pixels beside the region
-    assert correct_fill(photo, fill, ring, 0.0) is fill
-    out = srgb_to_linear(correct_fill(photo, fill, ring, 0.05))
-    inside = (slice(40, 80), slice(50, 70))  # within 12 px of the ring
-    assert np.abs(out[inside] - scene[inside]).mean() < 0.03  # the 0.1 error mostly gone
-    far = (slice(0, 8), slice(150, 160))
-    assert np.abs(out[far] - scene[far]).mean() > 0.08  # no ring near: the fill as it was
