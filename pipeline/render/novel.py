@@ -42,6 +42,8 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
     H, W = pc.height, pc.width
     colour, wgt, real_depth, warped = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos,
                                                         cfg, close_holes=cfg.close_holes)
+    if cfg.network_vote <= 0:
+        warped = None  # not kept for compose: only the vote reads the warped photos
     w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
     K = np.asarray(pc.K, float).copy()
     K[0] *= w / W
@@ -63,7 +65,7 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
         low[need] = rgb
         up = cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR)
         out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
-        if cfg.network_vote > 0 and warped is not None:
+        if warped is not None:
             from pipeline.photo_fill import network_vote, support_weight
 
             vc, vok = network_vote(up, warped, net_scale, cfg.network_vote)
