@@ -72,6 +72,10 @@ CHECKS = [
        f"methods/{m}/inputs/ssim", "{:.3f}") for m in ("gnfr", "input")],
     ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json", "mask_scores/iou_flare",
      "{:.3f}"),
+    *[("docs/eval.md", f"{scene}_quick_cpu_gnfr_vs_gnt_s13.json", f"methods/{m}/{part}",
+       "{:.3f}" if part.endswith("ssim") else "{:.2f}")
+      for scene in ("kermit_synth", "cyprus_truth") for m in ("gnfr", "gnt")
+      for part in ("inputs/psnr_flare", "inputs/psnr", "heldout/psnr", "heldout/ssim")],
     *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
        f"methods/gnfr/inputs/{k}", "{:.2f}") for k in ("psnr_flare", "psnr")],
     ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
