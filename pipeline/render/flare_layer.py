@@ -35,13 +35,18 @@ CLIPPED = 0.95
 """A pixel with any channel at or above this (sRGB-encoded) counts as clipped."""
 
 
-def lowpass(x: np.ndarray, smooth: float) -> np.ndarray:
-    """[H, W, C] float32 blurred by a Gaussian of ``smooth`` x the long side (computed at
-    ``SMOOTH_SIZE`` and resized back)."""
+LOCAL_SIZE = 1024
+"""Working long side of the ``local`` cap's blur: a few pixels wide, it needs more resolution
+than the layer's, but not a full-resolution photo's (the same for decoded photos)."""
+
+
+def lowpass(x: np.ndarray, smooth: float, size: int = SMOOTH_SIZE) -> np.ndarray:
+    """[H, W, C] float32 blurred by a Gaussian of ``smooth`` x the long side (computed at a
+    long side of ``size`` at most and resized back)."""
     import cv2
 
     h, w = x.shape[:2]
-    k = min(1.0, SMOOTH_SIZE / max(h, w))
+    k = min(1.0, size / max(h, w))
     small = x if k == 1 else cv2.resize(x, (max(1, round(w * k)), max(1, round(h * k))),
                                         interpolation=cv2.INTER_AREA)
     out = cv2.GaussianBlur(small, (0, 0), smooth * max(small.shape[:2]))
@@ -105,7 +110,7 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     region replaced by the fill (same encoding: sRGB, or linear light with ``linear``);
     alpha: [H, W] blend weight of the fill (0 outside the region). Returns the same
     encoding. ``smooth`` <= 0 returns ``filled`` unchanged. ``local`` > 0 caps the layer by
-    the difference blurred at that fraction of the long side (computed at full size).
+    the difference blurred at that fraction of the long side (at ``LOCAL_SIZE`` at most).
     ``clipped``: which pixels keep the fill (:func:`clipped_pixels`' ``channels``).
     ``adapt`` > 0: each connected part of the blend region gets its own layer width,
     ``adapt`` x its equivalent radius (at most ``smooth``; :func:`adaptive_layer`).
@@ -118,13 +123,11 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     else:
         p, f = srgb_to_linear(photo), srgb_to_linear(filled)
         srgb = photo
-    layer = (adaptive_layer(p - f, alpha > 0, smooth, adapt) if adapt > 0
-             else lowpass(p - f, smooth))
+    d = p - f
+    layer = (adaptive_layer(d, alpha > 0, smooth, adapt) if adapt > 0
+             else lowpass(d, smooth))
     if local > 0:
-        import cv2
-
-        near = cv2.GaussianBlur(p - f, (0, 0), local * max(p.shape[:2]))
-        layer = np.minimum(layer, near.reshape(layer.shape))
+        layer = np.minimum(layer, lowpass(d, local, LOCAL_SIZE))
     layer = np.maximum(layer, 0.0)
     w = (alpha * ~clipped_pixels(srgb, clipped)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
