@@ -14,11 +14,15 @@ set -euo pipefail
 OUT=${1:-/work/dev}
 DATA=${2:-$(cd "$(dirname "$0")/../.." && pwd)/shared/data/scenes}
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
-mkdir -p "$OUT"
 # seeds of the flare draw: et's seed 0 flares every view above the 10 % rule (no target)
-for spec in sceaux:sceaux_castle:0 et:et:3 lund:lund/images:0; do
-  IFS=: read -r short name seed <<< "$spec"
+SPECS="sceaux:sceaux_castle:0 et:et:3 lund:lund/images:0"
+for spec in $SPECS; do  # every scene present before anything is written
+  IFS=: read -r _ name _ <<< "$spec"
   [ -d "$DATA/$name" ] || { echo "no $DATA/$name: pass the scenes folder as the second argument" >&2; exit 2; }
+done
+mkdir -p "$OUT"
+for spec in $SPECS; do
+  IFS=: read -r short name seed <<< "$spec"
   deflare-scene decode "$DATA/$name" --out "$OUT/${short}_ws" --max-size 504
   deflare-scene pose "$OUT/${short}_ws"
   deflare-scene synth "$OUT/${short}_ws" --out "$OUT/${short}_synth" --heldout 2 --seed "$seed"
