@@ -10,6 +10,7 @@ R rays.
 from __future__ import annotations
 
 import contextlib
+import math
 from dataclasses import dataclass, field, replace
 
 import torch
@@ -48,7 +49,10 @@ class TrainConfig:
     lr_transformer: float = 2e-4
     """Adam learning rate of everything else."""
     lr_decay_steps: int = 20_000
-    """Both learning rates are halved every this many steps."""
+    """Both learning rates are halved every this many steps (``lr_schedule`` "step")."""
+    lr_schedule: str = "step"
+    """"step": halve every ``lr_decay_steps``; "cosine": from the full rates at step 0 down
+    a half cosine to zero at ``iters`` (``lr_decay_steps`` unused)."""
     source_scale: float = 1.0
     """Sources are encoded at this fraction of their resolution (targets stay full size)."""
     full_res_colour: bool = False
@@ -277,9 +281,19 @@ def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
          "name": "transformer"}])
 
 
+def lr_factor(cfg: TrainConfig, step: int) -> float:
+    """The factor of both learning rates at ``step`` under ``cfg.lr_schedule``."""
+    if cfg.lr_schedule == "cosine":
+        t = min(max(step, 0) / max(cfg.iters, 1), 1.0)
+        return 0.5 * (1.0 + math.cos(math.pi * t))
+    if cfg.lr_schedule != "step":
+        raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: step or cosine")
+    return 0.5 ** (step // cfg.lr_decay_steps)
+
+
 def set_learning_rates(opt: torch.optim.Optimizer, cfg: TrainConfig, step: int) -> float:
-    """Step decay: halve every ``lr_decay_steps``. Returns the decay factor."""
-    f = 0.5 ** (step // cfg.lr_decay_steps)
+    """Set both groups' rates to the preset's times ``lr_factor``. Returns the factor."""
+    f = lr_factor(cfg, step)
     for g in opt.param_groups:
         g["lr"] = (cfg.lr_encoder if g["name"] == "encoder" else cfg.lr_transformer) * f
     return f

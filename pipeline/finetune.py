@@ -65,6 +65,9 @@ class FinetuneConfig:
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
+    lr_schedule: str | None = option(None, choices=("step", "cosine"))
+    """step (the preset's: halve every 2,000 steps for quick) | cosine (down a half cosine
+    to zero at the last step); docs/presets.md."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -112,6 +115,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     if config.lr_scale is not None:
         cfg = replace(cfg, lr_encoder=cfg.lr_encoder * config.lr_scale,
                       lr_transformer=cfg.lr_transformer * config.lr_scale)
+    if config.lr_schedule is not None:
+        cfg = replace(cfg, lr_schedule=config.lr_schedule)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)
