@@ -68,6 +68,9 @@ class FinetuneConfig:
     lr_schedule: str | None = option(None, choices=("step", "cosine"))
     """step (the preset's: halve every 2,000 steps for quick) | cosine (down a half cosine
     to zero at the last step); docs/presets.md."""
+    ray_sampling: str | None = option(None, choices=("uniform", "edges"))
+    """uniform (the preset's: rays at random pixels of the target) | edges (half of them in
+    proportion to the target's gradient); docs/presets.md."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -117,6 +120,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                       lr_transformer=cfg.lr_transformer * config.lr_scale)
     if config.lr_schedule is not None:
         cfg = replace(cfg, lr_schedule=config.lr_schedule)
+    if config.ray_sampling is not None:
+        cfg = replace(cfg, ray_sampling=config.ray_sampling)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)
