@@ -46,12 +46,13 @@ def register(app: typer.Typer) -> None:
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
-                                                 ray_cfg=rule)
+                                                 ray_cfg=rule, flip=config.flip)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
-                                               rays=config.rays, ray_cfg=rule)
+                                               rays=config.rays, ray_cfg=rule,
+                                               flip=config.flip)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,
