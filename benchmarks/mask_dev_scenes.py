@@ -6,17 +6,13 @@ FMG weight files, with and without the flare rays (`mask --rays`): flare IoU and
 of pixels marked outside the true flare. Use development scenes to choose.
 
     python benchmarks/mask_dev_scenes.py SYNTH [SYNTH ...] --weights A.safetensors \
-        --weights B.safetensors [--flip both|on|off] --out docs/results/mask_dev_scenes.json
-
-``--flip`` scores the network alone (``off``, the default), with its mirror image's
-probabilities averaged in (``on``, `mask --flip`), or both.
+        --weights B.safetensors --out docs/results/mask_dev_scenes.json
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from itertools import product
 from pathlib import Path
 
 import numpy as np
@@ -39,8 +35,7 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
     return (cv2.dilate(truth.astype(np.uint8), disk) > 0) & ~truth
 
 
-def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
-                flip: bool = False) -> dict:
+def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it."""
     from pipeline.images import list_photos, read_gray, read_image
@@ -53,7 +48,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             continue
         img = read_image(photo, bgr=True)
         gt = read_gray(gt_path) > 127
-        m = flare_marks(model, img, cut, work_size, rays, flip=flip)
+        m = flare_marks(model, img, cut, work_size, rays)
         inter += int((m & gt).sum())
         union += int((m | gt).sum())
         outside += int((m & ~gt).sum())
@@ -70,10 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", type=Path, nargs="+")
     ap.add_argument("--weights", type=Path, action="append", required=True)
-    ap.add_argument("--flip", choices=("off", "on", "both"), default="off")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    flips = {"off": (False,), "on": (True,), "both": (False, True)}[a.flip]
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result
 
@@ -81,16 +74,16 @@ def main(argv: list[str] | None = None) -> int:
     for w in a.weights:
         model = load_fmg_weights(w)
         cut = resolve_threshold(MaskConfig(), w)
-        for flip, rays, scene in product(flips, (False, True), a.scenes):
-            r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays, "flip": flip,
-                 "scene": scene.name, **score_scene(model, cut, scene, rays, flip=flip)}
-            rows.append(r)
-            print(f"{w.name} {'flip ' if flip else ''}{'rays' if rays else 'fmg '} "
-                  f"{scene.name}: flare IoU "
-                  f"{r['flare_iou']:.3f}, marked outside the flare "
-                  f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
-                  f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %)",
-                  flush=True)
+        for rays in (False, True):
+            for scene in a.scenes:
+                r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
+                     "scene": scene.name, **score_scene(model, cut, scene, rays)}
+                rows.append(r)
+                print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
+                      f"{r['flare_iou']:.3f}, marked outside the flare "
+                      f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
+                      f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %)",
+                      flush=True)
     write_result(a.out, {"rows": rows})
     return 0
 

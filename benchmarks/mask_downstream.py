@@ -37,11 +37,8 @@ def main(argv: list[str] | None = None) -> int:
                          "(default: the file's calibrated cut only)")
     ap.add_argument("--work", type=Path, required=True,
                     help="scratch folder for the copied workspaces (reused when present)")
-    ap.add_argument("--flip", choices=("off", "on", "both"), default="off",
-                    help="the mask stage without (off), with (on) or both ways of `mask --flip`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    flips = {"off": (False,), "on": (True,), "both": (False, True)}[a.flip]
     if a.eval_ws is not None and len(a.scenes) > 1:
         ap.error("--eval-ws goes with one scene")
     from workflows.threads import apply_thread_policy
@@ -62,24 +59,23 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"{src} has no fine-tuned model: run `deflare-scene eval "
                              f"{scene_dir}` first")
         stems = flared_views(scene)
-        for (i, w), cut, flip in product(enumerate(a.weights), cuts, flips):
-            tag = ("" if cut is None else f"_cut{cut:g}") + ("_flip" if flip else "")
+        for (i, w), cut in product(enumerate(a.weights), cuts):
+            tag = "" if cut is None else f"_cut{cut:g}"
             dest = a.work / f"{scene_dir.name}_{i}_{w.parent.name}{tag}" / a.variant
             if not dest.exists():
                 shutil.copytree(src, dest, symlinks=True)
             ws = Workspace(dest)
-            mask.run(mask.MaskConfig(weights=w, threshold=cut, flip=flip), ws, force=True)
+            mask.run(mask.MaskConfig(weights=w, threshold=cut), ws, force=True)
             t0 = time.perf_counter()
             render.run(render.RenderConfig(path="inputs"), ws, force=True)
             r = score_views(scene, ws.deflared, stems, with_region=True)
             row = {"scene": scene_dir.name, "weights": str(w), "sha256": sha256(w),
-                   "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), w), "flip": flip,
+                   "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), w),
                    "psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
                    "ssim": round(r["ssim"], 4),
                    "render_s": round(time.perf_counter() - t0, 1)}
             rows.append(row)
-            print(scene_dir.name, w, "flip" if flip else "",
-                  f"cut {row['cut']:g}: PSNR {row['psnr']:.2f}, flare region "
+            print(scene_dir.name, w, f"cut {row['cut']:g}: PSNR {row['psnr']:.2f}, flare region "
                   f"{row['psnr_flare']:.2f}, SSIM {row['ssim']:.4f}", flush=True)
     write_result(a.out, {"variant": a.variant, "scored_views": "flared views of each scene",
                          "rows": rows})

@@ -270,23 +270,12 @@ def work_shape(h: int, w: int, long_side: int) -> tuple[int, int]:
 
 
 @torch.no_grad()
-def forward_probs(model: PSPNet, x: torch.Tensor, flip: bool = False) -> torch.Tensor:
-    """Sigmoid of the network on ``x`` [B, 3, H, W]; with ``flip`` the mean of that and of
-    the mirrored image's probabilities mirrored back (test-time augmentation: a mark the
-    network makes on one orientation only is halved)."""
-    p = torch.sigmoid(model(x))
-    if flip:
-        p = 0.5 * (p + torch.sigmoid(model(x.flip(-1))).flip(-1))
-    return p
-
-
 def predict_probs(model: PSPNet, images: torch.Tensor,
-                  long_side: int | None = None, flip: bool = False) -> torch.Tensor:
+                  long_side: int | None = None) -> torch.Tensor:
     """Flare probabilities [B, 1, H, W] of images [B, 3, H, W] (sRGB in [0, 1]).
 
-    The network runs at ``long_side`` (default ``model.cfg.work_size``), on the mirrored
-    images too with ``flip`` (``forward_probs``), and the result is upsampled bilinearly to
-    the input size.
+    The network runs at ``long_side`` (default ``model.cfg.work_size``) and the result is
+    upsampled bilinearly to the input size.
     """
     model.eval()
     h, w = images.shape[-2:]
@@ -294,7 +283,7 @@ def predict_probs(model: PSPNet, images: torch.Tensor,
     x = images.to(next(model.parameters()).device, torch.float32)
     if hw != (h, w):
         x = F.interpolate(x, size=hw, mode="bilinear", align_corners=False, antialias=True)
-    probs = forward_probs(model, x, flip)
+    probs = torch.sigmoid(model(x))
     if hw != (h, w):
         probs = F.interpolate(probs, size=(h, w), mode="bilinear", align_corners=False)
     return probs

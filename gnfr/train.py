@@ -10,7 +10,6 @@ R rays.
 from __future__ import annotations
 
 import contextlib
-import math
 from dataclasses import dataclass, field, replace
 
 import torch
@@ -49,10 +48,7 @@ class TrainConfig:
     lr_transformer: float = 2e-4
     """Adam learning rate of everything else."""
     lr_decay_steps: int = 20_000
-    """Both learning rates are halved every this many steps (``lr_schedule`` "step")."""
-    lr_schedule: str = "step"
-    """"step": halve every ``lr_decay_steps``; "cosine": from the full rates at step 0 down
-    a half cosine to zero at ``iters`` (``lr_decay_steps`` unused)."""
+    """Both learning rates are halved every this many steps."""
     ray_sampling: str = "uniform"
     """"uniform": a step's rays at random pixels of the target; "edges": half of them drawn
     in proportion to the target's grey gradient (edges and texture), half uniform."""
@@ -314,19 +310,9 @@ def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
          "name": "transformer"}])
 
 
-def lr_factor(cfg: TrainConfig, step: int) -> float:
-    """The factor of both learning rates at ``step`` under ``cfg.lr_schedule``."""
-    if cfg.lr_schedule == "cosine":
-        t = min(max(step, 0) / max(cfg.iters, 1), 1.0)
-        return 0.5 * (1.0 + math.cos(math.pi * t))
-    if cfg.lr_schedule != "step":
-        raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: step or cosine")
-    return 0.5 ** (step // cfg.lr_decay_steps)
-
-
 def set_learning_rates(opt: torch.optim.Optimizer, cfg: TrainConfig, step: int) -> float:
-    """Set both groups' rates to the preset's times ``lr_factor``. Returns the factor."""
-    f = lr_factor(cfg, step)
+    """Step decay: halve every ``lr_decay_steps``. Returns the decay factor."""
+    f = 0.5 ** (step // cfg.lr_decay_steps)
     for g in opt.param_groups:
         g["lr"] = (cfg.lr_encoder if g["name"] == "encoder" else cfg.lr_transformer) * f
     return f

@@ -65,9 +65,6 @@ class FinetuneConfig:
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
-    lr_schedule: str | None = option(None, choices=("step", "cosine"))
-    """step (the preset's: halve every 2,000 steps for quick) | cosine (down a half cosine
-    to zero at the last step); docs/presets.md."""
     ray_sampling: str | None = option(None, choices=("uniform", "edges"))
     """uniform (the preset's: rays at random pixels of the target) | edges (half of them in
     proportion to the target's gradient); docs/presets.md."""
@@ -118,8 +115,6 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     if config.lr_scale is not None:
         cfg = replace(cfg, lr_encoder=cfg.lr_encoder * config.lr_scale,
                       lr_transformer=cfg.lr_transformer * config.lr_scale)
-    if config.lr_schedule is not None:
-        cfg = replace(cfg, lr_schedule=config.lr_schedule)
     if config.ray_sampling is not None:
         cfg = replace(cfg, ray_sampling=config.ray_sampling)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end

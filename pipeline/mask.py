@@ -58,9 +58,6 @@ class MaskConfig:
     """Long side (pixels) at which the FMG runs."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
-    flip: bool = False
-    """Run the FMG on each view and on its mirror image and average the two probability
-    maps (twice the network time; gnfr/weights/fmg.md, "Fourteenth session")."""
     rays: bool = True
     """Also mark flare rays, starburst spikes and streaks running straight out of a
     saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
@@ -135,17 +132,15 @@ def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
     return np.clip(out, 0.0, 1.0)
 
 
-def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
-              flip: bool = False) -> list[np.ndarray]:
-    """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images (with
-    ``flip``, averaged with their mirror images')."""
+def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int) -> list[np.ndarray]:
+    """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images."""
     import torch
 
     from gnfr.fmg import predict_probs
 
     x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
     t = torch.from_numpy(x).permute(0, 3, 1, 2)                  # [B, 3, H, W]
-    probs = predict_probs(model, t, work_size, flip)             # [B, 1, H, W]
+    probs = predict_probs(model, t, work_size)                   # [B, 1, H, W]
     return list(probs[:, 0].cpu().numpy())
 
 
@@ -168,12 +163,11 @@ def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray
 
 def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
-                probs: np.ndarray | None = None, ray_cfg=None,
-                flip: bool = False) -> np.ndarray:
+                probs: np.ndarray | None = None, ray_cfg=None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays``."""
-    p = fmg_probs(model, [image_bgr], work_size, flip)[0] if probs is None else probs
+    p = fmg_probs(model, [image_bgr], work_size)[0] if probs is None else probs
     if refine:
         p = refine_probs(image_bgr, p)
     marks = p > cut
@@ -211,8 +205,8 @@ def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            probs = fmg_probs(model, imgs, config.work_size, config.flip)
-            for s, img, p in zip(batch, imgs, probs, strict=True):
+            for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
+                                 strict=True):
                 write_mask(ws, s, flare_marks(model, img, config.threshold, config.work_size,
                                               config.rays, config.refine, probs=p,
                                               ray_cfg=rule))

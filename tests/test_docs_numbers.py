@@ -239,6 +239,13 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("docs/presets.md", f"finetune_ab_lr_schedule_cosine_dev_{scene}.json", f"{row}/{m}",
+       "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
+      for scene in ("et", "sceaux") for row in ("base", "lr_schedule-cosine")
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
+    *[("gnfr/weights/fmg.md", f"fmg_dev_per_kind_shipped_cut075_rays{tag}_s14.json",
+       f"kinds/{kind}/weights/IoU_flare", "{:.3f}") for tag in ("", "_flip")
+      for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("gnfr/weights/fmg.md", "mask_downstream_dev_H.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for i in range(4) for m in ("psnr", "psnr_flare", "ssim")],
@@ -314,7 +321,9 @@ def test_readme_render_times_match(name):
 
 FMG_CLEAN = [(f"fmg_{part}_clean_{run}.json", scene)
              for part, scenes, runs in (
-                 ("dev", ("scenes/lund/images",), ("s4_dice", "w2400_rays", "s4_dice_rays")),
+                 ("dev", ("scenes/lund/images",), ("s4_dice", "w2400_rays", "s4_dice_rays",
+                                                   "shipped_cut075_rays_s14",
+                                                   "shipped_cut075_rays_flip_s14")),
                  ("test", ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus"),
                   ("w2400", "w2400_rays", "s4_dice", "s4_dice_rays")))
              for run in runs for scene in scenes]

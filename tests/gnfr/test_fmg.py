@@ -520,20 +520,3 @@ def test_train_batches_from_workers_do_not_depend_on_their_number():
     x0, _ = inproc.next()
     ref, _ = src.batch(2, np.random.default_rng([3, 5]))
     assert torch.equal(x0, ref)
-
-
-def test_flip_averages_the_mirror_images_probabilities():
-    """predict_probs(flip=True) is the mean of the probabilities of the image and of its
-    mirror image mirrored back: the same on a mirrored input (symmetric), different from the
-    plain pass for a network that is not mirror-symmetric."""
-    torch.manual_seed(1)
-    model = build_fmg(tiny_config()).eval()
-    x = torch.rand(1, 3, 48, 64)
-    with torch.no_grad():
-        plain = predict_probs(model, x, long_side=64)
-        flipped = predict_probs(model, x.flip(-1), long_side=64)
-        both = predict_probs(model, x, long_side=64, flip=True)
-        both_m = predict_probs(model, x.flip(-1), long_side=64, flip=True)
-    torch.testing.assert_close(both, 0.5 * (plain + flipped.flip(-1)))
-    torch.testing.assert_close(both_m.flip(-1), both)
-    assert not torch.allclose(both, plain)

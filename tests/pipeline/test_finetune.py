@@ -12,7 +12,6 @@ from safetensors.torch import load_file
 
 from gnfr.checkpoint import load_model
 from gnfr.train import PRESETS, QUICK
-from pipeline.errors import UserError
 from pipeline.finetune import FinetuneConfig, fit, run
 from pipeline.training_scenes import load_workspace
 from pipeline.ws_files import read_mask, read_view_image, view_stems, write_mask
@@ -184,30 +183,6 @@ def test_lr_scale_scales_both_learning_rates():
     opt = make_optimizer(GNFR(half.model), half)
     assert {g["name"]: g["lr"] for g in opt.param_groups} == {
         "encoder": half.lr_encoder, "transformer": half.lr_transformer}
-
-
-def test_lr_schedule_cosine_runs_down_to_zero_and_step_halves():
-    """--lr-schedule cosine: the full rates at step 0, half at mid-run, zero at the last
-    step, never rising; the preset's step schedule halves every lr_decay_steps."""
-    from gnfr.model import GNFR
-    from gnfr.train import lr_factor, make_optimizer, set_learning_rates
-    from pipeline.finetune import resolve
-
-    cpu = torch.device("cpu")
-    _, plain = resolve(FinetuneConfig(device="cpu", preset="quick"), cpu)
-    assert plain.lr_schedule == "step"
-    assert [lr_factor(plain, s) for s in (0, 1999, 2000, 2999)] == [1.0, 1.0, 0.5, 0.5]
-    _, cos = resolve(FinetuneConfig(device="cpu", preset="quick", lr_schedule="cosine"), cpu)
-    assert cos.lr_schedule == "cosine" and cos.iters == 3000
-    f = [lr_factor(cos, s) for s in range(0, 3001, 100)]
-    assert f[0] == 1.0 and f[15] == pytest.approx(0.5) and f[-1] == pytest.approx(0.0)
-    assert all(a > b for a, b in zip(f, f[1:], strict=False))
-    opt = make_optimizer(GNFR(cos.model), cos)
-    assert set_learning_rates(opt, cos, 750) == pytest.approx(0.5 + 0.5 * 2 ** -0.5)
-    rates = {g["name"]: g["lr"] for g in opt.param_groups}
-    assert rates["encoder"] == pytest.approx(cos.lr_encoder * (0.5 + 0.5 * 2 ** -0.5))
-    with pytest.raises(UserError, match="--lr-schedule"):
-        run(FinetuneConfig(lr_schedule="linear"), None)
 
 
 def _hand_written_checkpoint(out, scene, cfg, steps: int, extra: dict) -> None:

@@ -273,27 +273,3 @@ def test_ray_config_of_the_mask_stage():
     assert ray_config(MaskConfig()) == RayConfig()
     assert ray_config(MaskConfig(ray_min=1, ray_opposite=8.0)) == RayConfig(min_rays=1,
                                                                            opposite=8.0)
-
-
-
-def test_mask_flip_option_reaches_the_network(kermit_ws, tiny_weights, monkeypatch):
-    """`mask --flip`: recorded in the stage's parameters (a change redoes the masks) and the
-    FMG is asked for mirror-averaged probabilities; without it, it is not."""
-    import gnfr.fmg as fmg
-
-    seen = []
-    real = fmg.predict_probs
-
-    def spy(model, images, long_side=None, flip=False):
-        seen.append(flip)
-        return real(model, images, long_side, flip)
-
-    monkeypatch.setattr(fmg, "predict_probs", spy)
-    ws = kermit_ws
-    assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--force"]) == 0
-    assert seen and not any(seen)
-    assert ws.stage_record("mask")["params"]["flip"] is False
-    seen.clear()
-    assert main(["mask", str(ws.root), "--weights", str(tiny_weights), "--flip"]) == 0
-    assert seen and all(seen)
-    assert ws.stage_record("mask")["params"]["flip"] is True

@@ -46,13 +46,12 @@ def register(app: typer.Typer) -> None:
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
-                                                 ray_cfg=rule, flip=config.flip)
+                                                 ray_cfg=rule)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
-                                               rays=config.rays, ray_cfg=rule,
-                                               flip=config.flip)
+                                               rays=config.rays, ray_cfg=rule)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

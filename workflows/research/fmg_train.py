@@ -138,9 +138,6 @@ class FMGEvalConfig:
     split: str = option("test", choices=("dev", "test"))
     """Which held-out photos the composites use: dev (the FMG's development photos: make
     choices here) or test (the test scenes and backgrounds: report only)."""
-    flip: bool = False
-    """With --per-kind or --clean: the network's probabilities averaged with its mirror
-    image's (as `mask --flip`)."""
     rays: bool = False
     """Score the FMG's masks with the flare rays added (as the mask stage does unless
     --no-rays), with --per-kind or --clean."""
@@ -197,8 +194,6 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--loo needs --per-kind")
     if cfg.rays and not (cfg.per_kind or cfg.clean):
         raise UserError("--rays needs --per-kind or --clean")
-    if cfg.flip and not (cfg.per_kind or cfg.clean):
-        raise UserError("--flip needs --per-kind or --clean")
     check_ray_rule(cfg)
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean")
@@ -234,14 +229,13 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
-          cut: float = 0.5, also=None, flip: bool = False) -> dict[str, float]:
+          cut: float = 0.5, also=None) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
-    flare where the probability (with ``flip``, averaged with the mirror image's) exceeds
-    ``cut`` or where ``also`` [N, 1, S, S] bool (e.g. the images' flare rays,
-    ``ray_batch``) is set."""
+    flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
+    the images' flare rays, ``ray_batch``) is set."""
     import torch
 
-    from gnfr.fmg import confusion, forward_probs, seg_metrics
+    from gnfr.fmg import confusion, seg_metrics
 
     conf = torch.zeros(2, 2, dtype=torch.long)
     model.eval()
@@ -249,7 +243,7 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     with torch.no_grad():
         for i in range(0, len(images), batch):
             x = images[i:i + batch].to(dev)
-            p = forward_probs(model, x, flip).cpu()
+            p = torch.sigmoid(model(x)).cpu()
             if refine:
                 p = _refine_batch(x.cpu(), p)
             marked = p > cut
@@ -585,15 +579,14 @@ def _ray_rule(rays: bool, ray_cfg) -> dict | None:
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
-                   rays: bool = False, ray_cfg=None, flip: bool = False) -> dict:
+                   rays: bool = False, ray_cfg=None) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
     night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
-    the flare rays (rule ``ray_cfg``) are added to every model's mask; ``flip``: every
-    model's probabilities averaged with the mirror image's."""
+    the flare rays (rule ``ray_cfg``) are added to every model's mask."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -610,7 +603,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     bgs = _part_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
-           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "flip": flip,
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
            "weights": {k: v for k, v in main.items() if k != "model"},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
@@ -618,12 +611,10 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
         imgs, masks = fixed_set(src, count, seed + i, extras=True)
         ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
-               "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray,
-                                flip=flip)}
+               "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray)}
         for h in held:
             if kind in h["without"]:
-                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray,
-                                          flip=flip),
+                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
@@ -735,20 +726,19 @@ def format_work_sizes(res: dict) -> str:
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
-                    rays: bool = False, ray_cfg=None, flip: bool = False) -> dict:
-    """Fraction of pixels marked (at the weights' cut, network at ``work_size``, with
-    ``flip`` averaged with the mirror image, flare rays added with ``rays`` by rule
-    ``ray_cfg``: as in the mask stage) on every clean photo of ``scenes`` at full size: mean
-    and max per scene."""
+                    rays: bool = False, ray_cfg=None) -> dict:
+    """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
+    added with ``rays`` by rule ``ray_cfg``: as in the mask stage) on every clean photo of
+    ``scenes`` at full size: mean and max per scene."""
     from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
-           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "flip": flip, "scenes": {}}
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
         marked = {name: float(flare_marks(model, im, cut, work_size, rays,
-                                          ray_cfg=ray_cfg, flip=flip).mean())
+                                          ray_cfg=ray_cfg).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
