@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pipeline import interrupts
 from pipeline.errors import UserError
 from pipeline.workspace import atomic_path
 
@@ -20,6 +21,15 @@ if TYPE_CHECKING:  # pragma: no cover
     import pycolmap
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
+
+
+def import_pycolmap():
+    """The pycolmap module, imported on first use (the GPU machine has none), with SIGTERM
+    taken back from glog's failure handler when the CLI owns it (``pipeline.interrupts``)."""
+    import pycolmap
+
+    interrupts.reclaim()
+    return pycolmap
 
 
 # --------------------------------------------------------------------------- models
@@ -39,8 +49,7 @@ def find_model_dir(path: str | os.PathLike) -> Path:
 
 def read_model(path: str | os.PathLike) -> pycolmap.Reconstruction:
     """Read a COLMAP sparse model (binary or text); clear error when it is not one."""
-    import pycolmap
-
+    pycolmap = import_pycolmap()
     folder = find_model_dir(path)
     try:
         return pycolmap.Reconstruction(str(folder))

@@ -141,8 +141,7 @@ def png_size(path: Path) -> tuple[int, int]:
 
 def focal_prior(photo: Path | None, size: tuple[int, int]) -> float | None:
     """EXIF focal length of the original photo in pixels of the decoded size, if known."""
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     if photo is None or not photo.is_file():
         return None
     try:
@@ -178,8 +177,7 @@ class Inputs:
 # --------------------------------------------------------------------------- solve
 def _import_images(cfg: PoseConfig, db: Path, decoded: Path, inp: Inputs) -> None:
     """Add the images not yet in the database, one camera per (size, EXIF focal) group."""
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     database = pycolmap.Database.open(str(db))
     existing = {im.name for im in database.read_all_images()}
     database.close()
@@ -201,8 +199,7 @@ def _import_images(cfg: PoseConfig, db: Path, decoded: Path, inp: Inputs) -> Non
 
 
 def _extract(cfg: PoseConfig, db: Path, decoded: Path, names: list[str]) -> None:
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     opts = pycolmap.FeatureExtractionOptions()
     opts.num_threads = cfg.num_threads
     opts.use_gpu = bool(pycolmap.has_cuda)
@@ -219,8 +216,7 @@ def _extract(cfg: PoseConfig, db: Path, decoded: Path, names: list[str]) -> None
 
 
 def _match(cfg: PoseConfig, db: Path, matcher: str) -> None:
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     opts = pycolmap.FeatureMatchingOptions()
     opts.num_threads = cfg.num_threads
     opts.use_gpu = bool(pycolmap.has_cuda)
@@ -247,8 +243,7 @@ RELAXED_INIT = {"init_max_forward_motion": 1.0, "init_min_tri_angle": 1.0}
 def _map(cfg: PoseConfig, db: Path, decoded: Path, out: Path, n: int,
          relaxed: bool = False) -> dict:
     """Incremental mapping into ``out``; {index: reconstruction}. ``relaxed``: RELAXED_INIT."""
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     opts = pycolmap.IncrementalPipelineOptions()
     opts.num_threads = cfg.num_threads
     opts.random_seed = cfg.seed
@@ -298,8 +293,7 @@ def map_with_retry(cfg: PoseConfig, db: Path, decoded: Path, tmp: Path, n: int) 
 
 def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:
     """SfM on WS/decoded -> (largest reconstruction or None, all model sizes, timings)."""
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     pycolmap.set_random_seed(cfg.seed)
     db = ws.colmap_db
     if not resume and db.exists():
@@ -383,8 +377,7 @@ def undistortion_map(cam) -> tuple:
     The maps give, for each pixel of the undistorted image, where to sample the distorted
     one (pixel centres at integers, as OpenCV; COLMAP's are at +0.5, hence the shifts).
     """
-    import pycolmap
-
+    pycolmap = colmap_io.import_pycolmap()
     pinhole = pycolmap.undistort_camera(pycolmap.UndistortCameraOptions(), cam)
     w, h = int(pinhole.width), int(pinhole.height)
     xs, ys = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
@@ -451,14 +444,12 @@ class _ColmapLog:
         self.verbose = verbose
 
     def __enter__(self):
-        import pycolmap
-
+        pycolmap = colmap_io.import_pycolmap()
         self.saved = pycolmap.logging.minloglevel
         pycolmap.logging.minloglevel = 0 if self.verbose else 2
 
     def __exit__(self, *exc):
-        import pycolmap
-
+        pycolmap = colmap_io.import_pycolmap()
         pycolmap.logging.minloglevel = self.saved
 
 

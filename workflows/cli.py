@@ -14,7 +14,9 @@ import sys
 
 import typer
 
+from pipeline import interrupts
 from pipeline.errors import UserError
+from pipeline.interrupts import Terminated
 from workflows.threads import apply_thread_policy
 
 apply_thread_policy()  # when the CLI is imported, before any command loads torch
@@ -72,19 +74,40 @@ def main(argv: list[str] | None = None) -> int:
         cmd.main(args=argv, prog_name="deflare-scene", standalone_mode=True)
         code = 0
     except SystemExit as e:  # click's own exit: help, usage errors (status 2), aborts
-        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+        stop = _interruption(e)  # typer turns Ctrl-C into an exit with status 130
+        code = (_stopped(stop) if stop is not None else
+                e.code if isinstance(e.code, int) else (0 if e.code is None else 1))
     except UserError as e:
         typer.secho(f"error: {e}", fg="red", err=True)
         code = 2
-    except KeyboardInterrupt:
-        typer.secho("interrupted: rerun the same command to resume where it stopped",
-                    err=True)
-        code = 130
+    except KeyboardInterrupt as e:
+        code = _stopped(e)
     return code
 
 
+def _interruption(exc: BaseException) -> KeyboardInterrupt | None:
+    """The KeyboardInterrupt (Ctrl-C, or SIGTERM's ``Terminated``) behind an exit, if any:
+    typer re-raises one as an exit with status 130, click as a SystemExit of that."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def _stopped(e: KeyboardInterrupt) -> int:
+    """One line saying how the run stopped and that it resumes; 143 for SIGTERM, else 130."""
+    stop = "terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted"
+    typer.secho(f"{stop}: rerun the same command to resume where it stopped", err=True)
+    return 143 if isinstance(e, Terminated) else 130
+
+
 def entry() -> None:
-    """The ``deflare-scene`` console script."""
+    """The ``deflare-scene`` console script: SIGTERM stops it like Ctrl-C
+    (``pipeline.interrupts``)."""
+    interrupts.install()
     sys.exit(main())
 
 
