@@ -334,7 +334,11 @@ class Workspace:
             raise UserError(f"{root} exists, is not empty and is not a deflare-scene "
                             "workspace: choose another --out or empty it")
         ws = cls(root)
-        root.mkdir(parents=True, exist_ok=True)
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise UserError(f"cannot create the output folder {root} ({e.strerror}): choose an "
+                            "--out on a disk you can write to") from None
         man = ws.manifest() if ws.manifest_path.exists() else {}
         if man.get("photos") and Path(man["photos"]) != photos:
             raise UserError(f"workspace {root} was made from {man['photos']}, not {photos}: "

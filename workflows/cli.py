@@ -9,6 +9,7 @@ machine (no pycolmap) can run the neural stages.
 
 from __future__ import annotations
 
+import errno
 import importlib
 import sys
 
@@ -46,6 +47,9 @@ RESEARCH_COMMANDS = ("synth", "fmg", "pretrain", "eval", "eval_llff", "bench")
 """The research tools among them (their code: pipeline/synth.py, workflows/research/); the
 others are the product: the one-shot and one command per stage."""
 _registered = False
+DISK_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM)
+"""Errors of the disk or its permissions: reported in one line (the run resumes once they
+are fixed) instead of a traceback; any other OSError is a bug and keeps its traceback."""
 
 
 def _register_all() -> None:
@@ -82,6 +86,14 @@ def main(argv: list[str] | None = None) -> int:
         code = 2
     except KeyboardInterrupt as e:
         code = _stopped(e)
+    except OSError as e:
+        if e.errno not in DISK_ERRORS:
+            raise
+        where = f" ({e.filename})" if e.filename else ""
+        typer.secho(f"error: {e.strerror}{where}: free disk space or fix the permissions (or "
+                    "choose another --out), then rerun the same command to resume", fg="red",
+                    err=True)
+        code = 1
     return code
 
 

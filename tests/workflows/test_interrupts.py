@@ -59,3 +59,39 @@ def test_cli_reports_sigterm_as_resumable_with_status_143(tmp_path, monkeypatch,
         assert main(["decode", str(tmp_path)]) == code
         err = capsys.readouterr().err
         assert err.strip() == f"{word}: rerun the same command to resume where it stopped"
+
+
+def test_disk_errors_are_one_line_others_keep_their_traceback(tmp_path, monkeypatch, capsys):
+    """A full disk or a write refused mid-run: one line naming the file and what to do,
+    status 1; an OSError that is not about the disk is a bug and is raised."""
+    import errno
+    import os
+
+    import pipeline.decode
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp_path / "x.png"))
+
+    monkeypatch.setattr(pipeline.decode, "run", full)
+    assert main(["decode", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: No space left on device") and "x.png" in err
+    assert err.endswith("rerun the same command to resume") and "\n" not in err
+
+    def other(*a, **k):
+        raise OSError(errno.EBADF, "Bad file descriptor")
+
+    monkeypatch.setattr(pipeline.decode, "run", other)
+    with pytest.raises(OSError, match="Bad file descriptor"):
+        main(["decode", str(tmp_path)])
+
+
+def test_an_output_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
+    """`--out` somewhere no folder can be made (under a file): the workspace says so."""
+    (tmp_path / "photos").mkdir()
+    for i in range(3):
+        (tmp_path / "photos" / f"{i}.jpg").write_bytes(b"")
+    (tmp_path / "afile").write_text("x")
+    assert main(["decode", str(tmp_path / "photos"), "--out", str(tmp_path / "afile" / "ws")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: cannot create the output folder") and "--out" in err
