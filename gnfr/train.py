@@ -49,9 +49,6 @@ class TrainConfig:
     """Adam learning rate of everything else."""
     lr_decay_steps: int = 20_000
     """Both learning rates are halved every this many steps."""
-    ray_sampling: str = "uniform"
-    """"uniform": a step's rays at random pixels of the target; "edges": half of them drawn
-    in proportion to the target's grey gradient (edges and texture), half uniform."""
     source_scale: float = 1.0
     """Sources are encoded at this fraction of their resolution (targets stay full size)."""
     full_res_colour: bool = False
@@ -142,8 +139,6 @@ class Scene:
     """The views that may be training targets when the scene says so (a workspace's
     views.json flags, set by pipeline.training_scenes), else None: those within
     ``TrainConfig.max_flare``. Derived from ``flare``: reset it when ``flare`` changes."""
-    edge_weights: dict[int, torch.Tensor] = field(default_factory=dict, repr=False)
-    """Per view index, its pixels' ``edge_weights`` (filled on first use)."""
 
     def index(self) -> dict[str, int]:
         return {s: i for i, s in enumerate(self.stems)}
@@ -248,34 +243,6 @@ def scene_targets(scene: Scene, cfg: TrainConfig) -> list[str]:
     return target_stems(flare, cfg.max_flare, cfg.view_sampler)
 
 
-def edge_weights(image: torch.Tensor) -> torch.Tensor:
-    """[H * W] float sampling weights of a target [3, H, W] uint8: the magnitude of its grey
-    image's central-difference gradient (edges and texture weigh most, flat pixels 0)."""
-    g = image.float().mean(0) / 255.0
-    gx = torch.zeros_like(g)
-    gy = torch.zeros_like(g)
-    gx[:, 1:-1] = g[:, 2:] - g[:, :-2]
-    gy[1:-1] = g[2:] - g[:-2]
-    return torch.hypot(gx, gy).flatten()
-
-
-def sample_pixels(scene: Scene, i: int, cfg: TrainConfig, gen: torch.Generator) -> torch.Tensor:
-    """[rays] flat pixel indices of view ``i`` for one step (``cfg.ray_sampling``)."""
-    H, W = scene.images.shape[-2:]
-    if cfg.ray_sampling == "uniform":
-        return torch.randint(H * W, (cfg.rays,), generator=gen)
-    if cfg.ray_sampling != "edges":
-        raise ValueError(f"unknown ray_sampling {cfg.ray_sampling!r}: uniform or edges")
-    if i not in scene.edge_weights:
-        scene.edge_weights[i] = edge_weights(scene.images[i])
-    w = scene.edge_weights[i]
-    n_edge = cfg.rays // 2 if float(w.sum()) > 0 else 0
-    flat = torch.randint(H * W, (cfg.rays - n_edge,), generator=gen)
-    if n_edge:
-        flat = torch.cat([flat, torch.multinomial(w, n_edge, replacement=True, generator=gen)])
-    return flat
-
-
 def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
     """Pick a target (:func:`scene_targets`), its sources (View Sampler) and ``cfg.rays``
     random pixels of it with jittered sample depths."""
@@ -291,7 +258,7 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
                         cfg.view_sampler, random_pick=cfg.random_sources)
     i = idx[tgt]
     H, W = scene.images.shape[-2:]
-    flat = sample_pixels(scene, i, cfg, gen)
+    flat = torch.randint(H * W, (cfg.rays,), generator=gen)
     ys, xs = flat // W, flat % W
     pix = torch.stack([xs, ys], 1).float() + 0.5
     o, d = pixel_rays(scene.K[i].float(), scene.c2w[i].float(), pix)

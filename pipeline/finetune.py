@@ -65,9 +65,6 @@ class FinetuneConfig:
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
-    ray_sampling: str | None = option(None, choices=("uniform", "edges"))
-    """uniform (the preset's: rays at random pixels of the target) | edges (half of them in
-    proportion to the target's gradient); docs/presets.md."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
@@ -115,8 +112,6 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     if config.lr_scale is not None:
         cfg = replace(cfg, lr_encoder=cfg.lr_encoder * config.lr_scale,
                       lr_transformer=cfg.lr_transformer * config.lr_scale)
-    if config.ray_sampling is not None:
-        cfg = replace(cfg, ray_sampling=config.ray_sampling)
     # end-to-end unless asked: the shipped weights were measured fine-tuned end-to-end
     # (gnfr/weights/gnfr.md); a frozen, cached encoder is a quarter faster per step
     cached = bool(config.cached_features)

@@ -239,6 +239,10 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("docs/presets.md", f"finetune_ab_ray_sampling_edges_dev_{scene}.json", f"{row}/{m}",
+       "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
+      for scene in ("et", "sceaux") for row in ("base", "ray_sampling-edges")
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
     *[("docs/presets.md", f"finetune_ab_lr_schedule_cosine_dev_{scene}.json", f"{row}/{m}",
        "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
       for scene in ("et", "sceaux") for row in ("base", "lr_schedule-cosine")

@@ -188,30 +188,3 @@ def test_full_res_colour_bank_keeps_full_images_and_encodes_at_source_scale(scen
     a, b = full.encode(model, "cpu"), small.encode(model, "cpu")
     assert torch.allclose(a.feats, b.feats, atol=1e-5)  # the encoder saw the same images
     assert a.images.shape[-2:] == scene.images.shape[-2:]
-
-
-def test_edge_ray_sampling_puts_half_the_rays_on_edges_and_uniform_is_unchanged():
-    """ray_sampling "edges": on a target that is flat but for one vertical edge, half the
-    rays land on the edge's two columns; "uniform" draws exactly torch.randint's pixels; a
-    flat target (no gradient anywhere) falls back to uniform draws."""
-    from gnfr.train import edge_weights, sample_pixels
-
-    sc = tiny_scene()
-    H, W = sc.images.shape[-2:]
-    sc.images[1] = 40
-    sc.images[1, :, :, W // 2:] = 200
-    cfg = replace(CFG, rays=400, ray_sampling="edges")
-    flat = sample_pixels(sc, 1, cfg, torch.Generator().manual_seed(3))
-    on_edge = ((flat % W) == W // 2 - 1) | ((flat % W) == W // 2)
-    assert flat.shape == (400,) and 200 <= int(on_edge.sum()) <= 200 + 40
-    assert set(torch.nonzero(edge_weights(sc.images[1])).flatten().remainder(W).tolist()) == {
-        W // 2 - 1, W // 2}
-    uni = sample_pixels(sc, 1, replace(cfg, ray_sampling="uniform"),
-                        torch.Generator().manual_seed(3))
-    same = torch.randint(H * W, (400,), generator=torch.Generator().manual_seed(3))
-    assert torch.equal(uni, same)
-    sc.images[2] = 90
-    flat2 = sample_pixels(sc, 2, cfg, torch.Generator().manual_seed(3))
-    assert flat2.shape == (400,) and int(flat2.max()) < H * W
-    b = sample_batch(sc, cfg, torch.Generator().manual_seed(0))
-    assert b.rgb.shape == (400, 3)

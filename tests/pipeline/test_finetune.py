@@ -6,7 +6,6 @@ import json
 from dataclasses import replace
 
 import numpy as np
-import pytest
 import torch
 from safetensors.torch import load_file
 
@@ -150,6 +149,8 @@ def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
 def test_dropout_and_random_sources_keep_the_shipped_start():
     """GNT's training details as finetune options: dropout holds no weights, so the shipped
     file still matches (init auto) and loads; another width does not."""
+    import pytest
+
     from gnfr.checkpoint import CheckpointError, load_weights
     from gnfr.model import GNFR
     from pipeline.finetune import init_model, resolve, shipped_weights
