@@ -267,6 +267,24 @@ def consistency_count(views: list[PosedView], i: int, neighbours: list[int],
     return count
 
 
+def remove_specks(depth: np.ndarray, near: float, far: float, planes: int,
+                  max_area: int) -> np.ndarray:
+    """``depth`` [H, W] (0 = unknown) without its specks: 8-connected groups of known pixels
+    whose inverse depths step by at most one plane of the sweep (``planes`` uniform in
+    inverse depth between ``near`` and ``far``) from neighbour to neighbour, of at most
+    ``max_area`` pixels, become unknown (``cv2.filterSpeckles`` on the inverse depth in
+    sixteenths of a plane). Such islands are where the sweep matched by chance (the sky
+    between branches, a flat wall) and passed the consistency check."""
+    if max_area <= 0 or not (depth > 0).any():
+        return depth
+    step = (1.0 / near - 1.0 / far) / max(planes - 1, 1)
+    inv = np.where(depth > 0, 1.0 / np.maximum(depth, 1e-12), 0.0)
+    disp = np.clip(np.round((inv - 1.0 / far) / step * 16), 0, 32000)
+    img = np.where(depth > 0, disp, -16).astype(np.int16)
+    cv2.filterSpeckles(img, -16, int(max_area), 16)
+    return np.where(img == -16, 0, depth).astype(depth.dtype)
+
+
 def splat_depth(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                 views: list[PosedView], fill: int = 2) -> np.ndarray:
     """[H, W] z-depth of a target camera from the views' depth maps: every known depth

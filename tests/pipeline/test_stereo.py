@@ -199,3 +199,26 @@ def test_network_vote_takes_the_photo_that_agrees_with_the_network_sharp():
         assert not (got & ~right).any()  # the wrong photo is never taken
     far = np.zeros_like(net)  # every photo is at least 0.2 away from it
     assert not network_vote(far, Warped(np.stack([truth, wrong]), ok), 0.25, 0.1)[1].any()
+
+
+def test_remove_specks_drops_small_islands_and_keeps_surfaces():
+    """Islands of depth smaller than the limit go (unknown), whatever their depth; a large
+    surface, a slope whose depth changes smoothly, and a small patch joined to a surface
+    within one plane step stay; unknown pixels stay unknown."""
+    from pipeline.stereo import remove_specks
+
+    near, far, planes = 1.0, 10.0, 48
+    d = np.zeros((60, 80), np.float32)
+    d[10:50, 10:40] = 3.0                                        # a surface
+    d[10:50, 40:70] = np.linspace(3.0, 3.3, 30, dtype=np.float32)  # a slope joined to it
+    d[2:5, 74:77] = 2.0                                           # a 9-pixel island
+    d[55:57, 2:4] = 3.0                                           # 4 pixels, the surface's depth
+    d[20:23, 20:23] = 1.2                                         # a speck on the surface
+    out = remove_specks(d, near, far, planes, max_area=20)
+    assert (out[2:5, 74:77] == 0).all() and (out[55:57, 2:4] == 0).all()
+    assert (out[20:23, 20:23] == 0).all()
+    keep = (d > 0).copy()
+    keep[2:5, 74:77] = keep[55:57, 2:4] = keep[20:23, 20:23] = False
+    assert np.array_equal(out[keep], d[keep]) and (out[~(d > 0)] == 0).all()
+    assert remove_specks(d, near, far, planes, max_area=0) is d
+    assert (remove_specks(d, near, far, planes, max_area=2500) == 0).all()  # 2,400 px
