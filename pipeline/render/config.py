@@ -112,6 +112,10 @@ class RenderConfig:
     this (largest channel difference, 0..1 colours) is taken there at full resolution: the
     network vouches for the colour, the photo adds the detail (0 = off; docs/depth.md,
     "The network's vote")."""
+    depth_min_blob: float = option(0.0, ge=0, lt=1)
+    """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
+    than this fraction of the image are left out when the render reads them
+    (``pipeline.stereo.remove_specks``; 0 = off; docs/depth.md, "Specks in the sky")."""
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
     with this many samples in a band around it instead of the full near-far range

@@ -16,11 +16,23 @@ if TYPE_CHECKING:
 
 
 def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:
-    """{stem: PosedView} (WS/images, flare masks, WS/depth) of every photo a job warps."""
-    from pipeline.depth import load_views
+    """{stem: PosedView} (WS/images, flare masks, WS/depth) of every photo a job warps; with
+    ``cfg.depth_min_blob`` the depth maps' islands under that share of the image removed
+    (``pipeline.stereo.remove_specks``, at the depth stage's plane step)."""
+    from pipeline.depth import DepthConfig, load_views
+    from pipeline.stereo import remove_specks
 
     stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
-    return load_views(ws, cams, stems, with_depth=True)
+    views = load_views(ws, cams, stems, with_depth=True)
+    if cfg.depth_min_blob > 0:
+        rec = ws.stage_record("depth") or {}
+        planes = int(rec.get("params", {}).get("planes", DepthConfig().planes))
+        by = cams.by_stem()
+        for s, v in views.items():
+            if v.depth is not None:
+                v.depth = remove_specks(v.depth, by[s].near, by[s].far, planes,
+                                        round(cfg.depth_min_blob * v.depth.size))
+    return views
 
 
 class HybridFill(NamedTuple):
