@@ -612,3 +612,37 @@ def test_network_vote_takes_single_photos_only_where_the_network_agrees(hws, tmp
     voted = _psnr(frames["vote"][inner], frames["photos"][inner])
     assert voted > strict + 3, (voted, strict)
     assert np.abs(frames["tight"] - frames["strict"]).max() <= 1
+
+
+def test_depth_min_blob_leaves_islands_out_of_the_depth_the_render_reads(hws):
+    """render --depth-min-blob: the photos' depth maps as the render reads them lose their
+    islands under the limit (an island planted in one map here), keep everything else, and
+    WS/depth itself is not rewritten."""
+    from pipeline.render import RenderConfig, photo_views
+    from pipeline.render.jobs import FrameJob
+
+    cams = load_cameras(hws.cameras_json)
+    stems = cams.stems
+    path = hws.depth_path(stems[0])
+    with np.load(path) as z:
+        saved = {k: z[k] for k in z.files}
+    d = saved["depth"].astype(np.float32).copy()
+    f = cams.by_stem()[stems[0]]
+    d[:8, :8] = 0
+    d[2:5, 2:5] = f.near * 1.01  # a 9-pixel island near the near bound, cut off by the gap
+    np.savez(path, **{**saved, "depth": d})
+    try:
+        before = path.read_bytes()
+        job = FrameJob(out=hws.root / "x.png", sources=list(stems), near=f.near, far=f.far,
+                       camera=f)
+        plain = photo_views(hws, cams, [job], RenderConfig(photo_sources=len(stems)))
+        clean = photo_views(hws, cams, [job], RenderConfig(photo_sources=len(stems),
+                                                          depth_min_blob=0.001))
+        assert (plain[stems[0]].depth[2:5, 2:5] > 0).all()
+        assert (clean[stems[0]].depth[2:5, 2:5] == 0).all()
+        big = plain[stems[0]].depth > 0
+        big[:8, :8] = False
+        assert (clean[stems[0]].depth[big] > 0).mean() > 0.95
+        assert path.read_bytes() == before
+    finally:
+        np.savez(path, **saved)
