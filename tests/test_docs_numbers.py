@@ -239,6 +239,14 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("docs/depth.md", f"depth_min_blob_inputs_dev_{s}_{a}.json",
+       f"rows/hybrid_guided_support2/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
+      for s in ("sceaux", "et", "lund") for a in ("0", "0.0005", "0.002")
+      for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"depth_min_blob_loo_dev_{s}_{a}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for s in ("sceaux", "et", "lund") for a in ("0", "0.0005", "0.002")
+      for m in ("psnr", "ssim")],
     *[("docs/presets.md", f"finetune_ab_ray_sampling_edges_dev_{scene}.json", f"{row}/{m}",
        "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
       for scene in ("et", "sceaux") for row in ("base", "ray_sampling-edges")
