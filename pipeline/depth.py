@@ -22,13 +22,7 @@ from pipeline.cameras import Cameras
 from pipeline.errors import UserError
 from pipeline.options import option, validate
 from pipeline.progress import info, track
-from pipeline.stereo import (
-    PosedView,
-    SweepConfig,
-    consistency_count,
-    remove_specks,
-    sweep_depth,
-)
+from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depth
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
 
@@ -53,10 +47,6 @@ class DepthConfig:
     consistency: float = option(0.02, ge=0, lt=1)
     """Keep a depth only where a neighbour's depth agrees within this relative difference
     (0: no check)."""
-    min_blob: float = option(0.0, ge=0, lt=1)
-    """Drop islands of depth (connected within one plane step) smaller than this fraction
-    of the image after the consistency check (``pipeline.stereo.remove_specks``); 0: keep
-    them (docs/depth.md, "Specks in the sky")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
@@ -134,10 +124,6 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                     config.consistency)
             d = np.where(cnt >= 1, d, 0).astype(np.float32)
             conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
-        if config.min_blob > 0:
-            d = remove_specks(d, by[s].near, by[s].far, config.planes,
-                              round(config.min_blob * d.size))
-            conf = np.where(d > 0, conf, 0).astype(np.float16)
         write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
     for p in raw_dir.iterdir():
