@@ -239,6 +239,11 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
+    *[("docs/eval.md", f"finetune_ab_seed_{f}.json", f"{row}/{m}",
+       "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
+      for f, row in (("1_dev_et", "seed-1"), ("2_dev_et", "seed-2"), ("1_dev_et", "base"),
+                     ("1_dev_sceaux", "seed-1"), ("1_dev_sceaux", "base"))
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
     *[("docs/depth.md", f"depth_min_blob_inputs_dev_{s}_{a}.json",
        f"rows/hybrid_guided_support2/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
       for s in ("sceaux", "et", "lund") for a in ("0", "0.0005", "0.002")
