@@ -244,6 +244,10 @@ CHECKS = [
       for f, row in (("1_dev_et", "seed-1"), ("2_dev_et", "seed-2"), ("1_dev_et", "base"),
                      ("1_dev_sceaux", "seed-1"), ("1_dev_sceaux", "base"))
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
+    *[("docs/depth.md", f"depth_min_blob_inputs_fresh_{s}_s12.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}") for s in ("sceaux", "et")
+      for row in ("hybrid_guided_support2", "hybrid_depth_min_blob_0.0005")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"depth_min_blob_inputs_dev_{s}_{a}.json",
        f"rows/hybrid_guided_support2/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
       for s in ("sceaux", "et", "lund") for a in ("0", "0.0005", "0.002")

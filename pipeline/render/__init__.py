@@ -29,7 +29,7 @@ from pathlib import Path
 
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
-from pipeline.render.config import FILLS, NAMED_PATHS, RenderConfig
+from pipeline.render.config import FILLS, INPUTS_MIN_BLOB, NAMED_PATHS, RenderConfig
 from pipeline.render.engine import (
     CHUNK,
     DEPTH_BAND,
@@ -116,6 +116,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
+        cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "compile": None, "samples": samples,

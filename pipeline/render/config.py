@@ -10,6 +10,11 @@ NAMED_PATHS = ("inputs", "interpolate", "spiral")
 FILLS = ("hybrid", "network")
 
 
+INPUTS_MIN_BLOB = 0.0005
+"""``RenderConfig.depth_min_blob`` of the de-flared photos (`--path inputs`): chosen on fresh
+flare draws of two development scenes (docs/depth.md, "Specks in the sky")."""
+
+
 @dataclass
 class RenderConfig:
     """Options of the render stage."""
@@ -112,10 +117,12 @@ class RenderConfig:
     this (largest channel difference, 0..1 colours) is taken there at full resolution: the
     network vouches for the colour, the photo adds the detail (0 = off; docs/depth.md,
     "The network's vote")."""
-    depth_min_blob: float = option(0.0, ge=0, lt=1)
+    depth_min_blob: float | None = option(None, ge=0, lt=1)
     """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
     than this fraction of the image are left out when the render reads them
-    (``pipeline.stereo.remove_specks``; 0 = off; docs/depth.md, "Specks in the sky")."""
+    (``pipeline.stereo.remove_specks``; 0 = off). Default: ``INPUTS_MIN_BLOB`` for `--path
+    inputs` (the de-flared photos), 0 for novel paths (docs/depth.md, "Specks in the
+    sky")."""
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
     with this many samples in a band around it instead of the full near-far range

@@ -24,7 +24,7 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
 
     stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
     views = load_views(ws, cams, stems, with_depth=True)
-    if cfg.depth_min_blob > 0:
+    if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         rec = ws.stage_record("depth") or {}
         planes = int(rec.get("params", {}).get("planes", DepthConfig().planes))
         by = cams.by_stem()

@@ -646,3 +646,17 @@ def test_depth_min_blob_leaves_islands_out_of_the_depth_the_render_reads(hws):
         assert path.read_bytes() == before
     finally:
         np.savez(path, **saved)
+
+
+def test_depth_min_blob_defaults_by_path(hws):
+    """Unset, the de-flared photos (`--path inputs`) read the depth maps without their
+    islands (INPUTS_MIN_BLOB) and novel paths keep every island; given, it is used as is."""
+    from pipeline.render import RenderConfig, run
+    from pipeline.render.config import INPUTS_MIN_BLOB
+
+    run(RenderConfig(path="inputs", fill="hybrid"), hws)
+    assert hws.stage_record("render:inputs")["params"]["depth_min_blob"] == INPUTS_MIN_BLOB
+    run(RenderConfig(path="inputs", fill="hybrid", depth_min_blob=0.0), hws)
+    assert hws.stage_record("render:inputs")["params"]["depth_min_blob"] == 0.0
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    assert hws.stage_record("render:interpolate")["params"]["depth_min_blob"] == 0.0
