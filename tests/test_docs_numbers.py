@@ -108,8 +108,12 @@ CHECKS = [
     *[("README.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
        "{:.2f}") for scene in ("sceaux", "et")
       for row in ("network", "hybrid_guided_support2")],
-    *[("README.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
+    *[("README.md", "sample_oneshot_cpu_s14_f408c72.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[("docs/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr")],
+    *[("docs/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
+      for c in ("cc66234", "f408c72") for m in ("psnr_flare", "psnr")],
     *[("docs/eval.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
