@@ -269,7 +269,7 @@ def consistency_count(views: list[PosedView], i: int, neighbours: list[int],
 
 def remove_specks(depth: np.ndarray, near: float, far: float, planes: int,
                   max_area: int) -> np.ndarray:
-    """``depth`` [H, W] (0 = unknown) without its specks: 8-connected groups of known pixels
+    """``depth`` [H, W] (0 = unknown) without its specks: 4-connected groups of known pixels
     whose inverse depths step by at most one plane of the sweep (``planes`` uniform in
     inverse depth between ``near`` and ``far``) from neighbour to neighbour, of at most
     ``max_area`` pixels, become unknown (``cv2.filterSpeckles`` on the inverse depth in
