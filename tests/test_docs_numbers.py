@@ -252,6 +252,10 @@ CHECKS = [
        "{:.4f}" if m == "ssim" else "{:.2f}") for s in ("sceaux", "et")
       for row in ("hybrid_guided_support2", "hybrid_depth_min_blob_0.0005")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"depth_min_blob_inputs_test_{s}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}") for s in ("kermit_synth", "cyprus_truth")
+      for row in ("hybrid_depth_min_blob_0", "hybrid_guided_support2")
+      for m in ("psnr_flare", "psnr", "ssim")],
     *[("docs/depth.md", f"depth_min_blob_inputs_dev_{s}_{a}.json",
        f"rows/hybrid_guided_support2/{m}", "{:.4f}" if m == "ssim" else "{:.2f}")
       for s in ("sceaux", "et", "lund") for a in ("0", "0.0005", "0.002")
