@@ -25,8 +25,8 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
     stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
     views = load_views(ws, cams, stems, with_depth=True)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
-        rec = ws.stage_record("depth") or {}
-        planes = int(rec.get("params", {}).get("planes", DepthConfig().planes))
+        params = ws.stage_record("depth").get("params", {})
+        planes = int(params.get("planes", DepthConfig().planes))
         by = cams.by_stem()
         for s, v in views.items():
             if v.depth is not None:

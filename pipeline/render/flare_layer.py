@@ -132,3 +132,13 @@ def subtract_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarra
     w = (alpha * ~clipped_pixels(srgb, clipped)).astype(np.float32)[..., None]
     out = f * (1 - w) + np.clip(p - layer, 0.0, 1.0) * w
     return out if linear else linear_to_srgb(out)
+
+
+def apply_flare_layer(photo: np.ndarray, filled: np.ndarray, alpha: np.ndarray, cfg,
+                      linear: bool = False) -> np.ndarray:
+    """:func:`subtract_flare_layer` with a render config's flare-layer settings (scale,
+    ``flare_layer_local``, ``clipped``, ``flare_layer_adapt``): the one place the render's
+    options reach it, for decoded-size and full-resolution de-flared photos alike."""
+    return subtract_flare_layer(photo, filled, alpha, layer_scale(cfg), linear,
+                                local=cfg.flare_layer_local, clipped=cfg.clipped,
+                                adapt=cfg.flare_layer_adapt)

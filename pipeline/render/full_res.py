@@ -25,7 +25,7 @@ from pipeline.errors import UserError
 from pipeline.images import JPEG_EXTS, is_photo, read_image
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
-from pipeline.render.flare_layer import layer_scale, subtract_flare_layer
+from pipeline.render.flare_layer import apply_flare_layer
 from pipeline.render.inputs import input_blend, input_rays, match_colours
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.workspace import Workspace
@@ -117,9 +117,7 @@ def prepare_full_res(job: FrameJob, cfg: RenderConfig, ws: Workspace) -> Prepare
         new = match_colours(new, out[rows, cols], ring_px)  # in the output's own encoding
         filled = out.copy()
         filled[rows, cols] = out[rows, cols] * (1 - a) + new * a
-        filled = subtract_flare_layer(out, filled, alpha, layer_scale(cfg), full.linear,
-                                      local=cfg.flare_layer_local, clipped=cfg.clipped,
-                                      adapt=cfg.flare_layer_adapt)
+        filled = apply_flare_layer(out, filled, alpha, cfg, full.linear)
         return np.clip(np.rint(filled * peak), 0, peak).astype(photo.dtype)
 
     return Prepared(rays_o, rays_d, compose)

@@ -9,7 +9,7 @@ from pipeline.cameras import Frame
 from pipeline.errors import UserError
 from pipeline.render.config import RenderConfig
 from pipeline.render.fill import fill_from_photos
-from pipeline.render.flare_layer import layer_scale, subtract_flare_layer
+from pipeline.render.flare_layer import apply_flare_layer
 from pipeline.render.frames import to_u8
 from pipeline.render.jobs import FrameJob, Prepared
 from pipeline.workspace import Workspace
@@ -58,10 +58,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
             fill = fill * (1 - wgt[..., None]) + pc * wgt[..., None]
         a = alpha[..., None]
         filled = np.where(region[..., None], out * (1 - a) + fill * a, out)
-        return to_u8(subtract_flare_layer(out, filled, alpha, layer_scale(cfg),
-                                          local=cfg.flare_layer_local,
-                                          clipped=cfg.clipped,
-                                          adapt=cfg.flare_layer_adapt))
+        return to_u8(apply_flare_layer(out, filled, alpha, cfg))
 
     return Prepared(rays_o, rays_d, compose, guided)
 
