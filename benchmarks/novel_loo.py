@@ -14,6 +14,10 @@ network's share alone, on one model; not to compare the network with the photos,
 
 ``--heldout`` renders the eval's held-out cameras instead, from the whole workspace (no view
 removed): unbiased (the model never saw them), but only as many views as the split holds.
+``--non-targets`` leaves out, in turn, only the training cameras that were never a
+fine-tuning target (views.json: flared over the 10 % rule): the network never learned to
+draw them, so, like ``--heldout``, it is unbiased, and it has more cameras on a heavily
+flared scene.
 ``--eval-ws`` names the evaluation workspace (default SCENE/eval.ws; finetune_ab.py writes
 DIR/base.ws).
 """
@@ -42,6 +46,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="evaluation workspace (default SCENE/eval.ws)")
     ap.add_argument("--heldout", action="store_true",
                     help="render the held-out cameras from the whole workspace instead")
+    ap.add_argument("--non-targets", action="store_true",
+                    help="leave out only the training cameras that were never a target")
     ap.add_argument("--frames", type=Path, default=None,
                     help="also keep the rendered frames in this folder")
     ap.add_argument("--out", type=Path, default=None)
@@ -71,6 +77,12 @@ def main(argv: list[str] | None = None) -> int:
         frames = Path(tmp) / "frames"
         frames.mkdir()
         stems = scene.heldout if a.heldout else scene.train
+        if a.non_targets:
+            if a.heldout:
+                raise SystemExit("novel_loo: --heldout and --non-targets exclude each other")
+            stems = [s for s in stems if s in views.views and not views.views[s].target]
+            if not stems:
+                raise SystemExit(f"novel_loo: every training camera of {a.scene} was a target")
         for stem in stems:
             ws = shared_workspace(base, Path(tmp) / f"ws_{stem}")
             if not a.heldout:  # leave this view out of the sources and the photo fill
@@ -88,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
             shutil.copytree(frames, a.frames, dirs_exist_ok=True)
     rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),
            "render": {k: v for k, v in asdict(cfg).items() if k != "path"},
-           "sets": a.sets, "heldout": a.heldout, "views": stems,
+           "sets": a.sets, "heldout": a.heldout, "non_targets": a.non_targets,
+           "views": stems,
            "psnr": r["psnr"], "ssim": r["ssim"],
            "per_view": {k: {m: round(v[m], 4) for m in ("psnr", "ssim")}
                         for k, v in r["views"].items()}}

@@ -92,6 +92,31 @@ def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> n
     return np.clip(dist / feather, 0.0, 1.0).astype(np.float32)
 
 
+def small_holes(ok: np.ndarray, radius: float) -> np.ndarray:
+    """[H, W] bool: the pixels of the holes of ``ok`` (connected parts of ``~ok``,
+    8-connected) whose widest inscribed disc has at most ``radius`` pixels: every pixel of
+    such a hole lies within ``radius`` of ``ok``."""
+    import cv2
+
+    holes = ~ok
+    if radius <= 0 or not holes.any() or not ok.any():
+        return np.zeros(ok.shape, bool)
+    dist = cv2.distanceTransform(holes.astype(np.uint8), cv2.DIST_L2, 3)
+    n, labels = cv2.connectedComponents(holes.astype(np.uint8), connectivity=8)
+    widest = np.zeros(n, np.float32)
+    np.maximum.at(widest, labels[holes], dist[holes])
+    return holes & (widest[labels] <= radius)
+
+
+def sharp_hole_weight(ok: np.ndarray, radius: float, feather: int = 3) -> np.ndarray:
+    """:func:`support_weight` of ``ok`` where only the holes wider than ``radius`` pixels
+    (:func:`small_holes`) erode and feather the photos around them; the small holes are
+    the network's (weight 0) with a hard edge, so one disagreeing pixel no longer takes
+    the photos' weight from a disc around it."""
+    small = small_holes(ok, radius)
+    return np.where(small, 0.0, support_weight(ok | small, 0, feather)).astype(np.float32)
+
+
 def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Fill the small holes of the photos' agreed region from the agreed pixels around them.
@@ -104,14 +129,7 @@ def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
     (colour, ok) as new arrays."""
     import cv2
 
-    holes = ~ok
-    if radius <= 0 or not holes.any() or not ok.any():
-        return colour, ok
-    dist = cv2.distanceTransform(holes.astype(np.uint8), cv2.DIST_L2, 3)
-    n, labels = cv2.connectedComponents(holes.astype(np.uint8), connectivity=8)
-    widest = np.zeros(n, np.float32)
-    np.maximum.at(widest, labels[holes], dist[holes])
-    small = holes & (widest[labels] <= radius)
+    small = small_holes(ok, radius)
     if not small.any():
         return colour, ok
     w = ok.astype(np.float32)

@@ -111,6 +111,11 @@ class RenderConfig:
     this fraction of the frame's long side of agreed pixels are filled from the photo
     pixels around them instead of by GN-FR at ``network_scale`` (0 = off; docs/depth.md,
     "Small holes")."""
+    sharp_holes: float = option(0.0, ge=0, le=0.1)
+    """hybrid novel frames: holes in the photos' agreed region whose pixels all lie within
+    this fraction of the frame's long side of agreed pixels are GN-FR's with a hard edge;
+    only wider holes erode and feather the photos around them (0 = every hole does;
+    docs/depth.md, "Feathered holes")."""
     network_vote: float = option(0.0, ge=0, le=1)
     """hybrid novel frames: where fewer than ``min_support`` photos agree, the photo whose
     colour, brought to GN-FR's ``network_scale``, lies closest to GN-FR's render and within

@@ -50,14 +50,21 @@ class HybridFill(NamedTuple):
 
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                      reference: tuple[np.ndarray, np.ndarray] | None = None,
-                     close_holes: float = 0.0) -> HybridFill:
+                     close_holes: float = 0.0, sharp_holes: float = 0.0) -> HybridFill:
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
     pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
     long side in radius are filled from the photos around them
-    (:func:`pipeline.photo_fill.close_small_holes`)."""
-    from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
+    (:func:`pipeline.photo_fill.close_small_holes`). ``sharp_holes`` > 0: holes up to that
+    fraction in radius (after ``close_holes``) keep a hard edge instead of eroding and
+    feathering the photos around them (:func:`pipeline.photo_fill.sharp_hole_weight`)."""
+    from pipeline.photo_fill import (
+        close_small_holes,
+        photo_fill,
+        sharp_hole_weight,
+        support_weight,
+    )
 
     c = np.asarray(c2w, float)[:3, 3]
     near = sorted((s for s in job.sources if s in photos),
@@ -76,4 +83,6 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     colour = pf.colour
     if close_holes > 0:
         colour, ok = close_small_holes(colour, ok, close_holes * max(size))
-    return HybridFill(colour, support_weight(ok, 0), real, pf.warped)
+    weight = (sharp_hole_weight(ok, sharp_holes * max(size)) if sharp_holes > 0
+              else support_weight(ok, 0))
+    return HybridFill(colour, weight, real, pf.warped)
