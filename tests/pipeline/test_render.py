@@ -593,6 +593,26 @@ def test_close_holes_gives_the_photos_the_specks_of_a_novel_frame(hws, tmp_path,
     assert _psnr(frames[0.03][1][inner], frames[0.0][1][inner]) > 25
 
 
+def test_sharp_holes_keep_the_photos_weight_around_small_holes(hws, tmp_path, counters):
+    """A frame between two cameras: with --sharp-holes the small holes of the photos' agreed
+    region no longer feather the photos around them, so GN-FR renders fewer rays, and the
+    frame stays as close to the plane's texture as without."""
+    from pipeline.render import RenderConfig, run
+
+    rays, _ = counters
+    path = _path_between(hws, tmp_path)
+    frames = {}
+    for sharp in (0.0, 0.03):
+        before = rays.rays
+        run(RenderConfig(path=str(path), fill="hybrid", sharp_holes=sharp,
+                         network_scale=1.0), hws, force=True)
+        frames[sharp] = (rays.rays - before,
+                         cv2.imread(str(hws.renders / "between" / "v.png")).astype(int))
+    assert frames[0.03][0] < frames[0.0][0], (frames[0.03][0], frames[0.0][0])
+    inner = (slice(12, -12), slice(12, -12))
+    assert _psnr(frames[0.03][1][inner], frames[0.0][1][inner]) > 25
+
+
 def test_network_vote_takes_single_photos_only_where_the_network_agrees(hws, tmp_path):
     """A frame between two cameras with a strict agreement rule (every photo must agree),
     so GN-FR (random here) draws much of it. With --network-vote at its loosest every pixel

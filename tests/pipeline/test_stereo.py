@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.photo_fill import close_small_holes, photo_fill, support_weight
+from pipeline.photo_fill import (
+    close_small_holes,
+    photo_fill,
+    sharp_hole_weight,
+    small_holes,
+    support_weight,
+)
 from pipeline.stereo import (
     BEYOND_FAR,
     PosedView,
@@ -146,6 +152,31 @@ def test_close_small_holes_fills_specks_and_leaves_large_holes():
     assert wt[10, 10] == 1.0 and wt[20, 77] == 0.0
     same, same_ok = close_small_holes(colour, ok, radius=0.0)
     assert same is colour and same_ok is ok
+
+
+def test_sharp_hole_weight_keeps_the_photos_around_small_holes_only():
+    """A one-pixel hole takes a disc of the photos' weight with it under the feathered
+    weight; with ``sharp_hole_weight`` only the hole itself is the network's. A hole wider
+    than the radius still erodes and feathers the photos around it, exactly as before."""
+    h, w = 64, 96
+    ok = np.ones((h, w), bool)
+    ok[20, 20] = False                          # a one-pixel hole
+    ok[5:35, 60:90] = False                     # a large hole: radius about 15 px
+    small = small_holes(ok, 2.0)
+    assert small[20, 20] and small.sum() == 1
+    feathered = support_weight(ok, 0)
+    sharp = sharp_hole_weight(ok, 2.0)
+    assert feathered[20, 22] < 1 and feathered[18, 20] < 1   # the disc around the hole
+    assert sharp[20, 20] == 0.0
+    ring = np.zeros((h, w), bool)
+    ring[17:24, 17:24] = True
+    ring[20, 20] = False
+    assert (sharp[ring] == 1.0).all()
+    far = np.zeros((h, w), bool)
+    far[:, 45:] = True                          # around the large hole only
+    assert np.array_equal(sharp[far], feathered[far])
+    assert not small_holes(ok, 0.0).any()
+    assert np.array_equal(sharp_hole_weight(ok, 0.5), support_weight(ok, 0))
 
 
 def test_beyond_planes_reach_a_surface_past_the_far_bound():
