@@ -282,6 +282,15 @@ CHECKS = [
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for split in ("loo", "heldout") for scene in ("sceaux", "et")
       for f in ("0", "0.004", "0.008", "0.016") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"novel_heldout_sharp_holes_dev_{draw}_{r}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12")
+      for r in ("0", "0.004", "0.008", "0.016") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"novel_{split}_sharp_holes_dev_{scene}_{r}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for split, scenes in (("nontarget", ("sceaux", "lund")),
+                            ("loo", ("sceaux", "et", "lund")))
+      for scene in scenes for r in ("0", "0.008") for m in ("psnr", "ssim")],
     *[("docs/depth.md", f"novel_{split}_s13_dev_{scene}_{v}.json", m,
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for split in ("loo", "heldout") for scene in ("sceaux", "et")
