@@ -22,7 +22,7 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
-    stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources]})
+    stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources + cfg.photo_fallback]})
     views = load_views(ws, cams, stems, with_depth=True)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         params = ws.stage_record("depth").get("params", {})
@@ -52,7 +52,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
                      reference: tuple[np.ndarray, np.ndarray] | None = None,
                      close_holes: float = 0.0, sharp_holes: float = 0.0) -> HybridFill:
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
-    ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py), their
+    ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py; where
+    they do not agree, with ``photo_fallback`` more of them, the next nearest), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
     pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
     long side in radius are filled from the photos around them
@@ -74,13 +75,22 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         z = np.zeros(size[::-1], np.float32)
         return HybridFill(np.zeros((size[1], size[0], 3), np.float32), z, z)
     ref, ref_valid = reference if reference is not None else (None, None)
-    pf = photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, srcs,
-                    reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
-                    beyond=cfg.beyond_planes)
+    def fill(views):
+        return photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, views,
+                          reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
+                          beyond=cfg.beyond_planes)
+
+    pf = fill(srcs)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
                     0).astype(np.float32)
     ok = pf.support >= min(cfg.min_support, len(srcs))
     colour = pf.colour
+    more = [photos[s] for s in near[:cfg.photo_sources + cfg.photo_fallback]]
+    if len(more) > len(srcs) and not ok.all():
+        wide = fill(more)  # the farther photos, only where the nearest do not agree
+        take = ~ok & (wide.support >= min(cfg.min_support, len(more)))
+        colour = np.where(take[..., None], wide.colour, colour)
+        ok = ok | take
     if close_holes > 0:
         colour, ok = close_small_holes(colour, ok, close_holes * max(size))
     weight = (sharp_hole_weight(ok, sharp_holes * max(size)) if sharp_holes > 0
