@@ -253,3 +253,39 @@ def test_remove_specks_drops_small_islands_and_keeps_surfaces():
     assert np.array_equal(out[keep], d[keep]) and (out[~(d > 0)] == 0).all()
     assert remove_specks(d, near, far, planes, max_area=0) is d
     assert (remove_specks(d, near, far, planes, max_area=2500) == 0).all()  # 2,400 px
+
+
+def test_photo_fallback_takes_farther_photos_only_where_the_nearest_disagree():
+    """A camera among six photos of a plane; the four nearest are flared (invalid) over the
+    left half of what it sees. Without the fallback no photo covers that half; with two more
+    photos (the farther ones, clean there) it is covered with the plane's colours, and the
+    right half, where the nearest agree, is the same pixels as without."""
+    from pipeline.render.config import RenderConfig
+    from pipeline.render.fill import fill_from_photos
+    from pipeline.render.jobs import FrameJob
+
+    rng = np.random.default_rng(7)
+    centers = [[0.0, 0.0, -3.0], [0.12, 0.0, -3.0], [-0.12, 0.0, -3.0], [0.0, 0.12, -3.0],
+               [0.0, -0.12, -3.0], [0.45, 0.1, -3.0], [-0.45, -0.1, -3.0]]
+    views, _ = plane_views(rng, centers)
+    target, photos = views[0], views[1:]
+    for v in photos:
+        v.depth, _ = sweep_depth(v, [u for u in photos if u is not v], 2.0, 5.0,
+                                 SweepConfig(planes=64))
+    for v in photos[:4]:  # the nearest four: flared over the part the target sees on the left
+        v.valid = np.ones((H, W), bool)
+        v.valid[:, : W // 2 + 10] = False
+    stems = [f"v{i}" for i in range(1, 7)]
+    by = dict(zip(stems, photos, strict=True))
+    job = FrameJob(out=None, sources=stems, near=2.0, far=5.0, camera=None)
+    left = (slice(20, -20), slice(10, W // 2 - 20))
+    right = (slice(20, -20), slice(W // 2 + 30, -20))
+    fills = {fb: fill_from_photos(K, target.c2w, (W, H), job, by,
+                                  RenderConfig(photo_fallback=fb)) for fb in (0, 2)}
+    assert fills[0].weight[left].mean() < 0.05
+    assert fills[2].weight[left].mean() > 0.5
+    covered = fills[2].weight[left] >= 1
+    err = np.abs(fills[2].colour[left][covered] - target.image[left][covered]).mean()
+    assert err < 0.05, err
+    np.testing.assert_array_equal(fills[2].colour[right], fills[0].colour[right])
+    np.testing.assert_array_equal(fills[2].weight[right], fills[0].weight[right])
