@@ -282,6 +282,14 @@ CHECKS = [
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for split in ("loo", "heldout") for scene in ("sceaux", "et")
       for f in ("0", "0.004", "0.008", "0.016") for m in ("psnr", "ssim")],
+    *[("docs/depth.md", f"fill_photo_fallback_dev_{draw}.json", f"rows/{row}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12")
+      for row in ("hybrid_guided_support2", "hybrid_photo_fallback_2")
+      for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"novel_heldout_photo_fallback_dev_{draw}_2.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12") for m in ("psnr", "ssim")],
     *[("docs/depth.md", f"novel_heldout_sharp_holes_dev_{draw}_{r}.json", m,
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12")
