@@ -37,8 +37,7 @@ SETTINGS = {
     **{f"hybrid_layer_adapt_{v}": {"fill": "hybrid", "flare_layer_adapt": v} for v in (0.5, 1.0)},
     **{f"hybrid_depth_min_blob_{v}": {"fill": "hybrid", "depth_min_blob": v}
        for v in (0, 0.0005, 0.002)},  # 0: every island (the inputs' default before f408c72)
-    "hybrid_photo_fallback_2": {"fill": "hybrid", "photo_fallback": 2},  # the default since 15
-    "hybrid_photo_fallback_0": {"fill": "hybrid", "photo_fallback": 0},  # before it
+    **{f"hybrid_photo_fallback_{n}": {"fill": "hybrid", "photo_fallback": n} for n in (0, 2)},
 }
 
 

@@ -287,6 +287,12 @@ CHECKS = [
       for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12")
       for row in ("hybrid_guided_support2", "hybrid_photo_fallback_2")
       for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/depth.md", f"fill_photo_fallback_test_{scene}.json", f"rows/{row}/{m}", "{:.3f}")
+      for scene in ("kermit_synth", "cyprus_truth")
+      for row in ("hybrid_photo_fallback_0", "hybrid_photo_fallback_2")
+      for m in ("psnr_flare", "psnr")],
+    *[("docs/depth.md", "sample_oneshot_cpu_s15_fallback.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr")],
     *[("docs/depth.md", f"novel_heldout_photo_fallback_dev_{draw}_2.json", m,
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12") for m in ("psnr", "ssim")],

@@ -98,11 +98,12 @@ class RenderConfig:
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
     photo_sources: int = option(4, ge=1)
     """hybrid: nearest clean photos warped into each image."""
-    photo_fallback: int = option(2, ge=0)
+    photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel
-    from them if ``min_support`` agree (0 = off; on by default since the fifteenth session,
-    docs/depth.md, "Farther photos where the nearest disagree")."""
+    from them if ``min_support`` agree (0 = off; passed its rule on the development scenes
+    but failed the sample's product test: docs/depth.md, "Farther photos where the nearest
+    disagree")."""
     network_scale: float | None = option(None, gt=0)
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
     fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
