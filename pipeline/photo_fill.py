@@ -51,7 +51,7 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
                near: float | None = None, far: float | None = None,
-               beyond: int = 0) -> PhotoFill:
+               beyond: int = 0, agree_window: int = 1) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
@@ -59,7 +59,8 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     a plane sweep for the depth on which the sources agree best (``stereo.sweep_consensus``,
     kept where their colour variance is below CONSENSUS_VAR), the rest by interpolation
     (``stereo.fill_holes``); the agreement test then decides whether the photos support
-    the depth. ``beyond``: planes of that sweep past ``far`` (``stereo.beyond_depths``)."""
+    the depth. ``beyond``: planes of that sweep past ``far`` (``stereo.beyond_depths``).
+    ``agree_window``: the agreement test over that window (``stereo.fuse``)."""
     depth = splat_depth(K, c2w, size, sources, fill=2)
     if dense and near is not None and (depth <= 0).any():
         holes = depth <= 0
@@ -73,7 +74,7 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     w = match_gains(w, reference, ref_valid)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN medians where none sees
-        colour, support = fuse(w, agree)
+        colour, support = fuse(w, agree, window=agree_window)
     return PhotoFill(colour, support, depth, w)
 
 

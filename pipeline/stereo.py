@@ -411,16 +411,27 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
     return Warped(cols, w.ok)
 
 
-def fuse(w: Warped, agree: float = 0.08, min_views: int = 1):
+def fuse(w: Warped, agree: float = 0.08, min_views: int = 1, window: int = 1):
     """Robust per-pixel colour of warped sources: the median of the valid sources, then the
     mean of those within ``agree`` (max channel difference) of it, weighted by source
-    order (nearer sources first get more weight). Returns (colour [H, W, 3], support [H, W]
-    int = sources that agree; colour is 0 where support < min_views)."""
+    order (nearer sources first get more weight). ``window`` > 1: a source's difference
+    from the median is averaged over the ``window`` x ``window`` pixels around each pixel
+    where that source is valid before the test, so a source agrees with a patch, not a
+    single pixel that may match by chance. Returns (colour [H, W, 3], support [H, W] int =
+    sources that agree; colour is 0 where support < min_views)."""
     N = w.colours.shape[0]
     c = np.where(w.ok[..., None], w.colours, np.nan)
     med = np.nanmedian(c, axis=0) if N > 1 else c[0]
-    dev = np.nanmax(np.abs(c - med[None]), axis=-1)
-    agree_m = w.ok & (np.nan_to_num(dev, nan=9.0) < agree)
+    dev = np.nan_to_num(np.nanmax(np.abs(c - med[None]), axis=-1), nan=9.0)
+    if window > 1:
+        box = (window, window)
+        for k in range(N):
+            v = w.ok[k].astype(np.float32)
+            num = cv2.boxFilter(np.where(w.ok[k], dev[k], 0.0).astype(np.float32), -1, box,
+                                normalize=False)
+            den = cv2.boxFilter(v, -1, box, normalize=False)
+            dev[k] = np.where(den > 0, num / np.maximum(den, 1.0), 9.0)
+    agree_m = w.ok & (dev < agree)
     wt = (1.0 / (1.0 + np.arange(N, dtype=np.float32)))[:, None, None] * agree_m
     tot = wt.sum(0)
     col = (np.nan_to_num(c) * wt[..., None]).sum(0) / np.maximum(tot, 1e-8)[..., None]

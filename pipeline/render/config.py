@@ -98,6 +98,10 @@ class RenderConfig:
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
     photo_sources: int = option(4, ge=1)
     """hybrid: nearest clean photos warped into each image."""
+    agree_window: int = option(1, ge=1, odd=True)
+    """hybrid: a photo agrees with the others at a pixel when its colour difference from
+    their median, averaged over this window around the pixel, is within the agreement
+    tolerance (1 = the pixel alone; docs/depth.md, "Agreement over a patch")."""
     photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel

@@ -78,7 +78,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     def fill(views):
         return photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, views,
                           reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
-                          beyond=cfg.beyond_planes)
+                          beyond=cfg.beyond_planes, agree_window=cfg.agree_window)
 
     pf = fill(srcs)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,

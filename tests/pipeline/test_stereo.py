@@ -289,3 +289,26 @@ def test_photo_fallback_takes_farther_photos_only_where_the_nearest_disagree():
     assert err < 0.05, err
     np.testing.assert_array_equal(fills[2].colour[right], fills[0].colour[right])
     np.testing.assert_array_equal(fills[2].weight[right], fills[0].weight[right])
+
+
+def test_fuse_over_a_window_rejects_single_pixels_that_agree_by_chance():
+    """Two sources agree with a third everywhere on the left; on the right the second
+    source sees something else and matches the others at one pixel only (chance). Per pixel
+    that pixel has the support of all three; over a 3 x 3 window only the two that agree
+    around it count there, while the left keeps its three."""
+    from pipeline.stereo import Warped, fuse
+
+    rng = np.random.default_rng(5)
+    h, w = 24, 32
+    scene = rng.random((h, w, 3)).astype(np.float32)
+    other = rng.random((h, w, 3)).astype(np.float32)
+    b = scene.copy()
+    b[:, w // 2:] = other[:, w // 2:]  # source b sees something else on the right ...
+    b[12, 24] = scene[12, 24]          # ... but matches the scene at one pixel
+    cols = np.stack([scene, scene + 0.01, b])
+    ok = np.ones((3, h, w), bool)
+    _, per_pixel = fuse(Warped(cols, ok), 0.08)
+    _, windowed = fuse(Warped(cols, ok), 0.08, window=3)
+    assert per_pixel[12, 24] == 3 and windowed[12, 24] == 2
+    assert (windowed[4:-4, 2:w // 2 - 2] == 3).all()
+    assert np.array_equal(fuse(Warped(cols, ok), 0.08, window=1)[1], per_pixel)
