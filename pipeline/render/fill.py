@@ -75,6 +75,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         z = np.zeros(size[::-1], np.float32)
         return HybridFill(np.zeros((size[1], size[0], 3), np.float32), z, z)
     ref, ref_valid = reference if reference is not None else (None, None)
+
     def fill(views):
         return photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, views,
                           reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
