@@ -39,6 +39,10 @@ CHECKS = [
     *[("docs/eval.md", "fern_llff_quick_cpu_w42250_random_sources.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_rs{step}.json", f"rows/{i}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for s in ("sceaux", "et") for step, rows in ((80000, (0, 1)), (53000, (1,)))
+      for i in rows for m in ("psnr", "ssim")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_dropout55250.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for s in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
