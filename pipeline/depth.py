@@ -47,10 +47,14 @@ class DepthConfig:
     consistency: float = option(0.02, ge=0, lt=1)
     """Keep a depth only where a neighbour's depth agrees within this relative difference
     (0: no check)."""
+    min_margin: float = option(0.0, ge=0, le=2)
+    """Drop a depth whose matching cost beats the best cost of the planes away from it by
+    less than this (uniqueness; 0: no test; docs/depth.md, "A match must be unique")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
-                           min_confidence=self.min_confidence, consistency=self.consistency)
+                           min_confidence=self.min_confidence, consistency=self.consistency,
+                           min_margin=self.min_margin)
 
     def check(self) -> None:
         """UserError for values outside their range (``pipeline.options.validate``)."""

@@ -60,6 +60,10 @@ class SweepConfig:
     consistency: float = 0.02
     """Multi-view check: a depth is kept when at least one neighbour's depth agrees within
     this relative difference after reprojection (0 disables the check)."""
+    min_margin: float = 0.0
+    """Uniqueness: a depth is dropped when its cost beats the best cost of the planes more
+    than ``MARGIN_PLANES`` away by less than this (a flat cost curve: no parallax, or a
+    repeated texture; 0 = no test)."""
 
 
 def homography(K_t: np.ndarray, c2w_t: np.ndarray, K_s: np.ndarray, c2w_s: np.ndarray,
@@ -113,6 +117,11 @@ def _zncc_cost(ref: np.ndarray, ref_stats, warped: np.ndarray, win: int) -> np.n
     return (1.0 - np.clip(ncc, -1.0, 1.0)).astype(np.float32)
 
 
+MARGIN_PLANES = 2
+"""Planes either side of the best that the uniqueness test (``SweepConfig.min_margin``)
+leaves out of the runner-up: the cost curve's own slope around its minimum."""
+
+
 def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: float,
                 cfg: SweepConfig = SweepConfig()) -> tuple[np.ndarray, np.ndarray]:
     """Depth of ``ref`` from its neighbours ``sources``: (depth [H, W] float32, confidence
@@ -148,6 +157,10 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     best = np.argmin(cost, 0)
     depth, c_best = _refine(cost, best, depths)
     conf = np.clip(1.0 - c_best, 0.0, 1.0)
+    if cfg.min_margin > 0:
+        away = np.abs(np.arange(cfg.planes)[:, None, None] - best[None]) > MARGIN_PLANES
+        second = np.where(away, cost, np.inf).min(0)
+        conf[second - np.take_along_axis(cost, best[None], 0)[0] < cfg.min_margin] = 0.0
     if ref.valid is not None:
         conf[~ref.valid] *= 0.5  # the reference pixel itself is flared: matched, not trusted
     conf[seen < keep] = 0.0
