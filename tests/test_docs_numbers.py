@@ -297,6 +297,13 @@ CHECKS = [
       for m in ("psnr_flare", "psnr")],
     *[("docs/depth.md", "sample_oneshot_cpu_s15_fallback.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
+    *[("docs/depth.md", f"depth_min_margin_inputs_dev_{draw}_{mm}.json",
+       "rows/hybrid_guided_support2/psnr_flare", "{:.3f}")
+      for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12") for mm in ("0.03", "0.1")],
+    *[("docs/depth.md", f"depth_min_margin_heldout_dev_{draw}_{mm}.json", m,
+       "{:.3f}" if m == "ssim" else "{:.2f}")
+      for draw in ("sceaux", "et", "lund", "sceaux_s12", "et_s12") for mm in ("0.03", "0.1")
+      for m in ("psnr", "ssim")],
     *[("docs/depth.md", f"novel_heldout_agree_window_fresh_{draw}_{n}.json", m,
        "{:.3f}" if m == "ssim" else "{:.2f}")
       for draw in ("sceaux_s14", "et_s14", "lund_s1") for n in (1, 5) for m in ("psnr", "ssim")],
