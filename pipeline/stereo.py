@@ -160,7 +160,7 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     if cfg.min_margin > 0:
         away = np.abs(np.arange(cfg.planes)[:, None, None] - best[None]) > MARGIN_PLANES
         second = np.where(away, cost, np.inf).min(0)
-        conf[second - np.take_along_axis(cost, best[None], 0)[0] < cfg.min_margin] = 0.0
+        conf[second - c_best < cfg.min_margin] = 0.0  # c_best: the cost at the best plane
     if ref.valid is not None:
         conf[~ref.valid] *= 0.5  # the reference pixel itself is flared: matched, not trusted
     conf[seen < keep] = 0.0
