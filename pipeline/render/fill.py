@@ -50,16 +50,16 @@ class HybridFill(NamedTuple):
 
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                      reference: tuple[np.ndarray, np.ndarray] | None = None,
-                     close_holes: float = 0.0, sharp_holes: float = 0.0) -> HybridFill:
+                     novel: bool = False) -> HybridFill:
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py; where
     they do not agree, with ``photo_fallback`` more of them, the next nearest), their
     gains matched to ``reference`` = (image, valid) when given (an input view's own clean
-    pixels). ``close_holes`` > 0: holes of the agreed region up to that fraction of the
-    long side in radius are filled from the photos around them
-    (:func:`pipeline.photo_fill.close_small_holes`). ``sharp_holes`` > 0: holes up to that
-    fraction in radius (after ``close_holes``) keep a hard edge instead of eroding and
-    feathering the photos around them (:func:`pipeline.photo_fill.sharp_hole_weight`)."""
+    pixels). ``novel``: a novel frame, where the options for the small holes of the agreed
+    region apply: ``cfg.close_holes`` (filled from the photos around them,
+    :func:`pipeline.photo_fill.close_small_holes`), then ``cfg.sharp_holes`` (a hard edge
+    instead of eroding and feathering the photos around them,
+    :func:`pipeline.photo_fill.sharp_hole_weight`)."""
     from pipeline.photo_fill import (
         close_small_holes,
         photo_fill,
@@ -67,7 +67,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         support_weight,
     )
 
-    c = np.asarray(c2w, float)[:3, 3]
+    K, c2w = np.asarray(K, float), np.asarray(c2w, float)
+    c = c2w[:3, 3]
     near = sorted((s for s in job.sources if s in photos),
                   key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
@@ -77,9 +78,9 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     ref, ref_valid = reference if reference is not None else (None, None)
 
     def fill(views):
-        return photo_fill(np.asarray(K, float), np.asarray(c2w, float), size, views,
-                          reference=ref, ref_valid=ref_valid, near=job.near, far=job.far,
-                          beyond=cfg.beyond_planes, agree_window=cfg.agree_window)
+        return photo_fill(K, c2w, size, views, reference=ref, ref_valid=ref_valid,
+                          near=job.near, far=job.far, beyond=cfg.beyond_planes,
+                          agree_window=cfg.agree_window)
 
     pf = fill(srcs)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,
@@ -92,8 +93,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         take = ~ok & (wide.support >= min(cfg.min_support, len(more)))
         colour = np.where(take[..., None], wide.colour, colour)
         ok = ok | take
-    if close_holes > 0:
-        colour, ok = close_small_holes(colour, ok, close_holes * max(size))
-    weight = (sharp_hole_weight(ok, sharp_holes * max(size)) if sharp_holes > 0
-              else support_weight(ok, 0))
+    close, sharp = (cfg.close_holes, cfg.sharp_holes) if novel else (0.0, 0.0)
+    if close > 0:
+        colour, ok = close_small_holes(colour, ok, close * max(size))
+    weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
     return HybridFill(colour, weight, real, pf.warped)

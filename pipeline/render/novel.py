@@ -41,8 +41,7 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
     pc = job.camera
     H, W = pc.height, pc.width
     colour, wgt, real_depth, warped = fill_from_photos(pc.K, pc.c2w, (W, H), job, photos,
-                                                        cfg, close_holes=cfg.close_holes,
-                                                        sharp_holes=cfg.sharp_holes)
+                                                        cfg, novel=True)
     if cfg.network_vote <= 0:
         warped = None  # not kept for compose: only the vote reads the warped photos
     w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
