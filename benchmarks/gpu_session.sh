@@ -22,7 +22,8 @@
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
 #           scratch and from the file (resumes: run it again if a call ends first)
 #   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps)
-# devab and fern keep the trainings going beside them (started if their data is there) and
+# devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
+# trainings going beside them (started if their data is there) and
 # export both at END, like train; carry each folder once: what a call does not name stays.
 # Back here: `cat ptp.part_* > gnfr_paper.safetensors`, `cat fmg.part_* > fmg.safetensors`.
 set -u
@@ -102,7 +103,7 @@ train)
   exit 0 ;;
 devab)
   train_on   # the A/B shares the GPU with the trainings: its scores, not its speed, count
-  python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
+  timeout $(( $(left) - 50 )) python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
     --set init=gnfr/weights/gnfr_paper.safetensors --work /root/ab \
     --out $OUT/finetune_ab_paper_init_dev_et.json 2>&1 | tail -5
   until_end_then_export
@@ -112,7 +113,7 @@ fern)
   [ -f $PT/gnfr.safetensors ] && export_pt && cp ${PT}16.safetensors /root/fern_init.safetensors \
     && init=/root/fern_init.safetensors
   train_on
-  cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
+  timeout $(( $(left) - 50 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
     --iters $ITERS --device cuda 2>&1 | tail -15
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
   until_end_then_export
