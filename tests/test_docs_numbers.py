@@ -225,6 +225,10 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
+    *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
+       "{:.3f}" if m.endswith("ssim") else "{:.2f}")
+      for row in ("base", "init-gnfr_paper")
+      for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
     *[("docs/presets.md", "finetune_ab_dropout_dev_et.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for row in ("base", "dropout-0.1")

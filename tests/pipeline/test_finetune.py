@@ -137,14 +137,33 @@ def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     model = load_model(path)  # rebuilds from the file alone
     assert all(torch.isfinite(p).all() for p in model.parameters())
     # gnfr/weights/gnfr.md: beats scratch at equal steps on both held-out scenes -> init=auto
-    # picks it for the quick architecture (and fine-tunes it end-to-end), not for paper's
+    # picks it for the quick architecture (and fine-tunes it end-to-end); paper's has its own
     assert meta["auto_init"] is True and shipped_weights(QUICK) == path
-    assert shipped_weights(PRESETS["paper"]) is None
+    assert shipped_weights(PRESETS["paper"]) == WEIGHTS_DIR / "gnfr_paper.safetensors"
     name, cfg_q = resolve(FinetuneConfig(device="cpu"), torch.device("cpu"))
     assert name == "quick" and not cfg_q.cached_features
     _, cfg_c = resolve(FinetuneConfig(device="cpu", cached_features=True), torch.device("cpu"))
     assert cfg_c.cached_features
 
+
+
+def test_shipped_paper_weights_are_the_paper_architecture_and_its_auto_start():
+    """gnfr_paper.safetensors: fp16, under 25 MiB, the paper preset's architecture, never
+    trained on a held-out scene; init=auto picks it for paper (its A/B in gnfr/weights/gnfr.md)
+    and a paper fine-tune resolved on a GPU starts from it."""
+    from gnfr.checkpoint import read_metadata
+    from pipeline.finetune import WEIGHTS_DIR, shipped_weights
+    from pipeline.scene_splits import HELDOUT_SCENES
+
+    path = WEIGHTS_DIR / "gnfr_paper.safetensors"
+    assert path.stat().st_size < 25 * 2**20
+    cfg, meta = read_metadata(path)
+    assert cfg.architecture() == PRESETS["paper"].model.architecture()
+    assert cfg.architecture() != QUICK.model.architecture()
+    assert not set(meta["pretrain_scenes"]) & set(HELDOUT_SCENES)
+    assert meta["step"] == meta["pretrain_steps"] == 11000 and meta["auto_init"] is True
+    assert all(v.dtype == torch.float16 for v in load_file(str(path)).values())
+    assert shipped_weights(PRESETS["paper"]) == path != shipped_weights(QUICK)
 
 def test_dropout_and_random_sources_keep_the_shipped_start():
     """GNT's training details as finetune options: dropout holds no weights, so the shipped
