@@ -2,21 +2,26 @@
 # Work for a lent CUDA machine (the `device` tool), one phase per call, each ending inside
 # the tool's 10-minute limit. Run from the repo root there. Prepare here, on CPU, the data
 # it carries (.carry/ is ignored by git: `echo .carry/ >> .git/info/exclude`):
-#   python -m workflows.research.scene_pack SCENES... --out .carry/packs      # GN-FR, 16 MB
+#   python -m workflows.research.scene_pack SCENES... --out .carry/packs \
+#       --quality 85                                                          # GN-FR, ~8 MB
 #   python -m workflows.research.scene_pack --fmg-photos ../shared/data --out .carry/fmgdata \
-#       --quality 85                                                          # FMG, ~14 MB
+#       --quality 60                                                          # FMG, 7.3 MB
 #   bash benchmarks/build_dev_scenes.sh /work/dev      # SYNTH=/work/dev/et_synth (CPU, ~10 min)
 #   mkdir -p .carry/dev/et_synth; cp -r SYNTH/{photos,clean,masks_gt,cameras_gt.json,split.json} \
-#       .carry/dev/et_synth          # devab; pip download trimesh -d .carry/whl (eval-llff)
+#       .carry/dev/et_synth          # devab (5 MB); pip download trimesh -d .carry/whl (eval-llff)
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
-# devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl): the repo (30 MB with the
-# paper weights) and the carried folders must stay under 64 MiB together (check with du).
+# devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The repo (58 MB with the
+# paper weights and fmg_candidate_J) and the carried folders must stay under 64 MiB (67.1 MB)
+# together (check with du): carry .carry/packs in one call and .carry/fmgdata in the next
+# (each training loads its data when it starts and runs on while the machine stays warm;
+# the next call must come within the tool's 30 s of warmth). The sixteenth session carried
+# packs at quality 90 (9.5 MB) and the FMG photos at 85 (13 MB) beside a 33 MB repo.
 # Phases (bash benchmarks/gpu_session.sh PHASE [END_SECONDS] [ITERS]):
 #   check   gpu-marked tests and the bench (paper / quick, 504 and 1008 px), render --compile
 #   train   GN-FR `paper` pretraining and the full-width FMG training side by side on the
 #           GPU (the pretraining's small batches leave it mostly idle), started in the
 #           background if not running (from gnfr/weights/gnfr_paper.safetensors and
-#           .carry/fmg_init.safetensors when present, else scratch), until END; then both
+#           .carry/fmg_init.safetensors or fmg_candidate_J.safetensors), until END; then both
 #           exported (fp16, split under the tool's 16 MiB per file)
 #   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
@@ -24,7 +29,8 @@
 #   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps)
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
 # trainings going beside them (started if their data is there) and
-# export both at END, like train; carry each folder once: what a call does not name stays.
+# export both at END, like train. Name every folder a call reads in that call's carry: in
+# the sixteenth session a folder carried by the first call was gone in the second.
 # Back here: `cat ptp.part_* > gnfr_paper.safetensors`, `cat fmg.part_* > fmg.safetensors`.
 set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
@@ -48,9 +54,9 @@ start_pt() {
   echo "GN-FR pretraining started (init $init)"
 }
 start_fmg() {
-  local init=()
-  [ -f .carry/fmg_init.safetensors ] && [ ! -f $FM/checkpoint.safetensors ] \
-    && init=(--init .carry/fmg_init.safetensors)
+  local init=() from=gnfr/weights/fmg_candidate_J.safetensors   # 16 200 GPU steps (fmg.md)
+  [ -f .carry/fmg_init.safetensors ] && from=.carry/fmg_init.safetensors
+  [ -f $from ] && [ ! -f $FM/checkpoint.safetensors ] && init=(--init $from)
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 --night-prob 0.35 \
@@ -83,7 +89,9 @@ train_on() {   # both trainings run on in the background across calls (setsid)
 until_end_then_export() {
   while [ "$(left)" -gt 40 ]; do sleep 10; done
   tail -2 $PT.log; tail -2 $FM.log; export_pt; export_fmg
-  tail -c 4000 $FM.log > $OUT/fmg_log.txt; tail -c 4000 $PT.log > $OUT/ptp_log.txt; ls -la $OUT
+  # at most 8 files come back: the two weight files' parts (4), their logs (3) and the
+  # phase's own result (the FMG's text log is not kept: its log.jsonl holds the same)
+  tail -c 4000 $PT.log > $OUT/ptp_log.txt; ls -la $OUT
 }
 case $PHASE in
 check)

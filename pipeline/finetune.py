@@ -67,7 +67,7 @@ class FinetuneConfig:
     (default 1; docs/presets.md)."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
-    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors")
+    init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
     """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
     a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""
     seed: int = option(0, ge=0)

@@ -47,7 +47,7 @@ DEFAULT_WEIGHTS = WEIGHTS_DIR / "fmg.safetensors"
 class MaskConfig:
     """Options of the mask stage."""
 
-    weights: Path | None = None
+    weights: Path | None = option(None, exists=True)
     """FMG weights (safetensors); default: the shipped gnfr/weights/fmg.safetensors."""
     masks_dir: Path | None = option(None, flag="--masks")
     """Hand-annotated masks instead of the FMG: one image per stem, nonzero = flare."""

@@ -18,6 +18,7 @@ Rules (keyword arguments of ``option``, all optional; the default and ``flag``, 
                    field of the config: ``le="neighbours"``
   choices          the allowed strings;  suffix: with ``choices``, also any path ending so
   odd              an odd integer;       device: auto | cpu | cuda | cuda:N, present here
+  exists           a path (other than one of ``choices``) must name an existing file
   flag             the option's name when it is not ``--field-name``
   sep, metavar     how a tuple is written on the command line (``640x360``: sep "x")
 A field left at None (an optional field not given) passes; a float must always be finite.
@@ -37,7 +38,7 @@ from typing import Any
 from pipeline.errors import UserError
 
 RULES = ("flag", "ge", "gt", "le", "lt", "choices", "suffix", "odd", "device", "sep",
-         "metavar")
+         "metavar", "exists")
 DEVICES = "auto, cpu, cuda or cuda:N"
 
 
@@ -153,6 +154,9 @@ def problem(cfg: Any, f: dataclasses.Field) -> str | None:
         return None
     items = value if isinstance(value, tuple) else (value,)
     if not any(_fails(x, rules, cfg) for x in items):
+        if rules.get("exists") and isinstance(value, str | Path) \
+                and str(value) not in rules.get("choices", ()) and not Path(value).is_file():
+            return "no such file: give the path of an existing file"
         return None
     what = allowed(rules, cfg)
     if isinstance(value, tuple):

@@ -225,6 +225,11 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
+    *[("gnfr/weights/fmg.md", f"mask_downstream_dev_J{f}.json", f"rows/{i}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for f in ("", "_cuts") for i in range(6) for m in ("psnr", "psnr_flare", "ssim")],
+    *[("gnfr/weights/fmg.md", "mask_time_cpu_J.json", f"rows/{i}/median_s_per_view", "{:.3f}")
+      for i in range(2)],
     *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for row in ("base", "init-gnfr_paper")

@@ -107,6 +107,10 @@ BAD = [  # (command, extra args, the line starts with)
     ("finetune", ["--init", "weights.pt"], "error: --init weights.pt: must be one of auto, "
      "scratch or a .safetensors file"),
     ("finetune", ["--preset", "huge"], "error: --preset huge: must be one of auto, paper"),
+    ("finetune", ["--init", "missing.safetensors"], "error: --init missing.safetensors: no "
+     "such file: give the path of an existing file"),
+    ("mask", ["--weights", "missing.safetensors"], "error: --weights missing.safetensors: no "
+     "such file"),
     ("export", ["--crf", "99"], "error: --crf 99: must be between 0 and 51"),
     ("export", ["--fps", "nan"], "error: --fps nan: must be more than 0"),
 ]
@@ -211,6 +215,8 @@ ONESHOT_BAD = [
     (["--frames", "0"], "error: --frames 0: must be at least 1"),
     (["--set", "render.samples=0"], "error: --set render.samples=0: must be at least 1"),
     (["--set", "finetune.rays=0"], "error: --set finetune.rays=0: must be at least 1"),
+    (["--set", "mask.weights=missing.safetensors"], "error: --set "
+     "mask.weights=missing.safetensors: no such file: give the path of an existing file"),
 ]
 
 

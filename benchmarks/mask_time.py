@@ -1,0 +1,67 @@
+"""Time of the FMG network per view, for each weight file, on a folder of photos.
+
+    python benchmarks/mask_time.py PHOTOS --weights A.safetensors --weights B.safetensors \
+        [--work-size 512] [--repeat 2] [--out JSON]
+
+Each photo is read as the mask stage reads a decoded view (BGR) and passed through
+``pipeline.mask.fmg_probs`` alone, one view per call, after one warm-up view: the network's
+share of the mask stage (the flare rays and file writing are the same for every file). The
+thread count is the process's (set OMP_NUM_THREADS to compare like with like).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("photos", type=Path)
+    ap.add_argument("--weights", type=Path, action="append", required=True)
+    ap.add_argument("--work-size", type=int, default=512)
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    import cv2
+    import torch
+
+    from pipeline.mask import fmg_probs, load_fmg_weights
+    from pipeline.provenance import sha256, write_result
+
+    paths = sorted(p for p in a.photos.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg"))
+    if not paths:
+        raise SystemExit(f"{a.photos}: no PNG or JPEG photos in this folder")
+    images = [cv2.imread(str(p)) for p in paths]
+    rows = []
+    for w in a.weights:
+        model = load_fmg_weights(w)
+        params = sum(p.numel() for p in model.parameters())
+        fmg_probs(model, images[:1], a.work_size)  # warm-up
+        times = []
+        for _ in range(a.repeat):
+            for im in images:
+                t0 = time.perf_counter()
+                fmg_probs(model, [im], a.work_size)
+                times.append(time.perf_counter() - t0)
+        times.sort()
+        row = {"weights": str(w), "sha256": sha256(w), "parameters": params,
+               "views": len(images), "view_size": list(images[0].shape[1::-1]),
+               "work_size": a.work_size, "threads": torch.get_num_threads(),
+               "median_s_per_view": round(times[len(times) // 2], 4),
+               "mean_s_per_view": round(sum(times) / len(times), 4)}
+        rows.append(row)
+        print(f"{w.name}: {params / 1e6:.2f} M parameters, {row['median_s_per_view']:.3f} s per "
+              f"{row['view_size'][0]}x{row['view_size'][1]} view (median of {len(times)}, "
+              f"{row['threads']} thread(s))", flush=True)
+    write_result(a.out, {"photos": str(a.photos), "rows": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
