@@ -270,8 +270,9 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
     else:
         wpath = weights_path(config)
-        if not wpath.is_file():
-            load_fmg_weights(wpath)  # raises the UserError that says how to get weights
+        # a missing or foreign file fails here, before the stage touches the workspace (the
+        # masks of an earlier run stay); the UserError says how to get weights
+        load_fmg_weights(wpath)
         source, wid, inputs = "fmg", weights_id(wpath), [ws.images, wpath]
         config = replace(config, threshold=resolve_threshold(config, wpath))
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()

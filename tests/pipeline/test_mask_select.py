@@ -192,8 +192,12 @@ def test_missing_weights_is_clear_error(kermit_ws, tmp_path, capsys):
 def test_foreign_weights_is_clear_error(kermit_ws, tmp_path, capsys):
     bad = tmp_path / "bad.safetensors"
     bad.write_bytes(b"not a safetensors file")
+    before = {p: p.read_bytes() if p.is_file() else None for p in kermit_ws.root.rglob("*")}
     assert main(["mask", str(kermit_ws.root), "--weights", str(bad)]) == 2
     assert "cannot be used" in capsys.readouterr().err
+    # failed before touching the workspace: no masks folder, manifest unchanged
+    after = {p: p.read_bytes() if p.is_file() else None for p in kermit_ws.root.rglob("*")}
+    assert after == before
 
 
 def test_shipped_fmg_on_synthesized_kermit(tmp_path):
