@@ -228,6 +228,12 @@ CHECKS = [
     *[("gnfr/weights/fmg.md", f"mask_downstream_dev_J{f}.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for f in ("", "_cuts") for i in range(6) for m in ("psnr", "psnr_flare", "ssim")],
+    *[("gnfr/weights/fmg.md", f"fmg_fair_{f}.json", f"methods/gnfr/{part}/{m}",
+       "{:.4f}" if (part, m) == ("inputs", "ssim") else "{:.3f}" if m == "ssim" else "{:.2f}")
+      for f in ("sceaux_shipped", "sceaux_J", "et_shipped", "et_J", "lund_shipped", "lund_J",
+                "sceaux_J_cut0.95", "et_J_cut0.95")
+      for part, m in (("inputs", "psnr"), ("inputs", "psnr_flare"), ("inputs", "ssim"),
+                      ("heldout", "psnr"), ("heldout", "ssim"))],
     *[("gnfr/weights/fmg.md", "mask_time_cpu_J.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in range(2)],
     *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
