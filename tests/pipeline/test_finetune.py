@@ -146,11 +146,10 @@ def test_shipped_pretrained_weights_load_and_start_quick_finetuning():
     assert cfg_c.cached_features
 
 
-
 def test_shipped_paper_weights_are_the_paper_architecture_and_its_auto_start():
     """gnfr_paper.safetensors: fp16, under 25 MiB, the paper preset's architecture, never
-    trained on a held-out scene; init=auto picks it for paper (its A/B in gnfr/weights/gnfr.md)
-    and a paper fine-tune resolved on a GPU starts from it."""
+    trained on a held-out scene, at its recorded step; init=auto picks it for the paper
+    architecture and not for quick's (its A/B in gnfr/weights/gnfr.md)."""
     from gnfr.checkpoint import read_metadata
     from pipeline.finetune import WEIGHTS_DIR, shipped_weights
     from pipeline.scene_splits import HELDOUT_SCENES
