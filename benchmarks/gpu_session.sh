@@ -48,6 +48,7 @@ start_pt() {
   local init=scratch
   [ -f gnfr/weights/gnfr_paper.safetensors ] && init=gnfr/weights/gnfr_paper.safetensors
   [ -f $PT/train_state.pt ] && init=scratch   # the run folder resumes by itself
+  ls .carry/packs > $PT.scenes   # the scenes it trains on, for the export's metadata
   setsid nohup python3 -m workflows.cli pretrain .carry/packs --out $PT --preset pretrain \
     --device $DEV --seed 1 --ckpt-every ${CKPT:-500} --iters 500000 --init $init \
     >> $PT.log 2>&1 < /dev/null &
@@ -69,7 +70,7 @@ export_pt() {
   [ -f $PT/gnfr.safetensors ] || { echo "no GN-FR checkpoint yet"; return; }
   python3 -c "from pathlib import Path; from workflows.research.pretrain import export_fp16; \
 export_fp16(Path('$PT/gnfr.safetensors'), Path('${PT}16.safetensors'), \
-{'pretrain_scenes': sorted(p.name for p in Path('.carry/packs').iterdir()), \
+{'pretrain_scenes': sorted(Path('$PT.scenes').read_text().split()), \
  'synthetic_flare': True, 'auto_init': False})" && \
     split -b 15000000 ${PT}16.safetensors $OUT/ptp.part_
   cp $PT/metrics.jsonl $OUT/ptp_metrics.jsonl 2>/dev/null

@@ -194,11 +194,11 @@ def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
             yield group[i:i + n]
 
 
-def write_fmg_masks(config: MaskConfig, ws: Workspace, stems: list[str]) -> None:
-    """Run the FMG on the views in ``stems`` and write their masks."""
+def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str]) -> None:
+    """Run the FMG ``model`` (``load_fmg_weights``) on the views in ``stems`` and write
+    their masks."""
     import torch
 
-    model = load_fmg_weights(weights_path(config), resolve_device(config.device))
     sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
     batches = list(_batches(stems, sizes, config.batch))
     rule = ray_config(config)
@@ -268,11 +268,12 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
         source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
+        model = None
     else:
         wpath = weights_path(config)
         # a missing or foreign file fails here, before the stage touches the workspace (the
         # masks of an earlier run stay); the UserError says how to get weights
-        load_fmg_weights(wpath)
+        model = load_fmg_weights(wpath, resolve_device(config.device))
         source, wid, inputs = "fmg", weights_id(wpath), [ws.images, wpath]
         config = replace(config, threshold=resolve_threshold(config, wpath))
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
@@ -290,7 +291,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if todo and config.masks_dir is not None:
         write_given_masks(Path(config.masks_dir), ws, todo)
     elif todo:
-        write_fmg_masks(config, ws, todo)
+        write_fmg_masks(model, config, ws, todo)
     return _summarise(config, ws, stage_run, stems, source, wid)
 
 
