@@ -247,3 +247,32 @@ def test_finetune_ab_names_its_second_arm_by_the_values():
     sets = bench.parse_sets(["lr_scale=0.5", "init=gnfr/weights/gnfr_paper.safetensors"])
     assert sets == {"lr_scale": 0.5, "init": "gnfr/weights/gnfr_paper.safetensors"}
     assert [bench.arm_label(v) for v in sets.values()] == ["0.5", "gnfr_paper"]
+
+
+def test_mask_shape_scores_light_outside_the_mask():
+    """benchmarks/mask_shape.py: a mask equal to the true square scores recall, precision
+    and IoU 1 and leaves outside it exactly the light added on the square's 1-pixel rim;
+    grown by one pixel it takes the rim in (no light left) at a lower precision."""
+    import importlib.util
+
+    import numpy as np
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_shape", Path(__file__).parents[2] / "benchmarks" / "mask_shape.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    clean = np.full((20, 20, 3), 50, np.uint8)
+    true = np.zeros((20, 20), bool)
+    true[5:15, 5:15] = True
+    rim = np.zeros_like(true)
+    rim[4:16, 4:16] = True
+    rim &= ~true
+    flared = clean.copy()
+    flared[true] += 30  # 100 px x 3 channels x 30
+    flared[rim] += 10  # 44 px x 3 channels x 10
+    res = bench.shape_scores([(true.copy(), true, flared, clean)], [0, 1])
+    assert res["0"]["iou"] == res["0"]["recall"] == res["0"]["precision"] == 1.0
+    assert res["0"]["light_left"] == pytest.approx(44 * 10 / (100 * 30 + 44 * 10))
+    assert res["1"]["light_left"] == 0.0 and res["1"]["recall"] == 1.0
+    assert res["1"]["precision"] == pytest.approx(100 / 144)
+    assert res["1"]["marked_over_true"] == pytest.approx(1.44)
