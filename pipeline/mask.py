@@ -31,6 +31,7 @@ from pipeline.workspace import Workspace, atomic_imwrite
 from pipeline.ws_files import (
     FlareEntry,
     FlareFile,
+    enclosed_holes,
     flare_fraction,
     read_mask,
     read_view_image,
@@ -72,6 +73,10 @@ class MaskConfig:
     ray_opposite: float | None = option(None, ge=0, le=90)
     """Degrees within which two rays leaving a light in opposite directions (a streak
     through it) also count as enough (default: the rule's, 0 = off)."""
+    fill_holes: bool = False
+    """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
+    flare, which the full-width FMG leaves out as its training masks do); off by default
+    (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made ``--masks`` are kept as given."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -207,9 +212,9 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str]) 
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
             for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
                                  strict=True):
-                write_mask(ws, s, flare_marks(model, img, config.threshold, config.work_size,
-                                              config.rays, config.refine, probs=p,
-                                              ray_cfg=rule))
+                m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
+                                config.refine, probs=p, ray_cfg=rule)
+                write_mask(ws, s, m | enclosed_holes(m) if config.fill_holes else m)
 
 
 # --------------------------------------------------------------------------- given masks

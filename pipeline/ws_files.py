@@ -125,6 +125,18 @@ def flare_fraction(mask: np.ndarray) -> float:
     return float(np.count_nonzero(mask)) / float(mask.size)
 
 
+def enclosed_holes(mask: np.ndarray) -> np.ndarray:
+    """[H, W] bool: unmasked pixels not connected to the image border through unmasked
+    pixels (4-connectivity), i.e. holes the mask surrounds (the light at the centre of its
+    flare, which the synth's true masks and a tight FMG mask leave unmarked)."""
+    import cv2
+
+    free = (~mask.astype(bool)).astype(np.uint8)
+    _, labels = cv2.connectedComponents(free, connectivity=4)
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    return (labels > 0) & ~np.isin(labels, border)
+
+
 # --------------------------------------------------------------------------- depth
 def read_depth(ws: Workspace, stem: str, path: Path | None = None
                ) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,13 @@ from pipeline.render.flare_layer import apply_flare_layer
 from pipeline.render.frames import to_u8
 from pipeline.render.jobs import FrameJob, Prepared
 from pipeline.workspace import Workspace
-from pipeline.ws_files import MASK_THRESHOLD, read_decoded, read_mask, read_view_image
+from pipeline.ws_files import (
+    MASK_THRESHOLD,
+    enclosed_holes,
+    read_decoded,
+    read_mask,
+    read_view_image,
+)
 
 
 def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
@@ -228,14 +234,3 @@ def blend_weights(mask: np.ndarray, dilate: float, feather: float) -> np.ndarray
     if holes.any():
         weight[holes] = 0.0
     return weight
-
-
-def enclosed_holes(mask: np.ndarray) -> np.ndarray:
-    """[H, W] bool: unmasked pixels not connected to the image border through unmasked
-    pixels (4-connectivity), i.e. holes the mask surrounds."""
-    import cv2
-
-    free = (~mask.astype(bool)).astype(np.uint8)
-    n, labels = cv2.connectedComponents(free, connectivity=4)
-    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    return (labels > 0) & ~np.isin(labels, border)

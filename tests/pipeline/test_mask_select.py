@@ -282,3 +282,27 @@ def test_ray_config_of_the_mask_stage():
     assert ray_config(MaskConfig()) == RayConfig()
     assert ray_config(MaskConfig(ray_min=1, ray_opposite=8.0)) == RayConfig(min_rays=1,
                                                                            opposite=8.0)
+
+
+def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
+    """`mask --fill-holes`: the unmarked core a ring of flare encloses is marked too; the
+    ring alone otherwise; nothing outside the ring changes either way."""
+    from pipeline import mask as M
+
+    ws = kermit_ws
+    stems, (h, w) = _stems_and_size(ws)
+    yy, xx = np.mgrid[:h, :w]
+    r = np.hypot(yy - h / 2, xx - w / 2)
+    ring = (r > 10) & (r < 25)
+
+    def fake_probs(model, imgs, work_size):
+        return [ring.astype(np.float32) for _ in imgs]
+
+    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    got = {}
+    for fill in (False, True):
+        cfg = M.MaskConfig(threshold=0.5, rays=False, fill_holes=fill)
+        M.write_fmg_masks(None, cfg, ws, stems[:1])
+        got[fill] = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    assert (got[False] == ring).all()
+    assert (got[True] == (r < 25)).all()
