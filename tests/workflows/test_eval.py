@@ -276,3 +276,28 @@ def test_mask_shape_scores_light_outside_the_mask():
     assert res["1"]["light_left"] == 0.0 and res["1"]["recall"] == 1.0
     assert res["1"]["precision"] == pytest.approx(100 / 144)
     assert res["1"]["marked_over_true"] == pytest.approx(1.44)
+
+
+def test_score_workspace_matches_eval(scene, tmp_path):
+    """benchmarks/score_workspace.py scores an evaluated variant's de-flared inputs and
+    held-out renders to exactly the numbers eval wrote in results.json."""
+    import importlib.util
+
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
+                 "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
+                 "--device", "cpu"]) == 0
+    spec = importlib.util.spec_from_file_location(
+        "score_workspace", Path(__file__).parents[2] / "benchmarks" / "score_workspace.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    var = out / "variants" / "gnfr"
+    res = tmp_path / "score.json"
+    assert bench.main([str(scene), str(var), "--heldout",
+                       str(var / "renders" / "heldout_cameras"), "--out", str(res)]) == 0
+    got = json.loads(res.read_text())
+    want = json.loads((out / "eval" / "results.json").read_text())["methods"]["gnfr"]
+    for part, keys in (("inputs", ("psnr", "psnr_flare", "ssim")), ("heldout", ("psnr", "ssim"))):
+        for k in keys:
+            assert got[part][k] == pytest.approx(want[part][k], abs=1e-9)
+    assert got["stages"]["finetune"]["train"]["iters"] == 3

@@ -1,0 +1,54 @@
+"""Score one workspace's de-flared inputs (and held-out renders) on a synth scene, as `eval` does.
+
+    python benchmarks/score_workspace.py SYNTH WS [--heldout RENDER_DIR] [--out JSON]
+
+For workspaces built by hand from an evaluated variant (a stage rerun with another option,
+e.g. `deflare-scene mask WS --fill-holes` then select, finetune and render), scored exactly
+as `deflare-scene eval` scores its methods: PSNR / SSIM of WS/deflared over SYNTH's flared
+training views and PSNR inside the true flare (workflows.research.eval.scoring.score_views),
+and with ``--heldout`` the renders of SYNTH's held-out cameras in RENDER_DIR (e.g.
+WS/renders/heldout_cameras after `render WS --path EVAL_WS/eval/heldout_cameras.json`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene", type=Path, help="a `deflare-scene synth` folder")
+    ap.add_argument("workspace", type=Path, help="a workspace with WS/deflared")
+    ap.add_argument("--heldout", type=Path, default=None,
+                    help="folder of the held-out cameras' renders")
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    from pipeline.provenance import write_result
+    from pipeline.workspace import Workspace
+    from workflows.research.eval.scene import flared_views, load_synth
+    from workflows.research.eval.scoring import score_views
+
+    scene = load_synth(a.scene)
+    ws = Workspace(a.workspace)
+    stems = flared_views(scene) or scene.train
+    rec = {"scene": str(a.scene), "workspace": str(a.workspace),
+           "stages": {k: v.get("params") for k, v in ws.manifest()["stages"].items()},
+           "inputs": score_views(scene, ws.deflared, stems, with_region=True)}
+    line = (f"inputs PSNR {rec['inputs']['psnr']:.2f}, flare region "
+            f"{rec['inputs']['psnr_flare']:.2f}, SSIM {rec['inputs']['ssim']:.4f}")
+    if a.heldout is not None:
+        rec["heldout"] = score_views(scene, a.heldout, scene.heldout, with_region=False)
+        line += (f"; held-out PSNR {rec['heldout']['psnr']:.2f}, "
+                 f"SSIM {rec['heldout']['ssim']:.4f}")
+    print(f"{a.workspace}: {line}")
+    write_result(a.out, rec)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
