@@ -41,8 +41,10 @@ class RenderConfig:
     """Samples per ray (default: the checkpoint's training value, else 64 CUDA / 32 CPU)."""
     blend: str = option("mask", choices=("mask", "none"))
     """inputs: ``mask`` renders and replaces only the flare region; ``none`` the full image."""
-    dilate: float = option(0.01, ge=0)
-    """inputs: the flare mask is grown by this fraction of the image's long side."""
+    dilate: float = option(0.0, ge=0)
+    """inputs: the flare mask is grown by this fraction of the image's long side (at least
+    one pixel). 0 since the seventeenth session (was 0.01: the grown ring traded clean
+    photo for fill; docs/depth.md, "How far the fill reaches past the mask")."""
     feather: float = option(0.01, ge=0)
     """inputs: width of the soft blend edge as a fraction of the image's long side."""
     color_match: bool = True

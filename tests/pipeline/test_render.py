@@ -96,7 +96,7 @@ def test_inputs_replace_only_the_flare_region(rws, counters):
         from pipeline.render import decoded_camera
 
         alpha = blend_weights(flare_mask_in(decoded_camera(f, f.width, f.height), f, rws),
-                              0.01, 0.01)
+                              RenderConfig().dilate, RenderConfig().feather)
         assert rays.rays == int((alpha > 0.5 / 255).sum())  # only the flare region rendered
         assert alpha[BOX].min() == 1.0
         assert np.array_equal(got[alpha == 0], orig[alpha == 0])
@@ -444,7 +444,7 @@ def test_hybrid_inputs_fill_the_flare_region_from_the_photos(hws, counters):
     net = cv2.imread(str(hws.deflared / f"{HYBRID_FLARED}.png")).astype(int)
     net_err = np.abs(net[HYBRID_BOX] - orig[HYBRID_BOX]).mean()
     alpha = blend_weights(flare_mask_in(decoded_camera(f, f.width, f.height), f, hws),
-                          0.01, 0.01)
+                          RenderConfig().dilate, RenderConfig().feather)
     assert rays.rays - hybrid_rays == int((alpha > 0.5 / 255).sum())  # network: every pixel
     assert hybrid_rays < rays.rays - hybrid_rays
     assert hybrid_err < 0.5 * net_err, (hybrid_err, net_err)
