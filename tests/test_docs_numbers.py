@@ -36,6 +36,20 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("gnfr/weights/fmg.md", f"fmg_mask_shape_{s}.json", f"rows/{i}/scores/0/{m}", "{:.3f}")
+      for s in ("sceaux", "et", "lund") for i in (0, 1) for m in ("recall", "light_left")],
+    *[("gnfr/weights/fmg.md", f"fmg_swap_{s}_{arm}_model.json", f"rows/{i}/psnr_flare", "{:.2f}")
+      for s in ("sceaux", "et", "lund") for arm in ("shipped", "J") for i in (0, 1)],
+    *[("gnfr/weights/fmg.md", f"fmg_fair_{s}_{arm}_s1.json", "methods/gnfr/inputs/psnr_flare",
+       "{:.2f}") for s in ("sceaux", "et", "lund") for arm in ("shipped", "J")],
+    *[("docs/eval.md", f"fmg_fair_{s}_{arm}{sd}.json", "methods/gnfr/inputs/psnr_flare",
+       "{:.2f}") for s in ("et", "lund") for arm in ("shipped", "J") for sd in ("", "_s1")],
+    *[("gnfr/weights/fmg.md", f"fmg_fillholes_{s}_J_s{sd}.json", "inputs/psnr_flare", "{:.2f}")
+      for s in ("sceaux", "et", "lund") for sd in (0, 1)],
+    *[("docs/depth.md", f"fill_dilate_dev_{s}_s{sd}.json", f"rows/hybrid_dilate_{d}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for s in ("sceaux", "et", "lund") for sd in (0, 1) for d in ("0.01", "0.005", "0.0")
+      for m in ("psnr", "psnr_flare", "ssim")],
     *[("docs/eval.md", "fern_llff_quick_cpu_w42250_random_sources.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
