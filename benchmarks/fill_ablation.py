@@ -39,6 +39,7 @@ SETTINGS = {
        for v in (0, 0.0005, 0.002)},  # 0: every island (the inputs' default before f408c72)
     **{f"hybrid_photo_fallback_{n}": {"fill": "hybrid", "photo_fallback": n} for n in (0, 2)},
     **{f"hybrid_dilate_{v}": {"fill": "hybrid", "dilate": v} for v in (0.0, 0.005, 0.01)},
+    **{f"hybrid_feather_{v}": {"fill": "hybrid", "feather": v} for v in (0.005, 0.01, 0.02)},
     **{f"hybrid_agree_window_{n}": {"fill": "hybrid", "agree_window": n} for n in (1, 3, 5)},
 }
 
