@@ -36,6 +36,12 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("docs/depth.md", f"fill_feather_dev_{s}_s{sd}.json", f"rows/hybrid_feather_{d}/{m}",
+       "{:.4f}" if m == "ssim" else "{:.2f}")
+      for s in ("sceaux", "et", "lund") for sd in (0, 1) for d in ("0.01", "0.005", "0.02")
+      for m in ("psnr", "psnr_flare", "ssim")],
+    *[("docs/depth.md", f"sample_oneshot_cpu_s17_dilate{d}.json", f"mean/{m}", "{:.2f}")
+      for d in ("0", "001") for m in ("psnr", "psnr_flare")],
     *[("gnfr/weights/fmg.md", f"fmg_mask_shape_{s}.json", f"rows/{i}/scores/0/{m}", "{:.3f}")
       for s in ("sceaux", "et", "lund") for i in (0, 1) for m in ("recall", "light_left")],
     *[("gnfr/weights/fmg.md", f"fmg_swap_{s}_{arm}_model.json", f"rows/{i}/psnr_flare", "{:.2f}")
@@ -126,7 +132,7 @@ CHECKS = [
     *[("README.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
        "{:.2f}") for scene in ("sceaux", "et")
       for row in ("network", "hybrid_guided_support2")],
-    *[("README.md", "sample_oneshot_cpu_s14_f408c72.json", f"mean/{m}", "{:.2f}")
+    *[("README.md", "sample_oneshot_cpu_s17_dilate0.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("docs/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
