@@ -35,11 +35,18 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
     return (cv2.dilate(truth.astype(np.uint8), disk) > 0) & ~truth
 
 
-def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512) -> dict:
+def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
+                max_size: int | None = None, fill_holes: bool = False) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
-    the latter split into a band around the flare (``marked_near``) and beyond it."""
+    the latter split into a band around the flare (``marked_near``) and beyond it. With
+    ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
+    as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
+    them."""
+    import cv2
+
     from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
+    from pipeline.ws_files import enclosed_holes
 
     inter = union = outside = near = pixels = truth = views = 0
     for photo in list_photos(synth / "photos"):
@@ -48,7 +55,14 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             continue
         img = read_image(photo, bgr=True)
         gt = read_gray(gt_path) > 127
+        if max_size and max(img.shape[:2]) > max_size:
+            s = max_size / max(img.shape[:2])
+            wh = (round(img.shape[1] * s), round(img.shape[0] * s))
+            img = cv2.resize(img, wh, interpolation=cv2.INTER_AREA)
+            gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
         m = flare_marks(model, img, cut, work_size, rays)
+        if fill_holes:
+            m |= enclosed_holes(m)
         inter += int((m & gt).sum())
         union += int((m | gt).sum())
         outside += int((m & ~gt).sum())
@@ -65,6 +79,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", type=Path, nargs="+")
     ap.add_argument("--weights", type=Path, action="append", required=True)
+    ap.add_argument("--max-size", type=int, default=None,
+                    help="shrink photos and true masks to this long side first")
+    ap.add_argument("--fill-holes", action="store_true", help="as `mask --fill-holes`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
@@ -77,7 +94,9 @@ def main(argv: list[str] | None = None) -> int:
         for rays in (False, True):
             for scene in a.scenes:
                 r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
-                     "scene": scene.name, **score_scene(model, cut, scene, rays)}
+                     "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
+                     **score_scene(model, cut, scene, rays, max_size=a.max_size,
+                                   fill_holes=a.fill_holes)}
                 rows.append(r)
                 print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
                       f"{r['flare_iou']:.3f}, marked outside the flare "
