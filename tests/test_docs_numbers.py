@@ -36,6 +36,8 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_s17_J_fillholes.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr", "psnr_flare")],
     *[("gnfr/weights/fmg.md", "mask_dev_scenes_200px_fillholes.json", f"rows/{i}/flare_iou",
        "{:.3f}") for i in (3, 4, 5, 9, 10, 11)],
     *[("docs/depth.md", f"fill_feather_dev_{s}_s{sd}.json", f"rows/hybrid_feather_{d}/{m}",
