@@ -75,8 +75,10 @@ class MaskConfig:
     through it) also count as enough (default: the rule's, 0 = off)."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
-    flare, which the full-width FMG leaves out as its training masks do); off by default
-    (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made ``--masks`` are kept as given."""
+    flare, which the full-width candidate ``fmg_candidate_J.safetensors`` leaves out as its
+    training masks do; use it with that file); off by default, the shipped file's masks
+    have almost no holes (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made
+    ``--masks`` are kept as given."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
