@@ -301,3 +301,40 @@ def test_score_workspace_matches_eval(scene, tmp_path):
         for k in keys:
             assert got[part][k] == pytest.approx(want[part][k], abs=1e-9)
     assert got["stages"]["finetune"]["train"]["iters"] == 3
+
+
+def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
+    """benchmarks/mask_dev_scenes.py: ``fill_holes`` scores the masks as `mask --fill-holes`
+    writes them (a ring around an unmarked core then matches a true disc exactly), and
+    ``max_size`` shrinks the photo and its true mask before the FMG sees them."""
+    import importlib.util
+
+    import numpy as np
+
+    from pipeline import mask as M
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_dev_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_dev_scenes.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    (tmp_path / "photos").mkdir()
+    (tmp_path / "masks_gt").mkdir()
+    yy, xx = np.mgrid[:200, :300]
+    r = np.hypot(yy - 100, xx - 150)
+    cv2.imwrite(str(tmp_path / "photos" / "v.png"), np.full((200, 300, 3), 90, np.uint8))
+    cv2.imwrite(str(tmp_path / "masks_gt" / "v.png"), np.where(r < 40, 255, 0).astype(np.uint8))
+    seen = []
+
+    def fake_marks(model, img, cut, work_size, rays):
+        seen.append(img.shape[:2])
+        h, w = img.shape[:2]
+        y, x = np.mgrid[:h, :w]
+        rr = np.hypot(y - h / 2, x - w / 2) * 300 / w
+        return (rr > 10) & (rr < 40)
+
+    monkeypatch.setattr(M, "flare_marks", fake_marks)
+    ring = bench.score_scene(None, 0.5, tmp_path, rays=False)
+    filled = bench.score_scene(None, 0.5, tmp_path, rays=False, fill_holes=True)
+    small = bench.score_scene(None, 0.5, tmp_path, rays=False, max_size=150, fill_holes=True)
+    assert ring["flare_iou"] < 0.95 and filled["flare_iou"] > 0.99
+    assert small["flare_iou"] > 0.9 and seen == [(200, 300), (200, 300), (100, 150)]
