@@ -44,6 +44,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     them."""
     import cv2
 
+    from pipeline.decode import resize_area, target_size
     from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
     from pipeline.ws_files import enclosed_holes
@@ -55,10 +56,9 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             continue
         img = read_image(photo, bgr=True)
         gt = read_gray(gt_path) > 127
-        if max_size and max(img.shape[:2]) > max_size:
-            s = max_size / max(img.shape[:2])
-            wh = (round(img.shape[1] * s), round(img.shape[0] * s))
-            img = cv2.resize(img, wh, interpolation=cv2.INTER_AREA)
+        if max_size:
+            img = resize_area(img, max_size)
+            wh = target_size(gt.shape[1], gt.shape[0], max_size)
             gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
         m = flare_marks(model, img, cut, work_size, rays)
         if fill_holes:

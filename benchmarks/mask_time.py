@@ -28,16 +28,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    import cv2
     import torch
 
+    from pipeline.images import list_photos, read_image
     from pipeline.mask import fmg_probs, load_fmg_weights
     from pipeline.provenance import sha256, write_result
 
-    paths = sorted(p for p in a.photos.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg"))
+    paths = list_photos(a.photos)
     if not paths:
-        raise SystemExit(f"{a.photos}: no PNG or JPEG photos in this folder")
-    images = [cv2.imread(str(p)) for p in paths]
+        raise SystemExit(f"{a.photos}: no photos in this folder")
+    images = [read_image(p, bgr=True) for p in paths]
     rows = []
     for w in a.weights:
         model = load_fmg_weights(w)
