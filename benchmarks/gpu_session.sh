@@ -16,7 +16,12 @@
 # (each training loads its data when it starts and runs on while the machine stays warm;
 # the next call must come within the tool's 30 s of warmth). The sixteenth session carried
 # packs at quality 90 (9.5 MB) and the FMG photos at 85 (13 MB) beside a 33 MB repo.
+# Since the eighteenth session a session's device time is 15 minutes in all (a start costs 1-2
+# of them): plan ONE call of `short` (the repo is 59 MB, so only one of .carry/fmgdata at
+# --quality 60 or .carry/packs at a lower quality fits beside it under 67.1 MB).
 # Phases (bash benchmarks/gpu_session.sh PHASE [END_SECONDS] [ITERS]):
+#   short   the trainings whose data is carried, started first, then the gpu-marked tests,
+#           then the trainings go on until END and are exported (one call, e.g. END 540)
 #   check   gpu-marked tests and the bench (paper / quick, 504 and 1008 px), render --compile
 #   train   GN-FR `paper` pretraining and the full-width FMG training side by side on the
 #           GPU (the pretraining's small batches leave it mostly idle), started in the
@@ -110,6 +115,12 @@ train)
   train_on
   until_end_then_export
   exit 0 ;;
+short)
+  train_on
+  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA 2>&1 \
+    | tee $OUT/gpu_tests.log | tail -6
+  until_end_then_export
+  exit 0 ;;
 devab)
   train_on   # the A/B shares the GPU with the trainings: its scores, not its speed, count
   timeout $(( $(left) - 50 )) python3 benchmarks/finetune_ab.py .carry/dev/et_synth --preset paper --iters $ITERS \
@@ -127,5 +138,5 @@ fern)
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
   until_end_then_export
   exit 0 ;;
-*) echo "unknown phase $PHASE (check, train, devab, fern)"; exit 2 ;;
+*) echo "unknown phase $PHASE (short, check, train, devab, fern)"; exit 2 ;;
 esac
