@@ -338,3 +338,34 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     small = bench.score_scene(None, 0.5, tmp_path, rays=False, max_size=150, fill_holes=True)
     assert ring["flare_iou"] < 0.95 and filled["flare_iou"] > 0.99
     assert small["flare_iou"] > 0.9 and seen == [(200, 300), (200, 300), (100, 150)]
+
+
+def test_floor_scores_measures_excess_and_gain(tmp_path):
+    """floor_scores (the sample floor's measures, shared with benchmarks/oneshot_floor.py):
+    a flared photo 30 levels above the truth inside the true flare, a de-flared one 3 above,
+    gives a 20 dB gain and a tenth of the excess left; views with too little true flare and
+    files with no de-flared photo are left out; the truth is resized to the output's size."""
+    import numpy as np
+
+    from workflows.research.eval.scoring import floor_scores
+
+    dirs = {k: tmp_path / k for k in ("photos", "deflared", "decoded", "clean", "masks_gt")}
+    for d in dirs.values():
+        d.mkdir()
+    truth = np.full((80, 120, 3), 100, np.uint8)
+    m = np.zeros((80, 120), np.uint8)
+    m[20:60, 30:90] = 255
+    for stem, mask in (("a", m), ("b", np.zeros_like(m))):
+        (dirs["photos"] / f"{stem}.jpg").write_bytes(b"")
+        cv2.imwrite(str(dirs["clean"] / f"{stem}.png"), cv2.resize(truth, (240, 160)))
+        cv2.imwrite(str(dirs["masks_gt"] / f"{stem}.png"),
+                    cv2.resize(mask, (240, 160), interpolation=cv2.INTER_NEAREST))
+        cv2.imwrite(str(dirs["decoded"] / f"{stem}.png"), truth + (mask[..., None] > 0) * 30)
+        cv2.imwrite(str(dirs["deflared"] / f"{stem}.png"), truth + (mask[..., None] > 0) * 3)
+    (dirs["photos"] / "README.md").write_text("not a photo")
+    got = floor_scores(dirs["photos"], dirs["deflared"], dirs["decoded"], dirs["clean"],
+                       dirs["masks_gt"])
+    assert list(got["views"]) == ["a"]
+    assert got["mean_gain"] == pytest.approx(20.0) and got["min_gain"] == pytest.approx(20.0)
+    assert got["excess_in"] == pytest.approx(30.0) and got["excess_out"] == pytest.approx(3.0)
+    assert got["excess_ratio"] == pytest.approx(0.1)

@@ -84,3 +84,43 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
         results["methods"][name] = row
     return results
 
+
+
+def floor_scores(photos: Path, deflared: Path, flared: Path, clean: Path, masks_gt: Path,
+                 min_pixels: int = 50) -> dict:
+    """The product floor's measures (tests/workflows/test_oneshot.py, on the sample): per view
+    with at least ``min_pixels`` true flare pixels at the de-flared size, the flare-region
+    PSNR gain of ``deflared/<stem>.png`` over ``flared/<stem>.png`` (the decoded photo) and
+    the mean excess (0-255) of each over the truth there. ``clean`` and ``masks_gt`` hold the
+    truth at any size (area- and nearest-resized to the de-flared photo's)."""
+    import cv2
+
+    def region_psnr(img: np.ndarray, truth: np.ndarray, m: np.ndarray) -> float:
+        err = ((img.astype(np.float64) - truth.astype(np.float64)) / 255.0) ** 2
+        return float(-10 * np.log10(err[m].mean()))
+
+    views = {}
+    for p in sorted(photos.iterdir()):
+        out_path = deflared / f"{p.stem}.png"
+        if not out_path.exists():
+            continue
+        out = cv2.imread(str(out_path))
+        h, w = out.shape[:2]
+        fl = cv2.imread(str(flared / f"{p.stem}.png"))
+        truth = cv2.resize(cv2.imread(str(clean / f"{p.stem}.png")), (w, h),
+                           interpolation=cv2.INTER_AREA)
+        m = cv2.resize(cv2.imread(str(masks_gt / f"{p.stem}.png"), cv2.IMREAD_GRAYSCALE),
+                       (w, h), interpolation=cv2.INTER_NEAREST) > 127
+        if m.sum() < min_pixels:
+            continue
+        views[p.stem] = {"gain": region_psnr(out, truth, m) - region_psnr(fl, truth, m),
+                         "excess_out": float((out.astype(float) - truth)[m].mean()),
+                         "excess_in": float((fl.astype(float) - truth)[m].mean())}
+    if not views:
+        return {"views": {}}
+    col = {k: [v[k] for v in views.values()] for k in ("gain", "excess_out", "excess_in")}
+    return {"views": views, "mean_gain": float(np.mean(col["gain"])),
+            "min_gain": float(min(col["gain"])),
+            "excess_out": float(np.mean(col["excess_out"])),
+            "excess_in": float(np.mean(col["excess_in"])),
+            "excess_ratio": float(np.mean(col["excess_out"]) / np.mean(col["excess_in"]))}
