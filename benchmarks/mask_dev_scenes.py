@@ -36,12 +36,12 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
-                max_size: int | None = None, fill_holes: bool = False) -> dict:
+                max_size: int | None = None, fill_holes: bool = False, confirm=None) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
-    them."""
+    them; with ``confirm`` = (second model, its cut) as `mask --confirm` writes them."""
     import cv2
 
     from pipeline.decode import resize_area, target_size
@@ -60,7 +60,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             img = resize_area(img, max_size)
             wh = target_size(gt.shape[1], gt.shape[0], max_size)
             gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-        m = flare_marks(model, img, cut, work_size, rays)
+        m = (flare_marks(model, img, cut, work_size, rays) if confirm is None else
+             flare_marks(model, img, cut, work_size, rays, confirm=confirm))
         if fill_holes:
             m |= enclosed_holes(m)
         inter += int((m & gt).sum())
@@ -82,11 +83,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-size", type=int, default=None,
                     help="shrink photos and true masks to this long side first")
     ap.add_argument("--fill-holes", action="store_true", help="as `mask --fill-holes`")
+    ap.add_argument("--confirm", type=Path, default=None,
+                    help="as `mask --confirm --confirm-weights W`, for every --weights")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result
 
+    confirm = None
+    if a.confirm is not None:
+        confirm = (load_fmg_weights(a.confirm), resolve_threshold(MaskConfig(), a.confirm))
     rows = []
     for w in a.weights:
         model = load_fmg_weights(w)
@@ -95,8 +101,9 @@ def main(argv: list[str] | None = None) -> int:
             for scene in a.scenes:
                 r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                      "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
+                     "confirm": None if confirm is None else str(a.confirm),
                      **score_scene(model, cut, scene, rays, max_size=a.max_size,
-                                   fill_holes=a.fill_holes)}
+                                   fill_holes=a.fill_holes, confirm=confirm)}
                 rows.append(r)
                 print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
                       f"{r['flare_iou']:.3f}, marked outside the flare "

@@ -42,6 +42,8 @@ from pipeline.ws_files import (
 
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "fmg.safetensors"
 """The FMG weights shipped with the package (see gnfr/weights/fmg.md)."""
+DEFAULT_CONFIRM_WEIGHTS = WEIGHTS_DIR / "fmg_candidate_J.safetensors"
+"""The second network of ``--confirm``: the full-width FMG (gnfr/weights/fmg.md, J)."""
 
 
 @dataclass
@@ -79,6 +81,17 @@ class MaskConfig:
     training masks do; use it with that file); off by default, the shipped file's masks
     have almost no holes (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made
     ``--masks`` are kept as given."""
+    confirm: bool = False
+    """Two networks confirm each other, region by region: keep a connected region of the
+    FMG's mask where a second network (``confirm_weights``, at its own calibrated cut) marks
+    at least one pixel, and a region of the second's where the FMG marks one; then add the
+    flare rays and mark what the result encloses (``fill_holes``). A flare both find keeps
+    the extent of both; a mark only one makes (most false marks on clean photos, but also a
+    ghost only one finds) is dropped (``confirmed_regions``; gnfr/weights/fmg.md,
+    "Eighteenth session")."""
+    confirm_weights: Path | None = option(None, exists=True)
+    """The second network of ``confirm``; default the full-width FMG,
+    gnfr/weights/fmg_candidate_J.safetensors."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -170,15 +183,40 @@ def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray
 
 def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
-                probs: np.ndarray | None = None, ray_cfg=None) -> np.ndarray:
+                probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
+                confirm_probs: np.ndarray | None = None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
-    ``rays``."""
-    p = fmg_probs(model, [image_bgr], work_size)[0] if probs is None else probs
-    if refine:
-        p = refine_probs(image_bgr, p)
-    marks = p > cut
-    return marks | ray_marks(image_bgr, work_size, ray_cfg) if rays else marks
+    ``rays``. With ``confirm`` = (second model, its cut) the two networks' marks confirm
+    each other's regions (``confirmed_regions``; the second's probabilities
+    ``confirm_probs`` if already computed), then the rays, then the enclosed holes filled
+    (``MaskConfig.confirm``)."""
+
+    def cut_probs(m, p, c):
+        p = fmg_probs(m, [image_bgr], work_size)[0] if p is None else p
+        return (refine_probs(image_bgr, p) if refine else p) > c
+
+    marks = cut_probs(model, probs, cut)
+    if confirm is not None:
+        marks = confirmed_regions(marks, cut_probs(confirm[0], confirm_probs, confirm[1]))
+    if rays:
+        marks = marks | ray_marks(image_bgr, work_size, ray_cfg)
+    return marks | enclosed_holes(marks) if confirm is not None else marks
+
+
+def confirmed_regions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """[H, W] bool: the 8-connected regions of ``a`` that share a pixel with ``b`` and those
+    of ``b`` that share one with ``a`` (two masks confirming each other's regions: a region
+    both find keeps the extent of both, a region only one finds is dropped)."""
+    out = np.zeros(a.shape, bool)
+    for m, other in ((a, b), (b, a)):
+        n, labels = cv2.connectedComponents(m.astype(np.uint8), connectivity=8)
+        if n > 1:
+            hit = np.zeros(n, bool)
+            hit[np.unique(labels[other & m])] = True
+            hit[0] = False
+            out |= hit[labels]
+    return out
 
 
 def ray_config(config: MaskConfig):
@@ -201,9 +239,10 @@ def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
             yield group[i:i + n]
 
 
-def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str]) -> None:
+def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
+                    confirm=None) -> None:
     """Run the FMG ``model`` (``load_fmg_weights``) on the views in ``stems`` and write
-    their masks."""
+    their masks; ``confirm`` = (second model, its cut) for ``config.confirm``."""
     import torch
 
     sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
@@ -212,10 +251,13 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str]) 
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            for s, img, p in zip(batch, imgs, fmg_probs(model, imgs, config.work_size),
-                                 strict=True):
+            probs = fmg_probs(model, imgs, config.work_size)
+            second = (fmg_probs(confirm[0], imgs, config.work_size) if confirm is not None
+                      else [None] * len(imgs))
+            for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
-                                config.refine, probs=p, ray_cfg=rule)
+                                config.refine, probs=p, ray_cfg=rule, confirm=confirm,
+                                confirm_probs=q)
                 write_mask(ws, s, m | enclosed_holes(m) if config.fill_holes else m)
 
 
@@ -272,6 +314,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     validate(config)
     ws.require("pose")
     stems = view_stems(ws)
+    confirm = None
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
         source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
@@ -283,9 +326,18 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         model = load_fmg_weights(wpath, resolve_device(config.device))
         source, wid, inputs = "fmg", weights_id(wpath), [ws.images, wpath]
         config = replace(config, threshold=resolve_threshold(config, wpath))
+        if config.confirm:
+            cpath = Path(config.confirm_weights or DEFAULT_CONFIRM_WEIGHTS)
+            confirm = (load_fmg_weights(cpath, resolve_device(config.device)),
+                       resolve_threshold(MaskConfig(), cpath))
+            inputs.append(cpath)
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
               if k not in ("device", "batch")}
     params["source"], params["weights"] = source, wid
+    if confirm is not None:
+        params["confirm_weights"], params["confirm_cut"] = weights_id(cpath), confirm[1]
+    else:  # without it, the parameters (and so the stage's up-to-date check) are as before
+        del params["confirm"], params["confirm_weights"]
     stage_run = ws.begin_stage("mask", params, inputs, force)
     if stage_run.skip:
         info(f"mask: up to date ({ws.flare_json})")
@@ -298,7 +350,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if todo and config.masks_dir is not None:
         write_given_masks(Path(config.masks_dir), ws, todo)
     elif todo:
-        write_fmg_masks(model, config, ws, todo)
+        write_fmg_masks(model, config, ws, todo, confirm)
     return _summarise(config, ws, stage_run, stems, source, wid)
 
 
@@ -328,5 +380,6 @@ def stage_seconds(ws: Workspace) -> float:
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
-           "flare_marks", "ray_config", "ray_marks"]
+           "flare_marks", "ray_config", "ray_marks", "confirmed_regions",
+           "DEFAULT_CONFIRM_WEIGHTS"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

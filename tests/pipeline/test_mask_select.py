@@ -306,3 +306,54 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
         got[fill] = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
     assert (got[False] == ring).all()
     assert (got[True] == (r < 25)).all()
+
+
+def test_confirmed_regions_keep_what_both_masks_find():
+    """A region of either mask is kept, whole, when the other mask marks one of its pixels;
+    a region only one mask has is dropped; diagonal neighbours are one region."""
+    from pipeline.mask import confirmed_regions
+
+    a, b = np.zeros((12, 12), bool), np.zeros((12, 12), bool)
+    a[1:4, 1:4] = True          # confirmed by b's square, which it overlaps at one pixel
+    b[3:7, 3:7] = True
+    a[7, 7] = a[8, 8] = True    # one region (8-connected), touching b's square diagonally only
+    a[10, 0:3] = True           # a's alone: dropped
+    b[0, 10:12] = True          # b's alone: dropped
+    got = confirmed_regions(a, b)
+    want = np.zeros_like(a)
+    want[1:4, 1:4] = want[3:7, 3:7] = True
+    assert (got == want).all()
+    assert not confirmed_regions(a, np.zeros_like(b)).any()
+    assert (confirmed_regions(a, a) == a).all()
+
+
+def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
+    """`mask --confirm`: a blob only the first network marks and a spot only the second marks
+    are dropped; a flare both mark keeps the first's ring and the second's arm through it,
+    and the core the ring encloses is marked; the stage records the second network."""
+    from pipeline import mask as M
+
+    ws = kermit_ws
+    stems, (h, w) = _stems_and_size(ws)
+    yy, xx = np.mgrid[:h, :w]
+    r = np.hypot(yy - h / 2, xx - w / 2)
+    ring = (r > 10) & (r < 25)
+    arm = (np.abs(yy - h / 2) < 2) & (xx > w / 2) & (xx < w / 2 + 60)
+    first = ring | (np.hypot(yy - 8, xx - 8) < 5)                # + a blob in a corner
+    second = (ring & (xx > w / 2)) | arm | (np.hypot(yy - h + 8, xx - 8) < 4)
+
+    def fake_probs(model, imgs, work_size):
+        return [(first if model == "first" else second).astype(np.float32) for _ in imgs]
+
+    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    cfg = M.MaskConfig(threshold=0.5, rays=False, confirm=True)
+    M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5))
+    got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    assert (got == ((r < 25) | arm)).all()
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu": path.name)
+    M.run(M.MaskConfig(rays=False, confirm=True), ws, force=True)
+    params = ws.stage_record("mask")["params"]
+    assert params["confirm"] is True and params["confirm_cut"] == pytest.approx(0.85)
+    assert params["confirm_weights"].startswith("fmg_candidate_J.safetensors@sha256:")
+    M.run(M.MaskConfig(rays=False), ws, force=True)
+    assert "confirm" not in ws.stage_record("mask")["params"]

@@ -37,7 +37,7 @@ def register(app: typer.Typer) -> None:
         fmg_train.check_modes(config)
         rule = ray_config(config)
         weights = config.weights or DEFAULT_WEIGHTS
-        for path in (weights, *config.loo):
+        for path in (weights, *config.loo, *([config.confirm] if config.confirm else [])):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
         if config.work_sizes:
             metrics = fmg_train.work_size_sweep(weights, config.data, config.work_sizes,
@@ -46,12 +46,13 @@ def register(app: typer.Typer) -> None:
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
-                                                 ray_cfg=rule)
+                                                 ray_cfg=rule, confirm=config.confirm)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
-                                               rays=config.rays, ray_cfg=rule)
+                                               rays=config.rays, ray_cfg=rule,
+                                               confirm=config.confirm)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

@@ -145,6 +145,10 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    confirm: Path | None = None
+    """With ``per_kind`` or ``clean``: score the masks of `mask --confirm` with these weights
+    as the second network (each network at its own cut; e.g.
+    gnfr/weights/fmg_candidate_J.safetensors)."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -194,6 +198,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--loo needs --per-kind")
     if cfg.rays and not (cfg.per_kind or cfg.clean):
         raise UserError("--rays needs --per-kind or --clean")
+    if cfg.confirm is not None and not (cfg.per_kind or cfg.clean):
+        raise UserError("--confirm needs --per-kind or --clean")
     check_ray_rule(cfg)
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean")
@@ -229,13 +235,26 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
-          cut: float = 0.5, also=None) -> dict[str, float]:
+          cut: float = 0.5, also=None, confirm=None) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
-    the images' flare rays, ``ray_batch``) is set."""
+    the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
+    cut) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_regions``, then
+    ``also``, then the enclosed holes)."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
+    from pipeline.mask import confirmed_regions
+    from pipeline.ws_files import enclosed_holes
+
+    def confirmed(marked, second, extra):
+        out = []
+        for i in range(len(marked)):
+            m = confirmed_regions(marked[i, 0].numpy(), second[i, 0].numpy())
+            if extra is not None:
+                m |= extra[i, 0].numpy()
+            out.append([m | enclosed_holes(m)])
+        return torch.from_numpy(np.stack(out))
 
     conf = torch.zeros(2, 2, dtype=torch.long)
     model.eval()
@@ -247,8 +266,12 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             if refine:
                 p = _refine_batch(x.cpu(), p)
             marked = p > cut
-            if also is not None:
-                marked |= also[i:i + batch]
+            extra = also[i:i + batch] if also is not None else None
+            if confirm is not None:
+                second = torch.sigmoid(confirm[0](x)).cpu() > confirm[1]
+                marked = confirmed(marked, second, extra)
+            elif extra is not None:
+                marked |= extra
             conf += confusion(marked, masks[i:i + batch] > 0.5)
     return seg_metrics(conf)
 
@@ -579,19 +602,22 @@ def _ray_rule(rays: bool, ray_cfg) -> dict | None:
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
-                   rays: bool = False, ray_cfg=None) -> dict:
+                   rays: bool = False, ray_cfg=None, confirm: Path | None = None) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
     night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
-    the flare rays (rule ``ray_cfg``) are added to every model's mask."""
+    the flare rays (rule ``ray_cfg``) are added to every model's mask; with ``confirm``
+    (weights) ``weights``' masks are those of `mask --confirm` with that second network."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
 
     main = {**weights_info(Path(weights)), "model": load_fmg_weights(Path(weights))}
+    second = (None if confirm is None else
+              (load_fmg_weights(Path(confirm)), weights_info(Path(confirm))["cut"]))
     held = []
     for w in loo:
         info_w = weights_info(Path(w))
@@ -605,13 +631,15 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
            "weights": {k: v for k, v in main.items() if k != "model"},
+           "confirm": None if confirm is None else weights_info(Path(confirm)),
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
         imgs, masks = fixed_set(src, count, seed + i, extras=True)
         ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
-               "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray)}
+               "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray,
+                                confirm=second)}
         for h in held:
             if kind in h["without"]:
                 row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray),
@@ -726,19 +754,23 @@ def format_work_sizes(res: dict) -> str:
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
-                    rays: bool = False, ray_cfg=None) -> dict:
+                    rays: bool = False, ray_cfg=None, confirm: Path | None = None) -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
-    added with ``rays`` by rule ``ray_cfg``: as in the mask stage) on every clean photo of
-    ``scenes`` at full size: mean and max per scene."""
+    added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
+    `mask --confirm`: as in the mask stage) on every clean photo of ``scenes`` at full size:
+    mean and max per scene."""
     from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
+    second = (None if confirm is None else
+              (load_fmg_weights(Path(confirm)), weights_info(Path(confirm))["cut"]))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
-           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scenes": {}}
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
+           "confirm": None if confirm is None else weights_info(Path(confirm)), "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
-        marked = {name: float(flare_marks(model, im, cut, work_size, rays,
-                                          ray_cfg=ray_cfg).mean())
+        marked = {name: float(flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg,
+                                          confirm=second).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
