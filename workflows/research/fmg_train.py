@@ -650,11 +650,12 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
 
 def format_kinds(res: dict) -> str:
     """The per-kind table: trained without the kind, and ``weights``."""
-    w = res["weights"]
+    w, c = res["weights"], res.get("confirm")
+    also = f", confirmed by {Path(c['weights']).name}" if c else ""
     rows = [f"{res['count']} held-out composites per kind ({res['size']} px, night "
             f"{res['night']:g}); flare IoU / mIoU / mAcc",
             f"| kind | flare pixels | trained without it (steps) | {Path(w['weights']).name} "
-            f"({w['steps']} steps) |", "|---|---|---|---|"]
+            f"({w['steps']} steps{also}) |", "|---|---|---|---|"]
 
     def cell(m: dict) -> str:
         return f"{m['IoU_flare']:.3f} / {m['mIoU']:.3f} / {m['mAcc']:.3f}"
@@ -781,7 +782,10 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
 
 
 def format_clean(res: dict) -> str:
-    rows = [f"clean photos, pixels marked at cut {res['cut']:g}, network at {res['work_size']}",
+    also = (f", confirmed by {Path(res['confirm']['weights']).name}" if res.get("confirm")
+            else "")
+    rows = [f"clean photos, pixels marked at cut {res['cut']:g}, network at {res['work_size']}"
+            f"{also}",
             "| scene | views | mean | max | views over 10 % |", "|---|---|---|---|---|"]
     for scene, r in res["scenes"].items():
         rows.append(f"| {scene} | {r['views']} | {100 * r['mean']:.2f} % | {100 * r['max']:.2f} % "
