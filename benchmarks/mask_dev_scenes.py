@@ -85,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fill-holes", action="store_true", help="as `mask --fill-holes`")
     ap.add_argument("--confirm", type=Path, default=None,
                     help="as `mask --confirm --confirm-weights W`, for every --weights")
+    ap.add_argument("--confirm-keep", choices=("both", "first"), default="both",
+                    help="as `mask --confirm-keep`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
@@ -92,7 +94,8 @@ def main(argv: list[str] | None = None) -> int:
 
     confirm = None
     if a.confirm is not None:
-        confirm = (load_fmg_weights(a.confirm), resolve_threshold(MaskConfig(), a.confirm))
+        confirm = (load_fmg_weights(a.confirm), resolve_threshold(MaskConfig(), a.confirm),
+                   a.confirm_keep)
     rows = []
     for w in a.weights:
         model = load_fmg_weights(w)
@@ -102,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
                 r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                      "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                      "confirm": None if confirm is None else str(a.confirm),
+                     "confirm_keep": a.confirm_keep,
                      **score_scene(model, cut, scene, rays, max_size=a.max_size,
                                    fill_holes=a.fill_holes, confirm=confirm)}
                 rows.append(r)

@@ -92,6 +92,10 @@ class MaskConfig:
     confirm_weights: Path | None = option(None, exists=True)
     """The second network of ``confirm``; default the full-width FMG,
     gnfr/weights/fmg_candidate_J.safetensors."""
+    confirm_keep: str = option("both", choices=("both", "first"))
+    """With ``confirm``: keep the confirmed regions of both networks (both), or only the
+    FMG's own regions that the second network confirms (first: a subset of the FMG's mask,
+    then the rays; no holes are filled)."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -187,29 +191,31 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 confirm_probs: np.ndarray | None = None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
-    ``rays``. With ``confirm`` = (second model, its cut) the two networks' marks confirm
-    each other's regions (``confirmed_regions``; the second's probabilities
-    ``confirm_probs`` if already computed), then the rays, then the enclosed holes filled
-    (``MaskConfig.confirm``)."""
+    ``rays``. With ``confirm`` = (second model, its cut[, keep]) the two networks' marks
+    confirm each other's regions (``confirmed_regions``; the second's probabilities
+    ``confirm_probs`` if already computed), then the rays, then (keep "both", the default)
+    the enclosed holes filled (``MaskConfig.confirm``, ``confirm_keep``)."""
 
     def cut_probs(m, p, c):
         p = fmg_probs(m, [image_bgr], work_size)[0] if p is None else p
         return (refine_probs(image_bgr, p) if refine else p) > c
 
     marks = cut_probs(model, probs, cut)
+    keep = confirm[2] if confirm is not None and len(confirm) > 2 else "both"
     if confirm is not None:
-        marks = confirmed_regions(marks, cut_probs(confirm[0], confirm_probs, confirm[1]))
+        marks = confirmed_regions(marks, cut_probs(confirm[0], confirm_probs, confirm[1]), keep)
     if rays:
         marks = marks | ray_marks(image_bgr, work_size, ray_cfg)
-    return marks | enclosed_holes(marks) if confirm is not None else marks
+    return marks | enclosed_holes(marks) if confirm is not None and keep == "both" else marks
 
 
-def confirmed_regions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """[H, W] bool: the 8-connected regions of ``a`` that share a pixel with ``b`` and those
-    of ``b`` that share one with ``a`` (two masks confirming each other's regions: a region
-    both find keeps the extent of both, a region only one finds is dropped)."""
+def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.ndarray:
+    """[H, W] bool: the 8-connected regions of ``a`` that share a pixel with ``b`` and (with
+    ``keep`` "both") those of ``b`` that share one with ``a`` (two masks confirming each
+    other's regions: a region both find keeps the extent of both, a region only one finds is
+    dropped); with ``keep`` "first" only ``a``'s confirmed regions (a subset of ``a``)."""
     out = np.zeros(a.shape, bool)
-    for m, other in ((a, b), (b, a)):
+    for m, other in ((a, b), (b, a))[:2 if keep == "both" else 1]:
         n, labels = cv2.connectedComponents(m.astype(np.uint8), connectivity=8)
         if n > 1:
             hit = np.zeros(n, bool)
@@ -329,7 +335,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         if config.confirm:
             cpath = Path(config.confirm_weights or DEFAULT_CONFIRM_WEIGHTS)
             confirm = (load_fmg_weights(cpath, resolve_device(config.device)),
-                       resolve_threshold(MaskConfig(), cpath))
+                       resolve_threshold(MaskConfig(), cpath), config.confirm_keep)
             inputs.append(cpath)
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
               if k not in ("device", "batch")}
@@ -337,7 +343,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if confirm is not None:
         params["confirm_weights"], params["confirm_cut"] = weights_id(cpath), confirm[1]
     else:  # without it, the parameters (and so the stage's up-to-date check) are as before
-        del params["confirm"], params["confirm_weights"]
+        del params["confirm"], params["confirm_weights"], params["confirm_keep"]
     stage_run = ws.begin_stage("mask", params, inputs, force)
     if stage_run.skip:
         info(f"mask: up to date ({ws.flare_json})")

@@ -325,6 +325,9 @@ def test_confirmed_regions_keep_what_both_masks_find():
     assert (got == want).all()
     assert not confirmed_regions(a, np.zeros_like(b)).any()
     assert (confirmed_regions(a, a) == a).all()
+    first = np.zeros_like(a)
+    first[1:4, 1:4] = True      # keep "first": a's confirmed square only, none of b's
+    assert (confirmed_regions(a, b, keep="first") == first).all()
 
 
 def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
@@ -350,6 +353,10 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5))
     got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
     assert (got == ((r < 25) | arm)).all()
+    cfg = M.MaskConfig(threshold=0.5, rays=False, confirm=True, confirm_keep="first")
+    M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5, "first"))
+    got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    assert (got == ring).all()  # the first's confirmed ring alone: no arm, no core, no blob
     monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu": path.name)
     M.run(M.MaskConfig(rays=False, confirm=True), ws, force=True)
     params = ws.stage_record("mask")["params"]

@@ -46,13 +46,15 @@ def register(app: typer.Typer) -> None:
         elif config.clean:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
-                                                 ray_cfg=rule, confirm=config.confirm)
+                                                 ray_cfg=rule, confirm=config.confirm,
+                                                 confirm_keep=config.confirm_keep)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
                                                rays=config.rays, ray_cfg=rule,
-                                               confirm=config.confirm)
+                                               confirm=config.confirm,
+                                               confirm_keep=config.confirm_keep)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

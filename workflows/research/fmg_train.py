@@ -149,6 +149,8 @@ class FMGEvalConfig:
     """With ``per_kind`` or ``clean``: score the masks of `mask --confirm` with these weights
     as the second network (each network at its own cut; e.g.
     gnfr/weights/fmg_candidate_J.safetensors)."""
+    confirm_keep: str = option("both", choices=("both", "first"))
+    """With ``confirm``: as `mask --confirm-keep`."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -239,21 +241,23 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
     the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
-    cut) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_regions``, then
-    ``also``, then the enclosed holes)."""
+    cut[, keep]) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_regions``,
+    then ``also``, then with keep "both" the enclosed holes)."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
     from pipeline.mask import confirmed_regions
     from pipeline.ws_files import enclosed_holes
 
+    keep = confirm[2] if confirm is not None and len(confirm) > 2 else "both"
+
     def confirmed(marked, second, extra):
         out = []
         for i in range(len(marked)):
-            m = confirmed_regions(marked[i, 0].numpy(), second[i, 0].numpy())
+            m = confirmed_regions(marked[i, 0].numpy(), second[i, 0].numpy(), keep)
             if extra is not None:
                 m |= extra[i, 0].numpy()
-            out.append([m | enclosed_holes(m)])
+            out.append([m | enclosed_holes(m) if keep == "both" else m])
         return torch.from_numpy(np.stack(out))
 
     conf = torch.zeros(2, 2, dtype=torch.long)
@@ -602,7 +606,8 @@ def _ray_rule(rays: bool, ray_cfg) -> dict | None:
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
-                   rays: bool = False, ray_cfg=None, confirm: Path | None = None) -> dict:
+                   rays: bool = False, ray_cfg=None, confirm: Path | None = None,
+                   confirm_keep: str = "both") -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
@@ -616,8 +621,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     from pipeline.mask import load_fmg_weights
 
     main = {**weights_info(Path(weights)), "model": load_fmg_weights(Path(weights))}
-    second = (None if confirm is None else
-              (load_fmg_weights(Path(confirm)), weights_info(Path(confirm))["cut"]))
+    second = (None if confirm is None else (load_fmg_weights(Path(confirm)),
+                                            weights_info(Path(confirm))["cut"], confirm_keep))
     held = []
     for w in loo:
         info_w = weights_info(Path(w))
@@ -631,7 +636,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
            "weights": {k: v for k, v in main.items() if k != "model"},
-           "confirm": None if confirm is None else weights_info(Path(confirm)),
+           "confirm": None if confirm is None else {**weights_info(Path(confirm)),
+                                                     "keep": confirm_keep},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
@@ -755,7 +761,8 @@ def format_work_sizes(res: dict) -> str:
 
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
-                    rays: bool = False, ray_cfg=None, confirm: Path | None = None) -> dict:
+                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
+                   confirm_keep: str = "both") -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
     `mask --confirm`: as in the mask stage) on every clean photo of ``scenes`` at full size:
@@ -764,11 +771,12 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
-    second = (None if confirm is None else
-              (load_fmg_weights(Path(confirm)), weights_info(Path(confirm))["cut"]))
+    second = (None if confirm is None else (load_fmg_weights(Path(confirm)),
+                                            weights_info(Path(confirm))["cut"], confirm_keep))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
-           "confirm": None if confirm is None else weights_info(Path(confirm)), "scenes": {}}
+           "confirm": None if confirm is None else {**weights_info(Path(confirm)),
+                                                     "keep": confirm_keep}, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
         marked = {name: float(flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg,
                                           confirm=second).mean())
