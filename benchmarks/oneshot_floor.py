@@ -65,6 +65,12 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.cli import main as cli
     from workflows.research.eval.scoring import floor_scores
 
+    for need in (a.scene / "photos", a.scene / "clean", a.scene / "masks_gt"):
+        if not need.is_dir():
+            ap.error(f"{need} is missing: SYNTH must be a `deflare-scene synth` folder")
+    if a.pose_from is not None and not (a.pose_from / "colmap" / "sparse" / "0").is_dir():
+        ap.error(f"--pose-from {a.pose_from} has no colmap/sparse/0: give the posed "
+                 "workspace the synth folder was made from")
     sets = [x for s in a.sets for x in ("--set", s)]
     if a.pose_from is not None:
         model = pinhole_model(a.pose_from, a.work / "pinhole_model")

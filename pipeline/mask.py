@@ -129,12 +129,15 @@ def resolve_threshold(config: MaskConfig, wpath: Path | None) -> float:
     return 0.5
 
 
-def load_fmg_weights(path: Path, device: str = "cpu"):
-    """Load the FMG, turning a missing or foreign file into a UserError saying what to do."""
+def load_fmg_weights(path: Path, device: str = "cpu", flag: str = "--weights"):
+    """Load the FMG, turning a missing or foreign file into a UserError saying what to do
+    (``flag``: the option that named the file)."""
     from gnfr.fmg import load_fmg
 
     how = ("train one with `deflare-scene fmg train --out FMG_RUN` and copy "
            f"FMG_RUN/fmg.safetensors to {DEFAULT_WEIGHTS}, or pass --weights PATH")
+    if flag != "--weights":
+        how = f"pass {flag} PATH (FMG weights, e.g. {DEFAULT_CONFIRM_WEIGHTS.name})"
     try:
         return load_fmg(path, device)
     except FileNotFoundError:
@@ -318,6 +321,9 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
     validate(config)
+    if config.confirm_weights is not None and not config.confirm:
+        raise UserError("--confirm-weights names the second network of --confirm: add "
+                        "--confirm, or leave --confirm-weights out")
     ws.require("pose")
     stems = view_stems(ws)
     confirm = None
@@ -334,7 +340,8 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         config = replace(config, threshold=resolve_threshold(config, wpath))
         if config.confirm:
             cpath = Path(config.confirm_weights or DEFAULT_CONFIRM_WEIGHTS)
-            confirm = (load_fmg_weights(cpath, resolve_device(config.device)),
+            confirm = (load_fmg_weights(cpath, resolve_device(config.device),
+                                        "--confirm-weights"),
                        resolve_threshold(MaskConfig(), cpath), config.confirm_keep)
             inputs.append(cpath)
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()

@@ -357,10 +357,27 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5, "first"))
     got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
     assert (got == ring).all()  # the first's confirmed ring alone: no arm, no core, no blob
-    monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu": path.name)
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu", flag="": path.name)
     M.run(M.MaskConfig(rays=False, confirm=True), ws, force=True)
     params = ws.stage_record("mask")["params"]
     assert params["confirm"] is True and params["confirm_cut"] == pytest.approx(0.85)
     assert params["confirm_weights"].startswith("fmg_candidate_J.safetensors@sha256:")
     M.run(M.MaskConfig(rays=False), ws, force=True)
     assert "confirm" not in ws.stage_record("mask")["params"]
+
+
+def test_confirm_bad_inputs_fail_before_the_workspace_changes(kermit_ws, tmp_path):
+    """`mask --confirm-weights` without `--confirm`, or a file that is no FMG, is one clear
+    UserError naming the option, and the masks of the earlier run stay."""
+    from pipeline import mask as M
+
+    ws = kermit_ws
+    before = {p.name: p.read_bytes() for p in ws.masks.glob("*.png")}
+    shipped = M.DEFAULT_WEIGHTS
+    with pytest.raises(UserError, match="add --confirm"):
+        M.run(M.MaskConfig(confirm_weights=shipped), ws)
+    bad = tmp_path / "bad.safetensors"
+    bad.write_text("not weights")
+    with pytest.raises(UserError, match="--confirm-weights PATH"):
+        M.run(M.MaskConfig(confirm=True, confirm_weights=bad), ws)
+    assert {p.name: p.read_bytes() for p in ws.masks.glob("*.png")} == before

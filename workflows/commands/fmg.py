@@ -37,8 +37,10 @@ def register(app: typer.Typer) -> None:
         fmg_train.check_modes(config)
         rule = ray_config(config)
         weights = config.weights or DEFAULT_WEIGHTS
-        for path in (weights, *config.loo, *([config.confirm] if config.confirm else [])):
+        for path in (weights, *config.loo):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
+        if config.confirm:
+            load_fmg_weights(config.confirm, flag="--confirm")
         if config.work_sizes:
             metrics = fmg_train.work_size_sweep(weights, config.data, config.work_sizes,
                                                  split=config.split)
