@@ -272,8 +272,10 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             marked = p > cut
             extra = also[i:i + batch] if also is not None else None
             if confirm is not None:
-                second = torch.sigmoid(confirm[0](x)).cpu() > confirm[1]
-                marked = confirmed(marked, second, extra)
+                q = torch.sigmoid(confirm[0](x)).cpu()
+                if refine:  # both networks refined, as in the mask stage
+                    q = _refine_batch(x.cpu(), q)
+                marked = confirmed(marked, q > confirm[1], extra)
             elif extra is not None:
                 marked |= extra
             conf += confusion(marked, masks[i:i + batch] > 0.5)
