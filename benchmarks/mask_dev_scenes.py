@@ -41,7 +41,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
-    them; with ``confirm`` = (second model, its cut) as `mask --confirm` writes them."""
+    them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them."""
     import cv2
 
     from pipeline.decode import resize_area, target_size
@@ -60,8 +60,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             img = resize_area(img, max_size)
             wh = target_size(gt.shape[1], gt.shape[0], max_size)
             gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-        m = (flare_marks(model, img, cut, work_size, rays) if confirm is None else
-             flare_marks(model, img, cut, work_size, rays, confirm=confirm))
+        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm)
         if fill_holes:
             m |= enclosed_holes(m)
         inter += int((m & gt).sum())

@@ -196,22 +196,32 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 confirm_probs: np.ndarray | None = None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
-    ``rays``. With ``confirm`` = (second model, its cut[, keep]) the two networks' marks
-    confirm each other's regions (``confirmed_regions``; the second's probabilities
-    ``confirm_probs`` if already computed), then the rays, then (keep "both", the default)
-    the enclosed holes filled (``MaskConfig.confirm``, ``confirm_keep``)."""
+    ``rays``. With ``confirm`` = (second model, its cut, keep) the mask of `mask --confirm`
+    (``confirmed_marks``; the second's probabilities ``confirm_probs`` if already
+    computed)."""
 
     def cut_probs(m, p, c):
         p = fmg_probs(m, [image_bgr], work_size)[0] if p is None else p
         return (refine_probs(image_bgr, p) if refine else p) > c
 
     marks = cut_probs(model, probs, cut)
-    keep = confirm[2] if confirm is not None and len(confirm) > 2 else "both"
+    rayed = ray_marks(image_bgr, work_size, ray_cfg) if rays else None
     if confirm is not None:
-        marks = confirmed_regions(marks, cut_probs(confirm[0], confirm_probs, confirm[1]), keep)
-    if rays:
-        marks = marks | ray_marks(image_bgr, work_size, ray_cfg)
-    return marks | enclosed_holes(marks) if confirm is not None and keep == "both" else marks
+        second, second_cut, keep = confirm
+        return confirmed_marks(marks, cut_probs(second, confirm_probs, second_cut), keep,
+                               rayed)
+    return marks if rayed is None else marks | rayed
+
+
+def confirmed_marks(first: np.ndarray, second: np.ndarray, keep: str,
+                    extra: np.ndarray | None = None) -> np.ndarray:
+    """`mask --confirm`'s mask from two networks' cut masks [H, W] bool:
+    ``confirmed_regions(first, second, keep)``, then ``extra`` (the flare rays) added, then
+    with ``keep`` "both" the enclosed holes filled."""
+    marks = confirmed_regions(first, second, keep)
+    if extra is not None:
+        marks |= extra
+    return marks | enclosed_holes(marks) if keep == "both" else marks
 
 
 def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.ndarray:
@@ -398,6 +408,6 @@ def stage_seconds(ws: Workspace) -> float:
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
-           "flare_marks", "ray_config", "ray_marks", "confirmed_regions",
+           "flare_marks", "ray_config", "ray_marks", "confirmed_regions", "confirmed_marks",
            "DEFAULT_CONFIRM_WEIGHTS"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

@@ -350,7 +350,7 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)
     cfg = M.MaskConfig(threshold=0.5, rays=False, confirm=True)
-    M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5))
+    M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5, "both"))
     got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
     assert (got == ((r < 25) | arm)).all()
     cfg = M.MaskConfig(threshold=0.5, rays=False, confirm=True, confirm_keep="first")

@@ -241,24 +241,17 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
     the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
-    cut[, keep]) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_regions``,
-    then ``also``, then with keep "both" the enclosed holes)."""
+    cut, keep) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_marks``,
+    ``also`` as the rays)."""
     import torch
 
     from gnfr.fmg import confusion, seg_metrics
-    from pipeline.mask import confirmed_regions
-    from pipeline.ws_files import enclosed_holes
-
-    keep = confirm[2] if confirm is not None and len(confirm) > 2 else "both"
+    from pipeline.mask import confirmed_marks
 
     def confirmed(marked, second, extra):
-        out = []
-        for i in range(len(marked)):
-            m = confirmed_regions(marked[i, 0].numpy(), second[i, 0].numpy(), keep)
-            if extra is not None:
-                m |= extra[i, 0].numpy()
-            out.append([m | enclosed_holes(m) if keep == "both" else m])
-        return torch.from_numpy(np.stack(out))
+        return torch.from_numpy(np.stack([[confirmed_marks(
+            marked[i, 0].numpy(), second[i, 0].numpy(), confirm[2],
+            None if extra is None else extra[i, 0].numpy())] for i in range(len(marked))]))
 
     conf = torch.zeros(2, 2, dtype=torch.long)
     model.eval()

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline import metrics
-from pipeline.images import read_image
+from pipeline.images import read_gray, read_image
 from pipeline.progress import info
 from pipeline.scene_splits import HELDOUT_SCENES
 from pipeline.workspace import Workspace
@@ -85,7 +85,6 @@ def score_all(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dict
     return results
 
 
-
 def floor_scores(photos: Path, deflared: Path, flared: Path, clean: Path, masks_gt: Path,
                  min_pixels: int = 50) -> dict:
     """The product floor's measures (tests/workflows/test_oneshot.py, on the sample): per view
@@ -95,27 +94,23 @@ def floor_scores(photos: Path, deflared: Path, flared: Path, clean: Path, masks_
     truth at any size (area- and nearest-resized to the de-flared photo's)."""
     import cv2
 
-    def region_psnr(img: np.ndarray, truth: np.ndarray, m: np.ndarray) -> float:
-        err = ((img.astype(np.float64) - truth.astype(np.float64)) / 255.0) ** 2
-        return float(-10 * np.log10(err[m].mean()))
-
     views = {}
     for p in sorted(photos.iterdir()):
         out_path = deflared / f"{p.stem}.png"
         if not out_path.exists():
             continue
-        out = cv2.imread(str(out_path))
+        out = read_bgr(out_path)
         h, w = out.shape[:2]
-        fl = cv2.imread(str(flared / f"{p.stem}.png"))
-        truth = cv2.resize(cv2.imread(str(clean / f"{p.stem}.png")), (w, h),
-                           interpolation=cv2.INTER_AREA)
-        m = cv2.resize(cv2.imread(str(masks_gt / f"{p.stem}.png"), cv2.IMREAD_GRAYSCALE),
-                       (w, h), interpolation=cv2.INTER_NEAREST) > 127
+        fl = read_bgr(flared / f"{p.stem}.png", (h, w))
+        truth = read_bgr(clean / f"{p.stem}.png", (h, w))
+        m = cv2.resize(read_gray(masks_gt / f"{p.stem}.png"), (w, h),
+                       interpolation=cv2.INTER_NEAREST) > 127
         if m.sum() < min_pixels:
             continue
-        views[p.stem] = {"gain": region_psnr(out, truth, m) - region_psnr(fl, truth, m),
-                         "excess_out": float((out.astype(float) - truth)[m].mean()),
-                         "excess_in": float((fl.astype(float) - truth)[m].mean())}
+        views[p.stem] = {
+            "gain": metrics.masked_psnr(out, truth, m) - metrics.masked_psnr(fl, truth, m),
+            "excess_out": float((out.astype(float) - truth)[m].mean()),
+            "excess_in": float((fl.astype(float) - truth)[m].mean())}
     if not views:
         return {"views": {}}
     col = {k: [v[k] for v in views.values()] for k in ("gain", "excess_out", "excess_in")}
