@@ -49,6 +49,11 @@ class TrainConfig:
     """Adam learning rate of everything else."""
     lr_decay_steps: int = 20_000
     """Both learning rates are halved every this many steps."""
+    lr_restart: float = 0.0
+    """With ``lr_restart_step``: from that step on, the schedule starts again at this fraction
+    of the starting rates (a warm restart of a run whose rates had decayed; 0 = none)."""
+    lr_restart_step: int = 0
+    """Step of the warm restart (``lr_restart``)."""
     source_scale: float = 1.0
     """Sources are encoded at this fraction of their resolution (targets stay full size)."""
     full_res_colour: bool = False
@@ -278,8 +283,12 @@ def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
 
 
 def set_learning_rates(opt: torch.optim.Optimizer, cfg: TrainConfig, step: int) -> float:
-    """Step decay: halve every ``lr_decay_steps``. Returns the decay factor."""
-    f = 0.5 ** (step // cfg.lr_decay_steps)
+    """Step decay: halve every ``lr_decay_steps``, counted from ``lr_restart_step`` at
+    ``lr_restart`` of the starting rates after a warm restart. Returns the factor."""
+    if cfg.lr_restart > 0 and step >= cfg.lr_restart_step:
+        f = cfg.lr_restart * 0.5 ** ((step - cfg.lr_restart_step) // cfg.lr_decay_steps)
+    else:
+        f = 0.5 ** (step // cfg.lr_decay_steps)
     for g in opt.param_groups:
         g["lr"] = (cfg.lr_encoder if g["name"] == "encoder" else cfg.lr_transformer) * f
     return f

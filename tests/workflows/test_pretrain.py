@@ -311,3 +311,56 @@ def test_pretrain_random_sources_reach_the_source_draw(pretrain_scenes, tmp_path
     _pretrain_cli(pretrain_scenes, tmp_path / "n", 2)
     assert n_random >= 2 and set(flags[:n_random]) == {True}
     assert len(flags) > n_random and set(flags[n_random:]) == {False}
+
+
+def test_lr_restart_schedule_counts_from_the_restart_step():
+    """A warm restart: before its step the preset's halving; from it, ``lr_restart`` of the
+    starting rates, halved every ``lr_decay_steps`` counted from the restart."""
+    from dataclasses import replace
+
+    from gnfr.model import GNFR
+    from gnfr.train import PRESETS, make_optimizer, set_learning_rates
+
+    cfg = replace(PRESETS["tiny"], lr_decay_steps=10, lr_restart=0.125, lr_restart_step=45)
+    opt = make_optimizer(GNFR(cfg.model), cfg)
+    assert set_learning_rates(opt, cfg, 44) == 0.5 ** 4
+    assert set_learning_rates(opt, cfg, 45) == 0.125
+    assert set_learning_rates(opt, cfg, 54) == 0.125
+    assert set_learning_rates(opt, cfg, 55) == 0.0625
+    lrs = {g["name"]: g["lr"] for g in opt.param_groups}
+    assert lrs == {"encoder": cfg.lr_encoder * 0.0625, "transformer": cfg.lr_transformer * 0.0625}
+    assert set_learning_rates(opt, replace(cfg, lr_restart=0.0), 55) == 0.5 ** 5
+
+
+def test_pretrain_lr_restart_starts_at_the_init_step_and_survives_a_resume(
+        pretrain_scenes, steps_taken, tmp_path, capsys, monkeypatch):
+    """--lr-restart from weights recorded at step 6: the logged rates are the restart's from
+    step 6 on, and a rerun of the same command in the same folder keeps that restart step."""
+    import json
+    from dataclasses import replace
+
+    import gnfr.train
+    from workflows.research.pretrain import export_fp16
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "tiny",
+                        replace(gnfr.train.PRESETS["tiny"], lr_decay_steps=4))
+
+    _pretrain_cli(pretrain_scenes, tmp_path / "a", 6)
+    shipped = export_fp16(tmp_path / "a" / "gnfr.safetensors", tmp_path / "shipped.safetensors")
+    out = tmp_path / "b"
+    _pretrain_cli(pretrain_scenes, out, 10, "--init", str(shipped), "--lr-restart", "0.25")
+    _pretrain_cli(pretrain_scenes, out, 15, "--init", str(shipped), "--lr-restart", "0.25")
+    lines = [json.loads(ln) for ln in (out / "metrics.jsonl").read_text().splitlines()]
+    # step indices 9 and 14, the restart at 6 (a restart at the resume's 10 would give 0.125)
+    assert [(ln["step"], ln["lr_factor"]) for ln in lines] == [(10, 0.25), (15, 0.0625)]
+    _pretrain_cli(pretrain_scenes, tmp_path / "c", 10, "--init", str(shipped))
+    plain = [json.loads(ln) for ln in (tmp_path / "c" / "metrics.jsonl").read_text().splitlines()]
+    assert [ln["lr_factor"] for ln in plain] == [0.25]  # step index 9: the plain halving
+    from workflows.cli import main
+
+    capsys.readouterr()
+    assert main(["pretrain", str(pretrain_scenes), "--out", str(tmp_path / "d"), "--preset",
+                 "tiny", "--iters", "8", "--device", "cpu", "--lr-restart", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "--lr-restart" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "d").exists()

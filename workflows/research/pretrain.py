@@ -60,6 +60,10 @@ class PretrainConfig:
     random_sources: bool = False
     """GNT's draw of the N sources in a random order of the round(k N) nearest pool instead of
     the nearest first (``TrainConfig.random_sources``; the View Sampler's flare rule kept)."""
+    lr_restart: float | None = option(None, gt=0, le=1)
+    """Warm restart: from the step the run starts at (``--init``'s recorded step; kept when
+    the run resumes) the rates start again at this fraction of the preset's and halve on the
+    preset's schedule (for continuing a run whose rates have decayed to nothing)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -198,6 +202,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     step = start_step(train_cfg, config.init, config.preset)
     resume = has_checkpoint(out)
+    if config.lr_restart is not None:
+        train_cfg = replace(train_cfg, lr_restart=config.lr_restart, lr_restart_step=step)
     if step and not resume and step >= train_cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
