@@ -7,9 +7,15 @@ with those weights (rays on, each file's calibrated cut, as `deflare-scene mask`
 the de-flared inputs are re-rendered (`render --path inputs`, default settings) and scored
 against the clean photos over the flared views: whole-photo PSNR and SSIM, PSNR inside the
 true flare. Only the masks change; which views trained and on what is the variant's.
+``--truth M`` adds an arm whose masks are the scene's true flare by the mask rule with its
+thresholds times M (``workflows.research.eval.scene.truth_mask_at``; M = 1 is about
+masks_gt, larger M leaves the faint outer flare unmarked), given to the mask stage as
+``--masks`` (as a user's own masks): what the fill makes of a perfect segmenter of each
+definition of flare.
 
     python benchmarks/mask_downstream.py SYNTH [SYNTH ...] --weights A.safetensors \
-        --weights B.safetensors --work DIR --out docs/results/mask_downstream_X.json
+        --weights B.safetensors [--truth 1 --truth 2] --work DIR \
+        --out docs/results/mask_downstream_X.json
 """
 
 from __future__ import annotations
@@ -28,7 +34,10 @@ sys.path.insert(0, str(ROOT))
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", type=Path, nargs="+")
-    ap.add_argument("--weights", type=Path, action="append", required=True)
+    ap.add_argument("--weights", type=Path, action="append", default=[])
+    ap.add_argument("--truth", type=float, action="append", default=[],
+                    help="an arm with the true flare at this multiple of the mask rule's "
+                         "thresholds as the masks (repeatable)")
     ap.add_argument("--variant", default="gnfr")
     ap.add_argument("--eval-ws", type=Path, default=None,
                     help="the eval workspace, with one scene (default SCENE/eval.ws)")
@@ -41,13 +50,18 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     if a.eval_ws is not None and len(a.scenes) > 1:
         ap.error("--eval-ws goes with one scene")
+    if not a.weights and not a.truth:
+        ap.error("give at least one --weights or --truth arm")
+    if any(m <= 0 for m in a.truth):
+        ap.error("--truth must be above 0")
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
     from pipeline import mask, render
     from pipeline.provenance import sha256, write_result
-    from pipeline.workspace import Workspace
-    from workflows.research.eval.scene import flared_views, load_synth
+    from pipeline.workspace import Workspace, atomic_imwrite
+    from pipeline.ws_files import view_stems
+    from workflows.research.eval.scene import flared_views, load_synth, truth_mask_at
     from workflows.research.eval.scoring import score_views
 
     cuts = [float(c) for c in a.cuts.split(",") if c] or [None]
@@ -59,23 +73,37 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"{src} has no fine-tuned model: run `deflare-scene eval "
                              f"{scene_dir}` first")
         stems = flared_views(scene)
-        for (i, w), cut in product(enumerate(a.weights), cuts):
-            tag = "" if cut is None else f"_cut{cut:g}"
-            dest = a.work / f"{scene_dir.name}_{i}_{w.parent.name}{tag}" / a.variant
+        arms = [(f"{scene_dir.name}_{i}_{w.parent.name}"
+                 + ("" if cut is None else f"_cut{cut:g}"), w, cut)
+                for (i, w), cut in product(enumerate(a.weights), cuts)]
+        arms += [(f"{scene_dir.name}_truth{m:g}", m, None) for m in a.truth]
+        for name, arm, cut in arms:
+            dest = a.work / name / a.variant
             if not dest.exists():
                 shutil.copytree(src, dest, symlinks=True)
             ws = Workspace(dest)
-            mask.run(mask.MaskConfig(weights=w, threshold=cut), ws, force=True)
+            if isinstance(arm, Path):
+                mask.run(mask.MaskConfig(weights=arm, threshold=cut), ws, force=True)
+                row = {"scene": scene_dir.name, "weights": str(arm), "sha256": sha256(arm),
+                       "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), arm)}
+                label = f"{arm} cut {row['cut']:g}"
+            else:
+                given = a.work / name / "truth_masks"
+                given.mkdir(parents=True, exist_ok=True)
+                for stem in view_stems(ws):  # the workspace's views are the training views
+                    m = truth_mask_at(scene, stem, arm)
+                    atomic_imwrite(given / f"{stem}.png", m.astype("uint8") * 255)
+                mask.run(mask.MaskConfig(masks_dir=given), ws, force=True)
+                row = {"scene": scene_dir.name, "truth_scale": arm}
+                label = f"true flare at {arm:g}x the mask rule's thresholds"
             t0 = time.perf_counter()
             render.run(render.RenderConfig(path="inputs"), ws, force=True)
             r = score_views(scene, ws.deflared, stems, with_region=True)
-            row = {"scene": scene_dir.name, "weights": str(w), "sha256": sha256(w),
-                   "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), w),
-                   "psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
-                   "ssim": round(r["ssim"], 4),
-                   "render_s": round(time.perf_counter() - t0, 1)}
+            row.update({"psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
+                        "ssim": round(r["ssim"], 4),
+                        "render_s": round(time.perf_counter() - t0, 1)})
             rows.append(row)
-            print(scene_dir.name, w, f"cut {row['cut']:g}: PSNR {row['psnr']:.2f}, flare region "
+            print(scene_dir.name, label, f": PSNR {row['psnr']:.2f}, flare region "
                   f"{row['psnr_flare']:.2f}, SSIM {row['ssim']:.4f}", flush=True)
     write_result(a.out, {"variant": a.variant, "scored_views": "flared views of each scene",
                          "rows": rows})

@@ -198,15 +198,32 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
     shipped = Path(__file__).parents[2] / "gnfr" / "weights" / "fmg.safetensors"
     res = tmp_path / "down.json"
     assert bench.main([str(scene), "--eval-ws", str(out), "--weights", str(shipped),
+                       "--truth", "1", "--truth", "3",
                        "--work", str(tmp_path / "work"), "--out", str(res)]) == 0
     rows = json.loads(res.read_text())["rows"]
-    assert len(rows) == 1 and rows[0]["weights"] == str(shipped)
-    assert all(math.isfinite(rows[0][k]) and rows[0][k] > 0 for k in ("psnr", "psnr_flare", "ssim"))
+    assert len(rows) == 3 and rows[0]["weights"] == str(shipped)
+    assert [r.get("truth_scale") for r in rows] == [None, 1, 3]
+    assert all(math.isfinite(r[k]) and r[k] > 0
+               for r in rows for k in ("psnr", "psnr_flare", "ssim"))
     assert {p.name: p.read_bytes() for p in src_masks.iterdir()} == before
-    copy = next((tmp_path / "work").iterdir()) / "gnfr"
+    copy = tmp_path / "work" / f"{scene.name}_0_weights" / "gnfr"
     rec = json.loads((copy / "manifest.json").read_text())["stages"]["mask"]["params"]
     # the copy's masks are the FMG's, not the truth
     assert rec["weights"].startswith("fmg.safetensors@sha256:") and rec["masks_dir"] is None
+    # the truth arms: at 1x the masks are masks_gt (up to the 8-bit photos), at 3x a part
+    from pipeline.ws_files import read_mask_file
+
+    def ws_masks(arm):
+        d = tmp_path / "work" / f"{scene.name}_{arm}" / "gnfr" / "masks"
+        return {p.stem: read_mask_file(p, "") for p in sorted(d.glob("*.png"))}
+    one, three = ws_masks("truth1"), ws_masks("truth3")
+    gt = {s: read_mask_file(scene / "masks_gt" / f"{s}.png", "") for s in one}
+    inter = sum(int((one[s] & gt[s]).sum()) for s in one)
+    union = sum(int((one[s] | gt[s]).sum()) for s in one)
+    assert union > 0 and inter / union > 0.9
+    marked = [sum(int(m.sum()) for m in arm.values()) for arm in (three, one)]
+    assert 0 < marked[0] < 0.8 * marked[1]
+    assert all(not (three[s] & ~one[s]).any() for s in one)
 
 
 def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):

@@ -76,6 +76,30 @@ def truth_mask(scene: SynthScene, stem: str) -> np.ndarray:
 
 
 
+def truth_mask_at(scene: SynthScene, stem: str, scale: float) -> np.ndarray:
+    """[H, W] bool: the view's true flare by the mask rule with both thresholds (absolute and
+    relative to the background) times ``scale``: ``scale`` 1 is about ``masks_gt`` (the
+    flare read back from the 8-bit photos as flared minus clean in linear light, so a pixel
+    or two at the edges differ), above 1 the flare's faint outer part is left unmarked. The
+    light's core is in both images, so it is never flare here either."""
+    import cv2
+
+    from pipeline.colour import srgb_to_linear
+    from pipeline.flare import FlareConfig, luminance, mask_threshold
+
+    p = photo_path(scene.root, stem)
+    if p is None:
+        raise UserError(f"{scene.root / 'photos'} has no photo of {stem}: a training view "
+                        "is needed")
+    lin = [srgb_to_linear(cv2.imread(str(f), cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32)
+                          / 255) for f in (p, scene.root / "clean" / f"{stem}.png")]
+    flare = np.clip(lin[0] - lin[1], 0, None)
+    base = FlareConfig()
+    cfg = FlareConfig(mask_abs_threshold=base.mask_abs_threshold * scale,
+                      mask_rel_threshold=base.mask_rel_threshold * scale)
+    return luminance(flare) > mask_threshold(cfg, flare.shape[:2], lin[1])
+
+
 def flared_views(scene: SynthScene) -> list[str]:
     """Training views with flare in masks_gt (a clean view's input is its ground truth:
     scoring it would only add capped PSNRs)."""
