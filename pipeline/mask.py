@@ -94,10 +94,10 @@ class MaskConfig:
     confirm_weights: Path | None = option(None, exists=True)
     """The second network of ``confirm``; default the full-width FMG,
     gnfr/weights/fmg_candidate_J.safetensors."""
-    confirm_keep: str = option("both", choices=("both", "first"))
-    """With ``confirm``: keep the confirmed regions of both networks (both), or only the
-    FMG's own regions that the second network confirms (first: a subset of the FMG's mask,
-    then the rays; no holes are filled)."""
+    confirm_keep: str | None = option(None, choices=("both", "first"))
+    """With ``confirm``: keep the confirmed regions of both networks (both, the default), or
+    only the FMG's own regions that the second network confirms (first: a subset of the
+    FMG's mask, then the rays; no holes are filled)."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
@@ -336,6 +336,11 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if config.confirm_weights is not None and not config.confirm:
         raise UserError("--confirm-weights names the second network of --confirm: add "
                         "--confirm, or leave --confirm-weights out")
+    if config.confirm_keep is not None and not config.confirm:
+        raise UserError("--confirm-keep says which regions --confirm keeps: add --confirm, "
+                        "or leave --confirm-keep out")
+    if config.confirm:
+        config = replace(config, confirm_keep=config.confirm_keep or "both")
     if config.confirm and config.masks_dir is not None:
         raise UserError("--confirm checks an FMG's marks with a second network: it has no "
                         "use with --masks (your masks are kept as given); leave one out")

@@ -376,6 +376,8 @@ def test_confirm_bad_inputs_fail_before_the_workspace_changes(kermit_ws, tmp_pat
     shipped = M.DEFAULT_WEIGHTS
     with pytest.raises(UserError, match="add --confirm"):
         M.run(M.MaskConfig(confirm_weights=shipped), ws)
+    with pytest.raises(UserError, match="--confirm-keep says which regions"):
+        M.run(M.MaskConfig(confirm_keep="first"), ws)
     with pytest.raises(UserError, match="no use with --masks"):
         M.run(M.MaskConfig(confirm=True, masks_dir=tmp_path), ws)
     bad = tmp_path / "bad.safetensors"

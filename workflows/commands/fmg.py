@@ -39,6 +39,7 @@ def register(app: typer.Typer) -> None:
         weights = config.weights or DEFAULT_WEIGHTS
         for path in (weights, *config.loo):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
+        keep = config.confirm_keep or "both"
         if config.confirm:
             load_fmg_weights(config.confirm, flag="--confirm")
         if config.work_sizes:
@@ -49,14 +50,14 @@ def register(app: typer.Typer) -> None:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
                                                  ray_cfg=rule, confirm=config.confirm,
-                                                 confirm_keep=config.confirm_keep)
+                                                 confirm_keep=keep)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
                                                rays=config.rays, ray_cfg=rule,
                                                confirm=config.confirm,
-                                               confirm_keep=config.confirm_keep)
+                                               confirm_keep=keep)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

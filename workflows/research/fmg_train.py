@@ -149,8 +149,8 @@ class FMGEvalConfig:
     """With ``per_kind`` or ``clean``: score the masks of `mask --confirm` with these weights
     as the second network (each network at its own cut; e.g.
     gnfr/weights/fmg_candidate_J.safetensors)."""
-    confirm_keep: str = option("both", choices=("both", "first"))
-    """With ``confirm``: as `mask --confirm-keep`."""
+    confirm_keep: str | None = option(None, choices=("both", "first"))
+    """With ``confirm``: as `mask --confirm-keep` (default both)."""
     out: Path | None = None
     """Write the metrics here (JSON)."""
 
@@ -202,6 +202,9 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--rays needs --per-kind or --clean")
     if cfg.confirm is not None and not (cfg.per_kind or cfg.clean):
         raise UserError("--confirm needs --per-kind or --clean")
+    if cfg.confirm_keep is not None and cfg.confirm is None:
+        raise UserError("--confirm-keep says which regions --confirm keeps: add --confirm "
+                        "WEIGHTS, or leave --confirm-keep out")
     check_ray_rule(cfg)
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean")
