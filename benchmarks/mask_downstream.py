@@ -11,7 +11,11 @@ true flare. Only the masks change; which views trained and on what is the varian
 thresholds times M (``workflows.research.eval.scene.truth_mask_at``; M = 1 is about
 masks_gt, larger M leaves the faint outer flare unmarked), given to the mask stage as
 ``--masks`` (as a user's own masks): what the fill makes of a perfect segmenter of each
-definition of flare.
+definition of flare. ``--combine and,or`` adds, for each weight file, arms whose masks are
+its masks AND / OR the true flare at 1x: no false marks (the core of the light, which the
+truth leaves out, included) / no missed flare, to learn which of a network's errors costs
+the photos more. Every row also says how its masks match masks_gt (flare IoU, share of
+the flared views marked).
 
     python benchmarks/mask_downstream.py SYNTH [SYNTH ...] --weights A.safetensors \
         --weights B.safetensors [--truth 1 --truth 2] --work DIR \
@@ -27,8 +31,45 @@ import time
 from itertools import product
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+
+def given_masks(folder: Path, ws, masks: dict) -> None:
+    """Hand ``masks`` {stem: [H, W] bool} to the workspace's mask stage as a user's masks
+    (written to ``folder``/given_masks)."""
+    from pipeline import mask
+    from pipeline.workspace import atomic_imwrite
+
+    given = folder / "given_masks"
+    given.mkdir(parents=True, exist_ok=True)
+    for stem, m in masks.items():
+        atomic_imwrite(given / f"{stem}.png", m.astype("uint8") * 255)
+    mask.run(mask.MaskConfig(masks_dir=given), ws, force=True)
+
+
+def score(scene, stems: list[str], truth: dict, ws, row: dict, label: str) -> dict:
+    """``row`` with the workspace's masks against ``truth`` (flare IoU pooled over
+    ``stems``, mean share marked) and its re-rendered de-flared inputs scored."""
+    from pipeline import render
+    from pipeline.ws_files import read_mask
+    from workflows.research.eval.scoring import score_views
+
+    marks = {s: read_mask(ws, s) for s in stems}
+    inter = sum(int((marks[s] & truth[s]).sum()) for s in stems)
+    union = sum(int((marks[s] | truth[s]).sum()) for s in stems)
+    t0 = time.perf_counter()
+    render.run(render.RenderConfig(path="inputs"), ws, force=True)
+    r = score_views(scene, ws.deflared, stems, with_region=True)
+    row = {**row, "flare_iou": round(inter / max(union, 1), 4),
+           "marked": round(float(np.mean([m.mean() for m in marks.values()])), 5),
+           "psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
+           "ssim": round(r["ssim"], 4), "render_s": round(time.perf_counter() - t0, 1)}
+    print(row["scene"], label, f": flare IoU {row['flare_iou']:.3f}, PSNR {row['psnr']:.2f}, "
+          f"flare region {row['psnr_flare']:.2f}, SSIM {row['ssim']:.4f}", flush=True)
+    return row
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cuts", default="",
                     help="comma-separated probability cuts to score each weight file at "
                          "(default: the file's calibrated cut only)")
+    ap.add_argument("--combine", default="",
+                    help="comma-separated: and, or (each weight file's masks with the true "
+                         "flare at 1x)")
     ap.add_argument("--work", type=Path, required=True,
                     help="scratch folder for the copied workspaces (reused when present)")
     ap.add_argument("--out", type=Path, default=None)
@@ -54,15 +98,24 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("give at least one --weights or --truth arm")
     if any(m <= 0 for m in a.truth):
         ap.error("--truth must be above 0")
+    combine = [c for c in a.combine.split(",") if c]
+    if set(combine) - {"and", "or"}:
+        ap.error(f"--combine {a.combine}: must be and, or or both")
+    if combine and not a.weights:
+        ap.error("--combine combines each --weights arm's masks with the truth: give --weights")
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
-    from pipeline import mask, render
+    from pipeline import mask
     from pipeline.provenance import sha256, write_result
-    from pipeline.workspace import Workspace, atomic_imwrite
-    from pipeline.ws_files import view_stems
-    from workflows.research.eval.scene import flared_views, load_synth, truth_mask_at
-    from workflows.research.eval.scoring import score_views
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_mask, view_stems
+    from workflows.research.eval.scene import (
+        flared_views,
+        load_synth,
+        truth_mask,
+        truth_mask_at,
+    )
 
     cuts = [float(c) for c in a.cuts.split(",") if c] or [None]
     rows = []
@@ -77,6 +130,8 @@ def main(argv: list[str] | None = None) -> int:
                  + ("" if cut is None else f"_cut{cut:g}"), w, cut)
                 for (i, w), cut in product(enumerate(a.weights), cuts)]
         arms += [(f"{scene_dir.name}_truth{m:g}", m, None) for m in a.truth]
+        truth = {s: truth_mask(scene, s) for s in stems}
+
         for name, arm, cut in arms:
             dest = a.work / name / a.variant
             if not dest.exists():
@@ -87,24 +142,26 @@ def main(argv: list[str] | None = None) -> int:
                 row = {"scene": scene_dir.name, "weights": str(arm), "sha256": sha256(arm),
                        "cut": mask.resolve_threshold(mask.MaskConfig(threshold=cut), arm)}
                 label = f"{arm} cut {row['cut']:g}"
+                own = {s: read_mask(ws, s) for s in view_stems(ws)}
+                rows.append(score(scene, stems, truth, ws, row, label))
+                for how in combine:
+                    cname = f"{name}_{how}_truth"
+                    cdest = a.work / cname / a.variant
+                    if not cdest.exists():
+                        shutil.copytree(src, cdest, symlinks=True)
+                    cws = Workspace(cdest)
+                    t1 = {s: truth_mask_at(scene, s, 1.0) for s in own}
+                    given_masks(a.work / cname, cws, {s: (own[s] & t1[s]) if how == "and"
+                                                      else (own[s] | t1[s]) for s in own})
+                    rows.append(score(scene, stems, truth, cws,
+                                      {**row, "combine": f"{how} true flare 1x"},
+                                      f"{label} {how} the true flare"))
             else:
-                given = a.work / name / "truth_masks"
-                given.mkdir(parents=True, exist_ok=True)
-                for stem in view_stems(ws):  # the workspace's views are the training views
-                    m = truth_mask_at(scene, stem, arm)
-                    atomic_imwrite(given / f"{stem}.png", m.astype("uint8") * 255)
-                mask.run(mask.MaskConfig(masks_dir=given), ws, force=True)
-                row = {"scene": scene_dir.name, "truth_scale": arm}
-                label = f"true flare at {arm:g}x the mask rule's thresholds"
-            t0 = time.perf_counter()
-            render.run(render.RenderConfig(path="inputs"), ws, force=True)
-            r = score_views(scene, ws.deflared, stems, with_region=True)
-            row.update({"psnr": round(r["psnr"], 3), "psnr_flare": round(r["psnr_flare"], 3),
-                        "ssim": round(r["ssim"], 4),
-                        "render_s": round(time.perf_counter() - t0, 1)})
-            rows.append(row)
-            print(scene_dir.name, label, f": PSNR {row['psnr']:.2f}, flare region "
-                  f"{row['psnr_flare']:.2f}, SSIM {row['ssim']:.4f}", flush=True)
+                given_masks(a.work / name, ws,
+                            {s: truth_mask_at(scene, s, arm) for s in view_stems(ws)})
+                rows.append(score(scene, stems, truth, ws,
+                                  {"scene": scene_dir.name, "truth_scale": arm},
+                                  f"true flare at {arm:g}x the mask rule's thresholds"))
     write_result(a.out, {"variant": a.variant, "scored_views": "flared views of each scene",
                          "rows": rows})
     return 0

@@ -198,11 +198,17 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
     shipped = Path(__file__).parents[2] / "gnfr" / "weights" / "fmg.safetensors"
     res = tmp_path / "down.json"
     assert bench.main([str(scene), "--eval-ws", str(out), "--weights", str(shipped),
-                       "--truth", "1", "--truth", "3",
+                       "--truth", "1", "--truth", "3", "--combine", "and,or",
                        "--work", str(tmp_path / "work"), "--out", str(res)]) == 0
     rows = json.loads(res.read_text())["rows"]
-    assert len(rows) == 3 and rows[0]["weights"] == str(shipped)
-    assert [r.get("truth_scale") for r in rows] == [None, 1, 3]
+    assert len(rows) == 5 and rows[0]["weights"] == str(shipped)
+    assert [r.get("truth_scale") for r in rows] == [None, None, None, 1, 3]
+    assert [r.get("combine") for r in rows[:3]] == [None, "and true flare 1x", "or true flare 1x"]
+    # the masks' match with masks_gt: AND has no false marks, OR no misses, so both match it
+    # at least as well as the network's own; the truth at 1x nearly exactly
+    iou = [r["flare_iou"] for r in rows]
+    assert min(iou[1], iou[2]) >= iou[0] and iou[3] > 0.9
+    assert rows[1]["marked"] <= rows[0]["marked"] <= rows[2]["marked"]
     assert all(math.isfinite(r[k]) and r[k] > 0
                for r in rows for k in ("psnr", "psnr_flare", "ssim"))
     assert {p.name: p.read_bytes() for p in src_masks.iterdir()} == before
