@@ -70,10 +70,13 @@ def set_rng_state(gen: torch.Generator, st: dict) -> None:
 def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
     """Checkpoint metadata render needs besides the architecture (stored by save_model),
     with the step count and preset name."""
-    return {"step": step, "preset": preset, "samples": cfg.samples,
+    meta = {"step": step, "preset": preset, "samples": cfg.samples,
             "eval_views": cfg.eval_views, "point_sampler": cfg.point_sampler,
             "view_sampler": cfg.view_sampler, "mask_loss": cfg.mask_loss,
             "source_scale": cfg.source_scale, "full_res_colour": cfg.full_res_colour}
+    if cfg.lr_restart > 0:  # how the rates went (provenance; render does not read it)
+        meta.update(lr_restart=cfg.lr_restart, lr_restart_step=cfg.lr_restart_step)
+    return meta
 
 
 def trim_metrics(path: str | Path, step: int) -> None:

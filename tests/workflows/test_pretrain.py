@@ -356,6 +356,11 @@ def test_pretrain_lr_restart_starts_at_the_init_step_and_survives_a_resume(
     _pretrain_cli(pretrain_scenes, tmp_path / "c", 10, "--init", str(shipped))
     plain = [json.loads(ln) for ln in (tmp_path / "c" / "metrics.jsonl").read_text().splitlines()]
     assert [ln["lr_factor"] for ln in plain] == [0.25]  # step index 9: the plain halving
+    from gnfr.checkpoint import read_metadata
+
+    meta = read_metadata(out / "gnfr.safetensors")[1]
+    assert (meta["lr_restart"], meta["lr_restart_step"], meta["step"]) == (0.25, 6, 15)
+    assert "lr_restart" not in read_metadata(tmp_path / "c" / "gnfr.safetensors")[1]
     from workflows.cli import main
 
     capsys.readouterr()
