@@ -65,6 +65,13 @@ class FinetuneConfig:
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
+    holes_as_flare: bool = False
+    """Train on each mask with what it encloses marked too (``ws_files.enclosed_holes``: the
+    light's own core inside its flare, which a tight mask such as the full-width FMG's or
+    the synth's true masks leaves unmarked): those pixels are neither targets nor source
+    colours, while WS/masks (and so the render, which keeps the core as photographed) stay
+    as they are. The shipped FMG's masks have almost no holes (gnfr/weights/fmg.md,
+    "Nineteenth session")."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
@@ -129,6 +136,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     params = {"preset": name, "init": config.init, "train": asdict(cfg)}
+    if config.holes_as_flare:  # off: the parameters (and the up-to-date check) as before
+        params["holes_as_flare"] = True
     stage_run = ws.begin_stage("finetune", params, inputs, force)
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
@@ -139,7 +148,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
          f"{'cached features' if cfg.cached_features else 'end-to-end'})")
     from pipeline.training_scenes import load_workspace
 
-    scene = load_workspace(ws.root)
+    scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run), init=config.init,
                 preset=name)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]

@@ -32,7 +32,7 @@ from pipeline.errors import UserError
 from pipeline.images import image_size, is_photo, list_photos, read_image
 from pipeline.progress import warn
 from pipeline.workspace import Workspace
-from pipeline.ws_files import read_cameras, read_masks, read_views
+from pipeline.ws_files import enclosed_holes, read_cameras, read_masks, read_views
 
 PACK_FILE = "scene_pack.npz"
 """A scene pack's file name (``save_pack``)."""
@@ -83,10 +83,13 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 
 
 # --------------------------------------------------------------------------- workspace
-def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scene:
+def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
+                   holes_as_flare: bool = False) -> Scene:
     """A workspace's posed views (and masks / views.json when present) as a Scene. With
     views.json its flags are the training targets (``ViewsFile.targets``, the rule select
-    applied with its --max-flare); without it the training config's max_flare decides."""
+    applied with its --max-flare); without it the training config's max_flare decides.
+    ``holes_as_flare``: each mask with what it encloses marked too
+    (``pipeline.ws_files.enclosed_holes``; the views' flare fractions stay select's)."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
@@ -102,6 +105,8 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None) -> Scen
     masks = None
     if ws.masks.is_dir():
         masks = list(read_masks(ws, names, size).values())
+        if holes_as_flare:
+            masks = [m | enclosed_holes(m) for m in masks]
     else:
         warn(f"{ws.masks} is missing: treating every view as flare-free (run `deflare-scene "
              f"mask {ws.root}` for GN-FR's flare handling)")

@@ -269,3 +269,40 @@ def test_random_sources_default_follows_the_masks(tmp_path, monkeypatch):
                               random_sources=flag), ws, force=True)
         expect.append(want)
     assert seen == expect
+
+
+def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypatch):
+    """--holes-as-flare: the scene the fine-tune trains on has each mask's enclosed hole
+    marked (neither target nor source colour) while WS/masks stay as written; off, the masks
+    are trained on as they are. The option is part of the stage's parameters only when on."""
+    import pipeline.finetune as ft
+
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.25)
+    ring = None
+    for s in view_stems(ws):
+        m = np.zeros(read_view_image(ws, s).shape[:2], bool)
+        m[10:30, 10:30] = True
+        m[15:25, 15:25] = False                      # the light's core, unmarked
+        write_mask(ws, s, m)
+        ring = m
+    before = {s: read_mask(ws, s).copy() for s in view_stems(ws)}
+    masks = {}
+
+    def fake_fit(scene, cfg, *a, **k):
+        masks[len(masks)] = scene.masks[:, 0].numpy().astype(bool)
+        return {}
+
+    monkeypatch.setattr(ft, "fit", fake_fit)
+    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
+    rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
+    assert "holes_as_flare" not in rec
+    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
+                          holes_as_flare=True), ws)     # a new parameter: not up to date
+    rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
+    assert rec["holes_as_flare"] is True
+    plain, filled = masks[0], masks[1]
+    assert all(np.array_equal(m, ring) for m in plain)
+    full = ring.copy()
+    full[15:25, 15:25] = True
+    assert all(np.array_equal(m, full) for m in filled)
+    assert all(np.array_equal(read_mask(ws, s), before[s]) for s in view_stems(ws))
