@@ -135,7 +135,10 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         cfg = replace(cfg, random_sources=True)
         info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
-    params = {"preset": name, "init": config.init, "train": asdict(cfg)}
+    train = asdict(cfg)
+    if not cfg.lr_restart:  # pretraining's warm restart: unset here, so the parameters (and
+        del train["lr_restart"], train["lr_restart_step"]  # a finished stage) stay as before
+    params = {"preset": name, "init": config.init, "train": train}
     if config.holes_as_flare:  # off: the parameters (and the up-to-date check) as before
         params["holes_as_flare"] = True
     stage_run = ws.begin_stage("finetune", params, inputs, force)

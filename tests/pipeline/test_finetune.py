@@ -296,6 +296,7 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
     ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
     rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
     assert "holes_as_flare" not in rec
+    assert "lr_restart" not in rec["train"]  # a finished stage of an earlier version stays done
     ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
                           holes_as_flare=True), ws)     # a new parameter: not up to date
     rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
