@@ -37,6 +37,27 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
+def copy_of(src: Path, work: Path, variant: str, name: str):
+    """The evaluated variant ``src`` copied to WORK/name/variant (reused when present)."""
+    from pipeline.workspace import Workspace
+
+    dest = work / name / variant
+    if not dest.exists():
+        shutil.copytree(src, dest, symlinks=True)
+    return Workspace(dest)
+
+
+def true_flare(cache: dict, scene, ws, m: float) -> dict:
+    """{stem: the true flare at ``m`` times the mask rule's thresholds} of the workspace's
+    views, read once per scene into ``cache``."""
+    from pipeline.ws_files import view_stems
+    from workflows.research.eval.scene import truth_mask_at
+
+    if m not in cache:
+        cache[m] = {s: truth_mask_at(scene, s, m) for s in view_stems(ws)}
+    return cache[m]
+
+
 def given_masks(folder: Path, ws, masks: dict) -> None:
     """Hand ``masks`` {stem: [H, W] bool} to the workspace's mask stage as a user's masks
     (written to ``folder``/given_masks)."""
@@ -108,13 +129,11 @@ def main(argv: list[str] | None = None) -> int:
     apply_thread_policy()  # before torch loads (workflows/threads.py)
     from pipeline import mask
     from pipeline.provenance import sha256, write_result
-    from pipeline.workspace import Workspace
     from pipeline.ws_files import read_mask, view_stems
     from workflows.research.eval.scene import (
         flared_views,
         load_synth,
         truth_mask,
-        truth_mask_at,
     )
 
     cuts = [float(c) for c in a.cuts.split(",") if c] or [None]
@@ -131,12 +150,9 @@ def main(argv: list[str] | None = None) -> int:
                 for (i, w), cut in product(enumerate(a.weights), cuts)]
         arms += [(f"{scene_dir.name}_truth{m:g}", m, None) for m in a.truth]
         truth = {s: truth_mask(scene, s) for s in stems}
-
+        truth_at: dict[float, dict] = {}  # {M: {stem: mask}}, each read once per scene
         for name, arm, cut in arms:
-            dest = a.work / name / a.variant
-            if not dest.exists():
-                shutil.copytree(src, dest, symlinks=True)
-            ws = Workspace(dest)
+            ws = copy_of(src, a.work, a.variant, name)
             if isinstance(arm, Path):
                 mask.run(mask.MaskConfig(weights=arm, threshold=cut), ws, force=True)
                 row = {"scene": scene_dir.name, "weights": str(arm), "sha256": sha256(arm),
@@ -146,19 +162,15 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(score(scene, stems, truth, ws, row, label))
                 for how in combine:
                     cname = f"{name}_{how}_truth"
-                    cdest = a.work / cname / a.variant
-                    if not cdest.exists():
-                        shutil.copytree(src, cdest, symlinks=True)
-                    cws = Workspace(cdest)
-                    t1 = {s: truth_mask_at(scene, s, 1.0) for s in own}
+                    cws = copy_of(src, a.work, a.variant, cname)
+                    t1 = true_flare(truth_at, scene, ws, 1.0)
                     given_masks(a.work / cname, cws, {s: (own[s] & t1[s]) if how == "and"
                                                       else (own[s] | t1[s]) for s in own})
                     rows.append(score(scene, stems, truth, cws,
                                       {**row, "combine": f"{how} true flare 1x"},
                                       f"{label} {how} the true flare"))
             else:
-                given_masks(a.work / name, ws,
-                            {s: truth_mask_at(scene, s, arm) for s in view_stems(ws)})
+                given_masks(a.work / name, ws, true_flare(truth_at, scene, ws, arm))
                 rows.append(score(scene, stems, truth, ws,
                                   {"scene": scene_dir.name, "truth_scale": arm},
                                   f"true flare at {arm:g}x the mask rule's thresholds"))

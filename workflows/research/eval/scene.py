@@ -82,17 +82,16 @@ def truth_mask_at(scene: SynthScene, stem: str, scale: float) -> np.ndarray:
     flare read back from the 8-bit photos as flared minus clean in linear light, so a pixel
     or two at the edges differ), above 1 the flare's faint outer part is left unmarked. The
     light's core is in both images, so it is never flare here either."""
-    import cv2
-
     from pipeline.colour import srgb_to_linear
     from pipeline.flare import FlareConfig, luminance, mask_threshold
+    from pipeline.images import read_image_float
 
     p = photo_path(scene.root, stem)
     if p is None:
         raise UserError(f"{scene.root / 'photos'} has no photo of {stem}: a training view "
                         "is needed")
-    lin = [srgb_to_linear(cv2.imread(str(f), cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32)
-                          / 255) for f in (p, scene.root / "clean" / f"{stem}.png")]
+    lin = [srgb_to_linear(read_image_float(f))
+           for f in (p, scene.root / "clean" / f"{stem}.png")]
     flare = np.clip(lin[0] - lin[1], 0, None)
     base = FlareConfig()
     cfg = FlareConfig(mask_abs_threshold=base.mask_abs_threshold * scale,
