@@ -369,3 +369,54 @@ def test_pretrain_lr_restart_starts_at_the_init_step_and_survives_a_resume(
     err = capsys.readouterr().err
     assert "--lr-restart" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "d").exists()
+
+
+def test_mirrored_scene_is_the_same_geometry_seen_in_a_mirror(pretrain_scenes):
+    """A world point at pixel (x, y) of a view projects to (W - x, y) of the mirrored view,
+    at the same depth; the mirrored images are the flipped ones and the cameras stay proper
+    rotations; the views' neighbours carry over."""
+    from gnfr.geometry import project
+    from workflows.research.pretrain import mirrored
+
+    scene = load_workspace(pretrain_scenes / "temple")
+    scene.masks = torch.zeros(scene.images.shape[0], 1, *scene.images.shape[-2:], dtype=torch.uint8)
+    scene.masks[:, :, :, :3] = 1  # a flare strip on the left edge
+    mir = mirrored(scene)
+    W = scene.images.shape[-1]
+    pts = torch.from_numpy(np.random.default_rng(0).uniform(-0.1, 0.1, (40, 3))).float()
+    xy, z = project(pts, scene.K.float(), torch.linalg.inv(scene.c2w.float()))
+    xy_m, z_m = project(pts * torch.tensor([-1.0, 1.0, 1.0]), mir.K.float(),
+                        torch.linalg.inv(mir.c2w.float()))
+    assert (z > 0).all() and torch.allclose(z_m, z, atol=1e-4)
+    assert torch.allclose(xy_m[..., 0], W - xy[..., 0], atol=1e-3)
+    assert torch.allclose(xy_m[..., 1], xy[..., 1], atol=1e-3)
+    assert not torch.allclose(xy_m[..., 0], xy[..., 0], atol=1.0)  # it did move the points
+    assert torch.equal(mir.images, scene.images.flip(-1))
+    assert mir.masks[..., -3:].all() and not mir.masks[..., :-3].any()
+    assert torch.allclose(torch.linalg.det(mir.c2w[:, :3, :3].float()), torch.ones(len(mir.stems)),
+                          atol=1e-5)
+    assert mir.ranked == scene.ranked and mir.name == "temple~mirror"
+
+
+def test_pretrain_mirror_doubles_the_scenes_and_is_recorded(pretrain_scenes, tmp_path,
+                                                           monkeypatch):
+    """--mirror trains on each scene and its mirror image (the draws reach both) and says so
+    in the weights' metadata; without it, one scene and no such key."""
+    import workflows.research.pretrain as pt
+    from gnfr.checkpoint import read_metadata
+
+    names = []
+    real = pt.sample_batch
+
+    def spy(scene, *args):
+        names.append(scene.name)
+        return real(scene, *args)
+
+    monkeypatch.setattr(pt, "sample_batch", spy)
+    _pretrain_cli(pretrain_scenes, tmp_path / "m", 24, "--mirror")
+    assert set(names) == {"temple", "temple~mirror"}
+    assert read_metadata(tmp_path / "m" / "gnfr.safetensors")[1]["pretrain_mirror"] is True
+    names.clear()
+    _pretrain_cli(pretrain_scenes, tmp_path / "n", 4)
+    assert set(names) == {"temple"}
+    assert "pretrain_mirror" not in read_metadata(tmp_path / "n" / "gnfr.safetensors")[1]

@@ -64,6 +64,10 @@ class PretrainConfig:
     """Warm restart: from the step the run starts at (``--init``'s recorded step; kept when
     the run resumes) the rates start again at this fraction of the preset's and halve on the
     preset's schedule (for continuing a run whose rates have decayed to nothing)."""
+    mirror: bool = False
+    """Train on each scene's mirror image too (every view flipped left-right, its camera
+    reflected: a consistent second scene with its own synthetic flare draw), doubling the
+    scenes the prior sees. Recorded in the weights' metadata (``pretrain_mirror``)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -113,19 +117,35 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
     return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
 
 
+def mirrored(scene: Scene) -> Scene:
+    """``scene`` seen in a mirror: every view (and mask) flipped left-right, and the world
+    and each camera reflected in x (c2w -> S c2w S, S = diag(-1, 1, 1, 1), so the rotations
+    stay proper), so a world point at pixel (x, y) of a view lands at (W - x, y) of its
+    mirror (the +0.5 pixel-centre convention: cx -> W - cx). Depths, bounds and the distances
+    between cameras are unchanged, so ``ranked`` and ``flare`` carry over."""
+    S = torch.diag(torch.tensor([-1.0, 1.0, 1.0, 1.0], dtype=scene.c2w.dtype))
+    K = scene.K.clone()
+    K[:, 0, 2] = scene.images.shape[-1] - K[:, 0, 2]
+    return replace(scene, images=scene.images.flip(-1), K=K, c2w=S @ scene.c2w @ S,
+                   masks=None if scene.masks is None else scene.masks.flip(-1),
+                   name=f"{scene.name}~mirror")
+
+
 def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> list[Scene]:
     """Every training scene of ``config.scenes`` (or the ``folders`` already found in
-    them), with synthetic flare when asked."""
+    them), and its mirror image with ``config.mirror``, each with its own synthetic flare
+    when asked."""
     from pipeline.progress import track
     from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes = []
     for folder in track(folders or find_scenes(config.scenes), "loading scenes"):
-        scene = detect_and_load(folder, config.max_size)
-        if config.flare:
-            scene = impose_flare(scene, config.flare_prob, rng)
-        scenes.append(scene)
+        loaded = detect_and_load(folder, config.max_size)
+        for scene in (loaded, mirrored(loaded)) if config.mirror else (loaded,):
+            if config.flare:
+                scene = impose_flare(scene, config.flare_prob, rng)
+            scenes.append(scene)
     return scenes
 
 
@@ -233,7 +253,9 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
-                    meta=lambda at_step, _: render_meta(train_cfg, config.preset, at_step),
+                    meta=lambda at_step, _: {**render_meta(train_cfg, config.preset, at_step),
+                                             **({"pretrain_mirror": True} if config.mirror
+                                                else {})},
                     record=last_record, grad_hook=allreduce_grads if world > 1 else None,
                     writer=rank == 0,
                     report=lambda at_step, _, __: prog.update(task, completed=at_step))
