@@ -271,7 +271,8 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     photos = Path(photos)
     chosen = list_photos(photos)
     ws = Workspace.create(ws_path or default_workspace(photos), photos)
-    stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force)
+    stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,
+                                defaults=asdict(DecodeConfig()))
     if stage_run.skip:
         info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws

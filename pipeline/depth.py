@@ -91,7 +91,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     cams = read_cameras(ws)
     masks = [ws.mask_path(s) for s in cams.stems if ws.mask_path(s).exists()]
     stage_run = ws.begin_stage("depth", asdict(config), [ws.cameras_json, ws.images, *masks],
-                          force)
+                               force, defaults=asdict(DepthConfig()))
     out_dir = ws.depth
     if stage_run.skip:
         info(f"depth: up to date ({out_dir})")

@@ -61,7 +61,8 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
                         f"render {ws.root} --path {cfg.path}` first")
     inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks]
-    stage_run = ws.begin_stage("export", asdict(cfg), inputs, force)
+    stage_run = ws.begin_stage("export", asdict(cfg), inputs, force,
+                                defaults=asdict(ExportConfig()))
     if stage_run.skip:
         info("export: up to date")
         return stage_run.outputs

@@ -135,13 +135,11 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         cfg = replace(cfg, random_sources=True)
         info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
-    train = asdict(cfg)
-    if not cfg.lr_restart:  # pretraining's warm restart: unset here, so the parameters (and
-        del train["lr_restart"], train["lr_restart_step"]  # a finished stage) stay as before
-    params = {"preset": name, "init": config.init, "train": train}
-    if config.holes_as_flare:  # off: the parameters (and the up-to-date check) as before
-        params["holes_as_flare"] = True
-    stage_run = ws.begin_stage("finetune", params, inputs, force)
+    params = {"preset": name, "init": config.init, "train": asdict(cfg),
+              "holes_as_flare": config.holes_as_flare}
+    # an option added later is absent from older records: it matches there at its default
+    stage_run = ws.begin_stage("finetune", params, inputs, force,
+                               defaults={"train": asdict(TrainConfig()), "holes_as_flare": False})
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)

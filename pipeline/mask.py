@@ -369,9 +369,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     params["source"], params["weights"] = source, wid
     if confirm is not None:
         params["confirm_weights"], params["confirm_cut"] = weights_id(cpath), confirm[1]
-    else:  # without it, the parameters (and so the stage's up-to-date check) are as before
-        del params["confirm"], params["confirm_weights"], params["confirm_keep"]
-    stage_run = ws.begin_stage("mask", params, inputs, force)
+    stage_run = ws.begin_stage("mask", params, inputs, force, defaults=asdict(MaskConfig()))
     if stage_run.skip:
         info(f"mask: up to date ({ws.flare_json})")
         return stage_run.outputs

@@ -472,7 +472,8 @@ def run(cfg: PoseConfig, ws: Workspace, force: bool = False) -> list[Path]:
     choose_matcher(cfg, inp.stems)  # validate the option before any work
     params = {k: v for k, v in asdict(cfg).items() if k not in ("colmap_log", "num_threads")}
     extra_inputs = [Path(cfg.colmap_model).resolve()] if cfg.colmap_model else []
-    stage_run = ws.begin_stage("pose", params, [ws.decoded, *extra_inputs], force)
+    stage_run = ws.begin_stage("pose", params, [ws.decoded, *extra_inputs], force,
+                               defaults=asdict(PoseConfig()))
     if stage_run.skip:
         info(f"pose: up to date ({stage_run.previous.get('registered')} views posed)")
         return stage_run.outputs

@@ -9,7 +9,7 @@ sources with ``gnfr.view_sampler.pick_sources``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -67,9 +67,8 @@ def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/views.json; returns the written paths."""
     validate(config)
     ws.require("pose", "mask")
-    stage_run = ws.begin_stage("select", {"max_flare": config.max_flare,
-                                     "min_targets": config.min_targets},
-                          [ws.cameras_json, ws.flare_json], force)
+    stage_run = ws.begin_stage("select", asdict(config), [ws.cameras_json, ws.flare_json],
+                               force, defaults=asdict(SelectConfig()))
     if stage_run.skip:
         info(f"select: up to date ({ws.views_json})")
         return stage_run.outputs

@@ -166,6 +166,31 @@ def default_workspace(photos: str | os.PathLike) -> Path:
     return photos.with_name(photos.name + WS_SUFFIX)
 
 
+_ABSENT = object()
+
+
+def same_params(previous, current, defaults=None) -> bool:
+    """True when a stage's recorded parameters ``previous`` and its ``current`` ones are
+    the same, where a key on one side only (an option added to, or dropped from, the stage
+    since the record was written) matches when its value there is its entry in
+    ``defaults`` (nested like the parameters). So an option added with the old behaviour as
+    its default leaves every finished stage up to date while it stays at that default, and
+    makes the stage run again when it is set; no manifest needs migrating. Both sides are
+    JSON values (``begin_stage`` round-trips them)."""
+    if not (isinstance(previous, dict) and isinstance(current, dict)):
+        return previous == current
+    defaults = defaults if isinstance(defaults, dict) else {}
+    for key in previous.keys() | current.keys():
+        old, new = previous.get(key, _ABSENT), current.get(key, _ABSENT)
+        if old is _ABSENT or new is _ABSENT:
+            value = new if old is _ABSENT else old
+            if key not in defaults or value != defaults[key]:
+                return False
+        elif not same_params(old, new, defaults.get(key)):
+            return False
+    return True
+
+
 @dataclass
 class StageRun:
     """Bookkeeping of one stage execution; returned by :meth:`Workspace.begin_stage`."""
@@ -178,6 +203,8 @@ class StageRun:
     previous: dict = field(default_factory=dict)
     force: bool = False
     started: float = field(default_factory=time.time)
+    defaults: dict = field(default_factory=dict)
+    """The parameters' defaults (``same_params``)."""
 
     @property
     def outputs(self) -> list[Path]:
@@ -409,25 +436,28 @@ class Workspace:
                                 f"`deflare-scene {s} {self.root}` first")
 
     def begin_stage(self, name: str, params: dict, inputs: Iterable[str | os.PathLike],
-                    force: bool = False) -> StageRun:
+                    force: bool = False, defaults: dict | None = None) -> StageRun:
         """Start a stage: digest its inputs and decide whether it can be skipped.
 
         ``params`` must be JSON-serialisable. The stage is skipped when its previous run
-        completed with the same parameters and input digest and all its outputs still
-        exist. Otherwise it is marked running; outputs of a previous interrupted run with
-        the same parameters may be reused file by file by the stage itself.
+        completed with the same parameters (``same_params`` with ``defaults``: a parameter
+        the previous record lacks matches at its default) and input digest and all its
+        outputs still exist. Otherwise it is marked running; outputs of a previous
+        interrupted run with the same parameters may be reused file by file by the stage.
         """
         params = json.loads(json.dumps(params, default=str))
+        defaults = json.loads(json.dumps(defaults or {}, default=str))
         digest = digest_paths(inputs, self.root)
         prev = self.stage_record(name)
         outputs_ok = all((self.root / p).exists() for p in prev.get("outputs", []))
-        skip = (not force and prev.get("status") == "complete" and prev.get("params") == params
+        skip = (not force and prev.get("status") == "complete"
+                and same_params(prev.get("params"), params, defaults)
                 and prev.get("inputs_digest") == digest and outputs_ok)
         if not skip:
             self.update_manifest(name, {"status": "running", "params": params,
                                         "inputs_digest": digest,
                                         "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
-        return StageRun(self, name, params, digest, skip, prev, force)
+        return StageRun(self, name, params, digest, skip, prev, force, defaults=defaults)
 
     def resumable(self, run: StageRun) -> bool:
         """True when per-file outputs left by an interrupted run can be kept.
@@ -435,5 +465,5 @@ class Workspace:
         That is the case when the previous attempt had the same parameters and inputs.
         """
         prev = run.previous
-        return (not run.force and prev.get("params") == run.params
+        return (not run.force and same_params(prev.get("params"), run.params, run.defaults)
                 and prev.get("inputs_digest") == run.inputs_digest)

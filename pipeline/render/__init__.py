@@ -132,7 +132,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += [ws.depth] if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
-    stage_run = ws.begin_stage(f"render:{key}", params, inputs, force)
+    stage_run = ws.begin_stage(f"render:{key}", params, inputs, force,
+                               defaults=asdict(RenderConfig()))
     if stage_run.skip:
         info(f"render {key}: up to date ({out_dir})")
         return stage_run.outputs

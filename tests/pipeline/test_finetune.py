@@ -294,12 +294,22 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
 
     monkeypatch.setattr(ft, "fit", fake_fit)
     ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
-    rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
-    assert "holes_as_flare" not in rec
-    assert "lr_restart" not in rec["train"]  # a finished stage of an earlier version stays done
+    assert len(masks) == 1
+    # the record an earlier version left, before these options: still up to date
+    manifest = ws.root / "manifest.json"
+    man = json.loads(manifest.read_text())
+    rec = man["stages"]["finetune"]["params"]
+    assert rec["holes_as_flare"] is False and rec["train"]["lr_restart"] == 0.0
+    del rec["holes_as_flare"], rec["train"]["lr_restart"], rec["train"]["lr_restart_step"]
+    manifest.write_text(json.dumps(man))
+    for out in man["stages"]["finetune"]["outputs"]:  # what the real fit would have written
+        (ws.root / out).parent.mkdir(exist_ok=True)
+        (ws.root / out).write_bytes(b"")
+    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
+    assert len(masks) == 1                               # skipped: nothing trained
     ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
-                          holes_as_flare=True), ws)     # a new parameter: not up to date
-    rec = json.loads((ws.root / "manifest.json").read_text())["stages"]["finetune"]["params"]
+                          holes_as_flare=True), ws)     # the new option set: not up to date
+    rec = json.loads(manifest.read_text())["stages"]["finetune"]["params"]
     assert rec["holes_as_flare"] is True
     plain, filled = masks[0], masks[1]
     assert all(np.array_equal(m, ring) for m in plain)

@@ -363,7 +363,14 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     assert params["confirm"] is True and params["confirm_cut"] == pytest.approx(0.85)
     assert params["confirm_weights"].startswith("fmg_candidate_J.safetensors@sha256:")
     M.run(M.MaskConfig(rays=False), ws, force=True)
-    assert "confirm" not in ws.stage_record("mask")["params"]
+    params = ws.stage_record("mask")["params"]
+    assert params["confirm"] is False and "confirm_cut" not in params
+    man = json.loads(ws.manifest_path.read_text())     # as an earlier version recorded it
+    for key in ("confirm", "confirm_weights", "confirm_keep"):
+        del man["stages"]["mask"]["params"][key]
+    ws.manifest_path.write_text(json.dumps(man))
+    M.run(M.MaskConfig(rays=False), ws)
+    assert "confirm" not in ws.stage_record("mask")["params"]  # up to date: not rewritten
 
 
 def test_confirm_bad_inputs_fail_before_the_workspace_changes(kermit_ws, tmp_path):

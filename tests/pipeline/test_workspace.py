@@ -59,6 +59,45 @@ def test_stage_skip_and_staleness(tmp_path):
     assert not ws.begin_stage("s", {"p": 1}, [inp], force=True).skip
 
 
+def test_same_params_matches_options_added_or_dropped_at_their_defaults():
+    """A key on one side only matches at its default (nested too); set, it does not; a key
+    with no default, or a changed value, never matches."""
+    from pipeline.workspace import same_params
+
+    old = {"a": 1, "train": {"lr": 0.1, "model": {"width": 32}}}
+    defaults = {"new": False, "train": {"restart": 0.0, "model": {"drop": 0.0}}, "gone": 3}
+    assert same_params(old, {**old, "new": False}, defaults)
+    assert not same_params(old, {**old, "new": True}, defaults)
+    grown = {"a": 1, "new": False, "train": {"lr": 0.1, "restart": 0.0,
+                                             "model": {"width": 32, "drop": 0.0}}}
+    assert same_params(old, grown, defaults) and same_params(grown, old, defaults)
+    grown["train"]["model"]["drop"] = 0.1
+    assert not same_params(old, grown, defaults)
+    assert not same_params(old, {**old, "other": None}, defaults)    # no default: a change
+    assert not same_params(old, {**old, "a": 2}, defaults)
+    assert same_params({**old, "gone": 3}, old, defaults)           # dropped at its default
+    assert not same_params({**old, "gone": 4}, old, defaults)
+    assert not same_params(None, old, defaults) and same_params(old, old)
+
+
+def test_a_stage_of_an_earlier_version_stays_up_to_date_until_a_new_option_is_set(tmp_path):
+    """A finished stage recorded before an option existed is skipped while the option is at
+    its default, runs again when it is set, and its record then holds every parameter."""
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    out = ws.root / "out.txt"
+    out.write_text("o")
+    ws.begin_stage("s", {"p": 1}, []).finish([out])
+    defaults = {"p": 1, "new": False}
+    assert ws.begin_stage("s", {"p": 1, "new": False}, [], defaults=defaults).skip
+    run = ws.begin_stage("s", {"p": 1, "new": True}, [], defaults=defaults)
+    assert not run.skip and not ws.resumable(run)
+    run.finish([out])
+    assert ws.stage_record("s")["params"] == {"p": 1, "new": True}
+    assert not ws.begin_stage("s", {"p": 1, "new": False}, [], defaults=defaults).skip
+
+
 def test_interrupted_stage_is_resumable_but_not_skipped(tmp_path):
     photos = tmp_path / "photos"
     photos.mkdir()
