@@ -41,6 +41,11 @@ class TrainConfig:
     random_sources: bool = False
     """GNT's draw: the N sources in a random order of the pool instead of the nearest first
     (the View Sampler's flare rule still applies)."""
+    mirror: bool = False
+    """Fine-tuning: half the steps (drawn at random) train on the scene seen in a mirror
+    (``mirrored``: every view flipped left-right, its camera reflected), twice the views of
+    one scene for the same number of steps. Pretraining adds mirrored scenes instead
+    (``pretrain --mirror``)."""
     eval_views: int = 10
     """Source views at render / evaluation time (nearest least-flared)."""
     lr_encoder: float = 5e-4
@@ -147,6 +152,20 @@ class Scene:
 
     def index(self) -> dict[str, int]:
         return {s: i for i, s in enumerate(self.stems)}
+
+
+def mirrored(scene: Scene) -> Scene:
+    """``scene`` seen in a mirror: every view (and mask) flipped left-right, and the world
+    and each camera reflected in x (c2w -> S c2w S, S = diag(-1, 1, 1, 1), so the rotations
+    stay proper), so a world point at pixel (x, y) of a view lands at (W - x, y) of its
+    mirror (the +0.5 pixel-centre convention: cx -> W - cx). Depths, bounds and the distances
+    between cameras are unchanged, so ``ranked`` and ``flare`` carry over."""
+    S = torch.diag(torch.tensor([-1.0, 1.0, 1.0, 1.0], dtype=scene.c2w.dtype))
+    K = scene.K.clone()
+    K[:, 0, 2] = scene.images.shape[-1] - K[:, 0, 2]
+    return replace(scene, images=scene.images.flip(-1), K=K, c2w=S @ scene.c2w @ S,
+                   masks=None if scene.masks is None else scene.masks.flip(-1),
+                   name=f"{scene.name}~mirror")
 
 
 def downscale(scene: Scene, scale: float) -> tuple[torch.Tensor, torch.Tensor,

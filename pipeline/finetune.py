@@ -24,7 +24,7 @@ from gnfr import WEIGHTS_DIR
 from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
 from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
-from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
+from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import UNSEEN_FILE, Workspace, atomic_write_json
@@ -72,6 +72,11 @@ class FinetuneConfig:
     colours, while WS/masks (and so the render, which keeps the core as photographed) stay
     as they are. The shipped FMG's masks have almost no holes (gnfr/weights/fmg.md,
     "Nineteenth session")."""
+    mirror: bool = False
+    """Half the training steps (drawn at random) see the scene in a mirror: every view
+    flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
+    second copy of the scene, so a few photos give the model twice the views to learn from.
+    Off by default (gnfr/weights/gnfr.md, "Twentieth session")."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
@@ -113,7 +118,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     cfg = replace(cfg, **over, point_sampler=config.point_sampler,
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
-                  random_sources=bool(config.random_sources))
+                  random_sources=bool(config.random_sources), mirror=config.mirror)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:
@@ -270,7 +275,13 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
         info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")
-    bank, cache = prepare_sources(model, scene, cfg, device)
+    scenes = [scene, mirrored(scene)] if cfg.mirror else [scene]
+    banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
+
+    def draw(gen: torch.Generator) -> StepInput:
+        """A batch of the scene, or (``cfg.mirror``) of it or its mirror image at random."""
+        k = int(torch.randint(len(scenes), (1,), generator=gen)) if len(scenes) > 1 else 0
+        return StepInput(sample_batch(scenes[k], cfg, gen), *banks[k])
 
     def count_unseen(inp: StepInput, r: dict) -> None:
         unseen[inp.batch.target] += torch.tensor([r["all_flared"], 1.0], dtype=torch.float64)
@@ -290,8 +301,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                 prog.update(task, psnr=f"{line['psnr']:.2f}")
             prog.update(task, completed=step, speed=f"{speed:.2f}")
 
-        stats = trainer.run(lambda g: StepInput(sample_batch(scene, cfg, g), bank, cache),
-                            out=out, meta=meta,
+        stats = trainer.run(draw, out=out, meta=meta,
                             state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
                             after_step=count_unseen, report=report)
     _write_unseen(out / UNSEEN_FILE, scene, unseen)

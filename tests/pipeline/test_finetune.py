@@ -317,3 +317,34 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
     full[15:25, 15:25] = True
     assert all(np.array_equal(m, full) for m in filled)
     assert all(np.array_equal(read_mask(ws, s), before[s]) for s in view_stems(ws))
+
+
+def test_finetune_mirror_trains_on_the_scene_and_its_mirror_image(tmp_path, monkeypatch):
+    """--mirror: the steps draw batches of the scene and of its mirror image (flipped
+    views and masks); recorded in the stage's parameters, and the run without it draws the
+    scene alone, with the same steps as before the option existed."""
+    import gnfr.train
+    import pipeline.finetune as ft
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=16, ckpt_every=100))
+    seen = []
+    real = ft.sample_batch
+
+    def spy(scene, cfg, gen):
+        seen.append((scene.name, scene.images[0, :, 0, 0].tolist()))
+        return real(scene, cfg, gen)
+
+    monkeypatch.setattr(ft, "sample_batch", spy)
+    ws = masked_workspace(tmp_path / "ws")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", mirror=True), ws)
+    names = {n for n, _ in seen}
+    assert len(names) == 2 and any(n.endswith("~mirror") for n in names)
+    pixels = {n: px for n, px in seen}
+    plain = next(n for n in names if not n.endswith("~mirror"))
+    img = read_view_image(ws, view_stems(ws)[0])
+    assert pixels[plain] == img[0, 0].tolist()                    # the top-left pixel
+    assert pixels[f"{plain}~mirror"] == img[0, -1].tolist()       # the top-right one
+    assert ws.stage_record("finetune")["params"]["train"]["mirror"] is True
+    seen.clear()
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert {n for n, _ in seen} == {plain} and len(seen) == 16

@@ -376,7 +376,7 @@ def test_mirrored_scene_is_the_same_geometry_seen_in_a_mirror(pretrain_scenes):
     at the same depth; the mirrored images are the flipped ones and the cameras stay proper
     rotations; the views' neighbours carry over."""
     from gnfr.geometry import project
-    from workflows.research.pretrain import mirrored
+    from gnfr.train import mirrored
 
     scene = load_workspace(pretrain_scenes / "temple")
     scene.masks = torch.zeros(scene.images.shape[0], 1, *scene.images.shape[-2:], dtype=torch.uint8)

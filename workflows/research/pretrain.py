@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 from gnfr.fit import MODEL_FILE, StepInput, Trainer, has_checkpoint, last_record, render_meta
-from gnfr.train import PRESETS, Scene, TrainConfig, prepare_sources, sample_batch
+from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import UserError
 from pipeline.finetune import init_model, init_path
 from pipeline.options import option, resolve_device, validate
@@ -115,20 +115,6 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
     flare = {s: float(masks[i].float().mean()) for i, s in enumerate(scene.stems)}
     # the synthetic flare changes which views may be targets: the rule decides again
     return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
-
-
-def mirrored(scene: Scene) -> Scene:
-    """``scene`` seen in a mirror: every view (and mask) flipped left-right, and the world
-    and each camera reflected in x (c2w -> S c2w S, S = diag(-1, 1, 1, 1), so the rotations
-    stay proper), so a world point at pixel (x, y) of a view lands at (W - x, y) of its
-    mirror (the +0.5 pixel-centre convention: cx -> W - cx). Depths, bounds and the distances
-    between cameras are unchanged, so ``ranked`` and ``flare`` carry over."""
-    S = torch.diag(torch.tensor([-1.0, 1.0, 1.0, 1.0], dtype=scene.c2w.dtype))
-    K = scene.K.clone()
-    K[:, 0, 2] = scene.images.shape[-1] - K[:, 0, 2]
-    return replace(scene, images=scene.images.flip(-1), K=K, c2w=S @ scene.c2w @ S,
-                   masks=None if scene.masks is None else scene.masks.flip(-1),
-                   name=f"{scene.name}~mirror")
 
 
 def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> list[Scene]:
