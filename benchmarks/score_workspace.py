@@ -30,6 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_views
     from workflows.research.eval.scene import flared_views, load_synth
     from workflows.research.eval.scoring import score_views
 
@@ -41,6 +42,10 @@ def main(argv: list[str] | None = None) -> int:
            "inputs": score_views(scene, ws.deflared, stems, with_region=True)}
     line = (f"inputs PSNR {rec['inputs']['psnr']:.2f}, flare region "
             f"{rec['inputs']['psnr_flare']:.2f}, SSIM {rec['inputs']['ssim']:.4f}")
+    if ws.views_json.exists():  # which views the fine-tune could train on (the 10 % rule)
+        views = read_views(ws)
+        rec["targets"] = {"targets": len(views.targets()), "views": len(views.views)}
+        line += f"; {rec['targets']['targets']} of {rec['targets']['views']} views targets"
     if a.heldout is not None:
         rec["heldout"] = score_views(scene, a.heldout, scene.heldout, with_region=False)
         line += (f"; held-out PSNR {rec['heldout']['psnr']:.2f}, "

@@ -324,6 +324,9 @@ def test_score_workspace_matches_eval(scene, tmp_path):
         for k in keys:
             assert got[part][k] == pytest.approx(want[part][k], abs=1e-9)
     assert got["stages"]["finetune"]["train"]["iters"] == 3
+    views = json.loads((var / "views.json").read_text())["views"]
+    assert got["targets"] == {"targets": sum(v["target"] for v in views.values()),
+                              "views": len(views)}
 
 
 def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
