@@ -320,9 +320,9 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
 
 
 def test_finetune_mirror_trains_on_the_scene_and_its_mirror_image(tmp_path, monkeypatch):
-    """--mirror: the steps draw batches of the scene and of its mirror image (flipped
-    views and masks); recorded in the stage's parameters, and the run without it draws the
-    scene alone, with the same steps as before the option existed."""
+    """--mirror: the steps draw batches of the scene and of its mirror image (its views
+    flipped left-right); recorded in the stage's parameters; the run without it draws the
+    scene alone at every step."""
     import gnfr.train
     import pipeline.finetune as ft
 
