@@ -144,7 +144,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
               "holes_as_flare": config.holes_as_flare}
     # an option added later is absent from older records: it matches there at its default
     stage_run = ws.begin_stage("finetune", params, inputs, force,
-                               defaults={"train": asdict(TrainConfig()), "holes_as_flare": False})
+                               defaults={"train": asdict(TrainConfig()),
+                                         "holes_as_flare": FinetuneConfig.holes_as_flare})
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)

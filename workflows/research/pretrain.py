@@ -236,12 +236,12 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         return StepInput(sample_batch(scenes[k], train_cfg, gen), *banks[k],
                          fields={"scene": scenes[k].name})
 
+    data_meta = {"pretrain_mirror": True} if config.mirror else {}  # what the data was
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
                     meta=lambda at_step, _: {**render_meta(train_cfg, config.preset, at_step),
-                                             **({"pretrain_mirror": True} if config.mirror
-                                                else {})},
+                                             **data_meta},
                     record=last_record, grad_hook=allreduce_grads if world > 1 else None,
                     writer=rank == 0,
                     report=lambda at_step, _, __: prog.update(task, completed=at_step))
