@@ -68,6 +68,13 @@ class PretrainConfig:
     """Train on each scene's mirror image too (every view flipped left-right, its camera
     reflected: a consistent second scene with its own synthetic flare draw), doubling the
     scenes the prior sees. Recorded in the weights' metadata (``pretrain_mirror``)."""
+    layered: int = option(0, ge=0)
+    """Add this many synthetic layered scenes (``workflows.research.layered_scenes``:
+    textured planes cut from the training scenes' photos, rendered exactly), each with its
+    own synthetic flare draw; recorded in the weights' metadata (``pretrain_layered``)."""
+    layered_share: float = option(0.3, gt=0, lt=1)
+    """With ``layered``: the fraction of steps that draw a layered scene (the rest draw a
+    real scene, uniformly)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -120,18 +127,26 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
 def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> list[Scene]:
     """Every training scene of ``config.scenes`` (or the ``folders`` already found in
     them), and its mirror image with ``config.mirror``, each with its own synthetic flare
-    when asked."""
+    when asked; then ``config.layered`` layered scenes (last in the list)."""
     from pipeline.progress import track
     from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
-    scenes = []
+    scenes, photos = [], []
     for folder in track(folders or find_scenes(config.scenes), "loading scenes"):
         loaded = detect_and_load(folder, config.max_size)
+        photos += [v.permute(1, 2, 0).numpy() for v in loaded.images]  # views, not copies
         for scene in (loaded, mirrored(loaded)) if config.mirror else (loaded,):
             if config.flare:
                 scene = impose_flare(scene, config.flare_prob, rng)
             scenes.append(scene)
+    if config.layered:
+        from workflows.research.layered_scenes import layered_scenes
+
+        info(f"pretrain: drawing {config.layered} layered scenes from {len(photos)} photos")
+        for scene in layered_scenes(config.layered, photos, config.seed):
+            scenes.append(impose_flare(scene, config.flare_prob, rng) if config.flare
+                          else scene)
     return scenes
 
 
@@ -230,13 +245,21 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
                                                 + trainer.step)
     banks = [prepare_sources(model, scene, train_cfg, device) for scene in scenes]
 
+    real = len(scenes) - config.layered
+
     def draw(gen: torch.Generator) -> StepInput:
-        """A random scene, then a batch of it."""
-        k = int(torch.randint(len(scenes), (1,), generator=gen))
+        """A random scene (a layered one at ``layered_share`` of the steps when there are
+        any), then a batch of it."""
+        if config.layered and float(torch.rand((), generator=gen)) < config.layered_share:
+            k = real + int(torch.randint(config.layered, (1,), generator=gen))
+        else:
+            k = int(torch.randint(real, (1,), generator=gen))
         return StepInput(sample_batch(scenes[k], train_cfg, gen), *banks[k],
                          fields={"scene": scenes[k].name})
 
-    data_meta = {"pretrain_mirror": True} if config.mirror else {}  # what the data was
+    data_meta = ({"pretrain_mirror": True} if config.mirror else {}) | (  # what the data was
+        {"pretrain_layered": config.layered, "pretrain_layered_share": config.layered_share}
+        if config.layered else {})
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
