@@ -151,21 +151,47 @@ def cutout(w: int, h: int, rng: np.random.Generator) -> np.ndarray:
     return cv2.GaussianBlur(m, (3, 3), 0).astype(np.float32) / 255.0
 
 
-def texel_plane(centre: np.ndarray, normal: np.ndarray, half_w: float, half_h: float,
-                texels_per_unit: float, rgb_alpha, rng: np.random.Generator) -> Plane:
-    """A plane of world size (2 half_w, 2 half_h) centred at ``centre`` facing ``normal``,
-    its texture drawn by ``rgb_alpha(w, h) -> [h, w, 4]`` at ``texels_per_unit``."""
-    w = int(np.clip(2 * half_w * texels_per_unit, 16, 2048))
-    h = int(np.clip(2 * half_h * texels_per_unit, 16, 2048))
+def plane_axes(normal: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Unit axes (u, v) of a plane facing ``normal``: u about horizontal, turned in the plane
+    by up to 0.3 rad."""
     up = np.array([0.0, 1.0, 0.0])
     u = np.cross(up, normal)
     u /= np.linalg.norm(u)
     v = np.cross(normal, u)
     roll = rng.uniform(-0.3, 0.3)
-    u, v = np.cos(roll) * u + np.sin(roll) * v, -np.sin(roll) * u + np.cos(roll) * v
+    return np.cos(roll) * u + np.sin(roll) * v, -np.sin(roll) * u + np.cos(roll) * v
+
+
+def texel_plane(centre: np.ndarray, axes: tuple[np.ndarray, np.ndarray], half_w: float,
+                half_h: float, texels_per_unit: float, rgb_alpha) -> Plane:
+    """A plane of world size (2 half_w, 2 half_h) centred at ``centre`` along ``axes``, its
+    texture drawn by ``rgb_alpha(w, h) -> [h, w, 4]`` at ``texels_per_unit``."""
+    w = int(np.clip(2 * half_w * texels_per_unit, 16, 2048))
+    h = int(np.clip(2 * half_h * texels_per_unit, 16, 2048))
+    u, v = axes
     du, dv = 2 * half_w / w * u, 2 * half_h / h * v
-    origin = centre - half_w * u - half_h * v
-    return Plane(origin, du, dv, rgb_alpha(w, h))
+    return Plane(centre - half_w * u - half_h * v, du, dv, rgb_alpha(w, h))
+
+
+def footprint(centre: np.ndarray, axes: tuple[np.ndarray, np.ndarray], K: np.ndarray,
+              c2ws: list[np.ndarray], size: tuple[int, int]) -> tuple[float, float]:
+    """Half-extents along ``axes`` of a plane through ``centre`` that hold where every
+    camera's corner rays meet it (the whole view, when they meet it in front): a convex
+    quadrilateral per view, so a rectangle around its corners covers the view."""
+    W, H = size
+    n = np.cross(*axes)
+    corners = np.linalg.inv(K) @ np.array([[0.5, W - 0.5, 0.5, W - 0.5],
+                                           [0.5, 0.5, H - 0.5, H - 0.5], [1, 1, 1, 1.0]])
+    half_w = half_h = 0.0
+    for c2w in c2ws:
+        d = c2w[:3, :3] @ corners
+        o = c2w[:3, 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((centre - o) @ n) / (n @ d)
+        X = o[:, None] + d * np.where(t > 0, t, 0)          # behind: the draw is redrawn
+        half_w = max(half_w, float(np.abs(axes[0] @ (X - centre[:, None])).max()))
+        half_h = max(half_h, float(np.abs(axes[1] @ (X - centre[:, None])).max()))
+    return half_w, half_h
 
 
 def render(planes: list[Plane], K: np.ndarray, w2c: np.ndarray, size: tuple[int, int]
@@ -198,12 +224,33 @@ def render(planes: list[Plane], K: np.ndarray, w2c: np.ndarray, size: tuple[int,
     return img, near_d
 
 
-def layered_scene(photos: list[np.ndarray], rng: np.random.Generator, name: str,
-                  cfg: LayeredConfig = LayeredConfig()) -> Scene:
-    """One layered scene (see the module's docstring) with textures cut from ``photos``
-    ([H, W, 3] uint8), normalised like a loaded scene; no flare (pretraining imposes it)."""
-    from pipeline.training_scenes import make_scene, normalise
+@dataclass
+class World:
+    """A layered world and its cameras, before normalisation (``draw_world``)."""
 
+    planes: list[Plane]
+    """Back plane first."""
+    K: np.ndarray
+    """[3, 3] intrinsics shared by every view."""
+    c2w: np.ndarray
+    """[N, 4, 4] camera-to-world (OpenCV)."""
+    near: np.ndarray
+    """[N] z-depth below every plane in each view (0.9 of the least at the image corners,
+    where a plane's depth is extreme: 1/z is affine in the pixel)."""
+    far: np.ndarray
+    """[N] z-depth above every plane in each view (1.1 of the largest at the corners)."""
+    size: tuple[int, int]
+    """(width, height) of every view."""
+
+    def render(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """View ``i``: (image [H, W, 3] float 0..1, depth [H, W]) (``render``)."""
+        return render(self.planes, self.K, np.linalg.inv(self.c2w[i]), self.size)
+
+
+def draw_world(photos: list[np.ndarray], rng: np.random.Generator,
+               cfg: LayeredConfig = LayeredConfig()) -> World:
+    """A random layered world (see the module's docstring), textures cut from ``photos``
+    ([H, W, 3] uint8), every plane in front of every camera at each image corner."""
     W, H = cfg.size
     for _ in range(50):  # redraw the rare world a corner ray sees from behind
         fov = np.radians(rng.uniform(*cfg.fov_deg))
@@ -218,13 +265,15 @@ def layered_scene(photos: list[np.ndarray], rng: np.random.Generator, name: str,
         c2ws = [look_at(c, target + rng.normal(0, 0.05 * dist, 3), up) for c in centres]
         w2cs = [np.linalg.inv(c) for c in c2ws]
         tpu = f / dist                        # about a texel per pixel at the point of interest
-        # the back plane: far enough, large enough for every view's frustum
+        # the back plane: far enough, large enough for every view's whole frustum
         z_back = dist * rng.uniform(1.1, 2.0)
-        half = (z_back + s) * np.tan(fov / 2) * 1.6 + 2 * s
-        back = texel_plane(np.array([0, 0, z_back]), tilted_normal(rng, cfg.tilt_deg), half,
-                           half * 0.8 + s, tpu * dist / z_back,
+        centre = np.array([0, 0, z_back])
+        axes = plane_axes(tilted_normal(rng, cfg.tilt_deg), rng)
+        half_w, half_h = footprint(centre, axes, K, c2ws, cfg.size)
+        back = texel_plane(centre, axes, 1.02 * half_w + 1e-3, 1.02 * half_h + 1e-3,
+                           tpu * dist / z_back,
                            lambda w, h: np.dstack([mosaic(photos, w, h, rng),
-                                                   np.ones((h, w), np.float32)]), rng)
+                                                   np.ones((h, w), np.float32)]))
         planes = [back]
         for _ in range(int(rng.integers(cfg.front[0], cfg.front[1] + 1))):
             z = rng.uniform(0.35, 0.85) * z_back
@@ -234,9 +283,9 @@ def layered_scene(photos: list[np.ndarray], rng: np.random.Generator, name: str,
             hw = z * np.tan(fov / 2) * rng.uniform(0.25, 0.6)
             hh = hw * rng.uniform(0.6, 1.4)
             planes.append(texel_plane(
-                ctr, tilted_normal(rng, cfg.tilt_deg), hw, hh, tpu * dist / z,
+                ctr, plane_axes(tilted_normal(rng, cfg.tilt_deg), rng), hw, hh, tpu * dist / z,
                 lambda w, h: np.dstack([crop(photos[int(rng.integers(len(photos)))], w, h,
-                                             rng) / 255.0, cutout(w, h, rng)]), rng))
+                                             rng) / 255.0, cutout(w, h, rng)])))
         corners = np.array([0.5, W - 0.5]), np.array([0.5, H - 0.5])
         cx, cy = np.meshgrid(*corners)
         zs = np.array([[plane_depth(p, K, w2c, cx, cy) for p in planes] for w2c in w2cs])
@@ -244,16 +293,24 @@ def layered_scene(photos: list[np.ndarray], rng: np.random.Generator, name: str,
             break
     else:
         raise RuntimeError("layered scene: no world in front of every camera in 50 draws")
-    images, near, far = [], [], []
-    for w2c, zc in zip(w2cs, zs, strict=True):
-        img, _ = render(planes, K, w2c, cfg.size)
-        images.append(np.clip(np.round(img * 255), 0, 255).astype(np.uint8))
-        near.append(0.9 * zc.min())   # depth along a ray through a plane is extreme at corners
-        far.append(1.1 * zc.max())
-    c2w, near_n, far_n = normalise(np.stack(c2ws), np.array(near), np.array(far))
+    return World(planes, K, np.stack(c2ws), 0.9 * zs.min((1, 2, 3)), 1.1 * zs.max((1, 2, 3)),
+                 cfg.size)
+
+
+def layered_scene(photos: list[np.ndarray], rng: np.random.Generator, name: str,
+                  cfg: LayeredConfig = LayeredConfig()) -> Scene:
+    """One layered scene (``draw_world``, every view rendered), normalised like a loaded
+    scene (camera centres in the unit sphere, bounds scaled alike); no flare (pretraining
+    imposes it)."""
+    from pipeline.training_scenes import make_scene, normalise
+
+    world = draw_world(photos, rng, cfg)
+    images = [np.clip(np.round(world.render(i)[0] * 255), 0, 255).astype(np.uint8)
+              for i in range(cfg.views)]
+    c2w, near, far = normalise(world.c2w, world.near, world.far)
     stems = [f"{i:03d}" for i in range(cfg.views)]
-    return make_scene(name, stems, images, np.repeat(K[None], cfg.views, 0), c2w, near_n,
-                      far_n)
+    return make_scene(name, stems, images, np.repeat(world.K[None], cfg.views, 0), c2w, near,
+                      far)
 
 
 def layered_scenes(count: int, photos: list[np.ndarray], seed: int,

@@ -141,10 +141,12 @@ def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> li
                 scene = impose_flare(scene, config.flare_prob, rng)
             scenes.append(scene)
     if config.layered:
-        from workflows.research.layered_scenes import layered_scenes
+        from workflows.research.layered_scenes import LayeredConfig, layered_scenes
 
         info(f"pretrain: drawing {config.layered} layered scenes from {len(photos)} photos")
-        for scene in layered_scenes(config.layered, photos, config.seed):
+        size = (config.max_size, round(config.max_size * 0.75))  # 4:3 at the load size
+        for scene in layered_scenes(config.layered, photos, config.seed, LayeredConfig(
+                size=size)):
             scenes.append(impose_flare(scene, config.flare_prob, rng) if config.flare
                           else scene)
     return scenes
