@@ -420,3 +420,29 @@ def test_pretrain_mirror_doubles_the_scenes_and_is_recorded(pretrain_scenes, tmp
     _pretrain_cli(pretrain_scenes, tmp_path / "n", 4)
     assert set(names) == {"temple"}
     assert "pretrain_mirror" not in read_metadata(tmp_path / "n" / "gnfr.safetensors")[1]
+
+
+def test_pretrain_layered_adds_drawn_scenes_and_is_recorded(pretrain_scenes, tmp_path,
+                                                           monkeypatch):
+    """--layered N adds N layered scenes at the load size (4:3), the steps reach both kinds
+    at about --layered-share, and the weights' metadata says so."""
+    import workflows.research.pretrain as pt
+    from gnfr.checkpoint import read_metadata
+
+    names, shapes = [], {}
+    real = pt.sample_batch
+
+    def spy(scene, *args):
+        names.append(scene.name)
+        shapes[scene.name] = tuple(scene.images.shape[-2:])
+        return real(scene, *args)
+
+    monkeypatch.setattr(pt, "sample_batch", spy)
+    _pretrain_cli(pretrain_scenes, tmp_path / "l", 40, "--layered", "2", "--layered-share",
+                  "0.5", "--max-size", "64")
+    layered = [n for n in names if n.startswith("layered")]
+    assert set(layered) == {"layered000", "layered001"} and "temple" in names
+    assert 8 <= len(layered) <= 32            # 40 draws at one half: far outside is a bug
+    assert shapes["layered000"] == (48, 64)
+    meta = read_metadata(tmp_path / "l" / "gnfr.safetensors")[1]
+    assert meta["pretrain_layered"] == 2 and meta["pretrain_layered_share"] == 0.5
