@@ -6,8 +6,15 @@ import cv2
 import numpy as np
 import pytest
 
-from workflows.research.layered_scenes import (LayeredConfig, Plane, draw_world,
-                                               layered_scene, look_at, plane_depth, render)
+from workflows.research.layered_scenes import (
+    LayeredConfig,
+    Plane,
+    draw_world,
+    layered_scene,
+    look_at,
+    plane_depth,
+    render,
+)
 
 
 def _photos(n=4, size=(96, 128), seed=0):
