@@ -23,7 +23,6 @@ SHIPPABLE = ("lund", "maryrose", "buddha")
 
 def photos_of(root: Path, per_scene: int = 8) -> list[np.ndarray]:
     """The first ``per_scene`` photos of each shippable scene, RGB uint8, long side 504."""
-    from pipeline.errors import UserError
     from pipeline.images import list_photos, read_image
 
     out = []
@@ -34,8 +33,8 @@ def photos_of(root: Path, per_scene: int = 8) -> list[np.ndarray]:
             s = 504 / max(img.shape[:2])
             out.append(cv2.resize(img, None, fx=s, fy=s, interpolation=cv2.INTER_AREA))
     if not out:
-        raise UserError(f"{root} holds none of {', '.join(SHIPPABLE)}: pass --scenes "
-                        "../shared/data/scenes")
+        raise SystemExit(f"{root} holds none of {', '.join(SHIPPABLE)}: pass --scenes "
+                         "../shared/data/scenes")
     return out
 
 
