@@ -71,7 +71,9 @@ class PretrainConfig:
     layered: int = option(0, ge=0)
     """Add this many synthetic layered scenes (``workflows.research.layered_scenes``:
     textured planes cut from the training scenes' photos, rendered exactly), each with its
-    own synthetic flare draw; recorded in the weights' metadata (``pretrain_layered``)."""
+    own synthetic flare draw; recorded in the weights' metadata (``pretrain_layered``). Off
+    by default: 40 of them made the ``quick`` prior worse on the development scenes
+    (gnfr/weights/gnfr.md, "Twenty-first session")."""
     layered_share: float = option(0.3, gt=0, lt=1)
     """With ``layered``: the fraction of steps that draw a layered scene (the rest draw a
     real scene, uniformly)."""
