@@ -132,10 +132,25 @@ def llff_to_opencv(poses: np.ndarray) -> np.ndarray:
     return c2w
 
 
+def read_poses_bounds(path: Path) -> np.ndarray:
+    """LLFF's ``poses_bounds.npy`` as an [N, 17] float array; a file that is not one (not a
+    NumPy array, pickled objects, another shape, non-finite values) is a UserError naming it."""
+    what = "an LLFF poses_bounds.npy (N rows of 17 numbers: 3x5 pose, near, far)"
+    try:
+        pb = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as e:
+        raise UserError(f"{path} cannot be read as {what} ({e.__class__.__name__}): "
+                        "regenerate it with LLFF's imgs2poses or remove it") from None
+    if pb.ndim != 2 or pb.shape[0] == 0 or pb.shape[1] != 17 or not np.isfinite(pb).all():
+        raise UserError(f"{path} holds a {pb.dtype} array of shape {pb.shape}, not {what} "
+                        "with finite values: regenerate it with LLFF's imgs2poses")
+    return pb.astype(np.float64)
+
+
 def load_llff(folder: str | Path, max_size: int = 504) -> Scene:
     """An LLFF scene (``poses_bounds.npy``: N rows of a 3x5 [R|t|hwf] + near, far)."""
     folder = Path(folder)
-    pb = np.load(folder / "poses_bounds.npy")
+    pb = read_poses_bounds(folder / "poses_bounds.npy")
     poses, bounds = pb[:, :15].reshape(-1, 3, 5), pb[:, 15:17]
     img_dir = _llff_image_dir(folder, max_size)
     files = list_photos(img_dir)

@@ -446,3 +446,22 @@ def test_pretrain_layered_adds_drawn_scenes_and_is_recorded(pretrain_scenes, tmp
     assert shapes["layered000"] == (48, 64)
     meta = read_metadata(tmp_path / "l" / "gnfr.safetensors")[1]
     assert meta["pretrain_layered"] == 2 and meta["pretrain_layered_share"] == 0.5
+
+
+@pytest.mark.parametrize("content", [b"not numpy", None])
+def test_a_bad_poses_bounds_file_stops_pretraining_with_one_line(tmp_path, capsys, content):
+    """An unreadable or wrongly shaped poses_bounds.npy: one line naming it, exit 2, and no
+    output folder made."""
+    from workflows.cli import main
+
+    scene = tmp_path / "llff"
+    (scene / "images").mkdir(parents=True)
+    if content is None:
+        np.save(scene / "poses_bounds.npy", np.zeros((3, 12)))
+    else:
+        (scene / "poses_bounds.npy").write_bytes(content)
+    assert main(["pretrain", str(scene), "--out", str(tmp_path / "out"), "--preset", "tiny",
+                 "--iters", "2", "--device", "cpu"]) == 2
+    err = capsys.readouterr().err
+    assert str(scene / "poses_bounds.npy") in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()

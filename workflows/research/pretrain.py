@@ -224,7 +224,6 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     train_cfg = replace(train_cfg, seed=config.seed)
     folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
-    out.mkdir(parents=True, exist_ok=True)
     step = start_step(train_cfg, config.init, config.preset)
     resume = has_checkpoint(out)
     if config.lr_restart is not None:
@@ -232,7 +231,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if step and not resume and step >= train_cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
-    scenes = load_scenes(config, folders)
+    scenes = load_scenes(config, folders)  # an unreadable scene fails before OUT is made
+    out.mkdir(parents=True, exist_ok=True)
     model, how = init_model(train_cfg, device, config.init)
     trainer = Trainer(model, train_cfg, step=step)
     if step:
