@@ -6,12 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
+from gnfr.paths import look_at
 from workflows.research.layered_scenes import (
     LayeredConfig,
     Plane,
     draw_world,
     layered_scene,
-    look_at,
     plane_depth,
     render,
 )

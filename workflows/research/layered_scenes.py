@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from gnfr.paths import look_at
 from gnfr.train import Scene
 
 
@@ -42,19 +43,6 @@ class LayeredConfig:
     spread: tuple[float, float] = (0.3, 0.9)
     """Half-width of the camera positions, as a fraction of the distance to the point of
     interest (the baseline; real captures span from a step sideways to an orbit)."""
-
-
-def look_at(centre: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """4x4 camera-to-world (OpenCV: z toward ``target``, y down) of a camera at ``centre``."""
-    z = target - centre
-    z = z / np.linalg.norm(z)
-    x = np.cross(z, up)
-    x = x / np.linalg.norm(x)
-    y = np.cross(z, x)
-    c2w = np.eye(4)
-    c2w[:3, :3] = np.stack([x, y, z], 1)
-    c2w[:3, 3] = centre
-    return c2w
 
 
 def tilted_normal(rng: np.random.Generator, max_deg: float) -> np.ndarray:
@@ -261,7 +249,7 @@ def draw_world(photos: list[np.ndarray], rng: np.random.Generator,
         s = rng.uniform(*cfg.spread) * dist
         centres = np.stack([rng.uniform(-s, s, cfg.views), rng.uniform(-0.6 * s, 0.6 * s,
                             cfg.views), rng.uniform(-0.3 * s, 0.3 * s, cfg.views)], 1)
-        up = np.array([0.0, -1.0, 0.0])
+        up = np.array([0.0, -1.0, 0.0])     # world up: image rows run along +y
         c2ws = [look_at(c, target + rng.normal(0, 0.05 * dist, 3), up) for c in centres]
         w2cs = [np.linalg.inv(c) for c in c2ws]
         tpu = f / dist                        # about a texel per pixel at the point of interest
