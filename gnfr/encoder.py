@@ -2,7 +2,9 @@
 
 7x7 stride-2 stem, three ResNet BasicBlock stages (each stride 2), a UNet decoder with skip
 connections back up to 1/4 resolution and a 1x1 output conv. InstanceNorm, reflect padding.
-Widths and block counts are configurable so CPU presets can use a small encoder.
+Widths and block counts are configurable so CPU presets can use a small encoder; ``dec_norm``
+adds GNT's InstanceNorm after the decoder's two skip-merging convolutions (off in the
+weights shipped so far, which were trained without it).
 """
 
 from __future__ import annotations
@@ -51,7 +53,8 @@ class ResUNet(nn.Module):
     """images [B, 3, H, W] in 0..1 -> features [B, out_ch, ceil(H/4), ceil(W/4)]."""
 
     def __init__(self, widths: tuple[int, int, int] = (64, 128, 256),
-                 blocks: tuple[int, int, int] = (3, 4, 6), out_ch: int = 32):
+                 blocks: tuple[int, int, int] = (3, 4, 6), out_ch: int = 32,
+                 dec_norm: bool = False):
         super().__init__()
         w1, w2, w3 = widths
         self.stem = nn.Sequential(_conv(3, w1, 7, 2), _norm(w1), nn.ReLU(inplace=True))
@@ -60,6 +63,10 @@ class ResUNet(nn.Module):
         self.layer3 = self._stage(w2, w3, blocks[2])
         self.up3, self.iconv3 = UpConv(w3, w2), _conv(2 * w2, w2, 3)
         self.up2, self.iconv2 = UpConv(w2, w1), _conv(2 * w1, w1, 3)
+        # new modules, not a Sequential around iconv: the weights' names stay those of the
+        # encoder without them, so older files load into ``dec_norm=False`` unchanged
+        self.inorm3, self.inorm2 = ((_norm(w2), _norm(w1)) if dec_norm
+                                    else (nn.Identity(), nn.Identity()))
         self.out_conv = nn.Conv2d(w1, out_ch, 1)
         self.out_ch = out_ch
 
@@ -74,7 +81,7 @@ class ResUNet(nn.Module):
         x2 = self.layer2(x1)  # 1/8
         x3 = self.layer3(x2)  # 1/16
         y = self.up3(x3, x2.shape[-2:])
-        y = F.elu(self.iconv3(torch.cat([y, x2], 1)))
+        y = F.elu(self.inorm3(self.iconv3(torch.cat([y, x2], 1))))
         y = self.up2(y, x1.shape[-2:])
-        y = F.elu(self.iconv2(torch.cat([y, x1], 1)))
+        y = F.elu(self.inorm2(self.iconv2(torch.cat([y, x1], 1))))
         return self.out_conv(y)

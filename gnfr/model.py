@@ -40,6 +40,9 @@ class GNFRConfig:
     """NeRF sin/cos frequencies of the ray direction."""
     dropout: float = 0.0
     """Dropout in attention outputs and feed-forward layers (training only)."""
+    dec_norm: bool = False
+    """InstanceNorm after the encoder decoder's skip-merging convolutions, as in GNT
+    (``ResUNet``). A file without this key was trained without it."""
 
     def architecture(self) -> GNFRConfig:
         """This config with what holds no weights (``dropout``) at its default: two configs
@@ -69,7 +72,7 @@ class GNFR(nn.Module):
         super().__init__()
         c = self.config = config
         D = c.width
-        self.encoder = ResUNet(c.enc_widths, c.enc_blocks, c.feat_ch)
+        self.encoder = ResUNet(c.enc_widths, c.enc_blocks, c.feat_ch, c.dec_norm)
         self.rgbfeat_fc = nn.Sequential(nn.Linear(c.feat_ch + 3, D), nn.ReLU(), nn.Linear(D, D))
         emb = 6 + 6 * (c.n_freqs_pts + c.n_freqs_dirs)
         self.view_blocks = nn.ModuleList(

@@ -57,6 +57,10 @@ class PretrainConfig:
     dropout: float | None = option(None, ge=0, lt=1)
     """Dropout in the view and ray transformers while pretraining (GNT's 0.1; holds no
     weights, so it needs no new architecture and renders ignore it)."""
+    dec_norm: bool = False
+    """GNT's InstanceNorm after the encoder decoder's skip-merging convolutions
+    (``GNFRConfig.dec_norm``): a new architecture, so only from scratch or from weights
+    that have it; recorded in the weights' config."""
     random_sources: bool = False
     """GNT's draw of the N sources in a random order of the round(k N) nearest pool instead of
     the nearest first (``TrainConfig.random_sources``; the View Sampler's flare rule kept)."""
@@ -219,6 +223,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         train_cfg = replace(train_cfg, full_res_colour=True)
     if config.dropout is not None:
         train_cfg = replace(train_cfg, model=replace(train_cfg.model, dropout=config.dropout))
+    if config.dec_norm:
+        train_cfg = replace(train_cfg, model=replace(train_cfg.model, dec_norm=True))
     if config.random_sources:
         train_cfg = replace(train_cfg, random_sources=True)
     train_cfg = replace(train_cfg, seed=config.seed)
