@@ -37,6 +37,10 @@
 # export both at END, like train. Name every folder a call reads in that call's carry: in
 # the sixteenth session a folder carried by the first call was gone in the second.
 # Back here: `cat ptp.part_* > gnfr_paper.safetensors`, `cat fmg.part_* > fmg.safetensors`.
+# The FMG comes back as its weights of best validation flare IoU (`best.safetensors`; its
+# metadata says `export`, the step and the score; FMG_EXPORT=last for the latest checkpoint,
+# the one the twenty-second session's K was); FMG_LR=R gives its run a lower peak rate (a
+# continuation of already trained weights, whose optimizer state is never carried back).
 set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
 T0=$(date +%s)
@@ -67,7 +71,7 @@ start_fmg() {
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 --night-prob 0.35 \
     --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
-    --workers ${FMG_WORKERS:-10} \
+    --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} \
     >> $FM.log 2>&1 < /dev/null &
   echo "FMG training started (${init[*]:-scratch})"
 }
@@ -80,10 +84,12 @@ export_fp16(Path('$PT/gnfr.safetensors'), Path('${PT}16.safetensors'), \
     split -b 15000000 ${PT}16.safetensors $OUT/ptp.part_
   cp $PT/metrics.jsonl $OUT/ptp_metrics.jsonl 2>/dev/null
 }
-export_fmg() {
+export_fmg() {   # the weights of best validation (FMG_EXPORT=last: the latest checkpoint)
   [ -f $FM/checkpoint.safetensors ] || { echo "no FMG checkpoint yet"; return; }
+  local best=True; [ "${FMG_EXPORT:-best}" = last ] || [ ! -f $FM/best.safetensors ] && best=False
   python3 -c "from pathlib import Path; from workflows.research.fmg_train import \
-export_checkpoint; export_checkpoint(Path('$FM'), Path('${FM}16.safetensors'))" && \
+export_checkpoint; export_checkpoint(Path('$FM'), Path('${FM}16.safetensors'), best=$best, \
+extra={'export': 'best validation' if $best else 'last checkpoint'})" && \
     split -b 15000000 ${FM}16.safetensors $OUT/fmg.part_
   cp $FM/log.jsonl $OUT/fmg_log.jsonl 2>/dev/null
 }

@@ -472,9 +472,11 @@ def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_pat
     torch.manual_seed(0)
     model = build_fmg(tiny_config())
     opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
-    save_checkpoint(tmp_path, model, opt, 7)
-    dest = export_checkpoint(tmp_path, tmp_path / "fmg.safetensors", init_steps=100)
+    save_checkpoint(tmp_path, model, opt, 7, init_steps=100)
+    dest = export_checkpoint(tmp_path, tmp_path / "fmg.safetensors")  # the recorded init
     assert weights_info(dest)["steps"] == 107
+    assert weights_info(export_checkpoint(tmp_path, tmp_path / "b.safetensors",
+                                          init_steps=5))["steps"] == 12
     back = load_fmg(dest)
     for (k, a), (_, b) in zip(model.state_dict().items(), back.state_dict().items(),
                               strict=True):
@@ -483,7 +485,56 @@ def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_pat
     from pipeline.errors import UserError
     with pytest.raises(UserError, match="no checkpoint"):
         export_checkpoint(tmp_path / "empty", tmp_path / "x.safetensors")
+    with pytest.raises(UserError, match="no best.safetensors"):
+        export_checkpoint(tmp_path, tmp_path / "x.safetensors", best=True)
 
+
+def test_fmg_train_keeps_the_weights_of_best_validation(tmp_path, monkeypatch):
+    """``best.safetensors`` holds the weights of the step whose validation flare IoU was
+    highest (the first such step on a tie: only a strictly higher score replaces it), kept
+    across a resume, and exports like the checkpoint."""
+    from safetensors.torch import load_file
+
+    import workflows.research.fmg_train as ft
+    from gnfr.fmg import read_fmg_metadata
+    from workflows.cli import main
+
+    scores = iter([0.2, 0.5, 0.3, 0.5, 0.4, 0.6, 0.1])  # best: step 2, then step 6
+    states = {}
+    real = ft.score
+
+    def fake(model, *val, **kw):
+        out = real(model, *val, **kw)
+        if kw:  # the end-of-run evaluation, not the training loop's validation
+            return out
+        states[len(states) + 1] = {k: v.detach().clone() for k, v in model.state_dict().items()}
+        return {**out, "IoU_flare": next(scores)}
+
+    monkeypatch.setattr(ft, "score", fake)
+    data = _tiny_data(tmp_path)
+    out = tmp_path / "run"
+    args = ["fmg", "train", "--out", str(out), "--data", str(data), "--batch", "2",
+            "--size", "64", "--widths", "8,8,16,16", "--depths", "1,1,1,1", "--head-width",
+            "16", "--ckpt-every", "1", "--eval-every", "1", "--val-count", "2"]
+
+    def best():
+        meta = read_fmg_metadata(out / "best.safetensors")
+        kept = load_file(str(out / "best.safetensors"))
+        same = all(torch.equal(kept[k], states[int(meta["step"])][k].cpu()) for k in kept)
+        return int(meta["step"]), float(meta["val_IoU_flare"]), same
+
+    assert main([*args, "--iters", "4"]) == 0
+    assert best() == (2, 0.5, True)
+    assert main([*args, "--iters", "7", "--workers", "1"]) == 0  # resumes at step 4
+    assert best() == (6, 0.6, True)
+    # the steps' weights differ, so matching step 6's is a real check
+    assert any(not torch.equal(states[6][k], states[7][k]) for k in states[6])
+    dest = ft.export_checkpoint(out, tmp_path / "best16.safetensors", best=True)
+    exported, kept = load_file(str(dest)), load_file(str(out / "best.safetensors"))
+    assert exported.keys() == kept.keys()
+    assert all(torch.allclose(exported[k].float(), kept[k].float(), atol=2e-3, rtol=2e-3)
+               for k in kept if kept[k].is_floating_point())
+    assert read_fmg_metadata(dest)["iters"] == "6"
 
 def test_train_batches_from_workers_do_not_depend_on_their_number():
     """`fmg train --workers N`: step s's composites come from a generator seeded by

@@ -169,3 +169,38 @@ def test_full_size_colours_with_reduced_features():
     want = sample_bilinear(imgs[1:4], xy, (48, 64))          # full-size colours
     got = rgb_feat[..., :3].movedim(2, 0).reshape(3, -1, 3)
     assert torch.allclose(got, want, atol=1e-6)
+
+
+def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_loading(tmp_path):
+    """``dec_norm`` adds InstanceNorm after the decoder's two skip-merging convolutions (and
+    nothing else); a file trained without it still loads into the default config, and a
+    model with it round-trips through its own file (the flag is in the stored config)."""
+    import pytest
+
+    from gnfr.checkpoint import CheckpointError, load_model, load_weights, save_model
+
+    torch.manual_seed(0)
+    cfg = GNFRConfig(enc_widths=(8, 16, 16), enc_blocks=(1, 1, 1), feat_ch=8, width=16, depth=2)
+    plain = GNFR(cfg)
+    normed = GNFR(GNFRConfig(**{**cfg.__dict__, "dec_norm": True}))
+    added = set(normed.state_dict()) - set(plain.state_dict())
+    assert added == {f"encoder.inorm{i}.{p}" for i in (2, 3) for p in ("weight", "bias")}
+    assert set(plain.state_dict()) < set(normed.state_dict())
+
+    # the merged features are normalised per channel and image before the ELU
+    merged = []
+    normed.encoder.inorm2.register_forward_hook(lambda m, i, o: merged.append(o))
+    normed.encoder(torch.rand(2, 3, 48, 64) * 0.2 + 0.7)  # a bright, low-contrast batch
+    m = merged[0]
+    assert torch.allclose(m.mean((-2, -1)), torch.zeros(m.shape[:2]), atol=1e-5)
+    assert torch.allclose(m.std((-2, -1), unbiased=False), torch.ones(m.shape[:2]), atol=1e-2)
+
+    old = save_model(tmp_path / "old.safetensors", plain, {})
+    load_weights(GNFR(cfg), old)  # an older file: default config, loads unchanged
+    with pytest.raises(CheckpointError):
+        load_weights(GNFR(GNFRConfig(**{**cfg.__dict__, "dec_norm": True})), old)
+    new = save_model(tmp_path / "new.safetensors", normed, {})
+    again = load_model(new)
+    assert again.config.dec_norm is True
+    x = torch.rand(1, 3, 40, 56)
+    assert torch.equal(again.encoder(x), normed.eval().encoder(x))

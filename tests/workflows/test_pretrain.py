@@ -465,3 +465,26 @@ def test_a_bad_poses_bounds_file_stops_pretraining_with_one_line(tmp_path, capsy
     err = capsys.readouterr().err
     assert str(scene / "poses_bounds.npy") in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_pretrain_dec_norm_builds_the_normalised_encoder_and_records_it(pretrain_scenes,
+                                                                         tmp_path, capsys):
+    """--dec-norm trains the encoder with the decoder's InstanceNorm and stores it in the
+    weights' config; starting it from weights without it stops with one line."""
+    from gnfr.checkpoint import read_metadata
+
+    _pretrain_cli(pretrain_scenes, tmp_path / "n", 2, "--dec-norm")
+    cfg, _ = read_metadata(tmp_path / "n" / "gnfr.safetensors")
+    assert cfg.dec_norm is True
+    _pretrain_cli(pretrain_scenes, tmp_path / "p", 2)
+    cfg, _ = read_metadata(tmp_path / "p" / "gnfr.safetensors")
+    assert cfg.dec_norm is False
+    from workflows.cli import main
+
+    capsys.readouterr()
+    assert main(["pretrain", str(pretrain_scenes), "--out", str(tmp_path / "x"), "--preset",
+                 "tiny", "--iters", "4", "--no-flare", "--device", "cpu", "--dec-norm",
+                 "--init", str(tmp_path / "p" / "gnfr.safetensors")]) == 2
+    err = capsys.readouterr().err
+    assert "--init" in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()

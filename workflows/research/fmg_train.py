@@ -302,33 +302,59 @@ def _refine_batch(x, p):
 
 
 # --------------------------------------------------------------------------- checkpoints
-def save_checkpoint(out: Path, model, opt, step: int) -> None:
-    import torch
+BEST_FILE = "best.safetensors"
+"""The run's weights at its best validation flare IoU so far (``_fit``; fp32, like the
+checkpoint, with the step and the score in its metadata)."""
+
+
+def _save_weights(path: Path, model, meta: dict[str, str]) -> None:
     from safetensors.torch import save_file
 
     sd = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
-    with atomic_path(out / "checkpoint.safetensors") as tmp:
-        save_file(sd, str(tmp), metadata={"config": model.cfg.to_json(), "step": str(step)})
+    with atomic_path(path) as tmp:
+        save_file(sd, str(tmp), metadata={"config": model.cfg.to_json(), **meta})
+
+
+def save_checkpoint(out: Path, model, opt, step: int, init_steps: int = 0) -> None:
+    """Weights (with the step, and ``init_iters``: the steps of the run's ``--init`` file)
+    and optimizer state, each written atomically."""
+    import torch
+
+    _save_weights(out / "checkpoint.safetensors", model,
+                  {"step": str(step), "init_iters": str(init_steps)})
     with atomic_path(out / "optimizer.pt") as tmp:
         torch.save({"optimizer": opt.state_dict(), "step": step}, tmp)
 
 
-def export_checkpoint(out: Path, dest: Path, init_steps: int = 0,
-                      extra: dict[str, str] | None = None) -> Path:
-    """A run's latest checkpoint (``out/checkpoint.safetensors``, fp32) as fp16 FMG weights
-    at ``dest`` (as ``fmg.safetensors`` at the end of a run, with ``iters`` and
-    ``total_iters`` = the checkpoint's step plus ``init_steps``, the steps of the run's
-    ``--init`` file): a run cut short, e.g. on a lent GPU, still leaves weights that
-    ``--init`` continues and ``fmg eval`` scores."""
+def best_score(out: Path) -> float:
+    """The validation flare IoU of ``out``'s best weights so far (-1 when there are none)."""
+    from gnfr.fmg import read_fmg_metadata
+
+    path = out / BEST_FILE
+    return float(read_fmg_metadata(path).get("val_IoU_flare", -1)) if path.is_file() else -1.0
+
+
+def export_checkpoint(out: Path, dest: Path, init_steps: int | None = None,
+                      extra: dict[str, str] | None = None, best: bool = False) -> Path:
+    """A run's latest checkpoint (``out/checkpoint.safetensors``, fp32), or with ``best``
+    its weights of best validation (``out/best.safetensors``), as fp16 FMG weights at
+    ``dest`` (as ``fmg.safetensors`` at the end of a run, with ``iters`` and
+    ``total_iters`` = the file's step plus ``init_steps``, the steps of the run's ``--init``
+    file; by default what the checkpoint recorded): a run cut short, e.g. on a lent GPU,
+    still leaves weights that ``--init`` continues and ``fmg eval`` scores."""
     from gnfr.fmg import load_fmg, read_fmg_metadata, save_fmg
 
-    ck = out / "checkpoint.safetensors"
+    ck = out / (BEST_FILE if best else "checkpoint.safetensors")
     if not ck.is_file():
-        raise UserError(f"{out} has no checkpoint.safetensors: nothing to export")
+        raise UserError(f"{out} has no {ck.name}: nothing to export")
     model = load_fmg(ck)  # the checkpoint carries the config in its metadata too
-    step = int(read_fmg_metadata(ck).get("step", "0"))
+    meta = read_fmg_metadata(ck)
+    step = int(meta.get("step", "0"))
+    if init_steps is None:
+        init_steps = int(meta.get("init_iters", "0"))
+    kept = {k: meta[k] for k in ("val_IoU_flare", "val_mIoU") if k in meta}
     return save_fmg(dest, model, extra={"iters": str(step), "total_iters": str(step + init_steps),
-                                        **(extra or {})})
+                                        **kept, **(extra or {})})
 
 
 def load_checkpoint(out: Path, model, opt) -> int:
@@ -447,11 +473,12 @@ class TrainBatches:
 
 
 def _fit(cfg: FMGTrainConfig, model, opt, batches: TrainBatches, step: int, val, dev,
-         out: Path) -> None:
-    """The optimizer loop from ``step`` to ``cfg.iters``: log, validation, checkpoints."""
+         out: Path, init_steps: int = 0) -> None:
+    """The optimizer loop from ``step`` to ``cfg.iters``: log, validation (keeping the
+    weights of best validation flare IoU in ``best.safetensors``), checkpoints."""
     from gnfr.fmg import fmg_loss
 
-    t0, log = time.time(), out / "log.jsonl"
+    t0, log, best = time.time(), out / "log.jsonl", best_score(out)
     while step < cfg.iters:
         model.train()
         x, y = batches.next()
@@ -468,10 +495,15 @@ def _fit(cfg: FMGTrainConfig, model, opt, batches: TrainBatches, step: int, val,
             rec.update({f"val_{k}": round(v, 4) for k, v in score(model, *val).items()})
             info(f"step {step}: loss {rec['loss']:.4f} val mIoU {rec['val_mIoU']:.3f} "
                  f"mAcc {rec['val_mAcc']:.3f}")
+            if rec["val_IoU_flare"] > best:
+                best = rec["val_IoU_flare"]
+                _save_weights(out / BEST_FILE, model, {
+                    "step": str(step), "init_iters": str(init_steps),
+                    **{k: str(v) for k, v in rec.items() if k.startswith("val_")}})
         with open(log, "a") as f:
             f.write(json.dumps(rec) + "\n")
         if step % cfg.ckpt_every == 0 or step == cfg.iters:
-            save_checkpoint(out, model, opt, step)
+            save_checkpoint(out, model, opt, step, init_steps)
 
 
 def train(cfg: FMGTrainConfig) -> dict:
@@ -510,16 +542,16 @@ def train(cfg: FMGTrainConfig) -> dict:
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
+    init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
     batches.begin(step)
     try:
-        _fit(cfg, model, opt, batches, step, val, dev, out)
+        _fit(cfg, model, opt, batches, step, val, dev, out, init_steps)
     finally:
         batches.close()
     meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
             "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds),
             "kind_probs": json.dumps({k: src.flare_cfg.kind_prob(k)
                                       for k in src.flare_cfg.kinds})}
-    init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
     if cfg.init:
         meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
     meta["total_iters"] = str(cfg.iters + init_steps)  # steps from scratch, init included

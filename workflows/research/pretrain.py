@@ -238,8 +238,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
     scenes = load_scenes(config, folders)  # an unreadable scene fails before OUT is made
+    model, how = init_model(train_cfg, device, config.init)  # so does an --init that misfits
     out.mkdir(parents=True, exist_ok=True)
-    model, how = init_model(train_cfg, device, config.init)
     trainer = Trainer(model, train_cfg, step=step)
     if step:
         how += f", continuing its step count at {step} (fresh optimizer state)"
