@@ -6,6 +6,7 @@ step) is a plain dict of tensors loaded with ``torch.load(weights_only=True)``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -77,8 +78,11 @@ def load_weights(model: GNFR, path: str | os.PathLike) -> dict:
     Returns the extra metadata."""
     cfg, meta = read_metadata(path)
     if cfg.architecture() != model.config.architecture():
-        raise CheckpointError(f"{path} holds a different architecture ({cfg}) than the "
-                              f"model ({model.config})")
+        a, b = dataclasses.asdict(cfg.architecture()), dataclasses.asdict(
+            model.config.architecture())
+        diff = ", ".join(f"{k} {a[k]} in the file, {b[k]} in the model" for k in a
+                         if a[k] != b[k])
+        raise CheckpointError(f"{path} holds a different architecture ({diff})")
     from safetensors.torch import load_file
 
     state = load_file(str(path))

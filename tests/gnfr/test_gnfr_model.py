@@ -197,7 +197,7 @@ def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_load
 
     old = save_model(tmp_path / "old.safetensors", plain, {})
     load_weights(GNFR(cfg), old)  # an older file: default config, loads unchanged
-    with pytest.raises(CheckpointError):
+    with pytest.raises(CheckpointError, match="dec_norm False in the file, True in the model"):
         load_weights(GNFR(GNFRConfig(**{**cfg.__dict__, "dec_norm": True})), old)
     new = save_model(tmp_path / "new.safetensors", normed, {})
     again = load_model(new)
