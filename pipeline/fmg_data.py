@@ -17,7 +17,8 @@ test (``HELDOUT_SCENES`` and ``HELDOUT_BACKGROUNDS``: reported only). Training a
 crops, flips, colour jitter, night backgrounds, composites without flare, and **hard
 negatives**: bright things that are not flare, painted onto the background before any flare
 and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
-highlights, sky, white walls and windows, red / orange foliage, neon lines, reflections), so
+highlights, sky, clouds, white walls and windows, red / orange foliage, neon lines,
+reflections), so
 the network learns to leave bright non-flare content and the light itself unmarked.
 """
 
@@ -37,8 +38,8 @@ from pipeline.errors import UserError
 from pipeline.images import list_photos, read_image
 from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES
 
-HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "wall", "foliage", "neon",
-                                   "reflection")
+HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "clouds", "wall", "foliage",
+                                   "neon", "reflection")
 """Kinds of bright non-flare content ``add_hard_negatives`` paints (see its docstring)."""
 
 HELDOUT_BACKGROUNDS: tuple[str, ...] = ("coffee", "rocket", "grace_hopper")
@@ -259,6 +260,35 @@ def _neg_sky(lin: np.ndarray, rng: np.random.Generator) -> None:
     _blend(lin, alpha, np.broadcast_to(sky, lin.shape))
 
 
+def _neg_clouds(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Fair-weather clouds: white and grey cumulus with soft but defined edges, brightest
+    on their sunlit tops, on a deep blue sky above an irregular horizon (what the
+    full-width networks marked as flare on clean street photos: gnfr/weights/fmg.md,
+    "Twenty-second session")."""
+    S = lin.shape[0]
+    base = S * rng.uniform(0.25, 0.7)
+    horizon = base + S * 0.08 * _smooth_noise(S, S / rng.uniform(2, 12), rng)[0]
+    yy = np.arange(S, dtype=np.float32)[:, None]
+    alpha = np.clip(horizon[None, :] - yy + 0.5, 0, 1)
+    level = np.float32(np.exp(rng.uniform(np.log(0.5), np.log(1.5))))
+    blue = np.array([rng.uniform(0.03, 0.15), rng.uniform(0.12, 0.35), rng.uniform(0.5, 1.0)],
+                    np.float32)
+    grad = (yy / max(base, 1.0)).clip(0, 1)[..., None]  # paler towards the horizon
+    sky = level * (blue * (1 - 0.4 * grad) + 0.25 * grad)
+    size = S / rng.uniform(2.5, 8)  # cloud scale: a few large cumulus to many small ones
+    dens = (_smooth_noise(S, size, rng) + 0.5 * _smooth_noise(S, size / 3, rng)
+            + 0.25 * _smooth_noise(S, size / 9, rng))
+    cover = np.quantile(dens, 1 - rng.uniform(0.1, 0.45))  # 10-45 % of the sky clouded
+    cloud = np.clip((dens - cover) * rng.uniform(1.5, 6), 0, 1)
+    smooth = cv2.GaussianBlur(dens, (0, 0), max(size / 6, 1.0))
+    dy = np.gradient(smooth, axis=0)
+    lit = np.clip(0.85 - 0.2 * dy / (dy.std() + 1e-6), 0.45, 1.1)  # sunlit tops, grey bases
+    white = level * np.float32(rng.uniform(0.8, 2.0)) * lit[..., None] * (
+        0.92 + 0.08 * fl.blackbody_rgb(rng.uniform(5000, 9000)))
+    sky = sky * (1 - cloud[..., None]) + cloud[..., None] * white
+    _blend(lin, alpha, sky.astype(np.float32))
+
+
 def _neg_wall(lin: np.ndarray, rng: np.random.Generator) -> None:
     """White walls and facades: large bright quadrilaterals with gentle shading and texture."""
     S = lin.shape[0]
@@ -335,7 +365,7 @@ def _neg_reflection(lin: np.ndarray, rng: np.random.Generator) -> None:
 
 
 _NEGATIVES = {"lamp": _neg_lamp, "specular": _neg_specular, "sky": _neg_sky,
-              "wall": _neg_wall, "foliage": _neg_foliage, "neon": _neg_neon,
+              "clouds": _neg_clouds, "wall": _neg_wall, "foliage": _neg_foliage, "neon": _neg_neon,
               "reflection": _neg_reflection}
 
 
@@ -349,6 +379,7 @@ def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
       diffuser globes), sharp-edged, no halo: a light is not flare.
     - ``specular``: clusters of small sharp glints.
     - ``sky``: bright sky above an irregular horizon (clear to overcast, soft clouds).
+    - ``clouds``: white and grey cumulus with defined edges on a deep blue sky.
     - ``wall``: large bright white quadrilaterals (walls, facades) with gentle shading.
     - ``foliage``: red / orange leafy texture, dim to sunlit.
     - ``neon``: thin saturated lines and arcs with a tight glow of their own.

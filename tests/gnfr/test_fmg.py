@@ -229,6 +229,22 @@ def test_night_backgrounds_and_hard_negatives():
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and a[1].any()
 
 
+def test_cloud_negatives_are_white_clouds_on_blue_sky_above_the_untouched_ground():
+    """``clouds``: from the top down, a blue sky with white, near-neutral clouds covering part
+    of it; the bottom of the photo (below the horizon) is the photo's own."""
+    from pipeline.fmg_data import add_hard_negatives
+
+    base = np.random.default_rng(1).uniform(0.05, 0.3, (128, 128, 3)).astype(np.float32)
+    for seed in range(6):
+        out = add_hard_negatives(base, np.random.default_rng(seed), ("clouds",))
+        top = out[:16].reshape(-1, 3)
+        white = (top.min(1) > 0.75) & (top.max(1) - top.min(1) < 0.15)
+        blue = (top[:, 2] > top[:, 0] + 0.15) & ~white
+        assert white.mean() > 0.01 and blue.mean() > 0.2, seed
+        assert (white | blue).mean() > 0.8, seed  # the rest: the clouds' soft edges
+        np.testing.assert_allclose(out[-4:], base[-4:], atol=2e-3)
+
+
 def test_training_flare_leaves_kinds_out():
     from pipeline import flare as fl
     from pipeline.errors import UserError
@@ -463,6 +479,17 @@ def test_fmg_train_flare_prob_sets_the_share_of_clean_composites():
             rng = np.random.default_rng(0)
             shares[p] = np.mean([src.sample(rng)[1].any() for _ in range(12)])
     assert shares[0.0] == 0.0 and shares[1.0] > 0.5, shares
+
+
+def test_overlay_columns_are_named_by_the_file_or_its_run():
+    from pathlib import Path
+
+    from workflows.research.fmg_train import weights_label
+
+    assert weights_label(Path("gnfr/weights/fmg_candidate_J.safetensors")) == "fmg_candidate_J"
+    assert weights_label(Path("gnfr/weights/fmg.safetensors")) == "weights/fmg"
+    assert weights_label(Path("/runs/k2/best.safetensors")) == "k2/best"
+    assert weights_label(Path("fmg.safetensors")) == "fmg"
 
 
 def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_path):

@@ -81,8 +81,8 @@ class FMGTrainConfig:
     starburst,ghosts,streaks,glare,scatter): a leave-one-kind-out model; recorded in the
     weights' metadata."""
     negatives: tuple[str, ...] = option(
-        ("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"),
-        choices=("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"))
+        ("lamp", "specular", "sky", "clouds", "wall", "foliage", "neon", "reflection"),
+        choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "neon", "reflection"))
     """Kinds of hard negatives (bright non-flare content, ``pipeline.fmg_data.HARD_NEGATIVES``)
     painted onto training composites (comma-separated); recorded in the weights' metadata."""
     kind_probs: tuple[str, ...] = ()
@@ -859,13 +859,20 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             cv2.putText(tile,
-                        f"{Path(w).parent.name or Path(w).stem}{' + rays' if rays else ''}: "
+                        f"{weights_label(Path(w))}{' + rays' if rays else ''}: "
                         f"{100 * marked.mean():.1f} %",
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
             tiles.append(tile)
         rows.append(np.hstack(tiles))
     atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return fracs
+
+
+def weights_label(path: Path) -> str:
+    """A column's name: the file's stem, with its folder where the stem alone says nothing
+    (a run's ``fmg``, ``checkpoint`` or ``best``, the shipped ``gnfr/weights/fmg``)."""
+    generic = path.stem in ("fmg", "checkpoint", "best") and path.parent.name
+    return f"{path.parent.name}/{path.stem}" if generic else path.stem
 
 
 # --------------------------------------------------------------------------- calibrate
