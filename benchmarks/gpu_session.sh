@@ -19,6 +19,11 @@
 # Since the eighteenth session a session's device time is 15 minutes in all (a start costs 1-2
 # of them): plan ONE call of `short` (the repo is 59 MB, so only one of .carry/fmgdata at
 # --quality 60 or .carry/packs at a lower quality fits beside it under 67.1 MB).
+# The twenty-second session carried both (.carry/packs 9.9 MB, .carry/fmgdata at --quality 60
+# 7.3 MB) by moving docs/, samples/ and gnfr/weights/fmg_candidate_H.safetensors (none read
+# by these phases or the gpu tests) out of the checkout for the call: 66.4 MB in all; moved
+# back after (`git status` clean). Then `short 570` and, the machine still warm (30 s),
+# `train 235` kept both trainings going: 13 400 FMG steps and 5 200 GN-FR steps in 13 min.
 # Phases (bash benchmarks/gpu_session.sh PHASE [END_SECONDS] [ITERS]):
 #   short   the trainings whose data is carried, started first, then the gpu-marked tests,
 #           then the trainings go on until END and are exported (one call, e.g. END 540)
