@@ -481,6 +481,25 @@ def test_fmg_train_flare_prob_sets_the_share_of_clean_composites():
     assert shares[0.0] == 0.0 and shares[1.0] > 0.5, shares
 
 
+def test_a_run_from_init_resumed_without_it_still_counts_the_init_steps(tmp_path):
+    """Steps are counted from scratch: a run started with --init records the init file's
+    steps in its checkpoint, so resuming it without --init still adds them."""
+    from gnfr.fmg import read_fmg_metadata
+    from workflows.cli import main
+
+    data = _tiny_data(tmp_path)
+    args = ["fmg", "train", "--data", str(data), "--batch", "2", "--size", "64", "--widths",
+            "8,8,16,16", "--depths", "1,1,1,1", "--head-width", "16", "--ckpt-every", "1",
+            "--eval-every", "100", "--val-count", "2"]
+    assert main([*args, "--out", str(tmp_path / "a"), "--iters", "2"]) == 0
+    init = tmp_path / "a" / "fmg.safetensors"
+    assert main([*args, "--out", str(tmp_path / "b"), "--iters", "2", "--init", str(init)]) == 0
+    assert read_fmg_metadata(tmp_path / "b" / "checkpoint.safetensors")["init_iters"] == "2"
+    assert main([*args, "--out", str(tmp_path / "b"), "--iters", "3"]) == 0  # no --init
+    assert read_fmg_metadata(tmp_path / "b" / "checkpoint.safetensors")["init_iters"] == "2"
+    assert read_fmg_metadata(tmp_path / "b" / "fmg.safetensors")["total_iters"] == "5"
+
+
 def test_overlay_columns_are_named_by_the_file_or_its_run():
     from pathlib import Path
 
