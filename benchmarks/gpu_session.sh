@@ -45,7 +45,9 @@
 # The FMG comes back as its weights of best validation flare IoU (`best.safetensors`; its
 # metadata says `export`, the step and the score; FMG_EXPORT=last for the latest checkpoint,
 # the one the twenty-second session's K was); FMG_LR=R gives its run a lower peak rate (a
-# continuation of already trained weights, whose optimizer state is never carried back).
+# continuation of already trained weights, whose optimizer state is never carried back), and
+# PT_LR_RESTART=F the GN-FR pretraining (`pretrain --lr-restart F`: the twenty-second
+# session's continuation at full rates lost 1.44 dB zero-shot on et, gnfr/weights/gnfr.md).
 set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
 T0=$(date +%s)
@@ -65,6 +67,7 @@ start_pt() {
   ls .carry/packs > $PT.scenes   # the scenes it trains on, for the export's metadata
   setsid nohup python3 -m workflows.cli pretrain .carry/packs --out $PT --preset pretrain \
     --device $DEV --seed 1 --ckpt-every ${CKPT:-500} --iters 500000 --init $init \
+    ${PT_LR_RESTART:+--lr-restart $PT_LR_RESTART} \
     >> $PT.log 2>&1 < /dev/null &
   echo "GN-FR pretraining started (init $init)"
 }
