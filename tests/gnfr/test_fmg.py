@@ -582,6 +582,7 @@ def test_fmg_train_keeps_the_weights_of_best_validation(tmp_path, monkeypatch):
                for k in kept if kept[k].is_floating_point())
     assert read_fmg_metadata(dest)["iters"] == "6"
 
+
 def test_train_batches_from_workers_do_not_depend_on_their_number():
     """`fmg train --workers N`: step s's composites come from a generator seeded by
     (seed, s), so 1 or 2 worker processes give the same batches, a run resumed at step s

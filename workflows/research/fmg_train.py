@@ -459,17 +459,30 @@ class TrainBatches:
         try:
             x, y = self.ahead.pop(0).get(timeout=_WORKER_WAIT_S)
         except mp_TimeoutError:
-            self.close()
+            self.close(wait=False)
             raise UserError(f"fmg train: no composites from the {self.workers} batch workers in "
                             f"{_WORKER_WAIT_S:.0f} s; rerun with --workers 0") from None
         return (torch.from_numpy(x).permute(0, 3, 1, 2).contiguous(),
                 torch.from_numpy(y)[:, None].float())
 
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.terminate()
-            self.pool.join()
-            self.pool = None
+    def close(self, wait: bool = True) -> None:
+        """Stop the workers. With ``wait`` (the normal end) the batches drawn ahead are
+        received first and the pool is closed, not terminated: ``Pool.terminate`` while a
+        worker is sending a result can leave the pool's result thread reading half a message
+        forever (a test hung so, on a loaded machine); workers that send nothing for
+        ``_WORKER_WAIT_S`` are terminated all the same."""
+        if self.pool is None:
+            return
+        pool, self.pool, ahead, self.ahead = self.pool, None, self.ahead, []
+        if wait:
+            for r in ahead:
+                r.wait(_WORKER_WAIT_S)
+            if all(r.ready() for r in ahead):
+                pool.close()
+                pool.join()
+                return
+        pool.terminate()
+        pool.join()
 
 
 def _fit(cfg: FMGTrainConfig, model, opt, batches: TrainBatches, step: int, val, dev,
