@@ -14,6 +14,7 @@ start weights, and adds provenance, the unseen-region count and a progress displ
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -212,10 +213,17 @@ def init_record(init: str, path: Path | None) -> dict:
 
 
 def init_model(cfg: TrainConfig, device: torch.device, init: str) -> tuple[GNFR, str]:
-    """A fresh model (seeded), loaded from ``init``; returns it and a line saying which."""
+    """A fresh model (seeded), loaded from ``init``; returns it and a line saying which.
+    A start file whose encoder's decoder is normalised (``GNFRConfig.dec_norm``, `pretrain
+    --dec-norm`) gets a model with the norm, so such a prior fine-tunes (and its pretraining
+    continues) as it was trained; a config that asks for the norm itself keeps it."""
     torch.manual_seed(cfg.seed)
-    model = GNFR(cfg.model)
     path = init_path(cfg, init)
+    model_cfg = cfg.model
+    if path is not None and path.is_file() and not model_cfg.dec_norm:
+        with contextlib.suppress(CheckpointError):  # load_weights below says what is wrong
+            model_cfg = replace(model_cfg, dec_norm=read_metadata(path)[0].dec_norm)
+    model = GNFR(model_cfg)
     if path is None:
         how = "from scratch (no shipped weights match this architecture)" \
             if init == "auto" else "from scratch"

@@ -488,3 +488,20 @@ def test_pretrain_dec_norm_builds_the_normalised_encoder_and_records_it(pretrain
     err = capsys.readouterr().err
     assert "--init" in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
+    # its run folder resumed without the flag: one line, the folder as it was
+    before = (tmp_path / "n" / "gnfr.safetensors").read_bytes()
+    assert main(["pretrain", str(pretrain_scenes), "--out", str(tmp_path / "n"), "--preset",
+                 "tiny", "--iters", "4", "--no-flare", "--device", "cpu"]) == 2
+    err = capsys.readouterr().err
+    assert "--dec-norm" in err and "Traceback" not in err
+    assert (tmp_path / "n" / "gnfr.safetensors").read_bytes() == before
+    # a prior with the norm continues (pretrain) and fine-tunes with it, no flag needed
+    from gnfr.train import PRESETS
+    from pipeline.finetune import init_model
+
+    normed = tmp_path / "n" / "gnfr.safetensors"
+    _pretrain_cli(pretrain_scenes, tmp_path / "n2", 4, "--init", str(normed))
+    assert read_metadata(tmp_path / "n2" / "gnfr.safetensors")[0].dec_norm is True
+    model, how = init_model(PRESETS["tiny"], torch.device("cpu"), str(normed))
+    assert model.config.dec_norm is True and str(normed) in how
+    assert init_model(PRESETS["tiny"], torch.device("cpu"), "scratch")[0].config.dec_norm is False

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from gnfr.checkpoint import CheckpointError
 from gnfr.fit import MODEL_FILE, StepInput, Trainer, has_checkpoint, last_record, render_meta
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import UserError
@@ -244,7 +245,11 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if step:
         how += f", continuing its step count at {step} (fresh optimizer state)"
     if resume:  # weights, optimizer, step; the sampler is re-seeded below, not restored
-        trainer.restore(out, rng=False)
+        try:
+            trainer.restore(out, rng=False)
+        except CheckpointError as e:
+            raise UserError(f"{e}: resume {out} with the options it was started with "
+                            "(e.g. --dec-norm, --preset), or give another --out") from None
         how = f"resuming at step {trainer.step}"
     if world > 1:
         broadcast_params(model)
