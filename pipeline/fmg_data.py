@@ -18,8 +18,8 @@ crops, flips, colour jitter, night backgrounds, composites without flare, and **
 negatives**: bright things that are not flare, painted onto the background before any flare
 and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
 highlights, sky, clouds, white walls and windows, red / orange foliage, neon lines,
-reflections), so
-the network learns to leave bright non-flare content and the light itself unmarked.
+reflections), so the network learns to leave bright non-flare content and the light itself
+unmarked.
 """
 
 from __future__ import annotations
