@@ -282,7 +282,9 @@ def test_hard_negative_pool_is_respected():
     from pipeline import fmg_data as fd
     from workflows.research.fmg_train import FMGTrainConfig
 
-    assert FMGTrainConfig.__dataclass_fields__["negatives"].default == fd.HARD_NEGATIVES
+    assert FMGTrainConfig.__dataclass_fields__["negatives"].default == fd.DEFAULT_NEGATIVES
+    choices = FMGTrainConfig.__dataclass_fields__["negatives"].metadata["choices"]
+    assert set(choices) == set(fd.HARD_NEGATIVES)  # clouds can be asked for
     img = np.full((64, 64, 3), 0.2, np.float32)
     calls = []
     saved = dict(fd._NEGATIVES)
@@ -296,7 +298,8 @@ def test_hard_negative_pool_is_respected():
         calls.clear()
         for _ in range(40):
             fd.add_hard_negatives(img, rng)
-        assert "neon" in calls and len(set(calls)) == len(fd.HARD_NEGATIVES)
+        assert "neon" in calls and set(calls) == set(fd.DEFAULT_NEGATIVES)
+        assert "clouds" not in calls  # an option only
     finally:
         fd._NEGATIVES.update(saved)
 

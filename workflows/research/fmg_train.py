@@ -81,10 +81,11 @@ class FMGTrainConfig:
     starburst,ghosts,streaks,glare,scatter): a leave-one-kind-out model; recorded in the
     weights' metadata."""
     negatives: tuple[str, ...] = option(
-        ("lamp", "specular", "sky", "clouds", "wall", "foliage", "neon", "reflection"),
+        ("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"),
         choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "neon", "reflection"))
     """Kinds of hard negatives (bright non-flare content, ``pipeline.fmg_data.HARD_NEGATIVES``)
-    painted onto training composites (comma-separated); recorded in the weights' metadata."""
+    painted onto training composites (comma-separated); recorded in the weights' metadata.
+    ``clouds`` (fair-weather cumulus on blue sky) is drawn only when named here."""
     kind_probs: tuple[str, ...] = ()
     """KIND=P pairs (comma-separated, e.g. streaks=0.7,ghosts=0.7): draw these kinds of flare
     with probability P instead of their ``FlareConfig`` default; recorded in the weights'
