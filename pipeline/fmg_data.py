@@ -246,14 +246,22 @@ def _neg_specular(lin: np.ndarray, rng: np.random.Generator) -> None:
     lin += add[..., None] * tint
 
 
+def _above_horizon(S: int, rng: np.random.Generator,
+                   height: tuple[float, float]) -> tuple[float, np.ndarray, np.ndarray]:
+    """An irregular horizon at a mean ``height`` (a fraction of the side, drawn in that range)
+    from the top: (its mean row, the rows [S, 1], the anti-aliased alpha [S, S] of what
+    lies above it)."""
+    base = S * rng.uniform(*height)
+    horizon = base + S * 0.08 * _smooth_noise(S, S / rng.uniform(2, 12), rng)[0]
+    yy = np.arange(S, dtype=np.float32)[:, None]
+    return base, yy, np.clip(horizon[None, :] - yy + 0.5, 0, 1)
+
+
 def _neg_sky(lin: np.ndarray, rng: np.random.Generator) -> None:
     """Bright sky above an irregular horizon: a smooth gradient, clear blue to overcast
     white, with soft clouds."""
     S = lin.shape[0]
-    base = S * rng.uniform(0.15, 0.6)
-    horizon = base + S * 0.08 * _smooth_noise(S, S / rng.uniform(2, 12), rng)[0]
-    yy = np.arange(S, dtype=np.float32)[:, None]
-    alpha = np.clip(horizon[None, :] - yy + 0.5, 0, 1)
+    base, yy, alpha = _above_horizon(S, rng, (0.15, 0.6))
     top = np.array([rng.uniform(0.2, 0.6), rng.uniform(0.4, 0.8), 1.0], np.float32)
     if rng.random() < 0.4:  # overcast
         top = np.full(3, 1.0, np.float32)
@@ -271,10 +279,7 @@ def _neg_clouds(lin: np.ndarray, rng: np.random.Generator) -> None:
     full-width networks marked as flare on clean street photos: gnfr/weights/fmg.md,
     "Twenty-second session")."""
     S = lin.shape[0]
-    base = S * rng.uniform(0.25, 0.7)
-    horizon = base + S * 0.08 * _smooth_noise(S, S / rng.uniform(2, 12), rng)[0]
-    yy = np.arange(S, dtype=np.float32)[:, None]
-    alpha = np.clip(horizon[None, :] - yy + 0.5, 0, 1)
+    base, yy, alpha = _above_horizon(S, rng, (0.25, 0.7))
     level = np.float32(np.exp(rng.uniform(np.log(0.5), np.log(1.5))))
     blue = np.array([rng.uniform(0.03, 0.15), rng.uniform(0.12, 0.35), rng.uniform(0.5, 1.0)],
                     np.float32)

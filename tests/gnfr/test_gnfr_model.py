@@ -175,6 +175,8 @@ def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_load
     """``dec_norm`` adds InstanceNorm after the decoder's two skip-merging convolutions (and
     nothing else); a file trained without it still loads into the default config, and a
     model with it round-trips through its own file (the flag is in the stored config)."""
+    import dataclasses
+
     import pytest
 
     from gnfr.checkpoint import CheckpointError, load_model, load_weights, save_model
@@ -182,7 +184,7 @@ def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_load
     torch.manual_seed(0)
     cfg = GNFRConfig(enc_widths=(8, 16, 16), enc_blocks=(1, 1, 1), feat_ch=8, width=16, depth=2)
     plain = GNFR(cfg)
-    normed = GNFR(GNFRConfig(**{**cfg.__dict__, "dec_norm": True}))
+    normed = GNFR(dataclasses.replace(cfg, dec_norm=True))
     added = set(normed.state_dict()) - set(plain.state_dict())
     assert added == {f"encoder.inorm{i}.{p}" for i in (2, 3) for p in ("weight", "bias")}
     assert set(plain.state_dict()) < set(normed.state_dict())
@@ -198,7 +200,7 @@ def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_load
     old = save_model(tmp_path / "old.safetensors", plain, {})
     load_weights(GNFR(cfg), old)  # an older file: default config, loads unchanged
     with pytest.raises(CheckpointError, match="dec_norm False in the file, True in the model"):
-        load_weights(GNFR(GNFRConfig(**{**cfg.__dict__, "dec_norm": True})), old)
+        load_weights(GNFR(dataclasses.replace(cfg, dec_norm=True)), old)
     new = save_model(tmp_path / "new.safetensors", normed, {})
     again = load_model(new)
     assert again.config.dec_norm is True

@@ -309,11 +309,13 @@ checkpoint, with the step and the score in its metadata)."""
 
 
 def _save_weights(path: Path, model, meta: dict[str, str]) -> None:
-    from safetensors.torch import save_file
+    """``gnfr.fmg.save_fmg`` in fp32 (a run's own files keep full precision), atomically."""
+    import torch
 
-    sd = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
+    from gnfr.fmg import save_fmg
+
     with atomic_path(path) as tmp:
-        save_file(sd, str(tmp), metadata={"config": model.cfg.to_json(), **meta})
+        save_fmg(tmp, model, extra=meta, dtype=torch.float32)
 
 
 def save_checkpoint(out: Path, model, opt, step: int, init_steps: int = 0) -> None:
