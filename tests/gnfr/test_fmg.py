@@ -621,3 +621,23 @@ def test_train_batches_from_workers_do_not_depend_on_their_number():
     x0, _ = inproc.next()
     ref, _ = src.batch(2, np.random.default_rng([3, 5]))
     assert torch.equal(x0, ref)
+
+
+def test_fmg_train_with_bad_data_or_init_stops_with_one_line_and_makes_no_folder(tmp_path,
+                                                                                  capsys):
+    import cv2
+
+    from workflows.cli import main
+
+    (tmp_path / "data" / "backgrounds").mkdir(parents=True)
+    cv2.imwrite(str(tmp_path / "data" / "backgrounds" / "a.png"),
+                np.full((64, 64, 3), 90, np.uint8))
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not weights")
+    for extra in (["--data", str(tmp_path / "missing")],
+                  ["--data", str(tmp_path / "data"), "--init", str(bad)]):
+        assert main(["fmg", "train", "--out", str(tmp_path / "run"), "--iters", "1",
+                     "--size", "64", "--batch", "1", *extra]) == 2
+        err = capsys.readouterr().err
+        assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("error:")
+        assert not (tmp_path / "run").exists()

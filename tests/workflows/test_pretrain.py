@@ -505,3 +505,17 @@ def test_pretrain_dec_norm_builds_the_normalised_encoder_and_records_it(pretrain
     model, how = init_model(PRESETS["tiny"], torch.device("cpu"), str(normed))
     assert model.config.dec_norm is True and str(normed) in how
     assert init_model(PRESETS["tiny"], torch.device("cpu"), "scratch")[0].config.dec_norm is False
+
+
+def test_pretrain_from_a_file_that_is_not_weights_stops_with_one_line(pretrain_scenes,
+                                                                      tmp_path, capsys):
+    from workflows.cli import main
+
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not weights")
+    assert main(["pretrain", str(pretrain_scenes), "--out", str(tmp_path / "x"), "--preset",
+                 "tiny", "--iters", "2", "--no-flare", "--device", "cpu", "--init",
+                 str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()

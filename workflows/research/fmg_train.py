@@ -535,7 +535,6 @@ def train(cfg: FMGTrainConfig) -> dict:
     if cfg.without:  # each kind once, in the order given
         cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
     out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
     dev = resolve_device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
@@ -544,17 +543,20 @@ def train(cfg: FMGTrainConfig) -> dict:
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
-    batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # workers start before CUDA
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
-                                head_width=cfg.head_width,
-                                skip_width=cfg.skip_width)).to(dev)
+                                head_width=cfg.head_width, skip_width=cfg.skip_width))
+    resuming = (out / "checkpoint.safetensors").is_file() and (out / "optimizer.pt").is_file()
+    if cfg.init and not resuming:  # a bad --init stops before workers start or OUT is made
+        _load_init(model, Path(cfg.init))
+    batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # workers start before CUDA
+    model = model.to(dev)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     step = load_checkpoint(out, model, opt)
     if step:
         info(f"fmg train: resuming at step {step}")
     elif cfg.init:
-        _load_init(model, Path(cfg.init))
         info(f"fmg train: starting from {cfg.init}")
+    out.mkdir(parents=True, exist_ok=True)
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)

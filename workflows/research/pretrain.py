@@ -169,7 +169,11 @@ def start_step(cfg: TrainConfig, init: str, preset: str) -> int:
     path = init_path(cfg, init)
     if path is None or not Path(path).is_file():
         return 0
-    _, meta = read_metadata(path)
+    try:
+        _, meta = read_metadata(path)
+    except CheckpointError as e:
+        raise UserError(f"--init {path}: {e}: pass GN-FR weights (a .safetensors file that "
+                        "pretrain or finetune wrote)") from None
     if meta.get("preset") != preset:
         return 0
     return int(meta.get("step", 0))
