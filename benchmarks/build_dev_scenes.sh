@@ -10,6 +10,12 @@
 #   bash benchmarks/build_dev_scenes.sh [OUT=/work/dev] [DATA=../shared/data/scenes]
 # Writes OUT/{sceaux,et,lund}_ws (posed workspaces) and OUT/{sceaux,et,lund}_synth (with
 # eval.ws/variants/gnfr/model/gnfr.safetensors). Safe to rerun: every stage resumes.
+# COLMAP poses with one thread: with all threads sceaux_castle's solve differed from run to
+# run and machine to machine (the twenty-third session's rebuild: true flare on 9.5 % of the
+# pixels against 12.8 % in the committed runs), so a rule comparing against committed
+# numbers compared different scenes; with one thread and a fixed seed two solves are
+# byte-identical (et and sceaux_castle checked). et and lund rebuilt with all threads matched
+# the committed scenes (the shipped masks scored as before). Older builds may differ.
 set -euo pipefail
 OUT=${1:-/work/dev}
 DATA=${2:-$(cd "$(dirname "$0")/../.." && pwd)/shared/data/scenes}
@@ -24,7 +30,7 @@ mkdir -p "$OUT"
 for spec in $SPECS; do
   IFS=: read -r short name seed <<< "$spec"
   deflare-scene decode "$DATA/$name" --out "$OUT/${short}_ws" --max-size 504
-  deflare-scene pose "$OUT/${short}_ws"
+  deflare-scene pose "$OUT/${short}_ws" --threads 1 --seed 0   # repeatable (below)
   deflare-scene synth "$OUT/${short}_ws" --out "$OUT/${short}_synth" --heldout 2 --seed "$seed"
   deflare-scene eval "$OUT/${short}_synth" --variants gnfr,input --masks gt \
       --render-scale 0.5 --device cpu
