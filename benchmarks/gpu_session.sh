@@ -11,7 +11,7 @@
 #       .carry/dev/et_synth          # devab (5 MB); pip download trimesh -d .carry/whl (eval-llff)
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
 # devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The repo (58 MB with the
-# paper weights and fmg_candidate_J) and the carried folders must stay under 64 MiB (67.1 MB)
+# paper weights and fmg_candidate_L) and the carried folders must stay under 64 MiB (67.1 MB)
 # together (check with du): carry .carry/packs in one call and .carry/fmgdata in the next
 # (each training loads its data when it starts and runs on while the machine stays warm;
 # the next call must come within the tool's 30 s of warmth). The sixteenth session carried
@@ -31,7 +31,7 @@
 #   train   GN-FR `paper` pretraining and the full-width FMG training side by side on the
 #           GPU (the pretraining's small batches leave it mostly idle), started in the
 #           background if not running (from gnfr/weights/gnfr_paper.safetensors and
-#           .carry/fmg_init.safetensors or fmg_candidate_J.safetensors), until END; then both
+#           .carry/fmg_init.safetensors or fmg_candidate_L.safetensors), until END; then both
 #           exported (fp16, split under the tool's 16 MiB per file)
 #   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
@@ -48,6 +48,11 @@
 # continuation of already trained weights, whose optimizer state is never carried back), and
 # PT_LR_RESTART=F the GN-FR pretraining (`pretrain --lr-restart F`: the twenty-second
 # session's continuation at full rates lost 1.44 dB zero-shot on et, gnfr/weights/gnfr.md).
+# The twenty-third session (FMG_LR=2e-4 PT_LR_RESTART=0.25, short 570 then train 235) made
+# fmg_candidate_L (J + 10 000 steps, best validation) and a paper prior that lost 1.29 dB on
+# et (not kept). On a fresh machine the packs' scenes come from the recipe in gnfr.md
+# ("Exact commands": workflows.research.pretrain_scenes, then decode + pose of et,
+# sceaux_castle, sacre_coeur, lund; about 5 minutes) plus maryrose and tumbler as they are.
 set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
 T0=$(date +%s)
@@ -72,7 +77,7 @@ start_pt() {
   echo "GN-FR pretraining started (init $init)"
 }
 start_fmg() {
-  local init=() from=gnfr/weights/fmg_candidate_J.safetensors   # 16 200 GPU steps (fmg.md)
+  local init=() from=gnfr/weights/fmg_candidate_L.safetensors   # 26 200 GPU steps (fmg.md)
   [ -f .carry/fmg_init.safetensors ] && from=.carry/fmg_init.safetensors
   [ -f $from ] && [ ! -f $FM/checkpoint.safetensors ] && init=(--init $from)
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \

@@ -42,8 +42,9 @@ from pipeline.ws_files import (
 
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "fmg.safetensors"
 """The FMG weights shipped with the package (see gnfr/weights/fmg.md)."""
-DEFAULT_CONFIRM_WEIGHTS = WEIGHTS_DIR / "fmg_candidate_J.safetensors"
-"""The second network of ``--confirm``: the full-width FMG (gnfr/weights/fmg.md, J)."""
+DEFAULT_CONFIRM_WEIGHTS = WEIGHTS_DIR / "fmg_candidate_L.safetensors"
+"""The second network of ``--confirm``: the full-width FMG candidate (gnfr/weights/fmg.md, L;
+J, which it was trained from, until the twenty-third session)."""
 
 
 @dataclass
@@ -77,7 +78,7 @@ class MaskConfig:
     through it) also count as enough (default: the rule's, 0 = off)."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
-    flare, which the full-width candidate ``fmg_candidate_J.safetensors`` leaves out as its
+    flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
     training masks do; use it with that file); off by default, the shipped file's masks
     have almost no holes (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made
     ``--masks`` are kept as given."""
@@ -93,7 +94,7 @@ class MaskConfig:
     "Eighteenth session")."""
     confirm_weights: Path | None = option(None, exists=True)
     """The second network of ``confirm``; default the full-width FMG,
-    gnfr/weights/fmg_candidate_J.safetensors."""
+    gnfr/weights/fmg_candidate_L.safetensors."""
     confirm_keep: str | None = option(None, choices=("both", "first"))
     """With ``confirm``: keep the confirmed regions of both networks (both, the default), or
     only the FMG's own regions that the second network confirms (first: a subset of the

@@ -508,7 +508,7 @@ def test_overlay_columns_are_named_by_the_file_or_its_run():
 
     from workflows.research.fmg_train import weights_label
 
-    assert weights_label(Path("gnfr/weights/fmg_candidate_J.safetensors")) == "fmg_candidate_J"
+    assert weights_label(Path("gnfr/weights/fmg_candidate_L.safetensors")) == "fmg_candidate_L"
     assert weights_label(Path("gnfr/weights/fmg.safetensors")) == "weights/fmg"
     assert weights_label(Path("/runs/k2/best.safetensors")) == "k2/best"
     assert weights_label(Path("fmg.safetensors")) == "fmg"

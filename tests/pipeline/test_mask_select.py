@@ -361,7 +361,7 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     M.run(M.MaskConfig(rays=False, confirm=True), ws, force=True)
     params = ws.stage_record("mask")["params"]
     assert params["confirm"] is True and params["confirm_cut"] == pytest.approx(0.85)
-    assert params["confirm_weights"].startswith("fmg_candidate_J.safetensors@sha256:")
+    assert params["confirm_weights"].startswith("fmg_candidate_L.safetensors@sha256:")
     M.run(M.MaskConfig(rays=False), ws, force=True)
     params = ws.stage_record("mask")["params"]
     assert params["confirm"] is False and "confirm_cut" not in params

@@ -149,7 +149,7 @@ class FMGEvalConfig:
     confirm: Path | None = None
     """With ``per_kind`` or ``clean``: score the masks of `mask --confirm` with these weights
     as the second network (each network at its own cut; e.g.
-    gnfr/weights/fmg_candidate_J.safetensors)."""
+    gnfr/weights/fmg_candidate_L.safetensors)."""
     confirm_keep: str | None = option(None, choices=("both", "first"))
     """With ``confirm``: as `mask --confirm-keep` (default both)."""
     out: Path | None = None
