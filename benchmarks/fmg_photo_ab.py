@@ -1,0 +1,165 @@
+"""The photo part of an FMG candidate's rule: two mask networks' de-flared photos, same scenes.
+
+Each arm copies a development synth scene's evaluated workspace (``SYNTH/eval.ws``, the
+variants left out), writes its masks with its own weights (each file at its stored cut,
+flare rays on), then runs depth, select, the `quick` fine-tune (3,000 steps, seed S),
+the de-flared inputs and the held-out cameras' renders, and scores them as `eval` does
+(``benchmarks/score_workspace.py``). Both arms run on the scenes as built on this machine:
+committed numbers of another build are not comparable (gnfr/weights/fmg.md, "Twenty-third
+session").
+
+    python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
+        [--holes-as-flare]                  # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
+    python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
+        [--scenes sceaux,et,lund] [--seeds 0,1] [--out JSON]
+
+``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
+(a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
+0.20 dB, (c) whole photo mean not lower by more than 0.05 dB and SSIM by more than 0.002,
+(d) novel views not lower by more than 0.10 dB. About 10 minutes per run on one CPU thread.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+RULE = {"flare_gain": 0.10, "flare_scene_loss": 0.20, "whole_loss": 0.05, "ssim_loss": 0.002,
+        "held_loss": 0.10}
+"""The photo rule's thresholds (gnfr/weights/fmg.md, JH and later candidates)."""
+
+
+def scene_short(synth: Path) -> str:
+    """``/work/dev/et_synth`` -> ``et``."""
+    return synth.name.removesuffix("_synth")
+
+
+def result_name(arm: str, scene: str, seed: int) -> str:
+    return f"fmg_{arm}_fair_{scene}_s{seed}.json"
+
+
+def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
+            holes_as_flare: bool = False) -> Path:
+    """The hand-built workspace of one arm, scored; returns the result file."""
+    scene = scene_short(synth)
+    ws = work / f"{scene}_{arm}_s{seed}.ws"
+    if not ws.is_dir():
+        tmp = ws.with_suffix(".tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.copytree(synth / "eval.ws", tmp, symlinks=True,
+                        ignore=shutil.ignore_patterns("variants"))
+        tmp.rename(ws)
+    cli = [sys.executable, "-m", "workflows.cli"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    steps = [["mask", str(ws), "--weights", str(weights), "--force"],
+             ["depth", str(ws)], ["select", str(ws)],
+             ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
+              "--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"],
+             ["render", str(ws), "--path", "inputs"],
+             ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
+                                               "heldout_cameras.json"), "--scale", "0.5"]]
+    for step in steps:
+        subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
+    out = work / result_name(arm, scene, seed)
+    subprocess.run([sys.executable, str(ROOT / "benchmarks" / "score_workspace.py"), str(synth),
+                    str(ws), "--heldout", str(ws / "renders" / "heldout_cameras"),
+                    "--out", str(out)], check=True, env=env, cwd=ROOT)
+    return out
+
+
+def arm_means(results: list[dict]) -> dict:
+    """Seed means of one arm on one scene: whole, flare region, SSIM, novel views."""
+    n = len(results)
+    m = {k: sum(r["inputs"][k] for r in results) / n for k in ("psnr", "psnr_flare", "ssim")}
+    m["held"] = sum(r["heldout"]["psnr"] for r in results) / n
+    return m
+
+
+def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict]) -> dict:
+    """Per scene candidate minus baseline (``arm_means`` dicts), their mean, and each part's
+    verdict, in the rule's order; ``decision`` is the first failing part or 'passes'."""
+    diff = {s: {k: candidate[s][k] - baseline[s][k] for k in baseline[s]} for s in baseline}
+    mean = {k: sum(d[k] for d in diff.values()) / len(diff)
+            for k in ("psnr", "psnr_flare", "ssim", "held")}
+    parts = {"a": mean["psnr_flare"] >= RULE["flare_gain"],
+             "b": all(d["psnr_flare"] >= -RULE["flare_scene_loss"] for d in diff.values()),
+             "c": mean["psnr"] >= -RULE["whole_loss"] and mean["ssim"] >= -RULE["ssim_loss"],
+             "d": mean["held"] >= -RULE["held_loss"]}
+    failed = [p for p, ok in parts.items() if not ok]
+    return {"per_scene": diff, "mean": mean, "parts": parts,
+            "decision": f"fails ({failed[0]})" if failed else "passes"}
+
+
+def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
+          seeds: list[int]) -> dict:
+    from pipeline.errors import UserError
+
+    def load(arm: str, scene: str) -> dict:
+        files = [work / result_name(arm, scene, s) for s in seeds]
+        missing = [str(f) for f in files if not f.is_file()]
+        if missing:
+            raise UserError(f"{missing[0]}: no such result; run this arm first "
+                            "(python benchmarks/fmg_photo_ab.py run ...)")
+        return arm_means([json.loads(f.read_text()) for f in files])
+
+    cand = {s: load(candidate, s) for s in scenes}
+    base = {s: load(baseline, s) for s in scenes}
+    return {"candidate": candidate, "baseline": baseline, "seeds": seeds,
+            "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("synth", type=Path)
+    r.add_argument("--arm", required=True)
+    r.add_argument("--weights", type=Path, required=True)
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--work", type=Path, required=True)
+    r.add_argument("--holes-as-flare", action="store_true")
+    j = sub.add_parser("judge")
+    j.add_argument("work", type=Path)
+    j.add_argument("--candidate", required=True)
+    j.add_argument("--baseline", required=True)
+    j.add_argument("--scenes", default="sceaux,et,lund")
+    j.add_argument("--seeds", default="0,1")
+    j.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    from pipeline.errors import UserError
+
+    try:
+        if a.cmd == "run":
+            if not (a.synth / "eval.ws" / "eval" / "heldout_cameras.json").is_file():
+                raise UserError(f"{a.synth}: no evaluated workspace (eval.ws); build the "
+                                "development scenes first (benchmarks/build_dev_scenes.sh)")
+            if not a.weights.is_file():
+                raise UserError(f"{a.weights}: no such weights file")
+            a.work.mkdir(parents=True, exist_ok=True)
+            print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare))
+            return 0
+        res = judge(a.work, a.candidate, a.baseline, a.scenes.split(","),
+                    [int(s) for s in a.seeds.split(",")])
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    for s, d in res["per_scene"].items():
+        print(f"{s}: " + " / ".join(f"{k} {v:+.3f}" for k, v in d.items()))
+    print("mean: " + " / ".join(f"{k} {v:+.3f}" for k, v in res["mean"].items()))
+    print(f"parts {res['parts']}: {res['decision']}")
+    if a.out:
+        from pipeline.provenance import write_result
+        write_result(a.out, res)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
