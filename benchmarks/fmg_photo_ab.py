@@ -144,7 +144,12 @@ def main(argv: list[str] | None = None) -> int:
             if not a.weights.is_file():
                 raise UserError(f"{a.weights}: no such weights file")
             a.work.mkdir(parents=True, exist_ok=True)
-            print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare))
+            try:
+                print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare))
+            except subprocess.CalledProcessError as e:
+                step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
+                raise UserError(f"{step} failed (its message is above); fix that and rerun: "
+                                "finished stages are kept") from None
             return 0
         res = judge(a.work, a.candidate, a.baseline, a.scenes.split(","),
                     [int(s) for s in a.seeds.split(",")])

@@ -360,14 +360,19 @@ def export_checkpoint(out: Path, dest: Path, init_steps: int | None = None,
                                         **kept, **(extra or {})})
 
 
+def has_checkpoint(out: Path) -> bool:
+    """Whether ``out`` holds a run to resume (its weights and optimizer state)."""
+    return (out / "checkpoint.safetensors").is_file() and (out / "optimizer.pt").is_file()
+
+
 def load_checkpoint(out: Path, model, opt) -> int:
     """Restore weights and optimizer from ``out``; returns the step (0 when none)."""
     import torch
     from safetensors.torch import load_file
 
-    ck, op = out / "checkpoint.safetensors", out / "optimizer.pt"
-    if not (ck.is_file() and op.is_file()):
+    if not has_checkpoint(out):
         return 0
+    ck, op = out / "checkpoint.safetensors", out / "optimizer.pt"
     try:
         model.load_state_dict(load_file(str(ck)))
         state = torch.load(op, map_location="cpu", weights_only=True)
@@ -545,8 +550,7 @@ def train(cfg: FMGTrainConfig) -> dict:
          f"kinds {','.join(src.flare_cfg.kinds)}")
     model = build_fmg(FMGConfig(widths=tuple(cfg.widths), depths=tuple(cfg.depths),
                                 head_width=cfg.head_width, skip_width=cfg.skip_width))
-    resuming = (out / "checkpoint.safetensors").is_file() and (out / "optimizer.pt").is_file()
-    if cfg.init and not resuming:  # a bad --init stops before workers start or OUT is made
+    if cfg.init and not has_checkpoint(out):  # a bad --init stops before workers or OUT
         _load_init(model, Path(cfg.init))
     batches = TrainBatches(src, cfg.batch, cfg.seed, cfg.workers)  # workers start before CUDA
     model = model.to(dev)
