@@ -18,8 +18,8 @@ crops, flips, colour jitter, night backgrounds, composites without flare, and **
 negatives**: bright things that are not flare, painted onto the background before any flare
 and labelled "no flare" (``add_hard_negatives``: lamps and their bare cores, specular
 highlights, sky, white walls and windows, red / orange foliage, neon lines, reflections;
-fair-weather clouds on request), so the network learns to leave bright non-flare content
-and the light itself unmarked.
+fair-weather clouds and foliage backlit at night on request), so the network learns to
+leave bright non-flare content and the light itself unmarked.
 """
 
 from __future__ import annotations
@@ -39,13 +39,17 @@ from pipeline.images import list_photos, read_image
 from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES
 
 HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "clouds", "wall", "foliage",
-                                   "neon", "reflection")
+                                   "backlit", "neon", "reflection")
 """Kinds of bright non-flare content ``add_hard_negatives`` paints (see its docstring)."""
 
-DEFAULT_NEGATIVES: tuple[str, ...] = tuple(k for k in HARD_NEGATIVES if k != "clouds")
-"""The kinds drawn unless asked otherwise (`fmg train --negatives`): ``clouds`` is an option
-only, since a 200-step check did not show it lowering the marks on clean photos
-(gnfr/weights/fmg.md, "Twenty-second session")."""
+OPTIONAL_NEGATIVES: tuple[str, ...] = ("clouds", "backlit")
+"""Kinds drawn only when `fmg train --negatives` names them: ``clouds``, since a 200-step check
+did not show it lowering the marks on clean photos (gnfr/weights/fmg.md, "Twenty-second
+session"); ``backlit``, added in the twenty-fourth session and not yet judged by a run."""
+
+DEFAULT_NEGATIVES: tuple[str, ...] = tuple(k for k in HARD_NEGATIVES
+                                           if k not in OPTIONAL_NEGATIVES)
+"""The kinds drawn unless asked otherwise (`fmg train --negatives`)."""
 
 HELDOUT_BACKGROUNDS: tuple[str, ...] = ("coffee", "rocket", "grace_hopper")
 """Stems of background photos kept out of FMG training and choices: test composites only."""
@@ -331,6 +335,39 @@ def _neg_foliage(lin: np.ndarray, rng: np.random.Generator) -> None:
     _blend(lin, alpha, level * tex[..., None] * col)
 
 
+def _neg_backlit(lin: np.ndarray, rng: np.random.Generator) -> None:
+    """Foliage backlit at night: the dark crown of a tree (leaves and twigs, dense inside,
+    ragged at its edge) in front of a light's glow (a street lamp behind the tree, the haze
+    it lights), so the glow shows through the gaps between the leaves and rims their edges.
+    The glow is drawn only behind the crown: what tells it from veiling glare is that it lies
+    behind the leaves (they stay dark), where lens glare lies over everything. (What the
+    full-width networks marked beside the lamp of a real night photo: gnfr/weights/fmg.md,
+    "Twenty-fourth session".)"""
+    S = lin.shape[0]
+    region = _smooth_noise(S, S / rng.uniform(1.5, 4), rng)
+    crown = np.clip((region - rng.uniform(-0.6, 0.6)) * 2.5, 0, 1)
+    inside = np.flatnonzero(crown.ravel() > 0.5)
+    if len(inside) == 0:
+        return
+    cy, cx = np.divmod(float(inside[int(rng.integers(len(inside)))]), S)  # light behind it
+    yy, xx = np.mgrid[0:S, 0:S].astype(np.float32)
+    d2 = ((xx - cx) ** 2 + (yy - cy) ** 2) / np.float32(S * rng.uniform(0.06, 0.35)) ** 2
+    colour = fl.blackbody_rgb(rng.uniform(1900, 4500))
+    peak = np.float32(np.exp(rng.uniform(np.log(0.5), np.log(12.0))))
+    sky = np.array([0.004, 0.006, 0.015], np.float32) * np.float32(rng.uniform(0.3, 3))
+    glow = sky + (peak / (1.0 + d2))[..., None] * colour
+    fine = (0.5 * _smooth_noise(S, rng.uniform(1.2, 3.0), rng)  # leaf edges
+            + _smooth_noise(S, rng.uniform(4, 12), rng)  # clusters of leaves
+            + 0.5 * _smooth_noise(S, rng.uniform(15, 40), rng))  # branches and large gaps
+    density = np.float32(rng.uniform(0.0, 1.5))  # sparse to dense leaves
+    leaves = np.clip((fine + density + 1.5 * (crown - 0.5)) * 2.0, 0, 1).astype(np.float32)
+    dark = np.array([0.006, 0.008, 0.004], np.float32) * np.float32(rng.uniform(0.3, 3))
+    rim = cv2.GaussianBlur(1 - leaves, (0, 0), 1.0) * leaves  # leaf edges next to a gap
+    front = dark + (rim * np.float32(rng.uniform(0.02, 0.15)))[..., None] * glow
+    scene = glow * (1 - leaves[..., None]) + front * leaves[..., None]
+    _blend(lin, cv2.GaussianBlur(crown, (0, 0), 1.5), scene.astype(np.float32))
+
+
 def _neg_neon(lin: np.ndarray, rng: np.random.Generator) -> None:
     """Neon signs: thin saturated polylines and arcs, a near-white core with a tight glow of
     their own colour (a lit tube, not lens flare)."""
@@ -375,8 +412,8 @@ def _neg_reflection(lin: np.ndarray, rng: np.random.Generator) -> None:
 
 
 _NEGATIVES = {"lamp": _neg_lamp, "specular": _neg_specular, "sky": _neg_sky,
-              "clouds": _neg_clouds, "wall": _neg_wall, "foliage": _neg_foliage, "neon": _neg_neon,
-              "reflection": _neg_reflection}
+              "clouds": _neg_clouds, "wall": _neg_wall, "foliage": _neg_foliage,
+              "backlit": _neg_backlit, "neon": _neg_neon, "reflection": _neg_reflection}
 
 
 def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
@@ -392,6 +429,8 @@ def add_hard_negatives(img: np.ndarray, rng: np.random.Generator,
     - ``clouds``: white and grey cumulus with defined edges on a deep blue sky.
     - ``wall``: large bright white quadrilaterals (walls, facades) with gentle shading.
     - ``foliage``: red / orange leafy texture, dim to sunlit.
+    - ``backlit``: a dark tree crown at night in front of a lamp's glow, which shows through
+      the gaps between the leaves (the leaves stay dark: the glow is behind them).
     - ``neon``: thin saturated lines and arcs with a tight glow of their own.
     - ``reflection``: the image above a line mirrored below it, stretched, rippled, dimmed
       (drawn last, so it reflects the others: lamps become vertical glints).

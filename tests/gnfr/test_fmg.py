@@ -245,6 +245,26 @@ def test_cloud_negatives_are_white_clouds_on_blue_sky_above_the_untouched_ground
         np.testing.assert_allclose(out[-4:], base[-4:], atol=2e-3)
 
 
+def test_backlit_negatives_are_dark_leaves_in_front_of_a_glow_that_lies_behind_them():
+    """``backlit``: a tree crown at night in front of a lamp's glow: inside what it paints
+    there are bright gaps (the glow) and dark leaves (which the glow does not brighten, unlike
+    lens glare); the glow stays behind the crown (part of the photo is left as it was)."""
+    from pipeline.fmg_data import add_hard_negatives
+
+    base = np.full((128, 128, 3), 0.1, np.float32)
+    painted = 0
+    for seed in range(8):
+        out = add_hard_negatives(base, np.random.default_rng(seed), ("backlit",))
+        changed = np.abs(out - base).max(-1) > 0.02
+        if not changed.any():
+            continue
+        painted += 1
+        assert (~changed).mean() > 0.02, seed  # a crown, not a wash over the whole frame
+        v = out[changed].max(-1)
+        assert (v > 0.3).mean() > 0.01 and (v < 0.2).mean() > 0.2, seed
+    assert painted >= 6
+
+
 def test_training_flare_leaves_kinds_out():
     from pipeline import flare as fl
     from pipeline.errors import UserError
@@ -284,7 +304,10 @@ def test_hard_negative_pool_is_respected():
 
     assert FMGTrainConfig.__dataclass_fields__["negatives"].default == fd.DEFAULT_NEGATIVES
     choices = FMGTrainConfig.__dataclass_fields__["negatives"].metadata["choices"]
-    assert set(choices) == set(fd.HARD_NEGATIVES)  # clouds can be asked for
+    assert set(choices) == set(fd.HARD_NEGATIVES)  # clouds and backlit can be asked for
+    from workflows.research.fmg_train import FMGEvalConfig  # literals, for the CLI's ast read
+
+    assert FMGEvalConfig.__dataclass_fields__["negatives"].metadata["choices"] == choices
     img = np.full((64, 64, 3), 0.2, np.float32)
     calls = []
     saved = dict(fd._NEGATIVES)
@@ -299,7 +322,7 @@ def test_hard_negative_pool_is_respected():
         for _ in range(40):
             fd.add_hard_negatives(img, rng)
         assert "neon" in calls and set(calls) == set(fd.DEFAULT_NEGATIVES)
-        assert "clouds" not in calls  # an option only
+        assert not set(calls) & set(fd.OPTIONAL_NEGATIVES)  # options only
     finally:
         fd._NEGATIVES.update(saved)
 
@@ -641,3 +664,39 @@ def test_fmg_train_with_bad_data_or_init_stops_with_one_line_and_makes_no_folder
         err = capsys.readouterr().err
         assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("error:")
         assert not (tmp_path / "run").exists()
+
+
+def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monkeypatch):
+    """`fmg eval --negatives`: every composite is flare-free with the named negative painted,
+    so a network that marks everything scores 100 % and one that marks nothing 0 %."""
+    import torch
+
+    import pipeline.fmg_data as fd
+    from workflows.research import fmg_train
+
+    painted = []
+
+    real = fd.add_hard_negatives
+    monkeypatch.setattr(fd, "add_hard_negatives",
+                        lambda img, rng, kinds: painted.append(kinds) or real(img, rng, kinds))
+    monkeypatch.setattr(fmg_train, "_part_backgrounds",
+                        lambda data, size, split: [np.full((80, 80, 3), 90, np.uint8)])
+
+    class Const(torch.nn.Module):
+        def __init__(self, v):
+            super().__init__()
+            self.v = torch.nn.Parameter(torch.tensor(float(v)))
+
+        def forward(self, x):
+            return self.v.expand(x.shape[0], 1, *x.shape[2:])
+
+    for logit, want in ((20.0, 1.0), (-20.0, 0.0)):
+        monkeypatch.setattr("pipeline.mask.load_fmg_weights", lambda p, c=Const(logit): c)
+        monkeypatch.setattr(fmg_train, "weights_info", lambda p: {"cut": 0.5})
+        res = fmg_train.negative_fractions(tmp_path / "w.safetensors", tmp_path,
+                                           ("backlit", "lamp"), count=3, size=32)
+        assert set(res["negatives"]) == {"backlit", "lamp"}
+        for r in res["negatives"].values():
+            assert r["mean"] == want and r["over_1pct"] == (3 if want else 0)
+    assert painted.count(("backlit",)) == 6 and painted.count(("lamp",)) == 6
+    assert "| backlit | 3 | 0.00 %" in fmg_train.format_negatives(res)

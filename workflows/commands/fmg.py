@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
     def eval_cmd(config) -> None:
         """mIoU / mAcc on held-out composites: default, unseen and night flare settings, or
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
-        working-size sweep (--work-sizes) or clean photos (--clean)."""
+        working-size sweep (--work-sizes), clean photos (--clean) or flare-free composites
+        with hard negatives (--negatives)."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights, ray_config
         from pipeline.provenance import sha256, write_result
         from workflows.research import fmg_train
@@ -52,6 +53,12 @@ def register(app: typer.Typer) -> None:
                                                  ray_cfg=rule, confirm=config.confirm,
                                                  confirm_keep=keep)
             typer.echo(fmg_train.format_clean(metrics))
+        elif config.negatives:
+            metrics = fmg_train.negative_fractions(weights, config.data, config.negatives,
+                                                   config.count, size=config.size,
+                                                   split=config.split, rays=config.rays,
+                                                   ray_cfg=rule)
+            typer.echo(fmg_train.format_negatives(metrics))
         elif config.per_kind:
             metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,

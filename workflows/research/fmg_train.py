@@ -82,10 +82,12 @@ class FMGTrainConfig:
     weights' metadata."""
     negatives: tuple[str, ...] = option(
         ("lamp", "specular", "sky", "wall", "foliage", "neon", "reflection"),
-        choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "neon", "reflection"))
+        choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
+                 "reflection"))
     """Kinds of hard negatives (bright non-flare content, ``pipeline.fmg_data.HARD_NEGATIVES``)
     painted onto training composites (comma-separated); recorded in the weights' metadata.
-    ``clouds`` (fair-weather cumulus on blue sky) is drawn only when named here."""
+    ``clouds`` (fair-weather cumulus on blue sky) and ``backlit`` (a dark tree crown at night
+    in front of a lamp's glow) are drawn only when named here."""
     kind_probs: tuple[str, ...] = ()
     """KIND=P pairs (comma-separated, e.g. streaks=0.7,ghosts=0.7): draw these kinds of flare
     with probability P instead of their ``FlareConfig`` default; recorded in the weights'
@@ -146,6 +148,13 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    negatives: tuple[str, ...] = option(
+        (), choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
+                     "reflection"))
+    """Instead: share of pixels marked on ``count`` flare-free composites of the ``split``
+    part per kind of hard negative named here (comma-separated, e.g. backlit,clouds; each
+    painted alone, as `fmg train --negatives` paints it): what a model marks of bright
+    things that are not flare."""
     confirm: Path | None = None
     """With ``per_kind`` or ``clean``: score the masks of `mask --confirm` with these weights
     as the second network (each network at its own cut; e.g.
@@ -199,16 +208,16 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
     ``clean``); else a one-line UserError."""
     if cfg.loo and not cfg.per_kind:
         raise UserError("--loo needs --per-kind")
-    if cfg.rays and not (cfg.per_kind or cfg.clean):
-        raise UserError("--rays needs --per-kind or --clean")
+    if cfg.rays and not (cfg.per_kind or cfg.clean or cfg.negatives):
+        raise UserError("--rays needs --per-kind, --clean or --negatives")
     if cfg.confirm is not None and not (cfg.per_kind or cfg.clean):
         raise UserError("--confirm needs --per-kind or --clean")
     if cfg.confirm_keep is not None and cfg.confirm is None:
         raise UserError("--confirm-keep says which regions --confirm keeps: add --confirm "
                         "WEIGHTS, or leave --confirm-keep out")
     check_ray_rule(cfg)
-    if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean)) > 1:
-        raise UserError("give one of --per-kind, --work-sizes, --clean")
+    if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
+        raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
 
 
@@ -845,6 +854,64 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                                 "over_10pct": int(sum(x > 0.10 for x in fractions)),
                                 "per_view": marked}
     return res
+
+
+def negative_fractions(weights: Path, data: Path, kinds: tuple[str, ...], count: int = 48,
+                       seed: int = 2026, size: int = 256, split: str = "dev",
+                       rays: bool = False, ray_cfg=None) -> dict:
+    """Per kind of hard negative (``pipeline.fmg_data.HARD_NEGATIVES``): the share of pixels
+    ``weights`` marks (at its cut; flare rays added with ``rays``) on ``count`` flare-free
+    composites of the ``split`` part, each a random crop (night on ``PER_KIND_NIGHT`` of
+    them) with that negative alone painted on it: mean, max, and how many composites have
+    more than 1 % marked. Nothing in them is flare, so every mark is a false one."""
+    import torch
+
+    from pipeline.fmg_data import (
+        CompositeConfig,
+        add_hard_negatives,
+        darken_night,
+        random_crop,
+    )
+    from pipeline.mask import load_fmg_weights
+
+    info_w = weights_info(Path(weights))
+    model = load_fmg_weights(Path(weights))
+    dev = next(model.parameters()).device
+    bgs = _part_backgrounds(data, size, split)
+    comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
+    res = {"weights": str(weights), "cut": info_w["cut"], "count": count, "seed": seed,
+           "size": size, "night": PER_KIND_NIGHT, "split": split, "rays": rays,
+           "ray_rule": _ray_rule(rays, ray_cfg), "negatives": {}}
+    model.eval()
+    for i, kind in enumerate(kinds):
+        rng = np.random.default_rng(seed + i)
+        imgs = []
+        for _ in range(count):
+            img = random_crop(bgs[int(rng.integers(len(bgs)))], size, comp.crop_scale, rng)
+            if rng.random() < comp.night_prob:
+                img = darken_night(img, comp, rng)
+            imgs.append(add_hard_negatives(img, rng, (kind,)))
+        x = torch.from_numpy(np.stack(imgs)).permute(0, 3, 1, 2).contiguous()
+        marked = []
+        with torch.no_grad():
+            for j in range(0, count, 8):
+                p = torch.sigmoid(model(x[j:j + 8].to(dev))).cpu()[:, 0] > info_w["cut"]
+                if rays:
+                    p |= ray_batch(x[j:j + 8], ray_cfg)[:, 0]
+                marked += [float(m.float().mean()) for m in p]
+        res["negatives"][kind] = {"mean": float(np.mean(marked)), "max": float(max(marked)),
+                                  "over_1pct": int(sum(m > 0.01 for m in marked))}
+    return res
+
+
+def format_negatives(res: dict) -> str:
+    rows = [f"flare-free composites with one hard negative ({res['split']}), pixels marked at "
+            f"cut {res['cut']:g}" + (", rays on" if res["rays"] else ""),
+            "| negative | composites | mean | max | over 1 % |", "|---|---|---|---|---|"]
+    for kind, r in res["negatives"].items():
+        rows.append(f"| {kind} | {res['count']} | {100 * r['mean']:.2f} % | "
+                    f"{100 * r['max']:.2f} % | {r['over_1pct']} |")
+    return "\n".join(rows)
 
 
 def format_clean(res: dict) -> str:
