@@ -441,3 +441,30 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
     assert m.main(["judge", str(tmp_path), "--candidate", "a", "--baseline", "b"]) == 2
     err = capsys.readouterr().err
     assert "fmg_a_fair_sceaux_s0.json: no such result" in err and len(err.splitlines()) == 1
+
+
+def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
+    """benchmarks/negatives_overview.py: one row of tiles per kind of hard negative, written
+    as a JPEG under its size limit."""
+    import importlib.util
+
+    import numpy as np
+
+    from pipeline.fmg_data import HARD_NEGATIVES
+
+    spec = importlib.util.spec_from_file_location(
+        "negatives_overview", Path(__file__).parents[2] / "benchmarks" / "negatives_overview.py")
+    ov = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ov)
+    (tmp_path / "backgrounds").mkdir()
+    rng = np.random.default_rng(0)
+    for i in range(2):
+        cv2.imwrite(str(tmp_path / "backgrounds" / f"b{i}.png"),
+                    rng.integers(0, 255, (100, 140, 3), dtype=np.uint8))
+    img = ov.overview(tmp_path, per_kind=2)
+    assert img.shape == (len(HARD_NEGATIVES) * ov.TILE, 2 * ov.TILE, 3)
+    out = tmp_path / "o.jpg"
+    ov.write_jpeg(out, img)
+    assert 0 < out.stat().st_size <= ov.MAX_BYTES and cv2.imread(str(out)) is not None
+    assert ov.main(["--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "n.jpg")]) == 2
+    assert not (tmp_path / "n.jpg").exists()
