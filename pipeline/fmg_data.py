@@ -45,7 +45,7 @@ HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "clouds", "wall", 
 OPTIONAL_NEGATIVES: tuple[str, ...] = ("clouds", "backlit")
 """Kinds drawn only when `fmg train --negatives` names them: ``clouds``, since a 200-step check
 did not show it lowering the marks on clean photos (gnfr/weights/fmg.md, "Twenty-second
-session"); ``backlit``, added in the twenty-fourth session and not yet judged by a run."""
+session"); ``backlit``, since its 200-step check failed its rule (twenty-fourth session)."""
 
 DEFAULT_NEGATIVES: tuple[str, ...] = tuple(k for k in HARD_NEGATIVES
                                            if k not in OPTIONAL_NEGATIVES)

@@ -435,6 +435,14 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     assert seen and all((c.min_rays, c.opposite) == (1, 8.0) for c in seen)
     rule = json.loads((tmp_path / "r.json").read_text())["ray_rule"]
     assert (rule["min_rays"], rule["opposite"]) == (1, 8.0)
+    # --negatives: flare-free composites with each named negative, the rays' rule recorded
+    assert main(["fmg", "eval", "--negatives", "backlit,lamp", "--weights", str(allw),
+                 "--data", str(data), "--count", "2", "--size", "64", "--split", "dev",
+                 "--rays", "--out", str(tmp_path / "n.json")]) == 0
+    neg = json.loads((tmp_path / "n.json").read_text())
+    assert list(neg["negatives"]) == ["backlit", "lamp"] and neg["split"] == "dev"
+    assert neg["ray_rule"] is not None and neg["count"] == 2
+    assert all(0 <= r["mean"] <= r["max"] <= 1 for r in neg["negatives"].values())
     # the overview image of masks on photos
     jpg = tmp_path / "overlay.jpg"
     photo = data / "scenes/kermit/kermit000.jpg"

@@ -204,8 +204,8 @@ class FMGOverlayConfig:
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
-    """``cfg`` when it asks for one score (the composites, ``per_kind``, ``work_sizes`` or
-    ``clean``); else a one-line UserError."""
+    """``cfg`` when it asks for one score (the composites, ``per_kind``, ``work_sizes``,
+    ``clean`` or ``negatives``); else a one-line UserError."""
     if cfg.loo and not cfg.per_kind:
         raise UserError("--loo needs --per-kind")
     if cfg.rays and not (cfg.per_kind or cfg.clean or cfg.negatives):
