@@ -50,7 +50,9 @@
 # session's continuation at full rates lost 1.44 dB zero-shot on et, gnfr/weights/gnfr.md).
 # The twenty-third session (FMG_LR=2e-4 PT_LR_RESTART=0.25, short 570 then train 235) made
 # fmg_candidate_L (J + 10 000 steps, best validation) and a paper prior that lost 1.29 dB on
-# et (not kept). On a fresh machine the packs' scenes come from the recipe in gnfr.md
+# et (not kept). The twenty-fourth session (no GPU) trained L 200-600 more steps at 2e-4 on the
+# CPU: every mask score rose (fmg.md, candidates B and M), so FMG_LR=2e-4 from L stays the plan.
+# On a fresh machine the packs' scenes come from the recipe in gnfr.md
 # ("Exact commands": workflows.research.pretrain_scenes, then decode + pose of et,
 # sceaux_castle, sacre_coeur, lund; about 5 minutes) plus maryrose and tumbler as they are.
 set -u
