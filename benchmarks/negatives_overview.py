@@ -22,8 +22,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.flare_kinds_overview import MAX_BYTES, write_jpeg  # noqa: E402, F401
+
 TILE = 192
-MAX_BYTES = 200_000
 
 
 def overview(data: Path, seed: int = 0, per_kind: int = 4) -> np.ndarray:
@@ -60,16 +61,6 @@ def overview(data: Path, seed: int = 0, per_kind: int = 4) -> np.ndarray:
     return np.vstack(rows)
 
 
-def write_jpeg(path: Path, img: np.ndarray) -> None:
-    """``img`` as a JPEG under MAX_BYTES (quality lowered until it fits)."""
-    for q in range(90, 30, -5):
-        ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, q])
-        if ok and len(buf) <= MAX_BYTES:
-            break
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(buf.tobytes())
-
-
 def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
 
@@ -84,8 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    write_jpeg(a.out, img)
-    print(f"wrote {a.out} ({a.out.stat().st_size // 1000} KB)")
+    a.out.parent.mkdir(parents=True, exist_ok=True)
+    print(f"wrote {a.out} ({write_jpeg(a.out, img) // 1000} KB)")
     return 0
 
 
