@@ -69,13 +69,18 @@ def pick_sources(pool: Sequence[str], fracs: Sequence[float], n: int,
 
 
 def eval_sources(ranked_stems: Sequence[str], flare_fractions, n: int = 10,
-                 pool: int = 20, tolerance: float = FLARE_TOLERANCE) -> list[str]:
+                 pool: int = 20, tolerance: float = FLARE_TOLERANCE,
+                 equal_below: float = 0.0) -> list[str]:
     """Deterministic render/eval sources: ``n`` of the ``pool`` nearest views chosen by
     :func:`pick_sources` (nearest first). ``flare_fractions``: {stem: f} or a list aligned
-    with ``ranked_stems``."""
+    with ``ranked_stems``. Views whose fraction is at most ``equal_below`` count as
+    flare-free in that choice (so the nearest of them win): with ``MAX_FLARE`` every view
+    the target rule would train on is an equally good source, and only views above it give
+    way to cleaner far ones."""
     ranked = list(ranked_stems)[:pool]
     fracs = _fractions(ranked, flare_fractions if isinstance(flare_fractions, Mapping)
                        else list(flare_fractions)[:pool])
+    fracs = [0.0 if f <= equal_below + _SLACK else f for f in fracs]
     return pick_sources(ranked, fracs, n, tolerance)
 
 

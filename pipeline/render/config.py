@@ -77,6 +77,10 @@ class RenderConfig:
     checkpoint's eval_views, else 10)."""
     pool: int = option(20, ge=1)
     """Nearest views from which the ``n_sources`` least-flared are kept."""
+    sources_equal_below: float = option(0.0, ge=0, le=1)
+    """Flare fractions up to this count as none when sources are chosen, so the nearest of
+    those views win (0.1: every view the 10 % target rule trains on is an equally good
+    source; 0: the least flared first, fractions within 2 points equal)."""
     source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""

@@ -21,11 +21,13 @@ from pipeline.ws_files import (
 )
 
 
-def _eval_sources(ranked: list[str], fractions: list[float], n: int, pool: int) -> list[str]:
-    """The least flared ``n`` of the nearest ``pool`` of ``ranked`` (gnfr.view_sampler)."""
+def _eval_sources(ranked: list[str], fractions: list[float], cfg: RenderConfig) -> list[str]:
+    """The least flared ``cfg.n_sources`` of the nearest ``cfg.pool`` of ``ranked``, every
+    fraction up to ``cfg.sources_equal_below`` counted as none (gnfr.view_sampler)."""
     from gnfr.view_sampler import eval_sources
 
-    return list(eval_sources(ranked, fractions, n=n, pool=pool))
+    return list(eval_sources(ranked, fractions, n=cfg.n_sources, pool=cfg.pool,
+                             equal_below=cfg.sources_equal_below))
 
 
 def _views_file(views: ViewsFile | Mapping) -> ViewsFile:
@@ -46,7 +48,7 @@ def input_sources(stem: str, views: ViewsFile | Mapping, cfg: RenderConfig,
         raise UserError(f"{stem} has no source views in views.json: rerun "
                         "`deflare-scene select WS`")
     fractions = views.fractions(pool)
-    return _eval_sources(pool, [fractions[s] for s in pool], cfg.n_sources, cfg.pool)
+    return _eval_sources(pool, [fractions[s] for s in pool], cfg)
 
 
 def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
@@ -58,7 +60,7 @@ def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
     ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
     ranked = [s for s in ranked if s in views]
     fractions = views.fractions(ranked)
-    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg.n_sources, cfg.pool)
+    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg)
 
 
 # --------------------------------------------------------------------------- model, cache
