@@ -103,6 +103,19 @@ def test_a_heavily_flared_near_view_loses_to_a_far_clean_one():
     assert got == ["v01", "v02", "v04", "v05"]
 
 
+def test_fractions_under_equal_below_count_as_none():
+    # lund's case: every view under the 10 % rule, the nearest ones more flared
+    fl = {s: (0.09 if i < 3 else 0.05) for i, s in enumerate(LINE[:13])}
+    assert eval_sources(LINE[:13], fl, n=10, pool=20) == LINE[3:13]  # strict: near ones out
+    assert eval_sources(LINE[:13], fl, n=10, pool=20, equal_below=0.1) == LINE[:10]
+    # a view above the line still gives way to a cleaner far one
+    fl["v01"] = 0.3
+    got = eval_sources(LINE[:13], fl, n=10, pool=20, equal_below=0.1)
+    assert "v01" not in got and got == [s for s in LINE[:11] if s != "v01"]
+    # exactly at the line counts as under it
+    assert eval_sources(["a", "b"], {"a": 0.1, "b": 0.0}, n=1, equal_below=0.1) == ["a"]
+
+
 def test_tolerance_boundary_both_ways():
     pool = ["near", "far"]
     t = FLARE_TOLERANCE

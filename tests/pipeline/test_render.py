@@ -214,6 +214,25 @@ def test_novel_frames_use_nearest_least_flared_sources(rws):
     assert near <= cams.frames[2].near and far >= cams.frames[2].far
 
 
+def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
+    from pipeline.render import RenderConfig, novel_sources
+
+    cams = load_cameras(rws.cameras_json)
+    views = json.loads(rws.views_json.read_text())["views"]
+    c = cams.frames[2].center + 1e-3
+    nearest = [cams.frames[i].stem
+               for i in np.argsort(np.linalg.norm(cams.centers() - c, axis=1))]
+    views = {s: {**v, "flare_fraction": 0.05 if s == nearest[0] else 0.0}
+             for s, v in views.items()}  # the nearest view 5 % flared, the rest clean
+    strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4))
+    assert strict == [s for s in nearest[1:4]]  # 5 % is more than the tolerance: dropped
+    under = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
+                                                        sources_equal_below=0.1))
+    assert sorted(under) == sorted(nearest[:3])  # under the 10 % line: the nearest three
+    assert novel_sources(c, cams, views, RenderConfig(
+        n_sources=3, pool=4, sources_equal_below=0.04)) == strict
+
+
 def test_render_cli_errors(rws):
     from workflows.cli import main
 

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 import torch
 
@@ -278,7 +279,6 @@ def test_mask_shape_scores_light_outside_the_mask():
     grown by one pixel it takes the rim in (no light left) at a lower precision."""
     import importlib.util
 
-    import numpy as np
 
     spec = importlib.util.spec_from_file_location(
         "mask_shape", Path(__file__).parents[2] / "benchmarks" / "mask_shape.py")
@@ -335,8 +335,6 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     ``max_size`` shrinks the photo and its true mask before the FMG sees them."""
     import importlib.util
 
-    import numpy as np
-
     from pipeline import mask as M
 
     spec = importlib.util.spec_from_file_location(
@@ -371,7 +369,6 @@ def test_floor_scores_measures_excess_and_gain(tmp_path):
     a flared photo 30 levels above the truth inside the true flare, a de-flared one 3 above,
     gives a 20 dB gain and a tenth of the excess left; views with too little true flare and
     files with no de-flared photo are left out; the truth is resized to the output's size."""
-    import numpy as np
 
     from workflows.research.eval.scoring import floor_scores
 
@@ -448,8 +445,6 @@ def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     as a JPEG under its size limit."""
     import importlib.util
 
-    import numpy as np
-
     from pipeline.fmg_data import HARD_NEGATIVES
 
     spec = importlib.util.spec_from_file_location(
@@ -468,3 +463,44 @@ def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     assert 0 < out.stat().st_size <= ov.MAX_BYTES and cv2.imread(str(out)) is not None
     assert ov.main(["--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "n.jpg")]) == 2
     assert not (tmp_path / "n.jpg").exists()
+
+
+def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
+    """benchmarks/mask_cross_render.py: an arm rendered with its own masks reproduces the
+    score eval wrote; with the other arm's masks (here none marked) the renders change; the
+    arms' workspaces are left as they were; bad input is one line, exit 2."""
+    import importlib.util
+    import shutil
+
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
+                 "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
+                 "--device", "cpu"]) == 0
+    a = out / "variants" / "gnfr"
+    b = tmp_path / "b.ws"
+    shutil.copytree(a, b, symlinks=True)
+    for m in (b / "masks").glob("*.png"):  # arm b: nothing marked
+        cv2.imwrite(str(m), np.zeros_like(cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)))
+    spec = importlib.util.spec_from_file_location(
+        "mask_cross_render", Path(__file__).parents[2] / "benchmarks" / "mask_cross_render.py")
+    xr = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(xr)
+    cams = out / "eval" / "heldout_cameras.json"
+    before = sorted(p.relative_to(a) for p in a.rglob("*"))
+    res = tmp_path / "xr.json"
+    assert xr.main([str(scene), "--arm", f"a={a}", "--arm", f"b={b}", "--cameras", str(cams),
+                    "--variants", "own,othermasks,nearest", "--out", str(res)]) == 0
+    rows = {(r["model"], r["render"]): r["heldout"]["psnr"]
+            for r in json.loads(res.read_text())["rows"]}
+    want = json.loads((out / "eval" / "results.json").read_text())["methods"]["gnfr"]
+    assert rows[("a", "own")] == pytest.approx(want["heldout"]["psnr"], abs=1e-9)
+    assert rows[("a", "othermasks")] != rows[("a", "own")]  # the attention masks matter
+    assert len(rows) == 6 and not (tmp_path / "xr.work").exists()
+    assert sorted(p.relative_to(a) for p in a.rglob("*")) == before
+    assert xr.main([str(scene), "--arm", f"a={a}", "--cameras", str(cams),
+                    "--out", str(tmp_path / "x.json")]) == 2
+    assert xr.main([str(scene), "--arm", f"a={a}", "--arm", f"b={tmp_path}",
+                    "--cameras", str(cams), "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-2].startswith("error: --arm given 1 times")
+    assert "is not a fine-tuned workspace" in err[-1] and not (tmp_path / "x.json").exists()
