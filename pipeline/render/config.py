@@ -15,6 +15,13 @@ INPUTS_MIN_BLOB = 0.0005
 flare draws of two development scenes (docs/depth.md, "Specks in the sky")."""
 
 
+NOVEL_SOURCES_EQUAL_BELOW = 0.0
+"""``RenderConfig.sources_equal_below`` of novel frames (camera paths, held-out cameras) when
+not given. The de-flared photos always default to 0: their fill takes the sources' pixels,
+where a mask's misses bring flare in, so the least flared sources serve them best
+(gnfr/weights/fmg.md, "Twenty-fifth session")."""
+
+
 @dataclass
 class RenderConfig:
     """Options of the render stage."""
@@ -77,10 +84,11 @@ class RenderConfig:
     checkpoint's eval_views, else 10)."""
     pool: int = option(20, ge=1)
     """Nearest views from which the ``n_sources`` least-flared are kept."""
-    sources_equal_below: float = option(0.0, ge=0, le=1)
+    sources_equal_below: float | None = option(None, ge=0, le=1)
     """Flare fractions up to this count as none when sources are chosen, so the nearest of
     those views win (0.1: every view the 10 % target rule trains on is an equally good
-    source; 0: the least flared first, fractions within 2 points equal)."""
+    source; 0: the least flared first, fractions within 2 points equal). Default:
+    ``NOVEL_SOURCES_EQUAL_BELOW`` for novel frames, 0 for the de-flared photos."""
     source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""

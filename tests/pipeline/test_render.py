@@ -224,13 +224,42 @@ def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
                for i in np.argsort(np.linalg.norm(cams.centers() - c, axis=1))]
     views = {s: {**v, "flare_fraction": 0.05 if s == nearest[0] else 0.0}
              for s, v in views.items()}  # the nearest view 5 % flared, the rest clean
-    strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4))
+    strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
+                                                         sources_equal_below=0.0))
     assert strict == [s for s in nearest[1:4]]  # 5 % is more than the tolerance: dropped
     under = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
                                                         sources_equal_below=0.1))
     assert sorted(under) == sorted(nearest[:3])  # under the 10 % line: the nearest three
     assert novel_sources(c, cams, views, RenderConfig(
         n_sources=3, pool=4, sources_equal_below=0.04)) == strict
+
+
+def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeypatch):
+    """Not given, novel frames use NOVEL_SOURCES_EQUAL_BELOW and the de-flared photos 0."""
+    from pipeline.render import RenderConfig, input_sources, novel_sources
+    from pipeline.render import sources as S
+
+    cams = load_cameras(rws.cameras_json)
+    views = json.loads(rws.views_json.read_text())["views"]
+    c = cams.frames[2].center + 1e-3
+    nearest = [cams.frames[i].stem
+               for i in np.argsort(np.linalg.norm(cams.centers() - c, axis=1))]
+    views = {s: {**v, "flare_fraction": 0.05 if s == nearest[0] else 0.0}
+             for s, v in views.items()}
+    cfg = RenderConfig(n_sources=3, pool=4)
+    for line, want in ((0.0, nearest[1:4]), (0.1, nearest[:3])):
+        monkeypatch.setattr(S, "NOVEL_SOURCES_EQUAL_BELOW", line)
+        assert sorted(novel_sources(c, cams, views, cfg)) == sorted(want)
+    # the photos ignore the novel frames' line (still 0.1 here): of view 2's sources the
+    # nearest, now 5 % flared, gives way to a clean one
+    own = cams.frames[2].stem
+    pool = [x["stem"] for x in views[own]["sources"]]
+    views = {s: {**v, "flare_fraction": 0.05 if s == pool[0] else 0.0}
+             for s, v in views.items()}
+    photo = input_sources(own, views, RenderConfig(n_sources=len(pool) - 1, pool=20))
+    assert photo == pool[1:]
+    assert input_sources(own, views, RenderConfig(n_sources=len(pool) - 1, pool=20,
+                                                  sources_equal_below=0.1)) == pool[:-1]
 
 
 def test_render_cli_errors(rws):
