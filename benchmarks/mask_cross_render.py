@@ -17,7 +17,10 @@ by default SYNTH/eval.ws/eval/heldout_cameras.json) with:
 - ``nearest``: its own masks, every flare fraction in views.json set to 0, so each camera
   renders from its nearest views.
 
-and scored against the synth's clean held-out views as `eval` scores them.
+and scored against the synth's clean held-out views as `eval` scores them. Every render
+passes ``--sources-equal-below`` (``--equal-below``, default 0: how the twenty-third and
+twenty-fourth sessions' runs rendered), so ``own`` reproduces those runs whatever the
+render's default.
 """
 
 from __future__ import annotations
@@ -61,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--arm", action="append", required=True, metavar="NAME=WS",
                     help="an arm's fine-tuned workspace (exactly two)")
     ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--equal-below", type=float, default=0.0,
+                    help="the renders' --sources-equal-below (default 0)")
     ap.add_argument("--cameras", type=Path, default=None,
                     help="the held-out cameras (default: SYNTH/eval.ws/eval/"
                          "heldout_cameras.json, where `eval --out SYNTH/eval.ws` wrote them)")
@@ -106,7 +111,8 @@ def main(argv: list[str] | None = None) -> int:
             for variant in variants:
                 ws = prepare(Path(arms[model]), Path(arms[other]), variant,
                              work / f"{model}_{variant}.ws")
-                subprocess.run(cli + ["render", str(ws), "--path", str(cams), "--scale", "0.5"],
+                subprocess.run(cli + ["render", str(ws), "--path", str(cams), "--scale", "0.5",
+                                      "--sources-equal-below", str(a.equal_below)],
                                check=True, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
                 held = score_views(scene, ws / "renders" / "heldout_cameras", scene.heldout,
                                    with_region=False)
@@ -119,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if a.work is None:
             shutil.rmtree(work, ignore_errors=True)
-    write_result(a.out, {"scene": str(a.synth), "arms": arms, "rows": rows})
+    write_result(a.out, {"scene": str(a.synth), "arms": arms, "equal_below": a.equal_below,
+                         "rows": rows})
     return 0
 
 
