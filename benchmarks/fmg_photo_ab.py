@@ -9,14 +9,16 @@ committed numbers of another build are not comparable (gnfr/weights/fmg.md, "Twe
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
-        [--holes-as-flare]                  # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
+        [--holes-as-flare] [--novel-equal-below F]  # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
-        [--scenes sceaux,et,lund] [--seeds 0,1] [--out JSON]
+        [--scenes sceaux,et,lund] [--seeds 0,1] [--held-baseline SCENE=ARM] [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
 0.20 dB, (c) whole photo mean not lower by more than 0.05 dB and SSIM by more than 0.002,
-(d) novel views not lower by more than 0.10 dB. About 10 minutes per run on one CPU thread.
+(d) novel views not lower by more than 0.10 dB (``--held-baseline SCENE=ARM``: against
+another baseline arm on that scene, e.g. one trained on the same targets as the candidate).
+About 10 minutes per run on one CPU thread.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ def result_name(arm: str, scene: str, seed: int) -> str:
 
 
 def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
-            holes_as_flare: bool = False) -> Path:
+            holes_as_flare: bool = False, novel_equal_below: float | None = None) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file."""
     scene = scene_short(synth)
     ws = work / f"{scene}_{arm}_s{seed}.ws"
@@ -65,7 +67,9 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
               "--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"],
              ["render", str(ws), "--path", "inputs"],
              ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
-                                               "heldout_cameras.json"), "--scale", "0.5"]]
+                                               "heldout_cameras.json"), "--scale", "0.5",
+              *([] if novel_equal_below is None
+                else ["--sources-equal-below", str(novel_equal_below)])]]
     for step in steps:
         subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
     out = work / result_name(arm, scene, seed)
@@ -99,7 +103,10 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict]) -> dict:
 
 
 def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
-          seeds: list[int]) -> dict:
+          seeds: list[int], held_baseline: dict[str, str] | None = None) -> dict:
+    """The photo rule on the committed runs. ``held_baseline`` {scene: arm}: part (d)'s
+    baseline on that scene (e.g. the shipped arm without the training targets the
+    candidate's masks withhold, so novel views are compared like for like)."""
     from pipeline.errors import UserError
 
     def load(arm: str, scene: str) -> dict:
@@ -112,7 +119,12 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
 
     cand = {s: load(candidate, s) for s in scenes}
     base = {s: load(baseline, s) for s in scenes}
+    for scene, arm in (held_baseline or {}).items():
+        if scene not in base:
+            raise UserError(f"--held-baseline {scene}={arm}: {scene} is not among the scenes")
+        base[scene] = {**base[scene], "held": load(arm, scene)["held"]}
     return {"candidate": candidate, "baseline": baseline, "seeds": seeds,
+            "held_baseline": held_baseline or {},
             "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base)}
 
 
@@ -126,12 +138,16 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--work", type=Path, required=True)
     r.add_argument("--holes-as-flare", action="store_true")
+    r.add_argument("--novel-equal-below", type=float, default=None,
+                   help="the held-out render's --sources-equal-below (default: render's)")
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
     j.add_argument("--baseline", required=True)
     j.add_argument("--scenes", default="sceaux,et,lund")
     j.add_argument("--seeds", default="0,1")
+    j.add_argument("--held-baseline", action="append", default=[], metavar="SCENE=ARM",
+                   help="part (d)'s baseline arm on one scene (like-for-like targets)")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
@@ -145,14 +161,18 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"{a.weights}: no such weights file")
             a.work.mkdir(parents=True, exist_ok=True)
             try:
-                print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare))
+                print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
+                              a.novel_equal_below))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
                                 "finished stages are kept") from None
             return 0
+        held = dict(x.split("=", 1) for x in a.held_baseline if "=" in x)
+        if len(held) != len(a.held_baseline):
+            raise UserError(f"--held-baseline takes SCENE=ARM, got {a.held_baseline}")
         res = judge(a.work, a.candidate, a.baseline, a.scenes.split(","),
-                    [int(s) for s in a.seeds.split(",")])
+                    [int(s) for s in a.seeds.split(",")], held)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

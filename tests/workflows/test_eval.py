@@ -435,6 +435,15 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
     assert res["decision"] == "fails (b)"
     assert res["per_scene"]["et"]["psnr_flare"] == pytest.approx(-0.314, abs=1e-3)
     assert res["mean"]["psnr_flare"] == pytest.approx(0.182, abs=1e-3)
+    # part (d) like for like: sceaux_castle's novel views against the shipped arm without
+    # the target M's masks withhold (fmg.md, "Twenty-fourth session": M -0.15 dB there)
+    fair = m.judge(results, "s24_M", "s23_shipped", ["sceaux", "et", "lund"], [0, 1],
+                   {"sceaux": "s24_shipped_no7102"})
+    plain = m.judge(results, "s24_M", "s23_shipped", ["sceaux", "et", "lund"], [0, 1])
+    assert fair["per_scene"]["sceaux"]["held"] == pytest.approx(-0.15, abs=0.01)
+    assert plain["per_scene"]["sceaux"]["held"] == pytest.approx(-0.69, abs=0.01)
+    assert fair["per_scene"]["lund"] == plain["per_scene"]["lund"]
+    assert fair["per_scene"]["sceaux"]["psnr_flare"] == plain["per_scene"]["sceaux"]["psnr_flare"]
     assert m.main(["judge", str(tmp_path), "--candidate", "a", "--baseline", "b"]) == 2
     err = capsys.readouterr().err
     assert "fmg_a_fair_sceaux_s0.json: no such result" in err and len(err.splitlines()) == 1
