@@ -214,16 +214,23 @@ def test_novel_frames_use_nearest_least_flared_sources(rws):
     assert near <= cams.frames[2].near and far >= cams.frames[2].far
 
 
-def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
-    from pipeline.render import RenderConfig, novel_sources
-
+def _nearest_view_flared(rws):
+    """The cameras, views.json's views with only the view nearest to a novel camera beside
+    view 2 marked 5 % flared, that camera's centre, and the views nearest first."""
     cams = load_cameras(rws.cameras_json)
     views = json.loads(rws.views_json.read_text())["views"]
     c = cams.frames[2].center + 1e-3
     nearest = [cams.frames[i].stem
                for i in np.argsort(np.linalg.norm(cams.centers() - c, axis=1))]
     views = {s: {**v, "flare_fraction": 0.05 if s == nearest[0] else 0.0}
-             for s, v in views.items()}  # the nearest view 5 % flared, the rest clean
+             for s, v in views.items()}
+    return cams, views, c, nearest
+
+
+def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
+    from pipeline.render import RenderConfig, novel_sources
+
+    cams, views, c, nearest = _nearest_view_flared(rws)
     strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
                                                          sources_equal_below=0.0))
     assert strict == [s for s in nearest[1:4]]  # 5 % is more than the tolerance: dropped
@@ -239,13 +246,7 @@ def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeyp
     from pipeline.render import RenderConfig, input_sources, novel_sources
     from pipeline.render import sources as S
 
-    cams = load_cameras(rws.cameras_json)
-    views = json.loads(rws.views_json.read_text())["views"]
-    c = cams.frames[2].center + 1e-3
-    nearest = [cams.frames[i].stem
-               for i in np.argsort(np.linalg.norm(cams.centers() - c, axis=1))]
-    views = {s: {**v, "flare_fraction": 0.05 if s == nearest[0] else 0.0}
-             for s, v in views.items()}
+    cams, views, c, nearest = _nearest_view_flared(rws)
     cfg = RenderConfig(n_sources=3, pool=4)
     for line, want in ((0.0, nearest[1:4]), (0.1, nearest[:3])):
         monkeypatch.setattr(S, "NOVEL_SOURCES_EQUAL_BELOW", line)
