@@ -15,8 +15,8 @@ by default SYNTH/eval.ws/eval/heldout_cameras.json) with:
 - ``other``: the other arm's WS/masks and views.json (the attention masks and the flare
   fractions that choose the sources);
 - ``othermasks``: the other arm's WS/masks, its own views.json (the sources kept);
-- ``nearest``: its own masks, every flare fraction in views.json set to 0, so each camera
-  renders from its nearest views.
+- ``nearest``: its own masks, rendered with ``--sources-equal-below 1`` (every view counts
+  as unflared), so each camera renders from its nearest views.
 
 and scored against the synth's clean held-out views as `eval` scores them. Every render
 passes ``--sources-equal-below`` (``--equal-below``, default 0: how the twenty-third and
@@ -27,7 +27,6 @@ render's default.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 import subprocess
@@ -49,13 +48,6 @@ def prepare(src: Path, other: Path, variant: str, dst: Path) -> Path:
         shutil.copytree(other / "masks", dst / "masks")
     if variant == "other":
         shutil.copy2(other / "views.json", dst / "views.json")
-    if variant == "nearest":
-        views = json.loads((dst / "views.json").read_text())
-        for v in views["views"].values():
-            v["flare_fraction"] = 0.0
-            for s in v.get("sources", []):
-                s["flare_fraction"] = 0.0
-        (dst / "views.json").write_text(json.dumps(views, indent=1))
     return dst
 
 
@@ -112,8 +104,9 @@ def main(argv: list[str] | None = None) -> int:
             for variant in variants:
                 ws = prepare(Path(arms[model]), Path(arms[other]), variant,
                              work / f"{model}_{variant}.ws")
+                line = 1.0 if variant == "nearest" else a.equal_below  # 1: every view clean
                 subprocess.run(cli + ["render", str(ws), "--path", str(cams), "--scale", "0.5",
-                                      "--sources-equal-below", str(a.equal_below)],
+                                      "--sources-equal-below", str(line)],
                                check=True, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
                 held = score_views(scene, ws / "renders" / "heldout_cameras", scene.heldout,
                                    with_region=False)
