@@ -11,7 +11,8 @@ session").
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
         [--holes-as-flare] [--novel-equal-below F]  # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
-        [--scenes sceaux,et,lund] [--seeds 0,1] [--held-baseline SCENE=ARM] [--out JSON]
+        [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
+        [--held-baseline SCENE=ARM] [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -103,29 +104,46 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict]) -> dict:
 
 
 def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
-          seeds: list[int], held_baseline: dict[str, str] | None = None) -> dict:
+          seeds: list[int], held_baseline: dict[str, str] | None = None,
+          baseline_seeds: list[int] | None = None) -> dict:
     """The photo rule on the committed runs. ``held_baseline`` {scene: arm}: part (d)'s
     baseline on that scene (e.g. the shipped arm without the training targets the
-    candidate's masks withhold, so novel views are compared like for like)."""
+    candidate's masks withhold, so novel views are compared like for like).
+    ``baseline_seeds``: the baseline arms' seeds when not the candidate's (each arm is
+    averaged over its own seeds)."""
     from pipeline.errors import UserError
 
-    def load(arm: str, scene: str) -> dict:
-        files = [work / result_name(arm, scene, s) for s in seeds]
+    base_seeds = seeds if baseline_seeds is None else baseline_seeds
+
+    def load(arm: str, scene: str, arm_seeds: list[int]) -> dict:
+        files = [work / result_name(arm, scene, s) for s in arm_seeds]
         missing = [str(f) for f in files if not f.is_file()]
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
         return arm_means([json.loads(f.read_text()) for f in files])
 
-    cand = {s: load(candidate, s) for s in scenes}
-    base = {s: load(baseline, s) for s in scenes}
+    cand = {s: load(candidate, s, seeds) for s in scenes}
+    base = {s: load(baseline, s, base_seeds) for s in scenes}
     for scene, arm in (held_baseline or {}).items():
         if scene not in base:
             raise UserError(f"--held-baseline {scene}={arm}: {scene} is not among the scenes")
-        base[scene] = {**base[scene], "held": load(arm, scene)["held"]}
+        base[scene] = {**base[scene], "held": load(arm, scene, base_seeds)["held"]}
     return {"candidate": candidate, "baseline": baseline, "seeds": seeds,
+            "baseline_seeds": base_seeds,
             "held_baseline": held_baseline or {},
             "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base)}
+
+
+def _seeds(text: str, flag: str) -> list[int]:
+    """``0,1,2`` -> [0, 1, 2]; anything else is a one-line error."""
+    from pipeline.errors import UserError
+
+    try:
+        return [int(s) for s in text.split(",")]
+    except ValueError:
+        raise UserError(f"{flag} takes seeds separated by commas (e.g. 0,1,2), "
+                        f"got {text!r}") from None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -146,6 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     j.add_argument("--baseline", required=True)
     j.add_argument("--scenes", default="sceaux,et,lund")
     j.add_argument("--seeds", default="0,1")
+    j.add_argument("--baseline-seeds", default=None,
+                   help="the baseline arms' seeds (default: --seeds)")
     j.add_argument("--held-baseline", action="append", default=[], metavar="SCENE=ARM",
                    help="part (d)'s baseline arm on one scene (like-for-like targets)")
     j.add_argument("--out", type=Path, default=None)
@@ -172,7 +192,9 @@ def main(argv: list[str] | None = None) -> int:
         if len(held) != len(a.held_baseline):
             raise UserError(f"--held-baseline takes SCENE=ARM, got {a.held_baseline}")
         res = judge(a.work, a.candidate, a.baseline, a.scenes.split(","),
-                    [int(s) for s in a.seeds.split(",")], held)
+                    _seeds(a.seeds, "--seeds"), held,
+                    None if a.baseline_seeds is None
+                    else _seeds(a.baseline_seeds, "--baseline-seeds"))
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

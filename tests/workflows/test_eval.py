@@ -427,8 +427,9 @@ def test_fmg_photo_rule_stops_at_the_first_failing_part():
 
 def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path, capsys):
     """`judge` on the twenty-third session's committed results gives fmg.md's table (L
-    minus the shipped file, et's flare region -0.31 dB: fails (b)); a missing arm is one
-    line naming the file, exit 2."""
+    minus the shipped file, et's flare region -0.31 dB: fails (b)); with --baseline-seeds
+    each arm is averaged over its own seeds; a missing arm or a bad seed list is one line,
+    exit 2."""
     m = _photo_ab()
     results = Path(__file__).parents[2] / "docs" / "results"
     res = m.judge(results, "s23_L", "s23_shipped", ["sceaux", "et", "lund"], [0, 1])
@@ -447,6 +448,22 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
     assert m.main(["judge", str(tmp_path), "--candidate", "a", "--baseline", "b"]) == 2
     err = capsys.readouterr().err
     assert "fmg_a_fair_sceaux_s0.json: no such result" in err and len(err.splitlines()) == 1
+    # each arm averaged over its own seeds (M′, twenty-sixth session: three seeds against
+    # the shipped arm's two)
+    three = m.judge(results, "s26_Mp", "s23_shipped", ["sceaux", "et", "lund"], [0, 1, 2],
+                    baseline_seeds=[0, 1])
+    for scene in ("sceaux", "et", "lund"):
+        runs = {arm: [json.loads((results / m.result_name(arm, scene, s)).read_text())
+                      for s in seeds] for arm, seeds in (("s26_Mp", (0, 1, 2)),
+                                                         ("s23_shipped", (0, 1)))}
+        want = (np.mean([r["heldout"]["psnr"] for r in runs["s26_Mp"]])
+                - np.mean([r["heldout"]["psnr"] for r in runs["s23_shipped"]]))
+        assert three["per_scene"][scene]["held"] == pytest.approx(want)
+    assert three["baseline_seeds"] == [0, 1]
+    assert m.main(["judge", str(results), "--candidate", "s26_Mp", "--baseline", "s23_shipped",
+                   "--baseline-seeds", "0;1"]) == 2
+    err = capsys.readouterr().err
+    assert "--baseline-seeds takes seeds" in err and len(err.splitlines()) == 1
 
 
 def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
