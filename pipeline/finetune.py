@@ -66,13 +66,14 @@ class FinetuneConfig:
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
-    holes_as_flare: bool = False
+    holes_as_flare: bool = True
     """Train on each mask with what it encloses marked too (``ws_files.enclosed_holes``: the
     light's own core inside its flare, which a tight mask such as the full-width FMG's or
     the synth's true masks leaves unmarked): those pixels are neither targets nor source
     colours, while WS/masks (and so the render, which keeps the core as photographed) stay
-    as they are. The shipped FMG's masks have almost no holes (gnfr/weights/fmg.md,
-    "Nineteenth session")."""
+    as they are. On by default since the full-width FMG shipped, whose masks leave the core
+    unmarked (gnfr/weights/fmg.md, "Twenty-sixth session"); ``--no-holes-as-flare`` for
+    masks without holes (the earlier quarter-width file's, ``fmg_small.safetensors``)."""
     mirror: bool = False
     """Half the training steps (drawn at random) see the scene in a mirror: every view
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
@@ -143,10 +144,11 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
               "holes_as_flare": config.holes_as_flare}
-    # an option added later is absent from older records: it matches there at its default
+    # an option added later is absent from older records: it matches there at the value
+    # those runs had (holes_as_flare was off before it existed, whatever its default now)
     stage_run = ws.begin_stage("finetune", params, inputs, force,
                                defaults={"train": asdict(TrainConfig()),
-                                         "holes_as_flare": FinetuneConfig.holes_as_flare})
+                                         "holes_as_flare": False})
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)

@@ -29,7 +29,13 @@ from pathlib import Path
 
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
-from pipeline.render.config import FILLS, INPUTS_MIN_BLOB, NAMED_PATHS, RenderConfig
+from pipeline.render.config import (
+    FILLS,
+    INPUTS_MIN_BLOB,
+    NAMED_PATHS,
+    NOVEL_SOURCES_EQUAL_BELOW,
+    RenderConfig,
+)
 from pipeline.render.engine import (
     CHUNK,
     DEPTH_BAND,
@@ -118,6 +124,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
+    if cfg.sources_equal_below is None and key != "inputs":
+        # novel frames record the line they used: a render made at another line re-renders
+        cfg = replace(cfg, sources_equal_below=NOVEL_SOURCES_EQUAL_BELOW)
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "compile": None, "samples": samples,

@@ -15,11 +15,12 @@ INPUTS_MIN_BLOB = 0.0005
 flare draws of two development scenes (docs/depth.md, "Specks in the sky")."""
 
 
-NOVEL_SOURCES_EQUAL_BELOW = 0.0
+NOVEL_SOURCES_EQUAL_BELOW = 0.1
 """``RenderConfig.sources_equal_below`` of novel frames (camera paths, held-out cameras) when
 not given. The de-flared photos always default to 0: their fill takes the sources' pixels,
 where a mask's misses bring flare in, so the least flared sources serve them best
-(gnfr/weights/fmg.md, "Twenty-fifth session")."""
+(gnfr/weights/fmg.md, "Twenty-fifth session"). 0.1 since the full-width FMG shipped (the
+twenty-sixth session); 0 before."""
 
 
 @dataclass

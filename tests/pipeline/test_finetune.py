@@ -272,9 +272,11 @@ def test_random_sources_default_follows_the_masks(tmp_path, monkeypatch):
 
 
 def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypatch):
-    """--holes-as-flare: the scene the fine-tune trains on has each mask's enclosed hole
-    marked (neither target nor source colour) while WS/masks stay as written; off, the masks
-    are trained on as they are. The option is part of the stage's parameters only when on."""
+    """--holes-as-flare (the default): the scene the fine-tune trains on has each mask's
+    enclosed hole marked (neither target nor source colour) while WS/masks stay as written;
+    off (--no-holes-as-flare), the masks are trained on as they are. A record written before
+    the option existed was trained with it off: it is up to date for off, not for the
+    default."""
     import pipeline.finetune as ft
 
     ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.25)
@@ -293,7 +295,9 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
         return {}
 
     monkeypatch.setattr(ft, "fit", fake_fit)
-    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
+    assert FinetuneConfig.holes_as_flare is True
+    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
+                          holes_as_flare=False), ws)
     assert len(masks) == 1
     # the record an earlier version left, before these options: still up to date
     manifest = ws.root / "manifest.json"
@@ -305,10 +309,11 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
     for out in man["stages"]["finetune"]["outputs"]:  # what the real fit would have written
         (ws.root / out).parent.mkdir(exist_ok=True)
         (ws.root / out).write_bytes(b"")
-    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"), ws)
-    assert len(masks) == 1                               # skipped: nothing trained
     ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
-                          holes_as_flare=True), ws)     # the new option set: not up to date
+                          holes_as_flare=False), ws)
+    assert len(masks) == 1                               # skipped: nothing trained
+    ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch"),
+           ws)                                           # the default (on): not up to date
     rec = json.loads(manifest.read_text())["stages"]["finetune"]["params"]
     assert rec["holes_as_flare"] is True
     plain, filled = masks[0], masks[1]

@@ -704,7 +704,7 @@ def test_depth_min_blob_defaults_by_path(hws):
     """Unset, the de-flared photos (`--path inputs`) read the depth maps without their
     islands (INPUTS_MIN_BLOB) and novel paths keep every island; given, it is used as is."""
     from pipeline.render import RenderConfig, run
-    from pipeline.render.config import INPUTS_MIN_BLOB
+    from pipeline.render.config import INPUTS_MIN_BLOB, NOVEL_SOURCES_EQUAL_BELOW
 
     run(RenderConfig(path="inputs", fill="hybrid"), hws)
     assert hws.stage_record("render:inputs")["params"]["depth_min_blob"] == INPUTS_MIN_BLOB
@@ -712,3 +712,8 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:inputs")["params"]["depth_min_blob"] == 0.0
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     assert hws.stage_record("render:interpolate")["params"]["depth_min_blob"] == 0.0
+    # the novel frames' source line is recorded as used (a record of the old line is not
+    # up to date); the photos' stays unset (always 0 there)
+    assert hws.stage_record("render:interpolate")["params"]["sources_equal_below"] == \
+        NOVEL_SOURCES_EQUAL_BELOW
+    assert hws.stage_record("render:inputs")["params"]["sources_equal_below"] is None
