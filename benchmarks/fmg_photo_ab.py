@@ -9,7 +9,8 @@ committed numbers of another build are not comparable (gnfr/weights/fmg.md, "Twe
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
-        [--holes-as-flare] [--novel-equal-below F]  # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
+        [--[no-]holes-as-flare] [--novel-equal-below F]
+        # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
         [--held-baseline SCENE=ARM] [--out JSON]
@@ -50,7 +51,7 @@ def result_name(arm: str, scene: str, seed: int) -> str:
 
 
 def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
-            holes_as_flare: bool = False, novel_equal_below: float | None = None) -> Path:
+            holes_as_flare: bool | None = None, novel_equal_below: float | None = None) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file."""
     scene = scene_short(synth)
     ws = work / f"{scene}_{arm}_s{seed}.ws"
@@ -65,7 +66,8 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
     steps = [["mask", str(ws), "--weights", str(weights), "--force"],
              ["depth", str(ws)], ["select", str(ws)],
              ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
-              "--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"],
+              *([] if holes_as_flare is None
+                else ["--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"])],
              ["render", str(ws), "--path", "inputs"],
              ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
                                                "heldout_cameras.json"), "--scale", "0.5",
@@ -155,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--weights", type=Path, required=True)
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--work", type=Path, required=True)
-    r.add_argument("--holes-as-flare", action="store_true")
+    r.add_argument("--holes-as-flare", action=argparse.BooleanOptionalAction, default=None,
+                   help="the fine-tune's --[no-]holes-as-flare (default: the fine-tune's)")
     r.add_argument("--novel-equal-below", type=float, default=None,
                    help="the held-out render's --sources-equal-below (default: render's)")
     j = sub.add_parser("judge")
