@@ -138,6 +138,9 @@ CHECKS = [
       for row in ("network", "hybrid_guided_support2")],
     *[("README.md", "sample_oneshot_cpu_s17_dilate0.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[("README.md", "sample_oneshot_cpu_s26_fmgM.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    ("README.md", "sample_oneshot_cpu_s26_fmgM.json", "stages/mask/seconds", "{:.1f}"),
     *[("docs/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     *[("docs/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
