@@ -5,7 +5,7 @@ variants left out), writes its masks with its own weights (each file at its stor
 flare rays on), then runs depth, select, the `quick` fine-tune (3,000 steps, seed S),
 the de-flared inputs and the held-out cameras' renders, and scores them as `eval` does
 (``benchmarks/score_workspace.py``). Both arms run on the scenes as built on this machine:
-committed numbers of another build are not comparable (gnfr/weights/fmg.md, "Twenty-third
+committed numbers of another build are not comparable (docs/history/fmg.md, "Twenty-third
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \

@@ -1,6 +1,6 @@
 """Whose masks cost the novel views: each arm's model renders with the other arm's masks.
 
-gnfr/weights/fmg.md, "Twenty-fifth session".
+docs/history/fmg.md, "Twenty-fifth session".
 
     python benchmarks/mask_cross_render.py SYNTH --arm NAME=WS --arm NAME=WS --out JSON
         [--cameras JSON] [--work DIR] [--variants own,other,othermasks,nearest]

@@ -3,7 +3,7 @@
     python benchmarks/rays_real_photos.py PHOTO [PHOTO ...] --out JSON
 
 For photos without true masks (the real night photos of ../shared/data/flare_real): which
-settings mark the lamp streaks at all (see gnfr/weights/fmg.md, "Fifth session"). Settings:
+settings mark the lamp streaks at all (see docs/history/fmg.md, "Fifth session"). Settings:
 1 ray, 3 rays (the mask stage's default), 3 rays or 2 opposite within 8 degrees. At the mask
 stage's working size (512).
 """

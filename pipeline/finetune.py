@@ -72,7 +72,7 @@ class FinetuneConfig:
     the synth's true masks leaves unmarked): those pixels are neither targets nor source
     colours, while WS/masks (and so the render, which keeps the core as photographed) stay
     as they are. On by default since the full-width FMG shipped, whose masks leave the core
-    unmarked (gnfr/weights/fmg.md, "Twenty-sixth session"); ``--no-holes-as-flare`` for
+    unmarked (docs/history/fmg.md, "Twenty-sixth session"); ``--no-holes-as-flare`` for
     masks without holes (the earlier quarter-width file's, ``fmg_small.safetensors``)."""
     mirror: bool = False
     """Half the training steps (drawn at random) see the scene in a mirror: every view

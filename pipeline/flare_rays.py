@@ -37,7 +37,7 @@ at every angle. The rule (``ray_mask``):
 It marks nothing around a bare lamp or a specular highlight (no excess along a ray), and
 nothing on a photo without a saturated light. It does not find ghosts (discs away from the
 light) or veiling glare (round): those stay the FMG's. The mask stage adds it to the FMG's
-mask (on by default, ``mask --no-rays`` to leave it out; gnfr/weights/fmg.md, "Fifth
+mask (on by default, ``mask --no-rays`` to leave it out; docs/history/fmg.md, "Fifth
 session", has its scores).
 """
 
@@ -107,7 +107,7 @@ class RayConfig:
     """Fewest separate rays (runs at angles at least ``ray_gap`` degrees apart) a light
     must send out for any of them to be kept: a starburst has 4 or more spikes; a scene
     line or two that happen to start at a bright object (a roof edge, a kerb, a white
-    cord) give one or two. 3 was chosen on the development scenes (gnfr/weights/fmg.md,
+    cord) give one or two. 3 was chosen on the development scenes (docs/history/fmg.md,
     "Fifth session"): 1 and 2 marked kerbs and roof edges of a daylight scene; 3 loses a
     little of the single streaks (they leave a light in one or two directions)."""
     ray_gap: float = option(10.0, gt=0)

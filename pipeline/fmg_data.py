@@ -44,7 +44,7 @@ HARD_NEGATIVES: tuple[str, ...] = ("lamp", "specular", "sky", "clouds", "wall", 
 
 OPTIONAL_NEGATIVES: tuple[str, ...] = ("clouds", "backlit")
 """Kinds drawn only when `fmg train --negatives` names them: ``clouds``, since a 200-step check
-did not show it lowering the marks on clean photos (gnfr/weights/fmg.md, "Twenty-second
+did not show it lowering the marks on clean photos (docs/history/fmg.md, "Twenty-second
 session"); ``backlit``, since its 200-step check failed its rule (twenty-fourth session)."""
 
 DEFAULT_NEGATIVES: tuple[str, ...] = tuple(k for k in HARD_NEGATIVES
@@ -280,7 +280,7 @@ def _neg_sky(lin: np.ndarray, rng: np.random.Generator) -> None:
 def _neg_clouds(lin: np.ndarray, rng: np.random.Generator) -> None:
     """Fair-weather clouds: white and grey cumulus with soft but defined edges, brightest
     on their sunlit tops, on a deep blue sky above an irregular horizon (what the
-    full-width networks marked as flare on clean street photos: gnfr/weights/fmg.md,
+    full-width networks marked as flare on clean street photos: docs/history/fmg.md,
     "Twenty-second session")."""
     S = lin.shape[0]
     base, yy, alpha = _above_horizon(S, rng, (0.25, 0.7))
@@ -341,7 +341,7 @@ def _neg_backlit(lin: np.ndarray, rng: np.random.Generator) -> None:
     it lights), so the glow shows through the gaps between the leaves and rims their edges.
     The glow is drawn only behind the crown: what tells it from veiling glare is that it lies
     behind the leaves (they stay dark), where lens glare lies over everything. (What the
-    full-width networks marked beside the lamp of a real night photo: gnfr/weights/fmg.md,
+    full-width networks marked beside the lamp of a real night photo: docs/history/fmg.md,
     "Twenty-fourth session".)"""
     S = lin.shape[0]
     region = _smooth_noise(S, S / rng.uniform(1.5, 4), rng)

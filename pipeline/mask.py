@@ -67,7 +67,7 @@ class MaskConfig:
     saturated light (``pipeline.flare_rays``), found at ``work_size`` and added to the
     FMG's mask. On by default since the fifth session (a light must send out three
     separate rays, which removed the rays' false marks on the daylight development
-    scenes); ``--no-rays`` for the FMG alone (gnfr/weights/fmg.md, "Fifth session").
+    scenes); ``--no-rays`` for the FMG alone (docs/history/fmg.md, "Fifth session").
     """
     ray_min: int | None = option(None, ge=1)
     """Fewest separate rays a light must send out for its rays to be marked (default: the
@@ -80,7 +80,7 @@ class MaskConfig:
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
     training masks do; use it with that file); off by default, the shipped file's masks
-    have almost no holes (gnfr/weights/fmg.md, "Seventeenth session"). Hand-made
+    have almost no holes (docs/history/fmg.md, "Seventeenth session"). Hand-made
     ``--masks`` are kept as given."""
     confirm: bool = False
     """Two networks confirm each other, region by region: keep a connected region of the
@@ -90,7 +90,7 @@ class MaskConfig:
     both find keeps its extent; a mark only one makes (most false marks on clean photos,
     but also a ghost only one finds) is dropped (``confirmed_regions``). Off: on the
     development scenes it marks a third as much of clean photos and scores higher flare IoU,
-    but gave de-flared photos 0.15-0.22 dB lower in the flare region (gnfr/weights/fmg.md,
+    but gave de-flared photos 0.15-0.22 dB lower in the flare region (docs/history/fmg.md,
     "Eighteenth session")."""
     confirm_weights: Path | None = option(None, exists=True)
     """The second network of ``confirm``; default the full-width FMG,

@@ -36,9 +36,24 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
-    *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_s17_J_fillholes.json", f"mean/{m}", "{:.2f}")
+    # the FMG card: the shipped file's numbers
+    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_M_rays.json", f"kinds/{k}/weights/{m}", "{:.3f}")
+      for k in ("starburst", "ghosts", "streaks", "glare", "scatter")
+      for m in ("IoU_flare", "mIoU", "mAcc")],
+    *[("gnfr/weights/fmg.md", "mask_dev_scenes_M.json", f"rows/{i}/flare_iou", "{:.3f}")
+      for i in (3, 4, 5)],
+    *[("gnfr/weights/fmg.md", "mask_test_sample_small_vs_M.json", f"rows/{i}/flare_iou",
+       "{:.3f}") for i in (1, 3)],
+    ("gnfr/weights/fmg.md", "mask_time_cpu_L.json", "rows/1/median_s_per_view", "{:.3f}"),
+    *[("gnfr/weights/fmg.md", "fmg_photo_judge_Mprime_all.json", f"mean/{m}", f)
+      for m, f in (("psnr_flare", "{:+.2f}"), ("psnr", "{:+.2f}"), ("ssim", "{:.4f}"),
+                   ("held", "{:.2f}"))],
+    *[("gnfr/weights/fmg.md", f, f"mean/{m}", "{:.2f}")
+      for f in ("sample_oneshot_cpu_s26_fmgM.json", "sample_oneshot_cpu_s17_dilate0.json")
       for m in ("psnr", "psnr_flare")],
-    *[("gnfr/weights/fmg.md", "mask_dev_scenes_200px_fillholes.json", f"rows/{i}/flare_iou",
+    *[("docs/history/fmg.md", "sample_oneshot_cpu_s17_J_fillholes.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr", "psnr_flare")],
+    *[("docs/history/fmg.md", "mask_dev_scenes_200px_fillholes.json", f"rows/{i}/flare_iou",
        "{:.3f}") for i in (3, 4, 5, 9, 10, 11)],
     *[("docs/depth.md", f"fill_feather_dev_{s}_s{sd}.json", f"rows/hybrid_feather_{d}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
@@ -46,15 +61,15 @@ CHECKS = [
       for m in ("psnr", "psnr_flare", "ssim")],
     *[("docs/depth.md", f"sample_oneshot_cpu_s17_dilate{d}.json", f"mean/{m}", "{:.2f}")
       for d in ("0", "001") for m in ("psnr", "psnr_flare")],
-    *[("gnfr/weights/fmg.md", f"fmg_mask_shape_{s}.json", f"rows/{i}/scores/0/{m}", "{:.3f}")
+    *[("docs/history/fmg.md", f"fmg_mask_shape_{s}.json", f"rows/{i}/scores/0/{m}", "{:.3f}")
       for s in ("sceaux", "et", "lund") for i in (0, 1) for m in ("recall", "light_left")],
-    *[("gnfr/weights/fmg.md", f"fmg_swap_{s}_{arm}_model.json", f"rows/{i}/psnr_flare", "{:.2f}")
+    *[("docs/history/fmg.md", f"fmg_swap_{s}_{arm}_model.json", f"rows/{i}/psnr_flare", "{:.2f}")
       for s in ("sceaux", "et", "lund") for arm in ("shipped", "J") for i in (0, 1)],
-    *[("gnfr/weights/fmg.md", f"fmg_fair_{s}_{arm}_s1.json", "methods/gnfr/inputs/psnr_flare",
+    *[("docs/history/fmg.md", f"fmg_fair_{s}_{arm}_s1.json", "methods/gnfr/inputs/psnr_flare",
        "{:.2f}") for s in ("sceaux", "et", "lund") for arm in ("shipped", "J")],
     *[("docs/eval.md", f"fmg_fair_{s}_{arm}{sd}.json", "methods/gnfr/inputs/psnr_flare",
        "{:.2f}") for s in ("et", "lund") for arm in ("shipped", "J") for sd in ("", "_s1")],
-    *[("gnfr/weights/fmg.md", f"fmg_fillholes_{s}_J_s{sd}.json", "inputs/psnr_flare", "{:.2f}")
+    *[("docs/history/fmg.md", f"fmg_fillholes_{s}_J_s{sd}.json", "inputs/psnr_flare", "{:.2f}")
       for s in ("sceaux", "et", "lund") for sd in (0, 1)],
     *[("docs/depth.md", f"fill_dilate_dev_{s}_s{sd}.json", f"rows/hybrid_dilate_{d}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
@@ -147,7 +162,7 @@ CHECKS = [
       for c in ("cc66234", "f408c72") for m in ("psnr_flare", "psnr")],
     *[("docs/eval.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
-    *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
+    *[("docs/history/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     ("docs/eval.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
@@ -225,23 +240,23 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
-    *[("gnfr/weights/fmg.md", f"fmg_dev_per_kind_{run}.json", f"kinds/{kind}/weights/{m}",
+    *[("docs/history/fmg.md", f"fmg_dev_per_kind_{run}.json", f"kinds/{kind}/weights/{m}",
        "{:.3f}")
       for run in ("shipped", "s3_all_negatives", "s3_no_neon")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")
       for m in ("IoU_flare", "mIoU", "mAcc")],
-    *[("gnfr/weights/fmg.md", f"fmg_{part}_per_kind_{run}.json", f"kinds/{kind}/weights/IoU_flare",
+    *[("docs/history/fmg.md", f"fmg_{part}_per_kind_{run}.json", f"kinds/{kind}/weights/IoU_flare",
        "{:.3f}")
       for part, runs in (("dev", ("s4_kind_share", "s4_dice", "w2400_rays", "s4_dice_rays")),
                          ("test", ("w2400", "w2400_rays", "s4_dice", "s4_dice_rays")))
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
-    *[("gnfr/weights/fmg.md", "mask_dev_scenes.json", f"rows/{i}/flare_iou", "{:.3f}")
+    *[("docs/history/fmg.md", "mask_dev_scenes.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in range(8)],
-    *[("gnfr/weights/fmg.md", f"fmg_{part}_per_kind_w2400_rays_{run}.json",
+    *[("docs/history/fmg.md", f"fmg_{part}_per_kind_w2400_rays_{run}.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for part, runs in (("dev", ("min2", "min3", "min3_opp8")), ("test", ("min3",)))
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
-    *[("gnfr/weights/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
+    *[("docs/history/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
        "{:.2f}") for m in ("psnr", "psnr_flare")],
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w{step}.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
@@ -252,16 +267,16 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
-    *[("gnfr/weights/fmg.md", f"mask_downstream_dev_J{f}.json", f"rows/{i}/{m}",
+    *[("docs/history/fmg.md", f"mask_downstream_dev_J{f}.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for f in ("", "_cuts") for i in range(6) for m in ("psnr", "psnr_flare", "ssim")],
-    *[("gnfr/weights/fmg.md", f"fmg_fair_{f}.json", f"methods/gnfr/{part}/{m}",
+    *[("docs/history/fmg.md", f"fmg_fair_{f}.json", f"methods/gnfr/{part}/{m}",
        "{:.4f}" if (part, m) == ("inputs", "ssim") else "{:.3f}" if m == "ssim" else "{:.2f}")
       for f in ("sceaux_shipped", "sceaux_J", "et_shipped", "et_J", "lund_shipped", "lund_J",
                 "sceaux_J_cut0.95", "et_J_cut0.95")
       for part, m in (("inputs", "psnr"), ("inputs", "psnr_flare"), ("inputs", "ssim"),
                       ("heldout", "psnr"), ("heldout", "ssim"))],
-    *[("gnfr/weights/fmg.md", "mask_time_cpu_J.json", f"rows/{i}/median_s_per_view", "{:.3f}")
+    *[("docs/history/fmg.md", "mask_time_cpu_J.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in range(2)],
     *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
@@ -275,18 +290,18 @@ CHECKS = [
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for scene in ("sceaux", "et") for row in ("base", "random_sources-true")
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
-    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_H_rays.json", f"kinds/{kind}/weights/IoU_flare",
+    *[("docs/history/fmg.md", "fmg_dev_per_kind_H_rays.json", f"kinds/{kind}/weights/IoU_flare",
        "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
-    *[("gnfr/weights/fmg.md", "mask_dev_scenes_H.json", f"rows/{i}/flare_iou", "{:.3f}")
+    *[("docs/history/fmg.md", "mask_dev_scenes_H.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in (2, 3, 6, 7)],
-    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_I_rays.json", f"kinds/{kind}/weights/IoU_flare",
+    *[("docs/history/fmg.md", "fmg_dev_per_kind_I_rays.json", f"kinds/{kind}/weights/IoU_flare",
        "{:.3f}") for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
-    *[("gnfr/weights/fmg.md", "mask_dev_scenes_I.json", f"rows/{i}/flare_iou", "{:.3f}")
+    *[("docs/history/fmg.md", "mask_dev_scenes_I.json", f"rows/{i}/flare_iou", "{:.3f}")
       for i in (2, 3, 6, 7)],
-    *[("gnfr/weights/fmg.md", "mask_downstream_dev_cuts.json", f"rows/{i}/{m}",
+    *[("docs/history/fmg.md", "mask_downstream_dev_cuts.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for i in range(6) for m in ("psnr", "psnr_flare", "ssim")],
-    *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
+    *[("docs/history/fmg.md", "fmg_dev_per_kind_shipped_cut075_rays.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("docs/eval.md", f"finetune_ab_seed_{f}.json", f"{row}/{m}",
@@ -318,10 +333,10 @@ CHECKS = [
        "{:.3f}" if m == "heldout_ssim" else "{:.2f}")
       for scene in ("et", "sceaux") for row in ("base", "lr_schedule-cosine")
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
-    *[("gnfr/weights/fmg.md", f"fmg_dev_per_kind_shipped_cut075_rays{tag}_s14.json",
+    *[("docs/history/fmg.md", f"fmg_dev_per_kind_shipped_cut075_rays{tag}_s14.json",
        f"kinds/{kind}/weights/IoU_flare", "{:.3f}") for tag in ("", "_flip")
       for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
-    *[("gnfr/weights/fmg.md", "mask_downstream_dev_H.json", f"rows/{i}/{m}",
+    *[("docs/history/fmg.md", "mask_downstream_dev_H.json", f"rows/{i}/{m}",
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for i in range(4) for m in ("psnr", "psnr_flare", "ssim")],
     *[("docs/depth.md", f"novel_{split}_close_holes_dev_{scene}_{f}.json", m,
@@ -448,7 +463,7 @@ FMG_CLEAN = [(f"fmg_{part}_clean_{run}.json", scene)
 def test_fmg_card_quotes_clean_fractions(file, scene):
     r = json.loads((RESULTS / file).read_text())["scenes"][scene]
     cell = f"{100 * r['mean']:.2f} % / {100 * r['max']:.2f} %"
-    assert cell in (REPO / "gnfr/weights/fmg.md").read_text(), (file, scene, cell)
+    assert cell in (REPO / "docs/history/fmg.md").read_text(), (file, scene, cell)
 
 
 def test_every_result_file_is_quoted_or_listed():
@@ -466,7 +481,7 @@ RAY_RUNS = ("min2", "min3", "min3_opp8")
 @pytest.mark.parametrize("run", RAY_RUNS)
 def test_fmg_card_fifth_session_mask_rows(run):
     """The fifth-session table's clean-lund and development-scene cells of each candidate."""
-    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    text = (REPO / "docs/history/fmg.md").read_text()
     clean = json.loads((RESULTS / f"fmg_dev_clean_w2400_rays_{run}.json").read_text())
     assert f"{100 * clean['scenes']['scenes/lund/images']['mean']:.2f} %" in text
     rows = json.loads((RESULTS / f"mask_dev_scenes_rays_{run}.json").read_text())["rows"]
@@ -475,7 +490,7 @@ def test_fmg_card_fifth_session_mask_rows(run):
 
 
 def test_fmg_card_fifth_session_test_clean_row():
-    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    text = (REPO / "docs/history/fmg.md").read_text()
     for run in ("w2400", "w2400_rays", "w2400_rays_min3"):
         sc = json.loads((RESULTS / f"fmg_test_clean_{run}.json").read_text())["scenes"]
         cell = " / ".join(f"{100 * sc[k]['mean']:.2f}" for k in
@@ -484,7 +499,7 @@ def test_fmg_card_fifth_session_test_clean_row():
 
 
 def test_fmg_card_quotes_the_rays_on_the_real_photos():
-    text = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    text = " ".join((REPO / "docs/history/fmg.md").read_text().split())
     marked = json.loads((RESULTS / "rays_real_photos.json").read_text())["marked"]
     for setting in ("min_rays_1", "min_rays_3_opposite_8"):
         cell = " and ".join(f"{100 * marked[p][setting]:.2f} %" for p in ("input1.png",
@@ -522,7 +537,7 @@ def test_depth_doc_quotes_the_residual_variants(scene):
 def test_fmg_card_candidates_e_and_f(run):
     """The sixth/seventh-session tables' E and F columns: per-kind flare IoU, clean lund,
     development scenes (rays on, as the mask stage runs them)."""
-    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    text = (REPO / "docs/history/fmg.md").read_text()
     kinds = json.loads((RESULTS / f"fmg_dev_per_kind_{run}_rays.json").read_text())["kinds"]
     for kind, row in kinds.items():
         assert f"| {kind} | " in text and f"{row['weights']['IoU_flare']:.3f} |" in text, kind
@@ -537,7 +552,7 @@ def test_fmg_card_candidates_e_and_f(run):
 def test_fmg_card_eighth_session_tables():
     """The eighth session's two tables: marks near / far from the flare, and the de-flared
     photos each file's masks give (rays on, as the mask stage runs them)."""
-    text = (REPO / "gnfr/weights/fmg.md").read_text()
+    text = (REPO / "docs/history/fmg.md").read_text()
     text = text[text.index("## Eighth session"):]
     rows = json.loads((RESULTS / "mask_dev_scenes_band_s8.json").read_text())["rows"]
     for r in (r for r in rows if r["rays"]):

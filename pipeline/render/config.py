@@ -19,7 +19,7 @@ NOVEL_SOURCES_EQUAL_BELOW = 0.1
 """``RenderConfig.sources_equal_below`` of novel frames (camera paths, held-out cameras) when
 not given. The de-flared photos always default to 0: their fill takes the sources' pixels,
 where a mask's misses bring flare in, so the least flared sources serve them best
-(gnfr/weights/fmg.md, "Twenty-fifth session"). 0.1 since the full-width FMG shipped (the
+(docs/history/fmg.md, "Twenty-fifth session"). 0.1 since the full-width FMG shipped (the
 twenty-sixth session); 0 before."""
 
 

@@ -437,7 +437,7 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
     assert res["per_scene"]["et"]["psnr_flare"] == pytest.approx(-0.314, abs=1e-3)
     assert res["mean"]["psnr_flare"] == pytest.approx(0.182, abs=1e-3)
     # part (d) like for like: sceaux_castle's novel views against the shipped arm without
-    # the target M's masks withhold (fmg.md, "Twenty-fourth session": M -0.15 dB there)
+    # the target M's masks withhold (docs/history/fmg.md, "Twenty-fourth session": M -0.15 dB there)
     fair = m.judge(results, "s24_M", "s23_shipped", ["sceaux", "et", "lund"], [0, 1],
                    {"sceaux": "s24_shipped_no7102"})
     plain = m.judge(results, "s24_M", "s23_shipped", ["sceaux", "et", "lund"], [0, 1])

@@ -48,7 +48,7 @@ def test_the_product_never_imports_research():
 
 
 def test_every_benchmark_script_is_cited_by_a_page():
-    pages = [REPO / "README.md", *(REPO / "docs").glob("*.md"),
+    pages = [REPO / "README.md", *(REPO / "docs").rglob("*.md"),
              *(REPO / "gnfr" / "weights").glob("*.md")]
     text = "\n".join(p.read_text(encoding="utf-8") for p in pages)
     for script in (REPO / "benchmarks").glob("*.py"):
