@@ -78,7 +78,7 @@ class FinetuneConfig:
     """Half the training steps (drawn at random) see the scene in a mirror: every view
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
     second copy of the scene, so a few photos give the model twice the views to learn from.
-    Off by default (gnfr/weights/gnfr.md, "Twentieth session")."""
+    Off by default (docs/history/gnfr.md, "Twentieth session")."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)

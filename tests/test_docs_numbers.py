@@ -36,6 +36,19 @@ FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (cl
 SAMPLE = "sample_oneshot_cpu.json"
 CHECKS = [
     # page, file, path, format
+    # the GN-FR card: the shipped files' numbers
+    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_rs101500.json", f"rows/{i}/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for s in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
+    *[("gnfr/weights/gnfr.md", "pretrain_zero_shot_et_paper_s23P.json", f"rows/0/{m}", f)
+      for m, f in (("psnr", "{:.2f}"), ("ssim", "{:.3f}"))],
+    *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
+       "{:.3f}" if m.endswith("ssim") else "{:.2f}")
+      for row in ("base", "init-gnfr_paper")
+      for m in ("heldout_psnr", "heldout_ssim", "flare_region_psnr")],
+    *[("gnfr/weights/gnfr.md", f, f"clean/methods/gnfr_hybrid/heldout/{m}",
+       "{:.2f}" if m == "psnr" else "{:.3f}")
+      for f in (FERN4, "fern_llff_paper_cuda_h100_ptp5000.json") for m in ("psnr", "ssim")],
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_M_rays.json", f"kinds/{k}/weights/{m}", "{:.3f}")
       for k in ("starburst", "ghosts", "streaks", "glare", "scatter")
@@ -78,11 +91,11 @@ CHECKS = [
     *[("docs/eval.md", "fern_llff_quick_cpu_w42250_random_sources.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_rs{step}.json", f"rows/{i}/{m}",
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{s}_rs{step}.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for s in ("sceaux", "et") for step, rows in ((80000, (0, 1)), (53000, (1,)))
       for i in rows for m in ("psnr", "ssim")],
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_dropout55250.json", f"rows/{i}/{m}",
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{s}_dropout55250.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for s in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
     *[("docs/presets.md", f"finetune_ab_lr_scale_dev_{scene}.json", f"{row}/{m}",
@@ -138,7 +151,7 @@ CHECKS = [
     ("docs/presets.md", "render_compile_cuda_h100_paper.json", "speedup", "{:.2f}x"),
     *[(page, f"pretrain_zero_shot_{scene}_frc56250.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
-      for page in ("gnfr/weights/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
+      for page in ("docs/history/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
       for i in (0, 1) for m in ("psnr", "ssim")],
     ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
     ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "stages/finetune/seconds", "{:.1f}"),
@@ -235,9 +248,9 @@ CHECKS = [
     ("README.md", "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
     ("README.md", "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
     ("README.md", "render_compile_cpu.json", "compile_s", "{:.0f} s of compiling"),
-    ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
-    ("gnfr/weights/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
+    ("docs/history/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
+    ("docs/history/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for i in (0, 1) for m in ("psnr", "ssim")],
     *[("docs/history/fmg.md", f"fmg_dev_per_kind_{run}.json", f"kinds/{kind}/weights/{m}",
@@ -258,13 +271,13 @@ CHECKS = [
       for run in runs for kind in ("starburst", "ghosts", "streaks", "glare", "scatter")],
     *[("docs/history/fmg.md", "sample_oneshot_cpu_w42250_fmgD_rays.json", f"mean/{m}",
        "{:.2f}") for m in ("psnr", "psnr_flare")],
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w{step}.json", f"rows/0/{m}",
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{scene}_w{step}.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for step in (65250,) for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w60000.json", f"rows/0/{m}",
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{scene}_w60000.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
-    *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
+    *[("docs/history/gnfr.md", f"pretrain_zero_shot_{scene}_w42250.json", f"rows/0/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for scene in ("sceaux", "et") for m in ("psnr", "ssim")],
     *[("docs/history/fmg.md", f"mask_downstream_dev_J{f}.json", f"rows/{i}/{m}",
@@ -278,7 +291,7 @@ CHECKS = [
                       ("heldout", "psnr"), ("heldout", "ssim"))],
     *[("docs/history/fmg.md", "mask_time_cpu_J.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in range(2)],
-    *[("gnfr/weights/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
+    *[("docs/history/gnfr.md", "finetune_ab_paper_init11000_dev_et.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for row in ("base", "init-gnfr_paper")
       for m in ("heldout_psnr", "heldout_ssim", "inputs_psnr", "flare_region_psnr")],
@@ -470,7 +483,8 @@ def test_every_result_file_is_quoted_or_listed():
     """No orphan result files: each is named in docs/results/README.md or a page."""
     pages = "".join((REPO / p).read_text() for p in ("README.md", "docs/eval.md",
                                                      "docs/depth.md", "docs/results/README.md",
-                                                     "gnfr/weights/gnfr.md"))
+                                                     "gnfr/weights/gnfr.md",
+                                                     "docs/history/gnfr.md"))
     for f in RESULTS.glob("*.json"):
         assert f.name in pages, f"{f.name} is quoted nowhere"
 

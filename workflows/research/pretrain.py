@@ -78,7 +78,7 @@ class PretrainConfig:
     textured planes cut from the training scenes' photos, rendered exactly), each with its
     own synthetic flare draw; recorded in the weights' metadata (``pretrain_layered``). Off
     by default: 40 of them made the ``quick`` prior worse on the development scenes
-    (gnfr/weights/gnfr.md, "Twenty-first session")."""
+    (docs/history/gnfr.md, "Twenty-first session")."""
     layered_share: float = option(0.3, gt=0, lt=1)
     """With ``layered``: the fraction of steps that draw a layered scene (the rest draw a
     real scene, uniformly)."""
