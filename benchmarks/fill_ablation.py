@@ -5,6 +5,9 @@ score them against the clean truth (whole image, flare region, SSIM), with the r
 Only the render changes; the model is the variant's.
 
     python benchmarks/fill_ablation.py SCENE_SYNTH --out docs/results/fill_ablation_X.json
+    python benchmarks/fill_ablation.py SCENE_SYNTH --ws ARM_WS --work DIR --settings a,b
+        # a fine-tuned workspace of its own (e.g. an arm of benchmarks/fmg_photo_ab.py),
+        # copied into DIR first so the arm's own renders stay as they were
 
 Settings: network (GN-FR everywhere), hybrid without depth-guided samples, hybrid with
 guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2), and the
@@ -38,6 +41,7 @@ SETTINGS = {
     **{f"hybrid_depth_min_blob_{v}": {"fill": "hybrid", "depth_min_blob": v}
        for v in (0, 0.0005, 0.002)},  # 0: every island (the inputs' default before f408c72)
     **{f"hybrid_photo_fallback_{n}": {"fill": "hybrid", "photo_fallback": n} for n in (0, 2)},
+    **{f"hybrid_photo_sources_{n}": {"fill": "hybrid", "photo_sources": n} for n in (4, 6, 8)},
     **{f"hybrid_dilate_{v}": {"fill": "hybrid", "dilate": v} for v in (0.0, 0.005, 0.01)},
     **{f"hybrid_feather_{v}": {"fill": "hybrid", "feather": v} for v in (0.005, 0.01, 0.02)},
     **{f"hybrid_agree_window_{n}": {"fill": "hybrid", "agree_window": n} for n in (1, 3, 5)},
@@ -51,6 +55,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--eval-ws", type=Path, default=None,
                     help="the eval workspace (default SCENE/eval.ws; e.g. an arm of "
                          "benchmarks/finetune_ab.py, WORK/<arm>.ws)")
+    ap.add_argument("--ws", type=Path, default=None,
+                    help="a fine-tuned workspace of the scene to render instead of an eval "
+                         "variant (copied into --work first)")
+    ap.add_argument("--work", type=Path, default=None, help="where --ws is copied")
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--settings", default=",".join(SETTINGS),
                     help="comma-separated names of SETTINGS to run (default: all)")
@@ -70,7 +78,17 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.research.eval.scoring import score_views
 
     scene = load_synth(a.scene)
-    ws = Workspace(Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
+    if a.ws is not None:
+        if a.work is None:
+            ap.error("--ws needs --work (the arm's workspace is rendered in a copy)")
+        copy = a.work / a.ws.name
+        if not copy.is_dir():
+            import shutil
+
+            shutil.copytree(a.ws, copy, symlinks=True)
+        ws = Workspace(copy)
+    else:
+        ws = Workspace(Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
     stems = flared_views(scene)
     rows = {}
     for name in names:
@@ -86,6 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     _, meta = read_metadata(ws.model_file)
     rec = {"scene": str(a.scene), "origin": scene.origin, "variant": a.variant,
            "eval_ws": str(a.eval_ws or a.scene / "eval.ws"),
+           "ws": str(a.ws) if a.ws is not None else None,
            "scored_views": stems, "model": {k: meta.get(k) for k in
                                              ("step", "preset", "init", "init_sha256")},
            "finetune_record": {k: ws.stage_record("finetune").get(k)
