@@ -49,6 +49,13 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f, f"clean/methods/gnfr_hybrid/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for f in (FERN4, "fern_llff_paper_cuda_h100_ptp5000.json") for m in ("psnr", "ssim")],
+    # the FMG history, twenty-seventh session: the sample's per-view diagnosis
+    *[("docs/history/fmg.md", f, f"views/{v}/psnr_flare", "{:.2f}")
+      for f in ("sample_oneshot_cpu_s27_small_h0.json", "sample_cross_s27_Mmodel_smallmasks.json",
+                "sample_cross_s27_smallmodel_Mmasks.json", "sample_oneshot_cpu_s26_fmgM.json",
+                "sample_oneshot_cpu_s27_M_maxflare013.json")
+      for v in ("DSC_6466", "DSC_6467", "DSC_6468", "DSC_6470", "DSC_6471", "DSC_6473",
+                "DSC_6474", "DSC_6475")],
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_M_rays.json", f"kinds/{k}/weights/{m}", "{:.3f}")
       for k in ("starburst", "ghosts", "streaks", "glare", "scatter")
