@@ -594,3 +594,19 @@ def test_depth_md_shrink_sentence():
     for scene in ("sceaux_synth", "et_synth"):
         for row in ("shrink_0.003", "shrink_0.03", "scale_0.12 (default)"):
             assert f"{rows[scene][row]['psnr_flare']:.2f}" in text, (scene, row)
+
+
+FILL_SUPPORT = [(sc, k) for sc in ("sceaux", "et", "lund") for k in range(6)]
+
+
+@pytest.mark.parametrize("scene, seed", FILL_SUPPORT, ids=[f"{s}_s{k}" for s, k in FILL_SUPPORT])
+def test_fill_support_baseline_reproduces_the_arm(scene, seed):
+    """docs/depth.md, "Photo support for the full-width masks": the default render of each
+    M′ arm workspace gives the arm's committed photo score (so the variants' gains are
+    against the very photos the FMG rule judged)."""
+    row = json.loads((RESULTS / f"fill_support_{scene}_Mp_s{seed}.json").read_text())
+    base = row["rows"]["hybrid_guided_support2"]
+    arm = json.loads((RESULTS / f"fmg_s26_Mp_fair_{scene}_s{seed}.json").read_text())["inputs"]
+    for m in ("psnr", "psnr_flare", "ssim"):
+        assert abs(base[m] - arm[m]) < 1e-3, (m, base[m], arm[m])
+
