@@ -57,6 +57,8 @@ CHECKS = [
       for v in ("DSC_6466", "DSC_6467", "DSC_6468", "DSC_6470", "DSC_6471", "DSC_6473",
                 "DSC_6474", "DSC_6475")],
     # the FMG card: the shipped file's numbers
+    *[("gnfr/weights/fmg.md", "mask_time_cpu_M.json", f"rows/{i}/median_s_per_view", "{:.3f}")
+      for i in (0, 1)],
     *[("gnfr/weights/fmg.md", "fmg_dev_per_kind_M_rays.json", f"kinds/{k}/weights/{m}", "{:.3f}")
       for k in ("starburst", "ghosts", "streaks", "glare", "scatter")
       for m in ("IoU_flare", "mIoU", "mAcc")],
@@ -609,4 +611,11 @@ def test_fill_support_baseline_reproduces_the_arm(scene, seed):
     arm = json.loads((RESULTS / f"fmg_s26_Mp_fair_{scene}_s{seed}.json").read_text())["inputs"]
     for m in ("psnr", "psnr_flare", "ssim"):
         assert abs(base[m] - arm[m]) < 1e-3, (m, base[m], arm[m])
+
+
+@pytest.mark.parametrize("scene", ["scenes/fern/images_8", "scenes/kermit", "scenes/cyprus"])
+def test_fmg_card_quotes_the_shipped_files_clean_test_fractions(scene):
+    r = json.loads((RESULTS / "fmg_test_clean_M_rays.json").read_text())["scenes"][scene]
+    cell = f"{100 * r['mean']:.2f} % / {100 * r['max']:.2f} %"
+    assert cell in " ".join((REPO / "gnfr/weights/fmg.md").read_text().split()), (scene, cell)
 
