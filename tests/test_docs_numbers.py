@@ -56,6 +56,11 @@ CHECKS = [
                 "sample_oneshot_cpu_s27_M_maxflare013.json")
       for v in ("DSC_6466", "DSC_6467", "DSC_6468", "DSC_6470", "DSC_6471", "DSC_6473",
                 "DSC_6474", "DSC_6475")],
+    *[("README.md", "kermit_synth_quick_cpu_s27_Mprime.json", f"methods/{m}/inputs/{k}", "{:.2f}")
+      for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
+    *[("README.md", f"fmg_s27_{arm}_fair_kermit_s0.json", p, "{:.2f}")
+      for arm in ("small_h0", "Mp") for p in ("heldout/psnr",)],
+    ("README.md", "fmg_s27_small_h0_fair_kermit_s0.json", "inputs/psnr_flare", "{:.2f}"),
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "mask_time_cpu_M.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in (0, 1)],
