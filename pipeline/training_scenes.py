@@ -89,7 +89,9 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     views.json its flags are the training targets (``ViewsFile.targets``, the rule select
     applied with its --max-flare); without it the training config's max_flare decides.
     ``holes_as_flare``: each mask with what it encloses marked too
-    (``pipeline.ws_files.enclosed_holes``; the views' flare fractions stay select's)."""
+    (``pipeline.ws_files.enclosed_holes``; the views' flare fractions stay select's). Off
+    here, so a workspace read as a pretraining scene keeps its masks as they are; the
+    fine-tune passes its own ``FinetuneConfig.holes_as_flare`` (on by default)."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]

@@ -33,7 +33,6 @@ from pipeline.render.config import (
     FILLS,
     INPUTS_MIN_BLOB,
     NAMED_PATHS,
-    NOVEL_SOURCES_EQUAL_BELOW,
     RenderConfig,
 )
 from pipeline.render.engine import (
@@ -126,7 +125,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     if cfg.sources_equal_below is None and key != "inputs":
         # novel frames record the line they used: a render made at another line re-renders
-        cfg = replace(cfg, sources_equal_below=NOVEL_SOURCES_EQUAL_BELOW)
+        cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "compile": None, "samples": samples,

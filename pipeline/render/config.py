@@ -160,3 +160,12 @@ class RenderConfig:
     depth_support: int = option(2, ge=1)
     """hybrid: photos that must agree on a pixel before its ray is sampled around their
     depth (docs/depth.md: 2 was the best worst case on the development scenes)."""
+
+    def equal_below(self, novel: bool) -> float:
+        """``sources_equal_below`` as it applies: the option when given, else
+        ``NOVEL_SOURCES_EQUAL_BELOW`` for a novel frame and 0 for a de-flared photo. The one
+        place that default is resolved (the render records it for novel paths, the source
+        choice uses it)."""
+        if self.sources_equal_below is not None:
+            return float(self.sources_equal_below)
+        return NOVEL_SOURCES_EQUAL_BELOW if novel else 0.0

@@ -10,7 +10,7 @@ import numpy as np
 from pipeline.cameras import Cameras
 from pipeline.errors import UserError
 from pipeline.progress import warn
-from pipeline.render.config import NOVEL_SOURCES_EQUAL_BELOW, RenderConfig
+from pipeline.render.config import RenderConfig
 from pipeline.workspace import Workspace
 from pipeline.ws_files import (
     MASK_THRESHOLD,
@@ -22,16 +22,13 @@ from pipeline.ws_files import (
 
 
 def _eval_sources(ranked: list[str], fractions: list[float], cfg: RenderConfig,
-                  equal_below: float) -> list[str]:
+                  novel: bool) -> list[str]:
     """The least flared ``cfg.n_sources`` of the nearest ``cfg.pool`` of ``ranked``, every
-    fraction up to ``cfg.sources_equal_below`` (else ``equal_below``) counted as none
-    (gnfr.view_sampler)."""
+    fraction up to ``cfg.equal_below(novel)`` counted as none (gnfr.view_sampler)."""
     from gnfr.view_sampler import eval_sources
 
-    if cfg.sources_equal_below is not None:
-        equal_below = cfg.sources_equal_below
     return list(eval_sources(ranked, fractions, n=cfg.n_sources, pool=cfg.pool,
-                             equal_below=equal_below))
+                             equal_below=cfg.equal_below(novel)))
 
 
 def _views_file(views: ViewsFile | Mapping) -> ViewsFile:
@@ -52,7 +49,7 @@ def input_sources(stem: str, views: ViewsFile | Mapping, cfg: RenderConfig,
         raise UserError(f"{stem} has no source views in views.json: rerun "
                         "`deflare-scene select WS`")
     fractions = views.fractions(pool)
-    return _eval_sources(pool, [fractions[s] for s in pool], cfg, 0.0)
+    return _eval_sources(pool, [fractions[s] for s in pool], cfg, novel=False)
 
 
 def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
@@ -64,8 +61,7 @@ def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
     ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
     ranked = [s for s in ranked if s in views]
     fractions = views.fractions(ranked)
-    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg,
-                         NOVEL_SOURCES_EQUAL_BELOW)
+    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg, novel=True)
 
 
 # --------------------------------------------------------------------------- model, cache

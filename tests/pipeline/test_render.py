@@ -244,12 +244,13 @@ def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
 def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeypatch):
     """Not given, novel frames use NOVEL_SOURCES_EQUAL_BELOW and the de-flared photos 0."""
     from pipeline.render import RenderConfig, input_sources, novel_sources
-    from pipeline.render import sources as S
+    from pipeline.render import config as C
 
     cams, views, c, nearest = _nearest_view_flared(rws)
     cfg = RenderConfig(n_sources=3, pool=4)
     for line, want in ((0.0, nearest[1:4]), (0.1, nearest[:3])):
-        monkeypatch.setattr(S, "NOVEL_SOURCES_EQUAL_BELOW", line)
+        monkeypatch.setattr(C, "NOVEL_SOURCES_EQUAL_BELOW", line)
+        assert cfg.equal_below(novel=True) == line and cfg.equal_below(novel=False) == 0.0
         assert sorted(novel_sources(c, cams, views, cfg)) == sorted(want)
     # the photos ignore the novel frames' line (still 0.1 here): of view 2's sources the
     # nearest, now 5 % flared, gives way to a clean one
