@@ -3,7 +3,9 @@
 The FMG's own scores use single composites; this scores what the mask stage would write on
 the photos of `deflare-scene synth` folders (their `photos/` and `masks_gt/`), for several
 FMG weight files, with and without the flare rays (`mask --rays`): flare IoU and the share
-of pixels marked outside the true flare. Use development scenes to choose.
+of pixels marked outside the true flare, and per view the true and the marked share, with
+how many views each would put over the 10 % target rule (`over_rule`, `true_over_rule`).
+Use development scenes to choose.
 
     python benchmarks/mask_dev_scenes.py SYNTH [SYNTH ...] --weights A.safetensors \
         --weights B.safetensors --out docs/results/mask_dev_scenes.json
@@ -20,6 +22,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+
+RULE = 0.1
+"""The target rule's line (views flared above it never train: `select --max-flare`)."""
 
 BAND = 0.02
 """Width of the band around the true flare, as a share of the long side, inside which a
@@ -50,6 +55,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     from pipeline.ws_files import enclosed_holes
 
     inter = union = outside = near = pixels = truth = views = 0
+    per_view = {}
     for photo in list_photos(synth / "photos"):
         gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
         if gt_path is None:
@@ -63,6 +69,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
         m = flare_marks(model, img, cut, work_size, rays, confirm=confirm)
         if fill_holes:
             m |= enclosed_holes(m)
+        per_view[photo.stem] = {"true": round(float(gt.mean()), 5),
+                                "marked": round(float(m.mean()), 5)}
         inter += int((m & gt).sum())
         union += int((m | gt).sum())
         outside += int((m & ~gt).sum())
@@ -72,7 +80,10 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
         views += 1
     return {"views": views, "flare_iou": inter / max(union, 1),
             "marked_outside": outside / max(pixels, 1), "marked_near": near / max(pixels, 1),
-            "marked_far": (outside - near) / max(pixels, 1), "truth_share": truth / max(pixels, 1)}
+            "marked_far": (outside - near) / max(pixels, 1), "truth_share": truth / max(pixels, 1),
+            "over_rule": sum(v["marked"] > RULE for v in per_view.values()),
+            "true_over_rule": sum(v["true"] > RULE for v in per_view.values()),
+            "per_view": per_view}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -111,7 +122,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
                       f"{r['flare_iou']:.3f}, marked outside the flare "
                       f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
-                      f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %)",
+                      f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %); "
+                      f"over the 10 % rule: {r['over_rule']} of {r['views']} views "
+                      f"(truth {r['true_over_rule']})",
                       flush=True)
     write_result(a.out, {"rows": rows})
     return 0

@@ -61,6 +61,12 @@ CHECKS = [
     *[("README.md", f"fmg_s27_{arm}_fair_kermit_s0.json", p, "{:.2f}")
       for arm in ("small_h0", "Mp") for p in ("heldout/psnr",)],
     ("README.md", "fmg_s27_small_h0_fair_kermit_s0.json", "inputs/psnr_flare", "{:.2f}"),
+    *[("docs/history/fmg.md", f"fmg_s27_{arm}_fair_lund_k4_s0.json", p,
+       "{:.4f}" if p.endswith("ssim") else "{:.2f}")
+      for arm in ("small_h0", "Mp", "MpT")
+      for p in ("inputs/psnr", "inputs/psnr_flare", "inputs/ssim", "heldout/psnr")],
+    *[("docs/history/fmg.md", "mask_dev_rule_lund_k45.json", f"rows/{i}/flare_iou", "{:.3f}")
+      for i in (2, 6)],
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "mask_time_cpu_M.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in (0, 1)],
