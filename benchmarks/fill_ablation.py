@@ -81,6 +81,9 @@ def main(argv: list[str] | None = None) -> int:
     if a.ws is not None:
         if a.work is None:
             ap.error("--ws needs --work (the arm's workspace is rendered in a copy)")
+        if not (a.ws / "cameras.json").is_file():
+            ap.error(f"{a.ws} is not a workspace (no cameras.json): pass a fine-tuned "
+                     "workspace of the scene")
         copy = a.work / a.ws.name
         if not copy.is_dir():
             import shutil
