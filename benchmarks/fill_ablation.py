@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -86,8 +87,6 @@ def main(argv: list[str] | None = None) -> int:
                      "workspace of the scene")
         copy = a.work / a.ws.name
         if not copy.is_dir():
-            import shutil
-
             shutil.copytree(a.ws, copy, symlinks=True)
         ws = Workspace(copy)
     else:

@@ -23,9 +23,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-RULE = 0.1
-"""The target rule's line (views flared above it never train: `select --max-flare`)."""
-
 BAND = 0.02
 """Width of the band around the true flare, as a share of the long side, inside which a
 mark outside the flare counts as ``marked_near`` (a wider halo) rather than ``marked_far``."""
@@ -49,6 +46,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them."""
     import cv2
 
+    from gnfr.view_sampler import is_target
     from pipeline.decode import resize_area, target_size
     from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
@@ -81,8 +79,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     return {"views": views, "flare_iou": inter / max(union, 1),
             "marked_outside": outside / max(pixels, 1), "marked_near": near / max(pixels, 1),
             "marked_far": (outside - near) / max(pixels, 1), "truth_share": truth / max(pixels, 1),
-            "over_rule": sum(v["marked"] > RULE for v in per_view.values()),
-            "true_over_rule": sum(v["true"] > RULE for v in per_view.values()),
+            "over_rule": sum(not is_target(v["marked"]) for v in per_view.values()),
+            "true_over_rule": sum(not is_target(v["true"]) for v in per_view.values()),
             "per_view": per_view}
 
 

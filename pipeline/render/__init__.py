@@ -29,12 +29,7 @@ from pathlib import Path
 
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
-from pipeline.render.config import (
-    FILLS,
-    INPUTS_MIN_BLOB,
-    NAMED_PATHS,
-    RenderConfig,
-)
+from pipeline.render.config import FILLS, INPUTS_MIN_BLOB, NAMED_PATHS, RenderConfig
 from pipeline.render.engine import (
     CHUNK,
     DEPTH_BAND,
