@@ -9,7 +9,7 @@ committed numbers of another build are not comparable (docs/history/fmg.md, "Twe
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
-        [--[no-]holes-as-flare] [--novel-equal-below F]
+        [--[no-]holes-as-flare] [--novel-equal-below F] [--select-args "--max-flare 0.15"]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -51,8 +52,10 @@ def result_name(arm: str, scene: str, seed: int) -> str:
 
 
 def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
-            holes_as_flare: bool | None = None, novel_equal_below: float | None = None) -> Path:
-    """The hand-built workspace of one arm, scored; returns the result file."""
+            holes_as_flare: bool | None = None, novel_equal_below: float | None = None,
+            select_args: list[str] | None = None) -> Path:
+    """The hand-built workspace of one arm, scored; returns the result file.
+    ``select_args``: extra options of the select stage (e.g. ``--max-flare 0.15``)."""
     scene = scene_short(synth)
     ws = work / f"{scene}_{arm}_s{seed}.ws"
     if not ws.is_dir():
@@ -64,7 +67,7 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
     cli = [sys.executable, "-m", "workflows.cli"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     steps = [["mask", str(ws), "--weights", str(weights), "--force"],
-             ["depth", str(ws)], ["select", str(ws)],
+             ["depth", str(ws)], ["select", str(ws), *(select_args or [])],
              ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
               *([] if holes_as_flare is None
                 else ["--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"])],
@@ -161,6 +164,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="the fine-tune's --[no-]holes-as-flare (default: the fine-tune's)")
     r.add_argument("--novel-equal-below", type=float, default=None,
                    help="the held-out render's --sources-equal-below (default: render's)")
+    r.add_argument("--select-args", default="",
+                   help='extra options of the select stage, e.g. "--max-flare 0.15"')
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
@@ -185,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
             a.work.mkdir(parents=True, exist_ok=True)
             try:
                 print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
-                              a.novel_equal_below))
+                              a.novel_equal_below, shlex.split(a.select_args)))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
