@@ -16,10 +16,11 @@ import numpy as np
 
 from pipeline.errors import UserError
 from pipeline.options import option, validate
-from pipeline.progress import info
+from pipeline.progress import info, warn
 from pipeline.workspace import Workspace
 from pipeline.ws_files import (
     ViewsFile,
+    is_target,
     make_views,
     rank_sources,
     read_cameras,
@@ -27,7 +28,12 @@ from pipeline.ws_files import (
     write_views,
 )
 
-__all__ = ["SelectConfig", "build_views", "check_targets", "rank_sources", "run"]
+__all__ = ["SelectConfig", "build_views", "check_targets", "few_targets_note", "rank_sources",
+           "run"]
+
+NOTE_MAX_FLARE = 0.15
+"""The looser rule :func:`few_targets_note` counts for (docs/history/fmg.md,
+"Twenty-eighth session")."""
 
 
 @dataclass
@@ -63,6 +69,24 @@ def check_targets(views: ViewsFile, max_flare: float, min_targets: int, root: Pa
         f"`deflare-scene mask {root} --masks DIR`")
 
 
+def few_targets_note(views: ViewsFile, max_flare: float, root: Path) -> str | None:
+    """A note for a capture where fewer than half the views may train (most are marked
+    over ``max_flare``): how many a looser rule (``NOTE_MAX_FLARE``) would train on and the
+    command; None when half or more are targets or the looser rule adds none. The default
+    rule stays the paper's: the trade-off is the user's."""
+    n_t, n = len(views.targets()), len(views.views)
+    looser = sum(is_target(v.flare_fraction, NOTE_MAX_FLARE) for v in views.views.values())
+    if 2 * n_t >= n or max_flare >= NOTE_MAX_FLARE or looser <= n_t:
+        return None
+    return (f"only {n_t} of {n} views may be training targets: the other {n - n_t} have "
+            f"more than {100 * max_flare:.0f}% of their pixels marked as flare (the paper's "
+            f"rule), and fewer targets train a softer scene. `deflare-scene select {root} "
+            f"--max-flare "
+            f"{NOTE_MAX_FLARE}` would train on {looser} (in one shot: "
+            f"`--set select.max_flare={NOTE_MAX_FLARE}`); their marked flare stays out of "
+            f"the loss")
+
+
 def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/views.json; returns the written paths."""
     validate(config)
@@ -85,4 +109,7 @@ def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
     n_t = len(views.targets())
     info(f"select: {n_t} of {len(views.views)} views are training targets "
          f"(flare <= {100 * config.max_flare:.0f}%)")
+    note = few_targets_note(views, config.max_flare, ws.root)
+    if note:
+        warn(note)
     return stage_run.finish([ws.views_json], extra={"targets": n_t})

@@ -392,3 +392,42 @@ def test_confirm_bad_inputs_fail_before_the_workspace_changes(kermit_ws, tmp_pat
     with pytest.raises(UserError, match="--confirm-weights PATH"):
         M.run(M.MaskConfig(confirm=True, confirm_weights=bad), ws)
     assert {p.name: p.read_bytes() for p in ws.masks.glob("*.png")} == before
+
+
+def test_few_targets_note_counts_the_looser_rule():
+    from pipeline.select import NOTE_MAX_FLARE, few_targets_note
+    from pipeline.ws_files import make_views
+
+    stems = [f"v{i}" for i in range(6)]
+    centers = np.stack([np.arange(6.0), np.zeros(6), np.zeros(6)], axis=1)
+    fr = dict(zip(stems, [0.02, 0.05, 0.12, 0.14, 0.149, 0.3], strict=True))
+    note = few_targets_note(make_views(stems, centers, fr, 0.10), 0.10, Path("WS"))
+    # 2 of 6 targets at 10 %; at 15 % v2, v3 and v4 join: 5
+    assert note is not None and "only 2 of 6 views" in note and "the other 4 have" in note
+    assert f"--max-flare {NOTE_MAX_FLARE}` would train on 5" in note
+    assert f"--set select.max_flare={NOTE_MAX_FLARE}" in note and "select WS" in note
+    # half or more are targets: no note; nor when the looser rule adds none, nor at 15 %
+    half = dict(fr, v2=0.08)
+    assert few_targets_note(make_views(stems, centers, half, 0.10), 0.10, Path("WS")) is None
+    far = dict(zip(stems, [0.02, 0.05, 0.2, 0.2, 0.2, 0.3], strict=True))
+    assert few_targets_note(make_views(stems, centers, far, 0.10), 0.10, Path("WS")) is None
+    assert few_targets_note(make_views(stems, centers, fr, 0.15), 0.15, Path("WS")) is None
+
+
+def test_select_notes_few_targets(kermit_ws, tmp_path, capsys):
+    ws = kermit_ws
+    stems, (h, w) = _stems_and_size(ws)
+    given = _write_given(tmp_path, {s: box_mask(h, w, 0.05 if i < 2 else 0.12)
+                                    for i, s in enumerate(stems)})
+    assert main(["mask", str(ws.root), "--masks", str(given)]) == 0
+    capsys.readouterr()
+    assert main(["select", str(ws.root)]) == 0
+    out = " ".join(capsys.readouterr().err.split())
+    assert f"only 2 of {len(stems)} views may be training targets" in out
+    assert f"would train on {len(stems)}" in out
+    # with the looser rule every view trains and the note is gone
+    assert main(["select", str(ws.root), "--max-flare", "0.15"]) == 0
+    out = " ".join(capsys.readouterr().err.split())
+    assert "may be training targets" not in out
+    views = json.loads(ws.views_json.read_text())
+    assert all(v["target"] for v in views["views"].values())
