@@ -1,0 +1,201 @@
+"""Evidence across views the other way: drop FMG marks the neighbouring photos confirm as scene.
+
+    python benchmarks/flare_veto.py --scene SYNTH [--scene SYNTH ...] [--clean WS ...] \
+        --work DIR [--out JSON]
+
+Flare moves with the camera; the scene does not. ``benchmarks/flare_evidence.py`` looked
+for flare the FMG misses (view brighter than what its neighbours agree the scene looks
+like) and failed: plane-sweep depth misregisters texture by more than faint flare adds
+(docs/depth.md). This asks the converse question, where misregistration errs on the safe
+side: a region the FMG marks in a view, whose unmarked neighbours (warped through their
+depth, their own masks respected, gains matched: ``flare_evidence.consensus``) agree on the
+scene's colour there and see it as bright as the view, is scene the FMG marked in this view
+alone (a false mark), and is dropped. A region is dropped when at least ``min_judged`` of
+its pixels have ``min_support`` agreeing neighbours and at least ``min_confirmed`` of those
+are no brighter than the (max-filtered) consensus by more than the synthesizer's own mask
+rule (``max(abs_threshold, rel_threshold x consensus)`` in linear luminance). Flare the
+neighbours also carry and also mark is never judged (their marks are excluded), so it stays.
+
+Per SYNTH scene (a `deflare-scene synth` folder, posed with its true cameras, `mask` and
+`depth` with their defaults in DIR): flare IoU, mIoU, mAcc and the share marked outside the
+flare, pooled over the flared views, for the FMG and after each veto setting; per clean
+posed workspace WS (copied into DIR first, nothing of it is changed): the share of pixels
+marked (every one a false mark), mean and max over views.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import shutil
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from flare_evidence import (  # noqa: E402  (benchmarks/ is not a package)
+    Consensus,
+    EvidenceConfig,
+    _confusion,
+    _scores,
+    prepare,
+    view_data,
+)
+
+from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD  # noqa: E402
+
+
+@dataclass
+class VetoConfig:
+    """When the neighbours overrule a region the FMG marks."""
+
+    min_support: int = 2
+    """Neighbours that must agree on the scene's colour for a pixel to be judged."""
+    min_judged: float = 0.5
+    """Share of the region's pixels that must be judged before it can be dropped."""
+    min_confirmed: float = 0.8
+    """Share of the judged pixels that must be no brighter than the consensus."""
+    abs_threshold: float = MASK_THRESHOLD
+    """Linear-luminance excess over the consensus still counted as 'as bright' (absolute)."""
+    rel_threshold: float = MASK_RELATIVE
+    """... and relative part (fraction of the consensus luminance)."""
+    slack: int = 2
+    """Radius (pixels) of the max filter on the consensus luminance."""
+
+
+SWEEP = {"min_support": (2, 3), "min_judged": (0.3, 0.6), "min_confirmed": (0.6, 0.8, 0.95)}
+"""The settings tried (every combination); the other fields keep their defaults."""
+
+
+def confirmed_as_scene(c: Consensus, cfg: VetoConfig) -> tuple[np.ndarray, np.ndarray]:
+    """[H, W] bool pair: judged (``min_support`` neighbours agree) and, of those, no
+    brighter than their max-filtered consensus by more than the mask rule's threshold."""
+    judged = c.support >= cfg.min_support
+    lum_c = np.where(judged, c.lum, 0).astype(np.float32)
+    if cfg.slack > 0:
+        k = 2 * cfg.slack + 1
+        lum_c = cv2.dilate(lum_c, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+    thr = np.maximum(np.float32(cfg.abs_threshold), np.float32(cfg.rel_threshold) * lum_c)
+    return judged, judged & (c.lum_view - lum_c <= thr)
+
+
+def veto(marks: np.ndarray, c: Consensus, cfg: VetoConfig) -> np.ndarray:
+    """``marks`` [H, W] bool without the 8-connected regions the neighbours confirm as
+    scene (module docstring)."""
+    n, labels = cv2.connectedComponents(np.ascontiguousarray(marks, np.uint8), connectivity=8)
+    if n <= 1:
+        return marks.copy()
+    judged, same = confirmed_as_scene(c, cfg)
+    area = np.bincount(labels.ravel(), minlength=n)
+    n_j = np.bincount(labels.ravel(), weights=judged.ravel(), minlength=n)
+    n_s = np.bincount(labels.ravel(), weights=same.ravel(), minlength=n)
+    drop = (n_j >= cfg.min_judged * area) & (n_s >= cfg.min_confirmed * np.maximum(n_j, 1))
+    drop[0] = False
+    return marks & ~drop[labels]
+
+
+def settings() -> list[VetoConfig]:
+    keys = list(SWEEP)
+    return [VetoConfig(**dict(zip(keys, v, strict=True)))
+            for v in itertools.product(*SWEEP.values())]
+
+
+def _more(c: np.ndarray) -> dict:
+    """From a confusion matrix: the share of all pixels marked outside the flare, and the
+    share of the true flare marked (recall)."""
+    return {"outside": round(float(c[0, 1] / max(c.sum(), 1)), 5),
+            "recall": round(float(c[1, 1] / max(c[1].sum(), 1)), 5)}
+
+
+def score_scene(root: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
+    """Pooled over the flared views of a synth scene: the FMG's scores and each setting's."""
+    from pipeline.ws_files import read_mask_file
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.workspaces import build_workspace
+
+    ws = build_workspace(load_synth(root), work / f"{root.name}.ws")
+    prepare(ws)
+    fmg_c = np.zeros((2, 2), np.int64)
+    cut_c = np.zeros((len(cfgs), 2, 2), np.int64)
+    views = 0
+    for s, (fmg, cons) in view_data(ws, EvidenceConfig()).items():
+        h, w = fmg.shape
+        gt = read_mask_file(root / "masks_gt" / f"{s}.png", size=(w, h))
+        if not gt.any():
+            continue
+        views += 1
+        fmg_c += _confusion(fmg, gt)
+        for i, cfg in enumerate(cfgs):
+            cut_c[i] += _confusion(veto(fmg, cons, cfg), gt)
+    return {"views": views, "fmg": {**_scores(fmg_c), **_more(fmg_c)},
+            "settings": [{"config": asdict(c), "veto": {**_scores(cut_c[i]), **_more(cut_c[i])}}
+                         for i, c in enumerate(cfgs)]}
+
+
+def score_clean(path: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
+    """Share of pixels marked on a clean posed workspace (a copy in ``work``): the FMG's
+    and each setting's (mean and max over views, views over 10 %)."""
+    from pipeline.workspace import Workspace
+
+    copy = work / f"{path.name}.clean.ws"
+    if not copy.is_dir():
+        tmp = copy.with_suffix(".tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.copytree(path, tmp, symlinks=True)
+        tmp.rename(copy)
+    ws = Workspace(copy)
+    prepare(ws)
+
+    def stats(v: list[float]) -> dict:
+        return {"views": len(v), "mean": round(float(np.mean(v)), 5),
+                "max": round(float(np.max(v)), 5), "over_10pct": int(sum(x > 0.1 for x in v))}
+
+    data = view_data(ws, EvidenceConfig())
+    return {"fmg": stats([float(m.mean()) for m, _ in data.values()]),
+            "settings": [{"config": asdict(cfg),
+                          "veto": stats([float(veto(m, c, cfg).mean())
+                                         for m, c in data.values()])} for cfg in cfgs]}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", type=Path, action="append", default=[])
+    ap.add_argument("--clean", type=Path, action="append", default=[])
+    ap.add_argument("--work", type=Path, required=True)
+    ap.add_argument("--out", type=Path)
+    a = ap.parse_args()
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
+    from pipeline.provenance import write_result
+
+    cfgs = settings()
+    a.work.mkdir(parents=True, exist_ok=True)
+    res = {"sweep": {k: list(v) for k, v in SWEEP.items()}, "scenes": {}, "clean": {}}
+    for root in a.scene:
+        r = res["scenes"][root.name] = score_scene(root.resolve(), a.work, cfgs)
+        print(f"{root.name} ({r['views']} flared views): FMG flare IoU "
+              f"{r['fmg']['IoU_flare']:.3f}, outside {100 * r['fmg']['outside']:.2f} %, recall "
+              f"{r['fmg']['recall']:.3f}")
+        for x in r["settings"]:
+            print(f"  {x['config']}: IoU {x['veto']['IoU_flare']:.3f}, outside "
+                  f"{100 * x['veto']['outside']:.2f} %, recall {x['veto']['recall']:.3f}")
+    for ws in a.clean:
+        r = res["clean"][ws.name] = score_clean(ws.resolve(), a.work, cfgs)
+        print(f"{ws.name} (clean): FMG marks {100 * r['fmg']['mean']:.2f} % "
+              f"(max {100 * r['fmg']['max']:.2f})")
+        for x in r["settings"]:
+            print(f"  {x['config']}: {100 * x['veto']['mean']:.2f} % "
+                  f"(max {100 * x['veto']['max']:.2f})")
+    if a.out:
+        write_result(a.out, res)
+
+
+if __name__ == "__main__":
+    main()
