@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Build the development scenes the render/fill/mask rules of docs/depth.md and
+# Build the development scenes the render/fill/mask rules of docs/history/fill.md and
 # gnfr/weights/fmg.md are scored on: sceaux_castle and et (and lund, the thirteenth session's
 # confirmation scene; 15 of its 29 photos pose) from ../shared/data/scenes, decoded
 # at 504 px, posed, given synthetic flare of every kind (2 views held out; sceaux_castle

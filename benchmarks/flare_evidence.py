@@ -18,7 +18,7 @@ training views are posed with the ground-truth cameras in DIR/<name>.ws, masked 
 shipped FMG (`mask`) and given depth (`depth`), as the one-shot does. Per scene, pooled over
 its flared views: flare IoU, mIoU and mAcc of each method. WS is a posed workspace of clean
 photos: `mask` and `depth` run in it, and the share of pixels each method marks is reported
-(every marked pixel there is a false alarm). The result (docs/depth.md, "Evidence across
+(every marked pixel there is a false alarm). The result (docs/history/fill.md, "Evidence across
 views") is why the product does not use it.
 """
 

@@ -21,7 +21,8 @@ left in the photo (faint flare kept rather than the fill's error; eighth session
 ``bias``: the fill first corrected by its local error on the ring (``local_bias`` below; the
 ring is the render stage's: the mask dilated by ``RenderConfig.dilate``, less the mask; ninth
 session; the render option it was tried as, ``--layer-bias``, was removed in the eleventh
-after it failed its rule, docs/depth.md).
+after it failed its rule, docs/history/fill.md, "The flare layer: measured (sixth
+session)").
 """
 
 from __future__ import annotations

@@ -49,7 +49,7 @@ class DepthConfig:
     (0: no check)."""
     min_margin: float = option(0.0, ge=0, le=2)
     """Drop a depth whose matching cost beats the best cost of the planes away from it by
-    less than this (uniqueness; 0: no test; docs/depth.md, "A match must be unique")."""
+    less than this (uniqueness; 0: no test; docs/history/fill.md, "A match must be unique")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,

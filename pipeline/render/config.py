@@ -12,7 +12,7 @@ FILLS = ("hybrid", "network")
 
 INPUTS_MIN_BLOB = 0.0005
 """``RenderConfig.depth_min_blob`` of the de-flared photos (`--path inputs`): chosen on fresh
-flare draws of two development scenes (docs/depth.md, "Specks in the sky")."""
+flare draws of two development scenes (docs/history/fill.md, "Specks in the sky")."""
 
 
 NOVEL_SOURCES_EQUAL_BELOW = 0.1
@@ -52,7 +52,7 @@ class RenderConfig:
     dilate: float = option(0.0, ge=0)
     """inputs: the flare mask is grown by this fraction of the image's long side (at least
     one pixel). 0 since the seventeenth session (was 0.01: the grown ring traded clean
-    photo for fill; docs/depth.md, "How far the fill reaches past the mask")."""
+    photo for fill; docs/history/fill.md, "How far the fill reaches past the mask")."""
     feather: float = option(0.01, ge=0)
     """inputs: width of the soft blend edge as a fraction of the image's long side."""
     color_match: bool = True
@@ -68,15 +68,15 @@ class RenderConfig:
     flare_layer_adapt: float = option(0.0, ge=0)
     """inputs: each connected part of the flare region gets a flare layer of this many times
     its equivalent radius (at most ``flare_layer``), so a compact ghost is measured at its own
-    scale (0 = one width for all; docs/depth.md, "A layer per flare")."""
+    scale (0 = one width for all; docs/history/fill.md, "A layer per flare")."""
     clipped: str = option("any", choices=("any", "all"))
     """inputs, with the flare layer: a photo pixel counts as clipped (no detail left: the fill
     stays there) when ``any`` of its channels reaches 0.95 (also a bright blue sky) or only
-    when ``all`` do (white: the flare's saturated core; docs/depth.md, "Clipped pixels")."""
+    when ``all`` do (white: the flare's saturated core; docs/history/fill.md, "Clipped pixels")."""
     flare_layer_local: float = option(0.0, ge=0)
     """inputs: cap the flare layer by the photo's difference from the fill blurred at this
     much smaller fraction of the long side, so the wide layer does not carry a light's
-    bright core into its dark surroundings (0 = off; docs/depth.md, "A black halo")."""
+    bright core into its dark surroundings (0 = off; docs/history/fill.md, "A black halo")."""
     full_res: bool = False
     """inputs: also render the flare region at the original photo's full resolution and
     blend it into the original (into WS/deflared_full/)."""
@@ -116,12 +116,12 @@ class RenderConfig:
     agree_window: int = option(1, ge=1, odd=True)
     """hybrid: a photo agrees with the others at a pixel when its colour difference from
     their median, averaged over this window around the pixel, is within the agreement
-    tolerance (1 = the pixel alone; docs/depth.md, "Agreement over a patch")."""
+    tolerance (1 = the pixel alone; docs/history/fill.md, "Agreement over a patch")."""
     photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel
     from them if ``min_support`` agree (0 = off; passed its rule on the development scenes
-    but failed the sample's product test: docs/depth.md, "Farther photos where the nearest
+    but failed the sample's product test: docs/history/fill.md, "Farther photos where the nearest
     disagree")."""
     network_scale: float | None = option(None, gt=0)
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
@@ -130,28 +130,28 @@ class RenderConfig:
     beyond_planes: int = option(0, ge=0, le=64)
     """hybrid: planes past the far bound (out to 100 times it) in the sweep that finds a depth
     where no depth map reaches, so distant scenery and the sky can be taken from the photos
-    (0 = off; docs/depth.md, "Beyond the far bound")."""
+    (0 = off; docs/history/fill.md, "Beyond the far bound")."""
     close_holes: float = option(0.0, ge=0, le=0.1)
     """hybrid novel frames: holes in the photos' agreed region whose pixels all lie within
     this fraction of the frame's long side of agreed pixels are filled from the photo
-    pixels around them instead of by GN-FR at ``network_scale`` (0 = off; docs/depth.md,
+    pixels around them instead of by GN-FR at ``network_scale`` (0 = off; docs/history/fill.md,
     "Small holes")."""
     sharp_holes: float = option(0.0, ge=0, le=0.1)
     """hybrid novel frames: holes in the photos' agreed region whose pixels all lie within
     this fraction of the frame's long side of agreed pixels are GN-FR's with a hard edge;
     only wider holes erode and feather the photos around them (0 = every hole does;
-    docs/depth.md, "Feathered holes")."""
+    docs/history/fill.md, "Feathered holes")."""
     network_vote: float = option(0.0, ge=0, le=1)
     """hybrid novel frames: where fewer than ``min_support`` photos agree, the photo whose
     colour, brought to GN-FR's ``network_scale``, lies closest to GN-FR's render and within
     this (largest channel difference, 0..1 colours) is taken there at full resolution: the
-    network vouches for the colour, the photo adds the detail (0 = off; docs/depth.md,
+    network vouches for the colour, the photo adds the detail (0 = off; docs/history/fill.md,
     "The network's vote")."""
     depth_min_blob: float | None = option(None, ge=0, lt=1)
     """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
     than this fraction of the image are left out when the render reads them
     (``pipeline.stereo.remove_specks``; 0 = off). Default: ``INPUTS_MIN_BLOB`` for `--path
-    inputs` (the de-flared photos), 0 for novel paths (docs/depth.md, "Specks in the
+    inputs` (the de-flared photos), 0 for novel paths (docs/history/fill.md, "Specks in the
     sky")."""
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled

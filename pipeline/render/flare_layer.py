@@ -11,7 +11,8 @@ detail. So inside the blend region the de-flared photo is the photo minus a flar
 where G_sigma is a Gaussian of ``smooth`` x the long side. The layer is blurred over the
 whole image with the zeros outside the blend region left in (not normalised by the mask),
 so small or thin flare regions lose only part of their difference; on the development
-scenes this beat a mask-normalised layer (docs/depth.md, "The photo's own detail").
+scenes this beat a mask-normalised layer (docs/history/fill.md, "The flare layer: measured
+(sixth session)").
 Where the photo is clipped (the flare's saturated core) it holds no scene detail and the
 fill stays. The layer is never negative: flare only adds light.
 
