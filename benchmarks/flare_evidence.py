@@ -32,9 +32,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.colour import srgb_to_linear
-from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD, luminance
-from pipeline.stereo import PosedView
+from pipeline.crosscheck import Consensus, consensus
+from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD
 
 METHODS = ("fmg", "evidence", "fused")
 
@@ -63,30 +62,6 @@ class EvidenceConfig:
 SWEEP = {"abs_threshold": (MASK_THRESHOLD, 0.06), "rel_threshold": (MASK_RELATIVE, 0.25, 0.5),
          "slack": (2, 4), "min_support": (2, 3), "min_area": (2e-4, 2e-3)}
 """The settings ``--sweep`` tries (every combination)."""
-
-
-@dataclass
-class Consensus:
-    """What the neighbours agree a view's scene looks like."""
-
-    lum_view: np.ndarray
-    """[H, W] float32 linear luminance of the view."""
-    lum: np.ndarray
-    """[H, W] float32 linear luminance of the neighbours' consensus colour."""
-    support: np.ndarray
-    """[H, W] int: neighbours that agree (0 where no depth)."""
-
-
-def consensus(view: PosedView, neighbours: list[PosedView], agree: float) -> Consensus:
-    """The neighbours (``depth`` and ``valid`` set: WS/depth and their flare masks) warped
-    into ``view`` and fused; gains matched to the view's unmarked pixels (``valid``)."""
-    from pipeline.photo_fill import photo_fill
-
-    pf = photo_fill(view.K, view.c2w, view.size, neighbours, agree=agree,
-                    reference=view.image, ref_valid=view.valid, dense=False)
-    return Consensus(luminance(srgb_to_linear(view.image.astype(np.float32))),
-                     luminance(srgb_to_linear(pf.colour)),
-                     np.where(pf.depth > 0, pf.support, 0))
 
 
 def judge(c: Consensus, cfg: EvidenceConfig) -> np.ndarray:
@@ -190,6 +165,12 @@ def score_scene(root: Path, work: Path, cfgs: list[EvidenceConfig]) -> dict:
                           "fused": _scores(fu_c[i])} for i, c in enumerate(cfgs)]}
 
 
+def clean_stats(v: list[float]) -> dict:
+    """Mean and max of per-view marked shares, and how many views are over 10 %."""
+    return {"views": len(v), "mean": round(float(np.mean(v)), 5),
+            "max": round(float(np.max(v)), 5), "over_10pct": int(sum(x > 0.1 for x in v))}
+
+
 def score_clean(path: Path, cfgs: list[EvidenceConfig]) -> dict:
     """Share of pixels marked on a clean posed workspace: the FMG's, and per setting the
     evidence's and the fused mask's (mean and max over views, views over 10 %)."""
@@ -198,19 +179,15 @@ def score_clean(path: Path, cfgs: list[EvidenceConfig]) -> dict:
     ws = Workspace(path)
     prepare(ws)
 
-    def stats(v: list[float]) -> dict:
-        return {"views": len(v), "mean": round(float(np.mean(v)), 5),
-                "max": round(float(np.max(v)), 5), "over_10pct": int(sum(x > 0.1 for x in v))}
-
     data = view_data(ws, cfgs[0])
     fmg = [float(m.mean()) for m, _ in data.values()]
     rows = []
     for cfg in cfgs:
         ev = [judge(c, cfg) for _, c in data.values()]
-        rows.append({"config": asdict(cfg), "evidence": stats([float(e.mean()) for e in ev]),
-                     "fused": stats([float((e | m).mean())
-                                     for e, (m, _) in zip(ev, data.values(), strict=True)])})
-    return {"fmg": stats(fmg), "settings": rows}
+        fused = [float((e | m).mean()) for e, (m, _) in zip(ev, data.values(), strict=True)]
+        rows.append({"config": asdict(cfg), "evidence": clean_stats([float(e.mean()) for e in ev]),
+                     "fused": clean_stats(fused)})
+    return {"fmg": clean_stats(fmg), "settings": rows}
 
 
 def main() -> None:

@@ -29,10 +29,9 @@ import argparse
 import itertools
 import shutil
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,69 +39,24 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from flare_evidence import (  # noqa: E402  (benchmarks/ is not a package)
-    Consensus,
     EvidenceConfig,
     _confusion,
     _scores,
+    clean_stats,
     prepare,
     view_data,
 )
 
-from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD  # noqa: E402
-
-
-@dataclass
-class VetoConfig:
-    """When the neighbours overrule a region the FMG marks."""
-
-    min_support: int = 2
-    """Neighbours that must agree on the scene's colour for a pixel to be judged."""
-    min_judged: float = 0.5
-    """Share of the region's pixels that must be judged before it can be dropped."""
-    min_confirmed: float = 0.8
-    """Share of the judged pixels that must be no brighter than the consensus."""
-    abs_threshold: float = MASK_THRESHOLD
-    """Linear-luminance excess over the consensus still counted as 'as bright' (absolute)."""
-    rel_threshold: float = MASK_RELATIVE
-    """... and relative part (fraction of the consensus luminance)."""
-    slack: int = 2
-    """Radius (pixels) of the max filter on the consensus luminance."""
-
+from pipeline.crosscheck import CrosscheckRule, drop_confirmed  # noqa: E402
 
 SWEEP = {"min_support": (2, 3), "min_judged": (0.3, 0.6), "min_confirmed": (0.6, 0.8, 0.95)}
-"""The settings tried (every combination); the other fields keep their defaults."""
+"""The settings tried (every combination); the other fields keep the defaults of
+``CrosscheckRule`` as they were when the rule was scored (abs 0.012, rel 0.1, slack 2)."""
 
 
-def confirmed_as_scene(c: Consensus, cfg: VetoConfig) -> tuple[np.ndarray, np.ndarray]:
-    """[H, W] bool pair: judged (``min_support`` neighbours agree) and, of those, no
-    brighter than their max-filtered consensus by more than the mask rule's threshold."""
-    judged = c.support >= cfg.min_support
-    lum_c = np.where(judged, c.lum, 0).astype(np.float32)
-    if cfg.slack > 0:
-        k = 2 * cfg.slack + 1
-        lum_c = cv2.dilate(lum_c, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    thr = np.maximum(np.float32(cfg.abs_threshold), np.float32(cfg.rel_threshold) * lum_c)
-    return judged, judged & (c.lum_view - lum_c <= thr)
-
-
-def veto(marks: np.ndarray, c: Consensus, cfg: VetoConfig) -> np.ndarray:
-    """``marks`` [H, W] bool without the 8-connected regions the neighbours confirm as
-    scene (module docstring)."""
-    n, labels = cv2.connectedComponents(np.ascontiguousarray(marks, np.uint8), connectivity=8)
-    if n <= 1:
-        return marks.copy()
-    judged, same = confirmed_as_scene(c, cfg)
-    area = np.bincount(labels.ravel(), minlength=n)
-    n_j = np.bincount(labels.ravel(), weights=judged.ravel(), minlength=n)
-    n_s = np.bincount(labels.ravel(), weights=same.ravel(), minlength=n)
-    drop = (n_j >= cfg.min_judged * area) & (n_s >= cfg.min_confirmed * np.maximum(n_j, 1))
-    drop[0] = False
-    return marks & ~drop[labels]
-
-
-def settings() -> list[VetoConfig]:
+def settings() -> list[CrosscheckRule]:
     keys = list(SWEEP)
-    return [VetoConfig(**dict(zip(keys, v, strict=True)))
+    return [CrosscheckRule(**dict(zip(keys, v, strict=True)))
             for v in itertools.product(*SWEEP.values())]
 
 
@@ -113,7 +67,7 @@ def _more(c: np.ndarray) -> dict:
             "recall": round(float(c[1, 1] / max(c[1].sum(), 1)), 5)}
 
 
-def score_scene(root: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
+def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
     """Pooled over the flared views of a synth scene: the FMG's scores and each setting's."""
     from pipeline.ws_files import read_mask_file
     from workflows.research.eval.scene import load_synth
@@ -132,13 +86,13 @@ def score_scene(root: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
         views += 1
         fmg_c += _confusion(fmg, gt)
         for i, cfg in enumerate(cfgs):
-            cut_c[i] += _confusion(veto(fmg, cons, cfg), gt)
+            cut_c[i] += _confusion(drop_confirmed(fmg, cons, cfg), gt)
     return {"views": views, "fmg": {**_scores(fmg_c), **_more(fmg_c)},
             "settings": [{"config": asdict(c), "veto": {**_scores(cut_c[i]), **_more(cut_c[i])}}
                          for i, c in enumerate(cfgs)]}
 
 
-def score_clean(path: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
+def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
     """Share of pixels marked on a clean posed workspace (a copy in ``work``): the FMG's
     and each setting's (mean and max over views, views over 10 %)."""
     from pipeline.workspace import Workspace
@@ -152,14 +106,10 @@ def score_clean(path: Path, work: Path, cfgs: list[VetoConfig]) -> dict:
     ws = Workspace(copy)
     prepare(ws)
 
-    def stats(v: list[float]) -> dict:
-        return {"views": len(v), "mean": round(float(np.mean(v)), 5),
-                "max": round(float(np.max(v)), 5), "over_10pct": int(sum(x > 0.1 for x in v))}
-
     data = view_data(ws, EvidenceConfig())
-    return {"fmg": stats([float(m.mean()) for m, _ in data.values()]),
+    return {"fmg": clean_stats([float(m.mean()) for m, _ in data.values()]),
             "settings": [{"config": asdict(cfg),
-                          "veto": stats([float(veto(m, c, cfg).mean())
+                          "veto": clean_stats([float(drop_confirmed(m, c, cfg).mean())
                                          for m, c in data.values()])} for cfg in cfgs]}
 
 

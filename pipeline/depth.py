@@ -26,7 +26,7 @@ from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_dep
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
 
-__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run"]
+__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run", "sweep_views"]
 # read_depth: pipeline/ws_files.py (the WS/depth reader), named here for its callers
 
 
@@ -84,6 +84,42 @@ def load_views(ws: Workspace, cams: Cameras, stems: list[str],
     return out
 
 
+def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list[str]],
+                config: DepthConfig, raw_dir: Path, keep_raw: bool, ws: Workspace,
+                label: str = "depth: plane sweep") -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{stem: (depth, confidence)} of every view of ``views`` (their flare masks as
+    validity): the plane sweep against its ``near`` views, each result kept in
+    ``raw_dir/<stem>.npz`` (taken from there when ``keep_raw``: a resumed run), then the
+    multi-view consistency check. Sets each view's ``depth`` to its swept depth."""
+    by = cams.by_stem()
+    sweep = config.sweep()
+    for s in track(cams.stems, label):
+        raw = raw_dir / f"{s}.npz"
+        if keep_raw and raw.exists():
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
+                               sweep)
+        write_depth(raw, d, c, compressed=False)
+    confs = {}
+    for s in cams.stems:
+        views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
+    order = list(cams.stems)
+    idx = {t: i for i, t in enumerate(order)}
+    ordered = [views[t] for t in order]
+    out = {}
+    for s in order:
+        d, conf = views[s].depth, confs[s]
+        if config.consistency > 0:
+            cnt = consistency_count(ordered, idx[s], [idx[n] for n in near[s]],
+                                    config.consistency)
+            d = np.where(cnt >= 1, d, 0).astype(np.float32)
+            conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
+        out[s] = (d, conf)
+    return out
+
+
 def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/depth/<stem>.npz for every view; returns [WS/depth]."""
     config.check()
@@ -100,36 +136,14 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError(f"{ws.cameras_json}: depth needs at least 2 posed views")
     raw_dir = out_dir / ".raw"
     raw_dir.mkdir(parents=True, exist_ok=True)
-    keep_raw = ws.resumable(stage_run)
     near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
-    by = cams.by_stem()
-    sweep = config.sweep()
-    for s in track(cams.stems, "depth: plane sweep"):
-        raw = raw_dir / f"{s}.npz"
-        if keep_raw and raw.exists():
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
-                               sweep)
-        write_depth(raw, d, c, compressed=False)
-    confs = {}
-    for s in cams.stems:
-        views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
-    order = list(cams.stems)
-    idx = {t: i for i, t in enumerate(order)}
-    ordered = [views[t] for t in order]
+    depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws)
     kept = []
-    for s in order:
-        d, conf = views[s].depth, confs[s]
-        if config.consistency > 0:
-            cnt = consistency_count(ordered, idx[s], [idx[n] for n in near[s]],
-                                    config.consistency)
-            d = np.where(cnt >= 1, d, 0).astype(np.float32)
-            conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
+    for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
+    order = list(depths)
     for p in raw_dir.iterdir():
         p.unlink()
     raw_dir.rmdir()
