@@ -32,7 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.crosscheck import Consensus, consensus
+from pipeline.crosscheck import Consensus, consensus, excess_over_consensus
 from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD
 
 METHODS = ("fmg", "evidence", "fused")
@@ -68,13 +68,9 @@ def judge(c: Consensus, cfg: EvidenceConfig) -> np.ndarray:
     """[H, W] bool flare evidence: where ``min_support`` neighbours agree and the view is
     brighter than their max-filtered consensus by more than the mask rule's threshold;
     opened by 3x3 and without regions under ``min_area``."""
-    judged = c.support >= cfg.min_support
-    lum_c = np.where(judged, c.lum, 0).astype(np.float32)
-    if cfg.slack > 0:
-        k = 2 * cfg.slack + 1
-        lum_c = cv2.dilate(lum_c, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    thr = np.maximum(np.float32(cfg.abs_threshold), np.float32(cfg.rel_threshold) * lum_c)
-    mask = judged & (c.lum_view - lum_c > thr)
+    judged, excess, thr = excess_over_consensus(c, cfg.min_support, cfg.abs_threshold,
+                                                cfg.rel_threshold, cfg.slack)
+    mask = judged & (excess > thr)
     mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     return drop_small(mask, cfg.min_area)
 
@@ -135,24 +131,30 @@ def prepare(ws) -> None:
     depth.run(depth.DepthConfig(), ws)
 
 
-def score_scene(root: Path, work: Path, cfgs: list[EvidenceConfig]) -> dict:
-    """Pooled over the flared views of a synth scene: the FMG's scores, and per setting the
-    evidence's and the fused mask's."""
+def flared_views(root: Path, work: Path, cfg: EvidenceConfig):
+    """For each flared view of the synth scene ``root`` (posed with its true cameras in
+    ``work``, `mask` and `depth` run): (FMG mask, Consensus, true mask)."""
     from pipeline.ws_files import read_mask_file
     from workflows.research.eval.scene import load_synth
     from workflows.research.eval.workspaces import build_workspace
 
     ws = build_workspace(load_synth(root), work / f"{root.name}.ws")
     prepare(ws)
+    for s, (fmg, cons) in view_data(ws, cfg).items():
+        h, w = fmg.shape
+        gt = read_mask_file(root / "masks_gt" / f"{s}.png", size=(w, h))
+        if gt.any():
+            yield fmg, cons, gt
+
+
+def score_scene(root: Path, work: Path, cfgs: list[EvidenceConfig]) -> dict:
+    """Pooled over the flared views of a synth scene: the FMG's scores, and per setting the
+    evidence's and the fused mask's."""
     fmg_c = np.zeros((2, 2), np.int64)
     ev_c = np.zeros((len(cfgs), 2, 2), np.int64)
     fu_c = np.zeros((len(cfgs), 2, 2), np.int64)
     views = 0
-    for s, (fmg, cons) in view_data(ws, cfgs[0]).items():
-        h, w = fmg.shape
-        gt = read_mask_file(root / "masks_gt" / f"{s}.png", size=(w, h))
-        if not gt.any():
-            continue
+    for fmg, cons, gt in flared_views(root, work, cfgs[0]):
         views += 1
         fmg_c += _confusion(fmg, gt)
         for i, cfg in enumerate(cfgs):

@@ -43,6 +43,7 @@ from flare_evidence import (  # noqa: E402  (benchmarks/ is not a package)
     _confusion,
     _scores,
     clean_stats,
+    flared_views,
     prepare,
     view_data,
 )
@@ -69,20 +70,10 @@ def _more(c: np.ndarray) -> dict:
 
 def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
     """Pooled over the flared views of a synth scene: the FMG's scores and each setting's."""
-    from pipeline.ws_files import read_mask_file
-    from workflows.research.eval.scene import load_synth
-    from workflows.research.eval.workspaces import build_workspace
-
-    ws = build_workspace(load_synth(root), work / f"{root.name}.ws")
-    prepare(ws)
     fmg_c = np.zeros((2, 2), np.int64)
     cut_c = np.zeros((len(cfgs), 2, 2), np.int64)
     views = 0
-    for s, (fmg, cons) in view_data(ws, EvidenceConfig()).items():
-        h, w = fmg.shape
-        gt = read_mask_file(root / "masks_gt" / f"{s}.png", size=(w, h))
-        if not gt.any():
-            continue
+    for fmg, cons, gt in flared_views(root, work, EvidenceConfig()):
         views += 1
         fmg_c += _confusion(fmg, gt)
         for i, cfg in enumerate(cfgs):

@@ -32,7 +32,7 @@ from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD, luminance
 from pipeline.stereo import PosedView
 
 __all__ = ["Consensus", "CrosscheckRule", "confirmed_as_scene", "consensus", "crosscheck",
-           "drop_confirmed"]
+           "drop_confirmed", "excess_over_consensus"]
 
 
 @dataclass(frozen=True)
@@ -82,16 +82,27 @@ def consensus(view: PosedView, neighbours: list[PosedView], agree: float) -> Con
                      np.where(pf.depth > 0, pf.support, 0))
 
 
+def excess_over_consensus(c: Consensus, min_support: int, abs_threshold: float,
+                          rel_threshold: float, slack: int
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """[H, W] judged (``min_support`` neighbours agree), the view's linear luminance above
+    their consensus max-filtered over ``slack`` pixels, and the mask rule's threshold on it
+    (``max(abs_threshold, rel_threshold x consensus)``)."""
+    judged = c.support >= min_support
+    lum_c = np.where(judged, c.lum, 0).astype(np.float32)
+    if slack > 0:
+        k = 2 * slack + 1
+        lum_c = cv2.dilate(lum_c, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+    thr = np.maximum(np.float32(abs_threshold), np.float32(rel_threshold) * lum_c)
+    return judged, c.lum_view - lum_c, thr
+
+
 def confirmed_as_scene(c: Consensus, rule: CrosscheckRule) -> tuple[np.ndarray, np.ndarray]:
     """[H, W] bool pair: judged (``min_support`` neighbours agree) and, of those, no
     brighter than their max-filtered consensus by more than the mask rule's threshold."""
-    judged = c.support >= rule.min_support
-    lum_c = np.where(judged, c.lum, 0).astype(np.float32)
-    if rule.slack > 0:
-        k = 2 * rule.slack + 1
-        lum_c = cv2.dilate(lum_c, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    thr = np.maximum(np.float32(rule.abs_threshold), np.float32(rule.rel_threshold) * lum_c)
-    return judged, judged & (c.lum_view - lum_c <= thr)
+    judged, excess, thr = excess_over_consensus(c, rule.min_support, rule.abs_threshold,
+                                                rule.rel_threshold, rule.slack)
+    return judged, judged & (excess <= thr)
 
 
 def drop_confirmed(marks: np.ndarray, c: Consensus, rule: CrosscheckRule) -> np.ndarray:
