@@ -9,7 +9,8 @@ committed numbers of another build are not comparable (docs/history/fmg.md, "Twe
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
-        [--[no-]holes-as-flare] [--novel-equal-below F] [--select-args "--max-flare 0.15"]
+        [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args "--crosscheck"] \
+        [--select-args "--max-flare 0.15"]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
@@ -53,9 +54,10 @@ def result_name(arm: str, scene: str, seed: int) -> str:
 
 def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
             holes_as_flare: bool | None = None, novel_equal_below: float | None = None,
-            select_args: list[str] | None = None) -> Path:
+            select_args: list[str] | None = None, mask_args: list[str] | None = None) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file.
-    ``select_args``: extra options of the select stage (e.g. ``--max-flare 0.15``)."""
+    ``mask_args`` / ``select_args``: extra options of the mask / select stage (e.g.
+    ``--crosscheck``, ``--max-flare 0.15``)."""
     scene = scene_short(synth)
     ws = work / f"{scene}_{arm}_s{seed}.ws"
     if not ws.is_dir():
@@ -66,7 +68,7 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
         tmp.rename(ws)
     cli = [sys.executable, "-m", "workflows.cli"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    steps = [["mask", str(ws), "--weights", str(weights), "--force"],
+    steps = [["mask", str(ws), "--weights", str(weights), "--force", *(mask_args or [])],
              ["depth", str(ws)], ["select", str(ws), *(select_args or [])],
              ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
               *([] if holes_as_flare is None
@@ -164,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="the fine-tune's --[no-]holes-as-flare (default: the fine-tune's)")
     r.add_argument("--novel-equal-below", type=float, default=None,
                    help="the held-out render's --sources-equal-below (default: render's)")
+    r.add_argument("--mask-args", default="",
+                   help='extra options of the mask stage, e.g. "--crosscheck"')
     r.add_argument("--select-args", default="",
                    help='extra options of the select stage, e.g. "--max-flare 0.15"')
     j = sub.add_parser("judge")
@@ -190,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
             a.work.mkdir(parents=True, exist_ok=True)
             try:
                 print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
-                              a.novel_equal_below, shlex.split(a.select_args)))
+                              a.novel_equal_below, shlex.split(a.select_args),
+                              shlex.split(a.mask_args)))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
