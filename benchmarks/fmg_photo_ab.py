@@ -9,7 +9,7 @@ committed numbers of another build are not comparable (docs/history/fmg.md, "Twe
 session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
-        [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args "--crosscheck"] \
+        [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args=--crosscheck] \
         [--select-args "--max-flare 0.15"]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
@@ -167,7 +167,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--novel-equal-below", type=float, default=None,
                    help="the held-out render's --sources-equal-below (default: render's)")
     r.add_argument("--mask-args", default="",
-                   help='extra options of the mask stage, e.g. "--crosscheck"')
+                   help='extra options of the mask stage, e.g. --mask-args=--crosscheck (with "=": '
+                        'the value starts with a dash)')
     r.add_argument("--select-args", default="",
                    help='extra options of the select stage, e.g. "--max-flare 0.15"')
     j = sub.add_parser("judge")
