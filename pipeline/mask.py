@@ -5,7 +5,10 @@ Reads ``WS/images/<stem>.png`` and writes
   (``pipeline.ws_files.write_mask``; read back with ``read_mask``);
 - ``WS/flare.json``: where the masks came from and each view's flare fraction
   (``ws_files.FlareFile``);
-- ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage.
+- ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage;
+- ``WS/masks_fmg/<stem>.png`` with ``--crosscheck`` only: the network's masks before the
+  other photos overruled its false marks (``pipeline.crosscheck``; WS/masks holds the
+  checked ones).
 
 The FMG runs batched at a working resolution (long side ``work_size``) and its probability
 map is upsampled to the image size, optionally refined to follow image edges with a guided
@@ -363,7 +366,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     stems = view_stems(ws)
     if config.crosscheck and len(stems) < 2:
         raise UserError(f"--crosscheck compares each view with the others, and {ws.root} has "
-                        f"{len(stems)} posed view: leave --crosscheck out")
+                        f"{len(stems)} posed view(s): leave --crosscheck out")
     confirm = None
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
