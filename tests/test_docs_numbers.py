@@ -635,3 +635,32 @@ def test_fill_support_baseline_reproduces_the_arm(scene, seed):
     arm = json.loads((RESULTS / f"fmg_s26_Mp_fair_{scene}_s{seed}.json").read_text())["inputs"]
     for m in ("psnr", "psnr_flare", "ssim"):
         assert abs(base[m] - arm[m]) < 1e-3, (m, base[m], arm[m])
+
+
+def test_fmg_history_quotes_the_crosscheck_numbers():
+    """The twenty-eighth session's `mask --crosscheck` numbers: the chosen setting's row of
+    each result file, as the history writes them."""
+    text = (REPO / "docs" / "history" / "fmg.md").read_text()
+
+    def chosen(settings):
+        row = [x for x in settings if (x["config"]["min_support"], x["config"]["min_judged"],
+                                       x["config"]["min_confirmed"]) == (2, 0.3, 0.95)]
+        assert len(row) == 1
+        return row[0]["veto"]
+
+    dev = json.loads((RESULTS / "flare_veto_dev.json").read_text())
+    means = [chosen(c["settings"])["mean"] for c in dev["clean"].values()]
+    fmg = [c["fmg"]["mean"] for c in dev["clean"].values()]
+    for v in (*means, sum(means) / 3, sum(fmg) / 3):
+        assert f"{100 * v:.2f}" in text
+    for s in dev["scenes"].values():
+        d = chosen(s["settings"])["IoU_flare"] - s["fmg"]["IoU_flare"]
+        assert f"{d:+.3f}" in text
+    test = json.loads((RESULTS / "flare_veto_test.json").read_text())
+    for s in test["scenes"].values():
+        for v in (s["fmg"], chosen(s["settings"])):
+            assert f"{v['IoU_flare']:.3f}" in text and f"{v['recall']:.3f}" in text
+    fern = json.loads((RESULTS / "flare_veto_fern.json").read_text())["clean"]["fern_posed.ws"]
+    for c in (test["clean"]["kermit_ws"], fern):
+        for v in (c["fmg"]["mean"], chosen(c["settings"])["mean"]):
+            assert f"{100 * v:.2f}" in text
