@@ -664,3 +664,26 @@ def test_fmg_history_quotes_the_crosscheck_numbers():
     for c in (test["clean"]["kermit_ws"], fern):
         for v in (c["fmg"]["mean"], chosen(c["settings"])["mean"]):
             assert f"{100 * v:.2f}" in text
+
+
+def test_max_flare_note_numbers_agree_with_their_runs():
+    """`--max-flare 0.15` on lund_k4 (twenty-eighth session): the seed means in the history
+    and the two differences the README quotes."""
+    history = (REPO / "docs" / "history" / "fmg.md").read_text()
+    readme = (REPO / "README.md").read_text()
+
+    def means(arm):
+        rows = [json.loads((RESULTS / f"fmg_s28_{arm}_fair_lund_k4_s{s}.json").read_text())
+                for s in (0, 1, 2)]
+        m = {k: sum(r["inputs"][k] for r in rows) / 3 for k in ("psnr", "psnr_flare", "ssim")}
+        m.update({f"held_{k}": sum(r["heldout"][k] for r in rows) / 3 for k in ("psnr", "ssim")})
+        return m
+
+    base, loose = means("Mp"), means("Mp_mf15")
+    for m in (base, loose):
+        row = (f"{m['psnr']:.2f} / {m['psnr_flare']:.2f} / {m['ssim']:.3f} | "
+               f"{m['held_psnr']:.2f} / {m['held_ssim']:.3f}")
+        assert row in history
+    for text in (history, readme):
+        assert f"{loose['held_psnr'] - base['held_psnr']:.2f} dB" in text
+        assert f"{base['psnr_flare'] - loose['psnr_flare']:.2f} dB" in text
