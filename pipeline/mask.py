@@ -111,7 +111,8 @@ class MaskConfig:
     (``pipeline.crosscheck``). The network's own masks are kept in ``WS/masks_fmg/``. Off:
     on the development scenes it removed a quarter of the marks on clean photos with flare
     IoU level, and its photos have not been judged (docs/history/fmg.md, "Twenty-eighth
-    session"). Needs at least 2 posed views; about 2 s more per view on a CPU."""
+    session"). Needs at least 2 posed views; 2.2 s more per 504 px view on one CPU thread
+    (``benchmarks/crosscheck_time.py``)."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""
     device: str = option("auto", device=True)
