@@ -15,7 +15,8 @@ true flare in it is brighter than the consensus there, so it stays.
 On the development scenes (docs/history/fmg.md, "Twenty-eighth session"; rule written
 before the scores) the rule's setting removed a quarter of the marks on clean photos (0.60 %
 to 0.45 % of the pixels) with flare IoU on four synth scenes within 0.005; it is not the
-default (the photo rule has not been run).
+default: with it the de-flared photos gained 0.065 dB in the flare region (three seeds),
+under the +0.10 dB a default needs.
 """
 
 from __future__ import annotations

@@ -110,8 +110,9 @@ class MaskConfig:
     their own marks excluded) agree is scene no brighter than they see it
     (``pipeline.crosscheck``). The network's own masks are kept in ``WS/masks_fmg/``. Off:
     on the development scenes it removed a quarter of the marks on clean photos with flare
-    IoU level, and its photos have not been judged (docs/history/fmg.md, "Twenty-eighth
-    session"). Needs at least 2 posed views; 2.2 s more per 504 px view on one CPU thread
+    IoU level, and the de-flared photos of flared scenes gained only 0.065 dB in the flare
+    region (the default needs 0.10; docs/history/fmg.md, "Twenty-eighth session"). Needs
+    at least 2 posed views; 2.2 s more per 504 px view on one CPU thread
     (``benchmarks/crosscheck_time.py``)."""
     batch: int = option(4, ge=1)
     """Views per FMG forward pass."""

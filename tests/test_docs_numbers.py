@@ -687,3 +687,17 @@ def test_max_flare_note_numbers_agree_with_their_runs():
     for text in (history, readme):
         assert f"{loose['held_psnr'] - base['held_psnr']:.2f} dB" in text
         assert f"{base['psnr_flare'] - loose['psnr_flare']:.2f} dB" in text
+
+
+def test_crosscheck_photo_rule_numbers_agree_with_the_judge():
+    """The crosscheck photo rule's table (history) and its mean flare gain (README)."""
+    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    res = json.loads((RESULTS / "fmg_photo_judge_crosscheck_s234.json").read_text())
+    for d in (*res["per_scene"].values(), res["mean"]):
+        cells = " / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
+        assert cells in history
+    assert res["decision"] == "fails (a)" and "fails (a)" in history
+    assert f"{res['mean']['psnr_flare']:+.3f} dB in the flare region" in readme
+    cost = json.loads((RESULTS / "crosscheck_time_cpu_et.json").read_text())
+    assert f"{cost['extra_seconds_per_view']:.1f} s more per view" in readme
