@@ -53,11 +53,11 @@ def main(argv: list[str] | None = None) -> int:
         for name, cc in (("fmg", False), ("crosscheck", True)):
             ws = Workspace(stage_copy(a.ws, a.work, f"{a.ws.name}.{name}"))
             mask.run(mask.MaskConfig(crosscheck=cc), ws, force=True)
-            n = len(read_flare(ws).views)
-            secs = mask.stage_seconds(ws)
+            fractions = read_flare(ws).fractions()
+            n, secs = len(fractions), mask.stage_seconds(ws)
             rows[name] = {"views": n, "seconds": round(secs, 2),
                           "seconds_per_view": round(secs / n, 3),
-                          "marked": round(sum(read_flare(ws).fractions().values()) / n, 5)}
+                          "marked": round(sum(fractions.values()) / n, 5)}
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

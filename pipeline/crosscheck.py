@@ -131,9 +131,7 @@ def crosscheck(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = Crossche
     from pipeline.ws_files import read_cameras
 
     cams = read_cameras(ws)
-    views = load_views(ws, cams, cams.stems)
-    for s, v in views.items():
-        v.valid = ~masks[s]
+    views = load_views(ws, cams, cams.stems, masks=masks)
     config = DepthConfig()
     with tempfile.TemporaryDirectory(prefix="deflare-crosscheck-") as raw:
         depths = sweep_views(views, cams, nearest_views(cams, config.neighbours), config,

@@ -71,13 +71,17 @@ def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
 
 
 def load_views(ws: Workspace, cams: Cameras, stems: list[str],
-               with_depth: bool = False) -> dict[str, PosedView]:
-    """{stem: PosedView} of WS/images (float RGB), flare masks as validity where WS/masks
-    has them, and WS/depth where ``with_depth`` and present."""
+               with_depth: bool = False, masks: dict[str, np.ndarray] | None = None
+               ) -> dict[str, PosedView]:
+    """{stem: PosedView} of WS/images (float RGB), flare masks as validity (``masks`` when
+    given, else WS/masks where it has them), and WS/depth where ``with_depth`` and present."""
     by = cams.by_stem()
     out = {}
     for s in stems:
-        valid = ~read_mask(ws, s) if ws.mask_path(s).exists() else None
+        if masks is not None:
+            valid = ~masks[s]
+        else:
+            valid = ~read_mask(ws, s) if ws.mask_path(s).exists() else None
         depth = read_depth(ws, s)[0] if with_depth and ws.depth_path(s).exists() else None
         out[s] = PosedView(read_view_image(ws, s, as_float=True), np.array(by[s].K, float),
                            np.array(by[s].c2w), valid, depth)
@@ -143,11 +147,10 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
-    order = list(depths)
     for p in raw_dir.iterdir():
         p.unlink()
     raw_dir.rmdir()
     stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
-    info(f"depth: {len(order)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
+    info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average)")
     return [out_dir]
