@@ -34,6 +34,7 @@ FERN18 = "fern_llff_quick_cpu_w18500.json"  # the 18 500-step weights (clean)
 FERN3 = "fern_llff_quick_cpu_w32500.json"  # the 32 500-step weights (clean)
 FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (clean)
 SAMPLE = "sample_oneshot_cpu.json"
+PERF = "docs/performance.md"  # speed and memory (the README keeps a summary)
 CHECKS = [
     # page, file, path, format
     # the GN-FR card: the shipped files' numbers
@@ -162,7 +163,7 @@ CHECKS = [
     *[(page, "bench_paper_cuda_h100.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
       for page in ("README.md", "docs/presets.md") for mode in ("end_to_end", "cached")],
     *[(page, "bench_paper_cuda_h100.json", f"results/cuda/render/{size}/fast/s_per_frame",
-       "{:.2f} s") for page in ("README.md", "docs/presets.md")
+       "{:.2f} s") for page in (PERF, "docs/presets.md")
       for size in ("504x378", "1008x756")],
     *[("docs/presets.md", f"bench_{p}_cuda_h100{sfx}.json", f"results/cuda/train/{mode}/it_per_s",
        "{:.2f}") for p, sfx, mode in (("paper", "", "reference"), ("paper", "_1008", "end_to_end"),
@@ -173,13 +174,13 @@ CHECKS = [
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for page in ("docs/history/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
       for i in (0, 1) for m in ("psnr", "ssim")],
-    ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
-    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "stages/finetune/seconds", "{:.1f}"),
-    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "stages/render:interpolate/seconds",
+    (PERF, "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
+    (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "stages/finetune/seconds", "{:.1f}"),
+    (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "stages/render:interpolate/seconds",
      "{:.1f}"),
-    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr", "{:.2f}"),
-    ("README.md", "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr_flare", "{:.2f}"),
-    ("README.md", "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
+    (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr", "{:.2f}"),
+    (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr_flare", "{:.2f}"),
+    (PERF, "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
      "{:.1f}"),
     *[("README.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
        "{:.2f}") for scene in ("sceaux", "et")
@@ -188,7 +189,7 @@ CHECKS = [
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("README.md", "sample_oneshot_cpu_s26_fmgM.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
-    ("README.md", "sample_oneshot_cpu_s26_fmgM.json", "stages/mask/seconds", "{:.1f}"),
+    (PERF, "sample_oneshot_cpu_s26_fmgM.json", "stages/mask/seconds", "{:.1f}"),
     *[("docs/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     *[("docs/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
@@ -219,9 +220,9 @@ CHECKS = [
     ("docs/eval.md", SAMPLE, "mean/psnr", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_flare_input", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_input", "{:.2f}"),
-    ("README.md", SAMPLE, "stages/depth/seconds", "| depth | {:.1f} |"),
-    ("README.md", SAMPLE, "stages/finetune/seconds", "{:.1f}"),
-    ("README.md", SAMPLE, "stages/render:interpolate/seconds", "{:.1f}"),
+    (PERF, SAMPLE, "stages/depth/seconds", "| depth | {:.1f} |"),
+    (PERF, SAMPLE, "stages/finetune/seconds", "{:.1f}"),
+    (PERF, SAMPLE, "stages/render:interpolate/seconds", "{:.1f}"),
     ("README.md", SAMPLE, "video/frames", "{} frames"),
     ("docs/eval.md", "fill_ablation_dev_sceaux.json",
      "rows/hybrid_guided_support2/psnr_flare", "{:.2f}"),
@@ -261,17 +262,17 @@ CHECKS = [
        f"rows/hybrid_guided_support2/{m}", "{:.2f}") for scene in ("sceaux", "et")
       for arm in ("base", "random_sources-true") for m in ("psnr_flare", "psnr")],
     # the final bench run (README tables) and the earlier one quoted for the drift
-    *[("README.md", "bench_cpu.json", f"results/cpu/{path}", fmt) for path, fmt in (
+    *[(PERF, "bench_cpu.json", f"results/cpu/{path}", fmt) for path, fmt in (
         ("train/end_to_end/it_per_s", "{:.2f}"), ("train/cached/it_per_s", "{:.2f}"),
         ("train/reference/it_per_s", "{:.2f}"), ("render/504x378/fast/s_per_frame", "{:.1f}"),
         ("render/1008x756/fast/s_per_frame", "{:.1f}"))],
-    *[("README.md", "bench_cpu_c426ab3.json", f"results/cpu/{path}", fmt) for path, fmt in (
+    *[(PERF, "bench_cpu_c426ab3.json", f"results/cpu/{path}", fmt) for path, fmt in (
         ("train/end_to_end/it_per_s", "{:.2f}"), ("train/cached/it_per_s", "{:.2f}"),
         ("render/504x378/fast/s_per_frame", "{:.1f} s"))],
-    ("README.md", "render_compile_cpu.json", "speedup", "{:.2f}x faster"),
-    ("README.md", "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
-    ("README.md", "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
-    ("README.md", "render_compile_cpu.json", "compile_s", "{:.0f} s of compiling"),
+    (PERF, "render_compile_cpu.json", "speedup", "{:.2f}x faster"),
+    (PERF, "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
+    (PERF, "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
+    (PERF, "render_compile_cpu.json", "compile_s", "{:.0f} s of compiling"),
     ("docs/history/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/0/psnr", "{:.2f}"),
     ("docs/history/gnfr.md", "pretrain_zero_shot_sceaux.json", "rows/1/psnr", "{:.2f}"),
     *[("docs/history/gnfr.md", f"pretrain_zero_shot_{scene}_w32500.json", f"rows/{i}/{m}",
@@ -481,8 +482,8 @@ def test_page_quotes_its_result_file(page, file, path, fmt):
 
 
 @pytest.mark.parametrize("name", ["x1", "x2"])
-def test_readme_render_times_match(name):
-    text = (REPO / "README.md").read_text()
+def test_performance_render_times_match(name):
+    text = (REPO / "docs" / "performance.md").read_text()
     net, hyb = _fill(name, "network"), _fill(name, "hybrid")
     row = (f"| {net['size'][0]}x{net['size'][1]} | {net['s_per_frame']:.1f} s | "
            f"{hyb['s_per_frame']:.1f} s | {net['s_per_frame'] / hyb['s_per_frame']:.0f}x |")
@@ -514,6 +515,7 @@ def test_every_result_file_is_quoted_or_listed():
     """No orphan result files: each is named in docs/results/README.md or a page."""
     pages = "".join((REPO / p).read_text() for p in ("README.md", "docs/eval.md",
                                                      "docs/depth.md", "docs/results/README.md",
+                                                     "docs/options.md", "docs/performance.md",
                                                      "gnfr/weights/gnfr.md",
                                                      "docs/history/gnfr.md",
                                                      "docs/history/fill.md"))
@@ -684,15 +686,17 @@ def test_max_flare_note_numbers_agree_with_their_runs():
         row = (f"{m['psnr']:.2f} / {m['psnr_flare']:.2f} / {m['ssim']:.3f} | "
                f"{m['held_psnr']:.2f} / {m['held_ssim']:.3f}")
         assert row in history
-    for text in (history, readme):
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    for text in (history, readme, options):
         assert f"{loose['held_psnr'] - base['held_psnr']:.2f} dB" in text
         assert f"{base['psnr_flare'] - loose['psnr_flare']:.2f} dB" in text
 
 
 def test_crosscheck_photo_rule_numbers_agree_with_the_judge():
-    """The crosscheck photo rule's table (history) and its mean flare gain (README)."""
+    """The crosscheck photo rule's table (history), its mean flare gain and cost (options
+    page) and its cost (README)."""
     history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-    readme = " ".join((REPO / "README.md").read_text().split())
+    readme = " ".join((REPO / "docs" / "options.md").read_text().split())
     res = json.loads((RESULTS / "fmg_photo_judge_crosscheck_s234.json").read_text())
     for d in (*res["per_scene"].values(), res["mean"]):
         cells = " / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
@@ -701,3 +705,14 @@ def test_crosscheck_photo_rule_numbers_agree_with_the_judge():
     assert f"{res['mean']['psnr_flare']:+.3f} dB in the flare region" in readme
     cost = json.loads((RESULTS / "crosscheck_time_cpu_et.json").read_text())
     assert f"{cost['extra_seconds_per_view']:.1f} s more per view" in readme
+    assert f"+{cost['extra_seconds_per_view']:.1f} s per view" in (REPO / "README.md").read_text()
+
+
+def test_readme_sample_flare_gain_per_view():
+    """"What to expect": the sample's mean flare-region gain and its per-view range, from the
+    run the Results table quotes."""
+    views = json.loads((RESULTS / "sample_oneshot_cpu_s26_fmgM.json").read_text())["views"]
+    gains = [v["psnr_flare"] - v["psnr_flare_input"] for v in views.values()]
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert f"{sum(gains) / len(gains):.2f} dB closer to the truth" in readme
+    assert min(gains) > 0 and f"from +{min(gains):.2f} to +{max(gains):.2f} dB" in readme

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import re
 import typing
 from pathlib import Path
 
@@ -392,3 +393,19 @@ def test_oneshot_flags_and_set_reach_every_field():
             text = "none" if value is None else show(value, f.metadata.get("sep", ","))
             got = apply_overrides(defaults, [f"{stage}.{f.name}={text.strip(chr(39))}"])
             assert getattr(got[stage], f.name) == value, (stage, f.name)
+
+
+DOC_PAGES = ("README.md", "docs/options.md", "docs/presets.md", "docs/depth.md",
+             "gnfr/weights/fmg.md", "gnfr/weights/gnfr.md")
+
+
+@pytest.mark.parametrize("page", DOC_PAGES)
+def test_every_set_option_the_user_docs_quote_parses(page):
+    """Each `--set STAGE.FIELD=VALUE` a user page suggests is an option the one-shot accepts
+    with that value (a renamed option or a bad value in the docs fails here)."""
+    text = (Path(__file__).resolve().parents[2] / page).read_text()
+    items = re.findall(r"--set ([a-z_]+\.[a-z_]+=[^\s`)]+)", text)
+    if page in ("README.md", "docs/options.md"):
+        assert len(items) >= 5, f"{page} quotes {items}"
+    for item in items:
+        apply_overrides(_stage_configs(), [item])  # raises UserError on a bad one
