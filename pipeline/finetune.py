@@ -74,6 +74,12 @@ class FinetuneConfig:
     as they are. On by default since the full-width FMG shipped, whose masks leave the core
     unmarked (docs/history/fmg.md, "Twenty-sixth session"); ``--no-holes-as-flare`` for
     masks without holes (the earlier quarter-width file's, ``fmg_small.safetensors``)."""
+    full_res_colour: bool = False
+    """Sample the sources' colours (and flare masks) at the full size of WS/images while the
+    encoder still sees them at the preset's ``source_scale`` (1/4 in ``quick``; the
+    ``paper`` preset encodes at full size, where this changes nothing). Recorded in the
+    model, so render samples colours the same way. Off by default (docs/presets.md, "Full-size
+    colours in the fine-tune")."""
     mirror: bool = False
     """Half the training steps (drawn at random) see the scene in a mirror: every view
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
@@ -120,7 +126,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     cfg = replace(cfg, **over, point_sampler=config.point_sampler,
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
-                  random_sources=bool(config.random_sources), mirror=config.mirror)
+                  random_sources=bool(config.random_sources), mirror=config.mirror,
+                  full_res_colour=config.full_res_colour)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:

@@ -425,6 +425,28 @@ def test_fmg_photo_rule_stops_at_the_first_failing_part():
     assert m.photo_rule(cand(**ssim), base)["decision"] == "fails (c)"
 
 
+def test_novel_rule_judges_the_video_and_guards_the_photos():
+    """``--rule novel``: +0.15 dB novel views everywhere passes; the same with one scene
+    -0.3 dB fails (b); a novel gain that costs the flare region 0.1 dB fails (c); a flare
+    gain alone does not pass (a)."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0} for s in "xyz"}
+
+    def cand(**by_scene):
+        return {s: {**base[s], **by_scene.get(s, {})} for s in base}
+
+    up = {s: {"held": 17.15} for s in "xyz"}
+    assert m.photo_rule(cand(**up), base, "novel")["decision"] == "passes"
+    one_down = {"x": {"held": 17.7}, "y": {"held": 17.3}, "z": {"held": 16.7}}
+    got = m.photo_rule(cand(**one_down), base, "novel")
+    assert got["parts"]["a"] and got["decision"] == "fails (b)"
+    costly = {s: {"held": 17.3, "psnr_flare": 19.9} for s in "xyz"}
+    assert m.photo_rule(cand(**costly), base, "novel")["decision"] == "fails (c)"
+    flare_only = {s: {"psnr_flare": 21.0} for s in "xyz"}
+    assert m.photo_rule(cand(**flare_only), base, "novel")["decision"] == "fails (a)"
+    assert m.photo_rule(cand(**flare_only), base)["decision"] == "passes"
+
+
 def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path, capsys):
     """`judge` on the twenty-third session's committed results gives fmg.md's table (L
     minus the shipped file, et's flare region -0.31 dB: fails (b)); with --baseline-seeds
