@@ -109,6 +109,14 @@ CHECKS = [
        "{:.4f}" if m == "ssim" else "{:.2f}")
       for s in ("sceaux", "et", "lund") for sd in (0, 1) for d in ("0.01", "0.005", "0.0")
       for m in ("psnr", "psnr_flare", "ssim")],
+    # docs/eval.md, "The README's results, row by row": the current rows' extra figures
+    *[("docs/eval.md", "kermit_synth_quick_cpu_s27_Mprime.json", f"methods/{m}/inputs/ssim",
+       "{:.3f}") for m in ("gnfr", "input")],
+    ("docs/eval.md", "kermit_synth_quick_cpu_s27_Mprime.json", "mask_scores/iou_flare", "{:.3f}"),
+    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json", f"methods/gnfr/inputs/{k}",
+       "{:.2f}") for k in ("psnr_flare", "psnr")],
+    *[("docs/eval.md", "sample_oneshot_cpu_s17_dilate0.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr")],
     *[("docs/eval.md", "fern_llff_quick_cpu_w42250_random_sources.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
@@ -129,7 +137,7 @@ CHECKS = [
     *[("README.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
-    *[("docs/eval.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
+    *[("docs/history/eval.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare_input", "psnr_input")],
@@ -138,24 +146,24 @@ CHECKS = [
     *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
-    *[("docs/eval.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+    *[("docs/history/eval.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
        f"flare/methods/{m}/{part}", "{:.3f}" if part.endswith("ssim") else "{:.2f}")
       for m in ("gnfr", "gnt") for part in ("inputs/psnr_flare", "inputs/psnr",
                                              "heldout/psnr", "heldout/ssim")],
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
-    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
+    *[("docs/history/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/ssim", "{:.3f}") for m in ("gnfr", "input")],
-    ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json", "mask_scores/iou_flare",
-     "{:.3f}"),
-    *[("docs/eval.md", f"{scene}_quick_cpu_gnfr_vs_gnt_s13.json", f"methods/{m}/{part}",
+    ("docs/history/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
+     "mask_scores/iou_flare", "{:.3f}"),
+    *[("docs/history/eval.md", f"{scene}_quick_cpu_gnfr_vs_gnt_s13.json", f"methods/{m}/{part}",
        "{:.3f}" if part.endswith("ssim") else "{:.2f}")
       for scene in ("kermit_synth", "cyprus_truth") for m in ("gnfr", "gnt")
       for part in ("inputs/psnr_flare", "inputs/psnr", "heldout/psnr", "heldout/ssim")],
-    *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+    *[("docs/history/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
        f"methods/gnfr/inputs/{k}", "{:.2f}") for k in ("psnr_flare", "psnr")],
-    ("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
+    ("docs/history/eval.md", "kermit_synth_quick_cpu_fmg_masks_flare_layer.json",
      "methods/gnfr/inputs/ssim", "{:.3f}"),
     *[("README.md", "fern_llff_paper_cuda_h100_ptp5000.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
@@ -172,7 +180,7 @@ CHECKS = [
     ("docs/presets.md", "render_compile_cuda_h100_paper.json", "speedup", "{:.2f}x"),
     *[(page, f"pretrain_zero_shot_{scene}_frc56250.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
-      for page in ("docs/history/gnfr.md", "docs/eval.md") for scene in ("sceaux", "et")
+      for page in ("docs/history/gnfr.md", "docs/history/eval.md") for scene in ("sceaux", "et")
       for i in (0, 1) for m in ("psnr", "ssim")],
     (PERF, "sample_oneshot_cpu_idle_6c828cd.json", "stages/finetune/seconds", "{:.1f}"),
     (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "stages/finetune/seconds", "{:.1f}"),
@@ -190,46 +198,46 @@ CHECKS = [
     *[("README.md", "sample_oneshot_cpu_s26_fmgM.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     (PERF, "sample_oneshot_cpu_s26_fmgM.json", "stages/mask/seconds", "{:.1f}"),
-    *[("docs/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
+    *[("docs/history/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
-    *[("docs/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
+    *[("docs/history/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
       for c in ("cc66234", "f408c72") for m in ("psnr_flare", "psnr")],
-    *[("docs/eval.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
+    *[("docs/history/eval.md", "sample_oneshot_cpu_w42250_flare_layer.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     *[("docs/history/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
-    ("docs/eval.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
-    ("docs/eval.md", FERN3, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN3, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
-    ("docs/eval.md", FERN2, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN3, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN3, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
+    ("docs/history/eval.md", FERN2, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
     ("README.md", FERN2, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
-    ("docs/eval.md", FERN2, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN2, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
-    ("docs/eval.md", FERN18, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN18, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
+    ("docs/history/eval.md", FERN2, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN2, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
+    ("docs/history/eval.md", FERN18, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN18, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
     ("README.md", FERN, "published/0/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
-    ("docs/eval.md", FERN, "flare/methods/gnfr/inputs/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", FERN, "flare/methods/gnt/inputs/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", FERN, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
+    ("docs/history/eval.md", FERN, "flare/methods/gnfr/inputs/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", FERN, "flare/methods/gnt/inputs/psnr_flare", "{:.2f}"),
     ("README.md", FERN, "flare/methods/input/inputs/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", "sample_oneshot_cpu_w32500.json", "mean/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", "sample_oneshot_cpu_w32500.json", "mean/psnr", "{:.2f}"),
-    ("docs/eval.md", SAMPLE, "mean/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", SAMPLE, "mean/psnr", "{:.2f}"),
+    ("docs/history/eval.md", "sample_oneshot_cpu_w32500.json", "mean/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", "sample_oneshot_cpu_w32500.json", "mean/psnr", "{:.2f}"),
+    ("docs/history/eval.md", SAMPLE, "mean/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", SAMPLE, "mean/psnr", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_flare_input", "{:.2f}"),
     ("README.md", SAMPLE, "mean/psnr_input", "{:.2f}"),
     (PERF, SAMPLE, "stages/depth/seconds", "| depth | {:.1f} |"),
     (PERF, SAMPLE, "stages/finetune/seconds", "{:.1f}"),
     (PERF, SAMPLE, "stages/render:interpolate/seconds", "{:.1f}"),
     ("README.md", SAMPLE, "video/frames", "{} frames"),
-    ("docs/eval.md", "fill_ablation_dev_sceaux.json",
+    ("docs/history/eval.md", "fill_ablation_dev_sceaux.json",
      "rows/hybrid_guided_support2/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", "fill_ablation_dev_sceaux.json", "rows/network/psnr_flare", "{:.2f}"),
-    ("docs/eval.md", "fill_ablation_dev_et.json", "rows/hybrid_guided_support2/psnr_flare",
+    ("docs/history/eval.md", "fill_ablation_dev_sceaux.json", "rows/network/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", "fill_ablation_dev_et.json", "rows/hybrid_guided_support2/psnr_flare",
      "{:.2f}"),
-    ("docs/eval.md", "fill_ablation_dev_et.json", "rows/network/psnr_flare", "{:.2f}"),
+    ("docs/history/eval.md", "fill_ablation_dev_et.json", "rows/network/psnr_flare", "{:.2f}"),
     ("docs/depth.md", "fill_ablation_dev_sceaux.json",
      "rows/hybrid_guided_support1/psnr_flare", "{:.2f}"),
     ("docs/depth.md", "fill_ablation_dev_et.json", "rows/hybrid_unguided/psnr_flare",
@@ -518,7 +526,8 @@ def test_every_result_file_is_quoted_or_listed():
                                                      "docs/options.md", "docs/performance.md",
                                                      "gnfr/weights/gnfr.md",
                                                      "docs/history/gnfr.md",
-                                                     "docs/history/fill.md"))
+                                                     "docs/history/fill.md",
+                                                     "docs/history/eval.md"))
     for f in RESULTS.glob("*.json"):
         assert f.name in pages, f"{f.name} is quoted nowhere"
 

@@ -132,11 +132,11 @@ def test_fern_split_and_ground_truth_workspace(tmp_path):
 
 
 def test_docs_fern_rows_match_their_results_file():
-    """docs/eval.md quotes docs/results/fern_llff_quick_cpu.json: the numbers cannot drift."""
+    """docs/history/eval.md quotes docs/results/fern_llff_quick_cpu.json: no drift."""
     from tests.conftest import REPO
 
     res = json.loads((REPO / "docs/results/fern_llff_quick_cpu.json").read_text())
-    doc = (REPO / "docs/eval.md").read_text()
+    doc = (REPO / "docs/history/eval.md").read_text()
     for fill in ("hybrid", "network"):
         h = res["clean"]["methods"][f"gnfr_{fill}"]["heldout"]
         row = f"| GN-FR quick, fill {fill} (this project) | {h['psnr']:.2f} | {h['ssim']:.3f} |"
