@@ -198,6 +198,10 @@ CHECKS = [
     *[("README.md", "sample_oneshot_cpu_s26_fmgM.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
     (PERF, "sample_oneshot_cpu_s26_fmgM.json", "stages/mask/seconds", "{:.1f}"),
+    *[(PERF, "sample_oneshot_cpu_s29_5660997.json", p, "{:.1f} s") for p in
+      ("stages/finetune/seconds", "stages/render:interpolate/seconds")],
+    *[(PERF, "sample_oneshot_cpu_s29_5660997.json", f"mean/{m}", "{:.2f}")
+      for m in ("psnr_flare", "psnr")],
     *[("docs/history/eval.md", "sample_oneshot_cpu_cut075.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     *[("docs/history/eval.md", f"sample_oneshot_cpu_s14_{c}.json", f"mean/{m}", "{:.2f}")
