@@ -357,9 +357,10 @@ def test_finetune_mirror_trains_on_the_scene_and_its_mirror_image(tmp_path, monk
 
 def test_finetune_full_res_colour_trains_on_full_size_colours_and_records_it(tmp_path,
                                                                              monkeypatch):
-    """--full-res-colour: the source bank keeps the views at full size while the encoder
-    sees them at the preset's source scale; the model records it (so render samples colours
-    the same way) and the stage's parameters do; without it the bank is at source scale."""
+    """--full-res-colour (the default): the source bank keeps the views at full size while
+    the encoder sees them at the preset's source scale; the model records it (so render
+    samples colours the same way) and the stage's parameters do; with --no-full-res-colour
+    the bank is at source scale."""
     import gnfr.train
     import pipeline.finetune as ft
     from gnfr.checkpoint import read_metadata
@@ -377,13 +378,13 @@ def test_finetune_full_res_colour_trains_on_full_size_colours_and_records_it(tmp
 
     monkeypatch.setattr(ft, "prepare_sources", spy)
     ws = masked_workspace(tmp_path / "ws")
-    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", full_res_colour=True), ws)
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)  # the default
     (size, fscale, full), = banks
     assert size == full and fscale == 0.5
     assert read_metadata(ws.model_file)[1]["full_res_colour"] is True
     assert ws.stage_record("finetune")["params"]["train"]["full_res_colour"] is True
     banks.clear()
-    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", full_res_colour=False), ws)
     (size, fscale, full), = banks
     assert size == (full[0] // 2, full[1] // 2) and fscale == 1.0
     assert read_metadata(ws.model_file)[1]["full_res_colour"] is False
