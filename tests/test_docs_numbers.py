@@ -134,7 +134,11 @@ CHECKS = [
     *[("docs/presets.md", "finetune_ab_random_sources_dev_et_clean.json", f"{row}/heldout_{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
-    *[("README.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
+    *[(page, f, f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
+      for page in ("README.md", "gnfr/weights/gnfr.md")
+      for f in ("fern_llff_quick_cpu_s29_frc.json", "fern_llff_quick_cpu_s29_base.json")
+      for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[("docs/eval.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("docs/history/eval.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
@@ -143,7 +147,7 @@ CHECKS = [
       for m in ("psnr_flare_input", "psnr_input")],
     *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
        f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}") for m in ("gnfr", "gnt", "input")],
-    *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+    *[("docs/history/eval.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("docs/history/eval.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
@@ -215,11 +219,11 @@ CHECKS = [
     *[("docs/history/fmg.md", "sample_oneshot_cpu_w42250_rays3.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr")],
     ("docs/history/eval.md", FERN3, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
-    ("README.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
+    ("docs/history/eval.md", FERN3, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
     ("docs/history/eval.md", FERN3, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
     ("docs/history/eval.md", FERN3, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
     ("docs/history/eval.md", FERN2, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
-    ("README.md", FERN2, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
+    ("docs/history/eval.md", FERN2, "clean/methods/gnfr_hybrid/heldout/ssim", "{:.3f}"),
     ("docs/history/eval.md", FERN2, "clean/methods/gnfr_network/heldout/psnr", "{:.2f}"),
     ("docs/history/eval.md", FERN2, "clean/methods/gnfr_network/heldout/ssim", "{:.3f}"),
     ("docs/history/eval.md", FERN18, "clean/methods/gnfr_hybrid/heldout/psnr", "{:.2f}"),
