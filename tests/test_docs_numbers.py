@@ -761,3 +761,18 @@ def test_full_res_colour_rule_numbers_agree_with_the_judge():
     old = json.loads((RESULTS / "fmg_s26_Mp_fair_et_s2.json").read_text())
     assert rep["heldout"]["psnr"] == old["heldout"]["psnr"]
     assert rep["inputs"]["psnr_flare"] == old["inputs"]["psnr_flare"]
+
+
+def test_depth_next_quotes_the_network_fill_seed_means():
+    """docs/depth.md "Next": GN-FR alone against the hybrid fill on the full-size-colour
+    models, seed means per development scene, from the committed runs."""
+    page = " ".join((REPO / "docs" / "depth.md").read_text().split())
+
+    def mean(prefix, scene, key):
+        return sum(json.loads((RESULTS / f"{prefix}_{scene}_s{s}.json").read_text())
+                   ["heldout"][key] for s in (2, 3, 4)) / 3
+
+    for scene in ("sceaux", "et", "lund"):
+        net, hyb = ("{:.2f} / {:.3f}".format(mean(p, scene, "psnr"), mean(p, scene, "ssim"))
+                    for p in ("novel_fill_network_s29_frc", "fmg_s29_frc_fair"))
+        assert f"{net} against {hyb}" in page, (scene, net, hyb)
