@@ -776,3 +776,14 @@ def test_depth_next_quotes_the_network_fill_seed_means():
         net, hyb = ("{:.2f} / {:.3f}".format(mean(p, scene, "psnr"), mean(p, scene, "ssim"))
                     for p in ("novel_fill_network_s29_frc", "fmg_s29_frc_fair"))
         assert f"{net} against {hyb}" in page, (scene, net, hyb)
+
+
+def test_full_res_colour_speed_numbers():
+    """docs/presets.md's speed of the two colour sizes at the decode default."""
+    r = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062.json").read_text())
+    page = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    assert (f"{r['full']['it_s']:.2f} steps/s with full-size colours against "
+            f"{r['quarter']['it_s']:.2f} with quarter-size ones, {100 * r['slower']:.0f} % "
+            "slower") in page
+    w, h = r["full"]["image_size"]
+    assert f"{w}x{h}" in page

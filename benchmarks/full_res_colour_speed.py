@@ -1,0 +1,73 @@
+"""Fine-tuning speed with full-size and with quarter-size source colours, from two copies of one
+workspace fine-tuned side by side (the same load):
+
+    cp -r WS WS_q
+    OMP_NUM_THREADS=1 deflare-scene finetune WS --iters 300 --preset quick &
+    OMP_NUM_THREADS=1 deflare-scene finetune WS_q --iters 300 --preset quick --no-full-res-colour
+    python benchmarks/full_res_colour_speed.py WS WS_q --out JSON
+
+Reads each workspace's last training metrics line (steps/s) and the finetune stage's seconds,
+and the size of the workspace's images (docs/presets.md, "Full-size colours in the
+fine-tune").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def arm(ws: Path) -> dict:
+    """Steps/s, steps, stage seconds, the full_res_colour setting and the image size of one
+    fine-tuned workspace."""
+    import cv2
+
+    from pipeline.errors import UserError
+    from pipeline.workspace import Workspace
+
+    w = Workspace(ws)
+    if not w.metrics_jsonl.is_file():
+        raise UserError(f"{ws}: no fine-tune metrics ({w.metrics_jsonl}); run "
+                        "`deflare-scene finetune WS` first")
+    last = json.loads(w.metrics_jsonl.read_text().splitlines()[-1])
+    rec = w.stage_record("finetune")
+    img = cv2.imread(str(next(iter(sorted(w.images.glob("*.png"))))))
+    return {"workspace": str(ws), "it_s": last["it_s"], "steps": last["step"],
+            "stage_seconds": json.loads((ws / "manifest.json").read_text())["stages"]
+            ["finetune"]["seconds"],
+            "full_res_colour": rec["params"]["train"]["full_res_colour"],
+            "image_size": [int(img.shape[1]), int(img.shape[0])]}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("full", type=Path, help="workspace fine-tuned with full-size colours")
+    ap.add_argument("quarter", type=Path, help="its copy fine-tuned with --no-full-res-colour")
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    from pipeline.errors import UserError
+
+    try:
+        res = {"full": arm(a.full), "quarter": arm(a.quarter)}
+        if not res["full"]["full_res_colour"] or res["quarter"]["full_res_colour"]:
+            raise UserError("the first workspace must be fine-tuned with full-size colours, "
+                            "the second with --no-full-res-colour")
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    res["slower"] = 1 - res["full"]["it_s"] / res["quarter"]["it_s"]
+    print(f"full {res['full']['it_s']:.2f} steps/s, quarter {res['quarter']['it_s']:.2f}: "
+          f"{100 * res['slower']:.0f} % slower at {res['full']['image_size']}")
+    if a.out:
+        from pipeline.provenance import write_result
+        write_result(a.out, res)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
