@@ -26,6 +26,11 @@ novel-view gain >= +0.10 dB, (b) no scene's novel views lower by more than 0.20 
 de-flared photos' flare region and whole photo (means) not lower by more than 0.05 dB and
 SSIM by more than 0.002 (docs/presets.md, "Full-size colours in the fine-tune").
 About 10 minutes per run on one CPU thread.
+
+Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f0517 those sample
+full-size colours, so the committed shipped-default arm to compare a new arm with is
+``s29_frc`` (seeds 2, 3, 4 on sceaux, et, lund); the ``s26_Mp`` files are the quarter-colour
+defaults before it (pass ``--finetune-args=--no-full-res-colour`` to compare with them).
 """
 
 from __future__ import annotations
