@@ -1,5 +1,6 @@
-"""Fine-tuning speed with full-size and with quarter-size source colours, from two copies of one
-workspace fine-tuned side by side (the same load):
+"""Fine-tuning speed with full-size against quarter-size source colours, one workspace twice.
+
+Two copies of one workspace fine-tuned side by side (the same load):
 
     cp -r WS WS_q
     OMP_NUM_THREADS=1 deflare-scene finetune WS --iters 300 --preset quick &
