@@ -787,3 +787,15 @@ def test_full_res_colour_speed_numbers():
             "slower") in page
     w, h = r["full"]["image_size"]
     assert f"{w}x{h}" in page
+
+
+def test_readme_fern_gain_of_full_size_colours():
+    """README: fern's gain from full-size colours per fill, from the two committed runs."""
+    def psnr(f, fill):
+        return json.loads((RESULTS / f).read_text())["clean"]["methods"][f"gnfr_{fill}"][
+            "heldout"]["psnr"]
+    readme = " ".join((REPO / "README.md").read_text().split())
+    gains = [psnr("fern_llff_quick_cpu_s29_frc.json", f)
+             - psnr("fern_llff_quick_cpu_s29_base.json", f) for f in ("hybrid", "network")]
+    assert (f"+{gains[0]:.2f} dB with the default hybrid fill and +{gains[1]:.2f} dB with "
+            "GN-FR alone") in readme
