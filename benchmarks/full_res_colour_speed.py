@@ -26,9 +26,8 @@ sys.path.insert(0, str(ROOT))
 def arm(ws: Path) -> dict:
     """Steps/s, steps, stage seconds, the full_res_colour setting and the image size of one
     fine-tuned workspace."""
-    import cv2
-
     from pipeline.errors import UserError
+    from pipeline.images import image_size
     from pipeline.workspace import Workspace
 
     w = Workspace(ws)
@@ -36,13 +35,15 @@ def arm(ws: Path) -> dict:
         raise UserError(f"{ws}: no fine-tune metrics ({w.metrics_jsonl}); run "
                         "`deflare-scene finetune WS` first")
     last = json.loads(w.metrics_jsonl.read_text().splitlines()[-1])
-    rec = w.stage_record("finetune")
-    img = cv2.imread(str(next(iter(sorted(w.images.glob("*.png"))))))
+    rec = w.stage_record("finetune")  # one read of the manifest
+    if rec.get("status") != "complete":
+        raise UserError(f"{ws}: its fine-tune has not finished; wait for it (or rerun "
+                        "`deflare-scene finetune WS`)")
+    h, wd = image_size(min(w.images.glob("*.png")))
     return {"workspace": str(ws), "it_s": last["it_s"], "steps": last["step"],
-            "stage_seconds": json.loads((ws / "manifest.json").read_text())["stages"]
-            ["finetune"]["seconds"],
+            "stage_seconds": rec["seconds"],
             "full_res_colour": rec["params"]["train"]["full_res_colour"],
-            "image_size": [int(img.shape[1]), int(img.shape[0])]}
+            "image_size": [int(wd), int(h)]}
 
 
 def main(argv: list[str] | None = None) -> int:

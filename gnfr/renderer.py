@@ -62,29 +62,39 @@ class SourceViews:
     @classmethod
     def encode(cls, model: GNFR, images: torch.Tensor, K: torch.Tensor, c2w: torch.Tensor,
                masks: torch.Tensor | None, device, chunk: int = 4,
-               grad: bool = False, feature_scale: float = 1.0) -> SourceViews:
+               grad: bool = False, feature_scale: float = 1.0,
+               enc_images: torch.Tensor | None = None) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
         ``feature_scale`` < 1 runs the encoder on the images downscaled by it (area filter)
         while colours and masks are still sampled from ``images`` at their full size: the
-        feature maps cover the same field of view, so one projection serves both."""
+        feature maps cover the same field of view, so one projection serves both.
+        ``enc_images``: the encoder's input already made (:func:`encoder_input` of
+        ``images``), for a caller that encodes the same views at every step."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         feats = []
         ctx = contextlib.nullcontext() if grad else torch.no_grad()
         with ctx, autocast(device, enabled=not grad):
             for i in range(0, images.shape[0], chunk):
-                x = images[i:i + chunk]
-                if feature_scale != 1.0:
-                    H, W = x.shape[-2:]
-                    x = F.interpolate(x, size=(max(8, round(H * feature_scale)),
-                                               max(8, round(W * feature_scale))), mode="area")
+                x = (encoder_input(images[i:i + chunk], feature_scale) if enc_images is None
+                     else enc_images[i:i + chunk].to(device, torch.float32))
                 feats.append(model.encode(x).float())
         return cls(images=images, feats=torch.cat(feats), K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
                    masks=None if masks is None else masks.to(device, torch.float32))
 
+
+
+def encoder_input(images: torch.Tensor, feature_scale: float) -> torch.Tensor:
+    """[V, 3, H, W] images as the encoder sees them: area-filtered down by ``feature_scale``
+    (at least 8 pixels a side), unchanged at 1."""
+    if feature_scale == 1.0:
+        return images
+    H, W = images.shape[-2:]
+    return F.interpolate(images, size=(max(8, round(H * feature_scale)),
+                                       max(8, round(W * feature_scale))), mode="area")
 
 def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
            w2c: torch.Tensor | None = None):

@@ -18,7 +18,7 @@ import torch.nn.functional as F
 from gnfr.geometry import pixel_rays, sample_depths
 from gnfr.losses import masked_mse, mse_to_psnr
 from gnfr.model import GNFR, GNFRConfig
-from gnfr.renderer import SourceViews, forward_rays
+from gnfr.renderer import SourceViews, encoder_input, forward_rays
 from gnfr.view_sampler import MAX_FLARE, target_stems, train_sources
 
 
@@ -201,6 +201,9 @@ class SourceBank:
     """[N, 4, 4] float camera-to-world."""
     feature_scale: float = 1.0
     """The encoder sees ``images`` downscaled by this (``SourceViews.encode``)."""
+    enc_images: torch.Tensor | None = None
+    """[N, 3, h', w'] the encoder's input when ``feature_scale`` < 1, filtered once here
+    (``encoder_input``) rather than from the full-size views at every step."""
 
     @classmethod
     def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False
@@ -209,21 +212,27 @@ class SourceBank:
         ``device``; with ``full_res_colour`` the images stay at full resolution and only
         the encoder sees them at ``scale``."""
         imgs, K, masks = downscale(scene, 1.0 if full_res_colour else scale)
-        return cls(images=imgs.to(device), K=K.to(device),
+        imgs = imgs.to(device)
+        feature_scale = scale if full_res_colour else 1.0
+        return cls(images=imgs, K=K.to(device),
                    masks=None if masks is None else masks.to(device),
-                   c2w=scene.c2w.float().to(device),
-                   feature_scale=scale if full_res_colour else 1.0)
+                   c2w=scene.c2w.float().to(device), feature_scale=feature_scale,
+                   enc_images=(None if feature_scale == 1.0
+                               else encoder_input(imgs.float(), feature_scale)))
 
     def encode(self, model: GNFR, device, ids: torch.Tensor | None = None,
                grad: bool = False) -> SourceViews:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
         ``grad`` keeps the encoder's graph)."""
+        enc = self.enc_images
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
-                                      grad=grad, feature_scale=self.feature_scale)
+                                      grad=grad, feature_scale=self.feature_scale,
+                                      enc_images=enc)
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
-                                  grad=grad, feature_scale=self.feature_scale)
+                                  grad=grad, feature_scale=self.feature_scale,
+                                  enc_images=None if enc is None else enc[ids])
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,

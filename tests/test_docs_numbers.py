@@ -785,6 +785,9 @@ def test_full_res_colour_speed_numbers():
     assert (f"{r['full']['it_s']:.2f} steps/s with full-size colours against "
             f"{r['quarter']['it_s']:.2f} with quarter-size ones, {100 * r['slower']:.0f} % "
             "slower") in page
+    c = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_cached.json").read_text())
+    assert (f"{c['full']['it_s']:.2f} against {c['quarter']['it_s']:.2f} steps/s, "
+            f"{100 * c['slower']:.0f} % slower") in page
     w, h = r["full"]["image_size"]
     assert f"{w}x{h}" in page
 

@@ -188,3 +188,23 @@ def test_full_res_colour_bank_keeps_full_images_and_encodes_at_source_scale(scen
     a, b = full.encode(model, "cpu"), small.encode(model, "cpu")
     assert torch.allclose(a.feats, b.feats, atol=1e-5)  # the encoder saw the same images
     assert a.images.shape[-2:] == scene.images.shape[-2:]
+
+
+def test_full_res_colour_bank_filters_the_encoder_input_once(scene):
+    """The bank keeps the encoder's area-filtered copies (made once), and encoding through
+    them gives the features the per-step filtering of the full-size views gives."""
+    from gnfr.renderer import SourceViews
+
+    full = SourceBank.of(scene, 0.5, "cpu", full_res_colour=True)
+    assert full.enc_images is not None
+    assert full.enc_images.shape[-1] == round(scene.images.shape[-1] * 0.5)
+    assert SourceBank.of(scene, 0.5, "cpu").enc_images is None
+    torch.manual_seed(0)
+    model = GNFR(CFG.model).eval()
+    ids = torch.tensor([2, 0])
+    cached = full.encode(model, "cpu", ids)
+    fresh = SourceViews.encode(model, full.images[ids], full.K[ids], full.c2w[ids],
+                               None if full.masks is None else full.masks[ids], "cpu",
+                               feature_scale=0.5)
+    assert torch.equal(cached.feats, fresh.feats)
+    assert torch.equal(cached.images, fresh.images)
