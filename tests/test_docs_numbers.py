@@ -802,3 +802,28 @@ def test_readme_fern_gain_of_full_size_colours():
              - psnr("fern_llff_quick_cpu_s29_base.json", f) for f in ("hybrid", "network")]
     assert (f"+{gains[0]:.2f} dB with the default hybrid fill and +{gains[1]:.2f} dB with "
             "GN-FR alone") in readme
+
+
+def test_fmg_candidate_p_verdict_follows_its_files():
+    """The thirtieth session's candidate P (docs/history/fmg.md): parts (2) and (1) pass,
+    (3) fails on every development scene, as the history says, and its numbers are the
+    files'."""
+    hist = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    clean = json.loads((RESULTS / "fmg_dev_clean_P_rays.json").read_text())
+    mean = clean["scenes"]["scenes/lund/images"]["mean"]
+    assert f"{100 * mean:.2f} %" in hist and mean <= 0.0060  # (2): at most M's 0.55 % + 0.05
+    kinds = ("starburst", "ghosts", "streaks", "glare", "scatter")
+
+    def per_kind(name):
+        d = json.loads((RESULTS / name).read_text())
+        return [d["kinds"][k]["weights"]["IoU_flare"] for k in kinds]
+
+    p, m = per_kind("fmg_dev_per_kind_P_rays.json"), per_kind("fmg_dev_per_kind_M_rays.json")
+    assert " / ".join(f"{x:.3f}" for x in p) in hist
+    assert sum(p) / 5 > sum(m) / 5 and min(a - b for a, b in zip(p, m, strict=True)) >= -0.02
+    rows = json.loads((RESULTS / "mask_dev_scenes_P.json").read_text())["rows"]
+    iou = {(r["weights"].split("/")[-1], r["scene"]): r["flare_iou"] for r in rows if r["rays"]}
+    for scene in ("sceaux_synth", "et_synth", "lund_synth"):
+        cand, ship = iou[("P.safetensors", scene)], iou[("fmg.safetensors", scene)]
+        assert f"**{cand:.3f}** against {ship:.3f}" in hist
+        assert cand < ship - 0.01  # (3) fails on every scene
