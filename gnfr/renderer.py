@@ -50,6 +50,9 @@ class SourceViews:
     """[V, 4, 4] camera-to-world (OpenCV)."""
     masks: torch.Tensor | None
     """[V, 1, H, W] float, 1 = flare; None when no masks are known (Point Sampler off)."""
+    rows: torch.Tensor | None = None
+    """[V] long: the row of ``images`` and ``masks`` that holds each view, when they are a
+    larger bank shared without copying (``SourceBank.encode``); None: view v is row v."""
 
     @property
     def w2c(self) -> torch.Tensor:  # [V, 4, 4]
@@ -63,7 +66,8 @@ class SourceViews:
     def encode(cls, model: GNFR, images: torch.Tensor, K: torch.Tensor, c2w: torch.Tensor,
                masks: torch.Tensor | None, device, chunk: int = 4,
                grad: bool = False, feature_scale: float = 1.0,
-               enc_images: torch.Tensor | None = None) -> SourceViews:
+               enc_images: torch.Tensor | None = None,
+               rows: torch.Tensor | None = None) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
@@ -71,19 +75,25 @@ class SourceViews:
         while colours and masks are still sampled from ``images`` at their full size: the
         feature maps cover the same field of view, so one projection serves both.
         ``enc_images``: the encoder's input already made (:func:`encoder_input` of
-        ``images``), for a caller that encodes the same views at every step."""
+        ``images``), for a caller that encodes the same views at every step. ``rows``: the
+        views are these rows of ``images`` and ``masks`` (a bank kept whole, not copied;
+        ``enc_images``, ``K`` and ``c2w`` are then the views' own)."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
+        if rows is not None and enc_images is None:
+            raise ValueError("SourceViews.encode: rows need the views' enc_images")
+        n = images.shape[0] if rows is None else len(rows)
         feats = []
         ctx = contextlib.nullcontext() if grad else torch.no_grad()
         with ctx, autocast(device, enabled=not grad):
-            for i in range(0, images.shape[0], chunk):
+            for i in range(0, n, chunk):
                 x = (encoder_input(images[i:i + chunk], feature_scale) if enc_images is None
                      else enc_images[i:i + chunk].to(device, torch.float32))
                 feats.append(model.encode(x).float())
         return cls(images=images, feats=torch.cat(feats), K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
-                   masks=None if masks is None else masks.to(device, torch.float32))
+                   masks=None if masks is None else masks.to(device, torch.float32),
+                   rows=None if rows is None else rows.to(device))
 
 
 
@@ -108,7 +118,8 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
     w2c = src.w2c if w2c is None else w2c
     xy, depth = project(points.reshape(-1, 3), src.K[src_ids], w2c[src_ids])  # [Vs, P, 2]
     size = src.size
-    rgb = sample_bilinear(src.images[src_ids], xy, size)
+    rows = src_ids if src.rows is None else src.rows[src_ids]
+    rgb = sample_rows(src.images, rows, xy, size)
     feat = sample_bilinear(src.feats[src_ids], xy, size)
 
     def to_rsv(x: torch.Tensor) -> torch.Tensor:  # [Vs, P, ...] -> [R, S, Vs, ...]
@@ -119,8 +130,19 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
     valid = to_rsv(inside_image(xy, depth, size))
     flared = None
     if src.masks is not None:
-        flared = to_rsv(sample_bilinear(src.masks[src_ids], xy, size)[..., 0] > 0.5)
+        flared = to_rsv(sample_rows(src.masks, rows, xy, size)[..., 0] > 0.5)
     return rgb_feat, valid, flared
+
+
+def sample_rows(maps: torch.Tensor, rows: torch.Tensor, xy: torch.Tensor,
+                size_hw: tuple[int, int]) -> torch.Tensor:
+    """``sample_bilinear(maps[rows], xy, size_hw)`` without stacking the chosen maps: on the
+    CPU each view is sampled from its own row (a full-size image bank is not copied at every
+    step; the values are the same), elsewhere the chosen rows are stacked."""
+    if maps.device.type != "cpu":
+        return sample_bilinear(maps[rows], xy, size_hw)
+    return torch.cat([sample_bilinear(maps[r:r + 1], xy[j:j + 1], size_hw)
+                      for j, r in enumerate(rows.tolist())])
 
 
 def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,

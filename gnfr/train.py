@@ -225,6 +225,11 @@ class SourceBank:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
         ``grad`` keeps the encoder's graph)."""
         enc = self.enc_images
+        if ids is not None and enc is not None:  # full-size colours: the bank is not copied
+            return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
+                                      self.masks, device, grad=grad,
+                                      feature_scale=self.feature_scale, enc_images=enc[ids],
+                                      rows=ids)
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,

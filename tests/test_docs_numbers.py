@@ -790,6 +790,15 @@ def test_full_res_colour_speed_numbers():
             f"{100 * c['slower']:.0f} % slower") in page
     w, h = r["full"]["image_size"]
     assert f"{w}x{h}" in page
+    sh = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_shared.json").read_text())
+    assert (f"{sh['full']['it_s']:.2f} against {sh['quarter']['it_s']:.2f} steps/s, "
+            f"{100 * sh['slower']:.0f} % slower") in page
+    o = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_shared_vs_cached.json"
+                    ).read_text())
+    assert f"{100 * o['faster']:.0f} % faster" in page
+    assert f"({o['full']['it_s']:.2f} against {o['full_other_code']['it_s']:.2f} steps/s" in page
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    assert f"CPU fine-tune {100 * sh['slower']:.0f} % slower" in options
 
 
 def test_readme_fern_gain_of_full_size_colours():

@@ -207,4 +207,32 @@ def test_full_res_colour_bank_filters_the_encoder_input_once(scene):
                                None if full.masks is None else full.masks[ids], "cpu",
                                feature_scale=0.5)
     assert torch.equal(cached.feats, fresh.feats)
-    assert torch.equal(cached.images, fresh.images)
+    # the bank is shared, not copied: the views are its rows
+    assert cached.images.data_ptr() == full.images.data_ptr()
+    assert torch.equal(cached.images[cached.rows], fresh.images)
+
+
+def test_gather_from_a_shared_bank_equals_gather_from_stacked_views(scene):
+    """Sampling the chosen views as rows of the whole bank (no per-step copy) gives exactly
+    the colours, features, validity and flare of sampling them stacked."""
+    from dataclasses import replace
+
+    from gnfr.renderer import SourceViews, gather
+
+    full = SourceBank.of(scene, 0.5, "cpu", full_res_colour=True)
+    full = replace(full, masks=(torch.rand(full.images.shape[0], 1, *full.images.shape[-2:],
+                                           generator=torch.Generator().manual_seed(3))
+                                > 0.7).float())
+    torch.manual_seed(0)
+    model = GNFR(CFG.model).eval()
+    ids = torch.tensor([2, 0, 1])
+    shared = full.encode(model, "cpu", ids)
+    stacked = SourceViews.encode(model, full.images[ids], full.K[ids], full.c2w[ids],
+                                 full.masks[ids], "cpu", feature_scale=0.5)
+    c = full.c2w[1, :3, 3]
+    points = c + torch.randn(64, 8, 3, generator=torch.Generator().manual_seed(4))
+    src_ids = torch.tensor([1, 2, 0])
+    a, b = gather(shared, src_ids, points), gather(stacked, src_ids, points)
+    for x, y in zip(a, b, strict=True):
+        assert torch.equal(x, y)
+    assert bool(a[1].any()) and bool(a[2].any())  # points fall inside views and on flare
