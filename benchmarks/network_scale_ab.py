@@ -1,9 +1,9 @@
-"""Judge a larger GN-FR share of hybrid novel frames (`render --network-scale`) on held-out views.
+"""Judge render options for hybrid novel frames (e.g. `--network-scale`) on held-out views.
 
-The rule is docs/history/fill.md, "GN-FR's share of novel frames at a larger scale". For
-each fine-tuned workspace WS of a development scene SYNTH, each scale X is rendered and
-scored (one thread per render, two queues side by side), its seconds appended to a times
-file as ``SCENE SEED X SECONDS``:
+The rules are docs/history/fill.md, "GN-FR's share of novel frames at a larger scale" and
+"The photos' share of novel frames". For each fine-tuned workspace WS of a development scene
+SYNTH, each arm (here a scale X) is rendered and scored (one thread per render, two queues
+side by side), its seconds appended to a times file as ``SCENE SEED ARM SECONDS``:
 
     cp SYNTH/eval.ws/eval/heldout_cameras.json P/heldout_nsX.json
     OMP_NUM_THREADS=1 deflare-scene render WS --path P/heldout_nsX.json --scale 0.5 \\
@@ -12,7 +12,8 @@ file as ``SCENE SEED X SECONDS``:
         --out DIR/novel_nsX_SCENE_sSEED.json
 
 then ``python benchmarks/network_scale_ab.py DIR --times TIMES --out JSON`` (X written
-without its point in file names: 025, 050, 100).
+without its point in file names: 025, 050, 100; other arms: ``--prefix P --base B --arms
+A1,A2`` read ``DIR/P{arm}_SCENE_sSEED.json``).
 """
 
 from __future__ import annotations
@@ -40,16 +41,16 @@ def read_times(path: Path) -> dict[tuple[str, int, str], float]:
 
 
 def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
-          scales: list[str]) -> dict:
-    """Seed means per scene and scale, each candidate's differences from 0.25, the rule's
-    parts and the decision (the passing scale of larger mean PSNR gain, or none)."""
+          scales: list[str], prefix: str = "novel_ns", base: str = BASE) -> dict:
+    """Seed means per scene and arm, each candidate's differences from ``base``, the rule's
+    parts and the decision (the passing arm of larger mean PSNR gain, or none)."""
     from pipeline.errors import UserError
 
     means: dict[str, dict] = {}
-    for x in [BASE, *scales]:
+    for x in [base, *scales]:
         means[x] = {}
         for sc in scenes:
-            files = [work / f"novel_ns{x}_{sc}_s{s}.json" for s in seeds]
+            files = [work / f"{prefix}{x}_{sc}_s{s}.json" for s in seeds]
             missing = [str(f) for f in files if not f.is_file()]
             if missing:
                 raise UserError(f"{missing[0]}: no such score; render and score it first")
@@ -61,10 +62,10 @@ def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
             raise UserError(f"the times file has no line for {e.args[0]}") from None
     verdicts = {}
     for x in scales:
-        diff = {sc: {k: means[x][sc][k] - means[BASE][sc][k] for k in ("psnr", "ssim")}
+        diff = {sc: {k: means[x][sc][k] - means[base][sc][k] for k in ("psnr", "ssim")}
                 for sc in scenes}
         mean = {k: sum(d[k] for d in diff.values()) / len(diff) for k in ("psnr", "ssim")}
-        factor = means[x]["seconds"] / means[BASE]["seconds"]
+        factor = means[x]["seconds"] / means[base]["seconds"]
         parts = {"a": mean["psnr"] >= RULE["psnr_gain"],
                  "b": all(d["psnr"] >= -RULE["scene_loss"] for d in diff.values()),
                  "c": mean["ssim"] >= -RULE["ssim_loss"],
@@ -87,7 +88,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="a times file of the renders (repeat for each queue's)")
     ap.add_argument("--scenes", default="sceaux,et,lund")
     ap.add_argument("--seeds", default="2,3,4")
-    ap.add_argument("--scales", default="050,100")
+    ap.add_argument("--arms", "--scales", dest="arms", default="050,100",
+                    help="the candidates' labels in file names")
+    ap.add_argument("--base", default=BASE, help="the baseline arm's label")
+    ap.add_argument("--prefix", default="novel_ns", help="file names: PREFIX{arm}_SCENE_sSEED.json")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     try:
@@ -97,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"{t}: no such times file")
             times.update(read_times(t))
         res = judge(a.work, times, a.scenes.split(","), [int(s) for s in a.seeds.split(",")],
-                    a.scales.split(","))
+                    a.arms.split(","), a.prefix, a.base)
     except (UserError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
