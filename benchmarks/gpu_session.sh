@@ -37,6 +37,12 @@
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
 #           scratch and from the file (resumes: run it again if a call ends first)
 #   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps)
+#   loko    the full-width leave-one-kind-out table (issue 10 item 2): six FMG runs from
+#           scratch on the GPU at once (without each kind, and with all), ITERS steps each or
+#           until END - 200 s (then their last checkpoints), each calibrated, scored by `fmg
+#           eval --per-kind --loo` on the dev and test splits there; carry .carry/fmgdata.
+#           The thirtieth session's P (M + 10 000 steps at 2e-4) fell on the development
+#           scenes: more steps of one recipe are no longer the plan (gnfr/weights/fmg.md).
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
 # trainings going beside them (started if their data is there) and
 # export both at END, like train. Name every folder a call reads in that call's carry: in
@@ -63,7 +69,7 @@ if ls .carry/whl/*.whl > /dev/null 2>&1; then
   python3 -m pip install -q --no-index --no-deps --target /tmp/site .carry/whl/*.whl \
     && export PYTHONPATH=$PWD:/tmp/site
 fi
-PT=${PT:-/root/ptp}; FM=${FM:-/root/fmg}; DEV=${DEV:-cuda}   # PT, FM, DEV=cpu: a dry run here
+PT=${PT:-/root/ptp}; FM=${FM:-/root/fmg}; LK=${LK:-/root}; DEV=${DEV:-cuda}   # PT, FM, LK, DEV=cpu: a dry run here
 cli() { python3 -m workflows.cli "$@"; }
 left() { echo $(( END - ($(date +%s) - T0) )); }
 running() { pgrep -f "$1" > /dev/null; }
@@ -159,5 +165,31 @@ fern)
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
   until_end_then_export
   exit 0 ;;
-*) echo "unknown phase $PHASE (short, check, train, devab, fern)"; exit 2 ;;
+loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one without each
+        # kind and one with every kind (the fair column beside them: same steps, same recipe)
+  KINDS="starburst ghosts streaks glare scatter"
+  for k in all $KINDS; do
+    w=(); [ $k = all ] || w=(--without $k)
+    setsid nohup python3 -m workflows.cli fmg train --out $LK/loko_$k --data .carry/fmgdata \
+      --device $DEV --iters $ITERS --batch ${LOKO_BATCH:-16} --size 256 --widths 64,128,256,512 \
+      --depths 2,2,2,2 --skip-width 32 --ckpt-every 250 --eval-every 1000000 --night-prob 0.35 \
+      --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${w[@]}" \
+      --workers ${LOKO_WORKERS:-2} > $LK/loko_$k.log 2>&1 < /dev/null &
+  done
+  while pgrep -f "fmg train --out $LK/loko_" > /dev/null && [ "$(left)" -gt 200 ]; do sleep 10; done
+  pkill -f "fmg train --out $LK/loko_"; sleep 5
+  for k in all $KINDS; do   # a run cut short by the clock: its last checkpoint, kind recorded
+    tail -1 $LK/loko_$k.log
+    [ -f $LK/loko_$k/fmg.safetensors ] || python3 -c "from pathlib import Path; \
+from workflows.research.fmg_train import export_checkpoint; export_checkpoint(Path('$LK/loko_$k'), \
+Path('$LK/loko_$k/fmg.safetensors'), extra={'without': '${k/all/}', 'export': 'cut short'})"
+    cli fmg calibrate --weights $LK/loko_$k/fmg.safetensors --write > /dev/null 2>&1
+  done
+  loo=(); for k in $KINDS; do loo+=(--loo $LK/loko_$k/fmg.safetensors); done
+  for split in dev test; do
+    cli fmg eval --weights $LK/loko_all/fmg.safetensors --per-kind --split $split \
+      --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_$split.json 2>&1 | tail -8
+  done
+  exit 0 ;;
+*) echo "unknown phase $PHASE (short, check, train, devab, fern, loko)"; exit 2 ;;
 esac
