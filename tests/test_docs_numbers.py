@@ -838,21 +838,27 @@ def test_fmg_candidate_p_verdict_follows_its_files():
         assert cand < ship - 0.01  # (3) fails on every scene
 
 
-def test_network_scale_rule_numbers_agree_with_the_judge():
-    """docs/history/fill.md's table is network_scale_ab's judgement of the committed renders,
-    and judging them again gives the same verdicts."""
+@pytest.mark.parametrize("times, judged, prefix, base, arms", [
+    ("novel_ns_times_cpu_s30.txt", "network_scale_judge_s30.json", "novel_ns", "025",
+     (("050", "0.5"), ("100", "1"))),
+    ("novel_s30p_times_cpu.txt", "photo_share_judge_s30.json", "novel_s30p_", "base",
+     (("ms3", "ms3"), ("ms3ns050", "ms3ns050")))], ids=["network_scale", "photo_share"])
+def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, base, arms):
+    """docs/history/fill.md's tables are network_scale_ab's judgements of the committed
+    renders, and judging them again gives the same verdicts."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
         "network_scale_ab", REPO / "benchmarks" / "network_scale_ab.py")
     ab = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ab)
-    times = ab.read_times(RESULTS / "novel_ns_times_cpu_s30.txt")
-    res = ab.judge(RESULTS, times, ["sceaux", "et", "lund"], [2, 3, 4], ["050", "100"])
-    saved = json.loads((RESULTS / "network_scale_judge_s30.json").read_text())
+    t = ab.read_times(RESULTS / times)
+    res = ab.judge(RESULTS, t, ["sceaux", "et", "lund"], [2, 3, 4], [x for x, _ in arms],
+                   prefix, base)
+    saved = json.loads((RESULTS / judged).read_text())
     assert res["decision"] == saved["decision"] == "nothing changes"
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
-    for x, label in (("050", "0.5"), ("100", "1")):
+    for x, label in arms:
         v = res["candidates"][x]
         assert v["decision"] == saved["candidates"][x]["decision"]
         cells = [f"{v['per_scene'][s]['psnr']:+.3f} / {v['per_scene'][s]['ssim']:+.3f}"
