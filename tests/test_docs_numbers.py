@@ -867,3 +867,16 @@ def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, 
                + f" | {v['mean']['psnr']:+.3f} / {v['mean']['ssim']:+.3f}"
                + f" | x{v['time_factor']:.2f} | {v['decision']} |")
         assert row in hist, row
+
+
+def test_fill_regions_numbers_in_the_depth_samples_rule():
+    """docs/history/fill.md's per-pixel look (photo shares, lund's GN-FR pixels) is
+    fill_regions.py's file."""
+    d = json.loads((RESULTS / "fill_regions_s29_frc.json").read_text())["scenes"]
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    shares = [round(100 * d[f"{s}_synth"]["photo_share"]) for s in ("sceaux", "et", "lund")]
+    assert f"({shares[0]} %, {shares[1]} % and {shares[2]} % of" in hist
+    lund = d["lund_synth"]
+    net, hyb = lund["heldout_net"]["network"], lund["heldout_cameras"]["network"]
+    assert f"{net - hyb:.2f} dB better" in hist and f"({net:.2f} against {hyb:.2f} dB)" in hist
+    assert f"({lund['heldout_ns100']['network']:.2f} dB)" in hist
