@@ -64,6 +64,7 @@ from pipeline.render.inputs import (
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.render.novel import prepare_hybrid_novel, prepare_novel
 from pipeline.render.plan import (
+    depth_samples,
     network_scale,
     novel_depth_range,
     novel_path,
@@ -88,7 +89,8 @@ __all__ = [
     "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
     "clear_frames", "decoded_camera", "default_chunk", "enclosed_holes", "encode_sources",
     "fill_from_photos", "find_checkpoint", "flare_mask_in", "input_blend", "input_rays",
-    "input_sources", "load_model", "match_colours", "network_scale", "novel_depth_range",
+    "depth_samples", "input_sources", "load_model", "match_colours", "network_scale",
+    "novel_depth_range",
     "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
     "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
     "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
@@ -128,8 +130,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "full_res_colour": bool(meta.get("full_res_colour", False)
                                       if cfg.full_res_colour is None else cfg.full_res_colour),
               "scale": novel_scale(cfg, device), "network_scale": network_scale(cfg, device),
-              "depth_samples": (int(cfg.depth_samples) if cfg.depth_samples is not None
-                                else max(4, samples // 3)) if cfg.fill == "hybrid" else 0,
+              "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
               "point_sampler": bool(meta.get("point_sampler", True))}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += [ws.depth] if use_photos else []

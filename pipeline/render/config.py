@@ -156,7 +156,8 @@ class RenderConfig:
     depth_samples: int | None = option(None, ge=0)
     """hybrid: rays whose surface depth the photos confirm (``depth_support``) are sampled
     with this many samples in a band around it instead of the full near-far range
-    (default: a third of ``samples``; 0 = off)."""
+    (default: 0 = off for novel frames on the CPU, a third of ``samples`` for the de-flared
+    photos and on CUDA; ``plan.depth_samples``)."""
     depth_support: int = option(2, ge=1)
     """hybrid: photos that must agree on a pixel before its ray is sampled around their
     depth (docs/depth.md: 2 was the best worst case on the development scenes)."""

@@ -718,3 +718,18 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:interpolate")["params"]["sources_equal_below"] == \
         NOVEL_SOURCES_EQUAL_BELOW
     assert hws.stage_record("render:inputs")["params"]["sources_equal_below"] is None
+
+
+def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
+    """Hybrid novel frames on the CPU sample GN-FR's rays along the whole ray (the rule in
+    docs/history/fill.md); the de-flared photos and CUDA keep the band of a third of the
+    samples; an explicit value and the network fill are as asked."""
+    from pipeline.render import RenderConfig, depth_samples
+
+    cfg = RenderConfig()
+    assert depth_samples(cfg, "cpu", 24, novel=True) == 0
+    assert depth_samples(cfg, "cpu", 24, novel=False) == 8
+    assert depth_samples(cfg, "cuda", 24, novel=True) == 8
+    assert depth_samples(cfg, "cpu", 6, novel=False) == 4
+    assert depth_samples(RenderConfig(depth_samples=5), "cpu", 24, novel=True) == 5
+    assert depth_samples(RenderConfig(fill="network"), "cpu", 24, novel=False) == 0
