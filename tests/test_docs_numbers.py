@@ -136,7 +136,8 @@ CHECKS = [
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
     *[(page, f, f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for page in ("README.md", "gnfr/weights/gnfr.md")
-      for f in ("fern_llff_quick_cpu_s29_frc.json", "fern_llff_quick_cpu_s29_base.json")
+      for f in ("fern_llff_quick_cpu_s30_ds0.json", "fern_llff_quick_cpu_s29_frc.json",
+                "fern_llff_quick_cpu_s29_base.json")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("docs/eval.md", FERN4, f"clean/methods/gnfr_{fill}/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
@@ -842,7 +843,10 @@ def test_fmg_candidate_p_verdict_follows_its_files():
     ("novel_ns_times_cpu_s30.txt", "network_scale_judge_s30.json", "novel_ns", "025",
      (("050", "0.5"), ("100", "1"))),
     ("novel_s30p_times_cpu.txt", "photo_share_judge_s30.json", "novel_s30p_", "base",
-     (("ms3", "ms3"), ("ms3ns050", "ms3ns050")))], ids=["network_scale", "photo_share"])
+     (("ms3", "ms3"), ("ms3ns050", "ms3ns050"))),
+    ("novel_s30d_times_cpu.txt", "depth_samples_judge_s30.json", "novel_s30d_", "base",
+     (("ds0", "ds0"), ("ds0ns050", "ds0ns050")))],
+    ids=["network_scale", "photo_share", "depth_samples"])
 def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, base, arms):
     """docs/history/fill.md's tables are network_scale_ab's judgements of the committed
     renders, and judging them again gives the same verdicts."""
@@ -856,7 +860,8 @@ def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, 
     res = ab.judge(RESULTS, t, ["sceaux", "et", "lund"], [2, 3, 4], [x for x, _ in arms],
                    prefix, base)
     saved = json.loads((RESULTS / judged).read_text())
-    assert res["decision"] == saved["decision"] == "nothing changes"
+    assert res["decision"] == saved["decision"]
+    assert res["decision"] == ("ds0" if judged.startswith("depth") else "nothing changes")
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
     for x, label in arms:
         v = res["candidates"][x]
