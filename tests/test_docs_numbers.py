@@ -895,3 +895,25 @@ def test_sample_scores_unchanged_by_whole_ray_novel_frames():
     new = json.loads((RESULTS / "sample_oneshot_cpu_s30_ds0.json").read_text())["mean"]
     old = json.loads((RESULTS / "sample_oneshot_cpu_s29_frc.json").read_text())["mean"]
     assert new == old
+
+
+def test_inputs_depth_samples_rule_numbers_agree_with_the_judge():
+    """docs/history/fill.md's table for the de-flared photos' whole-ray sampling is
+    fmg_photo_ab's judgement of the committed runs (fails (a)), and the time ratio is the
+    times file's."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "fmg_photo_ab", REPO / "benchmarks" / "fmg_photo_ab.py")
+    ab = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ab)
+    res = ab.judge(RESULTS, "s30_ids0", "s30_ibase", ["sceaux", "et", "lund"], [2, 3, 4])
+    assert res["decision"] == "fails (a)"
+    cells = [" / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim"))
+             for d in (*res["per_scene"].values(), res["mean"])]
+    times = {"ibase": 0.0, "ids0": 0.0}
+    for line in (RESULTS / "inputs_ds0_times_cpu_s30.txt").read_text().splitlines():
+        p = line.split()
+        times[p[2]] += float(p[3])
+    row = "| " + " | ".join(cells) + f" | x{times['ids0'] / times['ibase']:.2f} |"
+    assert row in (REPO / "docs" / "history" / "fill.md").read_text(), row
