@@ -125,3 +125,24 @@ def test_bench_workspace_without_depth_is_one_line_and_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(ws.depth) in err[0] and "deflare-scene depth" in err[0]
     assert not out.exists()
+
+
+def test_bench_fill_only_times_the_workspace_frames_alone(tmp_path, one_torch_thread):
+    """--fill-only: the workspace's frame rows, no synthetic training or render rows; without
+    --workspace one line and exit 2."""
+    from pipeline.depth import DepthConfig
+    from pipeline.depth import run as depth_run
+    from tests.fixtures import make_plane_workspace
+    from tests.pipeline.test_render import add_masks_views_model
+    ws = make_plane_workspace(tmp_path / "ws")
+    add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
+    depth_run(DepthConfig(neighbours=3), ws)
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--quick", "--fill-only", "--device", "cpu", "--workspace",
+                 str(ws.root), "--out", str(out)]) == 0
+    res = json.loads(out.read_text())["results"]["cpu"]
+    assert res["train"] == {} and res["render"] == {}
+    assert len(res["render_workspace"]["rows"]) == 4
+    bad = tmp_path / "b.json"
+    assert main(["bench", "--quick", "--fill-only", "--out", str(bad)]) == 2
+    assert not bad.exists()

@@ -77,6 +77,9 @@ class BenchConfig:
     hybrid fill, 504 and 1008 px wide. Only read: the render runs in a scratch copy."""
     fill_frames: int = option(1, ge=1)
     """Frames of the path timed per width and fill (``workspace``)."""
+    fill_only: bool = False
+    """Only the novel frames of ``workspace`` (skips the synthetic training and render
+    measurements: minutes instead of a quarter of an hour on a CPU)."""
     quick: bool = False
     """A small fast run (tests): 2 steps, 1 warm-up, 128 rays, 8 samples per frame, no
     process isolation (CPU peak memory then depends on the order of measurements),
@@ -483,6 +486,8 @@ def run(cfg: BenchConfig) -> dict:
     cfg = effective(validate(cfg))
     if cfg.preset not in PRESETS:
         raise UserError(f"--preset {cfg.preset}: choose one of {', '.join(PRESETS)}")
+    if cfg.fill_only and cfg.workspace is None:
+        raise UserError("--fill-only times a workspace's novel frames: give --workspace WS")
     devices = cfg.devices or default_devices()
     for d in devices:
         if d not in ("cpu", "cuda"):
@@ -504,10 +509,10 @@ def run(cfg: BenchConfig) -> dict:
     for dev in devices:
         iso = cfg.isolate and dev == "cpu"
         res = {"train": {}, "render": {}, "isolated_processes": iso}
-        for mode in TRAIN_MODES:
+        for mode in () if cfg.fill_only else TRAIN_MODES:
             info(f"bench: {dev} training, {mode} ({cfg.warmup}+{cfg.steps} steps)")
             res["train"][mode] = measure(iso, bench_train, cfg, tcfg, scene, dev, mode)
-        for W, H in SIZES:
+        for W, H in () if cfg.fill_only else SIZES:
             info(f"bench: {dev} rendering {W}x{H}")
             res["render"][f"{W}x{H}"] = measure(iso, bench_render, cfg, tcfg, scene, dev,
                                                 (W, H))
@@ -545,7 +550,7 @@ def print_table(record: dict) -> None:
         table.add_column(col, justify="left" if col in ("device", "measurement") else "right")
     for device, results in record["results"].items():
         train = results["train"]
-        for mode in ("end_to_end", "cached"):
+        for mode in ("end_to_end", "cached") if train else ():
             ref = train["reference"]
             table.add_row(device, f"train it/s ({mode.replace('_', '-')})",
                           f"{train[mode]['it_per_s']:.2f}", f"{ref['it_per_s']:.2f}",
