@@ -917,3 +917,20 @@ def test_inputs_depth_samples_rule_numbers_agree_with_the_judge():
         times[p[2]] += float(p[3])
     row = "| " + " | ".join(cells) + f" | x{times['ids0'] / times['ibase']:.2f} |"
     assert row in (REPO / "docs" / "history" / "fill.md").read_text(), row
+
+
+@pytest.mark.parametrize("width", [504, 1008])
+def test_performance_whole_ray_frame_times_match(width):
+    """docs/performance.md's table of the video frames with the whole-ray default, and the
+    README's 504 px figures, are bench_fill_cpu_s30.json's."""
+    rows = json.loads((RESULTS / "bench_fill_cpu_s30.json").read_text())[
+        "results"]["cpu"]["render_workspace"]["rows"]
+    by = {r["fill"]: r for r in rows if r["size"][0] == width}
+    net, hyb = by["network"], by["hybrid"]
+    row = (f"| {net['size'][0]}x{net['size'][1]} | {net['s_per_frame']:.1f} s | "
+           f"{hyb['s_per_frame']:.1f} s | {net['s_per_frame'] / hyb['s_per_frame']:.0f}x |")
+    assert row in (REPO / "docs" / "performance.md").read_text(), row
+    if width == 504:
+        readme = " ".join((REPO / "README.md").read_text().split())
+        assert (f"about {hyb['s_per_frame']:.1f} s each at 504x331 with the default fill, "
+                f"{net['s_per_frame']:.1f} s with GN-FR alone") in readme
