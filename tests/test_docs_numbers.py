@@ -847,8 +847,10 @@ def test_fmg_candidate_p_verdict_follows_its_files():
     ("novel_s30p_times_cpu.txt", "photo_share_judge_s30.json", "novel_s30p_", "base",
      (("ms3", "ms3"), ("ms3ns050", "ms3ns050"))),
     ("novel_s30d_times_cpu.txt", "depth_samples_judge_s30.json", "novel_s30d_", "base",
-     (("ds0", "ds0"), ("ds0ns050", "ds0ns050")))],
-    ids=["network_scale", "photo_share", "depth_samples"])
+     (("ds0", "ds0"), ("ds0ns050", "ds0ns050"))),
+    ("novel_s30m_times_cpu.txt", "photo_share_ds0_judge_s30.json", "novel_s30m_", "base",
+     (("ms3", "ms3"), ("ms4", "ms4")))],
+    ids=["network_scale", "photo_share", "depth_samples", "photo_share_ds0"])
 def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, base, arms):
     """docs/history/fill.md's tables are network_scale_ab's judgements of the committed
     renders, and judging them again gives the same verdicts."""
@@ -934,3 +936,16 @@ def test_performance_whole_ray_frame_times_match(width):
         readme = " ".join((REPO / "README.md").read_text().split())
         assert (f"about {hyb['s_per_frame']:.1f} s each at 504x331 with the default fill, "
                 f"{net['s_per_frame']:.1f} s with GN-FR alone") in readme
+
+
+def test_fill_regions_after_whole_ray_numbers_in_the_rule():
+    """docs/history/fill.md's per-pixel split after whole-ray sampling is its file's."""
+    d = json.loads((RESULTS / "fill_regions_s30_ds0.json").read_text())["scenes"]
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    for scene, part in (("sceaux", "network"), ("lund", "network"), ("et", "network"),
+                        ("et", "photo"), ("lund", "photo"), ("sceaux", "photo")):
+        m = d[f"{scene}_synth"]
+        hyb, net = m["heldout_dds0"][part], m["heldout_net"][part]
+        pair = (f"{hyb:.2f} against {net:.2f}" if part == "network"
+                else f"{net:.2f} against {hyb:.2f}")
+        assert pair in hist, (scene, part, pair)
