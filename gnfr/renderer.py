@@ -96,7 +96,6 @@ class SourceViews:
                    rows=None if rows is None else rows.to(device))
 
 
-
 def encoder_input(images: torch.Tensor, feature_scale: float) -> torch.Tensor:
     """[V, 3, H, W] images as the encoder sees them: area-filtered down by ``feature_scale``
     (at least 8 pixels a side), unchanged at 1."""
@@ -105,6 +104,7 @@ def encoder_input(images: torch.Tensor, feature_scale: float) -> torch.Tensor:
     H, W = images.shape[-2:]
     return F.interpolate(images, size=(max(8, round(H * feature_scale)),
                                        max(8, round(W * feature_scale))), mode="area")
+
 
 def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
            w2c: torch.Tensor | None = None):

@@ -225,19 +225,19 @@ class SourceBank:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
         ``grad`` keeps the encoder's graph)."""
         enc = self.enc_images
-        if ids is not None and enc is not None:  # full-size colours: the bank is not copied
-            return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
-                                      self.masks, device, grad=grad,
-                                      feature_scale=self.feature_scale, enc_images=enc[ids],
-                                      rows=ids)
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,
                                       enc_images=enc)
+        if enc is not None:  # full-size colours: the views are rows of the bank, not copies
+            return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
+                                      self.masks, device, grad=grad,
+                                      feature_scale=self.feature_scale, enc_images=enc[ids],
+                                      rows=ids)
+        # the encoder reads the views themselves: stack them
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
-                                  grad=grad, feature_scale=self.feature_scale,
-                                  enc_images=None if enc is None else enc[ids])
+                                  grad=grad, feature_scale=self.feature_scale)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,

@@ -496,7 +496,8 @@ def run(cfg: BenchConfig) -> dict:
     # the workspace is checked before the long synthetic measurements, and only once
     checked = check_workspace(cfg.workspace) if cfg.workspace is not None else None
     tcfg = PRESETS[cfg.preset]
-    scene = synthetic_scene(cfg.views, cfg.train_size)
+    # --fill-only times the workspace alone: no synthetic scene to build
+    scene = None if cfg.fill_only else synthetic_scene(cfg.views, cfg.train_size)
     record = {"machine": machine(), "settings": {**asdict(cfg), "out": str(cfg.out),
                                                    "devices": list(devices),
                                                    "workspace": cfg.workspace and
