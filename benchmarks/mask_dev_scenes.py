@@ -38,12 +38,14 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
-                max_size: int | None = None, fill_holes: bool = False, confirm=None) -> dict:
+                max_size: int | None = None, fill_holes: bool = False, confirm=None,
+                scales: tuple[float, ...] = (1.0,)) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
-    them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them."""
+    them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
+    with ``scales`` the network run as `mask --scales` runs it."""
     import cv2
 
     from gnfr.view_sampler import is_target
@@ -64,7 +66,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             img = resize_area(img, max_size)
             wh = target_size(gt.shape[1], gt.shape[0], max_size)
             gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm)
+        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales)
         if fill_holes:
             m |= enclosed_holes(m)
         per_view[photo.stem] = {"true": round(float(gt.mean()), 5),
@@ -95,8 +97,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="as `mask --confirm --confirm-weights W`, for every --weights")
     ap.add_argument("--confirm-keep", choices=("both", "first"), default="both",
                     help="as `mask --confirm-keep`")
+    ap.add_argument("--scales", action="append", default=None, metavar="S1,S2",
+                    help="as `mask --scales` (repeat to score each setting; default 1)")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    try:
+        settings = [tuple(float(s) for s in x.split(",")) for x in a.scales or ["1"]]
+    except ValueError:
+        ap.error("--scales: give numbers separated by commas, e.g. 1,0.75")
+    if any(s <= 0 or s > 2 for x in settings for s in x):
+        ap.error("--scales: each number more than 0 and at most 2")
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result
 
@@ -108,22 +118,23 @@ def main(argv: list[str] | None = None) -> int:
     for w in a.weights:
         model = load_fmg_weights(w)
         cut = resolve_threshold(MaskConfig(), w)
-        for rays in (False, True):
-            for scene in a.scenes:
-                r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
-                     "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
-                     "confirm": None if confirm is None else str(a.confirm),
-                     "confirm_keep": a.confirm_keep,
-                     **score_scene(model, cut, scene, rays, max_size=a.max_size,
-                                   fill_holes=a.fill_holes, confirm=confirm)}
-                rows.append(r)
-                print(f"{w.name} {'rays' if rays else 'fmg '} {scene.name}: flare IoU "
-                      f"{r['flare_iou']:.3f}, marked outside the flare "
-                      f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
-                      f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %); "
-                      f"over the 10 % rule: {r['over_rule']} of {r['views']} views "
-                      f"(truth {r['true_over_rule']})",
-                      flush=True)
+        for rays, scales, scene in ((r, s, c) for r in (False, True) for s in settings
+                                    for c in a.scenes):
+            r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
+                 "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
+                 "confirm": None if confirm is None else str(a.confirm),
+                 "confirm_keep": a.confirm_keep, "scales": list(scales),
+                 **score_scene(model, cut, scene, rays, max_size=a.max_size,
+                               fill_holes=a.fill_holes, confirm=confirm, scales=scales)}
+            rows.append(r)
+            print(f"{w.name} x{','.join(f'{s:g}' for s in scales)} "
+                  f"{'rays' if rays else 'fmg '} {scene.name}: flare IoU "
+                  f"{r['flare_iou']:.3f}, marked outside the flare "
+                  f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
+                  f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %); "
+                  f"over the 10 % rule: {r['over_rule']} of {r['views']} views "
+                  f"(truth {r['true_over_rule']})",
+                  flush=True)
     write_result(a.out, {"rows": rows})
     return 0
 

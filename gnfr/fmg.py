@@ -269,24 +269,35 @@ def work_shape(h: int, w: int, long_side: int) -> tuple[int, int]:
     return max(8, round(h * s / 8) * 8), max(8, round(w * s / 8) * 8)
 
 
+SCALES = (1.0,)
+"""Fractions of the working size at which ``predict_probs`` runs the network by default (one:
+the working size alone)."""
+
+
 @torch.no_grad()
-def predict_probs(model: PSPNet, images: torch.Tensor,
-                  long_side: int | None = None) -> torch.Tensor:
+def predict_probs(model: PSPNet, images: torch.Tensor, long_side: int | None = None,
+                  scales: tuple[float, ...] = SCALES) -> torch.Tensor:
     """Flare probabilities [B, 1, H, W] of images [B, 3, H, W] (sRGB in [0, 1]).
 
-    The network runs at ``long_side`` (default ``model.cfg.work_size``) and the result is
-    upsampled bilinearly to the input size.
+    The network runs at ``long_side`` (default ``model.cfg.work_size``) times each of
+    ``scales``; each result is upsampled bilinearly to the input size and the probabilities
+    are averaged over the scales (PSPNet's multi-scale testing; ``mask --scales``).
     """
+    if not scales:
+        raise ValueError("predict_probs: no scales given")
     model.eval()
     h, w = images.shape[-2:]
-    hw = work_shape(h, w, long_side or model.cfg.work_size)
     x = images.to(next(model.parameters()).device, torch.float32)
-    if hw != (h, w):
-        x = F.interpolate(x, size=hw, mode="bilinear", align_corners=False, antialias=True)
-    probs = torch.sigmoid(model(x))
-    if hw != (h, w):
-        probs = F.interpolate(probs, size=(h, w), mode="bilinear", align_corners=False)
-    return probs
+    total = None
+    for s in scales:
+        hw = work_shape(h, w, round((long_side or model.cfg.work_size) * s))
+        xs = x if hw == (h, w) else F.interpolate(x, size=hw, mode="bilinear",
+                                                  align_corners=False, antialias=True)
+        probs = torch.sigmoid(model(xs))
+        if hw != (h, w):
+            probs = F.interpolate(probs, size=(h, w), mode="bilinear", align_corners=False)
+        total = probs if total is None else total + probs
+    return total / len(scales)
 
 
 # --------------------------------------------------------------------------- weights

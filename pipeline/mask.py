@@ -65,6 +65,11 @@ class MaskConfig:
     weights (their threshold metadata, written by `deflare-scene fmg calibrate`), else 0.5."""
     work_size: int = option(512, ge=32)
     """Long side (pixels) at which the FMG runs."""
+    scales: tuple[float, ...] = option((1.0,), gt=0, le=2, metavar="S1,S2")
+    """Fractions of ``work_size`` at which the FMG runs, its probabilities averaged over them
+    before the cut (PSPNet's multi-scale testing; e.g. 1,0.75 runs it at 512 and 384 px,
+    about 1.6 times the time). The flare rays are found at ``work_size`` alone
+    (docs/history/fmg.md, "Thirty-first session")."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -177,15 +182,17 @@ def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
     return np.clip(out, 0.0, 1.0)
 
 
-def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int) -> list[np.ndarray]:
-    """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images."""
+def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
+              scales: tuple[float, ...] = (1.0,)) -> list[np.ndarray]:
+    """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images, the
+    network run at ``work_size`` times each of ``scales`` (averaged)."""
     import torch
 
     from gnfr.fmg import predict_probs
 
     x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
     t = torch.from_numpy(x).permute(0, 3, 1, 2)                  # [B, 3, H, W]
-    probs = predict_probs(model, t, work_size)                   # [B, 1, H, W]
+    probs = predict_probs(model, t, work_size, scales)           # [B, 1, H, W]
     return list(probs[:, 0].cpu().numpy())
 
 
@@ -209,15 +216,16 @@ def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray
 def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
                 probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
-                confirm_probs: np.ndarray | None = None) -> np.ndarray:
+                confirm_probs: np.ndarray | None = None,
+                scales: tuple[float, ...] = (1.0,)) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays``. With ``confirm`` = (second model, its cut, keep) the mask of `mask --confirm`
     (``confirmed_marks``; the second's probabilities ``confirm_probs`` if already
-    computed)."""
+    computed). ``scales``: as ``MaskConfig.scales`` (the rays are found at ``work_size``)."""
 
     def cut_probs(m, p, c):
-        p = fmg_probs(m, [image_bgr], work_size)[0] if p is None else p
+        p = fmg_probs(m, [image_bgr], work_size, scales)[0] if p is None else p
         return (refine_probs(image_bgr, p) if refine else p) > c
 
     marks = cut_probs(model, probs, cut)
@@ -288,9 +296,9 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            probs = fmg_probs(model, imgs, config.work_size)
-            second = (fmg_probs(confirm[0], imgs, config.work_size) if confirm is not None
-                      else [None] * len(imgs))
+            probs = fmg_probs(model, imgs, config.work_size, config.scales)
+            second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales)
+                      if confirm is not None else [None] * len(imgs))
             for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,

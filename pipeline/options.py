@@ -160,7 +160,8 @@ def problem(cfg: Any, f: dataclasses.Field) -> str | None:
         return None
     what = allowed(rules, cfg)
     if isinstance(value, tuple):
-        return f"must be {len(value)} numbers, each {what}"
+        count = "" if "..." in str(f.type) else f"{len(value)} "  # tuple[float, ...]: any
+        return f"must be {count}numbers, each {what}"
     return f"must be {what}"
 
 
@@ -197,11 +198,13 @@ def coerce(text: str, tp: Any, where: str, form: str | None = None) -> Any:
         return coerce(text, args[0], where, form)
     if origin is tuple:
         args = typing.get_args(tp)
+        count = f"{len(args)} "
         if len(args) == 2 and args[1] is Ellipsis:
-            args = (args[0],) * len(text.split(","))
+            args, count = (args[0],) * len(text.split(",")), ""
         parts = re.split(r"[,x]", text.lower()) if args[0] is int else text.split(",")
-        how = f"{len(args)} numbers {form}" if form else (
-            f"{len(args)} numbers separated by commas{' or x' if args[0] is int else ''}")
+        how = (f"{count}numbers {form}" if count else f"numbers separated by commas ({form})"
+               ) if form else (
+            f"{count}numbers separated by commas{' or x' if args[0] is int else ''}")
         if len(parts) != len(args):
             raise UserError(f"{where}: must be {how}")
         try:

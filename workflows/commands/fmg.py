@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
                                                  ray_cfg=rule, confirm=config.confirm,
-                                                 confirm_keep=keep)
+                                                 confirm_keep=keep, scales=config.scales)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.negatives:
             metrics = fmg_train.negative_fractions(weights, config.data, config.negatives,
@@ -64,7 +64,7 @@ def register(app: typer.Typer) -> None:
                                                size=config.size, split=config.split,
                                                rays=config.rays, ray_cfg=rule,
                                                confirm=config.confirm,
-                                               confirm_keep=keep)
+                                               confirm_keep=keep, scales=config.scales)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

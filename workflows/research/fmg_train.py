@@ -144,6 +144,10 @@ class FMGEvalConfig:
     rays: bool = False
     """Score the FMG's masks with the flare rays added (as the mask stage does unless
     --no-rays), with --per-kind or --clean."""
+    scales: tuple[float, ...] = option((1.0,), gt=0, le=2, metavar="S1,S2")
+    """With ``per_kind`` or ``clean``: the network run at these fractions of the working size
+    (of the composite's side with ``per_kind``), its probabilities averaged, as `mask
+    --scales` (every network scored, the second of ``confirm`` too)."""
     ray_min: int | None = option(None, ge=1)
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
@@ -216,6 +220,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--confirm-keep says which regions --confirm keeps: add --confirm "
                         "WEIGHTS, or leave --confirm-keep out")
     check_ray_rule(cfg)
+    if tuple(cfg.scales) != (1.0,) and not (cfg.per_kind or cfg.clean):
+        raise UserError("--scales needs --per-kind or --clean")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -250,15 +256,17 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
-          cut: float = 0.5, also=None, confirm=None) -> dict[str, float]:
+          cut: float = 0.5, also=None, confirm=None,
+          scales: tuple[float, ...] = (1.0,)) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
     the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
     cut, keep) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_marks``,
-    ``also`` as the rays)."""
+    ``also`` as the rays). ``scales``: each network's probabilities averaged over these
+    fractions of the composites' side (``gnfr.fmg.predict_probs``)."""
     import torch
 
-    from gnfr.fmg import confusion, seg_metrics
+    from gnfr.fmg import confusion, predict_probs, seg_metrics
     from pipeline.mask import confirmed_marks
 
     def confirmed(marked, second, extra):
@@ -272,13 +280,14 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     with torch.no_grad():
         for i in range(0, len(images), batch):
             x = images[i:i + batch].to(dev)
-            p = torch.sigmoid(model(x)).cpu()
+            side = max(x.shape[-2:])
+            p = predict_probs(model, x, side, scales).cpu()
             if refine:
                 p = _refine_batch(x.cpu(), p)
             marked = p > cut
             extra = also[i:i + batch] if also is not None else None
             if confirm is not None:
-                q = torch.sigmoid(confirm[0](x)).cpu()
+                q = predict_probs(confirm[0], x, side, scales).cpu()
                 if refine:  # both networks refined, as in the mask stage
                     q = _refine_batch(x.cpu(), q)
                 marked = confirmed(marked, q > confirm[1], extra)
@@ -674,7 +683,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
-                   confirm_keep: str = "both") -> dict:
+                   confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,)) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
@@ -682,7 +691,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
     the flare rays (rule ``ray_cfg``) are added to every model's mask; with ``confirm``
-    (weights) ``weights``' masks are those of `mask --confirm` with that second network."""
+    (weights) ``weights``' masks are those of `mask --confirm` with that second network;
+    ``scales``: every network at these fractions of the composites' side (``score``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -701,7 +711,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     bgs = _part_backgrounds(data, size, split)
     comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
-           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
            "weights": {k: v for k, v in main.items() if k != "model"},
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep},
@@ -712,10 +722,11 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
         ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
                "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray,
-                                confirm=second)}
+                                confirm=second, scales=scales)}
         for h in held:
             if kind in h["without"]:
-                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray),
+                row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray,
+                                          scales=scales),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
@@ -829,11 +840,12 @@ def format_work_sizes(res: dict) -> str:
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
                     rays: bool = False, ray_cfg=None, confirm: Path | None = None,
-                   confirm_keep: str = "both") -> dict:
+                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,)) -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
-    `mask --confirm`: as in the mask stage) on every clean photo of ``scenes`` at full size:
-    mean and max per scene."""
+    `mask --confirm`: as in the mask stage, the networks at ``scales`` of ``work_size`` as
+    `mask --scales`) on every clean photo of ``scenes`` at full size: mean and max per
+    scene."""
     from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
@@ -841,12 +853,12 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
     second = (None if confirm is None else (load_fmg_weights(Path(confirm)),
                                             weights_info(Path(confirm))["cut"], confirm_keep))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
-           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg),
+           "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep}, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
         marked = {name: float(flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg,
-                                          confirm=second).mean())
+                                          confirm=second, scales=scales).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
