@@ -111,6 +111,21 @@ def test_work_shape_and_predict_probs_size():
     assert torch.allclose(p, want, atol=1e-6)
 
 
+def test_predict_probs_averages_its_scales():
+    torch.manual_seed(1)
+    model = build_fmg(tiny_config())
+    x = torch.rand(2, 3, 75, 99)
+    one = predict_probs(model, x, long_side=64)
+    assert torch.equal(predict_probs(model, x, long_side=64, scales=(1.0,)), one)
+    smaller = predict_probs(model, x, long_side=48)  # 0.75 x 64: the second scale's run
+    both = predict_probs(model, x, long_side=64, scales=(1.0, 0.75))
+    assert both.shape == one.shape
+    assert torch.allclose(both, (one + smaller) / 2, atol=1e-6)
+    assert not torch.allclose(both, one, atol=1e-4)  # the second scale changed something
+    with pytest.raises(ValueError, match="no scales"):
+        predict_probs(model, x, long_side=64, scales=())
+
+
 def test_save_load_roundtrip_fp16(tmp_path):
     torch.manual_seed(2)
     cfg = tiny_config()

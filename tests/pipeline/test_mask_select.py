@@ -98,6 +98,28 @@ def test_mask_stage_fmg_outputs(kermit_ws, tiny_weights):
     assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns == mtime
 
 
+def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
+    """`mask --scales 1,0.75` writes the masks of the probabilities averaged over 512 and
+    384 px (what `flare_marks` cuts), and a change of scales makes the stage run again."""
+    from pipeline.mask import flare_marks, fmg_probs, load_fmg_weights
+
+    ws = kermit_ws
+    stems, _ = _stems_and_size(ws)
+    model = load_fmg_weights(tiny_weights)
+    img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
+    cut = float(np.median(fmg_probs(model, [img], 512)[0]))  # a cut that marks half
+    args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
+            "--threshold", repr(cut)]
+    assert main(args) == 0
+    before = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
+    assert main([*args, "--scales", "1,0.75"]) == 0
+    assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns != before  # not skipped
+    want = flare_marks(model, img, cut, 512, scales=(1.0, 0.75))
+    got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
+    assert np.array_equal(got, want)
+    assert not np.array_equal(want, flare_marks(model, img, cut, 512))  # scales matter
+
+
 def _stems_and_size(ws) -> tuple[list[str], tuple[int, int]]:
     """The workspace's stems and the (H, W) of its images."""
     stems = sorted(p.stem for p in ws.images.glob("*.png"))
@@ -295,7 +317,7 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
     r = np.hypot(yy - h / 2, xx - w / 2)
     ring = (r > 10) & (r < 25)
 
-    def fake_probs(model, imgs, work_size):
+    def fake_probs(model, imgs, work_size, scales=(1.0,)):
         return [ring.astype(np.float32) for _ in imgs]
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)
@@ -345,7 +367,7 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     first = ring | (np.hypot(yy - 8, xx - 8) < 5)                # + a blob in a corner
     second = (ring & (xx > w / 2)) | arm | (np.hypot(yy - h + 8, xx - 8) < 4)
 
-    def fake_probs(model, imgs, work_size):
+    def fake_probs(model, imgs, work_size, scales=(1.0,)):
         return [(first if model == "first" else second).astype(np.float32) for _ in imgs]
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)

@@ -98,6 +98,9 @@ BAD = [  # (command, extra args, the line starts with)
     ("render", ["--samples", "0"], "error: --samples 0: must be at least 1"),
     ("finetune", ["--rays", "0"], "error: --rays 0: must be at least 1"),
     ("render", ["--size", "0x10"], "error: --size 0x10: must be 2 numbers, each at least 1"),
+    ("mask", ["--scales", "1,0"], "error: --scales 1,0: must be numbers, each more than 0 and "
+     "at most 2"),
+    ("mask", ["--scales", "1,x"], "error: --scales 1,x: must be numbers separated by commas"),
     ("render", ["--path", "nowhere"], "error: --path nowhere: must be one of inputs, "
      "interpolate, spiral or a .json file"),
     ("render", ["--fill", "magic"], "error: --fill magic: must be one of hybrid or network"),
@@ -148,6 +151,9 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
     (["fmg", "train", "--out", "{tmp}/fmg", "--night-prob", "2"],
      "error: --night-prob 2: must be between 0 and 1"),
     (["fmg", "eval", "--loo", "{tmp}/a.safetensors"], "error: --loo needs --per-kind"),
+    (["fmg", "eval", "--scales", "1,0.75"], "error: --scales needs --per-kind or --clean"),
+    (["fmg", "eval", "--clean", "--data", "{tmp}"], "error: {tmp}/scenes/fern/images_8: no such "
+     "folder; pass --data pointing at the shared data"),
     (["fmg", "eval", "--clean", "--confirm-keep", "first"],
      "error: --confirm-keep says which regions --confirm keeps: add --confirm WEIGHTS"),
     (["pretrain", "{ws}", "--lr-restart", "0", "--out", "{tmp}/pt"],
@@ -174,7 +180,7 @@ def test_research_commands_check_before_writing(tiny, tmp_path, capsys, argv, li
     photos, ws = tiny
     argv = [a.format(ws=ws, tmp=tmp_path) for a in argv]
     got = _one_line_exit_2(capsys, argv, [photos, ws, tmp_path])
-    assert got.startswith(line), got
+    assert got.startswith(line.format(tmp=tmp_path)), got
 
 
 def test_flare_kind_choices_are_the_kinds():

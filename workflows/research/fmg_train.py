@@ -771,9 +771,13 @@ CLEAN_SCENES = {"test": ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus
 
 
 def _photos(folder: Path, long_side: int | None = None) -> list:
-    """BGR uint8 photos of ``folder`` (not recursive), downscaled to ``long_side``."""
+    """BGR uint8 photos of ``folder`` (not recursive), downscaled to ``long_side``; a
+    one-line UserError when the folder is missing (``--data`` not the shared data)."""
     import cv2
 
+    if not folder.is_dir():
+        raise UserError(f"{folder}: no such folder; pass --data pointing at the shared data "
+                        "(a folder with scenes/ and backgrounds/), or set DEFLARE_SHARED_DATA")
     out = []
     for p in list_photos(folder):
         try:
