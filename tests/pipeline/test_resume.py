@@ -63,11 +63,11 @@ def test_mask_killed_part_way_writes_only_the_missing_masks(tmp_path, monkeypatc
     args = ["mask", str(ws.root), "--weights", str(weights), "--batch", "1"]
     real, calls = fmg.predict_probs, []
 
-    def dying(model, images, long_side=None):
+    def dying(model, images, long_side=None, scales=fmg.SCALES):
         if len(calls) == 3:
             raise KeyboardInterrupt
         calls.append(images.shape)
-        return real(model, images, long_side)
+        return real(model, images, long_side, scales)
 
     monkeypatch.setattr(fmg, "predict_probs", dying)
     assert main(args) == 130
