@@ -1,0 +1,134 @@
+"""Flare masks per kind of flare at the photos' scale: one-kind synthetic scenes, scored and judged.
+
+    python benchmarks/mask_kind_scenes.py build DEV DIR [--seed 31]
+        # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
+    python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
+    python benchmarks/mask_kind_scenes.py judge J --base SETTING --candidate SETTING [--out K]
+
+`fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px
+frame; the mask stage meets flare drawn across a whole photo (504 px here), at about twice
+the pixels. This builds, for each development workspace of `benchmarks/build_dev_scenes.sh`
+(``DEV/<scene>_ws``: sceaux_castle, et, lund), one synthetic-flare scene per kind of flare
+(``synth --kinds KIND``, one lens and one light per scene, as `synth` draws them), to be
+scored by `benchmarks/mask_dev_scenes.py` with the settings to compare. ``judge`` reads that
+file: per kind, each setting's flare IoU (rays on) averaged over the scenes where the kind
+marks some true pixels, the mean over kinds, and the rule of docs/history/fmg.md
+("Thirty-first session: S2 judged per kind at the photos' scale"): the candidate's mean at
+least 0.01 above the base's, no kind lower by more than 0.02. A setting is named
+``WEIGHTS_FILE_NAME@SCALES`` (e.g. ``fmg.safetensors@1,0.75``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+SCENES = ("sceaux", "et", "lund")
+"""The development workspaces of ``benchmarks/build_dev_scenes.sh`` (``DEV/<name>_ws``)."""
+MEAN_GAIN = 0.01
+KIND_LOSS = 0.02
+
+
+def build(dev: Path, out: Path, seed: int) -> list[Path]:
+    """One `synth --kinds KIND` scene per development workspace and kind, under ``out``."""
+    from pipeline.errors import UserError
+    from pipeline.flare import KINDS
+
+    missing = [dev / f"{s}_ws" for s in SCENES if not (dev / f"{s}_ws").is_dir()]
+    if missing:
+        raise UserError(f"{missing[0]}: no such workspace; build the development scenes first "
+                        f"(bash benchmarks/build_dev_scenes.sh {dev})")
+    made = []
+    for scene in SCENES:
+        for kind in KINDS:
+            target = out / f"{scene}_{kind}"
+            subprocess.run([sys.executable, "-m", "workflows.cli", "synth",
+                            str(dev / f"{scene}_ws"), "--out", str(target), "--heldout", "2",
+                            "--kinds", kind, "--seed", str(seed)], check=True, cwd=ROOT)
+            made.append(target)
+    return made
+
+
+def setting(row: dict) -> str:
+    """``WEIGHTS_FILE_NAME@SCALES`` of a mask_dev_scenes.py row."""
+    scales = ",".join(f"{s:g}" for s in row.get("scales", [1.0]))
+    return f"{Path(row['weights']).name}@{scales}"
+
+
+def judge(rows: list[dict], base: str, candidate: str) -> dict:
+    """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
+    has flare pixels; the means over kinds and the rule's verdict."""
+    from pipeline.errors import UserError
+    from pipeline.flare import KINDS
+
+    rows = [r for r in rows if r["rays"]]
+    found = sorted({setting(r) for r in rows})
+    for name in (base, candidate):
+        if name not in found:
+            raise UserError(f"{name}: no such setting in the file; it has {', '.join(found)}")
+    kinds = {}
+    for kind in KINDS:
+        scenes = sorted({r["scene"] for r in rows if r["scene"].endswith("_" + kind)
+                         and r["truth_share"] > 0})
+        if not scenes:
+            continue
+        per = {name: [r["flare_iou"] for r in rows if setting(r) == name
+                      and r["scene"] in scenes] for name in (base, candidate)}
+        kinds[kind] = {"scenes": scenes, **{n: sum(v) / len(v) for n, v in per.items()}}
+    if not kinds:
+        raise UserError("no scene named <scene>_<kind> with true flare in the file: score the "
+                        "scenes that `build` writes")
+    mean = {n: sum(k[n] for k in kinds.values()) / len(kinds) for n in (base, candidate)}
+    worst = min(k[candidate] - k[base] for k in kinds.values())
+    passes = mean[candidate] - mean[base] >= MEAN_GAIN and worst >= -KIND_LOSS
+    return {"base": base, "candidate": candidate, "kinds": kinds, "mean": mean,
+            "mean_gain": mean[candidate] - mean[base], "worst_kind_change": worst,
+            "rule": {"mean_gain": MEAN_GAIN, "kind_loss": KIND_LOSS}, "passes": passes}
+
+
+def main(argv: list[str] | None = None) -> int:
+    from pipeline.errors import UserError
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("build")
+    b.add_argument("dev", type=Path)
+    b.add_argument("out", type=Path)
+    b.add_argument("--seed", type=int, default=31)
+    j = sub.add_parser("judge")
+    j.add_argument("scores", type=Path)
+    j.add_argument("--base", required=True)
+    j.add_argument("--candidate", required=True)
+    j.add_argument("--out", type=Path)
+    a = ap.parse_args(argv)
+    try:
+        if a.cmd == "build":
+            for p in build(a.dev, a.out, a.seed):
+                print(p)
+            return 0
+        if not a.scores.is_file():
+            raise UserError(f"{a.scores}: no such file; score the scenes with "
+                            "benchmarks/mask_dev_scenes.py --out first")
+        res = judge(json.loads(a.scores.read_text())["rows"], a.base, a.candidate)
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    for kind, k in res["kinds"].items():
+        print(f"{kind:>9}: {k[a.base]:.3f} -> {k[a.candidate]:.3f} ({len(k['scenes'])} scenes)")
+    print(f"mean: {res['mean'][a.base]:.4f} -> {res['mean'][a.candidate]:.4f} "
+          f"({res['mean_gain']:+.4f}; worst kind {res['worst_kind_change']:+.4f}): "
+          f"{'passes' if res['passes'] else 'fails'}")
+    if a.out:
+        from pipeline.provenance import write_result
+        write_result(a.out, {"scores": str(a.scores), **res})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
