@@ -949,3 +949,39 @@ def test_fill_regions_after_whole_ray_numbers_in_the_rule():
         pair = (f"{hyb:.2f} against {net:.2f}" if part == "network"
                 else f"{net:.2f} against {hyb:.2f}")
         assert pair in hist, (scene, part, pair)
+
+
+def _load_benchmark(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_mask_kinds_table_is_the_judge_of_the_committed_scores():
+    """docs/history/fmg.md's per-kind table at the photos' scale is mask_kind_scenes.py's
+    judgement of the committed scores, the verdict (fails) the saved one."""
+    mk = _load_benchmark("mask_kind_scenes")
+    rows = json.loads((RESULTS / "mask_dev_kinds_S2.json").read_text())["rows"]
+    res = mk.judge(rows, "fmg.safetensors@1", "fmg.safetensors@1,0.75")
+    saved = json.loads((RESULTS / "mask_kinds_judge_S2.json").read_text())
+    assert res["passes"] is saved["passes"] is False
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    for kind, k in res["kinds"].items():
+        row = f"| {kind} | {k['fmg.safetensors@1']:.3f} | {k['fmg.safetensors@1,0.75']:.3f} |"
+        assert row in hist, row
+    m = res["mean"]
+    assert f"| mean | {m['fmg.safetensors@1']:.4f} | {m['fmg.safetensors@1,0.75']:.4f} |" in hist
+
+
+def test_fill_blend_table_is_the_simulation_file():
+    """docs/history/fill.md's blend table is fill_blend_sim.py's file (per-scene PSNR gains
+    and the means)."""
+    d = json.loads((RESULTS / "fill_blend_sim_s31.json").read_text())["scenes"]
+    hist = (REPO / "docs" / "history" / "fill.md").read_text()
+    for arm in ("detail_q", "correct_q_0.06", "check_q_0.02", "mix_0.3", "network", "average"):
+        cells = " | ".join(f"{d[s]['gain'][arm]['psnr']:+.3f}"
+                           for s in ("sceaux_synth", "et_synth", "lund_synth"))
+        assert f"| {cells} | {d['mean'][arm]['psnr']:+.3f} / " in hist, arm
