@@ -90,6 +90,12 @@ class CompositeConfig:
     ``night_gain``, slightly blue), as in real flare photos taken at night."""
     night_gain: tuple[float, float] = (0.02, 0.3)
     """Log-uniform linear-light gain of a night background."""
+    flare_canvas: float = 1.0
+    """The flare is drawn for a frame this many times the composite's side, and the
+    composite is a window of it around the light (1: drawn for the composite itself). The
+    mask stage meets flare drawn across a whole photo at its working size (512 px), about
+    twice the pixels of flare drawn for a 256 px composite; 2 draws it at that scale
+    (docs/history/fmg.md, "Thirty-first session")."""
 
 
 # --------------------------------------------------------------------------- backgrounds
@@ -491,20 +497,46 @@ def warp_layers(layers: fl.FlareLayers, m: np.ndarray, size: int) -> fl.FlareLay
         mask=warp(layers.mask.astype(np.uint8), cv2.INTER_NEAREST) > 0)
 
 
+def window_layers(layers: fl.FlareLayers, x0: int, y0: int, size: int) -> fl.FlareLayers:
+    """The ``size`` x ``size`` window of ``layers`` with its top-left at (x0, y0), the light
+    and ghost positions moved into the window's pixels."""
+    def cut(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(a[y0:y0 + size, x0:x0 + size])
+
+    lx, ly = layers.light_xy
+    return dataclasses.replace(
+        layers, flare=cut(layers.flare), core=cut(layers.core), mask=cut(layers.mask),
+        light_xy=(lx - x0, ly - y0), ghost_xy=[(x - x0, y - y0) for x, y in layers.ghost_xy])
+
+
+def draw_flare(flare_cfg: fl.FlareConfig, comp: CompositeConfig, size: int,
+               rng: np.random.Generator) -> fl.FlareLayers:
+    """A fresh lens (kinds from ``flare_cfg.kinds``) at a random light, rendered for a
+    ``size`` square, or (``comp.flare_canvas`` > 1) for a square that many times larger of
+    which a ``size`` window is kept, placed so the light falls inside it (or, for a light
+    outside the larger frame, as near it as the frame allows)."""
+    lens = fl.sample_lens(flare_cfg, rng)
+    big = max(size, round(size * comp.flare_canvas))
+    light = fl.sample_light_xy(flare_cfg, (big, big), rng)
+    k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
+    layers = fl.render_flare(lens, light, (big, big), rng, k)
+    if big == size:
+        return layers
+    x0, y0 = (int(np.clip(round(c - size * rng.uniform(0.1, 0.9)), 0, big - size))
+              for c in light)
+    return window_layers(layers, x0, y0, size)
+
+
 def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeConfig,
                     rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool).
 
-    A fresh lens (kinds from ``flare_cfg.kinds``) at a random light position, its layers
-    moved by one random affine. The mask is kept where the flare is visible against this
-    background.
+    A fresh lens at a random light position (:func:`draw_flare`), its layers moved by one
+    random affine. The mask is kept where the flare is visible against this background.
     """
     S = img.shape[0]
-    lens = fl.sample_lens(flare_cfg, rng)
-    light = fl.sample_light_xy(flare_cfg, (S, S), rng)
-    k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
-    layers = fl.render_flare(lens, light, (S, S), rng, k)
-    m = random_affine(comp, light, rng)
+    layers = draw_flare(flare_cfg, comp, S, rng)
+    m = random_affine(comp, layers.light_xy, rng)
     layers = warp_layers(layers, m, S)
     label = layers.mask
     gain = float(rng.uniform(*flare_cfg.gain))

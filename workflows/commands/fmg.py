@@ -64,7 +64,8 @@ def register(app: typer.Typer) -> None:
                                                size=config.size, split=config.split,
                                                rays=config.rays, ray_cfg=rule,
                                                confirm=config.confirm,
-                                               confirm_keep=keep, scales=config.scales)
+                                               confirm_keep=keep, scales=config.scales,
+                                               flare_canvas=config.flare_canvas)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

@@ -75,6 +75,10 @@ class FMGTrainConfig:
     flare_prob: float = option(0.8, ge=0, le=1)
     """Probability that a training composite has flare; the rest are clean photos (with hard
     negatives at ``CompositeConfig.clean_negative_prob``) that teach 'nothing here'."""
+    flare_canvas: float = option(1.0, ge=1, le=4)
+    """Draw each composite's flare for a frame this many times its side and keep a window of
+    it around the light (``CompositeConfig.flare_canvas``; 2: flare at the scale the mask
+    stage meets it on a 512 px photo). Validation composites are drawn the same way."""
     without: tuple[str, ...] = option(
         (), choices=("starburst", "ghosts", "streaks", "glare", "scatter"))
     """Kinds of flare to leave out of training (comma-separated, of
@@ -148,6 +152,10 @@ class FMGEvalConfig:
     """With ``per_kind`` or ``clean``: the network run at these fractions of the working size
     (of the composite's side with ``per_kind``), its probabilities averaged, as `mask
     --scales` (every network scored, the second of ``confirm`` too)."""
+    flare_canvas: float = option(1.0, ge=1, le=4)
+    """With ``per_kind``: the composites' flare drawn for a frame this many times their side,
+    a window around the light kept (`fmg train --flare-canvas`; 2: at the scale the mask
+    stage meets flare on a 512 px photo)."""
     ray_min: int | None = option(None, ge=1)
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
@@ -222,6 +230,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
     check_ray_rule(cfg)
     if tuple(cfg.scales) != (1.0,) and not (cfg.per_kind or cfg.clean):
         raise UserError("--scales needs --per-kind or --clean")
+    if cfg.flare_canvas != 1.0 and not cfg.per_kind:
+        raise UserError("--flare-canvas needs --per-kind")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -236,7 +246,8 @@ def check_ray_rule(cfg) -> None:
 
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
              negatives: tuple[str, ...] | None = None,
-             kind_probs: dict[str, float] | None = None, flare_prob: float = 0.8):
+             kind_probs: dict[str, float] | None = None, flare_prob: float = 0.8,
+             flare_canvas: float = 1.0):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -246,7 +257,8 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
     )
 
     parts = split_backgrounds(data)
-    comp = CompositeConfig(size=size, night_prob=night_prob, flare_prob=flare_prob)
+    comp = CompositeConfig(size=size, night_prob=night_prob, flare_prob=flare_prob,
+                           flare_canvas=flare_canvas)
     if negatives is not None:
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
@@ -562,7 +574,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without), tuple(cfg.negatives),
-                                          kind_probs, cfg.flare_prob)
+                                          kind_probs, cfg.flare_prob, cfg.flare_canvas)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
@@ -683,7 +695,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
-                   confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,)) -> dict:
+                   confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
+                   flare_canvas: float = 1.0) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds,
@@ -692,7 +705,9 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
     the flare rays (rule ``ray_cfg``) are added to every model's mask; with ``confirm``
     (weights) ``weights``' masks are those of `mask --confirm` with that second network;
-    ``scales``: every network at these fractions of the composites' side (``score``)."""
+    ``scales``: every network at these fractions of the composites' side (``score``);
+    ``flare_canvas``: the flare drawn for a frame that many times the composites' side
+    (``CompositeConfig.flare_canvas``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -709,9 +724,10 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
         held.append({**info_w, "model": load_fmg_weights(Path(w))})
     kinds = tuple(kinds or fl.KINDS)
     bgs = _part_backgrounds(data, size, split)
-    comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT)
+    comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT, flare_canvas=flare_canvas)
     res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
+           "flare_canvas": flare_canvas,
            "weights": {k: v for k, v in main.items() if k != "model"},
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep},
