@@ -205,6 +205,35 @@ def test_composites_mark_visible_flare_not_core():
     assert not (w.mask & (w.core.max(axis=2) > 0)).any()
 
 
+def test_flare_canvas_draws_a_window_of_a_larger_frame():
+    """flare_canvas 1 draws as before (the same lens, light and intensity from the stream);
+    2 renders the lens for a frame twice the side and keeps a window holding the light, so
+    the flare spans twice the pixels it would in the composite's own frame."""
+    from pipeline import flare as fl
+    from pipeline.fmg_data import CompositeConfig, draw_flare, window_layers
+
+    cfg = fl.FlareConfig(kinds=("starburst",), light_outside_prob=0.0)
+    S = 96
+    one = draw_flare(cfg, CompositeConfig(size=S), S, np.random.default_rng(4))
+    rng = np.random.default_rng(4)  # the old draw, by hand
+    lens = fl.sample_lens(cfg, rng)
+    light = fl.sample_light_xy(cfg, (S, S), rng)
+    k = float(np.exp(rng.uniform(*np.log(cfg.intensity))))
+    ref = fl.render_flare(lens, light, (S, S), rng, k)
+    assert np.array_equal(one.mask, ref.mask) and np.allclose(one.flare, ref.flare)
+    two = draw_flare(cfg, CompositeConfig(size=S, flare_canvas=2.0), S, np.random.default_rng(4))
+    assert two.flare.shape == (S, S, 3) and two.mask.shape == (S, S)
+    lx, ly = two.light_xy
+    assert 0 <= lx < S and 0 <= ly < S  # the light was in the larger frame: it is kept
+    # the same lens drawn at twice the frame: its spikes are twice as long
+    big = fl.render_flare(lens, (2 * light[0], 2 * light[1]), (2 * S, 2 * S), None, k)
+    assert big.mask.sum() > 2.5 * ref.mask.sum()
+    # a window is a plain crop, positions moved with it
+    w = window_layers(big, 10, 20, S)
+    assert np.array_equal(w.mask, big.mask[20:20 + S, 10:10 + S])
+    assert w.light_xy == (2 * light[0] - 10, 2 * light[1] - 20)
+
+
 def test_night_backgrounds_and_hard_negatives():
     from pipeline import flare as fl
     from pipeline.fmg_data import (

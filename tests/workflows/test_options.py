@@ -152,6 +152,9 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
      "error: --night-prob 2: must be between 0 and 1"),
     (["fmg", "eval", "--loo", "{tmp}/a.safetensors"], "error: --loo needs --per-kind"),
     (["fmg", "eval", "--scales", "1,0.75"], "error: --scales needs --per-kind or --clean"),
+    (["fmg", "eval", "--flare-canvas", "2"], "error: --flare-canvas needs --per-kind"),
+    (["fmg", "train", "--out", "{tmp}/fmg", "--flare-canvas", "0.5"],
+     "error: --flare-canvas 0.5: must be between 1 and 4"),
     (["fmg", "eval", "--clean", "--data", "{tmp}"], "error: {tmp}/scenes/fern/images_8: no such "
      "folder; pass --data pointing at the shared data"),
     (["fmg", "eval", "--clean", "--confirm-keep", "first"],
