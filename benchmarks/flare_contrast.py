@@ -1,0 +1,128 @@
+"""How bright the true flare is against its background: FMG composites against synth scenes.
+
+    python benchmarks/flare_contrast.py --scenes DIR [--count 48] [--data SHARED] --out JSON
+
+A diagnosis for the mask network (docs/history/fmg.md, "Thirty-first session"): per kind of
+flare, the percentiles (10, 25, 50, 75) over the true mask's pixels of the flare's added
+linear luminance, absolute and relative to the background's, on (a) ``--count`` development
+composites of that kind alone, as `fmg eval --per-kind --split dev` draws them (256 px, the
+flare drawn for the composite), and (b) the one-kind scenes of
+``benchmarks/mask_kind_scenes.py build`` under ``--scenes`` (``<scene>_<kind>/photos`` against
+``clean``, over ``masks_gt``). If the scenes' flare were fainter than the composites', that
+would explain why the FMG finds less of it there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+PERCENTILES = (10, 25, 50, 75)
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Linear-light luminance (Rec. 709) of [..., 3] linear RGB."""
+    return rgb @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+
+
+def contrast(flared_lin: np.ndarray, clean_lin: np.ndarray, mask: np.ndarray):
+    """(absolute, relative) added luminance over the pixels of ``mask``."""
+    a, b = luminance(flared_lin), luminance(clean_lin)
+    return (a - b)[mask], ((a - b) / np.maximum(b, 1e-3))[mask]
+
+
+def summary(parts: list[np.ndarray]) -> dict:
+    v = np.concatenate(parts) if parts else np.zeros(0)
+    return {"pixels": int(v.size), **{f"p{q}": float(np.percentile(v, q)) if v.size else None
+                                      for q in PERCENTILES}}
+
+
+def composites(kind: str, data: Path, count: int, seed: int = 7) -> dict:
+    """Contrast on ``count`` development composites of ``kind`` alone."""
+    from pipeline import flare as fl
+    from pipeline.colour import srgb_to_linear
+    from pipeline.fmg_data import (
+        CompositeConfig,
+        composite_flare,
+        load_backgrounds,
+        random_crop,
+        split_backgrounds,
+    )
+
+    comp = CompositeConfig(size=256)
+    bgs = load_backgrounds(split_backgrounds(data).dev, comp.preload_side)
+    cfg, rng = fl.FlareConfig(kinds=(kind,)), np.random.default_rng(seed)
+    absolute, relative = [], []
+    for _ in range(count):
+        bg = random_crop(bgs[int(rng.integers(len(bgs)))], comp.size, comp.crop_scale, rng)
+        flared, mask = composite_flare(bg, cfg, comp, rng)
+        a, r = contrast(srgb_to_linear(flared), srgb_to_linear(bg), mask)
+        absolute.append(a)
+        relative.append(r)
+    return {"absolute": summary(absolute), "relative": summary(relative)}
+
+
+def scenes(kind: str, root: Path) -> dict:
+    """Contrast on every view of the one-kind scenes ``root/*_<kind>``."""
+    import cv2
+
+    from pipeline.colour import srgb_to_linear
+
+    absolute, relative, names = [], [], []
+    for d in sorted(root.glob(f"*_{kind}")):
+        names.append(d.name)
+        for photo in sorted((d / "photos").glob("*.png")):
+            truth = cv2.imread(str(d / "masks_gt" / photo.name), cv2.IMREAD_GRAYSCALE)
+            clean = cv2.imread(str(d / "clean" / photo.name))
+            if truth is None or clean is None or not (truth > 127).any():
+                continue
+            flared = cv2.imread(str(photo))[..., ::-1].astype(np.float32) / 255
+            a, r = contrast(srgb_to_linear(flared),
+                            srgb_to_linear(clean[..., ::-1].astype(np.float32) / 255),
+                            truth > 127)
+            absolute.append(a)
+            relative.append(r)
+    return {"scenes": names, "absolute": summary(absolute), "relative": summary(relative)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    from pipeline.errors import UserError
+    from pipeline.flare import KINDS
+    from workflows.research.fmg_train import default_data
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", type=Path, required=True,
+                    help="the folder of benchmarks/mask_kind_scenes.py build")
+    ap.add_argument("--count", type=int, default=48)
+    ap.add_argument("--data", type=Path, default=None)
+    ap.add_argument("--out", type=Path)
+    a = ap.parse_args(argv)
+    res = {}
+    try:
+        if not any(a.scenes.glob(f"*_{k}") for k in KINDS):
+            raise UserError(f"{a.scenes}: no one-kind scenes (<scene>_<kind>); build them with "
+                            "benchmarks/mask_kind_scenes.py build")
+        for kind in KINDS:
+            res[kind] = {"composites": composites(kind, a.data or default_data(), a.count),
+                         "scenes": scenes(kind, a.scenes)}
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    for kind, r in res.items():
+        cells = [f"{src} rel {r[src]['relative']['p50']:.3f} abs {r[src]['absolute']['p50']:.3f}"
+                 for src in ("composites", "scenes")]
+        print(f"{kind:>9}: median " + "; ".join(cells))
+    if a.out:
+        from pipeline.provenance import write_result
+        write_result(a.out, {"count": a.count, "percentiles": list(PERCENTILES), "kinds": res})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
