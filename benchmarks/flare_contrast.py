@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     res = {}
     try:
-        if not any(a.scenes.glob(f"*_{k}") for k in KINDS):
+        if not any((d / "photos").is_dir() for k in KINDS for d in a.scenes.glob(f"*_{k}")):
             raise UserError(f"{a.scenes}: no one-kind scenes (<scene>_<kind>); build them with "
                             "benchmarks/mask_kind_scenes.py build")
         for kind in KINDS:
@@ -115,7 +115,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     for kind, r in res.items():
-        cells = [f"{src} rel {r[src]['relative']['p50']:.3f} abs {r[src]['absolute']['p50']:.3f}"
+        def med(src: str, what: str, r=r) -> str:
+            v = r[src][what]["p50"]
+            return "-" if v is None else f"{v:.3f}"
+
+        cells = [f"{src} rel {med(src, 'relative')} abs {med(src, 'absolute')}"
                  for src in ("composites", "scenes")]
         print(f"{kind:>9}: median " + "; ".join(cells))
     if a.out:
