@@ -57,8 +57,14 @@ CHECKS = [
                 "sample_oneshot_cpu_s27_M_maxflare013.json")
       for v in ("DSC_6466", "DSC_6467", "DSC_6468", "DSC_6470", "DSC_6471", "DSC_6473",
                 "DSC_6474", "DSC_6475")],
-    *[("README.md", "kermit_synth_quick_cpu_s27_Mprime.json", f"methods/{m}/inputs/{k}", "{:.2f}")
-      for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
+    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", f"methods/{m}/inputs/{k}", "{:.2f}")
+      for s in ("kermit", "cyprus") for m in ("gnfr", "gnt", "input")
+      for k in ("psnr_flare", "psnr")],
+    *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", f"methods/{m}/heldout/{k}", f)
+      for s in ("kermit", "cyprus") for m in ("gnfr", "gnt")
+      for k, f in (("psnr", "{:.2f}"), ("ssim", "{:.3f}"))],
+    *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", "methods/photos/inputs/psnr_flare",
+       "{:.2f}") for s in ("kermit", "cyprus")],
     *[("README.md", f"fmg_s27_{arm}_fair_kermit_s0.json", p, "{:.2f}")
       for arm in ("small_h0", "Mp") for p in ("heldout/psnr",)],
     ("README.md", "fmg_s27_small_h0_fair_kermit_s0.json", "inputs/psnr_flare", "{:.2f}"),
