@@ -4,6 +4,7 @@
         # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
     python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
     python benchmarks/mask_kind_scenes.py judge J --base SETTING --candidate SETTING [--out K]
+    python benchmarks/mask_kind_scenes.py summary J [J ...] --setting SETTING [--out K]
 
 `fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px
 frame; the mask stage meets flare drawn across a whole photo (504 px here), at about twice
@@ -15,7 +16,10 @@ file: per kind, each setting's flare IoU (rays on) averaged over the scenes wher
 marks some true pixels, the mean over kinds, and the rule of docs/history/fmg.md
 ("Thirty-first session: S2 judged per kind at the photos' scale"): the candidate's mean at
 least 0.01 above the base's, no kind lower by more than 0.02. A setting is named
-``WEIGHTS_FILE_NAME@SCALES`` (e.g. ``fmg.safetensors@1,0.75``).
+``WEIGHTS_FILE_NAME@SCALES`` (e.g. ``fmg.safetensors@1,0.75``). One build holds one lens per
+kind and scene, three per kind in all, and a kind's score swings with its lenses (by 0.1-0.3
+between the seeds 31 and 32): ``summary`` pools the scores of several builds (``--seed``)
+for one setting, per kind the mean over every scene of every file.
 """
 
 from __future__ import annotations
@@ -92,6 +96,27 @@ def judge(rows: list[dict], base: str, candidate: str) -> dict:
             "rule": {"mean_gain": MEAN_GAIN, "kind_loss": KIND_LOSS}, "passes": passes}
 
 
+def summary(files: list[list[dict]], name: str) -> dict:
+    """Per kind: ``name``'s flare IoU (rays on) over every scene of every file whose truth
+    has flare pixels (mean, count, and each file's own mean); the mean over kinds."""
+    from pipeline.errors import UserError
+    from pipeline.flare import KINDS
+
+    kinds = {}
+    for kind in KINDS:
+        per_file = [[r["flare_iou"] for r in rows if r["rays"] and setting(r) == name
+                     and r["scene"].endswith("_" + kind) and r["truth_share"] > 0]
+                    for rows in files]
+        every = [v for f in per_file for v in f]
+        if every:
+            kinds[kind] = {"mean": sum(every) / len(every), "scenes": len(every),
+                           "per_file": [sum(f) / len(f) if f else None for f in per_file]}
+    if not kinds:
+        raise UserError(f"{name}: no scored one-kind scene of this setting in the files")
+    return {"setting": name, "kinds": kinds,
+            "mean": sum(k["mean"] for k in kinds.values()) / len(kinds)}
+
+
 def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
 
@@ -106,15 +131,30 @@ def main(argv: list[str] | None = None) -> int:
     j.add_argument("--base", required=True)
     j.add_argument("--candidate", required=True)
     j.add_argument("--out", type=Path)
+    s = sub.add_parser("summary")
+    s.add_argument("scores", type=Path, nargs="+")
+    s.add_argument("--setting", required=True)
+    s.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     try:
         if a.cmd == "build":
             for p in build(a.dev, a.out, a.seed):
                 print(p)
             return 0
-        if not a.scores.is_file():
-            raise UserError(f"{a.scores}: no such file; score the scenes with "
-                            "benchmarks/mask_dev_scenes.py --out first")
+        for f in a.scores if a.cmd == "summary" else [a.scores]:
+            if not f.is_file():
+                raise UserError(f"{f}: no such file; score the scenes with "
+                                "benchmarks/mask_dev_scenes.py --out first")
+        if a.cmd == "summary":
+            res = summary([json.loads(f.read_text())["rows"] for f in a.scores], a.setting)
+            for kind, k in res["kinds"].items():
+                files = ", ".join("-" if v is None else f"{v:.3f}" for v in k["per_file"])
+                print(f"{kind:>9}: {k['mean']:.3f} over {k['scenes']} scenes (per file {files})")
+            print(f"mean over kinds: {res['mean']:.4f}")
+            if a.out:
+                from pipeline.provenance import write_result
+                write_result(a.out, {"scores": [str(f) for f in a.scores], **res})
+            return 0
         res = judge(json.loads(a.scores.read_text())["rows"], a.base, a.candidate)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
