@@ -117,6 +117,32 @@ def summary(files: list[list[dict]], name: str) -> dict:
             "mean": sum(k["mean"] for k in kinds.values()) / len(kinds)}
 
 
+def read_rows(path: Path) -> list[dict]:
+    """The rows of a ``benchmarks/mask_dev_scenes.py`` results file."""
+    from pipeline.errors import UserError
+
+    if not path.is_file():
+        raise UserError(f"{path}: no such file; score the scenes with "
+                        "benchmarks/mask_dev_scenes.py --out first")
+    return json.loads(path.read_text())["rows"]
+
+
+def print_judgement(res: dict) -> None:
+    base, cand = res["base"], res["candidate"]
+    for kind, k in res["kinds"].items():
+        print(f"{kind:>9}: {k[base]:.3f} -> {k[cand]:.3f} ({len(k['scenes'])} scenes)")
+    print(f"mean: {res['mean'][base]:.4f} -> {res['mean'][cand]:.4f} "
+          f"({res['mean_gain']:+.4f}; worst kind {res['worst_kind_change']:+.4f}): "
+          f"{'passes' if res['passes'] else 'fails'}")
+
+
+def print_summary(res: dict) -> None:
+    for kind, k in res["kinds"].items():
+        files = ", ".join("-" if v is None else f"{v:.3f}" for v in k["per_file"])
+        print(f"{kind:>9}: {k['mean']:.3f} over {k['scenes']} scenes (per file {files})")
+    print(f"mean over kinds: {res['mean']:.4f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
 
@@ -141,32 +167,20 @@ def main(argv: list[str] | None = None) -> int:
             for p in build(a.dev, a.out, a.seed):
                 print(p)
             return 0
-        for f in a.scores if a.cmd == "summary" else [a.scores]:
-            if not f.is_file():
-                raise UserError(f"{f}: no such file; score the scenes with "
-                                "benchmarks/mask_dev_scenes.py --out first")
-        if a.cmd == "summary":
-            res = summary([json.loads(f.read_text())["rows"] for f in a.scores], a.setting)
-            for kind, k in res["kinds"].items():
-                files = ", ".join("-" if v is None else f"{v:.3f}" for v in k["per_file"])
-                print(f"{kind:>9}: {k['mean']:.3f} over {k['scenes']} scenes (per file {files})")
-            print(f"mean over kinds: {res['mean']:.4f}")
-            if a.out:
-                from pipeline.provenance import write_result
-                write_result(a.out, {"scores": [str(f) for f in a.scores], **res})
-            return 0
-        res = judge(json.loads(a.scores.read_text())["rows"], a.base, a.candidate)
+        if a.cmd == "judge":
+            res = judge(read_rows(a.scores), a.base, a.candidate)
+            print_judgement(res)
+            scores = str(a.scores)
+        else:
+            res = summary([read_rows(f) for f in a.scores], a.setting)
+            print_summary(res)
+            scores = [str(f) for f in a.scores]
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    for kind, k in res["kinds"].items():
-        print(f"{kind:>9}: {k[a.base]:.3f} -> {k[a.candidate]:.3f} ({len(k['scenes'])} scenes)")
-    print(f"mean: {res['mean'][a.base]:.4f} -> {res['mean'][a.candidate]:.4f} "
-          f"({res['mean_gain']:+.4f}; worst kind {res['worst_kind_change']:+.4f}): "
-          f"{'passes' if res['passes'] else 'fails'}")
     if a.out:
         from pipeline.provenance import write_result
-        write_result(a.out, {"scores": str(a.scores), **res})
+        write_result(a.out, {"scores": scores, **res})
     return 0
 
 

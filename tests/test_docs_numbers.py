@@ -991,3 +991,19 @@ def test_fill_blend_table_is_the_simulation_file():
         cells = " | ".join(f"{d[s]['gain'][arm]['psnr']:+.3f}"
                            for s in ("sceaux_synth", "et_synth", "lund_synth"))
         assert f"| {cells} | {d['mean'][arm]['psnr']:+.3f} / " in hist, arm
+
+
+def test_mask_kinds_pooled_summary_is_the_card_and_history():
+    """The FMG card's and history's per-kind numbers at the photos' scale are
+    mask_kind_scenes.py's summary of the three committed builds."""
+    mk = _load_benchmark("mask_kind_scenes")
+    files = ("mask_dev_kinds_S2.json", "mask_dev_kinds_M_s32.json", "mask_dev_kinds_M_s33.json")
+    res = mk.summary([json.loads((RESULTS / f).read_text())["rows"] for f in files],
+                     "fmg.safetensors@1")
+    saved = json.loads((RESULTS / "mask_kinds_summary_M_s31_33.json").read_text())
+    assert {k: v["mean"] for k, v in res["kinds"].items()} == {
+        k: v["mean"] for k, v in saved["kinds"].items()}
+    cells = ", ".join(f"{k} {res['kinds'][k]['mean']:.3f}"
+                      for k in ("starburst", "ghosts", "streaks", "glare", "scatter"))
+    for page in ("gnfr/weights/fmg.md", "docs/history/fmg.md"):
+        assert cells in " ".join((REPO / page).read_text().split()), page
