@@ -1007,3 +1007,15 @@ def test_mask_kinds_pooled_summary_is_the_card_and_history():
                       for k in ("starburst", "ghosts", "streaks", "glare", "scatter"))
     for page in ("gnfr/weights/fmg.md", "docs/history/fmg.md"):
         assert cells in " ".join((REPO / page).read_text().split()), page
+
+
+def test_variant_regions_numbers_in_eval_md():
+    """docs/eval.md's split of the flare region (the photos' share, each network's PSNR on
+    the rest) is variant_regions.py's files."""
+    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    k, c = (json.loads((RESULTS / f"variant_regions_{s}_s31.json").read_text())
+            for s in ("kermit", "cyprus"))
+    assert (f"{100 * k['identical_share']:.1f} % (kermit) and {100 * c['identical_share']:.1f} %"
+            " (cyprus)") in text
+    for r in (k, c):
+        assert f"{r['psnr_gnfr']:.2f} against {r['psnr_gnt']:.2f} dB" in text
