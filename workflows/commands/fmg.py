@@ -65,7 +65,8 @@ def register(app: typer.Typer) -> None:
                                                rays=config.rays, ray_cfg=rule,
                                                confirm=config.confirm,
                                                confirm_keep=keep, scales=config.scales,
-                                               flare_canvas=config.flare_canvas)
+                                               flare_canvas=config.flare_canvas,
+                                               night=config.night)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

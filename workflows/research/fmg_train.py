@@ -152,6 +152,9 @@ class FMGEvalConfig:
     """With ``per_kind`` or ``clean``: the network run at these fractions of the working size
     (of the composite's side with ``per_kind``), its probabilities averaged, as `mask
     --scales` (every network scored, the second of ``confirm`` too)."""
+    night: float | None = option(None, ge=0, le=1)
+    """With ``per_kind``: the share of the composites on night-darkened backgrounds (default
+    ``PER_KIND_NIGHT``, 0.3; 0 scores daylight alone, as the development scenes are)."""
     flare_canvas: float = option(1.0, ge=1, le=4)
     """With ``per_kind``: the composites' flare drawn for a frame this many times their side,
     a window around the light kept (`fmg train --flare-canvas`; 2: at the scale the mask
@@ -232,6 +235,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--scales needs --per-kind or --clean")
     if cfg.flare_canvas != 1.0 and not cfg.per_kind:
         raise UserError("--flare-canvas needs --per-kind")
+    if cfg.night is not None and not cfg.per_kind:
+        raise UserError("--night needs --per-kind")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -696,12 +701,12 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                    kinds: tuple[str, ...] | None = None, split: str = "test",
                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
-                   flare_canvas: float = 1.0) -> dict:
+                   flare_canvas: float = 1.0, night: float | None = None) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
-    scenes and backgrounds,
-    night backgrounds on ``PER_KIND_NIGHT`` of them), of ``weights`` (e.g. the shipped model)
-    and of each leave-one-kind-out model in ``loo`` on the kind it was trained without (its
+    scenes and backgrounds, night backgrounds on ``night`` of them, default
+    ``PER_KIND_NIGHT``), of ``weights`` (e.g. the shipped model) and of each
+    leave-one-kind-out model in ``loo`` on the kind it was trained without (its
     metadata ``without``). Each model is cut at its own calibrated threshold; with ``rays``
     the flare rays (rule ``ray_cfg``) are added to every model's mask; with ``confirm``
     (weights) ``weights``' masks are those of `mask --confirm` with that second network;
@@ -724,8 +729,9 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
         held.append({**info_w, "model": load_fmg_weights(Path(w))})
     kinds = tuple(kinds or fl.KINDS)
     bgs = _part_backgrounds(data, size, split)
-    comp = CompositeConfig(size=size, night_prob=PER_KIND_NIGHT, flare_canvas=flare_canvas)
-    res = {"count": count, "seed": seed, "size": size, "night": PER_KIND_NIGHT, "split": split,
+    night = PER_KIND_NIGHT if night is None else night
+    comp = CompositeConfig(size=size, night_prob=night, flare_canvas=flare_canvas)
+    res = {"count": count, "seed": seed, "size": size, "night": night, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
            "flare_canvas": flare_canvas,
            "weights": {k: v for k, v in main.items() if k != "model"},
