@@ -43,6 +43,9 @@
 #           eval --per-kind --loo` on the dev and test splits there; carry .carry/fmgdata.
 #           The thirtieth session's P (M + 10 000 steps at 2e-4) fell on the development
 #           scenes: more steps of one recipe are no longer the plan (gnfr/weights/fmg.md).
+#           Also scored on daylight composites alone (`--night 0`): the thirty-first session
+#           found the thin kinds at flare IoU 0.17-0.29 on daylight, composites and photos
+#           alike; FMG_NIGHT=F sets the `short`/`train` run's --night-prob (default 0.35).
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
 # trainings going beside them (started if their data is there) and
 # export both at END, like train. Name every folder a call reads in that call's carry: in
@@ -90,7 +93,8 @@ start_fmg() {
   [ -f $from ] && [ ! -f $FM/checkpoint.safetensors ] && init=(--init $from)
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
-    --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 --night-prob 0.35 \
+    --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 \
+    --night-prob ${FMG_NIGHT:-0.35} \
     --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
     --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} \
     >> $FM.log 2>&1 < /dev/null &
@@ -190,6 +194,8 @@ Path('$LK/loko_$k/fmg.safetensors'), extra={'without': '${k/all/}', 'export': 'c
     cli fmg eval --weights $LK/loko_all/fmg.safetensors --per-kind --split $split \
       --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_$split.json 2>&1 | tail -8
   done
+  cli fmg eval --weights $LK/loko_all/fmg.safetensors --per-kind --split dev --night 0 \
+    --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_dev_day.json 2>&1 | tail -8
   exit 0 ;;
 *) echo "unknown phase $PHASE (short, check, train, devab, fern, loko)"; exit 2 ;;
 esac
