@@ -68,6 +68,9 @@ set -u
 PHASE=${1:-check}; END=${2:-560}; ITERS=${3:-2000}
 T0=$(date +%s)
 export PYTHONPATH=$PWD PYTHONUNBUFFERED=1
+# ../shared does not travel to the device: every `fmg` command without --data (calibrate,
+# eval) reads the carried photos
+[ -d .carry/fmgdata ] && export DEFLARE_SHARED_DATA=${DEFLARE_SHARED_DATA:-$PWD/.carry/fmgdata}
 if ls .carry/whl/*.whl > /dev/null 2>&1; then
   python3 -m pip install -q --no-index --no-deps --target /tmp/site .carry/whl/*.whl \
     && export PYTHONPATH=$PWD:/tmp/site
