@@ -175,6 +175,7 @@ fern)
 loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one without each
         # kind and one with every kind (the fair column beside them: same steps, same recipe)
   KINDS="starburst ghosts streaks glare scatter"
+  mkdir -p $LK $OUT
   for k in all $KINDS; do
     w=(); [ $k = all ] || w=(--without $k)
     setsid nohup python3 -m workflows.cli fmg train --out $LK/loko_$k --data .carry/fmgdata \
