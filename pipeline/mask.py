@@ -68,7 +68,7 @@ class MaskConfig:
     scales: tuple[float, ...] = option((1.0,), gt=0, le=2, metavar="S1,S2")
     """Fractions of ``work_size`` at which the FMG runs, its probabilities averaged over them
     before the cut (PSPNet's multi-scale testing; e.g. 1,0.75 runs it at 512 and 384 px,
-    about 1.6 times the time). The flare rays are found at ``work_size`` alone
+    about 1.6 times the pixels to run). The flare rays are found at ``work_size`` alone
     (docs/history/fmg.md, "Thirty-first session")."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
