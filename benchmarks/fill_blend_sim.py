@@ -144,6 +144,8 @@ def summarise(per_ws: dict[str, dict], scene_of: dict[str, str]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from fill_regions import split_pair
+
     from pipeline.errors import UserError
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -156,9 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     per_ws, scene_of = {}, {}
     try:
         for pair in a.pairs:
-            if ":" not in pair:
-                raise UserError(f"{pair}: give SYNTH:WS (a development scene and a workspace)")
-            synth, ws = (Path(p) for p in pair.split(":", 1))
+            synth, ws = split_pair(pair)
             per_ws[str(ws)] = score_workspace(synth, ws, a.hybrid, a.hybrid_other, a.network)
             scene_of[str(ws)] = synth.name
     except UserError as e:

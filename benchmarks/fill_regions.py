@@ -28,6 +28,16 @@ def _psnr(err: np.ndarray) -> float | None:
     return None if err.size == 0 else float(-10 * np.log10(max(float(err.mean()), 1e-12)))
 
 
+def split_pair(pair: str) -> tuple[Path, Path]:
+    """(SYNTH, WS) of a ``SYNTH:WS`` argument; a one-line UserError otherwise."""
+    from pipeline.errors import UserError
+
+    if ":" not in pair:
+        raise UserError(f"{pair}: give SYNTH:WS (a development scene and a workspace)")
+    synth, ws = pair.split(":", 1)
+    return Path(synth), Path(ws)
+
+
 def score_workspace(synth: Path, ws: Path, hybrid: str, other: str,
                     compare: list[str]) -> dict:
     """{view: {photo_share, <render>: {photo, network}}} for one workspace's held-out views."""
@@ -87,9 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     per_ws, by_scene = {}, {}
     try:
         for pair in a.pairs:
-            if ":" not in pair:
-                raise UserError(f"{pair}: give SYNTH:WS (a development scene and a workspace)")
-            synth, ws = (Path(p) for p in pair.split(":", 1))
+            synth, ws = split_pair(pair)
             views = score_workspace(synth, ws, a.hybrid, a.hybrid_other, a.compare)
             per_ws[str(ws)] = views
             by_scene.setdefault(synth.name, []).extend(views.values())

@@ -4,12 +4,12 @@
 
 A diagnosis for the mask network (docs/history/fmg.md, "Thirty-first session"): per kind of
 flare, the percentiles (10, 25, 50, 75) over the true mask's pixels of the flare's added
-linear luminance, absolute and relative to the background's, on (a) ``--count`` development
-composites of that kind alone, as `fmg eval --per-kind --split dev` draws them (256 px, the
-flare drawn for the composite), and (b) the one-kind scenes of
-``benchmarks/mask_kind_scenes.py build`` under ``--scenes`` (``<scene>_<kind>/photos`` against
-``clean``, over ``masks_gt``). If the scenes' flare were fainter than the composites', that
-would explain why the FMG finds less of it there.
+linear luminance, absolute and relative to the background's, on (a) ``--count`` daylight
+development composites of that kind alone (256 px, the flare drawn for the composite, as
+`fmg eval --per-kind --split dev --night 0` draws them, with its own seed), and (b) the
+one-kind scenes of ``benchmarks/mask_kind_scenes.py build`` under ``--scenes``
+(``<scene>_<kind>/photos`` against ``clean``, over ``masks_gt``). If the scenes' flare
+were fainter than the composites', that would explain why the FMG finds less of it there.
 """
 
 from __future__ import annotations
@@ -43,20 +43,21 @@ def summary(parts: list[np.ndarray]) -> dict:
                                       for q in PERCENTILES}}
 
 
-def composites(kind: str, data: Path, count: int, seed: int = 7) -> dict:
-    """Contrast on ``count`` development composites of ``kind`` alone."""
+def dev_backgrounds(data: Path) -> list:
+    """The development backgrounds, loaded as the composites load them."""
+    from pipeline.fmg_data import CompositeConfig, load_backgrounds, split_backgrounds
+
+    return load_backgrounds(split_backgrounds(data).dev, CompositeConfig().preload_side)
+
+
+def composites(kind: str, bgs: list, count: int, seed: int = 7) -> dict:
+    """Contrast on ``count`` daylight composites of ``kind`` alone on the backgrounds
+    ``bgs`` (:func:`dev_backgrounds`)."""
     from pipeline import flare as fl
     from pipeline.colour import srgb_to_linear
-    from pipeline.fmg_data import (
-        CompositeConfig,
-        composite_flare,
-        load_backgrounds,
-        random_crop,
-        split_backgrounds,
-    )
+    from pipeline.fmg_data import CompositeConfig, composite_flare, random_crop
 
     comp = CompositeConfig(size=256)
-    bgs = load_backgrounds(split_backgrounds(data).dev, comp.preload_side)
     cfg, rng = fl.FlareConfig(kinds=(kind,)), np.random.default_rng(seed)
     absolute, relative = [], []
     for _ in range(count):
@@ -108,8 +109,9 @@ def main(argv: list[str] | None = None) -> int:
         if not any((d / "photos").is_dir() for k in KINDS for d in a.scenes.glob(f"*_{k}")):
             raise UserError(f"{a.scenes}: no one-kind scenes (<scene>_<kind>); build them with "
                             "benchmarks/mask_kind_scenes.py build")
+        bgs = dev_backgrounds(a.data or default_data())
         for kind in KINDS:
-            res[kind] = {"composites": composites(kind, a.data or default_data(), a.count),
+            res[kind] = {"composites": composites(kind, bgs, a.count),
                          "scenes": scenes(kind, a.scenes)}
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)

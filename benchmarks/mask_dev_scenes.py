@@ -14,6 +14,7 @@ Use development scenes to choose.
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from pathlib import Path
 
@@ -118,8 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     for w in a.weights:
         model = load_fmg_weights(w)
         cut = resolve_threshold(MaskConfig(), w)
-        for rays, scales, scene in ((r, s, c) for r in (False, True) for s in settings
-                                    for c in a.scenes):
+        for rays, scales, scene in itertools.product((False, True), settings, a.scenes):
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),

@@ -65,26 +65,29 @@ def setting(row: dict) -> str:
     return f"{Path(row['weights']).name}@{scales}"
 
 
+def kind_scores(rows: list[dict], kind: str, name: str) -> dict[str, float]:
+    """{scene: flare IoU} of setting ``name`` (rays on) on the scenes of ``kind`` whose truth
+    has flare pixels."""
+    return {r["scene"]: r["flare_iou"] for r in rows if r["rays"] and setting(r) == name
+            and r["scene"].endswith("_" + kind) and r["truth_share"] > 0}
+
+
 def judge(rows: list[dict], base: str, candidate: str) -> dict:
     """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
     has flare pixels; the means over kinds and the rule's verdict."""
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
 
-    rows = [r for r in rows if r["rays"]]
-    found = sorted({setting(r) for r in rows})
+    found = sorted({setting(r) for r in rows if r["rays"]})
     for name in (base, candidate):
         if name not in found:
             raise UserError(f"{name}: no such setting in the file; it has {', '.join(found)}")
     kinds = {}
     for kind in KINDS:
-        scenes = sorted({r["scene"] for r in rows if r["scene"].endswith("_" + kind)
-                         and r["truth_share"] > 0})
-        if not scenes:
-            continue
-        per = {name: [r["flare_iou"] for r in rows if setting(r) == name
-                      and r["scene"] in scenes] for name in (base, candidate)}
-        kinds[kind] = {"scenes": scenes, **{n: sum(v) / len(v) for n, v in per.items()}}
+        per = {name: kind_scores(rows, kind, name) for name in (base, candidate)}
+        if per[base]:
+            kinds[kind] = {"scenes": sorted(per[base]),
+                           **{n: sum(v.values()) / len(v) for n, v in per.items()}}
     if not kinds:
         raise UserError("no scene named <scene>_<kind> with true flare in the file: score the "
                         "scenes that `build` writes")
@@ -104,9 +107,7 @@ def summary(files: list[list[dict]], name: str) -> dict:
 
     kinds = {}
     for kind in KINDS:
-        per_file = [[r["flare_iou"] for r in rows if r["rays"] and setting(r) == name
-                     and r["scene"].endswith("_" + kind) and r["truth_share"] > 0]
-                    for rows in files]
+        per_file = [list(kind_scores(rows, kind, name).values()) for rows in files]
         every = [v for f in per_file for v in f]
         if every:
             kinds[kind] = {"mean": sum(every) / len(every), "scenes": len(every),

@@ -202,9 +202,10 @@ def coerce(text: str, tp: Any, where: str, form: str | None = None) -> Any:
         if len(args) == 2 and args[1] is Ellipsis:
             args, count = (args[0],) * len(text.split(",")), ""
         parts = re.split(r"[,x]", text.lower()) if args[0] is int else text.split(",")
-        how = (f"{count}numbers {form}" if count else f"numbers separated by commas ({form})"
-               ) if form else (
-            f"{count}numbers separated by commas{' or x' if args[0] is int else ''}")
+        if form:
+            how = f"{count}numbers {form}" if count else f"numbers separated by commas ({form})"
+        else:
+            how = f"{count}numbers separated by commas{' or x' if args[0] is int else ''}"
         if len(parts) != len(args):
             raise UserError(f"{where}: must be {how}")
         try:
