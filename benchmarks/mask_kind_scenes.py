@@ -3,7 +3,7 @@
     python benchmarks/mask_kind_scenes.py build DEV DIR [--seed 31]
         # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
     python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
-    python benchmarks/mask_kind_scenes.py judge J --base SETTING --candidate SETTING [--out K]
+    python benchmarks/mask_kind_scenes.py judge J [J ...] --base SETTING --candidate SETTING [--out K]
     python benchmarks/mask_kind_scenes.py summary J [J ...] --setting SETTING [--out K]
 
 `fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px
@@ -72,24 +72,30 @@ def kind_scores(rows: list[dict], kind: str, name: str) -> dict[str, float]:
             and r["scene"].endswith("_" + kind) and r["truth_share"] > 0}
 
 
-def judge(rows: list[dict], base: str, candidate: str) -> dict:
+def judge(files: list[list[dict]], base: str, candidate: str) -> dict:
     """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
-    has flare pixels; the means over kinds and the rule's verdict."""
+    has flare pixels, pooled over the files (builds; each file holds both settings, scored
+    on the same scenes); the means over kinds and the rule's verdict."""
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
 
-    found = sorted({setting(r) for r in rows if r["rays"]})
-    for name in (base, candidate):
-        if name not in found:
-            raise UserError(f"{name}: no such setting in the file; it has {', '.join(found)}")
+    for i, rows in enumerate(files):
+        found = sorted({setting(r) for r in rows if r["rays"]})
+        for name in (base, candidate):
+            if name not in found:
+                raise UserError(f"{name}: no such setting in scores file {i + 1}; it has "
+                                f"{', '.join(found)}")
     kinds = {}
     for kind in KINDS:
-        per = {name: kind_scores(rows, kind, name) for name in (base, candidate)}
-        if per[base]:
-            kinds[kind] = {"scenes": sorted(per[base]),
-                           **{n: sum(v.values()) / len(v) for n, v in per.items()}}
+        per = {name: [kind_scores(rows, kind, name) for rows in files]
+               for name in (base, candidate)}
+        scenes = [(i, s) for i, f in enumerate(per[base]) for s in sorted(f)]
+        if scenes:
+            kinds[kind] = {"scenes": [s for _, s in scenes],
+                           **{n: sum(v[i][s] for i, s in scenes) / len(scenes)
+                              for n, v in per.items()}}
     if not kinds:
-        raise UserError("no scene named <scene>_<kind> with true flare in the file: score the "
+        raise UserError("no scene named <scene>_<kind> with true flare in the files: score the "
                         "scenes that `build` writes")
     mean = {n: sum(k[n] for k in kinds.values()) / len(kinds) for n in (base, candidate)}
     worst = min(k[candidate] - k[base] for k in kinds.values())
@@ -154,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("out", type=Path)
     b.add_argument("--seed", type=int, default=31)
     j = sub.add_parser("judge")
-    j.add_argument("scores", type=Path)
+    j.add_argument("scores", type=Path, nargs="+")
     j.add_argument("--base", required=True)
     j.add_argument("--candidate", required=True)
     j.add_argument("--out", type=Path)
@@ -169,13 +175,12 @@ def main(argv: list[str] | None = None) -> int:
                 print(p)
             return 0
         if a.cmd == "judge":
-            res = judge(read_rows(a.scores), a.base, a.candidate)
+            res = judge([read_rows(f) for f in a.scores], a.base, a.candidate)
             print_judgement(res)
-            scores = str(a.scores)
         else:
             res = summary([read_rows(f) for f in a.scores], a.setting)
             print_summary(res)
-            scores = [str(f) for f in a.scores]
+        scores = [str(f) for f in a.scores]
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

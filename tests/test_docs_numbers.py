@@ -971,7 +971,7 @@ def test_mask_kinds_table_is_the_judge_of_the_committed_scores():
     judgement of the committed scores, the verdict (fails) the saved one."""
     mk = _load_benchmark("mask_kind_scenes")
     rows = json.loads((RESULTS / "mask_dev_kinds_S2.json").read_text())["rows"]
-    res = mk.judge(rows, "fmg.safetensors@1", "fmg.safetensors@1,0.75")
+    res = mk.judge([rows], "fmg.safetensors@1", "fmg.safetensors@1,0.75")
     saved = json.loads((RESULTS / "mask_kinds_judge_S2.json").read_text())
     assert res["passes"] is saved["passes"] is False
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()

@@ -552,3 +552,35 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-2].startswith("error: --arm given 1 times")
     assert "is not a fine-tuned workspace" in err[-1] and not (tmp_path / "x.json").exists()
+
+
+def test_mask_kind_scenes_judge_pools_builds():
+    """benchmarks/mask_kind_scenes.py judge: several builds' files pooled per (file, scene),
+    so the same scene name in two builds counts twice; a file lacking a setting is a
+    one-line error naming it."""
+    import importlib.util
+
+    from pipeline.errors import UserError
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_kind_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_kind_scenes.py")
+    mk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mk)
+
+    def row(weights, scene, iou, share=0.02):
+        return {"weights": weights, "scales": [1.0], "rays": True, "scene": scene,
+                "flare_iou": iou, "truth_share": share}
+
+    one = [row("a.safetensors", "et_ghosts", 0.2), row("b.safetensors", "et_ghosts", 0.5)]
+    two = [row("a.safetensors", "et_ghosts", 0.4), row("b.safetensors", "et_ghosts", 0.3),
+           row("a.safetensors", "et_glare", 0.1, share=0.0),
+           row("b.safetensors", "et_glare", 0.9, share=0.0)]
+    res = mk.judge([one, two], "a.safetensors@1", "b.safetensors@1")
+    assert list(res["kinds"]) == ["ghosts"]  # glare has no true flare: left out
+    assert res["kinds"]["ghosts"]["scenes"] == ["et_ghosts", "et_ghosts"]
+    assert res["kinds"]["ghosts"]["a.safetensors@1"] == pytest.approx(0.3)
+    assert res["kinds"]["ghosts"]["b.safetensors@1"] == pytest.approx(0.4)
+    assert res["passes"] is True
+    with pytest.raises(UserError, match="c.safetensors@1: no such setting in scores file 2"):
+        mk.judge([one + [row("c.safetensors", "et_ghosts", 0.1)], two],
+                 "a.safetensors@1", "c.safetensors@1")
