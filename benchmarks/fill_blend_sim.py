@@ -48,18 +48,12 @@ MIXES = (0.3, 0.5, 0.7)
 
 def quarter(img: np.ndarray, where: np.ndarray | None = None, factor: int = 4) -> np.ndarray:
     """``img`` [H, W, 3] area-averaged by ``factor`` (over ``where`` [H, W] bool only, when
-    given) and upsampled bilinearly to [H, W, 3]."""
-    import cv2
+    given) and upsampled bilinearly to [H, W, 3] (``photo_fill.coarse_mean``, as the
+    network vote sees a photo)."""
+    from pipeline.photo_fill import coarse_mean
 
-    h, w = img.shape[:2]
-    small = (max(1, round(w / factor)), max(1, round(h / factor)))
-    ok = np.ones((h, w), np.float32) if where is None else where.astype(np.float32)
-
-    def down_up(x: np.ndarray) -> np.ndarray:
-        return cv2.resize(cv2.resize(x, small, interpolation=cv2.INTER_AREA), (w, h),
-                          interpolation=cv2.INTER_LINEAR)
-
-    return down_up(img * ok[..., None]) / np.maximum(down_up(ok), 1e-6)[..., None]
+    ok = np.ones(img.shape[:2], bool) if where is None else where
+    return coarse_mean(img, ok, 1 / factor)[0]
 
 
 def arms(hybrid: np.ndarray, other: np.ndarray, network: np.ndarray) -> dict[str, np.ndarray]:

@@ -3,7 +3,8 @@
     python benchmarks/mask_kind_scenes.py build DEV DIR [--seed 31]
         # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
     python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
-    python benchmarks/mask_kind_scenes.py judge J [J ...] --base SETTING --candidate SETTING [--out K]
+    python benchmarks/mask_kind_scenes.py judge J [J ...] --base SETTING --candidate SETTING \
+        [--out K]
     python benchmarks/mask_kind_scenes.py summary J [J ...] --setting SETTING [--out K]
 
 `fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px

@@ -144,6 +144,25 @@ def close_small_holes(colour: np.ndarray, ok: np.ndarray, radius: float
     return out, ok | small
 
 
+def coarse_mean(img: np.ndarray, ok: np.ndarray, scale: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``img`` [H, W, C] as seen at ``scale`` of its size: area-averaged over its ``ok`` [H, W]
+    pixels, then bilinearly upsampled back to [H, W]. Returns (the average [H, W, C], the
+    share of ``ok`` pixels behind each [H, W]); at scale 1 the image and ``ok`` themselves."""
+    import cv2
+
+    H, W = img.shape[:2]
+    w, h = max(1, round(W * scale)), max(1, round(H * scale))
+    okf = ok.astype(np.float32)
+    num = img * okf[..., None]
+    if (w, h) != (W, H):
+        def down_up(x: np.ndarray) -> np.ndarray:
+            return cv2.resize(cv2.resize(x, (w, h), interpolation=cv2.INTER_AREA), (W, H),
+                              interpolation=cv2.INTER_LINEAR)
+        num, okf = down_up(num), down_up(okf)
+    return num / np.maximum(okf, 1e-6)[..., None], okf
+
+
 def network_vote(net: np.ndarray, warped: Warped, scale: float, tol: float
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Sharp photo colours where a single photo agrees with the network.
@@ -156,25 +175,13 @@ def network_vote(net: np.ndarray, warped: Warped, scale: float, tol: float
     ``tol``; its full-resolution colour is returned. The network vouches for the colour at
     its own scale, the photo adds the detail the network cannot draw. Returns (colour [H, W,
     3], ok [H, W] bool)."""
-    import cv2
-
     H, W = net.shape[:2]
-    w, h = max(1, round(W * scale)), max(1, round(H * scale))
     best = np.full((H, W), np.inf, np.float32)
     colour = np.zeros((H, W, 3), np.float32)
     for k in range(warped.colours.shape[0]):
-        ok = warped.ok[k].astype(np.float32)
-        if not ok.any():
+        if not warped.ok[k].any():
             continue
-        c = np.nan_to_num(warped.colours[k]) * ok[..., None]
-        if (w, h) != (W, H):
-            num = cv2.resize(cv2.resize(c, (w, h), interpolation=cv2.INTER_AREA), (W, H),
-                             interpolation=cv2.INTER_LINEAR)
-            den = cv2.resize(cv2.resize(ok, (w, h), interpolation=cv2.INTER_AREA), (W, H),
-                             interpolation=cv2.INTER_LINEAR)
-        else:
-            num, den = c, ok
-        low = num / np.maximum(den, 1e-6)[..., None]
+        low, den = coarse_mean(np.nan_to_num(warped.colours[k]), warped.ok[k], scale)
         diff = np.abs(low - net).max(-1)
         diff[(warped.ok[k] == 0) | (den < 0.5)] = np.inf  # mostly unseen at the coarse scale
         win = diff < best  # strict: ties go to the nearer source (earlier k)
