@@ -45,7 +45,9 @@
 #           scenes: more steps of one recipe are no longer the plan (gnfr/weights/fmg.md).
 #           Also scored on daylight composites alone (`--night 0`): the thirty-first session
 #           found the thin kinds at flare IoU 0.17-0.29 on daylight, composites and photos
-#           alike; FMG_NIGHT=F sets the `short`/`train` run's --night-prob (default 0.35).
+#           alike; FMG_NIGHT=F sets the `short`/`train` run's --night-prob (default 0.35),
+#           FMG_KINDS=K=P,... its --kind-probs and FMG_CANVAS=C its --flare-canvas (the
+#           thirty-second session's CPU candidates D/D2: docs/history/fmg.md).
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
 # trainings going beside them (started if their data is there) and
 # export both at END, like train. Name every folder a call reads in that call's carry: in
@@ -97,8 +99,8 @@ start_fmg() {
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 \
-    --night-prob ${FMG_NIGHT:-0.35} \
-    --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${init[@]}" \
+    --night-prob ${FMG_NIGHT:-0.35} --flare-canvas ${FMG_CANVAS:-1} \
+    --kind-probs ${FMG_KINDS:-starburst=0.7,ghosts=0.7,streaks=0.7} --dice 0.5 "${init[@]}" \
     --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} \
     >> $FM.log 2>&1 < /dev/null &
   echo "FMG training started (${init[*]:-scratch})"
