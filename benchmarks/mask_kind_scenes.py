@@ -3,8 +3,8 @@
     python benchmarks/mask_kind_scenes.py build DEV DIR [--seed 31]
         # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
     python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
-    python benchmarks/mask_kind_scenes.py judge J [J ...] --base SETTING --candidate SETTING \
-        [--out K]
+    python benchmarks/mask_kind_scenes.py judge J[+J2] [J ...] --base SETTING --candidate SETTING \
+        [--out K]   # one argument per build; A+B: that build's rows from two scoring calls
     python benchmarks/mask_kind_scenes.py summary J [J ...] --setting SETTING [--out K]
 
 `fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px
@@ -135,6 +135,12 @@ def read_rows(path: Path) -> list[dict]:
     return json.loads(path.read_text())["rows"]
 
 
+def build_rows(spec: str) -> list[dict]:
+    """The rows of one build: ``FILE`` or ``FILE+FILE...`` (settings of the same build scored
+    in separate calls, e.g. the base's committed file and a candidate's new one)."""
+    return [r for part in spec.split("+") for r in read_rows(Path(part))]
+
+
 def print_judgement(res: dict) -> None:
     base, cand = res["base"], res["candidate"]
     for kind, k in res["kinds"].items():
@@ -161,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("out", type=Path)
     b.add_argument("--seed", type=int, default=31)
     j = sub.add_parser("judge")
-    j.add_argument("scores", type=Path, nargs="+")
+    j.add_argument("scores", nargs="+")
     j.add_argument("--base", required=True)
     j.add_argument("--candidate", required=True)
     j.add_argument("--out", type=Path)
@@ -176,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(p)
             return 0
         if a.cmd == "judge":
-            res = judge([read_rows(f) for f in a.scores], a.base, a.candidate)
+            res = judge([build_rows(str(f)) for f in a.scores], a.base, a.candidate)
             print_judgement(res)
         else:
             res = summary([read_rows(f) for f in a.scores], a.setting)

@@ -1019,3 +1019,41 @@ def test_variant_regions_numbers_in_eval_md():
             " (cyprus)") in text
     for r in (k, c):
         assert f"{r['psnr_gnfr']:.2f} against {r['psnr_gnt']:.2f} dB" in text
+
+
+def test_fmg_d_candidates_table_is_their_files():
+    """docs/history/fmg.md's table of candidates D and D2 (thirty-second session) is their
+    committed files: daylight and mixed composites, the one-kind builds judged beside M's
+    rows of the same build, the every-kind scenes and clean lund."""
+    mk = _load_benchmark("mask_kind_scenes")
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    kinds = ("starburst", "ghosts", "streaks", "glare", "scatter")
+
+    def kind_mean(name):
+        d = json.loads((RESULTS / name).read_text())["kinds"]
+        return sum(d[k]["weights"]["IoU_flare"] for k in kinds) / len(kinds)
+
+    cells = {}
+    for c in ("D", "D2"):
+        builds = [mk.build_rows(f"{RESULTS / base}+{RESULTS / f'mask_dev_kinds_{c}_s{s}.json'}")
+                  for base, s in (("mask_dev_kinds_S2.json", 31), ("mask_dev_kinds_M_s32.json", 32),
+                                  ("mask_dev_kinds_M_s33.json", 33))]
+        res = mk.judge(builds, "fmg.safetensors@1", f"fmg_{c}.safetensors@1")
+        saved = json.loads((RESULTS / f"mask_kinds_judge_{c}.json").read_text())
+        assert res["mean"] == saved["mean"]
+        scenes = [r["flare_iou"] for r in json.loads(
+            (RESULTS / f"mask_dev_scenes_{c}.json").read_text())["rows"] if r["rays"]]
+        clean = json.loads((RESULTS / f"fmg_dev_clean_{c}_rays.json").read_text())[
+            "scenes"]["scenes/lund/images"]
+        cells[c] = (f"{kind_mean(f'fmg_dev_per_kind_{c}_day_rays.json'):.3f}",
+                    f"{res['mean'][f'fmg_{c}.safetensors@1']:.4f}",
+                    f"{kind_mean(f'fmg_dev_per_kind_{c}_rays.json'):.3f}",
+                    f"{sum(scenes) / len(scenes):.3f}",
+                    f"{100 * clean['mean']:.2f} % / {100 * clean['max']:.2f} %")
+        assert res["mean"]["fmg.safetensors@1"] == pytest.approx(0.3248, abs=5e-5)
+    for i, part in enumerate(("1. daylight composites, mean over kinds",
+                              "2. one-kind scenes, three builds pooled",
+                              "3. the card's composites (30 % night), mean",
+                              "4. every-kind development scenes, mean of three",
+                              "5. clean lund, marked (mean / max)")):
+        assert f"| {part} | " in hist and f" | {cells['D'][i]} | {cells['D2'][i]} | " in hist, part
