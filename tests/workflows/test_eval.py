@@ -554,7 +554,7 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     assert "is not a fine-tuned workspace" in err[-1] and not (tmp_path / "x.json").exists()
 
 
-def test_mask_kind_scenes_judge_pools_builds():
+def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     """benchmarks/mask_kind_scenes.py judge: several builds' files pooled per (file, scene),
     so the same scene name in two builds counts twice; a file lacking a setting is a
     one-line error naming it."""
@@ -584,3 +584,9 @@ def test_mask_kind_scenes_judge_pools_builds():
     with pytest.raises(UserError, match="c.safetensors@1: no such setting in scores file 2"):
         mk.judge([one + [row("c.safetensors", "et_ghosts", 0.1)], two],
                  "a.safetensors@1", "c.safetensors@1")
+    # one build scored in two calls: FILE+FILE reads both files' rows as one build
+    (tmp_path / "a.json").write_text(json.dumps({"rows": one[:1]}))
+    (tmp_path / "b.json").write_text(json.dumps({"rows": one[1:]}))
+    assert mk.build_rows(f"{tmp_path / 'a.json'}+{tmp_path / 'b.json'}") == one
+    with pytest.raises(UserError, match="no such file"):
+        mk.build_rows(f"{tmp_path / 'a.json'}+{tmp_path / 'missing.json'}")
