@@ -132,7 +132,11 @@ def read_rows(path: Path) -> list[dict]:
     if not path.is_file():
         raise UserError(f"{path}: no such file; score the scenes with "
                         "benchmarks/mask_dev_scenes.py --out first")
-    return json.loads(path.read_text())["rows"]
+    try:
+        return json.loads(path.read_text())["rows"]
+    except (ValueError, KeyError, TypeError):
+        raise UserError(f"{path}: not a results file of benchmarks/mask_dev_scenes.py (JSON "
+                        "with rows); pass the file its --out wrote") from None
 
 
 def build_rows(spec: str) -> list[dict]:

@@ -590,3 +590,6 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     assert mk.build_rows(f"{tmp_path / 'a.json'}+{tmp_path / 'b.json'}") == one
     with pytest.raises(UserError, match="no such file"):
         mk.build_rows(f"{tmp_path / 'a.json'}+{tmp_path / 'missing.json'}")
+    (tmp_path / "bad.json").write_text("not json")
+    with pytest.raises(UserError, match="bad.json: not a results file"):
+        mk.build_rows(str(tmp_path / "bad.json"))
