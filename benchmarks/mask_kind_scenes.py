@@ -75,8 +75,8 @@ def kind_scores(rows: list[dict], kind: str, name: str) -> dict[str, float]:
 
 def judge(files: list[list[dict]], base: str, candidate: str) -> dict:
     """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
-    has flare pixels, pooled over the files (builds; each file holds both settings, scored
-    on the same scenes); the means over kinds and the rule's verdict."""
+    has flare pixels, pooled over the builds (``files``: each build's rows, both settings
+    scored on the same scenes); the means over kinds and the rule's verdict."""
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
 
@@ -91,6 +91,11 @@ def judge(files: list[list[dict]], base: str, candidate: str) -> dict:
         per = {name: [kind_scores(rows, kind, name) for rows in files]
                for name in (base, candidate)}
         scenes = [(i, s) for i, f in enumerate(per[base]) for s in sorted(f)]
+        lacking = [(i, s) for i, s in scenes if s not in per[candidate][i]]
+        if lacking:
+            i, s = lacking[0]
+            raise UserError(f"{candidate}: scene {s} of build {i + 1} not scored; score it "
+                            "on every scene of the base's build")
         if scenes:
             kinds[kind] = {"scenes": [s for _, s in scenes],
                            **{n: sum(v[i][s] for i, s in scenes) / len(scenes)

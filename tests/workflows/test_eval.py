@@ -584,6 +584,9 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     with pytest.raises(UserError, match="c.safetensors@1: no such setting in scores file 2"):
         mk.judge([one + [row("c.safetensors", "et_ghosts", 0.1)], two],
                  "a.safetensors@1", "c.safetensors@1")
+    with pytest.raises(UserError, match="scene et_ghosts of build 1 not scored"):
+        mk.judge([one[:1] + [row("b.safetensors", "et_glare", 0.2)], two],
+                 "a.safetensors@1", "b.safetensors@1")
     # one build scored in two calls: FILE+FILE reads both files' rows as one build
     (tmp_path / "a.json").write_text(json.dumps({"rows": one[:1]}))
     (tmp_path / "b.json").write_text(json.dumps({"rows": one[1:]}))
