@@ -71,22 +71,22 @@ def composites(kind: str, bgs: list, count: int, seed: int = 7) -> dict:
 
 def scenes(kind: str, root: Path) -> dict:
     """Contrast on every view of the one-kind scenes ``root/*_<kind>``."""
-    import cv2
-
     from pipeline.colour import srgb_to_linear
+    from pipeline.images import read_image_float
+    from pipeline.ws_files import read_mask_file
 
     absolute, relative, names = [], [], []
     for d in sorted(root.glob(f"*_{kind}")):
         names.append(d.name)
         for photo in sorted((d / "photos").glob("*.png")):
-            truth = cv2.imread(str(d / "masks_gt" / photo.name), cv2.IMREAD_GRAYSCALE)
-            clean = cv2.imread(str(d / "clean" / photo.name))
-            if truth is None or clean is None or not (truth > 127).any():
+            truth_file, clean_file = d / "masks_gt" / photo.name, d / "clean" / photo.name
+            if not (truth_file.is_file() and clean_file.is_file()):
                 continue
-            flared = cv2.imread(str(photo))[..., ::-1].astype(np.float32) / 255
-            a, r = contrast(srgb_to_linear(flared),
-                            srgb_to_linear(clean[..., ::-1].astype(np.float32) / 255),
-                            truth > 127)
+            truth = read_mask_file(truth_file)
+            if not truth.any():
+                continue
+            a, r = contrast(srgb_to_linear(read_image_float(photo)),
+                            srgb_to_linear(read_image_float(clean_file)), truth)
             absolute.append(a)
             relative.append(r)
     return {"scenes": names, "absolute": summary(absolute), "relative": summary(relative)}

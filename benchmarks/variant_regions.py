@@ -27,9 +27,9 @@ sys.path.insert(0, str(ROOT))
 def split(eval_ws: Path, synth: Path, a: str, b: str) -> dict:
     """{identical_share (mean over photos), psnr_a, psnr_b (on the differing pixels),
     photos} for one evaluation workspace."""
-    import cv2
-
     from pipeline.errors import UserError
+    from pipeline.images import read_image
+    from pipeline.ws_files import read_mask_file
 
     dirs = {v: eval_ws / "variants" / v / "deflared" for v in (a, b)}
     for v, d in dirs.items():
@@ -37,19 +37,13 @@ def split(eval_ws: Path, synth: Path, a: str, b: str) -> dict:
             raise UserError(f"{d}: no de-flared photos of variant {v}; run `deflare-scene eval "
                             f"SCENE --variants {a},{b}` first")
     shares, err_a, err_b = [], [], []
+    fix = f"run `deflare-scene eval SCENE --variants {a},{b}` on the scene {synth} was built as"
     for png in sorted(dirs[a].glob("*.png")):
-        truth = cv2.imread(str(synth / "masks_gt" / png.name), cv2.IMREAD_GRAYSCALE)
-        clean = cv2.imread(str(synth / "clean" / png.name))
-        other = cv2.imread(str(dirs[b] / png.name))
-        if truth is None or clean is None or other is None:
-            raise UserError(f"{png.name}: missing in {synth}/masks_gt, {synth}/clean or "
-                            f"{dirs[b]}")
-        flare = truth > 127
+        flare = read_mask_file(synth / "masks_gt" / png.name, fix=fix)
         if not flare.any():
             continue
-        ia = cv2.imread(str(png)).astype(np.float64) / 255
-        ib = other.astype(np.float64) / 255
-        gt = clean.astype(np.float64) / 255
+        ia, ib, gt = (read_image(f, fix=fix).astype(np.float64) / 255
+                      for f in (png, dirs[b] / png.name, synth / "clean" / png.name))
         same = np.all(ia == ib, axis=2) & flare
         differ = flare & ~same
         shares.append(float(same.sum() / flare.sum()))
