@@ -40,13 +40,14 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
                 max_size: int | None = None, fill_holes: bool = False, confirm=None,
-                scales: tuple[float, ...] = (1.0,)) -> dict:
+                scales: tuple[float, ...] = (1.0,), ghosts=None) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
-    with ``scales`` the network run as `mask --scales` runs it."""
+    with ``scales`` the network run as `mask --scales` runs it; with ``ghosts`` (a
+    GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them."""
     import cv2
 
     from gnfr.view_sampler import is_target
@@ -67,7 +68,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
             img = resize_area(img, max_size)
             wh = target_size(gt.shape[1], gt.shape[0], max_size)
             gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales)
+        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales,
+                        ghosts=ghosts)
         if fill_holes:
             m |= enclosed_holes(m)
         per_view[photo.stem] = {"true": round(float(gt.mean()), 5),
@@ -100,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="as `mask --confirm-keep`")
     ap.add_argument("--scales", action="append", default=None, metavar="S1,S2",
                     help="as `mask --scales` (repeat to score each setting; default 1)")
+    ap.add_argument("--ghost-lines", action="store_true",
+                    help="also score each setting with `mask --ghost-lines`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     try:
@@ -108,6 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--scales: give numbers separated by commas, e.g. 1,0.75")
     if any(s <= 0 or s > 2 for x in settings for s in x):
         ap.error("--scales: each number more than 0 and at most 2")
+    from pipeline.flare_ghosts import GhostConfig
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result
 
@@ -119,15 +124,19 @@ def main(argv: list[str] | None = None) -> int:
     for w in a.weights:
         model = load_fmg_weights(w)
         cut = resolve_threshold(MaskConfig(), w)
-        for rays, scales, scene in itertools.product((False, True), settings, a.scenes):
+        ghost_settings = (False, True) if a.ghost_lines else (False,)
+        for rays, scales, ghost, scene in itertools.product((False, True), settings,
+                                                             ghost_settings, a.scenes):
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
-                 "confirm_keep": a.confirm_keep, "scales": list(scales),
+                 "confirm_keep": a.confirm_keep, "scales": list(scales), "ghost_lines": ghost,
                  **score_scene(model, cut, scene, rays, max_size=a.max_size,
-                               fill_holes=a.fill_holes, confirm=confirm, scales=scales)}
+                               fill_holes=a.fill_holes, confirm=confirm, scales=scales,
+                               ghosts=GhostConfig() if ghost else None)}
             rows.append(r)
-            print(f"{w.name} x{','.join(f'{s:g}' for s in scales)} "
+            print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
+                  f"{' +ghost-lines' if ghost else ''} "
                   f"{'rays' if rays else 'fmg '} {scene.name}: flare IoU "
                   f"{r['flare_iou']:.3f}, marked outside the flare "
                   f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "

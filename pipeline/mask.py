@@ -86,6 +86,10 @@ class MaskConfig:
     ray_opposite: float | None = option(None, ge=0, le=90)
     """Degrees within which two rays leaving a light in opposite directions (a streak
     through it) also count as enough (default: the rule's, 0 = off)."""
+    ghost_lines: bool = False
+    """Also mark the FMG's weak regions (probability above 0.25, under the cut) that sit on
+    the line through a saturated light and the image centre, where a lens's ghosts lie
+    (``pipeline.flare_ghosts``)."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
@@ -203,37 +207,63 @@ def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray
     from pipeline.flare_rays import ray_mask
 
     h, w = image_bgr.shape[:2]
-    s = min(1.0, work_size / max(h, w))
-    small = image_bgr if s == 1.0 else cv2.resize(image_bgr, (max(1, round(w * s)),
-                                                             max(1, round(h * s))),
-                                                  interpolation=cv2.INTER_AREA)
+    small, s = _at_work_size(image_bgr, work_size)
     marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0, ray_cfg)
     if s == 1.0:
         return marks
     return cv2.resize(marks.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
 
 
+def ghost_marks(image_bgr: np.ndarray, probs: np.ndarray, work_size: int,
+                ghost_cfg=None) -> np.ndarray:
+    """[H, W] bool ghost-line regions (``pipeline.flare_ghosts.ghost_line_mask``, rule
+    ``ghost_cfg``) of the FMG probabilities ``probs`` [H, W] of a BGR uint8 image, its
+    lights found at long side ``work_size`` as the flare rays find them."""
+    from pipeline.flare_ghosts import ghost_line_mask
+    from pipeline.flare_rays import RayConfig, find_lights
+
+    small, s = _at_work_size(image_bgr, work_size)
+    lights = find_lights(small[..., ::-1].astype(np.float32) / 255.0, RayConfig())
+    return ghost_line_mask(probs, [(x / s, y / s, r / s) for x, y, r in lights],
+                           cfg=ghost_cfg)
+
+
+def _at_work_size(image_bgr: np.ndarray, work_size: int) -> tuple[np.ndarray, float]:
+    """The image shrunk (area) to long side ``work_size`` (never enlarged), and the scale."""
+    h, w = image_bgr.shape[:2]
+    s = min(1.0, work_size / max(h, w))
+    if s == 1.0:
+        return image_bgr, s
+    return cv2.resize(image_bgr, (max(1, round(w * s)), max(1, round(h * s))),
+                      interpolation=cv2.INTER_AREA), s
+
+
 def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
                 probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
                 confirm_probs: np.ndarray | None = None,
-                scales: tuple[float, ...] = (1.0,)) -> np.ndarray:
+                scales: tuple[float, ...] = (1.0,), ghosts=None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
-    ``rays``. With ``confirm`` = (second model, its cut, keep) the mask of `mask --confirm`
-    (``confirmed_marks``; the second's probabilities ``confirm_probs`` if already
-    computed). ``scales``: as ``MaskConfig.scales`` (the rays are found at ``work_size``)."""
+    ``rays`` and the ghost-line regions of the probabilities (``ghost_marks``) if
+    ``ghosts`` (a ``pipeline.flare_ghosts.GhostConfig``). With ``confirm`` = (second
+    model, its cut, keep) the mask of `mask --confirm` (``confirmed_marks``; the second's
+    probabilities ``confirm_probs`` if already computed). ``scales``: as
+    ``MaskConfig.scales`` (the rays are found at ``work_size``)."""
 
-    def cut_probs(m, p, c):
+    def network_probs(m, p):
         p = fmg_probs(m, [image_bgr], work_size, scales)[0] if p is None else p
-        return (refine_probs(image_bgr, p) if refine else p) > c
+        return refine_probs(image_bgr, p) if refine else p
 
-    marks = cut_probs(model, probs, cut)
+    p_main = network_probs(model, probs)
+    marks = p_main > cut
+    if ghosts is not None:
+        marks |= ghost_marks(image_bgr, p_main, work_size, ghosts)
     rayed = ray_marks(image_bgr, work_size, ray_cfg) if rays else None
     if confirm is not None:
         second, second_cut, keep = confirm
-        return confirmed_marks(marks, cut_probs(second, confirm_probs, second_cut), keep,
-                               rayed)
+        return confirmed_marks(marks, network_probs(second, confirm_probs) > second_cut,
+                               keep, rayed)
     return marks if rayed is None else marks | rayed
 
 
@@ -274,6 +304,16 @@ def ray_config(config: MaskConfig):
     return RayConfig(**over)
 
 
+def ghost_config(config):
+    """The ghost-line rule (``pipeline.flare_ghosts.GhostConfig``) when
+    ``config.ghost_lines`` (a MaskConfig, or an `fmg eval` config), else None."""
+    if not config.ghost_lines:
+        return None
+    from pipeline.flare_ghosts import GhostConfig
+
+    return GhostConfig()
+
+
 def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
     """Group stems of one image size into batches of at most n."""
     by_size: dict[tuple[int, int], list[str]] = {}
@@ -293,6 +333,7 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
     batches = list(_batches(stems, sizes, config.batch))
     rule = ray_config(config)
+    ghosts = ghost_config(config)
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
@@ -302,7 +343,7 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
             for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
-                                confirm_probs=q)
+                                confirm_probs=q, ghosts=ghosts)
                 write_mask(ws, s, m | enclosed_holes(m) if config.fill_holes else m)
 
 
@@ -368,6 +409,9 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if config.confirm and config.masks_dir is not None:
         raise UserError("--confirm checks an FMG's marks with a second network: it has no "
                         "use with --masks (your masks are kept as given); leave one out")
+    if config.ghost_lines and config.masks_dir is not None:
+        raise UserError("--ghost-lines adds to an FMG's marks: it has no use with --masks "
+                        "(your masks are kept as given); leave one out")
     if config.crosscheck and config.masks_dir is not None:
         raise UserError("--crosscheck checks an FMG's marks against the other photos: it "
                         "has no use with --masks (your masks are kept as given); leave one "
@@ -478,6 +522,7 @@ def stage_seconds(ws: Workspace) -> float:
 
 __all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
-           "flare_marks", "ray_config", "ray_marks", "confirmed_regions", "confirmed_marks",
+           "flare_marks", "ray_config", "ray_marks", "ghost_config", "ghost_marks",
+           "confirmed_regions", "confirmed_marks",
            "DEFAULT_CONFIRM_WEIGHTS"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

@@ -330,6 +330,46 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
     assert (got[True] == (r < 25)).all()
 
 
+def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
+    """`mask --ghost-lines`: the stage adds the ghost-line regions of the network's own
+    probabilities to its mask, records the option (a change redoes the masks), and refuses
+    it beside --masks in one line."""
+    from pipeline import mask as M
+
+    ws = kermit_ws
+    stems, (h, w) = _stems_and_size(ws)
+    yy, xx = np.mgrid[:h, :w]
+    strong = np.hypot(yy - h / 2, xx - w / 2) < 10
+    weak = np.hypot(yy - 20, xx - 30) < 8
+    probs = np.where(strong, 0.9, np.where(weak, 0.4, 0.0)).astype(np.float32)
+    seen = []
+
+    def fake_probs(model, imgs, work_size, scales=(1.0,)):
+        return [probs for _ in imgs]
+
+    def fake_ghosts(image_bgr, p, work_size, ghost_cfg=None):
+        seen.append(ghost_cfg)
+        return (p > ghost_cfg.low) & (p <= 0.5)  # stands in for the line rule: the weak disc
+
+    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    monkeypatch.setattr(M, "ghost_marks", fake_ghosts)
+    got = {}
+    for ghosts in (False, True):
+        cfg = M.MaskConfig(threshold=0.75, rays=False, ghost_lines=ghosts)
+        M.write_fmg_masks(None, cfg, ws, stems[:1])
+        got[ghosts] = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    assert (got[False] == strong).all() and (got[True] == (strong | weak)).all()
+    assert len(seen) == 1 and seen[0].low == 0.25  # the rule's defaults, only when asked
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu", flag="": None)
+    M.run(M.MaskConfig(threshold=0.75, rays=False), ws, force=True)
+    assert ws.stage_record("mask")["params"]["ghost_lines"] is False
+    M.run(M.MaskConfig(threshold=0.75, rays=False, ghost_lines=True), ws)
+    assert ws.stage_record("mask")["params"]["ghost_lines"] is True
+    assert (read_png_mask(ws, stems[0]) == (strong | weak)).all()
+    with pytest.raises(UserError, match="--ghost-lines adds to an FMG's marks"):
+        M.run(M.MaskConfig(ghost_lines=True, masks_dir=tmp_path), ws)
+
+
 def test_confirmed_regions_keep_what_both_masks_find():
     """A region of either mask is kept, whole, when the other mask marks one of its pixels;
     a region only one mask has is dropped; diagonal neighbours are one region."""

@@ -576,6 +576,8 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
            row("a.safetensors", "et_glare", 0.1, share=0.0),
            row("b.safetensors", "et_glare", 0.9, share=0.0)]
     res = mk.judge([one, two], "a.safetensors@1", "b.safetensors@1")
+    assert mk.setting({**one[0], "ghost_lines": True}) == "a.safetensors@1+ghosts"
+    assert mk.setting({**one[0], "ghost_lines": False}) == "a.safetensors@1"
     assert list(res["kinds"]) == ["ghosts"]  # glare has no true flare: left out
     assert res["kinds"]["ghosts"]["scenes"] == ["et_ghosts", "et_ghosts"]
     assert res["kinds"]["ghosts"]["a.safetensors@1"] == pytest.approx(0.3)

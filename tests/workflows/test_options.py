@@ -154,6 +154,7 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
     (["fmg", "eval", "--scales", "1,0.75"], "error: --scales needs --per-kind or --clean"),
     (["fmg", "eval", "--flare-canvas", "2"], "error: --flare-canvas needs --per-kind"),
     (["fmg", "eval", "--clean", "--night", "0"], "error: --night needs --per-kind"),
+    (["fmg", "eval", "--ghost-lines"], "error: --ghost-lines needs --per-kind or --clean"),
     (["fmg", "train", "--out", "{tmp}/fmg", "--flare-canvas", "0.5"],
      "error: --flare-canvas 0.5: must be between 1 and 4"),
     (["fmg", "eval", "--clean", "--data", "{tmp}"], "error: {tmp}/scenes/fern/images_8: no such "

@@ -31,12 +31,12 @@ def register(app: typer.Typer) -> None:
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
         working-size sweep (--work-sizes), clean photos (--clean) or flare-free composites
         with hard negatives (--negatives)."""
-        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights, ray_config
+        from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
         from pipeline.provenance import sha256, write_result
         from workflows.research import fmg_train
 
         fmg_train.check_modes(config)
-        rule = ray_config(config)
+        rule, ghosts = ray_config(config), ghost_config(config)
         weights = config.weights or DEFAULT_WEIGHTS
         for path in (weights, *config.loo):
             load_fmg_weights(path)  # a missing or foreign file: one clear line
@@ -51,7 +51,8 @@ def register(app: typer.Typer) -> None:
             metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
                                                  ray_cfg=rule, confirm=config.confirm,
-                                                 confirm_keep=keep, scales=config.scales)
+                                                 confirm_keep=keep, scales=config.scales,
+                                                 ghosts=ghosts)
             typer.echo(fmg_train.format_clean(metrics))
         elif config.negatives:
             metrics = fmg_train.negative_fractions(weights, config.data, config.negatives,
@@ -66,7 +67,7 @@ def register(app: typer.Typer) -> None:
                                                confirm=config.confirm,
                                                confirm_keep=keep, scales=config.scales,
                                                flare_canvas=config.flare_canvas,
-                                               night=config.night)
+                                               night=config.night, ghosts=ghosts)
             typer.echo(fmg_train.format_kinds(metrics))
         else:
             metrics = fmg_train.evaluate(weights, config.data, config.count,

@@ -163,6 +163,9 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    ghost_lines: bool = False
+    """With ``per_kind`` or ``clean``: add the ghost-line regions to every model's mask (as
+    `mask --ghost-lines`)."""
     negatives: tuple[str, ...] = option(
         (), choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
                      "reflection"))
@@ -237,6 +240,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--flare-canvas needs --per-kind")
     if cfg.night is not None and not cfg.per_kind:
         raise UserError("--night needs --per-kind")
+    if cfg.ghost_lines and not (cfg.per_kind or cfg.clean):
+        raise UserError("--ghost-lines needs --per-kind or --clean")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -274,13 +279,15 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
 def score(model, images, masks, batch: int = 8, refine: bool = False,
           cut: float = 0.5, also=None, confirm=None,
-          scales: tuple[float, ...] = (1.0,)) -> dict[str, float]:
+          scales: tuple[float, ...] = (1.0,), ghosts=None) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
     the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
     cut, keep) the masks are those of `mask --confirm` (``pipeline.mask.confirmed_marks``,
     ``also`` as the rays). ``scales``: each network's probabilities averaged over these
-    fractions of the composites' side (``gnfr.fmg.predict_probs``)."""
+    fractions of the composites' side (``gnfr.fmg.predict_probs``). ``ghosts`` (a
+    ``pipeline.flare_ghosts.GhostConfig``): the ghost-line regions of the probabilities
+    added, as `mask --ghost-lines` adds them (before the confirmation)."""
     import torch
 
     from gnfr.fmg import confusion, predict_probs, seg_metrics
@@ -302,6 +309,8 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             if refine:
                 p = _refine_batch(x.cpu(), p)
             marked = p > cut
+            if ghosts is not None:
+                marked |= ghost_batch(x.cpu(), p, ghosts)
             extra = also[i:i + batch] if also is not None else None
             if confirm is not None:
                 q = predict_probs(confirm[0], x, side, scales).cpu()
@@ -323,6 +332,22 @@ def ray_batch(x, ray_cfg=None):
 
     return torch.stack([torch.from_numpy(ray_mask(np.ascontiguousarray(
         xi.permute(1, 2, 0).numpy()), ray_cfg))[None] for xi in x])
+
+
+def ghost_batch(x, p, ghost_cfg):
+    """[N, 1, S, S] bool ghost-line regions (``pipeline.mask.ghost_marks``, rule
+    ``ghost_cfg``) of images [N, 3, S, S] (sRGB 0..1) with FMG probabilities ``p``
+    [N, 1, S, S]."""
+    import torch
+
+    from pipeline.mask import ghost_marks
+
+    out = []
+    for xi, pi in zip(x, p, strict=True):
+        bgr = (xi.permute(1, 2, 0).numpy()[..., ::-1] * 255).astype(np.uint8)
+        out.append(torch.from_numpy(ghost_marks(bgr, pi[0].numpy(), max(bgr.shape[:2]),
+                                                ghost_cfg))[None])
+    return torch.stack(out)
 
 
 def _refine_batch(x, p):
@@ -696,12 +721,20 @@ def _ray_rule(rays: bool, ray_cfg) -> dict | None:
     return asdict(ray_cfg or RayConfig()) if rays else None
 
 
+def _ghost_rule(ghosts) -> dict | None:
+    """The ghost-line rule a result used (GhostConfig's fields), None without it."""
+    from dataclasses import asdict
+
+    return asdict(ghosts) if ghosts is not None else None
+
+
 def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count: int = 48,
                    seed: int = 2025, size: int = 256,
                    kinds: tuple[str, ...] | None = None, split: str = "test",
                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
-                   flare_canvas: float = 1.0, night: float | None = None) -> dict:
+                   flare_canvas: float = 1.0, night: float | None = None,
+                   ghosts=None) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds, night backgrounds on ``night`` of them, default
@@ -712,7 +745,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     (weights) ``weights``' masks are those of `mask --confirm` with that second network;
     ``scales``: every network at these fractions of the composites' side (``score``);
     ``flare_canvas``: the flare drawn for a frame that many times the composites' side
-    (``CompositeConfig.flare_canvas``)."""
+    (``CompositeConfig.flare_canvas``); ``ghosts``: every model's mask with the ghost-line
+    regions (``score``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -733,7 +767,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     comp = CompositeConfig(size=size, night_prob=night, flare_canvas=flare_canvas)
     res = {"count": count, "seed": seed, "size": size, "night": night, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
-           "flare_canvas": flare_canvas,
+           "flare_canvas": flare_canvas, "ghost_lines": _ghost_rule(ghosts),
            "weights": {k: v for k, v in main.items() if k != "model"},
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep},
@@ -744,11 +778,11 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
         ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
                "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray,
-                                confirm=second, scales=scales)}
+                                confirm=second, scales=scales, ghosts=ghosts)}
         for h in held:
             if kind in h["without"]:
                 row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray,
-                                          scales=scales),
+                                          scales=scales, ghosts=ghosts),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
@@ -866,12 +900,13 @@ def format_work_sizes(res: dict) -> str:
 def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
                     rays: bool = False, ray_cfg=None, confirm: Path | None = None,
-                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,)) -> dict:
+                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
+                    ghosts=None) -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
     `mask --confirm`: as in the mask stage, the networks at ``scales`` of ``work_size`` as
-    `mask --scales`) on every clean photo of ``scenes`` at full size: mean and max per
-    scene."""
+    `mask --scales`, the ghost-line regions added with ``ghosts`` as `mask --ghost-lines`)
+    on every clean photo of ``scenes`` at full size: mean and max per scene."""
     from pipeline.mask import flare_marks, load_fmg_weights
 
     cut = weights_info(Path(weights))["cut"]
@@ -880,11 +915,13 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                                             weights_info(Path(confirm))["cut"], confirm_keep))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
+           "ghost_lines": _ghost_rule(ghosts),
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep}, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
         marked = {name: float(flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg,
-                                          confirm=second, scales=scales).mean())
+                                          confirm=second, scales=scales,
+                                          ghosts=ghosts).mean())
                   for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
