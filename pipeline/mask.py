@@ -87,9 +87,10 @@ class MaskConfig:
     """Degrees within which two rays leaving a light in opposite directions (a streak
     through it) also count as enough (default: the rule's, 0 = off)."""
     ghost_lines: bool = False
-    """Also mark the FMG's weak regions (probability above 0.25, under the cut) that sit on
-    the line through a saturated light and the image centre, where a lens's ghosts lie
-    (``pipeline.flare_ghosts``)."""
+    """Also mark the FMG's weak regions (probability above 0.25, under the cut) that sit, two
+    or more, on the line through a saturated light and the image centre, where a lens's
+    ghosts lie (``pipeline.flare_ghosts``). Off: docs/history/fmg.md, "Thirty-third
+    session", has what it gains on ghosts and costs on clean photos."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its

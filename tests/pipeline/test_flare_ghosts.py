@@ -55,8 +55,22 @@ def test_nothing_without_a_light_or_with_a_light_at_the_centre():
     shifted = np.zeros((H, W), np.float32)
     x, y = _on_line(-0.5)
     shifted[_disc(x + 7, y - 5, 8)] = 0.4                # about 8.6 px off, radius 8
-    assert not ghost_line_mask(shifted, [LIGHT]).any()
-    assert ghost_line_mask(shifted, [LIGHT], cfg=GhostConfig(along=1.5)).any()
+    one = GhostConfig(min_chain=1)
+    assert not ghost_line_mask(shifted, [LIGHT], cfg=one).any()
+    assert ghost_line_mask(shifted, [LIGHT], cfg=GhostConfig(along=1.5, min_chain=1)).any()
+
+
+def test_a_lone_region_on_the_line_needs_a_chain():
+    """By default (``min_chain`` 2) one weak disc on a light's line is not enough; two are
+    kept, both; with ``min_chain`` 1 the lone one is kept too."""
+    lone = np.zeros((H, W), np.float32)
+    lone[_disc(*_on_line(-0.6), 12)] = 0.4
+    assert not ghost_line_mask(lone, [LIGHT]).any()
+    assert ghost_line_mask(lone, [LIGHT], cfg=GhostConfig(min_chain=1)).any()
+    pair = lone.copy()
+    pair[_disc(*_on_line(0.3), 8)] = 0.4
+    assert (ghost_line_mask(pair, [LIGHT]) == (pair > 0)).all()
+    assert not ghost_line_mask(pair, [LIGHT], cfg=GhostConfig(min_chain=3)).any()
 
 
 def test_ghost_marks_find_the_light_in_the_photo():
@@ -69,7 +83,7 @@ def test_ghost_marks_find_the_light_in_the_photo():
     img = np.full((H, W, 3), 60, np.uint8)
     cv2.circle(img, (int(LIGHT[0]), int(LIGHT[1])), 3, (255, 255, 255), -1)
     probs = np.zeros((H, W), np.float32)
-    ghost = _disc(*_on_line(-0.6), 12)
+    ghost = _disc(*_on_line(-0.6), 12) | _disc(*_on_line(0.3), 8)   # a chain of two
     probs[ghost] = 0.4
     assert (ghost_marks(img, probs, 512) == ghost).all()
     big = cv2.resize(img, (2 * W, 2 * H), interpolation=cv2.INTER_NEAREST)
