@@ -479,6 +479,18 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     assert seen and all((c.min_rays, c.opposite) == (1, 8.0) for c in seen)
     rule = json.loads((tmp_path / "r.json").read_text())["ray_rule"]
     assert (rule["min_rays"], rule["opposite"]) == (1, 8.0)
+    # --ghost-lines: every composite's mask goes through the ghost-line rule, recorded
+    import pipeline.flare_ghosts as fg
+
+    ghosts_seen, real_g = [], fg.ghost_line_mask
+    monkeypatch.setattr(fg, "ghost_line_mask", lambda p, lights, centre=None, cfg=None:
+                        ghosts_seen.append(cfg) or real_g(p, lights, centre, cfg))
+    assert main(["fmg", "eval", "--per-kind", "--weights", str(allw), "--data", str(data),
+                 "--count", "2", "--size", "64", "--ghost-lines",
+                 "--out", str(tmp_path / "g.json")]) == 0
+    assert len(ghosts_seen) == 2 * len(fl.KINDS)  # two composites per kind
+    assert json.loads((tmp_path / "g.json").read_text())["ghost_lines"]["min_chain"] == 2
+    assert json.loads((tmp_path / "k.json").read_text())["ghost_lines"] is None
     # --negatives: flare-free composites with each named negative, the rays' rule recorded
     assert main(["fmg", "eval", "--negatives", "backlit,lamp", "--weights", str(allw),
                  "--data", str(data), "--count", "2", "--size", "64", "--split", "dev",
@@ -495,6 +507,10 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     import cv2
 
     assert cv2.imread(str(jpg)).shape[1] == 3 * 480
+    ghosts_seen.clear()
+    assert main(["fmg", "overlay", str(photo), "--weights", str(allw), "--out", str(jpg),
+                 "--work-size", "64", "--ghost-lines"]) == 0
+    assert len(ghosts_seen) == 1 and cv2.imread(str(jpg)).shape[1] == 2 * 480
     # weights trained on every kind cannot stand in for a leave-one-kind-out model
     assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
                  "--count", "2", "--size", "64"]) != 0

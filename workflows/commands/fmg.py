@@ -100,7 +100,7 @@ def register(app: typer.Typer) -> None:
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
-        from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights, ray_config
+        from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
         from workflows.research.fmg_train import check_ray_rule, real_flare_overview
 
         check_ray_rule(config)
@@ -108,7 +108,8 @@ def register(app: typer.Typer) -> None:
         for path in weights:
             load_fmg_weights(path)
         marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
-                                     rays=config.rays, ray_cfg=ray_config(config))
+                                     rays=config.rays, ray_cfg=ray_config(config),
+                                     ghosts=ghost_config(config))
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         typer.echo(f"wrote {config.out}")

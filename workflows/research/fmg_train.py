@@ -219,6 +219,8 @@ class FMGOverlayConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    ghost_lines: bool = False
+    """Add the ghost-line regions to each model's mask (as `mask --ghost-lines`)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -1003,10 +1005,10 @@ def format_clean(res: dict) -> str:
 
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
-                        ray_cfg=None) -> dict:
+                        ray_cfg=None, ghosts=None) -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
-    rays of rule ``ray_cfg`` if ``rays``) outlined and tinted red; returns the fraction of
-    each photo each model marks."""
+    rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given)
+    outlined and tinted red; returns the fraction of each photo each model marks."""
     import cv2
 
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
@@ -1019,7 +1021,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         ray = ray_marks(img, work_size, ray_cfg) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
-            marked = flare_marks(model, img, cut, work_size) | ray
+            marked = flare_marks(model, img, cut, work_size, ghosts=ghosts) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
@@ -1029,7 +1031,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             cv2.putText(tile,
-                        f"{weights_label(Path(w))}{' + rays' if rays else ''}: "
+                        f"{weights_label(Path(w))}{' + rays' if rays else ''}"
+                        f"{' + ghost lines' if ghosts is not None else ''}: "
                         f"{100 * marked.mean():.1f} %",
                         (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
             tiles.append(tile)
