@@ -91,6 +91,9 @@ class MaskConfig:
     or more, on the line through a saturated light and the image centre, where a lens's
     ghosts lie (``pipeline.flare_ghosts``). Off: docs/history/fmg.md, "Thirty-third
     session", has what it gains on ghosts and costs on clean photos."""
+    ghost_chain: int | None = option(None, ge=1)
+    """With ``ghost_lines``: fewest weak regions on one light's line for them to be marked
+    (default: the rule's, 2; 1 finds more ghosts and marks more of clean photos)."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
@@ -309,10 +312,13 @@ def ghost_config(config):
     """The ghost-line rule (``pipeline.flare_ghosts.GhostConfig``) when
     ``config.ghost_lines`` (a MaskConfig, or an `fmg eval` config), else None."""
     if not config.ghost_lines:
+        if getattr(config, "ghost_chain", None) is not None:
+            raise UserError("--ghost-chain sets the ghost lines' rule: add --ghost-lines")
         return None
     from pipeline.flare_ghosts import GhostConfig
 
-    return GhostConfig()
+    chain = getattr(config, "ghost_chain", None)
+    return GhostConfig() if chain is None else GhostConfig(min_chain=chain)
 
 
 def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
@@ -399,6 +405,7 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
     validate(config)
+    ghost_config(config)  # --ghost-chain without --ghost-lines: one line, nothing written
     if config.confirm_weights is not None and not config.confirm:
         raise UserError("--confirm-weights names the second network of --confirm: add "
                         "--confirm, or leave --confirm-weights out")

@@ -368,6 +368,10 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
     assert (read_png_mask(ws, stems[0]) == (strong | weak)).all()
     with pytest.raises(UserError, match="--ghost-lines adds to an FMG's marks"):
         M.run(M.MaskConfig(ghost_lines=True, masks_dir=tmp_path), ws)
+    with pytest.raises(UserError, match="--ghost-chain sets the ghost lines' rule"):
+        M.run(M.MaskConfig(ghost_chain=1), ws)
+    assert M.ghost_config(M.MaskConfig(ghost_lines=True, ghost_chain=1)).min_chain == 1
+    assert M.ghost_config(M.MaskConfig(ghost_lines=True)).min_chain == 2
 
 
 def test_confirmed_regions_keep_what_both_masks_find():
