@@ -1,4 +1,4 @@
-"""What `mask --ghost-lines` adds to clean photos that show a light: the clean views of synth scenes.
+"""What `mask --ghost-lines` adds to clean photos that show a light (synth scenes' clean views).
 
 `deflare-scene synth` keeps, for every view, the clean photo with the light's own core drawn
 in (`SYNTH/clean/`): a flare-free photo with a saturated light in it, which is where the
@@ -28,7 +28,7 @@ def score_clean(model, cut: float, synth: Path, work_size: int = 512) -> dict:
     from pipeline.errors import UserError
     from pipeline.flare_ghosts import GhostConfig
     from pipeline.images import list_photos, read_image
-    from pipeline.mask import fmg_probs, flare_marks
+    from pipeline.mask import flare_marks, fmg_probs
 
     if not (synth / "clean").is_dir():
         raise UserError(f"{synth}: no clean/ folder; pass folders written by `deflare-scene "

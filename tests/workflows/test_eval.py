@@ -349,7 +349,7 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     cv2.imwrite(str(tmp_path / "masks_gt" / "v.png"), np.where(r < 40, 255, 0).astype(np.uint8))
     seen = []
 
-    def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,)):
+    def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,), ghosts=None):
         seen.append(img.shape[:2])
         h, w = img.shape[:2]
         y, x = np.mgrid[:h, :w]
