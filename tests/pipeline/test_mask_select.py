@@ -306,6 +306,15 @@ def test_ray_config_of_the_mask_stage():
                                                                            opposite=8.0)
 
 
+def _fmg_mask(ws: Workspace, stem: str, cfg) -> np.ndarray:
+    """The mask the stage's FMG writer (``write_fmg_masks``, model None: the test's fake
+    probabilities) writes for ``stem`` with ``cfg``."""
+    from pipeline.mask import write_fmg_masks
+
+    write_fmg_masks(None, cfg, ws, [stem])
+    return cv2.imread(str(ws.mask_path(stem)), cv2.IMREAD_UNCHANGED) > 0
+
+
 def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
     """`mask --fill-holes`: the unmarked core a ring of flare encloses is marked too; the
     ring alone otherwise; nothing outside the ring changes either way."""
@@ -321,11 +330,9 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
         return [ring.astype(np.float32) for _ in imgs]
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)
-    got = {}
-    for fill in (False, True):
-        cfg = M.MaskConfig(threshold=0.5, rays=False, fill_holes=fill)
-        M.write_fmg_masks(None, cfg, ws, stems[:1])
-        got[fill] = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    got = {fill: _fmg_mask(ws, stems[0], M.MaskConfig(threshold=0.5, rays=False,
+                                                      fill_holes=fill))
+           for fill in (False, True)}
     assert (got[False] == ring).all()
     assert (got[True] == (r < 25)).all()
 
@@ -353,11 +360,9 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)
     monkeypatch.setattr(M, "ghost_marks", fake_ghosts)
-    got = {}
-    for ghosts in (False, True):
-        cfg = M.MaskConfig(threshold=0.75, rays=False, ghost_lines=ghosts)
-        M.write_fmg_masks(None, cfg, ws, stems[:1])
-        got[ghosts] = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0
+    got = {ghosts: _fmg_mask(ws, stems[0], M.MaskConfig(threshold=0.75, rays=False,
+                                                        ghost_lines=ghosts))
+           for ghosts in (False, True)}
     assert (got[False] == strong).all() and (got[True] == (strong | weak)).all()
     assert len(seen) == 1 and seen[0].low == 0.25  # the rule's defaults, only when asked
     monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu", flag="": None)
