@@ -5,8 +5,8 @@ centred on its axis every ghost of a light lies on the straight line through the
 the optical centre (the image centre of an undistorted pinhole photo), on either side of the
 centre (``pipeline.flare.GhostChainConfig`` draws them so). The FMG finds the core and glow
 of a light well but gives ghosts far from it low probabilities (a chain of faint discs over
-the scene looks like scene): on the one-kind development scenes about half of the true ghost
-pixels sit under a probability of 0.1 and a third between 0.1 and the cut
+the scene looks like scene): on nine one-kind development scenes with ghosts, about a third
+of the true ghost pixels sit between a probability of 0.1 and the cut, a third under 0.1
 (docs/history/fmg.md, "Thirty-third session"). The rule (``ghost_line_mask``):
 
 1. **Lights**: as the flare rays find them (``pipeline.flare_rays.find_lights``: small,
