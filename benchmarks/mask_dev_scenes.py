@@ -112,6 +112,12 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--scales: give numbers separated by commas, e.g. 1,0.75")
     if any(s <= 0 or s > 2 for x in settings for s in x):
         ap.error("--scales: each number more than 0 and at most 2")
+    for scene in a.scenes:  # every folder checked before the slow scoring starts
+        missing = [d for d in ("photos", "masks_gt") if not (scene / d).is_dir()]
+        if missing:
+            print(f"error: {scene}: no {missing[0]}/ folder; pass folders written by "
+                  "`deflare-scene synth`", file=sys.stderr)
+            return 2
     from pipeline.flare_ghosts import GhostConfig
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result

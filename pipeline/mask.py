@@ -308,16 +308,17 @@ def ray_config(config: MaskConfig):
     return RayConfig(**over)
 
 
-def ghost_config(config):
-    """The ghost-line rule (``pipeline.flare_ghosts.GhostConfig``) when
-    ``config.ghost_lines`` (a MaskConfig, or an `fmg eval` config), else None."""
+def ghost_config(config: MaskConfig):
+    """The ghost-line rule (``pipeline.flare_ghosts.GhostConfig``) of the mask stage (or of
+    any config with ``ghost_lines`` and ``ghost_chain``, e.g. `fmg eval`'s) when
+    ``ghost_lines``, else None; ``ghost_chain`` without it is a one-line UserError."""
     if not config.ghost_lines:
-        if getattr(config, "ghost_chain", None) is not None:
+        if config.ghost_chain is not None:
             raise UserError("--ghost-chain sets the ghost lines' rule: add --ghost-lines")
         return None
     from pipeline.flare_ghosts import GhostConfig
 
-    chain = getattr(config, "ghost_chain", None)
+    chain = config.ghost_chain
     return GhostConfig() if chain is None else GhostConfig(min_chain=chain)
 
 

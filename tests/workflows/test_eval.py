@@ -362,6 +362,11 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     small = bench.score_scene(None, 0.5, tmp_path, rays=False, max_size=150, fill_holes=True)
     assert ring["flare_iou"] < 0.95 and filled["flare_iou"] > 0.99
     assert small["flare_iou"] > 0.9 and seen == [(200, 300), (200, 300), (100, 150)]
+    # a folder that is not a synth scene: one line naming it, exit 2, before any scoring
+    (tmp_path / "empty").mkdir()
+    assert bench.main([str(tmp_path), str(tmp_path / "empty"), "--weights",
+                       str(tmp_path / "w.safetensors")]) == 2
+    assert seen == [(200, 300), (200, 300), (100, 150)]
 
 
 def test_floor_scores_measures_excess_and_gain(tmp_path):

@@ -166,6 +166,8 @@ class FMGEvalConfig:
     ghost_lines: bool = False
     """With ``per_kind`` or ``clean``: add the ghost-line regions to every model's mask (as
     `mask --ghost-lines`)."""
+    ghost_chain: int | None = option(None, ge=1)
+    """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
     negatives: tuple[str, ...] = option(
         (), choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
                      "reflection"))
@@ -221,6 +223,8 @@ class FMGOverlayConfig:
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     ghost_lines: bool = False
     """Add the ghost-line regions to each model's mask (as `mask --ghost-lines`)."""
+    ghost_chain: int | None = option(None, ge=1)
+    """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -346,10 +350,16 @@ def ghost_batch(x, p, ghost_cfg):
 
     out = []
     for xi, pi in zip(x, p, strict=True):
-        bgr = (xi.permute(1, 2, 0).numpy()[..., ::-1] * 255).astype(np.uint8)
+        bgr = _bgr_uint8(xi)
         out.append(torch.from_numpy(ghost_marks(bgr, pi[0].numpy(), max(bgr.shape[:2]),
                                                 ghost_cfg))[None])
     return torch.stack(out)
+
+
+def _bgr_uint8(x) -> np.ndarray:
+    """A BGR uint8 image [S, S, 3] (the mask stage's input) of an image tensor [3, S, S]
+    (sRGB 0..1)."""
+    return (x.permute(1, 2, 0).numpy()[..., ::-1] * 255).astype(np.uint8)
 
 
 def _refine_batch(x, p):
@@ -359,8 +369,7 @@ def _refine_batch(x, p):
 
     out = []
     for xi, pi in zip(x, p, strict=True):
-        bgr = (xi.permute(1, 2, 0).numpy()[..., ::-1] * 255).astype(np.uint8)
-        out.append(torch.from_numpy(refine_probs(bgr, pi[0].numpy()))[None])
+        out.append(torch.from_numpy(refine_probs(_bgr_uint8(xi), pi[0].numpy()))[None])
     return torch.stack(out)
 
 
