@@ -50,30 +50,40 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them."""
     import cv2
 
-    from gnfr.view_sampler import is_target
     from pipeline.decode import resize_area, target_size
     from pipeline.images import list_photos, read_gray, read_image
     from pipeline.mask import flare_marks
     from pipeline.ws_files import enclosed_holes
 
+    def pairs():
+        for photo in list_photos(synth / "photos"):
+            gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
+            if gt_path is None:
+                continue
+            img = read_image(photo, bgr=True)
+            gt = read_gray(gt_path) > 127
+            if max_size:
+                img = resize_area(img, max_size)
+                wh = target_size(gt.shape[1], gt.shape[0], max_size)
+                gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
+            m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales,
+                            ghosts=ghosts)
+            if fill_holes:
+                m |= enclosed_holes(m)
+            yield photo.stem, m, gt
+
+    return mask_scores(pairs())
+
+
+def mask_scores(pairs) -> dict:
+    """Pooled flare IoU, marked-outside-truth share (near the flare and beyond) and per-view
+    shares of (stem, mask, true mask) triples ([H, W] bool each)."""
+    from gnfr.view_sampler import is_target
+
     inter = union = outside = near = pixels = truth = views = 0
     per_view = {}
-    for photo in list_photos(synth / "photos"):
-        gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
-        if gt_path is None:
-            continue
-        img = read_image(photo, bgr=True)
-        gt = read_gray(gt_path) > 127
-        if max_size:
-            img = resize_area(img, max_size)
-            wh = target_size(gt.shape[1], gt.shape[0], max_size)
-            gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-        m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales,
-                        ghosts=ghosts)
-        if fill_holes:
-            m |= enclosed_holes(m)
-        per_view[photo.stem] = {"true": round(float(gt.mean()), 5),
-                                "marked": round(float(m.mean()), 5)}
+    for stem, m, gt in pairs:
+        per_view[stem] = {"true": round(float(gt.mean()), 5), "marked": round(float(m.mean()), 5)}
         inter += int((m & gt).sum())
         union += int((m | gt).sum())
         outside += int((m & ~gt).sum())

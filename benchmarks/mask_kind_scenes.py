@@ -18,7 +18,8 @@ marks some true pixels, the mean over kinds, and the rule of docs/history/fmg.md
 ("Thirty-first session: S2 judged per kind at the photos' scale"): the candidate's mean at
 least 0.01 above the base's, no kind lower by more than 0.02. A setting is named
 ``WEIGHTS_FILE_NAME@SCALES`` (e.g. ``fmg.safetensors@1,0.75``), with ``+ghosts`` for rows
-scored with `mask --ghost-lines` (``fmg.safetensors@1+ghosts``). One build holds one lens per
+scored with `mask --ghost-lines` (``fmg.safetensors@1+ghosts``) and ``+views`` with
+`--ghost-views` (rows of ``benchmarks/mask_views_scenes.py``). One build holds one lens per
 kind and scene, three per kind in all, and a kind's score swings with its lenses (by 0.1-0.3
 between the seeds 31 and 32): ``summary`` pools the scores of several builds (``--seed``)
 for one setting, per kind the mean over every scene of every file.
@@ -62,10 +63,12 @@ def build(dev: Path, out: Path, seed: int) -> list[Path]:
 
 
 def setting(row: dict) -> str:
-    """``WEIGHTS_FILE_NAME@SCALES`` of a mask_dev_scenes.py row, ``+ghosts`` added for a
-    row scored with `mask --ghost-lines`."""
+    """``WEIGHTS_FILE_NAME@SCALES`` of a mask_dev_scenes.py (or mask_views_scenes.py) row,
+    ``+ghosts`` added for a row scored with `mask --ghost-lines`, ``+views`` with
+    `--ghost-views`."""
     scales = ",".join(f"{s:g}" for s in row.get("scales", [1.0]))
-    return f"{Path(row['weights']).name}@{scales}{'+ghosts' if row.get('ghost_lines') else ''}"
+    return (f"{Path(row['weights']).name}@{scales}{'+ghosts' if row.get('ghost_lines') else ''}"
+            f"{'+views' if row.get('ghost_views') else ''}")
 
 
 def kind_scores(rows: list[dict], kind: str, name: str) -> dict[str, float]:

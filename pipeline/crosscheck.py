@@ -32,8 +32,8 @@ from pipeline.colour import srgb_to_linear
 from pipeline.flare import MASK_RELATIVE, MASK_THRESHOLD, luminance
 from pipeline.stereo import PosedView
 
-__all__ = ["Consensus", "CrosscheckRule", "confirmed_as_scene", "consensus", "crosscheck",
-           "drop_confirmed", "excess_over_consensus"]
+__all__ = ["Consensus", "CrosscheckRule", "add_confirmed", "confirmed_as_scene", "consensus",
+           "crosscheck", "drop_confirmed", "excess_over_consensus", "view_consensus"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,10 @@ class CrosscheckRule:
     """... and relative part (fraction of the consensus luminance)."""
     slack: int = 2
     """Radius (pixels) of the max filter on the consensus luminance."""
+    min_brighter: float = 0.3
+    """Adding (``add_confirmed``): share of a candidate region's judged pixels that must be
+    brighter than the consensus by the mask rule for the neighbours to confirm it as flare
+    (read off exploration rows: docs/history/fmg.md, "Thirty-fourth session")."""
 
 
 @dataclass
@@ -121,11 +125,30 @@ def drop_confirmed(marks: np.ndarray, c: Consensus, rule: CrosscheckRule) -> np.
     return marks & ~drop[labels]
 
 
-def crosscheck(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = CrosscheckRule()
-               ) -> dict[str, np.ndarray]:
-    """{stem: mask} of every posed view of ``ws`` after the cross-check: depth from the
-    photos with ``masks`` as validity (the depth stage's defaults, kept in memory), then
-    :func:`drop_confirmed` against the nearest ``rule.neighbours`` views."""
+def add_confirmed(candidates: np.ndarray, c: Consensus, rule: CrosscheckRule) -> np.ndarray:
+    """[H, W] bool: the 8-connected regions of ``candidates`` (weak flare the network left
+    out) that the neighbours confirm as flare: at least ``min_judged`` of the region's pixels
+    judged and at least ``min_brighter`` of those brighter than the (max-filtered) consensus
+    by the mask rule. A region no neighbour can judge is not added."""
+    n, labels = cv2.connectedComponents(np.ascontiguousarray(candidates, np.uint8),
+                                        connectivity=8)
+    if n <= 1:
+        return np.zeros(candidates.shape, bool)
+    judged, excess, thr = excess_over_consensus(c, rule.min_support, rule.abs_threshold,
+                                                rule.rel_threshold, rule.slack)
+    area = np.bincount(labels.ravel(), minlength=n)
+    n_j = np.bincount(labels.ravel(), weights=judged.ravel(), minlength=n)
+    n_b = np.bincount(labels.ravel(), weights=(judged & (excess > thr)).ravel(), minlength=n)
+    keep = (n_j >= rule.min_judged * area) & (n_b >= rule.min_brighter * np.maximum(n_j, 1))
+    keep[0] = False
+    return keep[labels]
+
+
+def view_consensus(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = CrosscheckRule(),
+                   label: str = "mask: cross-check"):
+    """Yield (stem, Consensus) for every posed view of ``ws``: depth from the photos with
+    ``masks`` as validity (the depth stage's defaults, kept in memory), then the nearest
+    ``rule.neighbours`` views warped into each view and fused."""
     from pipeline.depth import DepthConfig, load_views, nearest_views, sweep_views
     from pipeline.progress import track
     from pipeline.ws_files import read_cameras
@@ -135,10 +158,25 @@ def crosscheck(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = Crossche
     config = DepthConfig()
     with tempfile.TemporaryDirectory(prefix="deflare-crosscheck-") as raw:
         depths = sweep_views(views, cams, nearest_views(cams, config.neighbours), config,
-                             Path(raw), False, ws, "mask: depth for the cross-check")
+                             Path(raw), False, ws, "mask: depth for the other photos' check")
     for s, (d, _) in depths.items():
         views[s].depth = d
     near = nearest_views(cams, rule.neighbours)
-    return {s: drop_confirmed(masks[s], consensus(views[s], [views[n] for n in near[s]],
-                                                  rule.agree), rule)
-            for s in track(cams.stems, "mask: cross-check")}
+    for s in track(cams.stems, label):
+        yield s, consensus(views[s], [views[n] for n in near[s]], rule.agree)
+
+
+def crosscheck(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = CrosscheckRule(),
+               candidates: dict[str, np.ndarray] | None = None, drop: bool = True
+               ) -> dict[str, np.ndarray]:
+    """{stem: mask} of every posed view of ``ws`` checked against its neighbours
+    (``view_consensus``): ``masks`` without the regions they confirm as scene
+    (:func:`drop_confirmed`, if ``drop``) and with the regions of ``candidates`` (if given)
+    they confirm as flare (:func:`add_confirmed`)."""
+    out = {}
+    for s, c in view_consensus(ws, masks, rule):
+        m = drop_confirmed(masks[s], c, rule) if drop else masks[s].copy()
+        if candidates is not None and candidates.get(s) is not None:
+            m |= add_confirmed(candidates[s] & ~masks[s], c, rule)
+        out[s] = m
+    return out

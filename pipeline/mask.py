@@ -6,9 +6,11 @@ Reads ``WS/images/<stem>.png`` and writes
 - ``WS/flare.json``: where the masks came from and each view's flare fraction
   (``ws_files.FlareFile``);
 - ``WS/masks_overview.jpg``: contact sheet of every view, mask tinted red, flare percentage;
-- ``WS/masks_fmg/<stem>.png`` with ``--crosscheck`` only: the network's masks before the
-  other photos overruled its false marks (``pipeline.crosscheck``; WS/masks holds the
-  checked ones).
+- ``WS/masks_fmg/<stem>.png`` with ``--crosscheck`` or ``--ghost-views`` only: the
+  network's masks before the other photos judged them (``pipeline.crosscheck``; WS/masks
+  holds the judged ones);
+- ``WS/masks_ghosts/<stem>.png`` with ``--ghost-views`` only: the ghost-line candidates the
+  other photos judged (``pipeline.flare_ghosts``).
 
 The FMG runs batched at a working resolution (long side ``work_size``) and its probability
 map is upsampled to the image size, optionally refined to follow image edges with a guided
@@ -43,6 +45,7 @@ from pipeline.ws_files import (
     view_stems,
     write_flare,
     write_mask,
+    write_mask_file,
 )
 
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "fmg.safetensors"
@@ -93,7 +96,17 @@ class MaskConfig:
     session", has what it gains on ghosts and costs on clean photos."""
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: fewest weak regions on one light's line for them to be marked
-    (default: the rule's, 2; 1 finds more ghosts and marks more of clean photos)."""
+    (default: the rule's, 2, or 1 with ``ghost_views``; 1 finds more ghosts and, alone,
+    marks more of clean photos)."""
+    ghost_views: bool = False
+    """With ``ghost_lines``: let the neighbouring photos judge each weak region on a light's
+    line (one is enough, ``ghost_chain`` 1), after depth from the photos: it is marked only
+    when at least 0.3 of the pixels two neighbours agree on are brighter than they see the
+    scene there, by the mask rule (``pipeline.crosscheck.add_confirmed``); a region no
+    neighbour can judge is not marked. The candidates are kept in ``WS/masks_ghosts/``, the
+    network's masks in ``WS/masks_fmg/``. Needs at least 2 posed views; about as slow as
+    ``crosscheck``, with which it shares the depth. Off: docs/history/fmg.md,
+    "Thirty-fourth session"."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
@@ -313,13 +326,17 @@ def ghost_config(config: MaskConfig):
     any config with ``ghost_lines`` and ``ghost_chain``, e.g. `fmg eval`'s) when
     ``ghost_lines``, else None; ``ghost_chain`` without it is a one-line UserError."""
     if not config.ghost_lines:
-        if config.ghost_chain is not None:
-            raise UserError("--ghost-chain sets the ghost lines' rule: add --ghost-lines")
+        for value, flag in ((config.ghost_chain, "--ghost-chain"),
+                            (getattr(config, "ghost_views", False) or None, "--ghost-views")):
+            if value is not None:
+                raise UserError(f"{flag} sets the ghost lines' rule: add --ghost-lines")
         return None
     from pipeline.flare_ghosts import GhostConfig
 
     chain = config.ghost_chain
-    return GhostConfig() if chain is None else GhostConfig(min_chain=chain)
+    if chain is None:
+        chain = 1 if getattr(config, "ghost_views", False) else GhostConfig().min_chain
+    return GhostConfig(min_chain=chain)
 
 
 def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
@@ -342,6 +359,7 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     batches = list(_batches(stems, sizes, config.batch))
     rule = ray_config(config)
     ghosts = ghost_config(config)
+    judged_later = config.ghost_views  # the candidates wait for the other photos' judgement
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
@@ -351,8 +369,14 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
             for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
-                                confirm_probs=q, ghosts=ghosts)
-                write_mask(ws, s, m | enclosed_holes(m) if config.fill_holes else m)
+                                confirm_probs=q, ghosts=None if judged_later else ghosts)
+                if config.fill_holes:
+                    m |= enclosed_holes(m)
+                if judged_later:  # written before the mask: a mask's candidates exist
+                    pg = refine_probs(img, p) if config.refine else p
+                    write_mask_file(ws.root / GHOST_CANDIDATES_DIR / f"{s}.png",
+                                    ghost_marks(img, pg, config.work_size, ghosts) & ~m)
+                write_mask(ws, s, m)
 
 
 # --------------------------------------------------------------------------- given masks
@@ -427,9 +451,10 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
                         "out")
     ws.require("pose")
     stems = view_stems(ws)
-    if config.crosscheck and len(stems) < 2:
-        raise UserError(f"--crosscheck compares each view with the others, and {ws.root} has "
-                        f"{len(stems)} posed view(s): leave --crosscheck out")
+    for on, flag in ((config.crosscheck, "--crosscheck"), (config.ghost_views, "--ghost-views")):
+        if on and len(stems) < 2:
+            raise UserError(f"{flag} compares each view with the others, and {ws.root} has "
+                            f"{len(stems)} posed view(s): leave {flag} out")
     confirm = None
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
@@ -448,7 +473,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                         "--confirm-weights"),
                        resolve_threshold(MaskConfig(), cpath), config.confirm_keep)
             inputs.append(cpath)
-        if config.crosscheck:
+        if config.crosscheck or config.ghost_views:
             inputs.append(ws.cameras_json)
     params = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(config).items()
               if k not in ("device", "batch")}
@@ -464,28 +489,37 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for p in ws.masks.glob("*.png"):  # masks of views that no longer exist, or stale ones
         if p.stem not in stems or not resumed:
             p.unlink()
-    fmg_dir = ws.root / FMG_MASKS_DIR
-    if fmg_dir.is_dir() and not (config.crosscheck and resumed):
-        shutil.rmtree(fmg_dir)  # an earlier cross-check's: stale now
+    views_pass = config.crosscheck or config.ghost_views
+    for d in (FMG_MASKS_DIR, GHOST_CANDIDATES_DIR):
+        if (ws.root / d).is_dir() and not (views_pass and resumed):
+            shutil.rmtree(ws.root / d)  # an earlier run's: stale now
+    if config.ghost_views:
+        (ws.root / GHOST_CANDIDATES_DIR).mkdir(exist_ok=True)
     todo = [s for s in stems if not ws.mask_path(s).exists()]
     if todo and config.masks_dir is not None:
         write_given_masks(Path(config.masks_dir), ws, todo)
     elif todo:
         write_fmg_masks(model, config, ws, todo, confirm)
-    if config.crosscheck:
-        crosscheck_masks(ws, stems)
+    if views_pass:
+        crosscheck_masks(ws, stems, drop=config.crosscheck, ghosts=config.ghost_views)
     return _summarise(config, ws, stage_run, stems, source, wid)
 
 
 FMG_MASKS_DIR = "masks_fmg"
-"""``WS/masks_fmg/<stem>.png``: with ``--crosscheck``, the network's masks before the
-cross-check (same format as WS/masks)."""
+"""``WS/masks_fmg/<stem>.png``: with ``--crosscheck`` or ``--ghost-views``, the network's
+masks before the other photos judged them (same format as WS/masks)."""
+GHOST_CANDIDATES_DIR = "masks_ghosts"
+"""``WS/masks_ghosts/<stem>.png``: with ``--ghost-views``, the ghost-line regions the
+network's masks leave out, before the other photos judged them (same format)."""
 
 
-def crosscheck_masks(ws: Workspace, stems: list[str]) -> None:
-    """`mask --crosscheck`: keep the FMG's masks in WS/masks_fmg (all of them before any
-    is changed, so an interrupted run resumes from them) and write the cross-checked ones
-    to WS/masks (``pipeline.crosscheck``)."""
+def crosscheck_masks(ws: Workspace, stems: list[str], drop: bool = True,
+                     ghosts: bool = False) -> None:
+    """`mask --crosscheck` (``drop``) and `--ghost-views` (``ghosts``): keep the FMG's masks
+    in WS/masks_fmg (all of them before any is changed, so an interrupted run resumes from
+    them) and write to WS/masks the ones the other photos judged (``pipeline.crosscheck``):
+    without the marks they see as scene (``drop``), with the ghost-line candidates of
+    WS/masks_ghosts they see as flare (``ghosts``)."""
     from pipeline.crosscheck import crosscheck
 
     fmg_dir = ws.root / FMG_MASKS_DIR
@@ -495,14 +529,23 @@ def crosscheck_masks(ws: Workspace, stems: list[str]) -> None:
             if not (fmg_dir / f"{s}.png").exists():
                 atomic_write_bytes(fmg_dir / f"{s}.png", ws.mask_path(s).read_bytes())
     fmg = {s: read_mask_file(fmg_dir / f"{s}.png", ws.rerun("mask")) for s in stems}
-    checked = crosscheck(ws, fmg)
+    cands = None
+    if ghosts:
+        cands = {s: read_mask_file(ws.root / GHOST_CANDIDATES_DIR / f"{s}.png",
+                                   ws.rerun("mask")) for s in stems}
+    checked = crosscheck(ws, fmg, candidates=cands, drop=drop)
     for s in stems:
         write_mask(ws, s, checked[s])
     before = sum(int(m.sum()) for m in fmg.values())
-    after = sum(int(m.sum()) for m in checked.values())
-    info(f"mask: the cross-check dropped {100 * (before - after) / max(before, 1):.1f}% of "
-         f"the marked pixels as scene the other photos agree on; the network's own masks: "
-         f"{fmg_dir}")
+    dropped = sum(int((fmg[s] & ~checked[s]).sum()) for s in stems)
+    added = sum(int((checked[s] & ~fmg[s]).sum()) for s in stems)
+    said = [f"dropped {100 * dropped / max(before, 1):.1f}% of the marked pixels as scene"
+            " they agree on"] if drop else []
+    if ghosts:
+        offered = sum(int(m.sum()) for m in cands.values())
+        said.append(f"confirmed {100 * added / max(offered, 1):.1f}% of the ghost-line "
+                    "candidates as flare")
+    info(f"mask: the other photos {' and '.join(said)}; the network's own masks: {fmg_dir}")
 
 
 def _summarise(config: MaskConfig, ws: Workspace, stage_run, stems: list[str], source: str,

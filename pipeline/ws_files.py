@@ -38,6 +38,7 @@ from pipeline.workspace import Workspace, atomic_imwrite, atomic_path, atomic_wr
 __all__ = [
     "MASK_THRESHOLD", "Cameras", "Frame", "read_cameras", "write_cameras", "read_decoded",
     "view_stems", "read_view_image", "read_mask_file", "read_mask", "read_masks", "write_mask",
+    "write_mask_file",
     "has_masks", "flare_fraction", "read_depth", "write_depth", "FlareEntry", "FlareFile",
     "read_flare", "write_flare", "SourceEntry", "ViewEntry", "ViewsFile", "is_target",
     "rank_sources", "make_views", "read_views", "write_views",
@@ -117,7 +118,12 @@ def read_masks(ws: Workspace, stems: Sequence[str],
 
 def write_mask(ws: Workspace, stem: str, flare: np.ndarray) -> Path:
     """Write WS/masks/<stem>.png: 255 where ``flare`` (bool, or any nonzero value), else 0."""
-    return atomic_imwrite(ws.mask_path(stem), np.where(flare, 255, 0).astype(np.uint8))
+    return write_mask_file(ws.mask_path(stem), flare)
+
+
+def write_mask_file(path: Path, flare: np.ndarray) -> Path:
+    """Write a mask image in WS/masks' format (255 where ``flare``, else 0), atomically."""
+    return atomic_imwrite(path, np.where(flare, 255, 0).astype(np.uint8))
 
 
 def flare_fraction(mask: np.ndarray) -> float:

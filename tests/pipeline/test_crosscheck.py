@@ -107,7 +107,7 @@ def test_mask_stage_crosscheck_keeps_the_network_masks_and_writes_the_checked_on
     assert checked[blob].all() and not checked[false].any()
     flare = json.loads(ws.flare_json.read_text())
     assert flare["views"][stems[2]]["flare_fraction"] == pytest.approx(checked.mean(), abs=1e-6)
-    assert "cross-check dropped" in capsys.readouterr().err
+    assert "other photos dropped" in capsys.readouterr().err
     # without --crosscheck: the network's masks again, and masks_fmg (stale) removed
     assert main(args) == 0
     assert not fmg_dir.exists()
@@ -121,3 +121,105 @@ def test_mask_stage_crosscheck_keeps_the_network_masks_and_writes_the_checked_on
     assert main(["mask", str(ws.root), "--masks", str(given), "--crosscheck"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--crosscheck" in err and "--masks" in err and len(err.splitlines()) == 1
+
+
+def test_add_confirmed_adds_a_candidate_brighter_than_the_neighbours_see_and_nothing_else():
+    from pipeline.crosscheck import add_confirmed
+
+    shape = (60, 80)
+    scene = np.full(shape, 0.2, np.float32)
+    ghost, seen, unjudged = _disc(shape, 55, 20, 6), _disc(shape, 20, 20, 6), \
+        _disc(shape, 40, 45, 6)
+    view = scene.copy()
+    view[ghost] += 0.1             # a faint ghost: brighter than the scene by the mask rule
+    view[unjudged] += 0.3
+    support = np.full(shape, 3)
+    support[unjudged] = 0          # no neighbour knows this part: not added, however bright
+    out = add_confirmed(ghost | seen | unjudged, Consensus(view, scene, support),
+                        CrosscheckRule())
+    assert out[ghost].all()
+    assert not out[seen].any() and not out[unjudged].any()
+    # a sliver of the ghost brighter (under min_brighter 0.3 of it) is not enough
+    sliver = ghost & (np.mgrid[:shape[0], :shape[1]][1] >= 59)
+    view2 = np.where(sliver, view, scene).astype(np.float32)
+    assert 0 < sliver.sum() < 0.3 * ghost.sum()
+    assert not add_confirmed(ghost, Consensus(view2, scene, np.full(shape, 3)),
+                             CrosscheckRule()).any()
+    assert not add_confirmed(np.zeros(shape, bool), Consensus(view, scene, support),
+                             CrosscheckRule()).any()
+
+
+def test_mask_stage_ghost_views_marks_the_candidates_the_other_photos_confirm(
+        tmp_path, monkeypatch, capsys):
+    """`mask --ghost-lines --ghost-views`: of two ghost-line candidates in one view of a real
+    scene, the bright blob only that view shows is marked, the backdrop every neighbour sees
+    alike is not; the network's masks and the candidates are kept; a rerun without the
+    option removes both folders."""
+    import torch
+
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+    from pipeline import mask
+    from pipeline.ws_files import read_mask, read_mask_file, write_mask, write_mask_file
+    from tests.fixtures import make_temple_workspace
+    from workflows.cli import main
+
+    ws = make_temple_workspace(tmp_path / "ws", n_views=6, scale=0.5)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    _blob_view(ws, stems[2], 45, 170)
+    shape = cv2.imread(str(ws.images / f"{stems[2]}.png")).shape[:2]
+    false, blob, core = _disc(shape, 40, 60, 12), _disc(shape, 45, 170, 12), \
+        _disc(shape, 100, 100, 5)
+
+    def network(model, config, ws, todo, confirm=None):   # the FMG's output, made to order
+        assert config.ghost_views
+        for s in todo:
+            cand = (false | blob) if s == stems[2] else np.zeros(shape, bool)
+            write_mask_file(ws.root / mask.GHOST_CANDIDATES_DIR / f"{s}.png", cand)
+            write_mask(ws, s, core if s == stems[2] else np.zeros(shape, bool))
+
+    monkeypatch.setattr(mask, "write_fmg_masks", network)
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+    args = ["mask", str(ws.root), "--weights", str(weights)]
+    assert main([*args, "--ghost-lines", "--ghost-views"]) == 0
+    out = read_mask(ws, stems[2])
+    assert out[blob].all() and out[core].all() and not out[false].any()
+    assert not any(read_mask(ws, s).any() for s in stems if s != stems[2])
+    assert (read_mask_file(ws.root / mask.FMG_MASKS_DIR / f"{stems[2]}.png") == core).all()
+    kept = read_mask_file(ws.root / mask.GHOST_CANDIDATES_DIR / f"{stems[2]}.png")
+    assert (kept == (false | blob)).all()
+    assert "confirmed" in capsys.readouterr().err
+    monkeypatch.undo()
+    assert main(args) == 0
+    assert not (ws.root / mask.FMG_MASKS_DIR).exists()
+    assert not (ws.root / mask.GHOST_CANDIDATES_DIR).exists()
+    capsys.readouterr()
+    assert main([*args, "--ghost-views"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--ghost-lines" in err and len(err.splitlines()) == 1
+
+
+def test_ghost_views_with_the_network_writes_a_candidate_file_per_view(tmp_path):
+    """The real write path (a tiny FMG): one candidate file per view, each a subset of what
+    the ghost-line rule with a chain of one finds, and none of it under the network's cut."""
+    import torch
+
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+    from pipeline import mask
+    from pipeline.mask import MaskConfig, ghost_config
+    from pipeline.ws_files import read_mask, read_mask_file
+    from tests.fixtures import make_temple_workspace
+
+    assert ghost_config(MaskConfig(ghost_lines=True, ghost_views=True)).min_chain == 1
+    assert ghost_config(MaskConfig(ghost_lines=True)).min_chain == 2
+    ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.5)
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+    mask.run(MaskConfig(weights=weights, ghost_lines=True, ghost_views=True), ws)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    for s in stems:
+        cand = read_mask_file(ws.root / mask.GHOST_CANDIDATES_DIR / f"{s}.png")
+        fmg = read_mask_file(ws.root / mask.FMG_MASKS_DIR / f"{s}.png")
+        assert not (cand & fmg).any()
+        final = read_mask(ws, s)
+        assert (final >= fmg).all() and not (final & ~fmg & ~cand).any()

@@ -59,12 +59,12 @@ def scene_origin(root: Path) -> str:
 
 
 
-def photo_path(root: Path, stem: str) -> Path | None:
+def photo_path(root: Path, stem: str, folder: str = "photos") -> Path | None:
     """The flared photo of ``stem`` in ``root/photos`` (synth writes PNG; the shipped sample
-    keeps its photos as JPEG), or None."""
+    keeps its photos as JPEG), or in ``root/<folder>`` (``clean``), or None."""
     for ext in PHOTO_EXTS:
-        if (root / "photos" / f"{stem}{ext}").is_file():
-            return root / "photos" / f"{stem}{ext}"
+        if (root / folder / f"{stem}{ext}").is_file():
+            return root / folder / f"{stem}{ext}"
     return None
 
 

@@ -68,22 +68,26 @@ def pinhole_frame(f: Frame) -> Frame:
     return Frame(f.name, f.stem, K, f.width, f.height, f.c2w, f.near, f.far, cam)
 
 
-def build_workspace(scene: SynthScene, out: Path, force: bool = False) -> Workspace:
-    """The posed evaluation workspace: training photos + ground-truth cameras."""
-    ws = Workspace.create(out, scene.root / "photos")
-    stage = ws.begin_stage("pose", {"cameras": "ground truth (synth cameras_gt.json)",
-                                    "scene": str(scene.root)},
-                           [scene.root / "photos", scene.root / "cameras_gt.json"], force)
+def build_workspace(scene: SynthScene, out: Path, force: bool = False,
+                    folder: str = "photos") -> Workspace:
+    """The posed evaluation workspace: training photos (of ``folder``: ``clean`` for the
+    clean ones) + ground-truth cameras."""
+    ws = Workspace.create(out, scene.root / folder)
+    params = {"cameras": "ground truth (synth cameras_gt.json)", "scene": str(scene.root)}
+    if folder != "photos":
+        params["folder"] = folder
+    stage = ws.begin_stage("pose", params, [scene.root / folder, scene.root / "cameras_gt.json"],
+                           force)
     if stage.skip:
         return ws
     by_stem = scene.cams.by_stem()
     frames = [pinhole_frame(by_stem[stem]) for stem in scene.train]
     for stem in scene.train:
-        src = photo_path(scene.root, stem)
+        src = photo_path(scene.root, stem, folder)
         place_photo(src, ws.image_path(stem))
         place_photo(src, ws.decoded_path(stem))
     write_cameras(ws, Cameras(frames, scene.cams.colmap_to_world))
-    ws.record_stage("decode", {"linked_from": str(scene.root / "photos")}, [ws.decoded])
+    ws.record_stage("decode", {"linked_from": str(scene.root / folder)}, [ws.decoded])
     stage.finish([ws.images, ws.cameras_json])
     return ws
 

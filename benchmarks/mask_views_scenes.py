@@ -1,0 +1,126 @@
+"""Flare masks the mask stage writes in posed workspaces of synth scenes, per mask setting.
+
+`benchmarks/mask_dev_scenes.py` scores one photo at a time; a setting that asks the other
+photos (`mask --crosscheck`, `mask --ghost-lines --ghost-views`) needs the views posed. For
+each folder written by `deflare-scene synth` this poses its training photos with the true
+cameras in WORK/<name>.ws (as the evaluation harness does), runs the mask stage there with
+each setting and scores WS/masks against `masks_gt/`: rows in mask_dev_scenes.py's format
+(flare IoU, marked outside the flare, per view), so that `mask_kind_scenes.py judge` reads
+them (settings named ``fmg.safetensors@1``, ``...@1+ghosts+views``). With ``--clean`` the
+workspaces hold the same views' clean photos (`SYNTH/clean/`, the light's core drawn in)
+and every mark but the core is a false one: rows with the share each setting marks, and the
+mean share the candidate adds over the base. ``--posed WS`` scores a posed workspace of
+clean photos likewise (a real scene posed by `pose`; run in WORK/<name>.ws, sharing its
+photos and cameras, so nothing is written into WS). Use development scenes to choose.
+
+    python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS ...] --work DIR \
+        [--clean] [--weights W] --out J
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+SETTINGS = {"base": {}, "ghost_views": {"ghost_lines": True, "ghost_views": True}}
+"""The mask settings scored (MaskConfig fields over its defaults): the shipped stage, and
+the ghost-line candidates the other photos confirm."""
+
+
+def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
+                    posed: bool = False) -> list[dict]:
+    """One row per setting of SETTINGS for the synth folder ``synth`` posed in ``work`` (or,
+    ``posed``, the posed workspace ``synth`` of clean photos, shared into ``work``)."""
+    from benchmarks.mask_dev_scenes import mask_scores
+    from pipeline import mask
+    from pipeline.provenance import sha256
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_cameras, read_mask, read_mask_file
+    from workflows.research.eval.scene import load_synth
+    from workflows.research.eval.workspaces import build_workspace, shared_workspace
+
+    if posed:
+        folder, clean = "posed", True
+        base = Workspace(synth)
+        base.require("pose")
+        ws = shared_workspace(base, work / f"{synth.name}_posed.ws")
+    else:
+        folder = "clean" if clean else "photos"
+        ws = build_workspace(load_synth(synth), work / f"{synth.name}_{folder}.ws",
+                             folder=folder)
+    stems = read_cameras(ws).stems
+    rows = []
+    for name, over in SETTINGS.items():
+        config = mask.MaskConfig(weights=weights, **over)
+        mask.run(config, ws)
+        marks = {s: read_mask(ws, s) for s in stems}
+        if clean:
+            truth = {s: np.zeros(m.shape, bool) for s, m in marks.items()}
+        else:
+            truth = {s: read_mask_file(synth / "masks_gt" / f"{s}.png",
+                                       size=(m.shape[1], m.shape[0]))
+                     for s, m in marks.items()}
+        cut = mask.resolve_threshold(mask.MaskConfig(), weights)
+        rows.append({"weights": str(weights), "sha256": sha256(weights), "cut": cut,
+                     "rays": True, "scene": synth.name, "folder": folder, "setting": name,
+                     "scales": [1.0], "ghost_lines": config.ghost_lines,
+                     "ghost_views": config.ghost_views,
+                     "marked": float(np.mean([m.mean() for m in marks.values()])),
+                     **mask_scores((s, marks[s], truth[s]) for s in stems)})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenes", type=Path, nargs="*")
+    ap.add_argument("--posed", type=Path, action="append", default=[],
+                    help="a posed workspace of clean photos (repeat)")
+    ap.add_argument("--work", type=Path, required=True,
+                    help="folder for the posed workspaces (kept: a rerun resumes there)")
+    ap.add_argument("--clean", action="store_true",
+                    help="score the scenes' clean photos (every mark but the core is false)")
+    ap.add_argument("--weights", type=Path, default=None)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    if not a.scenes and not a.posed:
+        ap.error("give synth folders, --posed workspaces, or both")
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy()  # before torch loads (workflows/threads.py)
+    from pipeline.errors import UserError
+    from pipeline.mask import DEFAULT_WEIGHTS
+    from pipeline.provenance import write_result
+
+    weights = (a.weights or DEFAULT_WEIGHTS).resolve()
+    a.work.mkdir(parents=True, exist_ok=True)
+    rows = []
+    try:
+        for scene, posed in [(s, False) for s in a.scenes] + [(w, True) for w in a.posed]:
+            got = score_workspace(scene.resolve(), a.work, weights, a.clean, posed)
+            rows += got
+            print(f"{scene.name} ({got[0]['folder']}): " + "; ".join(
+                f"{r['setting']} flare IoU {r['flare_iou']:.3f}, marked "
+                f"{100 * r['marked']:.3f} %" for r in got), flush=True)
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    out = {"weights": str(weights), "clean": a.clean, "settings": SETTINGS, "rows": rows}
+    by = {name: [r for r in rows if r["setting"] == name] for name in SETTINGS}
+    out["mean_marked"] = {n: float(np.mean([r["marked"] for r in v])) for n, v in by.items()}
+    out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
+    out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
+                              for n, rs in by.items()}
+    print(f"mean over {len(a.scenes) + len(a.posed)} scenes: marked " + ", ".join(
+        f"{n} {100 * v:.3f} %" for n, v in out["mean_marked"].items()))
+    write_result(a.out, out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
