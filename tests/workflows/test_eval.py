@@ -603,3 +603,33 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     (tmp_path / "bad.json").write_text("not json")
     with pytest.raises(UserError, match="bad.json: not a results file"):
         mk.build_rows(str(tmp_path / "bad.json"))
+
+
+def test_mask_kind_scenes_judge_with_a_target_kind():
+    """`judge --target KIND`: a change aimed at one kind passes on that kind's gain with the
+    other kinds and the mean held; it fails when another kind drops by more than 0.01, or its
+    own gain is short; rows of --ghost-views are named +views."""
+    import importlib.util
+
+    from pipeline.errors import UserError
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_kind_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_kind_scenes.py")
+    mk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mk)
+
+    def rows(ghosts, glare):
+        return [{"weights": "a.safetensors", "scales": [1.0], "rays": True, "scene": s,
+                 "flare_iou": v, "truth_share": 0.02, "ghost_lines": True, "ghost_views": c}
+                for c, (g, gl) in ((False, (0.30, 0.50)), (True, (ghosts, glare)))
+                for s, v in (("et_ghosts", g), ("et_glare", gl))]
+
+    base, cand = "a.safetensors@1+ghosts", "a.safetensors@1+ghosts+views"
+    ok = mk.judge([rows(0.34, 0.50)], base, cand, target="ghosts")
+    assert ok["passes"] is True and ok["rule"]["target"] == "ghosts"
+    assert ok["mean_gain"] == pytest.approx(0.02)
+    assert mk.judge([rows(0.34, 0.50)], base, cand)["passes"] is True  # +0.02 on the mean
+    assert mk.judge([rows(0.34, 0.485)], base, cand, target="ghosts")["passes"] is False
+    assert mk.judge([rows(0.32, 0.50)], base, cand, target="ghosts")["passes"] is False
+    with pytest.raises(UserError, match="--target streaks: no scored scene"):
+        mk.judge([rows(0.34, 0.50)], base, cand, target="streaks")
