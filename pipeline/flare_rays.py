@@ -255,13 +255,15 @@ def enough_rays(directions: list[float], cfg: RayConfig) -> bool:
     return False
 
 
-def ray_mask(img: np.ndarray, cfg: RayConfig | None = None) -> np.ndarray:
+def ray_mask(img: np.ndarray, cfg: RayConfig | None = None,
+             lights: list[tuple[float, float, float]] | None = None) -> np.ndarray:
     """[H, W] bool: pixels of flare rays (spikes, streaks) of sRGB ``img`` [H, W, 3] float
-    0..1 (see the module docstring)."""
+    0..1 (see the module docstring); ``lights``: ``find_lights(img, cfg)`` if already
+    found."""
     cfg = cfg or RayConfig()
     h, w = img.shape[:2]
     out = np.zeros((h, w), bool)
-    lights = find_lights(img, cfg)
+    lights = find_lights(img, cfg) if lights is None else lights
     if not lights:
         return out
     lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32) @ LUMA).astype(np.float32)

@@ -217,30 +217,45 @@ def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
     return list(probs[:, 0].cpu().numpy())
 
 
-def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> np.ndarray:
+def lights_at_work_size(image_bgr: np.ndarray, work_size: int) -> tuple:
+    """(sRGB float image at long side ``work_size``, its scale, its lights): what the flare
+    rays and the ghost lines both start from (``pipeline.flare_rays.find_lights``, whose
+    settings no mask option changes), for ``ray_marks`` and ``ghost_marks``' ``found``."""
+    from pipeline.flare_rays import RayConfig, find_lights
+
+    small, s = _at_work_size(image_bgr, work_size)
+    rgb = small[..., ::-1].astype(np.float32) / 255.0
+    return rgb, s, find_lights(rgb, RayConfig())
+
+
+def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None,
+              found: tuple | None = None) -> np.ndarray:
     """[H, W] bool flare rays (``pipeline.flare_rays.ray_mask`` with ``ray_cfg``, default
     its RayConfig) of a BGR uint8 image, found at long side ``work_size`` (never upscaled)
-    and brought back to the image's size."""
+    and brought back to the image's size; ``found``: ``lights_at_work_size`` if known."""
     from pipeline.flare_rays import ray_mask
 
     h, w = image_bgr.shape[:2]
-    small, s = _at_work_size(image_bgr, work_size)
-    marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0, ray_cfg)
+    if found is None:
+        small, s = _at_work_size(image_bgr, work_size)
+        marks = ray_mask(small[..., ::-1].astype(np.float32) / 255.0, ray_cfg)
+    else:
+        rgb, s, lights = found
+        marks = ray_mask(rgb, ray_cfg, lights)
     if s == 1.0:
         return marks
     return cv2.resize(marks.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
 
 
 def ghost_marks(image_bgr: np.ndarray, probs: np.ndarray, work_size: int,
-                ghost_cfg=None) -> np.ndarray:
+                ghost_cfg=None, found: tuple | None = None) -> np.ndarray:
     """[H, W] bool ghost-line regions (``pipeline.flare_ghosts.ghost_line_mask``, rule
     ``ghost_cfg``) of the FMG probabilities ``probs`` [H, W] of a BGR uint8 image, its
-    lights found at long side ``work_size`` as the flare rays find them."""
+    lights found at long side ``work_size`` as the flare rays find them (``found``:
+    ``lights_at_work_size`` if known)."""
     from pipeline.flare_ghosts import ghost_line_mask
-    from pipeline.flare_rays import RayConfig, find_lights
 
-    small, s = _at_work_size(image_bgr, work_size)
-    lights = find_lights(small[..., ::-1].astype(np.float32) / 255.0, RayConfig())
+    _, s, lights = found if found is not None else lights_at_work_size(image_bgr, work_size)
     return ghost_line_mask(probs, [(x / s, y / s, r / s) for x, y, r in lights],
                            cfg=ghost_cfg)
 
@@ -259,14 +274,16 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 rays: bool = False, refine: bool = False,
                 probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
                 confirm_probs: np.ndarray | None = None,
-                scales: tuple[float, ...] = (1.0,), ghosts=None) -> np.ndarray:
+                scales: tuple[float, ...] = (1.0,), ghosts=None,
+                found: tuple | None = None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays`` and the ghost-line regions of the probabilities (``ghost_marks``) if
     ``ghosts`` (a ``pipeline.flare_ghosts.GhostConfig``). With ``confirm`` = (second
     model, its cut, keep) the mask of `mask --confirm` (``confirmed_marks``; the second's
     probabilities ``confirm_probs`` if already computed). ``scales``: as
-    ``MaskConfig.scales`` (the rays are found at ``work_size``)."""
+    ``MaskConfig.scales`` (the rays are found at ``work_size``); ``found``:
+    ``lights_at_work_size`` if already known."""
 
     def network_probs(m, p):
         p = fmg_probs(m, [image_bgr], work_size, scales)[0] if p is None else p
@@ -275,8 +292,10 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
     p_main = network_probs(model, probs)
     marks = p_main > cut
     if ghosts is not None:
-        marks |= ghost_marks(image_bgr, p_main, work_size, ghosts)
-    rayed = ray_marks(image_bgr, work_size, ray_cfg) if rays else None
+        if found is None:  # the rays start from the same lights
+            found = lights_at_work_size(image_bgr, work_size)
+        marks |= ghost_marks(image_bgr, p_main, work_size, ghosts, found)
+    rayed = ray_marks(image_bgr, work_size, ray_cfg, found) if rays else None
     if confirm is not None:
         second, second_cut, keep = confirm
         return confirmed_marks(marks, network_probs(second, confirm_probs) > second_cut,
@@ -367,15 +386,17 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
             second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales)
                       if confirm is not None else [None] * len(imgs))
             for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
+                found = lights_at_work_size(img, config.work_size) if ghosts else None
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
-                                confirm_probs=q, ghosts=None if judged_later else ghosts)
+                                confirm_probs=q, ghosts=None if judged_later else ghosts,
+                                found=found)
                 if config.fill_holes:
                     m |= enclosed_holes(m)
                 if judged_later:  # written before the mask: a mask's candidates exist
                     pg = refine_probs(img, p) if config.refine else p
                     write_mask_file(ws.root / GHOST_CANDIDATES_DIR / f"{s}.png",
-                                    ghost_marks(img, pg, config.work_size, ghosts) & ~m)
+                                    ghost_marks(img, pg, config.work_size, ghosts, found) & ~m)
                 write_mask(ws, s, m)
 
 
@@ -427,8 +448,10 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 
 
 # --------------------------------------------------------------------------- stage
-def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
-    """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
+def check_config(config: MaskConfig) -> MaskConfig:
+    """``config`` checked as a whole (options that need another, or exclude one: a one-line
+    UserError) before anything is read or written; the one-shot calls it before its first
+    stage. Returns it with ``confirm_keep`` resolved."""
     validate(config)
     ghost_config(config)  # --ghost-chain without --ghost-lines: one line, nothing written
     if config.confirm_weights is not None and not config.confirm:
@@ -449,6 +472,12 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError("--crosscheck checks an FMG's marks against the other photos: it "
                         "has no use with --masks (your masks are kept as given); leave one "
                         "out")
+    return config
+
+
+def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
+    """Write WS/masks, WS/flare.json and WS/masks_overview.jpg; returns the written paths."""
+    config = check_config(config)
     ws.require("pose")
     stems = view_stems(ws)
     for on, flag in ((config.crosscheck, "--crosscheck"), (config.ghost_views, "--ghost-views")):
@@ -572,9 +601,10 @@ def stage_seconds(ws: Workspace) -> float:
     return float(ws.stage_record("mask").get("seconds", math.nan))
 
 
-__all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "flare_fraction", "read_mask",
+__all__ = ["DEFAULT_WEIGHTS", "MaskConfig", "run", "check_config", "flare_fraction", "read_mask",
            "load_fmg_weights", "overview_sheet", "refine_probs", "fmg_probs", "weights_id",
            "flare_marks", "ray_config", "ray_marks", "ghost_config", "ghost_marks",
+           "lights_at_work_size",
            "confirmed_regions", "confirmed_marks",
            "DEFAULT_CONFIRM_WEIGHTS"]
 # flare_fraction and read_mask live in pipeline/ws_files.py (the workspace contract)

@@ -101,6 +101,9 @@ def run_all(cfg: OneShotConfig) -> Path:
     """Run every stage in order; return the workspace path."""
     for stage_cfg in cfg.stages.values():  # every option checked before anything is written
         validate(stage_cfg)
+    from pipeline.mask import check_config
+
+    check_config(cfg.stages["mask"])  # options that need one another (mask.ghost_views ...)
     photos = Path(cfg.photos)
     if not photos.exists():
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos, "

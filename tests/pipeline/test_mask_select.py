@@ -354,7 +354,7 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
     def fake_probs(model, imgs, work_size, scales=(1.0,)):
         return [probs for _ in imgs]
 
-    def fake_ghosts(image_bgr, p, work_size, ghost_cfg=None):
+    def fake_ghosts(image_bgr, p, work_size, ghost_cfg=None, found=None):
         seen.append(ghost_cfg)
         return (p > ghost_cfg.low) & (p <= 0.5)  # stands in for the line rule: the weak disc
 
