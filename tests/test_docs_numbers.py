@@ -1057,3 +1057,37 @@ def test_fmg_d_candidates_table_is_their_files():
                               "4. every-kind development scenes, mean of three",
                               "5. clean lund, marked (mean / max)")):
         assert f"| {part} | " in hist and f" | {cells['D'][i]} | {cells['D2'][i]} | " in hist, part
+
+
+def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
+    """G3's two verdicts in docs/history/fmg.md ("Thirty-fourth session") are
+    mask_kind_scenes.py's judgements of the committed scores (the first, kind-blind rule
+    fails on the mean; the second, aimed at ghosts, passes), and the clean-photo parts are
+    the committed files' numbers."""
+    mk = _load_benchmark("mask_kind_scenes")
+    hist = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    base, cand = "fmg.safetensors@1", "fmg.safetensors@1+ghosts+views"
+    for seeds, target, saved_name in (((40, 41, 42), None, "mask_kinds_judge_G3.json"),
+                                      ((43, 44, 45), "ghosts", "mask_kinds_judge_G3_ghosts.json")):
+        files = [json.loads((RESULTS / f"mask_views_kinds_G3_s{s}.json").read_text())["rows"]
+                 for s in seeds]
+        res = mk.judge(files, base, cand, target=target)
+        saved = json.loads((RESULTS / saved_name).read_text())
+        assert res["passes"] is saved["passes"] is (target is not None)
+        g = res["kinds"]["ghosts"]
+        assert f"ghosts {g[base]:.3f} to {g[cand]:.3f}" in hist or \
+            f"ghosts {g[base]:.3f} | ghosts {g[cand]:.3f}" in hist or \
+            f"| ghosts {g[base]:.3f}, mean {res['mean'][base]:.4f} | ghosts {g[cand]:.3f}" in hist
+        assert f"{res['mean'][base]:.4f}" in hist and f"{res['mean'][cand]:.4f}" in hist
+    by = {(s, r["scene"], r["setting"]): r["marked"] for s in (40, 41, 42) for r in
+          json.loads((RESULTS / f"mask_views_clean_G3_s{s}.json").read_text())["rows"]}
+    scenes = [(s, sc) for s, sc, st in by if st == "base"]
+    assert len(scenes) == 45
+    mean_added = sum(by[(*k, "ghost_views")] - by[(*k, "base")] for k in scenes) / len(scenes)
+    assert f"+{100 * mean_added:.3f} % (45 scenes" in hist
+    lund = json.loads((RESULTS / "mask_views_lund_clean_G3.json").read_text())["mean_marked"]
+    assert f"| {100 * lund['base']:.3f} % | {100 * lund['ghost_views']:.3f} % (+0.000" in hist
+    cost = json.loads((RESULTS / "crosscheck_time_cpu_et_s34.json").read_text())
+    extra = cost["extra_seconds_per_view_by_setting"]
+    assert f"+{extra['crosscheck']:.2f} s with `--crosscheck`, +{extra['ghost_views']:.2f} s" \
+        in hist
