@@ -343,10 +343,13 @@ def ray_config(config: MaskConfig):
 def ghost_config(config: MaskConfig):
     """The ghost-line rule (``pipeline.flare_ghosts.GhostConfig``) of the mask stage (or of
     any config with ``ghost_lines`` and ``ghost_chain``, e.g. `fmg eval`'s) when
-    ``ghost_lines``, else None; ``ghost_chain`` without it is a one-line UserError."""
+    ``ghost_lines``, else None; ``ghost_chain`` without it is a one-line UserError.
+    ``ghost_views`` (the mask stage's alone: `fmg eval` scores single photos, which no
+    other view can judge) makes the chain's default 1."""
+    views = getattr(config, "ghost_views", False)
     if not config.ghost_lines:
         for value, flag in ((config.ghost_chain, "--ghost-chain"),
-                            (getattr(config, "ghost_views", False) or None, "--ghost-views")):
+                            (views or None, "--ghost-views")):
             if value is not None:
                 raise UserError(f"{flag} sets the ghost lines' rule: add --ghost-lines")
         return None
@@ -354,7 +357,7 @@ def ghost_config(config: MaskConfig):
 
     chain = config.ghost_chain
     if chain is None:
-        chain = 1 if getattr(config, "ghost_views", False) else GhostConfig().min_chain
+        chain = 1 if views else GhostConfig().min_chain
     return GhostConfig(min_chain=chain)
 
 
