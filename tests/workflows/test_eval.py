@@ -633,3 +633,35 @@ def test_mask_kind_scenes_judge_with_a_target_kind():
     assert mk.judge([rows(0.32, 0.50)], base, cand, target="ghosts")["passes"] is False
     with pytest.raises(UserError, match="--target streaks: no scored scene"):
         mk.judge([rows(0.34, 0.50)], base, cand, target="streaks")
+
+
+def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_path):
+    """benchmarks/mask_views_scenes.py --posed: the mask stage runs with each setting in a
+    shared copy under WORK (the base and the other photos' check), one row per setting with
+    every view scored; nothing is written into the given workspace."""
+    import importlib.util
+
+    import torch
+
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+    from pipeline.workspace import digest_paths
+    from tests.fixtures import make_temple_workspace
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_views_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_views_scenes.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.5)
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+    before = digest_paths([ws.root])
+    rows = bench.score_workspace(ws.root, tmp_path / "work", weights, clean=False, posed=True)
+    assert digest_paths([ws.root]) == before
+    assert [r["setting"] for r in rows] == list(bench.SETTINGS)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    for r in rows:
+        assert r["folder"] == "posed" and sorted(r["per_view"]) == stems
+        assert r["truth_share"] == 0 and r["flare_iou"] == 0
+        assert r["marked"] == pytest.approx(r["marked_outside"])
+    assert rows[1]["ghost_views"] and rows[1]["marked"] >= rows[0]["marked"]
+    assert (tmp_path / "work" / "ws_posed.ws" / "masks_ghosts").is_dir()
