@@ -223,3 +223,27 @@ def test_ghost_views_with_the_network_writes_a_candidate_file_per_view(tmp_path)
         assert not (cand & fmg).any()
         final = read_mask(ws, s)
         assert (final >= fmg).all() and not (final & ~fmg & ~cand).any()
+
+
+def test_crosscheck_drops_and_adds_in_one_pass(temple_ws):
+    """`--crosscheck` with `--ghost-views` (one depth, one consensus per view): a mark on
+    the backdrop is dropped while a candidate over a blob only one view shows is added, and
+    a candidate over the backdrop is not; ``drop=False`` keeps the marks as they were."""
+    from pipeline.crosscheck import crosscheck
+
+    ws = temple_ws
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    _blob_view(ws, stems[3], 45, 170)
+    shape = cv2.imread(str(ws.images / f"{stems[3]}.png")).shape[:2]
+    false, blob, scene = _disc(shape, 40, 60, 12), _disc(shape, 45, 170, 12), \
+        _disc(shape, 100, 60, 10)
+    masks = {s: np.zeros(shape, bool) for s in stems}
+    masks[stems[3]] = false.copy()
+    cands = {s: np.zeros(shape, bool) for s in stems}
+    cands[stems[3]] = blob | scene
+    both = crosscheck(ws, masks, candidates=cands)
+    assert both[stems[3]][blob].all()
+    assert not both[stems[3]][false].any() and not both[stems[3]][scene].any()
+    kept = crosscheck(ws, masks, candidates=cands, drop=False)
+    assert kept[stems[3]][false].all() and kept[stems[3]][blob].all()
+    assert not any(kept[s].any() for s in stems if s != stems[3])
