@@ -28,7 +28,7 @@ def score_clean(model, cut: float, synth: Path, work_size: int = 512) -> dict:
     from pipeline.errors import UserError
     from pipeline.flare_ghosts import GhostConfig
     from pipeline.images import list_photos, read_image
-    from pipeline.mask import flare_marks, fmg_probs, ghost_marks
+    from pipeline.mask import flare_marks, fmg_probs, ghost_marks, lights_at_work_size
 
     if not (synth / "clean").is_dir():
         raise UserError(f"{synth}: no clean/ folder; pass folders written by `deflare-scene "
@@ -37,10 +37,11 @@ def score_clean(model, cut: float, synth: Path, work_size: int = 512) -> dict:
     for photo in list_photos(synth / "clean"):
         img = read_image(photo, bgr=True)
         p = fmg_probs(model, [img], work_size)[0]
-        without = flare_marks(model, img, cut, work_size, rays=True, probs=p)
+        found = lights_at_work_size(img, work_size)  # one light search for both
+        without = flare_marks(model, img, cut, work_size, rays=True, probs=p, found=found)
         # what `flare_marks(..., ghosts=...)` adds: the ghost-line regions (the rays once)
         base += int(without.sum())
-        added += int((ghost_marks(img, p, work_size, GhostConfig()) & ~without).sum())
+        added += int((ghost_marks(img, p, work_size, GhostConfig(), found) & ~without).sum())
         pixels += without.size
         views += 1
     return {"scene": synth.name, "views": views, "marked": base / max(pixels, 1),

@@ -55,6 +55,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
         ws = build_workspace(load_synth(synth), work / f"{synth.name}_{folder}.ws",
                              folder=folder)
     stems = read_cameras(ws).stems
+    cut = mask.resolve_threshold(mask.MaskConfig(), weights)
     rows = []
     for name, over in SETTINGS.items():
         config = mask.MaskConfig(weights=weights, **over)
@@ -66,7 +67,6 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
             truth = {s: read_mask_file(synth / "masks_gt" / f"{s}.png",
                                        size=(m.shape[1], m.shape[0]))
                      for s, m in marks.items()}
-        cut = mask.resolve_threshold(mask.MaskConfig(), weights)
         rows.append({"weights": str(weights), "sha256": sha256(weights), "cut": cut,
                      "rays": True, "scene": synth.name, "folder": folder, "setting": name,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
