@@ -186,6 +186,8 @@ loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one
       --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${w[@]}" \
       --workers ${LOKO_WORKERS:-2} > $LK/loko_$k.log 2>&1 < /dev/null &
   done
+  [ $DEV = cuda ] && python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA \
+    > $OUT/gpu_tests.log 2>&1   # the CUDA tests beside the six runs (about 20 s)
   while pgrep -f "fmg train --out $LK/loko_" > /dev/null && [ "$(left)" -gt 200 ]; do sleep 10; done
   pkill -f "fmg train --out $LK/loko_"; sleep 5
   for k in all $KINDS; do   # a run cut short by the clock: its last checkpoint, kind recorded
@@ -193,15 +195,21 @@ loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one
     [ -f $LK/loko_$k/fmg.safetensors ] || python3 -c "from pathlib import Path; \
 from workflows.research.fmg_train import export_checkpoint; export_checkpoint(Path('$LK/loko_$k'), \
 Path('$LK/loko_$k/fmg.safetensors'), extra={'without': '${k/all/}', 'export': 'cut short'})"
-    cli fmg calibrate --weights $LK/loko_$k/fmg.safetensors --write > /dev/null 2>&1
+    cli fmg calibrate --weights $LK/loko_$k/fmg.safetensors --write > /dev/null 2>&1 &
   done
+  wait   # the six calibrations side by side, then the three tables side by side
   loo=(); for k in $KINDS; do loo+=(--loo $LK/loko_$k/fmg.safetensors); done
   for split in dev test; do
     cli fmg eval --weights $LK/loko_all/fmg.safetensors --per-kind --split $split \
-      --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_$split.json 2>&1 | tail -8
+      --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_$split.json \
+      > $LK/eval_$split.log 2>&1 &
   done
   cli fmg eval --weights $LK/loko_all/fmg.safetensors --per-kind --split dev --night 0 \
-    --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_dev_day.json 2>&1 | tail -8
+    --count ${LOKO_COUNT:-48} --rays "${loo[@]}" --out $OUT/fmg_loko_full_width_dev_day.json \
+    > $LK/eval_dev_day.log 2>&1 &
+  wait; tail -n 8 $LK/eval_*.log
+  for k in all $KINDS; do echo "== $k"; grep -v '^|' $LK/loko_$k.log | tail -n 3; done \
+    > $OUT/loko_train_tails.txt
   exit 0 ;;
 *) echo "unknown phase $PHASE (short, check, train, devab, fern, loko)"; exit 2 ;;
 esac
