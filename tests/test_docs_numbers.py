@@ -179,8 +179,15 @@ CHECKS = [
     *[("README.md", "fern_llff_paper_cuda_h100_ptp5000.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
-    *[(page, "bench_paper_cuda_h100.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
-      for page in ("README.md", "docs/presets.md") for mode in ("end_to_end", "cached")],
+    *[(page, f"bench_paper_cuda_h100{sfx}.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
+      for page in ("README.md", "docs/presets.md", PERF) for sfx in ("", "_s35")
+      for mode in ("end_to_end", "cached")],
+    *[("docs/presets.md", f"bench_{p}_cuda_h100_s35.json", f"results/cuda/train/reference/it_per_s",
+       "{:.2f}") for p in ("paper", "quick")],
+    ("docs/presets.md", "bench_quick_cuda_h100_s35.json", "results/cuda/train/end_to_end/it_per_s",
+     "{:.2f}"),
+    *[(page, "bench_paper_cuda_h100_s35.json", f"results/cuda/render/{size}/fast/s_per_frame",
+       "{:.2f} s") for page in (PERF, "docs/presets.md") for size in ("504x378", "1008x756")],
     *[(page, "bench_paper_cuda_h100.json", f"results/cuda/render/{size}/fast/s_per_frame",
        "{:.2f} s") for page in (PERF, "docs/presets.md")
       for size in ("504x378", "1008x756")],
