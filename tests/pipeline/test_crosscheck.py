@@ -16,15 +16,22 @@ def _disc(shape, cx, cy, r):
     return (xx - cx) ** 2 + (yy - cy) ** 2 <= r * r
 
 
+def _three_regions(shape):
+    """A flat scene, three discs (left, right, below) and a support of three neighbours
+    everywhere except the third disc, which no neighbour knows."""
+    scene = np.full(shape, 0.2, np.float32)
+    left, right, unjudged = _disc(shape, 20, 20, 6), _disc(shape, 55, 20, 6), \
+        _disc(shape, 40, 45, 6)
+    support = np.full(shape, 3)
+    support[unjudged] = 0
+    return scene, left, right, unjudged, support
+
+
 def test_a_region_the_neighbours_see_as_bright_is_dropped_and_a_brighter_one_kept():
     shape = (60, 80)
-    scene = np.full(shape, 0.2, np.float32)
-    seen, brighter, unjudged = _disc(shape, 20, 20, 6), _disc(shape, 55, 20, 6), \
-        _disc(shape, 40, 45, 6)
+    scene, seen, brighter, unjudged, support = _three_regions(shape)
     view = scene.copy()
     view[brighter] += 0.3          # flare: brighter than what the neighbours see
-    support = np.full(shape, 3)
-    support[unjudged] = 0          # no neighbour knows this part of the scene
     c = Consensus(view, scene, support)
     out = drop_confirmed(seen | brighter | unjudged, c, CrosscheckRule())
     assert not out[seen].any()
@@ -127,14 +134,10 @@ def test_add_confirmed_adds_a_candidate_brighter_than_the_neighbours_see_and_not
     from pipeline.crosscheck import add_confirmed
 
     shape = (60, 80)
-    scene = np.full(shape, 0.2, np.float32)
-    ghost, seen, unjudged = _disc(shape, 55, 20, 6), _disc(shape, 20, 20, 6), \
-        _disc(shape, 40, 45, 6)
+    scene, seen, ghost, unjudged, support = _three_regions(shape)
     view = scene.copy()
     view[ghost] += 0.1             # a faint ghost: brighter than the scene by the mask rule
-    view[unjudged] += 0.3
-    support = np.full(shape, 3)
-    support[unjudged] = 0          # no neighbour knows this part: not added, however bright
+    view[unjudged] += 0.3          # no neighbour knows this part: not added, however bright
     out = add_confirmed(ghost | seen | unjudged, Consensus(view, scene, support),
                         CrosscheckRule())
     assert out[ghost].all()
