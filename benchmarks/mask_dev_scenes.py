@@ -40,20 +40,24 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
                 max_size: int | None = None, fill_holes: bool = False, confirm=None,
-                scales: tuple[float, ...] = (1.0,), ghosts=None) -> dict:
+                scales: tuple[float, ...] = (1.0,), ghosts=None, cache: dict | None = None
+                ) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
     with ``scales`` the network run as `mask --scales` runs it; with ``ghosts`` (a
-    GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them."""
+    GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them. ``cache``
+    (a dict kept per ``model``) holds each photo's probabilities and lights between calls, so
+    that scoring the same photos with and without rays or ghost lines runs the network once."""
     import cv2
 
     from pipeline.decode import resize_area, target_size
     from pipeline.images import list_photos, read_gray, read_image
-    from pipeline.mask import flare_marks
+    from pipeline.mask import fmg_probs, flare_marks, lights_at_work_size
     from pipeline.ws_files import enclosed_holes
+
 
     def pairs():
         for photo in list_photos(synth / "photos"):
@@ -66,8 +70,18 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 img = resize_area(img, max_size)
                 wh = target_size(gt.shape[1], gt.shape[0], max_size)
                 gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
-            m = flare_marks(model, img, cut, work_size, rays, confirm=confirm, scales=scales,
-                            ghosts=ghosts)
+            if cache is None:
+                m = flare_marks(model, img, cut, work_size, rays, confirm=confirm,
+                                scales=scales, ghosts=ghosts)
+            else:
+                key = (str(photo), max_size, work_size)
+                if (key, scales) not in cache:
+                    cache[key, scales] = fmg_probs(model, [img], work_size, scales)[0]
+                if (rays or ghosts is not None) and key not in cache:
+                    cache[key] = lights_at_work_size(img, work_size)
+                m = flare_marks(model, img, cut, work_size, rays, probs=cache[key, scales],
+                                confirm=confirm, scales=scales, ghosts=ghosts,
+                                found=cache.get(key))
             if fill_holes:
                 m |= enclosed_holes(m)
             yield photo.stem, m, gt
@@ -139,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for w in a.weights:
         model = load_fmg_weights(w)
+        cache = {}  # each photo's probabilities under this model, and its lights
         cut = resolve_threshold(MaskConfig(), w)
         ghost_settings = (False, True) if a.ghost_lines else (False,)
         for rays, scales, ghost, scene in itertools.product((False, True), settings,
@@ -149,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
                  "confirm_keep": a.confirm_keep, "scales": list(scales), "ghost_lines": ghost,
                  **score_scene(model, cut, scene, rays, max_size=a.max_size,
                                fill_holes=a.fill_holes, confirm=confirm, scales=scales,
-                               ghosts=GhostConfig() if ghost else None)}
+                               ghosts=GhostConfig() if ghost else None, cache=cache)}
             rows.append(r)
             print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
                   f"{' +ghost-lines' if ghost else ''} "

@@ -369,6 +369,49 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     assert seen == [(200, 300), (200, 300), (100, 150)]
 
 
+def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_score(
+        tmp_path, monkeypatch):
+    """benchmarks/mask_dev_scenes.py's cache: scoring a scene with and without rays and ghost
+    lines runs the network once per photo, and every score equals the uncached one."""
+    import importlib.util
+
+    from pipeline import mask as M
+    from pipeline.flare_ghosts import GhostConfig
+
+    spec = importlib.util.spec_from_file_location(
+        "mask_dev_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_dev_scenes.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    (tmp_path / "photos").mkdir()
+    (tmp_path / "masks_gt").mkdir()
+    yy, xx = np.mgrid[:200, :300]
+    r = np.hypot(yy - 100, xx - 150)
+    img = np.full((200, 300, 3), 60, np.uint8)
+    img[r < 12] = 255                       # a light, for the rays and the ghost lines
+    for stem in ("a", "b"):
+        cv2.imwrite(str(tmp_path / "photos" / f"{stem}.png"), img)
+        cv2.imwrite(str(tmp_path / "masks_gt" / f"{stem}.png"),
+                    np.where(r < 30, 255, 0).astype(np.uint8))
+    calls = []
+
+    def fake_probs(model, images, work_size, scales=(1.0,)):
+        calls.append(len(images))
+        h, w = images[0].shape[:2]
+        y, x = np.mgrid[:h, :w]
+        return [np.clip(1 - np.hypot(y - h / 2, x - w / 2) / 40, 0, 1).astype(np.float32)]
+
+    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    settings = [(rays, ghosts) for rays in (False, True) for ghosts in (None, GhostConfig())]
+    plain = [bench.score_scene(None, 0.5, tmp_path, rays, ghosts=g) for rays, g in settings]
+    assert len(calls) == 2 * len(settings)  # uncached: once per photo and setting
+    calls.clear()
+    cache = {}
+    cached = [bench.score_scene(None, 0.5, tmp_path, rays, ghosts=g, cache=cache)
+              for rays, g in settings]
+    assert len(calls) == 2 and cached == plain
+    assert plain[0]["flare_iou"] > 0.4  # the fake network's disc (r 20) inside the true one (r 30)
+
+
 def test_floor_scores_measures_excess_and_gain(tmp_path):
     """floor_scores (the sample floor's measures, shared with benchmarks/oneshot_floor.py):
     a flared photo 30 levels above the truth inside the true flare, a de-flared one 3 above,
