@@ -55,7 +55,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
 
     from pipeline.decode import resize_area, target_size
     from pipeline.images import list_photos, read_gray, read_image
-    from pipeline.mask import fmg_probs, flare_marks, lights_at_work_size
+    from pipeline.mask import flare_marks, fmg_probs, lights_at_work_size
     from pipeline.ws_files import enclosed_holes
 
 
