@@ -10,9 +10,12 @@
 #   mkdir -p .carry/dev/et_synth; cp -r SYNTH/{photos,clean,masks_gt,cameras_gt.json,split.json} \
 #       .carry/dev/et_synth          # devab (5 MB); pip download trimesh -d .carry/whl (eval-llff)
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
-# devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The repo (58 MB with the
-# paper weights and fmg_candidate_L) and the carried folders must stay under 64 MiB (67.1 MB)
-# together (check with du): carry .carry/packs in one call and .carry/fmgdata in the next
+# devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The checkout and the carried
+# folders must stay under 64 MiB (67.1 MB) together; the tracked tree alone is 92 MB since the
+# full-width FMG files, so hold what the phase does not read first:
+#   bash benchmarks/device_slim.sh out gnfr/weights/fmg_candidate_L.safetensors ... -- CARRY
+# (it prints what would travel; `device_slim.sh back` after the calls). Older notes follow:
+# carry .carry/packs in one call and .carry/fmgdata in the next
 # (each training loads its data when it starts and runs on while the machine stays warm;
 # the next call must come within the tool's 30 s of warmth). The sixteenth session carried
 # packs at quality 90 (9.5 MB) and the FMG photos at 85 (13 MB) beside a 33 MB repo.
