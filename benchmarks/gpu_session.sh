@@ -51,6 +51,8 @@
 #           alike; FMG_NIGHT=F sets the `short`/`train` run's --night-prob (default 0.35),
 #           FMG_KINDS=K=P,... its --kind-probs and FMG_CANVAS=C its --flare-canvas (the
 #           thirty-second session's CPU candidates D/D2: docs/history/fmg.md).
+#           The thirty-fifth session ran all six for 1 250 steps each (`loko 555 20000`);
+#           LOKO_KINDS="ghosts streaks" trains only those beside the control, for more steps.
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
 # trainings going beside them (started if their data is there) and
 # export both at END, like train. Name every folder a call reads in that call's carry: in
@@ -179,7 +181,7 @@ fern)
   exit 0 ;;
 loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one without each
         # kind and one with every kind (the fair column beside them: same steps, same recipe)
-  KINDS="starburst ghosts streaks glare scatter"
+  KINDS=${LOKO_KINDS:-starburst ghosts streaks glare scatter}   # fewer runs: more steps each
   mkdir -p $LK $OUT
   for k in all $KINDS; do
     w=(); [ $k = all ] || w=(--without $k)
