@@ -19,7 +19,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-SETTINGS = {"fmg": {}, "crosscheck": {"crosscheck": True},
+SETTINGS = {"fmg": {"ghost_lines": False, "ghost_views": False},
+            "crosscheck": {"crosscheck": True, "ghost_lines": False, "ghost_views": False},
             "ghost_views": {"ghost_lines": True, "ghost_views": True}}
 """The mask settings timed (MaskConfig fields over its defaults)."""
 

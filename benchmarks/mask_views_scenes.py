@@ -28,9 +28,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-SETTINGS = {"base": {}, "ghost_views": {"ghost_lines": True, "ghost_views": True}}
-"""The mask settings scored (MaskConfig fields over its defaults): the shipped stage, and
-the ghost-line candidates the other photos confirm."""
+SETTINGS = {"base": {"ghost_lines": False, "ghost_views": False},
+            "ghost_views": {"ghost_lines": True, "ghost_views": True}}
+"""The mask settings scored (MaskConfig fields over its defaults): the network and its rays
+(the stage's default up to the thirty-fifth session), and with the ghost-line candidates the
+other photos confirm (its default since)."""
 
 
 def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,

@@ -89,24 +89,27 @@ class MaskConfig:
     ray_opposite: float | None = option(None, ge=0, le=90)
     """Degrees within which two rays leaving a light in opposite directions (a streak
     through it) also count as enough (default: the rule's, 0 = off)."""
-    ghost_lines: bool = False
-    """Also mark the FMG's weak regions (probability above 0.25, under the cut) that sit, two
-    or more, on the line through a saturated light and the image centre, where a lens's
-    ghosts lie (``pipeline.flare_ghosts``). Off: docs/history/fmg.md, "Thirty-third
-    session", has what it gains on ghosts and costs on clean photos."""
+    ghost_lines: bool | None = option(None, flag="--ghost-lines/--no-ghost-lines")
+    """Also mark the FMG's weak regions (probability above 0.25, under the cut) on the line
+    through a saturated light and the image centre, where a lens's ghosts lie
+    (``pipeline.flare_ghosts``): two or more on one line, or each one the other photos
+    confirm (``ghost_views``). Default (unset): on, except with hand-made ``--masks``; on
+    since the thirty-fifth session with ``ghost_views`` (docs/history/fmg.md, "Thirty-third
+    session" to "Thirty-fifth session": what it gains on ghosts, costs on clean photos)."""
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: fewest weak regions on one light's line for them to be marked
     (default: the rule's, 2, or 1 with ``ghost_views``; 1 finds more ghosts and, alone,
     marks more of clean photos)."""
-    ghost_views: bool = False
+    ghost_views: bool | None = option(None, flag="--ghost-views/--no-ghost-views")
     """With ``ghost_lines``: let the neighbouring photos judge each weak region on a light's
     line (one is enough, ``ghost_chain`` 1), after depth from the photos: it is marked only
     when at least 0.3 of the pixels two neighbours agree on are brighter than they see the
     scene there, by the mask rule (``pipeline.crosscheck.add_confirmed``); a region no
     neighbour can judge is not marked. The candidates are kept in ``WS/masks_ghosts/``, the
     network's masks in ``WS/masks_fmg/``. Needs at least 2 posed views; about as slow as
-    ``crosscheck``, with which it shares the depth. Off: docs/history/fmg.md,
-    "Thirty-fourth session"."""
+    ``crosscheck``, with which it shares the depth (+1.5 s a 504 px view on one CPU thread).
+    Default (unset): on with ``ghost_lines`` where at least 2 views are posed
+    (docs/history/fmg.md, "Thirty-fourth session" and "Thirty-fifth session")."""
     fill_holes: bool = False
     """Also mark the unmarked pixels an FMG mask encloses (the light's own core inside its
     flare, which the full-width candidate ``fmg_candidate_L.safetensors`` leaves out as its
@@ -454,8 +457,15 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 def check_config(config: MaskConfig) -> MaskConfig:
     """``config`` checked as a whole (options that need another, or exclude one: a one-line
     UserError) before anything is read or written; the one-shot calls it before its first
-    stage. Returns it with ``confirm_keep`` resolved."""
+    stage. Returns it with ``confirm_keep`` and ``ghost_lines`` resolved
+    (``ghost_views`` is resolved by ``run``, which knows how many views are posed)."""
     validate(config)
+    if config.ghost_views and config.masks_dir is not None:
+        raise UserError("--ghost-views lets the other photos judge an FMG's weak marks: it "
+                        "has no use with --masks (your masks are kept as given); leave one "
+                        "out")
+    if config.ghost_lines is None:  # on by default where it has a use
+        config = replace(config, ghost_lines=config.masks_dir is None)
     ghost_config(config)  # --ghost-chain without --ghost-lines: one line, nothing written
     if config.confirm_weights is not None and not config.confirm:
         raise UserError("--confirm-weights names the second network of --confirm: add "
@@ -483,6 +493,8 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     config = check_config(config)
     ws.require("pose")
     stems = view_stems(ws)
+    if config.ghost_views is None:  # on by default with the ghost lines where views can judge
+        config = replace(config, ghost_views=bool(config.ghost_lines) and len(stems) >= 2)
     for on, flag in ((config.crosscheck, "--crosscheck"), (config.ghost_views, "--ghost-views")):
         if on and len(stems) < 2:
             raise UserError(f"{flag} compares each view with the others, and {ws.root} has "

@@ -105,7 +105,7 @@ def test_mask_stage_crosscheck_keeps_the_network_masks_and_writes_the_checked_on
     monkeypatch.setattr(mask, "write_fmg_masks", network)
     torch.manual_seed(0)
     weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
-    args = ["mask", str(ws.root), "--weights", str(weights)]
+    args = ["mask", str(ws.root), "--weights", str(weights), "--no-ghost-lines"]
     assert main([*args, "--crosscheck"]) == 0
     fmg_dir = ws.root / mask.FMG_MASKS_DIR
     assert sorted(p.stem for p in fmg_dir.glob("*.png")) == stems
@@ -193,13 +193,45 @@ def test_mask_stage_ghost_views_marks_the_candidates_the_other_photos_confirm(
     assert (kept == (false | blob)).all()
     assert "confirmed" in capsys.readouterr().err
     monkeypatch.undo()
-    assert main(args) == 0
+    assert main([*args, "--no-ghost-lines"]) == 0
     assert not (ws.root / mask.FMG_MASKS_DIR).exists()
     assert not (ws.root / mask.GHOST_CANDIDATES_DIR).exists()
     capsys.readouterr()
-    assert main([*args, "--ghost-views"]) == 2
+    assert main([*args, "--no-ghost-lines", "--ghost-views"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--ghost-lines" in err and len(err.splitlines()) == 1
+
+
+def test_ghost_views_default_on_where_views_can_judge_and_off_for_one_view(tmp_path, capsys):
+    """The defaults since the thirty-fifth session: with no option the stage runs the ghost
+    lines the other photos judge (two views or more); a single posed view gets the ghost
+    lines without the views' judgement and no error, while asking for `--ghost-views` there
+    is a one-line error."""
+    import torch
+
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+    from pipeline import mask
+    from pipeline.mask import MaskConfig
+    from tests.fixtures import make_temple_workspace
+    from workflows.cli import main
+
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+    two = make_temple_workspace(tmp_path / "two", n_views=2, scale=0.25)
+    mask.run(MaskConfig(weights=weights), two)
+    params = two.stage_record("mask")["params"]
+    assert params["ghost_lines"] is True and params["ghost_views"] is True
+    assert (two.root / mask.GHOST_CANDIDATES_DIR).is_dir()
+    one = make_temple_workspace(tmp_path / "one", n_views=1, scale=0.25)
+    mask.run(MaskConfig(weights=weights), one)
+    params = one.stage_record("mask")["params"]
+    assert params["ghost_lines"] is True and params["ghost_views"] is False
+    assert not (one.root / mask.GHOST_CANDIDATES_DIR).exists()
+    capsys.readouterr()
+    assert main(["mask", str(one.root), "--weights", str(weights), "--ghost-views",
+                 "--force"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--ghost-views" in err and "1 posed view" in err and len(err.splitlines()) == 1
 
 
 def test_ghost_views_with_the_network_writes_a_candidate_file_per_view(tmp_path):

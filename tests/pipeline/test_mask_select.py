@@ -366,15 +366,22 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
     assert (got[False] == strong).all() and (got[True] == (strong | weak)).all()
     assert len(seen) == 1 and seen[0].low == 0.25  # the rule's defaults, only when asked
     monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu", flag="": None)
-    M.run(M.MaskConfig(threshold=0.75, rays=False), ws, force=True)
+    M.run(M.MaskConfig(threshold=0.75, rays=False, ghost_lines=False), ws, force=True)
     assert ws.stage_record("mask")["params"]["ghost_lines"] is False
-    M.run(M.MaskConfig(threshold=0.75, rays=False, ghost_lines=True), ws)
+    assert ws.stage_record("mask")["params"]["ghost_views"] is False
+    M.run(M.MaskConfig(threshold=0.75, rays=False, ghost_lines=True, ghost_views=False), ws)
     assert ws.stage_record("mask")["params"]["ghost_lines"] is True
     assert (read_png_mask(ws, stems[0]) == (strong | weak)).all()
+    # the defaults since the thirty-fifth session: ghost lines the other photos judge
+    assert M.check_config(M.MaskConfig()).ghost_lines is True
     with pytest.raises(UserError, match="--ghost-lines adds to an FMG's marks"):
         M.run(M.MaskConfig(ghost_lines=True, masks_dir=tmp_path), ws)
+    with pytest.raises(UserError, match="--ghost-views lets the other photos judge"):
+        M.check_config(M.MaskConfig(ghost_views=True, masks_dir=tmp_path))
+    # hand-made masks with the defaults: the ghost lines are off, no error
+    assert M.check_config(M.MaskConfig(masks_dir=tmp_path)).ghost_lines is False
     with pytest.raises(UserError, match="--ghost-chain sets the ghost lines' rule"):
-        M.run(M.MaskConfig(ghost_chain=1), ws)
+        M.run(M.MaskConfig(ghost_lines=False, ghost_chain=1), ws)
     assert M.ghost_config(M.MaskConfig(ghost_lines=True, ghost_chain=1)).min_chain == 1
     assert M.ghost_config(M.MaskConfig(ghost_lines=True)).min_chain == 2
 

@@ -131,15 +131,15 @@ def test_unposable_scene(tmp_path, capsys):
 
 def test_oneshot_mask_options_that_need_one_another_fail_before_anything_is_written(
         tmp_path, capsys):
-    """`--set mask.ghost_views=true` without mask.ghost_lines (and the like) is one line
+    """`--set mask.ghost_views=true` with mask.ghost_lines off (and the like) is one line
     before the decode stage runs: no workspace is made, the photos are untouched."""
     d = tmp_path / "photos"
     d.mkdir()
     for i in range(3):
         (d / f"p{i}.png").write_bytes(b"not read")
     before = digest_paths([d])
-    _fails(capsys, [str(d), "--set", "mask.ghost_views=true"], "--ghost-views",
-           "--ghost-lines")
+    _fails(capsys, [str(d), "--set", "mask.ghost_lines=false", "--set",
+                    "mask.ghost_views=true"], "--ghost-views", "--ghost-lines")
     _fails(capsys, [str(d), "--set", "mask.confirm_keep=first"], "--confirm")
     assert not (tmp_path / "photos.deflare").exists()
     assert digest_paths([d]) == before
