@@ -58,7 +58,6 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     from pipeline.mask import flare_marks, fmg_probs, lights_at_work_size
     from pipeline.ws_files import enclosed_holes
 
-
     def pairs():
         for photo in list_photos(synth / "photos"):
             gt_path = next(iter(sorted((synth / "masks_gt").glob(photo.stem + ".*"))), None)
