@@ -38,6 +38,17 @@ def scene(tmp_path_factory):
     return root / "synth"
 
 
+def _benchmark(name: str):
+    """The module of benchmarks/<name>.py (the folder is not a package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        name, Path(__file__).parents[2] / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def _eval(scene, out, *extra):
     return main(["eval", str(scene), "--out", str(out), "--variants", "gnfr,gnt,input,inpaint",
                  "--masks", "gt", "--preset", "tiny", "--iters", "5", "--render-scale", "0.5",
@@ -84,12 +95,7 @@ def test_eval_end_to_end(scene, tmp_path):
     assert "| GN-FR |" in table and "ground truth" in table and "tiny" in table
     # what init resolved to and the colour match are recorded; the summary script reads them
     assert res["budget"]["init_weights"] == "scratch" and res["budget"]["color_match"] is True
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "eval_summary", Path(__file__).parents[2] / "benchmarks" / "eval_summary.py")
-    summary = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(summary)
+    summary = _benchmark("eval_summary")
     gap = (res["methods"]["gnfr"]["inputs"]["psnr_flare"]
            - res["methods"]["gnt"]["inputs"]["psnr_flare"])
     assert f"| {gap:+.2f} dB |" in summary.summarise([out / "eval" / "results.json"])
@@ -184,18 +190,13 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
     """benchmarks/mask_downstream.py reruns the mask stage with each weight file on a copy
     of the evaluated variant and scores the re-rendered de-flared inputs; the evaluated
     workspace (true masks) is left as it was."""
-    import importlib.util
-
     out = tmp_path / "ews"
     assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
                  "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
                  "--device", "cpu"]) == 0
     src_masks = out / "variants" / "gnfr" / "masks"
     before = {p.name: p.read_bytes() for p in src_masks.iterdir()}
-    spec = importlib.util.spec_from_file_location(
-        "mask_downstream", Path(__file__).parents[2] / "benchmarks" / "mask_downstream.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("mask_downstream")
     shipped = Path(__file__).parents[2] / "gnfr" / "weights" / "fmg.safetensors"
     res = tmp_path / "down.json"
     assert bench.main([str(scene), "--eval-ws", str(out), "--weights", str(shipped),
@@ -236,18 +237,13 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
 def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
     """benchmarks/novel_loo.py scores the eval's held-out cameras with --heldout and every
     training camera otherwise, and leaves the evaluated variant's views.json as it was."""
-    import importlib.util
-
     out = tmp_path / "ews"
     assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
                  "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
                  "--device", "cpu"]) == 0
     views_json = out / "variants" / "gnfr" / "views.json"
     before = views_json.read_bytes()
-    spec = importlib.util.spec_from_file_location(
-        "novel_loo", Path(__file__).parents[2] / "benchmarks" / "novel_loo.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("novel_loo")
     split = json.loads((scene / "split.json").read_text())
     for flag, stems in (([], split["train"]), (["--heldout"], split["heldout"])):
         res = tmp_path / f"loo{len(flag)}.json"
@@ -262,12 +258,7 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
 def test_finetune_ab_names_its_second_arm_by_the_values():
     """benchmarks/finetune_ab.py names the second arm's workspace and result key by the
     values set: numbers as written, weight files by their stem."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "finetune_ab", Path(__file__).parents[2] / "benchmarks" / "finetune_ab.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("finetune_ab")
     sets = bench.parse_sets(["lr_scale=0.5", "init=gnfr/weights/gnfr_paper.safetensors"])
     assert sets == {"lr_scale": 0.5, "init": "gnfr/weights/gnfr_paper.safetensors"}
     assert [bench.arm_label(v) for v in sets.values()] == ["0.5", "gnfr_paper"]
@@ -277,13 +268,8 @@ def test_mask_shape_scores_light_outside_the_mask():
     """benchmarks/mask_shape.py: a mask equal to the true square scores recall, precision
     and IoU 1 and leaves outside it exactly the light added on the square's 1-pixel rim;
     grown by one pixel it takes the rim in (no light left) at a lower precision."""
-    import importlib.util
 
-
-    spec = importlib.util.spec_from_file_location(
-        "mask_shape", Path(__file__).parents[2] / "benchmarks" / "mask_shape.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("mask_shape")
     clean = np.full((20, 20, 3), 50, np.uint8)
     true = np.zeros((20, 20), bool)
     true[5:15, 5:15] = True
@@ -304,16 +290,11 @@ def test_mask_shape_scores_light_outside_the_mask():
 def test_score_workspace_matches_eval(scene, tmp_path):
     """benchmarks/score_workspace.py scores an evaluated variant's de-flared inputs and
     held-out renders to exactly the numbers eval wrote in results.json."""
-    import importlib.util
-
     out = tmp_path / "ews"
     assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
                  "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
                  "--device", "cpu"]) == 0
-    spec = importlib.util.spec_from_file_location(
-        "score_workspace", Path(__file__).parents[2] / "benchmarks" / "score_workspace.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("score_workspace")
     var = out / "variants" / "gnfr"
     res = tmp_path / "score.json"
     assert bench.main([str(scene), str(var), "--heldout",
@@ -333,14 +314,9 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py: ``fill_holes`` scores the masks as `mask --fill-holes`
     writes them (a ring around an unmarked core then matches a true disc exactly), and
     ``max_size`` shrinks the photo and its true mask before the FMG sees them."""
-    import importlib.util
-
     from pipeline import mask as M
 
-    spec = importlib.util.spec_from_file_location(
-        "mask_dev_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_dev_scenes.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("mask_dev_scenes")
     (tmp_path / "photos").mkdir()
     (tmp_path / "masks_gt").mkdir()
     yy, xx = np.mgrid[:200, :300]
@@ -373,15 +349,10 @@ def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_sc
         tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py's cache: scoring a scene with and without rays and ghost
     lines runs the network once per photo, and every score equals the uncached one."""
-    import importlib.util
-
     from pipeline import mask as M
     from pipeline.flare_ghosts import GhostConfig
 
-    spec = importlib.util.spec_from_file_location(
-        "mask_dev_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_dev_scenes.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("mask_dev_scenes")
     (tmp_path / "photos").mkdir()
     (tmp_path / "masks_gt").mkdir()
     yy, xx = np.mgrid[:200, :300]
@@ -443,12 +414,7 @@ def test_floor_scores_measures_excess_and_gain(tmp_path):
 
 
 def _photo_ab():
-    import importlib.util
-    spec = importlib.util.spec_from_file_location(
-        "fmg_photo_ab", Path(__file__).parents[2] / "benchmarks" / "fmg_photo_ab.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return _benchmark("fmg_photo_ab")
 
 
 def test_fmg_photo_rule_stops_at_the_first_failing_part():
@@ -539,14 +505,9 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
 def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     """benchmarks/negatives_overview.py: one row of tiles per kind of hard negative, written
     as a JPEG under its size limit."""
-    import importlib.util
-
     from pipeline.fmg_data import HARD_NEGATIVES
 
-    spec = importlib.util.spec_from_file_location(
-        "negatives_overview", Path(__file__).parents[2] / "benchmarks" / "negatives_overview.py")
-    ov = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ov)
+    ov = _benchmark("negatives_overview")
     (tmp_path / "backgrounds").mkdir()
     rng = np.random.default_rng(0)
     for i in range(2):
@@ -565,7 +526,6 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     """benchmarks/mask_cross_render.py: an arm rendered with its own masks reproduces the
     score eval wrote; with the other arm's masks (here none marked) the renders change; the
     arms' workspaces are left as they were; bad input is one line, exit 2."""
-    import importlib.util
     import shutil
 
     out = tmp_path / "ews"
@@ -577,10 +537,7 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     shutil.copytree(a, b, symlinks=True)
     for m in (b / "masks").glob("*.png"):  # arm b: nothing marked
         cv2.imwrite(str(m), np.zeros_like(cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)))
-    spec = importlib.util.spec_from_file_location(
-        "mask_cross_render", Path(__file__).parents[2] / "benchmarks" / "mask_cross_render.py")
-    xr = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(xr)
+    xr = _benchmark("mask_cross_render")
     cams = out / "eval" / "heldout_cameras.json"
     before = sorted(p.relative_to(a) for p in a.rglob("*"))
     res = tmp_path / "xr.json"
@@ -606,14 +563,9 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     """benchmarks/mask_kind_scenes.py judge: several builds' files pooled per (file, scene),
     so the same scene name in two builds counts twice; a file lacking a setting is a
     one-line error naming it."""
-    import importlib.util
-
     from pipeline.errors import UserError
 
-    spec = importlib.util.spec_from_file_location(
-        "mask_kind_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_kind_scenes.py")
-    mk = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mk)
+    mk = _benchmark("mask_kind_scenes")
 
     def row(weights, scene, iou, share=0.02):
         return {"weights": weights, "scales": [1.0], "rays": True, "scene": scene,
@@ -652,14 +604,9 @@ def test_mask_kind_scenes_judge_with_a_target_kind():
     """`judge --target KIND`: a change aimed at one kind passes on that kind's gain with the
     other kinds and the mean held; it fails when another kind drops by more than 0.01, or its
     own gain is short; rows of --ghost-views are named +views."""
-    import importlib.util
-
     from pipeline.errors import UserError
 
-    spec = importlib.util.spec_from_file_location(
-        "mask_kind_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_kind_scenes.py")
-    mk = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mk)
+    mk = _benchmark("mask_kind_scenes")
 
     def rows(ghosts, glare):
         return [{"weights": "a.safetensors", "scales": [1.0], "rays": True, "scene": s,
@@ -682,18 +629,13 @@ def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_
     """benchmarks/mask_views_scenes.py --posed: the mask stage runs with each setting in a
     shared copy under WORK (the base and the other photos' check), one row per setting with
     every view scored; nothing is written into the given workspace."""
-    import importlib.util
-
     import torch
 
     from gnfr.fmg import build_fmg, save_fmg, tiny_config
     from pipeline.workspace import digest_paths
     from tests.fixtures import make_temple_workspace
 
-    spec = importlib.util.spec_from_file_location(
-        "mask_views_scenes", Path(__file__).parents[2] / "benchmarks" / "mask_views_scenes.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _benchmark("mask_views_scenes")
     ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.5)
     torch.manual_seed(0)
     weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
