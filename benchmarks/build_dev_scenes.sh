@@ -30,7 +30,7 @@ mkdir -p "$OUT"
 for spec in $SPECS; do
   IFS=: read -r short name seed <<< "$spec"
   deflare-scene decode "$DATA/$name" --out "$OUT/${short}_ws" --max-size 504
-  deflare-scene pose "$OUT/${short}_ws" --threads 1 --seed 0   # repeatable (below)
+  deflare-scene pose "$OUT/${short}_ws" --threads 1 --seed 0 --no-loose-pass   # repeatable (below); the passes of the committed builds
   deflare-scene synth "$OUT/${short}_ws" --out "$OUT/${short}_synth" --heldout 2 --seed "$seed"
   deflare-scene eval "$OUT/${short}_synth" --variants gnfr,input --masks gt \
       --render-scale 0.5 --device cpu

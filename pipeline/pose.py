@@ -10,7 +10,9 @@ length (the focal length, read from the original photo's EXIF when it has one, i
 sequential matching for large or video-like ones (``matcher="auto"``); (4) incremental
 mapping, keeping the model with the most registered images; when fewer than half of the
 images register, mapping again with the initial-pair constraints relaxed for forward motion
-(``RELAXED_INIT``; both passes in report.json ``mapping``); (5) undistortion to PINHOLE
+(``RELAXED_INIT``), and when images are still left out, once more with the triangulation
+angle and registration inlier thresholds lowered too (``LOOSE``; ``loose_pass``); every pass
+run is in report.json ``mapping``; (5) undistortion to PINHOLE
 (COLMAP's undistorted camera, OpenCV remap: the same pixels as COLMAP's undistorter);
 (6) the normalised world frame: translate the median of the sparse points to the origin
 and scale so the farthest camera is at distance 1 (no rotation), recorded as
@@ -61,6 +63,9 @@ class PoseConfig:
     """auto: the largest image count matched exhaustively."""
     sequential_overlap: int = option(10, ge=1)
     """Sequential matching: neighbours matched on each side (plus quadratic overlap)."""
+    loose_pass: bool = True
+    """Map once more with LOOSE when images are still left out (a walk forward, small
+    baselines); the pass that registers more images is kept."""
     min_registered_fraction: float = option(0.5, gt=0, le=1)
     """Fail when fewer than this fraction of the images (or fewer than 3) register."""
     depth_margin: float = option(1.3, ge=1)
@@ -237,22 +242,34 @@ def _match(cfg: PoseConfig, db: Path, matcher: str) -> None:
 # starts from a far-apart pair of 30-50 inliers whose two-view bundle adjustment cannot fix the
 # focal length and distortion (lund: f 1035 -> 1505 px, k -4.9), and the model stops at two
 # images. COLMAP still halves the angle and the inlier count (twice) if no pair qualifies.
-RELAXED_INIT = {"init_max_forward_motion": 1.0, "init_min_tri_angle": 1.0}
+RELAXED_INIT = {"mapper.init_max_forward_motion": 1.0, "mapper.init_min_tri_angle": 1.0}
+
+# The last pass, when images are still left out: along a walk forward the points ahead are seen
+# under angles below COLMAP's 1.5 degrees, so they are neither triangulated nor kept, and the
+# next photo finds too few 2D-3D matches (30 inliers) to register, although it shares 100
+# verified matches with its neighbour; COLMAP then starts a new model. lund at 504 px: 15 of
+# 29 images in three models with RELAXED_INIT, all 29 in one with these (docs/history/pose.md).
+LOOSE = {**RELAXED_INIT, "mapper.filter_min_tri_angle": 0.5, "triangulation.min_angle": 0.5,
+         "mapper.abs_pose_min_num_inliers": 15}
+PASSES = {"default": {}, "relaxed": RELAXED_INIT, "loose": LOOSE}
+"""Mapping options of each pass over COLMAP's defaults (``<options group>.<field>``)."""
 
 
 def _map(cfg: PoseConfig, db: Path, decoded: Path, out: Path, n: int,
-         relaxed: bool = False) -> dict:
-    """Incremental mapping into ``out``; {index: reconstruction}. ``relaxed``: RELAXED_INIT."""
+         init: str = "default") -> dict:
+    """Incremental mapping into ``out`` with the options of ``PASSES[init]``;
+    {index: reconstruction}."""
     pycolmap = colmap_io.import_pycolmap()
     opts = pycolmap.IncrementalPipelineOptions()
     opts.num_threads = cfg.num_threads
     opts.random_seed = cfg.seed
     opts.mapper.random_seed = cfg.seed
     opts.triangulation.random_seed = cfg.seed
-    if relaxed:
-        for key, value in RELAXED_INIT.items():
-            setattr(opts.mapper, key, value)
-    label = "pose: incremental mapping" + (" (relaxed initial pair)" if relaxed else "")
+    for key, value in PASSES[init].items():
+        group, field = key.split(".")
+        setattr(getattr(opts, group), field, value)
+    label = "pose: incremental mapping" + {"default": "", "relaxed": " (relaxed initial pair)",
+                                           "loose": " (loose thresholds)"}[init]
     with make_progress() as prog:
         task = prog.add_task(label, total=n)
         return pycolmap.incremental_mapping(
@@ -266,28 +283,42 @@ def needs_retry(registered: int, n: int, cfg: PoseConfig) -> bool:
     return registered < 3 or registered < max(0.5, cfg.min_registered_fraction) * n
 
 
+def next_pass(done: str, registered: int, n: int, cfg: PoseConfig) -> str | None:
+    """The pass to run after ``done`` when its best so far registered ``registered`` of
+    ``n``: relaxed after default when ``needs_retry``, loose after either while images are
+    left out (with ``loose_pass``), else None."""
+    if done == "default" and needs_retry(registered, n, cfg):
+        return "relaxed"
+    if done != "loose" and cfg.loose_pass and registered < n:
+        return "loose"
+    return None
+
+
 def map_with_retry(cfg: PoseConfig, db: Path, decoded: Path, tmp: Path, n: int) -> tuple:
-    """Incremental mapping, again with RELAXED_INIT when needs_retry; the pass whose largest
-    model registers more images wins (the first on a tie).
+    """Incremental mapping, again with RELAXED_INIT and then LOOSE as ``next_pass`` says; the
+    pass whose largest model registers more images wins (the earlier on a tie).
 
     Returns ({index: reconstruction} of the chosen pass, report entry
-    {"passes": [{"init", "registered", "models"}, ...], "used": "default" | "relaxed"}).
+    {"passes": [{"init", "registered", "models"}, ...], "used": "default" | "relaxed" |
+    "loose"}).
     """
-    passes, chosen = [], None
-    for init in ("default", "relaxed"):
+    passes, chosen, init = [], None, "default"
+    while init is not None:
         out = tmp / init
         out.mkdir(parents=True)
-        recs = _map(cfg, db, decoded, out, n, relaxed=init == "relaxed")
+        recs = _map(cfg, db, decoded, out, n, init)
         sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
         k = sizes[0] if sizes else 0
         passes.append({"init": init, "registered": k, "models": sizes})
         if chosen is None or k > chosen[1]:
             chosen = (init, k, recs)
-        if not needs_retry(k, n, cfg):
-            break
-        if init == "default":
+        done, init = init, next_pass(init, chosen[1], n, cfg)
+        if init == "relaxed":
             info(f"pose: only {k} of {n} images registered: mapping again with the initial "
                  "pair relaxed for forward motion")
+        elif init == "loose":
+            info(f"pose: {chosen[1]} of {n} images registered after the {done} pass: mapping "
+                 "again with lower triangulation-angle and inlier thresholds")
     return chosen[2], {"passes": passes, "used": chosen[0]}
 
 
