@@ -13,7 +13,7 @@ mean share the candidate adds over the base. ``--posed WS`` scores a posed works
 clean photos likewise (a real scene posed by `pose`; run in WORK/<name>.ws, sharing its
 photos and cameras, so nothing is written into WS). Use development scenes to choose.
 
-    python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS ...] --work DIR \
+    python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS [WS ...]] --work DIR \
         [--clean] [--weights W] --out J
 """
 
@@ -81,8 +81,9 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", type=Path, nargs="*")
-    ap.add_argument("--posed", type=Path, action="append", default=[],
-                    help="a posed workspace of clean photos (repeat)")
+    ap.add_argument("--posed", type=Path, action="extend", nargs="+", default=[],
+                    help="posed workspaces of clean photos (one or more; the flag may "
+                         "repeat)")
     ap.add_argument("--work", type=Path, required=True,
                     help="folder for the posed workspaces (kept: a rerun resumes there)")
     ap.add_argument("--clean", action="store_true",

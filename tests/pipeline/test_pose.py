@@ -188,10 +188,15 @@ def test_lund_forward_walk_poses(tmp_path):
     assert main(["decode", str(photos), "--out", str(out), "--max-size", "768"]) == 0
     assert main(["pose", str(out), "--threads", "2"]) == 0
     report = json.loads((Workspace.open(out).colmap / "report.json").read_text())
-    default, relaxed = report["mapping"]["passes"]
+    default, relaxed, *rest = report["mapping"]["passes"]
     assert default["init"] == "default" and default["registered"] < 5
-    assert relaxed["init"] == "relaxed" and report["mapping"]["used"] == "relaxed"
-    assert report["registered"] == relaxed["registered"] >= 9
+    assert relaxed["init"] == "relaxed" and relaxed["registered"] >= 9
+    # the loose pass runs only while a photo is still left out, and is kept only if it
+    # registers more
+    assert [p["init"] for p in rest] == ([] if relaxed["registered"] == 10 else ["loose"])
+    used = max(report["mapping"]["passes"], key=lambda p: p["registered"])
+    assert report["mapping"]["used"] == used["init"] != "default"
+    assert report["registered"] == used["registered"] >= 9
     assert report["mean_reprojection_error"] < 1.5
 
 
@@ -237,6 +242,47 @@ def test_relaxed_retry_on_forward_walk(tmp_path):
                                                                    "relaxed")
     assert default["registered"] <= 2 and relaxed["registered"] == 8
     assert colmap_io.largest_model(recs).num_reg_images() == 8
+
+
+def test_next_pass():
+    """Relaxed after default when fewer than half register; loose after either while any
+    photo is left out (unless turned off); nothing after loose or a full registration."""
+    cfg = pose.PoseConfig()
+    assert pose.next_pass("default", 10, 29, cfg) == "relaxed"
+    assert pose.next_pass("default", 20, 29, cfg) == "loose"
+    assert pose.next_pass("relaxed", 15, 29, cfg) == "loose"
+    assert pose.next_pass("default", 29, 29, cfg) is None
+    assert pose.next_pass("relaxed", 29, 29, cfg) is None
+    assert pose.next_pass("loose", 20, 29, cfg) is None
+    off = pose.PoseConfig(loose_pass=False)
+    assert pose.next_pass("default", 20, 29, off) is None
+    assert pose.next_pass("default", 10, 29, off) == "relaxed"
+    assert pose.next_pass("relaxed", 15, 29, off) is None
+
+
+def test_loose_pass_registers_a_walk_the_relaxed_pass_splits(tmp_path):
+    """lund's first 20 photos at 504 px (one thread, seed 0): the relaxed pass leaves photos
+    out (COLMAP splits the walk into models), the loose pass registers more of them in one
+    model and is kept; with --no-loose-pass the stage keeps the relaxed model."""
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i in range(1, 21):
+        (photos / f"{i:02d}.jpg").symlink_to(shared("scenes", "lund", "images", f"{i:02d}.jpg"))
+    out = tmp_path / "lund.deflare"
+    assert main(["decode", str(photos), "--out", str(out), "--max-size", "504"]) == 0
+    assert main(["pose", str(out), "--threads", "1", "--seed", "0"]) == 0
+    report = json.loads((Workspace.open(out).colmap / "report.json").read_text())
+    passes = {p["init"]: p for p in report["mapping"]["passes"]}
+    assert "loose" in passes and report["mapping"]["used"] == "loose"
+    assert passes["loose"]["registered"] > max(passes["default"]["registered"],
+                                               passes.get("relaxed", {"registered": 0})[
+                                                   "registered"])
+    assert report["registered"] == passes["loose"]["registered"]
+    assert report["mean_reprojection_error"] < 1.5
+    assert main(["pose", str(out), "--threads", "1", "--seed", "0", "--no-loose-pass"]) == 0
+    again = json.loads((Workspace.open(out).colmap / "report.json").read_text())
+    assert "loose" not in {p["init"] for p in again["mapping"]["passes"]}
+    assert again["registered"] < report["registered"]
 
 
 def test_needs_retry():
