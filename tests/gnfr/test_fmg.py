@@ -323,14 +323,16 @@ def test_training_flare_leaves_kinds_out():
 
 
 def test_split_keeps_test_and_dev_photos_out_of_training(tmp_path):
-    from pipeline.fmg_data import HELDOUT_BACKGROUNDS, split_backgrounds
+    """Test and development photos never train; a photo with real flare is in no part."""
+    from pipeline.fmg_data import HELDOUT_BACKGROUNDS, REAL_FLARE_PHOTOS, split_backgrounds
     from pipeline.scene_splits import FMG_DEV_SCENES, HELDOUT_SCENES, TEST_SCENES
 
     assert not set(FMG_DEV_SCENES) & set(TEST_SCENES)
+    flared_scene, flared_stem = REAL_FLARE_PHOTOS[0].split("/")
     for rel in [f"scenes/{HELDOUT_SCENES[0]}/a.jpg", "scenes/et/sub/b.png",
                 f"scenes/{FMG_DEV_SCENES[0]}/images/c.jpg",
                 f"backgrounds/x/{HELDOUT_BACKGROUNDS[0]}.png", "backgrounds/y.jpg",
-                "backgrounds/notes.txt"]:
+                "backgrounds/notes.txt", f"scenes/{flared_scene}/{flared_stem}.JPG"]:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
     parts = split_backgrounds(tmp_path)
