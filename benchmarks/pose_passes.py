@@ -20,7 +20,6 @@ thread and seed 0, as `benchmarks/build_dev_scenes.sh` poses).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -105,12 +104,15 @@ def scene_rows(name: str, folder: Path, work: Path, max_size: int) -> dict:
     from workflows.cli import main as cli
 
     ws_path = work / f"{name}.ws"
-    for argv in (["decode", str(folder), "--out", str(ws_path), "--max-size", str(max_size)],
-                 ["pose", str(ws_path), "--threads", "1", "--seed", "0", "--no-loose-pass"]):
-        if cli(argv) not in (0, None):
-            raise SystemExit(f"error: {' '.join(argv[:2])} failed")
+    if cli(["decode", str(folder), "--out", str(ws_path), "--max-size", str(max_size)]) not in (
+            0, None):
+        raise SystemExit(f"error: decode {folder} failed")
+    # the stage may refuse a scene (too few registered: dino); its matches are kept
+    stage = cli(["pose", str(ws_path), "--threads", "1", "--seed", "0", "--no-loose-pass"])
     ws = Workspace.open(ws_path)
-    n = json.loads(ws.colmap_report.read_text())["images"]
+    if not ws.colmap_db.is_file():
+        raise SystemExit(f"error: pose {ws_path} wrote no database")
+    n = len(list(ws.decoded.glob("*.png")))
     ref = reference_poses(folder)
     cfg = pose.PoseConfig(num_threads=1, seed=0)
     rows, poses = {}, {}
@@ -131,9 +133,14 @@ def scene_rows(name: str, folder: Path, work: Path, max_size: int) -> dict:
                       "against_default": None if init == "default"
                       else pose_errors(poses[init], poses["default"]),
                       "stems": sorted(poses[init])}
+    without, with_loose = chosen_pass(rows, n, False), chosen_pass(rows, n, True)
     return {"folder": str(folder), "images": n, "reference": ref[0] if ref else None,
-            "passes": rows, "chosen_without_loose": chosen_pass(rows, n, False),
-            "chosen_with_loose": chosen_pass(rows, n, True)}
+            "stage_without_loose": "passed" if stage in (0, None) else "refused",
+            "passes": rows, "chosen_without_loose": without, "chosen_with_loose": with_loose,
+            # the model kept with the loose pass against the one kept without it, on their
+            # common views (None where the same pass is kept)
+            "kept_against_kept_without": None if with_loose == without
+            else pose_errors(poses[with_loose], poses[without])}
 
 
 def main(argv: list[str] | None = None) -> int:
