@@ -1102,3 +1102,33 @@ def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
     extra = cost["extra_seconds_per_view_by_setting"]
     assert f"+{extra['crosscheck']:.2f} s with `--crosscheck`, +{extra['ghost_views']:.2f} s" \
         in hist
+
+
+def test_pose_passes_table_is_their_files():
+    """docs/history/pose.md's table of the mapping passes: every row's image count, each
+    pass's registered count and reference errors where quoted are the benchmark's files, and
+    so is the one comparison of kept models the text quotes."""
+    import re
+
+    text = (REPO / "docs" / "history" / "pose.md").read_text()
+    files = {size: json.loads((RESULTS / f"pose_passes_dev_{size}.json").read_text())["scenes"]
+             for size in ("1008", "504")}
+    rows = [r for r in text.splitlines() if re.match(r"\| [a-z_]+ \(\d+\) \|", r)]
+    assert len(rows) == 12
+    for line in rows:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        scene, shown = re.match(r"([a-z_]+) \((\d+)\)", cells[0]).groups()
+        res = files["504" if shown == "504" else "1008"][scene]
+        assert cells[1] == str(res["images"]), line
+        for init, cell in zip(("default", "relaxed", "loose"), cells[2:5], strict=True):
+            p = res["passes"][init]
+            assert int(cell.split()[0]) == p["registered"], (line, init)
+            pair = re.search(r"\(([\d.]+), ([\d.]+)\)", cell)
+            if pair:
+                e = p["errors"]
+                assert pair.groups() == (f"{e['rotation_deg_median']:.3f}",
+                                         f"{e['centre_median']:.4f}"), (line, init)
+    kept = files["504"]["lund"]["kept_against_kept_without"]
+    page = " ".join(text.split())
+    assert f"within {kept['rotation_deg_median']:.3f} degrees (largest " \
+           f"{kept['rotation_deg_max']:.3f}) and {kept['centre_median']:.4f} of the walk" in page
