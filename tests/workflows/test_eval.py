@@ -650,3 +650,39 @@ def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_
         assert r["marked"] == pytest.approx(r["marked_outside"])
     assert rows[1]["ghost_views"] and rows[1]["marked"] >= rows[0]["marked"]
     assert (tmp_path / "work" / "ws_posed.ws" / "masks_ghosts").is_dir()
+
+
+def test_pose_passes_errors_and_kept_pass():
+    """benchmarks/pose_passes.py: a model that is the reference under a similarity (rotation,
+    scale, shift) scores zero error, one view turned by 2 degrees scores 2 degrees there,
+    and the kept pass follows the stage's order and tie rule."""
+    from scipy.spatial.transform import Rotation
+
+    pp = _benchmark("pose_passes")
+    rng = np.random.default_rng(0)
+    ref = {}
+    for i in range(6):
+        c2w = np.eye(4)
+        c2w[:3, :3] = Rotation.from_rotvec(rng.normal(0, 0.3, 3)).as_matrix()
+        c2w[:3, 3] = rng.normal(0, 1, 3)
+        ref[f"v{i}"] = c2w
+    W = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()  # model frame = W^T (ref / 2.5 - t)
+    est = {}
+    for k, c in ref.items():
+        e = np.eye(4)
+        e[:3, :3] = W.T @ c[:3, :3]
+        e[:3, 3] = W.T @ (c[:3, 3] / 2.5 - np.array([1.0, 2.0, 3.0]))
+        est[k] = e
+    same = pp.pose_errors(est, ref)
+    assert same["views"] == 6 and same["rotation_deg_max"] < 1e-6 and same["centre_max"] < 1e-9
+    est["v0"] = est["v0"].copy()
+    est["v0"][:3, :3] = est["v0"][:3, :3] @ Rotation.from_rotvec([0, 0, np.radians(2)]).as_matrix()
+    turned = pp.pose_errors(est, ref)
+    assert 1.5 < turned["rotation_deg_max"] < 2.1 and turned["rotation_deg_median"] < 0.5
+    assert pp.pose_errors({k: est[k] for k in ("v0", "v1")}, ref) is None  # too few in common
+    rows = {"default": {"registered": 3}, "relaxed": {"registered": 3},
+            "loose": {"registered": 11}}
+    assert pp.chosen_pass(rows, 13, loose=False) == "default"  # a tie keeps the earlier
+    assert pp.chosen_pass(rows, 13, loose=True) == "loose"
+    rows = {"default": {"registered": 13}, "relaxed": {"registered": 0}, "loose": {"registered": 0}}
+    assert pp.chosen_pass(rows, 13, loose=True) == "default"  # nothing left out: no more passes
