@@ -177,15 +177,21 @@ def test_temple_accuracy(temple):
 
 
 # --------------------------------------------------------------------------- forward walk
+def _lund_walk(tmp_path: Path, n: int, size: int) -> Path:
+    """A workspace of lund's first ``n`` photos (a walk down a street) decoded at ``size``."""
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i in range(1, n + 1):
+        (photos / f"{i:02d}.jpg").symlink_to(shared("scenes", "lund", "images", f"{i:02d}.jpg"))
+    out = tmp_path / "lund.deflare"
+    assert main(["decode", str(photos), "--out", str(out), "--max-size", str(size)]) == 0
+    return out
+
+
 def test_lund_forward_walk_poses(tmp_path):
     """Ten photos walking down a street (lund, 768 px): COLMAP's default initial-pair
     constraints leave 2 images; the relaxed retry registers them all."""
-    photos = tmp_path / "photos"
-    photos.mkdir()
-    for i in range(1, 11):
-        (photos / f"{i:02d}.jpg").symlink_to(shared("scenes", "lund", "images", f"{i:02d}.jpg"))
-    out = tmp_path / "lund.deflare"
-    assert main(["decode", str(photos), "--out", str(out), "--max-size", "768"]) == 0
+    out = _lund_walk(tmp_path, 10, 768)
     assert main(["pose", str(out), "--threads", "2"]) == 0
     report = json.loads((Workspace.open(out).colmap / "report.json").read_text())
     default, relaxed, *rest = report["mapping"]["passes"]
@@ -264,12 +270,7 @@ def test_loose_pass_registers_a_walk_the_relaxed_pass_splits(tmp_path):
     """lund's first 20 photos at 504 px (one thread, seed 0): the relaxed pass leaves photos
     out (COLMAP splits the walk into models), the loose pass registers more of them in one
     model and is kept; with --no-loose-pass the stage keeps the relaxed model."""
-    photos = tmp_path / "photos"
-    photos.mkdir()
-    for i in range(1, 21):
-        (photos / f"{i:02d}.jpg").symlink_to(shared("scenes", "lund", "images", f"{i:02d}.jpg"))
-    out = tmp_path / "lund.deflare"
-    assert main(["decode", str(photos), "--out", str(out), "--max-size", "504"]) == 0
+    out = _lund_walk(tmp_path, 20, 504)
     assert main(["pose", str(out), "--threads", "1", "--seed", "0"]) == 0
     report = json.loads((Workspace.open(out).colmap / "report.json").read_text())
     passes = {p["init"]: p for p in report["mapping"]["passes"]}
