@@ -686,3 +686,22 @@ def test_pose_passes_errors_and_kept_pass():
     assert pp.chosen_pass(rows, 13, loose=True) == "loose"
     rows = {"default": {"registered": 13}, "relaxed": {"registered": 0}, "loose": {"registered": 0}}
     assert pp.chosen_pass(rows, 13, loose=True) == "default"  # nothing left out: no more passes
+
+
+def test_clean_capture_counts_what_the_job_changed():
+    """benchmarks/clean_capture.py: an untouched photo changed nothing; a patch brightened
+    by 10 of 255 is the changed share and sets the PSNR (10/255 there: 28.1 dB)."""
+    cc = _benchmark("clean_capture")
+    rng = np.random.default_rng(0)
+    photo = rng.integers(20, 200, (40, 50, 3), dtype=np.uint8)
+    mask = np.zeros((39, 49), bool)
+    mask[:13, :7] = True
+    same = cc.view_row(photo, photo.copy(), mask)
+    assert same["changed"] == 0 and same["psnr"] is None and same["psnr_changed"] is None
+    assert same["marked"] == round(float(mask.mean()), 5)
+    out = photo.copy()
+    out[:10, :20] += 10
+    row = cc.view_row(photo, out, mask)
+    assert row["changed"] == 0.1
+    assert abs(row["psnr_changed"] - 20 * np.log10(255 / 10)) < 0.01
+    assert row["psnr"] > row["psnr_changed"]
