@@ -172,7 +172,11 @@ def crosscheck(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = Crossche
     """{stem: mask} of every posed view of ``ws`` checked against its neighbours
     (``view_consensus``): ``masks`` without the regions they confirm as scene
     (:func:`drop_confirmed`, if ``drop``) and with the regions of ``candidates`` (if given)
-    they confirm as flare (:func:`add_confirmed`)."""
+    they confirm as flare (:func:`add_confirmed`). With nothing to drop and no candidate
+    pixel in any view the masks come back as they are, without the depth and the warps
+    (most captures without a light in frame)."""
+    if not drop and not any(c is not None and c.any() for c in (candidates or {}).values()):
+        return {s: m.copy() for s, m in masks.items()}
     out = {}
     for s, c in view_consensus(ws, masks, rule):
         m = drop_confirmed(masks[s], c, rule) if drop else masks[s].copy()

@@ -587,6 +587,10 @@ def crosscheck_masks(ws: Workspace, stems: list[str], drop: bool = True,
             " they agree on"] if drop else []
     if ghosts:
         offered = sum(int(m.sum()) for m in cands.values())
+        if not offered and not drop:
+            info("mask: no ghost-line candidates in any view: nothing for the other photos to "
+                 "confirm")
+            return
         said.append(f"confirmed {100 * added / max(offered, 1):.1f}% of the ghost-line "
                     "candidates as flare")
     info(f"mask: the other photos {' and '.join(said)}; the network's own masks: {fmg_dir}")

@@ -202,6 +202,46 @@ def test_mask_stage_ghost_views_marks_the_candidates_the_other_photos_confirm(
     assert "--ghost-lines" in err and len(err.splitlines()) == 1
 
 
+def test_ghost_views_without_candidates_skip_the_depth_and_keep_the_masks(
+        tmp_path, monkeypatch, capsys):
+    """With no ghost-line candidate in any view (a capture without a light in frame) the
+    views' check has nothing to judge: the masks are the network's, and neither the depth
+    nor the warps run (the check's depth is most of the mask stage's time at 1008 px)."""
+    import torch
+
+    from gnfr.fmg import build_fmg, save_fmg, tiny_config
+    from pipeline import crosscheck, mask
+    from pipeline.ws_files import read_mask, write_mask, write_mask_file
+    from tests.fixtures import make_temple_workspace
+    from workflows.cli import main
+
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.25)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    shape = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+    core = _disc(shape, 30, 40, 6)
+
+    def network(model, config, ws, todo, confirm=None):   # marks, and no candidate anywhere
+        for s in todo:
+            write_mask_file(ws.root / mask.GHOST_CANDIDATES_DIR / f"{s}.png",
+                            np.zeros(shape, bool))
+            write_mask(ws, s, core if s == stems[1] else np.zeros(shape, bool))
+
+    def no_depth(*a, **k):
+        raise AssertionError("the views' check ran with nothing to judge")
+
+    monkeypatch.setattr(mask, "write_fmg_masks", network)
+    monkeypatch.setattr(crosscheck, "view_consensus", no_depth)
+    torch.manual_seed(0)
+    weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
+    assert main(["mask", str(ws.root), "--weights", str(weights)]) == 0
+    assert (read_mask(ws, stems[1]) == core).all()
+    assert not any(read_mask(ws, s).any() for s in stems if s != stems[1])
+    assert "no ghost-line candidates in any view" in capsys.readouterr().err
+    # --crosscheck has marks to judge, so it still asks the views
+    with pytest.raises(AssertionError, match="nothing to judge"):
+        crosscheck.crosscheck(ws, {s: read_mask(ws, s) for s in stems}, drop=True)
+
+
 def test_ghost_views_default_on_where_views_can_judge_and_off_for_one_view(tmp_path, capsys):
     """The defaults since the thirty-fifth session: with no option the stage runs the ghost
     lines the other photos judge (two views or more); a single posed view gets the ghost
