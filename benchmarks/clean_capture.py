@@ -9,7 +9,10 @@ and GN-FR. For every view this compares the de-flared photo (WS/deflared) with t
 photo it was made from (WS/decoded, the same framing and size): the share of the pixels the
 masks marked (WS/masks, in the undistorted geometry), the share that changed by more than 2
 of 255 in any channel, and the PSNR of the whole photo and of the changed pixels against the
-photo; with the mean over the views. It also reports the stage
+photo; where the stage kept the network's own masks (WS/masks_fmg: the other photos'
+check ran) also the share those mark, the share the check added, and the share of the
+ghost-line candidates it judged (WS/masks_ghosts); with the mean over the views. It also
+reports the stage
 times of the workspace's manifest, so a run doubles as a timing of a capture that size.
 """
 
@@ -38,6 +41,13 @@ def view_row(photo: np.ndarray, deflared: np.ndarray, mask: np.ndarray) -> dict:
             if changed.any() else None}
 
 
+def read_mask(folder: Path, stem: str) -> np.ndarray:
+    """[H, W] bool of ``folder/<stem>.png`` (a WS mask: white is flare)."""
+    from pipeline.images import read_image
+
+    return read_image(folder / f"{stem}.png", bgr=True)[..., 0] > 127
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("ws", type=Path)
@@ -57,14 +67,22 @@ def main(argv: list[str] | None = None) -> int:
         views = {}
         for s in stems:
             photo = read_image(ws.decoded_path(s), bgr=True)
-            mask = read_image(a.ws / "masks" / f"{s}.png", bgr=True)[..., 0] > 127
+            mask = read_mask(a.ws / "masks", s)
             views[s] = view_row(photo, read_image(a.ws / "deflared" / f"{s}.png", bgr=True),
                                 mask)
+            if (a.ws / "masks_fmg" / f"{s}.png").is_file():
+                own = read_mask(a.ws / "masks_fmg", s)
+                views[s]["marked_network"] = round(float(own.mean()), 5)
+                views[s]["added_by_views"] = round(float((mask & ~own).mean()), 5)
+            if (a.ws / "masks_ghosts" / f"{s}.png").is_file():
+                views[s]["ghost_candidates"] = round(float(
+                    read_mask(a.ws / "masks_ghosts", s).mean()), 5)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     mean = {k: round(float(np.mean([v[k] for v in views.values()])), 5)
-            for k in ("marked", "changed")}
+            for k in ("marked", "changed", "marked_network", "added_by_views",
+                      "ghost_candidates") if all(k in v for v in views.values())}
     scored = [v["psnr"] for v in views.values() if v["psnr"] is not None]
     mean["psnr_changed_views"] = round(float(np.mean(scored)), 2) if scored else None
     stages = {name: {"seconds": rec.get("seconds"), "status": rec.get("status")}
