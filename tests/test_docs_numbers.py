@@ -57,9 +57,14 @@ CHECKS = [
                 "sample_oneshot_cpu_s27_M_maxflare013.json")
       for v in ("DSC_6466", "DSC_6467", "DSC_6468", "DSC_6470", "DSC_6471", "DSC_6473",
                 "DSC_6474", "DSC_6475")],
-    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", f"methods/{m}/inputs/{k}", "{:.2f}")
+    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s36.json", f"methods/{m}/inputs/{k}", "{:.2f}")
       for s in ("kermit", "cyprus") for m in ("gnfr", "gnt", "input")
       for k in ("psnr_flare", "psnr")],
+    *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s36.json", f"methods/{m}/heldout/{k}", f)
+      for s in ("kermit", "cyprus") for m in ("gnfr", "gnt")
+      for k, f in (("psnr", "{:.2f}"), ("ssim", "{:.3f}"))],
+    *[("docs/eval.md", f"variant_regions_{s}_s36.json", k, "{:.2f}")
+      for s in ("kermit", "cyprus") for k in ("psnr_gnfr", "psnr_gnt")],
     *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", f"methods/{m}/heldout/{k}", f)
       for s in ("kermit", "cyprus") for m in ("gnfr", "gnt")
       for k, f in (("psnr", "{:.2f}"), ("ssim", "{:.3f}"))],
