@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
              for n, r in rows.items() if n != "fmg"}
     print(f"{a.ws.name}: mask stage {rows['fmg']['seconds_per_view']:.2f} s per view "
           f"(marked {100 * rows['fmg']['marked']:.2f} %); " + "; ".join(
-              f"{n} +{extra[n]:.2f} s (marked {100 * rows[n]['marked']:.2f} %)" for n in extra))
+              f"{n} {extra[n]:+.2f} s (marked {100 * rows[n]['marked']:.2f} %)" for n in extra))
     if a.out:
         write_result(a.out, {"workspace": str(a.ws), "rows": rows,
                              "extra_seconds_per_view": extra["crosscheck"],

@@ -222,6 +222,8 @@ CHECKS = [
       for m in ("psnr_flare", "psnr")],
     *[("README.md", "sample_oneshot_cpu_s36_ghosts.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
+       fmt) for w, fmt in (("before", "{:.2f} s per view"), ("after", "{:.2f} s after"))],
     *[(PERF, "sample_oneshot_cpu_s36_ghosts.json", p, "{:.1f} s") for p in
       ("stages/mask/seconds", "stages/finetune/seconds", "stages/render:interpolate/seconds")],
     *[("README.md", "sample_oneshot_cpu_s26_fmgM.json", f"mean/{m}", "{:.2f}")
