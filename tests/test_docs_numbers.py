@@ -222,6 +222,8 @@ CHECKS = [
       for m in ("psnr_flare", "psnr")],
     *[("README.md", "sample_oneshot_cpu_s36_ghosts.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
+      for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
        fmt) for w, fmt in (("before", "{:.2f} s per view"), ("after", "{:.2f} s after"))],
     *[(PERF, "sample_oneshot_cpu_s36_ghosts.json", p, "{:.1f} s") for p in
@@ -1139,3 +1141,19 @@ def test_pose_passes_table_is_their_files():
     page = " ".join(text.split())
     assert f"within {kept['rotation_deg_median']:.3f} degrees (largest " \
            f"{kept['rotation_deg_max']:.3f}) and {kept['centre_median']:.4f} of the walk" in page
+
+
+def test_clean_capture_shares_in_the_fmg_history():
+    """docs/history/fmg.md's account of the ghost lines' views on the clean 29-photo capture:
+    every share it quotes is the clean-capture file's."""
+    res = json.loads((RESULTS / "clean_capture_lund_s36.json").read_text())
+    page = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    m = res["mean"]
+    for value, fmt in ((m["marked_network"], "mark {:.3f} %"), (m["added_by_views"],
+                       "adding {:.3f} %"), (m["ghost_candidates"], "({:.3f} % of the pixels")):
+        assert fmt.format(100 * value) in page, fmt.format(100 * value)
+    added = {v: r["added_by_views"] for v, r in res["views"].items() if r["added_by_views"]}
+    assert sorted(added) == ["22", "24", "28"]
+    assert (f"{100 * added['22']:.2f} % and {100 * added['24']:.2f} % on photos 22 and 24, "
+            f"{100 * added['28']:.2f} % on photo 28") in page
+
