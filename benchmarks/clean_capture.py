@@ -10,8 +10,9 @@ photo it was made from (WS/decoded, the same framing and size): the share of the
 masks marked (WS/masks, in the undistorted geometry), the share that changed by more than 2
 of 255 in any channel, and the PSNR of the whole photo and of the changed pixels against the
 photo; where the stage kept the network's own masks (WS/masks_fmg: the other photos'
-check ran) also the share those mark, the share the check added, and the share of the
-ghost-line candidates it judged (WS/masks_ghosts); with the mean over the views. It also
+check ran) also the share those mark, the share the check added (and how many of its pixels
+lie in regions touching the network's marks), and the share of the ghost-line candidates it
+judged (WS/masks_ghosts); with the mean over the views. It also
 reports the stage
 times of the workspace's manifest, so a run doubles as a timing of a capture that size.
 """
@@ -39,6 +40,19 @@ def view_row(photo: np.ndarray, deflared: np.ndarray, mask: np.ndarray) -> dict:
             "psnr": round(float(psnr(b, a)), 2) if changed.any() else None,
             "psnr_changed": round(float(psnr(b[changed], a[changed])), 2)
             if changed.any() else None}
+
+
+def touching(added: np.ndarray, own: np.ndarray) -> int:
+    """Pixels of the 8-connected regions of ``added`` that touch ``own`` (both [H, W] bool;
+    a region next to the network's marks may be their halo)."""
+    import cv2
+
+    n, labels = cv2.connectedComponents(added.astype(np.uint8), connectivity=8)
+    near = cv2.dilate(own.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    hit = np.zeros(n, bool)
+    hit[np.unique(labels[near & added])] = True
+    hit[0] = False
+    return int(hit[labels].sum())
 
 
 def read_mask(folder: Path, stem: str) -> np.ndarray:
@@ -74,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
                 own = read_mask(a.ws / "masks_fmg", s)
                 views[s]["marked_network"] = round(float(own.mean()), 5)
                 views[s]["added_by_views"] = round(float((mask & ~own).mean()), 5)
+                views[s]["added_pixels"] = int((mask & ~own).sum())
+                views[s]["added_pixels_touching_network"] = touching(mask & ~own, own)
             if (a.ws / "masks_ghosts" / f"{s}.png").is_file():
                 views[s]["ghost_candidates"] = round(float(
                     read_mask(a.ws / "masks_ghosts", s).mean()), 5)

@@ -1156,4 +1156,13 @@ def test_clean_capture_shares_in_the_fmg_history():
     assert sorted(added) == ["22", "24", "28"]
     assert (f"{100 * added['22']:.2f} % and {100 * added['24']:.2f} % on photos 22 and 24, "
             f"{100 * added['28']:.2f} % on photo 28") in page
+    px = {v: (r["added_pixels"], r["added_pixels_touching_network"])
+          for v, r in res["views"].items() if r["added_pixels"]}
+    total, near = (sum(p[i] for p in px.values()) for i in (0, 1))
+    def spaced(n: int) -> str:
+        return f"{n:,}".replace(",", " ")
+
+    assert (f"of the {spaced(total)} pixels the views added on those three photos, "
+            f"{spaced(near)} lie") in page
+    assert f"photo 24's {px['24'][0]} pixels do not" in page and px["24"][1] == 0
 

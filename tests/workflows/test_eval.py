@@ -705,3 +705,16 @@ def test_clean_capture_counts_what_the_job_changed():
     assert row["changed"] == 0.1
     assert abs(row["psnr_changed"] - 20 * np.log10(255 / 10)) < 0.01
     assert row["psnr"] > row["psnr_changed"]
+
+
+def test_clean_capture_touching_counts_regions_next_to_the_network_marks():
+    """A region the views added that touches the network's marks counts whole; one apart
+    does not."""
+    cc = _benchmark("clean_capture")
+    own = np.zeros((20, 30), bool)
+    own[5:10, 5:10] = True
+    added = np.zeros_like(own)
+    added[5:10, 10:14] = True      # touches own: 20 pixels
+    added[15:18, 20:25] = True     # apart: 15 pixels
+    assert cc.touching(added, own) == 20
+    assert cc.touching(np.zeros_like(own), own) == 0
