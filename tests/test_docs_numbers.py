@@ -222,6 +222,11 @@ CHECKS = [
       for m in ("psnr_flare", "psnr")],
     *[("README.md", "sample_oneshot_cpu_s36_ghosts.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare", "psnr", "psnr_flare_input", "psnr_input")],
+    *[(page, "bench_fill_cpu_lund_s36.json",
+       f"results/cpu/render_workspace/rows/{i}/s_per_frame", "{:.2f} s")
+      for page in (PERF, "README.md") for i in (1, 3)],
+    *[(PERF, "bench_fill_cpu_lund_s36.json",
+       f"results/cpu/render_workspace/rows/{i}/s_per_frame", "{:.2f} s") for i in (0, 2)],
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
