@@ -42,9 +42,9 @@ def view_row(photo: np.ndarray, deflared: np.ndarray, mask: np.ndarray) -> dict:
             if changed.any() else None}
 
 
-def touching(added: np.ndarray, own: np.ndarray) -> int:
-    """Pixels of the 8-connected regions of ``added`` that touch ``own`` (both [H, W] bool;
-    a region next to the network's marks may be their halo)."""
+def touching_regions(added: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """[H, W] bool: the 8-connected regions of ``added`` that touch ``own`` (both [H, W]
+    bool; a region next to the network's marks may be their halo)."""
     import cv2
 
     n, labels = cv2.connectedComponents(added.astype(np.uint8), connectivity=8)
@@ -52,7 +52,12 @@ def touching(added: np.ndarray, own: np.ndarray) -> int:
     hit = np.zeros(n, bool)
     hit[np.unique(labels[near & added])] = True
     hit[0] = False
-    return int(hit[labels].sum())
+    return hit[labels]
+
+
+def touching(added: np.ndarray, own: np.ndarray) -> int:
+    """Pixels of ``touching_regions``."""
+    return int(touching_regions(added, own).sum())
 
 
 def read_mask(folder: Path, stem: str) -> np.ndarray:

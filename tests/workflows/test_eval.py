@@ -718,3 +718,19 @@ def test_clean_capture_touching_counts_regions_next_to_the_network_marks():
     added[15:18, 20:25] = True     # apart: 15 pixels
     assert cc.touching(added, own) == 20
     assert cc.touching(np.zeros_like(own), own) == 0
+
+
+def test_ghost_touching_splits_the_added_pixels():
+    """benchmarks/ghost_touching.py: added pixels next to the network's marks and apart,
+    each counted in and out of the true flare."""
+    gt = _benchmark("ghost_touching")
+    own = np.zeros((20, 30), bool)
+    own[5:10, 5:10] = True
+    added = np.zeros_like(own)
+    added[5:10, 10:14] = True      # touches own: 20 pixels, 10 of them true
+    added[15:18, 20:25] = True     # apart: 15 pixels, all true
+    truth = np.zeros_like(own)
+    truth[5:10, 12:14] = True
+    truth[15:18, 20:25] = True
+    assert gt.split_added(added, own, truth) == {"touching": 20, "touching_true": 10,
+                                                  "apart": 15, "apart_true": 15}
