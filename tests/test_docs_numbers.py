@@ -1171,3 +1171,24 @@ def test_clean_capture_shares_in_the_fmg_history():
             f"{spaced(near)} lie") in page
     assert f"photo 24's {px['24'][0]} pixels do not" in page and px["24"][1] == 0
 
+
+def test_ghost_touching_counts_in_the_fmg_history():
+    """The ghosts build's split of what the views added is the file's, and so are the flare
+    IoU figures quoted beside it."""
+    res = json.loads((RESULTS / "ghost_touching_kinds46.json").read_text())
+    page = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+
+    def spaced(n: int) -> str:
+        return f"{n:,}".replace(",", " ")
+
+    a = res["all"]
+    assert (f"the views added {spaced(a['touching'] + a['apart'])} pixels to the three "
+            f"scenes' masks, {spaced(a['touching'])} of them in regions touching the network's "
+            f"marks, {spaced(a['touching_true'])} of those true ghost (and "
+            f"{spaced(a['apart_true'])} of the {spaced(a['apart'])} apart)") in page
+    rows = json.loads((RESULTS / "mask_views_kinds_ghosts_s46.json").read_text())["rows"]
+    iou = {(r["scene"], r["setting"]): r["flare_iou"] for r in rows}
+    for scene in ("et", "lund"):
+        assert (f"{iou[(scene + '_ghosts', 'base')]:.3f} to "
+                f"{iou[(scene + '_ghosts', 'ghost_views')]:.3f}") in page
+
