@@ -21,6 +21,7 @@ import contextlib
 import hashlib
 import json
 import os
+import re
 import shutil
 import time
 from collections.abc import Iterable, Iterator
@@ -230,6 +231,15 @@ class StageRun:
         return [self.ws.root / r for r in rel]
 
 
+
+def scene_folder_name(photos: Path) -> str:
+    """The scene's name for a photo folder: its own name, or its parent's when it is a
+    scene's ``images`` or ``images_<N>`` folder (COLMAP's and LLFF's layouts), so that
+    ``lund/images`` makes ``lund.mp4``, not ``images.mp4``."""
+    if re.fullmatch(r"images(_\d+)?", photos.name) and photos.parent.name:
+        return photos.parent.name
+    return photos.name
+
 class Workspace:
     """A scene's working folder (``WS``); see the module docstring and docs/design.md."""
 
@@ -335,10 +345,12 @@ class Workspace:
 
     @property
     def scene_name(self) -> str:
-        """The photo folder's name (``<scene>`` in the contract)."""
+        """``<scene>`` in the contract: the photo folder's name, or its parent's when the
+        folder has a layout name (``images``, ``images_4``: COLMAP's and LLFF's scene/images
+        folders, ``scene_folder_name``)."""
         photos = self.manifest().get("photos")
         if photos:
-            return Path(photos).name
+            return scene_folder_name(Path(photos))
         name = self.root.name
         return name.removesuffix(WS_SUFFIX)
 

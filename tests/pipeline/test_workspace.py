@@ -144,3 +144,18 @@ def test_cli_help_lists_commands(capsys):
     assert code == 0
     for name in ("run", "decode", "pose", "mask", "finetune", "render", "eval", "bench"):
         assert name in command_names() and name in out
+
+
+def test_scene_name_of_a_scene_images_folder_is_the_scene(tmp_path):
+    """``<scene>`` is the photo folder's name, or its parent's for COLMAP's and LLFF's
+    ``images`` / ``images_<N>`` folders (lund/images -> lund.mp4, not images.mp4)."""
+    from pipeline.workspace import scene_folder_name
+
+    for rel, name in (("lund/images", "lund"), ("fern/images_8", "fern"),
+                      ("my_photos", "my_photos"), ("trip/images_day2", "images_day2"),
+                      ("lantern/photos", "photos")):
+        photos = tmp_path / rel
+        photos.mkdir(parents=True)
+        assert scene_folder_name(photos) == name
+        ws = Workspace.create(tmp_path / f"{name}_{photos.name}.deflare", photos)
+        assert ws.scene_name == name and ws.video.name == f"{name}.mp4"
