@@ -231,7 +231,6 @@ class StageRun:
         return [self.ws.root / r for r in rel]
 
 
-
 def scene_folder_name(photos: Path) -> str:
     """The scene's name for a photo folder: its own name, or its parent's when it is a
     scene's ``images`` or ``images_<N>`` folder (COLMAP's and LLFF's layouts), so that
@@ -239,6 +238,7 @@ def scene_folder_name(photos: Path) -> str:
     if re.fullmatch(r"images(_\d+)?", photos.name) and photos.parent.name:
         return photos.parent.name
     return photos.name
+
 
 class Workspace:
     """A scene's working folder (``WS``); see the module docstring and docs/design.md."""
