@@ -44,15 +44,14 @@ def view_row(photo: np.ndarray, deflared: np.ndarray, mask: np.ndarray) -> dict:
 
 def touching_regions(added: np.ndarray, own: np.ndarray) -> np.ndarray:
     """[H, W] bool: the 8-connected regions of ``added`` that touch ``own`` (both [H, W]
-    bool; a region next to the network's marks may be their halo)."""
+    bool; a region next to the network's marks may be their halo):
+    ``pipeline.mask.confirmed_regions`` against ``own`` grown by a pixel."""
     import cv2
 
-    n, labels = cv2.connectedComponents(added.astype(np.uint8), connectivity=8)
+    from pipeline.mask import confirmed_regions
+
     near = cv2.dilate(own.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    hit = np.zeros(n, bool)
-    hit[np.unique(labels[near & added])] = True
-    hit[0] = False
-    return hit[labels]
+    return confirmed_regions(added, near, "first")
 
 
 def touching(added: np.ndarray, own: np.ndarray) -> int:
@@ -61,10 +60,10 @@ def touching(added: np.ndarray, own: np.ndarray) -> int:
 
 
 def read_mask(folder: Path, stem: str) -> np.ndarray:
-    """[H, W] bool of ``folder/<stem>.png`` (a WS mask: white is flare)."""
-    from pipeline.images import read_image
+    """[H, W] bool of the WS mask ``folder/<stem>.png``."""
+    from pipeline.ws_files import read_mask_file
 
-    return read_image(folder / f"{stem}.png", bgr=True)[..., 0] > 127
+    return read_mask_file(folder / f"{stem}.png")
 
 
 def main(argv: list[str] | None = None) -> int:

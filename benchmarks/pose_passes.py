@@ -83,16 +83,12 @@ def pose_errors(est: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict 
 
 
 def chosen_pass(rows: dict, n: int, loose: bool) -> str:
-    """The pass the stage keeps (``pipeline.pose.map_with_retry``'s order and tie rule),
-    from every pass's registered count."""
-    from pipeline.pose import PoseConfig, next_pass
+    """The pass the stage keeps (``pipeline.pose.run_passes``), from every pass's
+    registered count."""
+    from pipeline.pose import PoseConfig, run_passes
 
-    cfg, best, init = PoseConfig(loose_pass=loose), None, "default"
-    while init is not None:
-        if best is None or rows[init]["registered"] > rows[best]["registered"]:
-            best = init
-        init = next_pass(init, rows[best]["registered"], n, cfg)
-    return best
+    return run_passes(PoseConfig(loose_pass=loose), n, lambda init: rows[init]["registered"],
+                      say=lambda _: None)
 
 
 def scene_rows(name: str, folder: Path, work: Path, max_size: int) -> dict:
@@ -106,12 +102,14 @@ def scene_rows(name: str, folder: Path, work: Path, max_size: int) -> dict:
     ws_path = work / f"{name}.ws"
     if cli(["decode", str(folder), "--out", str(ws_path), "--max-size", str(max_size)]) not in (
             0, None):
-        raise SystemExit(f"error: decode {folder} failed")
+        raise SystemExit(2)  # decode said why, in one line
     # the stage may refuse a scene (too few registered: dino); its matches are kept
     stage = cli(["pose", str(ws_path), "--threads", "1", "--seed", "0", "--no-loose-pass"])
     ws = Workspace.open(ws_path)
     if not ws.colmap_db.is_file():
-        raise SystemExit(f"error: pose {ws_path} wrote no database")
+        print(f"error: pose wrote no database in {ws_path}: see the lines above",
+              file=sys.stderr)
+        raise SystemExit(2)
     n = len(list(ws.decoded.glob("*.png")))
     ref = reference_poses(folder)
     cfg = pose.PoseConfig(num_threads=1, seed=0)

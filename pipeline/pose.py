@@ -294,32 +294,45 @@ def next_pass(done: str, registered: int, n: int, cfg: PoseConfig) -> str | None
     return None
 
 
-def map_with_retry(cfg: PoseConfig, db: Path, decoded: Path, tmp: Path, n: int) -> tuple:
-    """Incremental mapping, again with RELAXED_INIT and then LOOSE as ``next_pass`` says; the
-    pass whose largest model registers more images wins (the earlier on a tie).
+def run_passes(cfg: PoseConfig, n: int, map_pass, say=info) -> str:
+    """Run the mapping passes in ``next_pass``'s order, ``map_pass(init)`` giving the images
+    a pass registers (of ``n``); returns the pass kept: the one that registers the most, the
+    earlier on a tie. ``say`` tells the user why a pass runs again."""
+    kept, best, init = None, -1, "default"
+    while init is not None:
+        k = map_pass(init)
+        if k > best:
+            kept, best = init, k
+        done, init = init, next_pass(init, best, n, cfg)
+        if init == "relaxed":
+            say(f"pose: only {k} of {n} images registered: mapping again with the initial "
+                "pair relaxed for forward motion")
+        elif init == "loose":
+            say(f"pose: {best} of {n} images registered after the {done} pass: mapping "
+                "again with lower triangulation-angle and inlier thresholds")
+    return kept
 
-    Returns ({index: reconstruction} of the chosen pass, report entry
+
+def map_with_retry(cfg: PoseConfig, db: Path, decoded: Path, tmp: Path, n: int) -> tuple:
+    """Incremental mapping, again with RELAXED_INIT and then LOOSE as ``next_pass`` says
+    (``run_passes``).
+
+    Returns ({index: reconstruction} of the kept pass, report entry
     {"passes": [{"init", "registered", "models"}, ...], "used": "default" | "relaxed" |
     "loose"}).
     """
-    passes, chosen, init = [], None, "default"
-    while init is not None:
+    passes, recs = [], {}
+
+    def map_pass(init: str) -> int:
         out = tmp / init
         out.mkdir(parents=True)
-        recs = _map(cfg, db, decoded, out, n, init)
-        sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
-        k = sizes[0] if sizes else 0
-        passes.append({"init": init, "registered": k, "models": sizes})
-        if chosen is None or k > chosen[1]:
-            chosen = (init, k, recs)
-        done, init = init, next_pass(init, chosen[1], n, cfg)
-        if init == "relaxed":
-            info(f"pose: only {k} of {n} images registered: mapping again with the initial "
-                 "pair relaxed for forward motion")
-        elif init == "loose":
-            info(f"pose: {chosen[1]} of {n} images registered after the {done} pass: mapping "
-                 "again with lower triangulation-angle and inlier thresholds")
-    return chosen[2], {"passes": passes, "used": chosen[0]}
+        recs[init] = _map(cfg, db, decoded, out, n, init)
+        sizes = sorted((r.num_reg_images() for r in recs[init].values()), reverse=True)
+        passes.append({"init": init, "registered": sizes[0] if sizes else 0, "models": sizes})
+        return passes[-1]["registered"]
+
+    kept = run_passes(cfg, n, map_pass)
+    return recs[kept], {"passes": passes, "used": kept}
 
 
 def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:

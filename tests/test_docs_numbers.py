@@ -1148,6 +1148,11 @@ def test_pose_passes_table_is_their_files():
            f"{kept['rotation_deg_max']:.3f}) and {kept['centre_median']:.4f} of the walk" in page
 
 
+def spaced(n: int) -> str:
+    """A count as the docs write it (thin groups of three: 13 597)."""
+    return f"{n:,}".replace(",", " ")
+
+
 def test_clean_capture_shares_in_the_fmg_history():
     """docs/history/fmg.md's account of the ghost lines' views on the clean 29-photo capture:
     every share it quotes is the clean-capture file's."""
@@ -1164,9 +1169,6 @@ def test_clean_capture_shares_in_the_fmg_history():
     px = {v: (r["added_pixels"], r["added_pixels_touching_network"])
           for v, r in res["views"].items() if r["added_pixels"]}
     total, near = (sum(p[i] for p in px.values()) for i in (0, 1))
-    def spaced(n: int) -> str:
-        return f"{n:,}".replace(",", " ")
-
     assert (f"of the {spaced(total)} pixels the views added on those three photos, "
             f"{spaced(near)} lie") in page
     assert f"photo 24's {px['24'][0]} pixels do not" in page and px["24"][1] == 0
@@ -1177,9 +1179,6 @@ def test_ghost_touching_counts_in_the_fmg_history():
     IoU figures quoted beside it."""
     res = json.loads((RESULTS / "ghost_touching_kinds46.json").read_text())
     page = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-
-    def spaced(n: int) -> str:
-        return f"{n:,}".replace(",", " ")
 
     a = res["all"]
     assert (f"the views added {spaced(a['touching'] + a['apart'])} pixels to the three "
