@@ -104,17 +104,61 @@ def _warp(img: np.ndarray, H: np.ndarray, size: tuple[int, int],
                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
 
-def _zncc_cost(ref: np.ndarray, ref_stats, warped: np.ndarray, win: int) -> np.ndarray:
-    """[H, W] 1 - ZNCC over a win x win window, in 0..2 (flat windows cost 1)."""
+def _zncc_cost(ref: np.ndarray, ref_stats, warped: np.ndarray, win: int,
+               out: np.ndarray | None = None) -> np.ndarray:
+    """[H, W] 1 - ZNCC over a win x win window, in 0..2 (flat windows cost 1).
+    ``ref_stats`` = (windowed mean, windowed variance clipped at 0) of ``ref``; ``out``: an
+    [H, W] float32 array to write into. Computed in place (the sweeps' inner loop)."""
     mu_r, var_r = ref_stats
     box = (win, win)
     mu_w = cv2.boxFilter(warped, -1, box)
-    var_w = cv2.boxFilter(warped * warped, -1, box) - mu_w * mu_w
-    cov = cv2.boxFilter(ref * warped, -1, box) - mu_r * mu_w
-    den = np.sqrt(np.maximum(var_r, 0) * np.maximum(var_w, 0))
-    ok = den > 1e-5
-    ncc = np.where(ok, cov / np.maximum(den, 1e-5), 0.0)
-    return (1.0 - np.clip(ncc, -1.0, 1.0)).astype(np.float32)
+    den = cv2.boxFilter(warped * warped, -1, box)
+    den -= mu_w * mu_w
+    cov = cv2.boxFilter(ref * warped, -1, box)
+    cov -= mu_r * mu_w
+    np.maximum(den, 0, out=den)
+    den *= var_r
+    np.sqrt(den, out=den)
+    flat = den <= 1e-5
+    np.maximum(den, 1e-5, out=den)
+    np.divide(cov, den, out=cov)
+    cov[flat] = 0.0
+    np.clip(cov, -1.0, 1.0, out=cov)
+    return np.subtract(1.0, cov, out=out if out is not None else cov)
+
+
+def mean_of_smallest(values: np.ndarray, keep: int) -> np.ndarray:
+    """[...] mean of the ``keep`` smallest of ``values`` [N, ...] along axis 0 (best-k
+    costs). For ``keep`` 2 the two smallest are tracked with running min and max (the
+    value of ``np.partition(values, 1, 0)[:2].mean(0)``, several times faster)."""
+    n = values.shape[0]
+    if keep >= n:
+        return values.mean(0)
+    if keep == 1:
+        return values.min(0)
+    if keep == 2:
+        lo = np.minimum(values[0], values[1])
+        second = np.maximum(values[0], values[1])
+        for k in range(2, n):
+            np.minimum(second, np.maximum(lo, values[k]), out=second)
+            np.minimum(lo, values[k], out=lo)
+        lo += second
+        lo /= 2
+        return lo
+    return np.partition(values, keep - 1, axis=0)[:keep].mean(0)
+
+
+def nanmedian0(values: np.ndarray) -> np.ndarray:
+    """``np.nanmedian(values, axis=0)`` of a few warped sources [N, ...] (NaN where a source
+    does not see the pixel; NaN where none does), by sorting the small first axis: the same
+    values, several times faster than numpy's masked-array path for small N."""
+    s = np.sort(values, axis=0)  # NaNs sort last
+    n = values.shape[0] - np.isnan(values).sum(0)
+    lo = np.take_along_axis(s, ((np.maximum(n, 1) - 1) // 2)[None], 0)[0]
+    hi = np.take_along_axis(s, np.minimum(n // 2, values.shape[0] - 1)[None], 0)[0]
+    out = np.where(n % 2 == 1, lo, (lo + hi) / np.asarray(2, values.dtype)).astype(values.dtype)
+    out[n == 0] = np.nan
+    return out
 
 
 MARGIN_PLANES = 2
@@ -134,10 +178,10 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     win = cfg.window
     g_ref = _grey(ref.image)
     mu_r = cv2.boxFilter(g_ref, -1, (win, win))
-    var_r = cv2.boxFilter(g_ref * g_ref, -1, (win, win)) - mu_r * mu_r
+    var_r = np.maximum(cv2.boxFilter(g_ref * g_ref, -1, (win, win)) - mu_r * mu_r, 0)
     greys = [_grey(s.image) for s in sources]
-    valids = [(np.ones(s.image.shape[:2], np.float32) if s.valid is None
-               else s.valid.astype(np.float32)) for s in sources]
+    valids = [(np.ones(s.image.shape[:2], np.uint8) if s.valid is None
+               else s.valid.astype(np.uint8)) for s in sources]
     depths = inverse_depths(near, far, cfg.planes)
     keep = min(cfg.keep, len(sources))
     cost = np.empty((cfg.planes, H, W), np.float32)
@@ -147,13 +191,12 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
         for k, s in enumerate(sources):
             Hm = homography(ref.K, ref.c2w, s.K, s.c2w, d)
             w = _warp(greys[k], Hm, (W, H))
-            v = _warp(valids[k], Hm, (W, H), cv2.INTER_NEAREST) > 0.5
-            c = _zncc_cost(g_ref, (mu_r, var_r), w, win)
-            per[k] = np.where(v, c, 2.0)
+            v = _warp(valids[k], Hm, (W, H), cv2.INTER_NEAREST)
+            _zncc_cost(g_ref, (mu_r, var_r), w, win, out=per[k])
+            per[k][v == 0] = 2.0  # flared or out of view
             if p == cfg.planes // 2:
                 seen += v
-        part = np.partition(per, keep - 1, axis=0)[:keep] if keep < len(sources) else per
-        cost[p] = part.mean(0)
+        cost[p] = mean_of_smallest(per, keep)
     best = np.argmin(cost, 0)
     depth, c_best = _refine(cost, best, depths)
     conf = np.clip(1.0 - c_best, 0.0, 1.0)
@@ -193,23 +236,28 @@ def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
         r0, r1, c0, c1 = 0, H, 0, W
     shift = np.array([[1.0, 0, c0], [0, 1.0, r0], [0, 0, 1.0]])  # crop px -> frame px
     cw, ch = c1 - c0, r1 - r0
-    valids = [(np.ones(s.image.shape[:2], np.float32) if s.valid is None
-               else s.valid.astype(np.float32)) for s in sources]
+    valids = [(np.ones(s.image.shape[:2], np.uint8) if s.valid is None
+               else s.valid.astype(np.uint8)) for s in sources]
     sub_best = best[r0:r1, c0:c1]
     sub_depth = depth[r0:r1, c0:c1]
+    ones = np.ones((1, 3), np.float32)  # cv2.transform by it: the sum of the 3 channels
+    n = np.empty((ch, cw), np.float32)
+    s1 = np.empty((ch, cw, 3), np.float32)
+    s2 = np.empty((ch, cw), np.float32)
     for d in np.concatenate([inverse_depths(near, far, planes), beyond_depths(far, beyond)]):
-        n = np.zeros((ch, cw), np.float32)
-        s1 = np.zeros((ch, cw, 3), np.float32)
-        s2 = np.zeros((ch, cw), np.float32)
+        n.fill(0)
+        s1.fill(0)
+        s2.fill(0)
         for k, s in enumerate(sources):
             Hm = homography(K, c2w, s.K, s.c2w, d) @ shift
             col = _warp(s.image, Hm, (cw, ch))
             v = _warp(valids[k], Hm, (cw, ch), cv2.INTER_NEAREST)
             n += v
-            s1 += col * v[..., None]
-            s2 += (col * col).sum(-1) * v
-        mean = s1 / np.maximum(n, 1)[..., None]
-        var = (s2 / np.maximum(n, 1) - (mean * mean).sum(-1)) / 3.0
+            cv2.accumulate(col, s1, mask=v)  # where the source is valid
+            cv2.accumulate(cv2.transform(col * col, ones), s2, mask=v)
+        nn = np.maximum(n, 1)
+        mean = s1 / nn[..., None]
+        var = (s2 / nn - cv2.transform(mean * mean, ones)) / 3.0
         var = np.where(n >= 2, np.maximum(var, 0), np.inf).astype(np.float32)
         c = cv2.blur(np.where(np.isfinite(var), var, 1.0).astype(np.float32), (window, window))
         c[~np.isfinite(var)] = np.inf
@@ -408,7 +456,7 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
         c = np.where(w.ok[..., None], w.colours, np.nan)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
-            ref = np.nanmedian(c, axis=0)
+            ref = nanmedian0(c)
         rv = np.isfinite(ref).all(-1) & (w.ok.sum(0) >= 2)
         ref = np.nan_to_num(ref)
     else:
@@ -434,7 +482,7 @@ def fuse(w: Warped, agree: float = 0.08, min_views: int = 1, window: int = 1):
     sources that agree; colour is 0 where support < min_views)."""
     N = w.colours.shape[0]
     c = np.where(w.ok[..., None], w.colours, np.nan)
-    med = np.nanmedian(c, axis=0) if N > 1 else c[0]
+    med = nanmedian0(c) if N > 1 else c[0]
     dev = np.nan_to_num(np.nanmax(np.abs(c - med[None]), axis=-1), nan=9.0)
     if window > 1:
         box = (window, window)

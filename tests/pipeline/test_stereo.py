@@ -19,6 +19,8 @@ from pipeline.stereo import (
     backproject,
     beyond_depths,
     homography,
+    mean_of_smallest,
+    nanmedian0,
     project_points,
     splat_depth,
     sweep_consensus,
@@ -339,3 +341,66 @@ def test_min_margin_drops_matches_without_a_unique_plane():
     assert known.mean() > 0.8
     rel = np.abs(strict[tex][known] - true[tex][known]) / true[tex][known]
     assert np.median(rel) < 0.01
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5])
+def test_nanmedian0_is_numpys_nanmedian_to_the_bit(n):
+    """The sort-based median of a few sources gives np.nanmedian's values exactly: per-source
+    holes (NaN on all channels, as warped photos have) and pixels no source sees."""
+    import warnings
+
+    rng = np.random.default_rng(n)
+    c = rng.random((n, 40, 50, 3), dtype=np.float32)
+    c[:, :, :10] = np.round(c[:, :, :10] * 4) / 4  # ties
+    c[rng.random((n, 40, 50)) < 0.35] = np.nan
+    c[:, :3] = np.nan  # seen by none
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ref = np.nanmedian(c, axis=0)
+    got = nanmedian0(c)
+    assert got.dtype == ref.dtype and np.isnan(got[:3]).all()
+    assert np.array_equal(got, ref, equal_nan=True)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 6])
+def test_mean_of_smallest_is_the_partition_mean_to_the_bit(n):
+    """Best-k costs: the mean of the ``keep`` smallest along the first axis, every keep
+    (all of them: their plain mean, in their order)."""
+    rng = np.random.default_rng(10 + n)
+    v = rng.random((n, 30, 40), dtype=np.float32) * 2
+    v[:, :, :8] = np.round(v[:, :, :8] * 2) / 2  # ties
+    for keep in range(1, n + 2):
+        ref = np.partition(v, keep - 1, axis=0)[:keep].mean(0) if keep < n else v.mean(0)
+        got = mean_of_smallest(v, keep)
+        assert got.dtype == np.float32 and np.array_equal(got, ref), keep
+
+
+def test_consensus_cost_is_the_windowed_variance_of_the_valid_sources():
+    """One plane: the cost is the box-averaged colour variance (mean over channels) of the
+    sources warped through it, each left out where it is flared; infinite where fewer than
+    two see a pixel."""
+    import cv2
+
+    rng = np.random.default_rng(5)
+    views, _ = plane_views(rng, [[0.0, 0.0, -2.0], [0.3, 0.0, -2.0], [-0.3, 0.05, -2.0],
+                                 [0.0, 0.25, -2.0]])
+    views[2].valid = np.ones((H, W), bool)
+    views[2].valid[30:90, 40:120] = False  # a flared patch
+    near = 1.5
+    _, cost = sweep_consensus(K, views[0].c2w, (W, H), views[1:], near, 4.0, planes=1,
+                              window=5)
+    warped, seen = [], []
+    for v in views[1:]:
+        Hm = homography(K, views[0].c2w, v.K, v.c2w, near)
+        flags = cv2.WARP_INVERSE_MAP
+        warped.append(cv2.warpPerspective(v.image, Hm, (W, H), flags=cv2.INTER_LINEAR | flags))
+        ok = np.ones((H, W), np.uint8) if v.valid is None else v.valid.astype(np.uint8)
+        seen.append(cv2.warpPerspective(ok, Hm, (W, H), flags=cv2.INTER_NEAREST | flags) > 0)
+    stack = np.where(np.array(seen)[..., None], np.array(warped, np.float64), np.nan)
+    count = np.array(seen).sum(0)
+    var = np.nanvar(stack, axis=0).mean(-1)
+    ref = cv2.blur(np.where(count >= 2, var, 1.0), (5, 5))
+    both = count >= 2
+    assert both.mean() > 0.5 and (~both).any()
+    assert np.isinf(cost[~both]).all()
+    np.testing.assert_allclose(cost[both], ref[both], atol=2e-6)
