@@ -21,9 +21,7 @@ under the +0.10 dB a default needs.
 
 from __future__ import annotations
 
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -147,7 +145,8 @@ def add_confirmed(candidates: np.ndarray, c: Consensus, rule: CrosscheckRule) ->
 def view_consensus(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = CrosscheckRule(),
                    label: str = "mask: cross-check"):
     """Yield (stem, Consensus) for every posed view of ``ws``: depth from the photos with
-    ``masks`` as validity (the depth stage's defaults, kept in memory), then the nearest
+    ``masks`` as validity (the depth stage's defaults; each view's plane sweep kept in
+    WS/.sweeps for the depth stage, ``pipeline.depth.sweep_views``), then the nearest
     ``rule.neighbours`` views warped into each view and fused."""
     from pipeline.depth import DepthConfig, load_views, nearest_views, sweep_views
     from pipeline.progress import track
@@ -156,9 +155,11 @@ def view_consensus(ws, masks: dict[str, np.ndarray], rule: CrosscheckRule = Cros
     cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, masks=masks)
     config = DepthConfig()
-    with tempfile.TemporaryDirectory(prefix="deflare-crosscheck-") as raw:
-        depths = sweep_views(views, cams, nearest_views(cams, config.neighbours), config,
-                             Path(raw), False, ws, "mask: depth for the other photos' check")
+    ws.sweeps.mkdir(parents=True, exist_ok=True)  # kept: an interrupted mask stage and
+    # the depth stage (its defaults, the same masks) take the sweeps whose keys match
+    depths = sweep_views(views, cams, nearest_views(cams, config.neighbours), config,
+                         ws.sweeps, False, ws, "mask: depth for the other photos' check",
+                         shared=ws.sweeps)
     for s, (d, _) in depths.items():
         views[s].depth = d
     near = nearest_views(cams, rule.neighbours)

@@ -12,6 +12,8 @@ flare regions and novel frames (pipeline/photo_fill.py).
 
 from __future__ import annotations
 
+import hashlib
+import shutil
 import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,7 +28,8 @@ from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_dep
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
 
-__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run", "sweep_views"]
+__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run", "sweep_key",
+           "sweep_views"]
 # read_depth: pipeline/ws_files.py (the WS/depth reader), named here for its callers
 
 
@@ -88,24 +91,66 @@ def load_views(ws: Workspace, cams: Cameras, stems: list[str],
     return out
 
 
+def _view_digest(v: PosedView) -> bytes:
+    """SHA-256 of what a plane sweep reads of one view: pixels, flare mask, camera."""
+    h = hashlib.sha256()
+    for a in (v.image, v.valid, v.K, v.c2w):
+        h.update(b"-" if a is None else np.ascontiguousarray(a).tobytes())
+    return h.digest()
+
+
+def sweep_key(views: dict[str, PosedView], s: str, near: list[str], bounds: tuple[float, float],
+              sweep: SweepConfig, digests: dict[str, bytes] | None = None) -> str:
+    """Hex key of one view's plane sweep: its own and its ``near`` views' pixels, flare masks
+    and cameras, its depth ``bounds`` and the ``sweep`` settings. Equal keys give equal
+    sweeps (the sweep is deterministic). ``digests``: per-view digests already computed."""
+    digests = digests if digests is not None else {}
+    h = hashlib.sha256(repr((list(bounds), asdict(sweep), near)).encode())
+    for t in [s, *near]:
+        if t not in digests:
+            digests[t] = _view_digest(views[t])
+        h.update(digests[t])
+    return h.hexdigest()
+
+
 def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list[str]],
                 config: DepthConfig, raw_dir: Path, keep_raw: bool, ws: Workspace,
-                label: str = "depth: plane sweep") -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                label: str = "depth: plane sweep", shared: Path | None = None
+                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """{stem: (depth, confidence)} of every view of ``views`` (their flare masks as
     validity): the plane sweep against its ``near`` views, each result kept in
     ``raw_dir/<stem>.npz`` (taken from there when ``keep_raw``: a resumed run), then the
-    multi-view consistency check. Sets each view's ``depth`` to its swept depth."""
+    multi-view consistency check. Sets each view's ``depth`` to its swept depth.
+    ``shared``: a folder of sweeps another stage made (``<stem>.npz`` beside ``<stem>.key``,
+    :func:`sweep_key`); a view whose key matches is taken from there, not swept again, and
+    every view swept here is added to it when ``shared`` is ``raw_dir``."""
     by = cams.by_stem()
     sweep = config.sweep()
+    digests: dict[str, bytes] = {}
+    reused = 0
     for s in track(cams.stems, label):
         raw = raw_dir / f"{s}.npz"
         if keep_raw and raw.exists():
             continue
+        key = sweep_key(views, s, near[s], (by[s].near, by[s].far), sweep, digests) \
+            if shared is not None else None
+        if shared is not None:
+            have, kf = shared / f"{s}.npz", shared / f"{s}.key"
+            if have.exists() and kf.exists() and kf.read_text() == key:
+                if have != raw:
+                    shutil.copyfile(have, raw)
+                reused += 1
+                continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
                                sweep)
         write_depth(raw, d, c, compressed=False)
+        if shared is not None and shared == raw_dir:
+            (shared / f"{s}.key").write_text(key)
+    if reused:
+        info(f"{label.split(':')[0]}: {reused} of {len(cams.stems)} views' plane sweeps taken "
+             f"from the mask stage's ({shared})")
     confs = {}
     for s in cams.stems:
         views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
@@ -134,6 +179,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                force, defaults=asdict(DepthConfig()))
     out_dir = ws.depth
     if stage_run.skip:
+        shutil.rmtree(ws.sweeps, ignore_errors=True)
         info(f"depth: up to date ({out_dir})")
         return stage_run.outputs
     if len(cams.stems) < 2:
@@ -142,7 +188,8 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     raw_dir.mkdir(parents=True, exist_ok=True)
     near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
-    depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws)
+    depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws,
+                         shared=ws.sweeps if ws.sweeps.is_dir() else None)
     kept = []
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
@@ -150,6 +197,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for p in raw_dir.iterdir():
         p.unlink()
     raw_dir.rmdir()
+    shutil.rmtree(ws.sweeps, ignore_errors=True)  # the mask stage's, used or out of date
     stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average)")

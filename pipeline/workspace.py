@@ -270,6 +270,9 @@ class Workspace:
     masks_overview = property(lambda self: self.root / "masks_overview.jpg")
     depth = property(lambda self: self.root / "depth")
     """WS/depth/<stem>.npz: depth and confidence per view (depth)."""
+    sweeps = property(lambda self: self.root / ".sweeps")
+    """WS/.sweeps/<stem>.npz and .key: the mask stage's plane sweeps, which the depth stage
+    takes where their key matches (pipeline.depth.sweep_views) and then removes."""
     views_json = property(lambda self: self.root / "views.json")
     model = property(lambda self: self.root / "model")
     """WS/model/: the fine-tuned GN-FR and its training state (finetune)."""

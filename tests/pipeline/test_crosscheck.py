@@ -322,3 +322,48 @@ def test_crosscheck_drops_and_adds_in_one_pass(temple_ws):
     kept = crosscheck(ws, masks, candidates=cands, drop=False)
     assert kept[stems[3]][false].all() and kept[stems[3]][blob].all()
     assert not any(kept[s].any() for s in stems if s != stems[3])
+
+
+def test_the_depth_stage_takes_the_checks_plane_sweeps_where_their_inputs_match(
+        tmp_path, monkeypatch):
+    """The views' check sweeps every view with the depth stage's defaults and keeps the
+    sweeps in WS/.sweeps; the depth stage then sweeps again only the views whose own or
+    neighbours' masks differ from the ones the check used, gives the depth maps it would
+    have computed alone, and removes WS/.sweeps."""
+    import shutil
+
+    from pipeline import depth
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_cameras, read_depth, write_mask
+    from tests.fixtures import make_temple_workspace
+
+    ws = make_temple_workspace(tmp_path / "ws", n_views=6, scale=0.25)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    shape = cv2.imread(str(ws.images / f"{stems[0]}.png")).shape[:2]
+    masks = {s: _disc(shape, 20 + 5 * i, 30, 5) for i, s in enumerate(stems)}
+    crosscheck(ws, masks, drop=True)
+    assert sorted(p.stem for p in ws.sweeps.glob("*.key")) == stems
+    changed = stems[2]
+    for s in stems:
+        write_mask(ws, s, masks[s] | (_disc(shape, 50, 50, 8) if s == changed else False))
+    alone = Workspace(shutil.copytree(ws.root, tmp_path / "alone",
+                                      ignore=shutil.ignore_patterns(".sweeps")))
+    swept = []
+    real = depth.sweep_depth
+
+    def counted(ref, *a, **k):
+        swept.append(ref)
+        return real(ref, *a, **k)
+
+    monkeypatch.setattr(depth, "sweep_depth", counted)
+    depth.run(depth.DepthConfig(), ws)
+    near = depth.nearest_views(read_cameras(ws), depth.DepthConfig().neighbours)
+    redo = {s for s in stems if s == changed or changed in near[s]}
+    assert 0 < len(swept) == len(redo) < len(stems)
+    assert not ws.sweeps.exists()
+    swept.clear()
+    depth.run(depth.DepthConfig(), alone)
+    assert len(swept) == len(stems)
+    for s in stems:
+        for a, b in zip(read_depth(ws, s), read_depth(alone, s), strict=True):
+            assert np.array_equal(a, b), s
