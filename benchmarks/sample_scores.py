@@ -82,7 +82,9 @@ def run_facts(ws: Path) -> dict:
     from pipeline.workspace import Workspace
 
     w = Workspace(ws)
-    stages = {k: {"seconds": v.get("seconds"), "status": v.get("status")}
+    stages = {k: {"seconds": v.get("seconds"), "status": v.get("status"),
+                  **({"sweeps_from_mask_stage": v["sweeps_from_mask_stage"]}
+                     if "sweeps_from_mask_stage" in v else {})}
               for k, v in w.manifest()["stages"].items()}
     video = w.video if w.video.exists() else None
     facts = {}

@@ -115,15 +115,16 @@ def sweep_key(views: dict[str, PosedView], s: str, near: list[str], bounds: tupl
 
 def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list[str]],
                 config: DepthConfig, raw_dir: Path, keep_raw: bool, ws: Workspace,
-                label: str = "depth: plane sweep", shared: Path | None = None
-                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                label: str = "depth: plane sweep", shared: Path | None = None,
+                taken: list[str] | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """{stem: (depth, confidence)} of every view of ``views`` (their flare masks as
     validity): the plane sweep against its ``near`` views, each result kept in
     ``raw_dir/<stem>.npz`` (taken from there when ``keep_raw``: a resumed run), then the
     multi-view consistency check. Sets each view's ``depth`` to its swept depth.
     ``shared``: a folder of sweeps another stage made (``<stem>.npz`` beside ``<stem>.key``,
     :func:`sweep_key`); a view whose key matches is taken from there, not swept again, and
-    every view swept here is added to it when ``shared`` is ``raw_dir``."""
+    every view swept here is added to it when ``shared`` is ``raw_dir``; the stems taken
+    from another folder are appended to ``taken``."""
     by = cams.by_stem()
     sweep = config.sweep()
     digests: dict[str, bytes] = {}
@@ -139,7 +140,9 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
             if have.exists() and kf.exists() and kf.read_text() == key:
                 if have != raw:
                     shutil.copyfile(have, raw)
-                reused += 1
+                    reused += 1
+                    if taken is not None:
+                        taken.append(s)
                 continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -188,8 +191,9 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     raw_dir.mkdir(parents=True, exist_ok=True)
     near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
+    taken: list[str] = []
     depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws,
-                         shared=ws.sweeps if ws.sweeps.is_dir() else None)
+                         shared=ws.sweeps if ws.sweeps.is_dir() else None, taken=taken)
     kept = []
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
@@ -198,7 +202,8 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
         p.unlink()
     raw_dir.rmdir()
     shutil.rmtree(ws.sweeps, ignore_errors=True)  # the mask stage's, used or out of date
-    stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4)})
+    stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4),
+                                       "sweeps_from_mask_stage": len(taken)})
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average)")
     return [out_dir]

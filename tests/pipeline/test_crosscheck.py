@@ -360,6 +360,7 @@ def test_the_depth_stage_takes_the_checks_plane_sweeps_where_their_inputs_match(
     near = depth.nearest_views(read_cameras(ws), depth.DepthConfig().neighbours)
     redo = {s for s in stems if s == changed or changed in near[s]}
     assert 0 < len(swept) == len(redo) < len(stems)
+    assert ws.stage_record("depth")["sweeps_from_mask_stage"] == len(stems) - len(redo)
     assert not ws.sweeps.exists()
     swept.clear()
     depth.run(depth.DepthConfig(), alone)
