@@ -227,6 +227,16 @@ CHECKS = [
       for page in (PERF, "README.md") for i in (1, 3)],
     *[(PERF, "bench_fill_cpu_lund_s36.json",
        f"results/cpu/render_workspace/rows/{i}/s_per_frame", "{:.2f} s") for i in (0, 2)],
+    *[("docs/depth.md", "stereo_time_cpu_lund_s37_after.json", path, "{:.2f} s")
+      for path in ("depth_stage/seconds_per_view", "fill/0/seconds_per_frame",
+                   "fill/1/seconds_per_frame")],
+    *[(PERF, f"stereo_time_cpu_lund_s37_{w}.json", path, "| {:.2f} s")
+      for w in ("before", "after") for path in ("depth_stage/seconds_per_view",
+                                                "fill/0/seconds_per_frame",
+                                                "fill/1/seconds_per_frame")],
+    *[(PERF, f"bench_fill_cpu_lund_s37_{w}.json",
+       f"results/cpu/render_workspace/rows/{i}/s_per_frame", "{:.2f} s")
+      for w in ("before", "after") for i in range(4)],
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
