@@ -53,6 +53,9 @@ class DepthConfig:
     min_margin: float = option(0.0, ge=0, le=2)
     """Drop a depth whose matching cost beats the best cost of the planes away from it by
     less than this (uniqueness; 0: no test; docs/history/fill.md, "A match must be unique")."""
+    consistency_planes: float = option(0.0, ge=0)
+    """The consistency check's tolerance in planes of the view's own sweep, in inverse depth
+    (0: the relative ``consistency`` instead; docs/history/fill.md, "Consistency in planes")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
@@ -163,9 +166,11 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
     out = {}
     for s in order:
         d, conf = views[s].depth, confs[s]
-        if config.consistency > 0:
+        if config.consistency > 0 or config.consistency_planes > 0:
+            step = (1.0 / by[s].near - 1.0 / by[s].far) / max(config.planes - 1, 1)
             cnt = consistency_count(ordered, idx[s], [idx[n] for n in near[s]],
-                                    config.consistency)
+                                    config.consistency,
+                                    inverse_tol=config.consistency_planes * step or None)
             d = np.where(cnt >= 1, d, 0).astype(np.float32)
             conf = np.where(cnt >= 1, conf, 0).astype(np.float16)
         out[s] = (d, conf)

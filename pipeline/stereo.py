@@ -309,9 +309,10 @@ def project_points(pts: np.ndarray, K: np.ndarray, c2w: np.ndarray):
 
 
 def consistency_count(views: list[PosedView], i: int, neighbours: list[int],
-                      tol: float) -> np.ndarray:
+                      tol: float, inverse_tol: float | None = None) -> np.ndarray:
     """[H, W] number of ``neighbours`` whose own depth agrees with view ``i``'s depth after
-    reprojection (relative z difference below ``tol``)."""
+    reprojection (relative z difference below ``tol``, or with ``inverse_tol`` an inverse
+    depth difference below it)."""
     v = views[i]
     pts = backproject(v.K, v.c2w, v.depth)
     count = np.zeros(v.depth.shape, np.int32)
@@ -322,7 +323,11 @@ def consistency_count(views: list[PosedView], i: int, neighbours: list[int],
         xy, z = project_points(pts, n.K, n.c2w)
         dz = cv2.remap(n.depth, xy[..., 0] - 0.5, xy[..., 1] - 0.5, cv2.INTER_NEAREST,
                        borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        ok = (dz > 0) & (z > 0) & (np.abs(dz - z) < tol * z)
+        if inverse_tol is None:
+            ok = (dz > 0) & (z > 0) & (np.abs(dz - z) < tol * z)
+        else:
+            ok = (dz > 0) & (z > 0) & (np.abs(1.0 / np.maximum(dz, 1e-12)
+                                              - 1.0 / np.maximum(z, 1e-12)) < inverse_tol)
         count += ok
     count[v.depth <= 0] = 0
     return count
