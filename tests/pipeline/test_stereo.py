@@ -18,6 +18,7 @@ from pipeline.stereo import (
     SweepConfig,
     backproject,
     beyond_depths,
+    consistency_count,
     homography,
     mean_of_smallest,
     nanmedian0,
@@ -404,3 +405,21 @@ def test_consensus_cost_is_the_windowed_variance_of_the_valid_sources():
     assert both.mean() > 0.5 and (~both).any()
     assert np.isinf(cost[~both]).all()
     np.testing.assert_allclose(cost[both], ref[both], atol=2e-6)
+
+
+def test_consistency_in_inverse_depth_accepts_what_the_relative_check_rejects():
+    """Two views of a plane, the neighbour's depth 4 % too far: the relative check at 2 %
+    rejects every pixel, an inverse-depth tolerance of 0.02 (at depth 3, about 6 % of z)
+    keeps them, one of 0.005 (1.5 %) does not; pixels without depth never count."""
+    rng = np.random.default_rng(1)
+    views, true = plane_views(rng, [[0.0, 0.0, -3.0], [0.3, 0.0, -3.0]])
+    _, true1 = plane_views(np.random.default_rng(1), [[0.3, 0.0, -3.0], [0.0, 0.0, -3.0]])
+    views[0].depth = true.astype(np.float32)
+    views[1].depth = (true1 * 1.04).astype(np.float32)
+    views[0].depth[:10] = 0
+    seen = consistency_count(views, 0, [1], 0.5)[10:] > 0  # what the neighbour sees at all
+    assert seen.mean() > 0.5
+    assert not consistency_count(views, 0, [1], 0.02).any()
+    wide = consistency_count(views, 0, [1], 0.02, inverse_tol=0.02)
+    assert (wide[10:][seen] == 1).mean() > 0.95 and not wide[:10].any()
+    assert not consistency_count(views, 0, [1], 0.02, inverse_tol=0.005).any()
