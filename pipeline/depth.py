@@ -131,32 +131,34 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
     by = cams.by_stem()
     sweep = config.sweep()
     digests: dict[str, bytes] = {}
-    reused = 0
+    got: list[str] = []
     for s in track(cams.stems, label):
         raw = raw_dir / f"{s}.npz"
         if keep_raw and raw.exists():
             continue
-        key = sweep_key(views, s, near[s], (by[s].near, by[s].far), sweep, digests) \
-            if shared is not None else None
+        key = None
         if shared is not None:
+            key = sweep_key(views, s, near[s], (by[s].near, by[s].far), sweep, digests)
             have, kf = shared / f"{s}.npz", shared / f"{s}.key"
             if have.exists() and kf.exists() and kf.read_text() == key:
                 if have != raw:
                     shutil.copyfile(have, raw)
-                    reused += 1
-                    if taken is not None:
-                        taken.append(s)
+                    got.append(s)
                 continue
+            if shared == raw_dir:
+                kf.unlink(missing_ok=True)  # never an old key beside a new sweep
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
                                sweep)
         write_depth(raw, d, c, compressed=False)
-        if shared is not None and shared == raw_dir:
+        if key is not None and shared == raw_dir:
             (shared / f"{s}.key").write_text(key)
-    if reused:
-        info(f"{label.split(':')[0]}: {reused} of {len(cams.stems)} views' plane sweeps taken "
-             f"from the mask stage's ({shared})")
+    if got:
+        info(f"{label.split(':')[0]}: {len(got)} of {len(cams.stems)} views' plane sweeps "
+             f"taken from the mask stage's ({shared})")
+    if taken is not None:
+        taken.extend(got)
     confs = {}
     for s in cams.stems:
         views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
