@@ -237,6 +237,12 @@ CHECKS = [
     *[(PERF, f"bench_fill_cpu_lund_s37_{w}.json",
        f"results/cpu/render_workspace/rows/{i}/s_per_frame", "{:.2f} s")
       for w in ("before", "after") for i in range(4)],
+    *[(PERF, "sample_oneshot_cpu_s37.json", f"stages/{st}/seconds", fmt)
+      for st, fmt in (("mask", "-> {:.1f} s"), ("depth", "-> {:.1f} s"),
+                      ("render:inputs", "-> {:.1f} s"), ("render:interpolate", "-> {:.1f} s"),
+                      ("finetune", "took {:.1f} s"))],
+    *[(PERF, "sample_oneshot_cpu_s36_ghosts.json", f"stages/{st}/seconds", "{:.1f} s ->")
+      for st in ("mask", "depth", "render:inputs", "render:interpolate")],
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
