@@ -734,3 +734,28 @@ def test_ghost_touching_splits_the_added_pixels():
     truth[15:18, 20:25] = True
     assert gt.split_added(added, own, truth) == {"touching": 20, "touching_true": 10,
                                                   "apart": 15, "apart_true": 15}
+
+
+def test_stereo_time_digest_tells_arrays_apart_by_value_shape_and_type():
+    """benchmarks/stereo_time.py's digest: the same arrays give the same digest; one changed
+    value, a reshape or another dtype of the same bytes give another."""
+    st = _benchmark("stereo_time")
+    a = np.arange(12, dtype=np.float32).reshape(3, 4)
+    b = np.ones((2, 2), np.float16)
+    ref = st.digest([a, b])
+    assert st.digest([a.copy(), b.copy()]) == ref
+    c = a.copy()
+    c[1, 2] += 1e-6
+    assert st.digest([c, b]) != ref
+    assert st.digest([a.reshape(4, 3), b]) != ref
+    assert st.digest([a.view(np.int32), b]) != ref
+    assert st.digest([b, a]) != ref
+
+
+def test_stereo_time_refuses_a_workspace_without_depth_in_one_line(tmp_path, capsys):
+    st = _benchmark("stereo_time")
+    (tmp_path / "ws").mkdir()
+    (tmp_path / "ws" / "cameras.json").write_text("{}")
+    assert st.main([str(tmp_path / "ws"), "--work", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "depth" in err and str(tmp_path / "ws") in err
