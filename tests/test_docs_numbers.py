@@ -243,6 +243,13 @@ CHECKS = [
                       ("finetune", "took {:.1f} s"))],
     *[(PERF, "sample_oneshot_cpu_s36_ghosts.json", f"stages/{st}/seconds", "{:.1f} s ->")
       for st in ("mask", "depth", "render:inputs", "render:interpolate")],
+    *[("docs/history/fill.md", f"depth_consistency_planes_inputs_dev_{sc}_{arm}.json",
+       f"rows/hybrid_guided_support2/{m}", "{:.4f}" if m == "ssim" else "{:.3f}")
+      for sc in ("sceaux", "et", "lund") for arm in ("base", "k1")
+      for m in ("psnr_flare", "psnr", "ssim")],
+    *[("docs/history/fill.md", f"depth_consistency_planes_heldout_dev_{sc}_{arm}.json",
+       m, "{:.3f}" if m == "ssim" else "{:.2f} /")
+      for sc in ("sceaux", "et", "lund") for arm in ("base", "k1") for m in ("psnr", "ssim")],
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
@@ -1207,3 +1214,17 @@ def test_ghost_touching_counts_in_the_fmg_history():
         assert (f"{iou[(scene + '_ghosts', 'base')]:.3f} to "
                 f"{iou[(scene + '_ghosts', 'ghost_views')]:.3f}") in page
 
+
+
+def test_consistency_planes_known_depth_is_its_records():
+    """The known depth of each arm in docs/history/fill.md's consistency-in-planes table, and
+    lund's pair in docs/depth.md, are the depth stage's records."""
+    arms = json.loads((RESULTS / "depth_consistency_planes_coverage_dev.json").read_text())[
+        "arms"]
+    pct = {k: f"{100 * v['coverage']:.1f} %" for k, v in arms.items()}
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    for sc, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
+        cell = f"| {name} | {pct[sc + '_base']} / {pct[sc + '_k1']} |"
+        assert cell in hist, cell
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    assert f"({pct['lund_base']} -> {pct['lund_k1']} at 504 px)" in depth
