@@ -105,8 +105,7 @@ def main(argv: list[str] | None = None) -> int:
                       "ghost_candidates") if all(k in v for v in views.values())}
     scored = [v["psnr"] for v in views.values() if v["psnr"] is not None]
     mean["psnr_changed_views"] = round(float(np.mean(scored)), 2) if scored else None
-    stages = {name: {"seconds": rec.get("seconds"), "status": rec.get("status")}
-              for name, rec in ws.manifest().get("stages", {}).items()}
+    stages = ws.stage_summary()
     print(f"{a.ws.name}: {len(views)} views, marked {100 * mean['marked']:.2f} %, changed "
           f"{100 * mean['changed']:.2f} % of the pixels")
     if a.out:

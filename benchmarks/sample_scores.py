@@ -82,10 +82,7 @@ def run_facts(ws: Path) -> dict:
     from pipeline.workspace import Workspace
 
     w = Workspace(ws)
-    stages = {k: {"seconds": v.get("seconds"), "status": v.get("status"),
-                  **({"sweeps_from_mask_stage": v["sweeps_from_mask_stage"]}
-                     if "sweeps_from_mask_stage" in v else {})}
-              for k, v in w.manifest()["stages"].items()}
+    stages = w.stage_summary()
     video = w.video if w.video.exists() else None
     facts = {}
     if video is not None and not video.stem.endswith("_compare"):

@@ -426,6 +426,16 @@ class Workspace:
     def stage_record(self, stage: str) -> dict:
         return self.manifest()["stages"].get(stage, {})
 
+    STAGE_FACTS = ("seconds", "status", "sweeps_from_mask_stage")
+    """What :meth:`stage_summary` keeps of each stage's record."""
+
+    def stage_summary(self) -> dict[str, dict]:
+        """{stage: its record's ``STAGE_FACTS`` (those it has; seconds and status always)}:
+        what a benchmark reports of a finished run."""
+        return {name: {k: rec.get(k) for k in self.STAGE_FACTS
+                       if k in ("seconds", "status") or k in rec}
+                for name, rec in self.manifest()["stages"].items()}
+
     def record_stage(self, name: str, params: dict, outputs: Iterable[str | os.PathLike],
                      inputs: Iterable[str | os.PathLike] = (), extra: dict | None = None
                      ) -> list[Path]:

@@ -159,3 +159,19 @@ def test_scene_name_of_a_scene_images_folder_is_the_scene(tmp_path):
         assert scene_folder_name(photos) == name
         ws = Workspace.create(tmp_path / f"{name}_{photos.name}.deflare", photos)
         assert ws.scene_name == name and ws.video.name == f"{name}.mp4"
+
+
+def test_stage_summary_keeps_seconds_status_and_known_extras(tmp_path):
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    out = ws.root / "out.txt"
+    out.write_text("o")
+    ws.begin_stage("depth", {}, []).finish([out], extra={"coverage": 0.5,
+                                                        "sweeps_from_mask_stage": 3})
+    ws.begin_stage("mask", {}, []).finish([out], extra={"views": 4})
+    summary = ws.stage_summary()
+    assert set(summary) == {"depth", "mask"}
+    assert summary["depth"]["sweeps_from_mask_stage"] == 3 and "coverage" not in summary["depth"]
+    assert set(summary["mask"]) == {"seconds", "status"}
+    assert summary["mask"]["status"] == "complete" and summary["mask"]["seconds"] >= 0
