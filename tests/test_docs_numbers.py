@@ -250,6 +250,10 @@ CHECKS = [
     *[("docs/history/fill.md", f"depth_consistency_planes_heldout_dev_{sc}_{arm}.json",
        m, "{:.3f}" if m == "ssim" else "{:.2f} /")
       for sc in ("sceaux", "et", "lund") for arm in ("base", "k1") for m in ("psnr", "ssim")],
+    *[(PERF, "clean_capture_lund_s37.json", f"stages/{st}/seconds", "| {:.1f} |")
+      for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
+    (PERF, "clean_capture_lund_s37.json", "stages/depth/sweeps_from_mask_stage",
+     "took {} of its"),
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",
