@@ -148,12 +148,30 @@ def mean_of_smallest(values: np.ndarray, keep: int) -> np.ndarray:
     return np.partition(values, keep - 1, axis=0)[:keep].mean(0)
 
 
+_NETWORKS = {2: ((0, 1),), 3: ((0, 1), (1, 2), (0, 1)),
+             4: ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2))}
+"""Sorting networks (compare-exchange pairs) for a few values."""
+
+
+def _sort_few(values: np.ndarray) -> np.ndarray:
+    """``np.sort(values, axis=0)`` of finite or infinite values; for up to four along the
+    first axis by a sorting network (elementwise min and max, faster than a strided sort)."""
+    pairs = _NETWORKS.get(values.shape[0])
+    if pairs is None:
+        return np.sort(values, axis=0)
+    rows = list(values)
+    for i, j in pairs:
+        rows[i], rows[j] = np.minimum(rows[i], rows[j]), np.maximum(rows[i], rows[j])
+    return np.stack(rows)
+
+
 def nanmedian0(values: np.ndarray) -> np.ndarray:
     """``np.nanmedian(values, axis=0)`` of a few warped sources [N, ...] (NaN where a source
     does not see the pixel; NaN where none does), by sorting the small first axis: the same
     values, several times faster than numpy's masked-array path for small N."""
-    s = np.sort(values, axis=0)  # NaNs sort last
-    n = values.shape[0] - np.isnan(values).sum(0)
+    missing = np.isnan(values)
+    n = values.shape[0] - missing.sum(0)
+    s = _sort_few(np.where(missing, np.inf, values))  # NaNs (as inf) sort last
     lo = np.take_along_axis(s, ((np.maximum(n, 1) - 1) // 2)[None], 0)[0]
     hi = np.take_along_axis(s, np.minimum(n // 2, values.shape[0] - 1)[None], 0)[0]
     out = np.where(n % 2 == 1, lo, (lo + hi) / np.asarray(2, values.dtype)).astype(values.dtype)
@@ -187,6 +205,8 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     cost = np.empty((cfg.planes, H, W), np.float32)
     seen = np.zeros((H, W), np.int32)
     per = np.empty((len(sources), H, W), np.float32)
+    best = np.zeros((H, W), np.intp)  # np.argmin(cost, 0), kept as the planes go: the
+    lowest = np.full((H, W), np.inf, np.float32)  # strided argmin was a tenth of the sweep
     for p, d in enumerate(depths):
         for k, s in enumerate(sources):
             Hm = homography(ref.K, ref.c2w, s.K, s.c2w, d)
@@ -197,7 +217,9 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
             if p == cfg.planes // 2:
                 seen += v
         cost[p] = mean_of_smallest(per, keep)
-    best = np.argmin(cost, 0)
+        lower = cost[p] < lowest  # strict: ties keep the first plane, as argmin does
+        np.copyto(lowest, cost[p], where=lower)
+        best[lower] = p
     depth, c_best = _refine(cost, best, depths)
     conf = np.clip(1.0 - c_best, 0.0, 1.0)
     if cfg.min_margin > 0:
