@@ -231,7 +231,7 @@ CHECKS = [
       for path in ("depth_stage/seconds_per_view", "fill/0/seconds_per_frame",
                    "fill/1/seconds_per_frame")],
     *[(PERF, f"stereo_time_cpu_lund_s37_{w}.json", path, "| {:.2f} s")
-      for w in ("before", "after") for path in ("depth_stage/seconds_per_view",
+      for w in ("before", "after", "final") for path in ("depth_stage/seconds_per_view",
                                                 "fill/0/seconds_per_frame",
                                                 "fill/1/seconds_per_frame")],
     *[(PERF, f"bench_fill_cpu_lund_s37_{w}.json",
