@@ -209,14 +209,34 @@ class CameraModel:
         return np.stack([u, v], -1)
 
 
+_MAPS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+"""The last few ``warp_maps`` results by their cameras (the de-flared photos ask for one
+view's maps twice: its flare mask, then its fill)."""
+_MAPS_KEPT = 4
+
+
+def _camera_key(c: CameraModel) -> tuple:
+    return c.model, c.width, c.height, tuple(float(p) for p in c.params)
+
+
 def warp_maps(src: CameraModel, dst: CameraModel) -> tuple[np.ndarray, np.ndarray]:
     """cv2.remap maps [H_dst, W_dst] float32 that resample an image of camera ``src`` into
     the geometry of camera ``dst`` (same pose; e.g. the pinhole ``WS/images`` camera into the
     distorted ``WS/decoded`` one). Map values are OpenCV pixel indices (centre at integer).
+    The last few are kept (read-only arrays): undistorting every pixel is the slow part.
     """
+    key = (_camera_key(src), _camera_key(dst))
+    if key in _MAPS:
+        return _MAPS[key]
     grid = dst.pixel_grid().reshape(-1, 2)
     xy = dst.pixel_to_normalized(grid)
     uv = src.normalized_to_pixel(xy) - 0.5
     shape = (dst.height, dst.width)
-    return (uv[:, 0].reshape(shape).astype(np.float32),
+    maps = (uv[:, 0].reshape(shape).astype(np.float32),
             uv[:, 1].reshape(shape).astype(np.float32))
+    for m in maps:
+        m.setflags(write=False)
+    while len(_MAPS) >= _MAPS_KEPT:
+        del _MAPS[next(iter(_MAPS))]  # the oldest
+    _MAPS[key] = maps
+    return maps

@@ -256,6 +256,33 @@ def test_scaled_camera_and_warp_maps():
     assert np.abs(mx - j).max() < 1e-3 and np.abs(my - i).max() < 1e-3
 
 
+def test_warp_maps_are_kept_for_equal_cameras_and_read_only():
+    """The de-flared photos ask twice for one view's maps: the second time (equal cameras,
+    other objects) gets the same arrays, which no caller can change; other cameras get
+    their own maps."""
+    import pipeline.camera_models as cm
+
+    def cams():
+        cam = CameraModel.from_colmap({"model": "SIMPLE_RADIAL", "width": 64, "height": 48,
+                                       "params": PARAMS["SIMPLE_RADIAL"]})
+        return CameraModel.pinhole(cam.K, 64, 48), cam
+
+    cm._MAPS.clear()
+    first = warp_maps(*cams())
+    again = warp_maps(*cams())
+    assert all(a is b for a, b in zip(first, again, strict=True))
+    assert not first[0].flags.writeable and not first[1].flags.writeable
+    pin, cam = cams()
+    other = warp_maps(pin, cam.scaled(0.5))
+    assert other[0].shape == (24, 32) and other[0] is not first[0]
+    cm._MAPS.clear()
+    fresh = warp_maps(*cams())
+    assert fresh[0] is not first[0] and np.array_equal(fresh[0], first[0])
+    for _ in range(cm._MAPS_KEPT + 2):  # the cache stays small
+        warp_maps(pin, pin.scaled(1 + 0.1 * _))
+    assert len(cm._MAPS) <= cm._MAPS_KEPT
+
+
 def test_unknown_camera_model_is_a_user_error():
     from pipeline.errors import UserError
 
