@@ -279,10 +279,14 @@ def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
             cv2.accumulate(cv2.transform(col * col, ones), s2, mask=v)
         nn = np.maximum(n, 1)
         mean = s1 / nn[..., None]
-        var = (s2 / nn - cv2.transform(mean * mean, ones)) / 3.0
-        var = np.where(n >= 2, np.maximum(var, 0), np.inf).astype(np.float32)
-        c = cv2.blur(np.where(np.isfinite(var), var, 1.0).astype(np.float32), (window, window))
-        c[~np.isfinite(var)] = np.inf
+        var = s2 / nn
+        var -= cv2.transform(mean * mean, ones)
+        var /= 3.0
+        np.maximum(var, 0, out=var)
+        few = n < 2  # fewer than two sources: no cost (1 inside the window's mean, then inf)
+        var[few] = 1.0
+        c = cv2.blur(var, (window, window))
+        c[few] = np.inf
         better = c < sub_best
         sub_best[better] = c[better]
         sub_depth[better] = d
