@@ -162,14 +162,12 @@ def test_scene_name_of_a_scene_images_folder_is_the_scene(tmp_path):
 
 
 def test_stage_summary_keeps_seconds_status_and_known_extras(tmp_path):
-    photos = tmp_path / "photos"
-    photos.mkdir()
-    ws = Workspace.create(tmp_path / "ws", photos)
-    out = ws.root / "out.txt"
-    out.write_text("o")
-    ws.begin_stage("depth", {}, []).finish([out], extra={"coverage": 0.5,
-                                                        "sweeps_from_mask_stage": 3})
-    ws.begin_stage("mask", {}, []).finish([out], extra={"views": 4})
+    (tmp_path / "photos").mkdir()
+    ws = Workspace.create(tmp_path / "ws", tmp_path / "photos")
+    (ws.root / "o.txt").write_text("o")
+    for name, extra in (("depth", {"coverage": 0.5, "sweeps_from_mask_stage": 3}),
+                        ("mask", {"views": 4})):
+        ws.begin_stage(name, {}, []).finish([ws.root / "o.txt"], extra=extra)
     summary = ws.stage_summary()
     assert set(summary) == {"depth", "mask"}
     assert summary["depth"]["sweeps_from_mask_stage"] == 3 and "coverage" not in summary["depth"]
