@@ -1232,3 +1232,5 @@ def test_consistency_planes_known_depth_is_its_records():
         assert cell in hist, cell
     depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
     assert f"({pct['lund_base']} -> {pct['lund_k1']} at 504 px)" in depth
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert f"{pct['lund_k1']} of the pixels instead of {pct['lund_base']}" in readme
