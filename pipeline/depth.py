@@ -125,7 +125,7 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
     ``raw_dir/<stem>.npz`` (taken from there when ``keep_raw``: a resumed run), then the
     multi-view consistency check. Sets each view's ``depth`` to its swept depth.
     ``shared``: a folder of sweeps another stage made (``<stem>.npz`` beside ``<stem>.key``,
-    :func:`sweep_key`); a view whose key matches is taken from there, not swept again, and
+    :func:`sweep_key`); a view whose key matches is moved from there, not swept again, and
     every view swept here is added to it when ``shared`` is ``raw_dir``; the stems taken
     from another folder are appended to ``taken``."""
     by = cams.by_stem()
@@ -142,7 +142,7 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
             have, kf = shared / f"{s}.npz", shared / f"{s}.key"
             if have.exists() and kf.exists() and kf.read_text() == key:
                 if have != raw:
-                    shutil.copyfile(have, raw)
+                    have.replace(raw)  # moved, not copied: the folder is removed after
                     got.append(s)
                 continue
             if shared == raw_dir:
