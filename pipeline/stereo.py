@@ -220,7 +220,8 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
         lower = cost[p] < lowest  # strict: ties keep the first plane, as argmin does
         np.copyto(lowest, cost[p], where=lower)
         best[lower] = p
-    depth, c_best = _refine(cost, best, depths)
+    depth = _refine(cost, best, depths)
+    c_best = lowest  # the cost at the best plane
     conf = np.clip(1.0 - c_best, 0.0, 1.0)
     if cfg.min_margin > 0:
         away = np.abs(np.arange(cfg.planes)[:, None, None] - best[None]) > MARGIN_PLANES
@@ -295,7 +296,7 @@ def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
 
 def _refine(cost: np.ndarray, best: np.ndarray, depths: np.ndarray):
     """Sub-plane depth by a parabola through the costs at best-1, best, best+1 (in the
-    inverse-depth index), and the cost at the best plane."""
+    inverse-depth index)."""
     P = cost.shape[0]
     i0 = np.clip(best, 1, P - 2)
     take = lambda i: np.take_along_axis(cost, i[None], 0)[0]  # noqa: E731
@@ -305,7 +306,7 @@ def _refine(cost: np.ndarray, best: np.ndarray, depths: np.ndarray):
     off = np.clip(off, -0.5, 0.5)
     idx = np.where((best == 0) | (best == P - 1), best, i0 + off)
     inv = np.interp(idx, np.arange(P), 1.0 / depths)
-    return 1.0 / inv, take(best)
+    return 1.0 / inv
 
 
 # --------------------------------------------------------------------------- reprojection
