@@ -3,7 +3,7 @@
 Following the paper (and Flare7K), each composite takes a flare pattern, moves it by a random
 affine transform (rotation, scale, translation, shear) and adds it to a photo; the same
 transform is applied to the pattern's mask. Here the pattern comes from the physically
-based synthesizer (``pipeline/flare.py``): a fresh lens, light position and intensity per
+based synthesizer (``pipeline/flare/``): a fresh lens, light position and intensity per
 composite, drawn from every kind of flare (``training_flare``: all of ``flare.KINDS``, or all
 but the kinds left out for a leave-one-kind-out model). The warped mask is then also cut
 where the flare is not visible against the new background (the synthesizer's relative

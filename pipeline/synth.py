@@ -276,7 +276,7 @@ def _write_meta(cfg: SynthConfig, out: Path, ws: Workspace, cams: Cameras, held:
 
 Made by `deflare-scene synth {ws.root} --out {out} --seed {cfg.seed}{kinds_opt}` from the
 clean posed workspace `{ws.root}` ({len(stems)} views). One lens (physically based flare
-synthesizer, pipeline/flare.py; kinds of flare allowed: {', '.join(cfg.flare.kinds)};
+synthesizer, pipeline/flare/; kinds of flare allowed: {', '.join(cfg.flare.kinds)};
 drawn: {', '.join(lens.kinds)}) and one point light at world
 {np.round(light, 4).tolist()} shared by all views; the light is projected into each view,
 so the flare moves with the camera.

@@ -1,4 +1,4 @@
-"""Properties of the physically based flare synthesizer (pipeline/flare.py)."""
+"""Properties of the physically based flare synthesizer (pipeline/flare/)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline import flare as F
-from pipeline.colour import linear_to_srgb, srgb_to_linear
+from pipeline.colour import image_to_linear, linear_to_srgb, srgb_to_linear
 from pipeline.errors import UserError
 
 # a small bank keeps every test fast; the physics is the same as the default's
@@ -202,7 +202,7 @@ def test_each_kind_masks_exactly_where_its_light_exceeds_the_threshold(kind, img
     _, layers = F.synthesize(img, cfg, np.random.default_rng(11), light_xy=(44.0, 30.0))
     assert layers.kinds == (kind,)
     thr = documented_threshold(img)
-    np.testing.assert_allclose(F.mask_threshold(cfg, (H, W), F.image_to_linear(img)), thr,
+    np.testing.assert_allclose(F.mask_threshold(cfg, (H, W), image_to_linear(img)), thr,
                                rtol=1e-6)
     lum = F.luminance(layers.flare)
     core = layers.core.max(-1) > 0
@@ -336,7 +336,7 @@ def test_combined_kinds_sum_their_layers_and_mask_the_sum(img):
     cfg = kind_cfg(*F.KINDS, **always)
     lens = F.sample_lens(cfg, np.random.default_rng(3))
     assert lens.kinds == F.KINDS and set(lens.kind_params) == set(F.KINDS) - {"scatter"}
-    light, k, bg = (50.0, 40.0), 0.6, F.image_to_linear(img)
+    light, k, bg = (50.0, 40.0), 0.6, image_to_linear(img)
     layers = F.render_flare(lens, light, (H, W), None, k, bg)
     parts = [F.render_kind(lens, kind, light, (H, W), None, k) for kind in lens.kinds]
     assert all(p.max() > 0 for p in parts)
