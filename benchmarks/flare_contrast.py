@@ -95,7 +95,7 @@ def scenes(kind: str, root: Path) -> dict:
 def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
-    from workflows.research.fmg_train import default_data
+    from workflows.research.fmg_eval import default_data
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=Path, required=True,

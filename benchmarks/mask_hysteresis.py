@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     from pipeline.mask import load_fmg_weights
     from pipeline.provenance import sha256, write_result
-    from workflows.research.fmg_train import default_data, ray_batch, weights_info
+    from workflows.research.fmg_eval import default_data, ray_batch, weights_info
 
     try:
         data = a.data or default_data()

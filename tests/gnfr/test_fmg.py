@@ -351,7 +351,7 @@ def test_hard_negative_pool_is_respected():
     assert FMGTrainConfig.__dataclass_fields__["negatives"].default == fd.DEFAULT_NEGATIVES
     choices = FMGTrainConfig.__dataclass_fields__["negatives"].metadata["choices"]
     assert set(choices) == set(fd.HARD_NEGATIVES)  # clouds and backlit can be asked for
-    from workflows.research.fmg_train import FMGEvalConfig  # literals, for the CLI's ast read
+    from workflows.research.fmg_eval import FMGEvalConfig  # literals, for the CLI's ast read
 
     assert FMGEvalConfig.__dataclass_fields__["negatives"].metadata["choices"] == choices
     img = np.full((64, 64, 3), 0.2, np.float32)
@@ -405,7 +405,7 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     steps = [json.loads(line)["step"] for line in (out / "log.jsonl").read_text().splitlines()]
     assert steps == [1, 2, 3]
     metrics = json.loads((out / "metrics.json").read_text())
-    from workflows.research.fmg_train import evaluate
+    from workflows.research.fmg_eval import evaluate
 
     # the file holds the final model's scores on the development part (val-count 2, doubled)
     again = evaluate(out / "fmg.safetensors", data, count=4, size=64, split="dev")
@@ -599,7 +599,7 @@ def test_a_run_from_init_resumed_without_it_still_counts_the_init_steps(tmp_path
 def test_overlay_columns_are_named_by_the_file_or_its_run():
     from pathlib import Path
 
-    from workflows.research.fmg_train import weights_label
+    from workflows.research.fmg_eval import weights_label
 
     assert weights_label(Path("gnfr/weights/fmg_candidate_L.safetensors")) == "fmg_candidate_L"
     assert weights_label(Path("gnfr/weights/fmg.safetensors")) == "weights/fmg"
@@ -609,7 +609,8 @@ def test_overlay_columns_are_named_by_the_file_or_its_run():
 
 def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_path):
     """A run cut short (a lent GPU given back) leaves fp16 weights from its checkpoint."""
-    from workflows.research.fmg_train import export_checkpoint, save_checkpoint, weights_info
+    from workflows.research.fmg_eval import weights_info
+    from workflows.research.fmg_train import export_checkpoint, save_checkpoint
 
     torch.manual_seed(0)
     model = build_fmg(tiny_config())
@@ -742,14 +743,14 @@ def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monk
     import torch
 
     import pipeline.fmg_data as fd
-    from workflows.research import fmg_train
+    from workflows.research import fmg_eval
 
     painted = []
 
     real = fd.add_hard_negatives
     monkeypatch.setattr(fd, "add_hard_negatives",
                         lambda img, rng, kinds: painted.append(kinds) or real(img, rng, kinds))
-    monkeypatch.setattr(fmg_train, "_part_backgrounds",
+    monkeypatch.setattr(fmg_eval, "_part_backgrounds",
                         lambda data, size, split: [np.full((80, 80, 3), 90, np.uint8)])
 
     class Const(torch.nn.Module):
@@ -762,11 +763,11 @@ def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monk
 
     for logit, want in ((20.0, 1.0), (-20.0, 0.0)):
         monkeypatch.setattr("pipeline.mask.load_fmg_weights", lambda p, c=Const(logit): c)
-        monkeypatch.setattr(fmg_train, "weights_info", lambda p: {"cut": 0.5})
-        res = fmg_train.negative_fractions(tmp_path / "w.safetensors", tmp_path,
+        monkeypatch.setattr(fmg_eval, "weights_info", lambda p: {"cut": 0.5})
+        res = fmg_eval.negative_fractions(tmp_path / "w.safetensors", tmp_path,
                                            ("backlit", "lamp"), count=3, size=32)
         assert set(res["negatives"]) == {"backlit", "lamp"}
         for r in res["negatives"].values():
             assert r["mean"] == want and r["over_1pct"] == (3 if want else 0)
     assert painted.count(("backlit",)) == 6 and painted.count(("lamp",)) == 6
-    assert "| backlit | 3 | 0.00 %" in fmg_train.format_negatives(res)
+    assert "| backlit | 3 | 0.00 %" in fmg_eval.format_negatives(res)

@@ -67,7 +67,7 @@ def tiny_weights(tmp_path):
 
 
 def test_mask_cut_comes_from_the_weights_unless_given(kermit_ws, tiny_weights):
-    from workflows.research.fmg_train import write_threshold
+    from workflows.research.fmg_eval import write_threshold
 
     ws = kermit_ws
     write_threshold(tiny_weights, 0.65)

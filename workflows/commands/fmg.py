@@ -8,8 +8,10 @@ import typer
 
 from workflows.config_cli import config_command
 
-CONFIGS = "workflows.research.fmg_train"
-"""The module of the fmg commands' config dataclasses."""
+TRAIN_CONFIGS = "workflows.research.fmg_train"
+"""The module of `fmg train`'s config dataclass."""
+EVAL_CONFIGS = "workflows.research.fmg_eval"
+"""The module of the config dataclasses of `fmg eval`, `fmg calibrate` and `fmg overlay`."""
 
 
 def register(app: typer.Typer) -> None:
@@ -17,15 +19,16 @@ def register(app: typer.Typer) -> None:
                       no_args_is_help=True)
     app.add_typer(fmg, name="fmg")
 
-    @config_command(fmg, "train", f"{CONFIGS}:FMGTrainConfig", group="fmg",
+    @config_command(fmg, "train", f"{TRAIN_CONFIGS}:FMGTrainConfig", group="fmg",
                     exclude=("weight_decay", "seed"))
     def train_cmd(config) -> None:
         """Train the FMG on flare composited onto photos; held-out scenes are never seen."""
-        from workflows.research.fmg_train import format_metrics, train
+        from workflows.research.fmg_eval import format_metrics
+        from workflows.research.fmg_train import train
 
         typer.echo(format_metrics(train(config)))
 
-    @config_command(fmg, "eval", f"{CONFIGS}:FMGEvalConfig", group="fmg")
+    @config_command(fmg, "eval", f"{EVAL_CONFIGS}:FMGEvalConfig", group="fmg")
     def eval_cmd(config) -> None:
         """mIoU / mAcc on held-out composites: default, unseen and night flare settings, or
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
@@ -33,9 +36,9 @@ def register(app: typer.Typer) -> None:
         with hard negatives (--negatives)."""
         from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
         from pipeline.provenance import sha256, write_result
-        from workflows.research import fmg_train
+        from workflows.research import fmg_eval
 
-        fmg_train.check_modes(config)
+        fmg_eval.check_modes(config)
         rule, ghosts = ray_config(config), ghost_config(config)
         weights = config.weights or DEFAULT_WEIGHTS
         for path in (weights, *config.loo):
@@ -44,45 +47,45 @@ def register(app: typer.Typer) -> None:
         if config.confirm:
             load_fmg_weights(config.confirm, flag="--confirm")
         if config.work_sizes:
-            metrics = fmg_train.work_size_sweep(weights, config.data, config.work_sizes,
+            metrics = fmg_eval.work_size_sweep(weights, config.data, config.work_sizes,
                                                  split=config.split)
-            typer.echo(fmg_train.format_work_sizes(metrics))
+            typer.echo(fmg_eval.format_work_sizes(metrics))
         elif config.clean:
-            metrics = fmg_train.clean_fractions(weights, config.data, config.work_size,
+            metrics = fmg_eval.clean_fractions(weights, config.data, config.work_size,
                                                  split=config.split, rays=config.rays,
                                                  ray_cfg=rule, confirm=config.confirm,
                                                  confirm_keep=keep, scales=config.scales,
                                                  ghosts=ghosts)
-            typer.echo(fmg_train.format_clean(metrics))
+            typer.echo(fmg_eval.format_clean(metrics))
         elif config.negatives:
-            metrics = fmg_train.negative_fractions(weights, config.data, config.negatives,
+            metrics = fmg_eval.negative_fractions(weights, config.data, config.negatives,
                                                    config.count, size=config.size,
                                                    split=config.split, rays=config.rays,
                                                    ray_cfg=rule)
-            typer.echo(fmg_train.format_negatives(metrics))
+            typer.echo(fmg_eval.format_negatives(metrics))
         elif config.per_kind:
-            metrics = fmg_train.evaluate_kinds(weights, config.data, config.loo, config.count,
+            metrics = fmg_eval.evaluate_kinds(weights, config.data, config.loo, config.count,
                                                size=config.size, split=config.split,
                                                rays=config.rays, ray_cfg=rule,
                                                confirm=config.confirm,
                                                confirm_keep=keep, scales=config.scales,
                                                flare_canvas=config.flare_canvas,
                                                night=config.night, ghosts=ghosts)
-            typer.echo(fmg_train.format_kinds(metrics))
+            typer.echo(fmg_eval.format_kinds(metrics))
         else:
-            metrics = fmg_train.evaluate(weights, config.data, config.count,
+            metrics = fmg_eval.evaluate(weights, config.data, config.count,
                                          refine=config.refine, size=config.size,
                                          split=config.split)
-            typer.echo(fmg_train.format_metrics(metrics))
+            typer.echo(fmg_eval.format_metrics(metrics))
         if config.out:  # stamped with the code, the machine, the command and the weights' hash
             write_result(config.out, {**metrics, "weights_sha256": sha256(weights)})
 
-    @config_command(fmg, "calibrate", f"{CONFIGS}:FMGCalibrateConfig", group="fmg")
+    @config_command(fmg, "calibrate", f"{EVAL_CONFIGS}:FMGCalibrateConfig", group="fmg")
     def calibrate_cmd(config) -> None:
         """Pick the flare probability cut of highest flare IoU on development composites."""
         from pipeline.mask import DEFAULT_WEIGHTS, load_fmg_weights
         from pipeline.provenance import sha256, write_result
-        from workflows.research.fmg_train import calibrate, format_calibration, write_threshold
+        from workflows.research.fmg_eval import calibrate, format_calibration, write_threshold
 
         weights = config.weights or DEFAULT_WEIGHTS
         load_fmg_weights(weights)  # a missing or foreign file: one clear line
@@ -94,14 +97,14 @@ def register(app: typer.Typer) -> None:
             write_threshold(weights, sweep["best"])
             typer.echo(f"wrote threshold={sweep['best']:g} into {weights}")
 
-    @config_command(fmg, "overlay", f"{CONFIGS}:FMGOverlayConfig", group="fmg")
+    @config_command(fmg, "overlay", f"{EVAL_CONFIGS}:FMGOverlayConfig", group="fmg")
     def overlay_cmd(
         config,
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
         from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
-        from workflows.research.fmg_train import check_ray_rule, real_flare_overview
+        from workflows.research.fmg_eval import check_ray_rule, real_flare_overview
 
         check_ray_rule(config)
         weights = config.weights or (DEFAULT_WEIGHTS,)
