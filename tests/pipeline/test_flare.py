@@ -412,3 +412,26 @@ def test_summary_of_every_kind_is_json():
     s = json.loads(json.dumps(lens.summary()))
     assert s["kinds"] == list(F.KINDS) and set(s["kind_params"]) == set(F.KINDS) - {"scatter"}
     assert len(s["kind_params"]["ghosts"]["ghosts"]) == len(lens.kind_params["ghosts"].ghosts)
+
+
+def test_each_kind_is_its_own_module_with_its_config_parameters_sampler_and_renderer():
+    """pipeline/flare/: every kind but ``scatter`` lives in a module of its own name holding
+    its config (the type of FlareConfig's field of that name), the sampler a lens draws its
+    parameters with, and a renderer; ``scatter`` (FlareConfig's flat fields) has its own."""
+    import importlib
+
+    from pipeline.flare.lens import _SAMPLERS
+
+    fields = {f.name: f for f in dataclasses.fields(F.FlareConfig)}
+    assert set(_SAMPLERS) == set(F.KINDS) - {"scatter"}
+    for kind, sampler in _SAMPLERS.items():
+        mod = importlib.import_module(f"pipeline.flare.{kind}")
+        config = type(getattr(F.FlareConfig(), kind))
+        assert config is getattr(mod, config.__name__)
+        assert fields[kind].default_factory is config
+        assert sampler.__module__ == mod.__name__
+        params = sampler(config(), np.random.default_rng(0))
+        assert type(params).__module__ == mod.__name__
+        assert any(n.startswith("render_") and callable(getattr(mod, n)) for n in vars(mod))
+    scatter = importlib.import_module("pipeline.flare.scatter")
+    assert callable(scatter.psf_bank) and callable(scatter._render_lens_scatter)
