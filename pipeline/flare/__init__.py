@@ -139,11 +139,9 @@ from pipeline.flare.glare import (  # noqa: F401
 )
 from pipeline.flare.lens import (  # noqa: F401
     Lens,
-    _draw_kinds,
     sample_lens,
 )
 from pipeline.flare.scatter import (  # noqa: F401
-    _BANKS,
     aperture_psf,
     build_psf_bank,
     cache_dir,
