@@ -117,18 +117,10 @@ class ViewTransformer(nn.Module):
         hk = F.linear(feats, a1.weight @ self.k_fc.weight)  # [R, S, V, hid]
         hq = F.linear(x, a1.weight @ self.q_fc.weight)  # [R, S, hid]
         hp = F.linear(ph, a1.weight @ p2.weight, a1.weight @ p2.bias + a1.bias)
-        a2 = self.attn_fc[2]
-        if torch.is_grad_enabled() or feats.device.type != "cpu":  # (autocast: no in-place)
-            logits = a2(F.relu(hk - hq[:, :, None] + hp)).float()  # [R, S, V, C]
-            vp = self.v_fc(feats) + F.linear(ph, p2.weight)  # v + pos - b_p2
-        else:  # CPU rendering: the same function in fewer passes over [R, S, V, C] tensors
-            # (GN-FR's rays are most of a video frame's time there: about 10 % fewer)
-            # a2's bias is the same for every view: the softmax over views drops it
-            logits = F.linear(F.relu(hk - hq[:, :, None] + hp), a2.weight).float()
-            vp = F.linear(feats, self.v_fc.weight)  # then + pos - b_p2, accumulated in place
-            vp.view(-1, vp.shape[-1]).addmm_(ph.reshape(-1, ph.shape[-1]), p2.weight.t())
+        logits = self.attn_fc[2](F.relu(hk - hq[:, :, None] + hp)).float()  # [R, S, V, C]
         logits = logits.masked_fill_(~attend[..., None], float("-inf"))
         w = torch.softmax(logits, dim=2).to(feats.dtype)
+        vp = self.v_fc(feats) + F.linear(ph, p2.weight)  # v + pos - b_p2
         return (vp * w).sum(dim=2) + p2.bias
 
 

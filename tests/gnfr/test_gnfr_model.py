@@ -102,26 +102,6 @@ def test_fused_and_reference_paths_agree_forward_and_backward():
         assert torch.allclose(x, y, atol=1e-4, rtol=1e-3)
 
 
-def test_rendering_path_of_the_view_attention_equals_the_training_path():
-    """Without autograd the folded view attention drops the attention MLP's output bias (the
-    softmax over views does not see it) and accumulates the position term into the values in
-    place: the same function as the training path, here with a large bias."""
-    torch.manual_seed(0)
-    model = GNFR(TINY).eval()
-    for vb in model.view_blocks:
-        torch.nn.init.uniform_(vb.attn_fc[2].bias, -5.0, 5.0)
-    imgs, K, c2w, masks = _scene()
-    o, d = pixel_rays(K[0], c2w[0], image_pixels(40, 56)[::23])
-    t = torch.linspace(1.0, 3.0, 12).expand(o.shape[0], 12)
-    src = SourceViews.encode(model, imgs, K, c2w, masks, "cpu")
-    trained = forward_rays(model, src, torch.arange(1, 4), o, d, t)
-    with torch.no_grad():
-        rendered = forward_rays(model, src, torch.arange(1, 4), o, d, t)
-    assert trained["rgb"].requires_grad and not rendered["rgb"].requires_grad
-    assert torch.allclose(trained["rgb"], rendered["rgb"], atol=1e-5)
-    assert torch.allclose(trained["depth"], rendered["depth"], atol=1e-5)
-
-
 def test_render_rays_is_deterministic_chunk_independent_and_flags_flare():
     torch.manual_seed(0)
     model = GNFR(TINY)
