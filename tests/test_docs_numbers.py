@@ -1239,3 +1239,45 @@ def test_consistency_planes_known_depth_is_its_records():
     assert f"({pct['lund_base']} -> {pct['lund_k1']} at 504 px)" in depth
     readme = " ".join((REPO / "README.md").read_text().split())
     assert f"{pct['lund_k1']} of the pixels instead of {pct['lund_base']}" in readme
+
+
+def test_goals_page_rows_follow_their_files():
+    """docs/goals.md: each row of the open issues' goals is its result file's numbers
+    (per kind, clean photos per scene, fern, GN-FR against GNT and its margin)."""
+    text = (REPO / "docs" / "goals.md").read_text()
+
+    def load(name):
+        return json.loads((RESULTS / name).read_text())
+
+    without = load("fmg_loko_full_width_test_h100_s35.json")["kinds"]
+    shipped = load("fmg_loko_shipped_M_test_s35.json")["kinds"]
+    for kind in ("starburst", "ghosts", "streaks", "glare", "scatter"):
+        cells = [" / ".join(f"{m[k]:.3f}" for k in ("IoU_flare", "mIoU", "mAcc"))
+                 for m in (without[kind]["without"], shipped[kind]["weights"])]
+        assert f"| {kind} | {cells[0]} | {cells[1]} |" in text, kind
+    for name in ("mask_views_clean_dev_s36.json", "mask_views_clean_test_s36.json"):
+        for r in load(name)["rows"]:
+            if r["setting"] != "ghost_views":
+                continue
+            big = max(v["marked"] for v in r["per_view"].values())
+            met = "yes" if r["marked"] < 0.005 and big <= 0.1 else "no"
+            cell = f"| {100 * r['marked']:.3f} % / {100 * big:.2f} % | {met} |"
+            label = {"sceaux_ws": "sceaux_castle"}.get(r["scene"], r["scene"][:-3])
+            row = [ln for ln in text.splitlines() if ln.startswith(f"| {label} (")]
+            assert len(row) == 1 and row[0].endswith(cell), (r["scene"], cell)
+    for f, fill in (("fern_llff_quick_cpu_s30_ds0.json", "hybrid"),
+                    ("fern_llff_quick_cpu_s30_ds0.json", "network"),
+                    ("fern_llff_paper_cuda_h100_ptp5000.json", "hybrid"),
+                    ("fern_llff_paper_cuda_h100_ptp5000.json", "network")):
+        h = load(f)["clean"]["methods"][f"gnfr_{fill}"]["heldout"]
+        assert f"{h['psnr']:.2f} / {h['ssim']:.3f}" in text, (f, fill)
+    for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s36.json"),
+                     ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s36.json"),
+                     ("fern", "fern_llff_quick_cpu_w42250_flare_layer.json")):
+        d = load(f)
+        m = d["flare"]["methods"] if "flare" in d else d["methods"]
+        a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
+        assert f"| {scene} | {a:.2f} | {b:.2f} | {a - b:+.2f} |" in text, scene
+        if "heldout" in m["gnfr"] and scene != "fern":
+            assert f"{scene} {m['gnfr']['heldout']['psnr']:.2f} dB (GNT " \
+                   f"{m['gnt']['heldout']['psnr']:.2f}" in " ".join(text.split()), scene
