@@ -1,7 +1,7 @@
 """One training detail, on and off: GN-FR fine-tuned twice on a synth scene, same budget.
 
     python benchmarks/finetune_ab.py SCENE --set random_sources=true --work DIR \
-        [--preset quick] [--iters N] [--out JSON]
+        [--preset quick] [--iters N] [--seed S] [--out JSON]
 
 A ``--set`` of an `eval` option (``init=FILE.safetensors``, ``iters=N``) sets that option of
 the second run; any other names a FinetuneConfig field.
@@ -62,6 +62,8 @@ def main() -> None:
                     help="both arms' masks: the FMG's (default) or the synth folder's true "
                          "ones (e.g. a flare-free scene, where they are empty)")
     ap.add_argument("--iters", type=int)
+    ap.add_argument("--seed", type=int, default=0,
+                    help="training seed of both arms (eval's --seed)")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
     from workflows.threads import apply_thread_policy
@@ -73,12 +75,13 @@ def main() -> None:
     extra = parse_sets(a.sets)
     name = "_".join(f"{k}-{arm_label(v)}" for k, v in extra.items()).lower()
     res = {"scene": str(a.scene), "preset": a.preset, "iters": a.iters, "masks": a.masks,
-           "set": extra}
+           "seed": a.seed, "set": extra}
     own = {f.name for f in dataclasses.fields(EvalConfig)}  # e.g. init: eval's own option
     for label, fields in (("base", {}), (name, extra)):
         top = {k: v for k, v in fields.items() if k in own}
         rest = {k: v for k, v in fields.items() if k not in own}
-        opts = {"preset": a.preset, "iters": a.iters, "masks": a.masks, **top}  # --set wins
+        opts = {"preset": a.preset, "iters": a.iters, "masks": a.masks, "seed": a.seed,
+                **top}  # --set wins
         out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
                              finetune_extra=rest, **opts))
         res[label] = row(out / "results.json")

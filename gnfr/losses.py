@@ -6,17 +6,21 @@ import torch
 
 
 def masked_mse(pred: torch.Tensor, target: torch.Tensor,
-               flare: torch.Tensor | None) -> torch.Tensor:
+               flare: torch.Tensor | None, weight: torch.Tensor | None = None) -> torch.Tensor:
     """``|| (pred - target) * (1 - M) ||^2`` averaged over the unmasked pixels (and channels).
 
     pred, target: [R, 3]; flare: [R] (1 = flare pixel of the target) or None (plain MSE).
     Flare pixels contribute neither to the loss nor to its gradient; with no unmasked pixel
-    the loss is 0 (still attached to the graph).
+    the loss is 0 (still attached to the graph). ``weight`` [R]: each ray's weight in the
+    average (rays drawn unevenly, ``TrainConfig.edge_rays``); None: all equal.
     """
     err = (pred.float() - target.float()).square()
-    if flare is None:
+    if flare is None and weight is None:
         return err.mean()
-    keep = 1.0 - flare.float()
+    keep = torch.ones(err.shape[0], device=err.device) if flare is None else 1.0 - flare.float()
+    if weight is not None:
+        keep = keep * weight.float()
+        return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(1e-12)
     return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(1.0)
 
 

@@ -41,6 +41,11 @@ class TrainConfig:
     random_sources: bool = False
     """GNT's draw: the N sources in a random order of the pool instead of the nearest first
     (the View Sampler's flare rule still applies)."""
+    edge_rays: float = 0.0
+    """Share of each step's rays drawn in proportion to the target's gradient magnitude
+    (the rest uniform over its pixels); each ray's loss is weighted by the inverse of its
+    pixel's drawing probability, so the objective is the same and only its noise changes
+    (0: every ray uniform, as before)."""
     mirror: bool = False
     """Fine-tuning: half the steps (drawn at random) train on the scene seen in a mirror
     (``mirrored``: every view flipped left-right, its camera reflected), twice the views of
@@ -268,6 +273,8 @@ class Batch:
     """[R, 3] target colours 0..1."""
     flare: torch.Tensor | None
     """[R] 1 where the target pixel is flare, or None."""
+    weight: torch.Tensor | None = None
+    """[R] each ray's loss weight (``TrainConfig.edge_rays``), or None (all equal)."""
 
 
 def scene_targets(scene: Scene, cfg: TrainConfig) -> list[str]:
@@ -296,7 +303,13 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
                         cfg.view_sampler, random_pick=cfg.random_sources)
     i = idx[tgt]
     H, W = scene.images.shape[-2:]
-    flat = torch.randint(H * W, (cfg.rays,), generator=gen)
+    weight = None
+    if cfg.edge_rays > 0:
+        q = edge_probabilities(scene, i, cfg.edge_rays)
+        flat = torch.multinomial(q, cfg.rays, replacement=True, generator=gen)
+        weight = 1.0 / (q[flat] * (H * W))
+    else:
+        flat = torch.randint(H * W, (cfg.rays,), generator=gen)
     ys, xs = flat // W, flat % W
     pix = torch.stack([xs, ys], 1).float() + 0.5
     o, d = pixel_rays(scene.K[i].float(), scene.c2w[i].float(), pix)
@@ -304,7 +317,28 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
     t = sample_depths(near, far, cfg.samples, jitter=True, generator=gen)
     rgb = scene.images[i, :, ys, xs].T.float() / 255.0
     fl = None if scene.masks is None else scene.masks[i, 0, ys, xs].float()
-    return Batch(i, torch.tensor([idx[s] for s in src]), o, d, t, rgb, fl)
+    return Batch(i, torch.tensor([idx[s] for s in src]), o, d, t, rgb, fl, weight)
+
+
+_EDGE_Q: dict[tuple[int, int, float], torch.Tensor] = {}
+
+
+def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
+    """[H * W] drawing probabilities of view ``i``'s pixels: ``share`` in proportion to the
+    Sobel gradient magnitude of its grey image, the rest uniform (cached per view)."""
+    key = (id(scene.images), i, share)
+    if key not in _EDGE_Q:
+        import torch.nn.functional as F
+
+        grey = scene.images[i].float().mean(0, keepdim=True)[None] / 255.0  # [1, 1, H, W]
+        kx = torch.tensor([[-1.0, 0, 1], [-2, 0, 2], [-1, 0, 1]])
+        k = torch.stack([kx, kx.T])[:, None]  # [2, 1, 3, 3]
+        g = F.conv2d(F.pad(grey, (1, 1, 1, 1), mode="replicate"), k).square().sum(1).sqrt()
+        g = g.reshape(-1)
+        n = g.numel()
+        q = (1 - share) / n + share * (g / g.sum() if g.sum() > 0 else torch.full_like(g, 1 / n))
+        _EDGE_Q[key] = q / q.sum()
+    return _EDGE_Q[key]
 
 
 def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
@@ -344,7 +378,8 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     out = forward_rays(model, src, ids, batch.rays_o.to(dev), batch.rays_d.to(dev),
                        batch.t.to(dev), cfg.point_sampler, cfg.reference)
     flare = None if batch.flare is None else batch.flare.to(dev)
-    loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None)
+    weight = None if batch.weight is None else batch.weight.to(dev)
+    loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None, weight)
     with torch.no_grad():
         psnr_mse = masked_mse(out["rgb"], batch.rgb.to(dev), flare)
     return loss, {"psnr": mse_to_psnr(psnr_mse), "all_flared": float(out["all_flared"].mean())}

@@ -63,6 +63,10 @@ class FinetuneConfig:
     """GNT's random choice of training sources inside the nearest pool, or always the
     nearest least-flared. Default: random on a scene where no view has a marked pixel (better
     novel views there), nearest otherwise (better de-flared photos); docs/presets.md."""
+    edge_rays: float = option(0.0, ge=0, le=1)
+    """Share of each step's rays drawn where the target photo has edges (in proportion to
+    its gradient magnitude), each ray's loss weighted back so the objective is unchanged;
+    0: every ray uniform (exploration, not judged: docs/presets.md)."""
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
@@ -129,7 +133,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
                   random_sources=bool(config.random_sources), mirror=config.mirror,
-                  full_res_colour=config.full_res_colour)
+                  full_res_colour=config.full_res_colour, edge_rays=config.edge_rays)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:

@@ -1281,3 +1281,16 @@ def test_goals_page_rows_follow_their_files():
         if "heldout" in m["gnfr"] and scene != "fern":
             assert f"{scene} {m['gnfr']['heldout']['psnr']:.2f} dB (GNT " \
                    f"{m['gnt']['heldout']['psnr']:.2f}" in " ".join(text.split()), scene
+
+
+def test_edge_rays_exploration_rows_follow_their_files():
+    """docs/presets.md, "Edge rays, explored": each row is its file's numbers."""
+    text = (REPO / "docs" / "presets.md").read_text()
+    for scene in ("et", "lund"):
+        res = json.loads((RESULTS / f"finetune_ab_edge_rays_dev_{scene}_s38.json").read_text())
+        for arm, label in (("base", "default"), ("edge_rays-0.5", "edge rays 0.5")):
+            r = res[arm]
+            row = (f"| {scene}, {label} | {r['heldout_psnr']:.2f} / {r['heldout_ssim']:.3f} | "
+                   f"{r['inputs_psnr']:.2f} | {r['flare_region_psnr']:.2f} | "
+                   f"{r['train']['it_per_s']:.2f} |")
+            assert row in text, row

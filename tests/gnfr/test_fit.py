@@ -236,3 +236,38 @@ def test_gather_from_a_shared_bank_equals_gather_from_stacked_views(scene):
     for x, y in zip(a, b, strict=True):
         assert torch.equal(x, y)
     assert bool(a[1].any()) and bool(a[2].any())  # points fall inside views and on flare
+
+
+def test_edge_rays_draw_more_on_edges_and_weigh_each_ray_back(scene):
+    """``edge_rays``: pixels drawn in proportion to (share) the target's gradient magnitude,
+    the rest uniform; the probabilities sum to one; with share 0 nothing changes (no weights,
+    the same draw); the weighted loss estimates the plain mean over the image."""
+    from gnfr.losses import masked_mse
+    from gnfr.train import edge_probabilities
+
+    img = scene.images.clone()
+    img[0] = 100
+    img[0, :, :, 40:] = 200  # one vertical edge at x = 40
+    edged = replace(scene, images=img)
+    q = edge_probabilities(edged, 0, 0.5).reshape(48, 64)
+    assert abs(float(q.sum()) - 1) < 1e-5
+    assert float(q[:, 39:41].mean()) > 10 * float(q[:, :30].mean())
+    assert torch.allclose(q[:, :30], torch.full_like(q[:, :30], 0.5 / (48 * 64)))
+    plain = sample_batch(scene, CFG, torch.Generator().manual_seed(3))
+    assert plain.weight is None
+    again = sample_batch(scene, replace(CFG, edge_rays=0.0), torch.Generator().manual_seed(3))
+    assert torch.equal(plain.rgb, again.rgb) and torch.equal(plain.rays_d, again.rays_d)
+    b = sample_batch(edged, replace(CFG, edge_rays=0.5, rays=4096),
+                     torch.Generator().manual_seed(3))
+    assert b.weight is not None and b.weight.shape == (4096,)
+    err_map = (torch.arange(64) >= 40).float().expand(48, 64).reshape(-1)  # mean 24 / 64
+    g = torch.Generator().manual_seed(4)
+    idx = torch.multinomial(q.reshape(-1), 20000, replacement=True, generator=g)
+    w = 1.0 / (q.reshape(-1)[idx] * 48 * 64)
+    pred = err_map[idx].sqrt()[:, None].expand(-1, 3)
+    est = masked_mse(pred, torch.zeros_like(pred), None, w)
+    assert abs(float(est) - 24 / 64) < 0.02
+    biased = masked_mse(pred, torch.zeros_like(pred), None)  # unweighted: the edges' mean
+    assert float(biased) > 24 / 64 + 0.05
+    assert torch.allclose(masked_mse(pred, torch.zeros_like(pred), None, torch.ones(20000)),
+                          masked_mse(pred, torch.zeros_like(pred), None))
