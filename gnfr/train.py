@@ -155,6 +155,11 @@ class Scene:
     views.json flags, set by pipeline.training_scenes), else None: those within
     ``TrainConfig.max_flare``. Derived from ``flare``: reset it when ``flare`` changes."""
 
+    edge_q: dict[tuple[int, float], torch.Tensor] = field(
+        default_factory=dict, init=False, repr=False, compare=False)
+    """Cache of :func:`edge_probabilities` by (view, share); a copy made by ``replace``
+    (e.g. :func:`mirrored`) starts empty."""
+
     def index(self) -> dict[str, int]:
         return {s: i for i, s in enumerate(self.stems)}
 
@@ -320,14 +325,11 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
     return Batch(i, torch.tensor([idx[s] for s in src]), o, d, t, rgb, fl, weight)
 
 
-_EDGE_Q: dict[tuple[int, int, float], torch.Tensor] = {}
-
-
 def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
     """[H * W] drawing probabilities of view ``i``'s pixels: ``share`` in proportion to the
     Sobel gradient magnitude of its grey image, the rest uniform (cached per view)."""
-    key = (id(scene.images), i, share)
-    if key not in _EDGE_Q:
+    key = (i, share)
+    if key not in scene.edge_q:
         import torch.nn.functional as F
 
         grey = scene.images[i].float().mean(0, keepdim=True)[None] / 255.0  # [1, 1, H, W]
@@ -337,8 +339,8 @@ def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
         g = g.reshape(-1)
         n = g.numel()
         q = (1 - share) / n + share * (g / g.sum() if g.sum() > 0 else torch.full_like(g, 1 / n))
-        _EDGE_Q[key] = q / q.sum()
-    return _EDGE_Q[key]
+        scene.edge_q[key] = q / q.sum()
+    return scene.edge_q[key]
 
 
 def make_optimizer(model: GNFR, cfg: TrainConfig) -> torch.optim.Adam:
