@@ -15,13 +15,13 @@ def masked_mse(pred: torch.Tensor, target: torch.Tensor,
     average (rays drawn unevenly, ``TrainConfig.edge_rays``); None: all equal.
     """
     err = (pred.float() - target.float()).square()
-    if flare is None and weight is None:
-        return err.mean()
-    keep = torch.ones(err.shape[0], device=err.device) if flare is None else 1.0 - flare.float()
+    keep = None if flare is None else 1.0 - flare.float()
     if weight is not None:
-        keep = keep * weight.float()
-        return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(1e-12)
-    return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(1.0)
+        keep = weight.float() if keep is None else keep * weight.float()
+    if keep is None:
+        return err.mean()
+    floor = 1.0 if weight is None else 1e-12  # a pixel count; weights may sum under one
+    return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(floor)
 
 
 PSNR_CAP = 100.0
