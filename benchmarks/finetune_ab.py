@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 from pathlib import Path
 
 
@@ -52,7 +53,7 @@ def row(results: Path) -> dict:
             "provenance": g.get("provenance")}
 
 
-def main() -> None:
+def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", type=Path)
     ap.add_argument("--set", dest="sets", action="append", required=True)
@@ -69,6 +70,7 @@ def main() -> None:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
+    from pipeline.errors import UserError
     from pipeline.provenance import write_result
     from workflows.research.eval import EvalConfig, run
 
@@ -82,8 +84,12 @@ def main() -> None:
         rest = {k: v for k, v in fields.items() if k not in own}
         opts = {"preset": a.preset, "iters": a.iters, "masks": a.masks, "seed": a.seed,
                 **top}  # --set wins
-        out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
-                             finetune_extra=rest, **opts))
+        try:
+            out = run(EvalConfig(scene=a.scene, out=a.work / f"{label}.ws", variants=("gnfr",),
+                                 finetune_extra=rest, **opts))
+        except UserError as e:  # a bad scene, option or value: one line, as the CLI says it
+            print(f"error: {e}", file=sys.stderr)
+            return 2
         res[label] = row(out / "results.json")
         r = res[label]
         region = r["flare_region_psnr"]
@@ -92,7 +98,8 @@ def main() -> None:
               f"{'-' if region is None else f'{region:.2f}'}, "
               f"{r['train']['it_per_s']:.2f} it/s")
     write_result(a.out, res)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1294,3 +1294,18 @@ def test_edge_rays_exploration_rows_follow_their_files():
                    f"{r['inputs_psnr']:.2f} | {r['flare_region_psnr']:.2f} | "
                    f"{r['train']['it_per_s']:.2f} |")
             assert row in text, row
+    # the differences quoted under the table and in docs/options.md, from the files
+    opts = " ".join((REPO / "docs" / "options.md").read_text().split())
+    prose = " ".join(text.split())
+    diff = {}
+    for scene in ("et", "lund"):
+        res = json.loads((RESULTS / f"finetune_ab_edge_rays_dev_{scene}_s38.json").read_text())
+        diff[scene] = {k: res["edge_rays-0.5"][k] - res["base"][k]
+                       for k in ("flare_region_psnr", "heldout_psnr")}
+    region = [f"{diff[s]['flare_region_psnr']:+.2f}" for s in ("et", "lund")]
+    assert f"moves by {region[0]} dB on et and {region[1]} dB on lund" in prose
+    assert f"flare region {region[0]} and {region[1]} dB" in opts
+    held = [f"{abs(diff['et']['heldout_psnr']):.2f}", f"{diff['lund']['heldout_psnr']:+.2f}"]
+    assert abs(diff["et"]["heldout_psnr"]) < 0.005  # written unsigned: 0.00
+    assert f"novel views by {held[0]} and {held[1]} dB" in prose
+    assert f"novel views {held[0]} and {held[1]} dB" in opts

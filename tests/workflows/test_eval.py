@@ -264,6 +264,20 @@ def test_finetune_ab_names_its_second_arm_by_the_values():
     assert [bench.arm_label(v) for v in sets.values()] == ["0.5", "gnfr_paper"]
 
 
+def test_finetune_ab_bad_scene_or_seed_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    """benchmarks/finetune_ab.py on a folder that is no synth scene, or with a negative
+    seed: one line on stderr, exit 2, no work folder made."""
+    bench = _benchmark("finetune_ab")
+    for extra in ([], ["--seed", "-1"]):
+        monkeypatch.setattr("sys.argv", ["finetune_ab.py", str(tmp_path / "none"), "--set",
+                                         "edge_rays=0.5", "--work", str(tmp_path / "w"),
+                                         *extra])
+        assert bench.main() == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("error: ") and len(err.splitlines()) == 1, err
+    assert not (tmp_path / "w").exists()
+
+
 def test_mask_shape_scores_light_outside_the_mask():
     """benchmarks/mask_shape.py: a mask equal to the true square scores recall, precision
     and IoU 1 and leaves outside it exactly the light added on the square's 1-pixel rim;
