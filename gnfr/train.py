@@ -382,8 +382,8 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     flare = None if batch.flare is None else batch.flare.to(dev)
     weight = None if batch.weight is None else batch.weight.to(dev)
     loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None, weight)
-    with torch.no_grad():
-        psnr_mse = masked_mse(out["rgb"], batch.rgb.to(dev), flare)
+    with torch.no_grad():  # weighted too: edge-drawn rays estimate the image's mean error
+        psnr_mse = masked_mse(out["rgb"], batch.rgb.to(dev), flare, weight)
     return loss, {"psnr": mse_to_psnr(psnr_mse), "all_flared": float(out["all_flared"].mean())}
 
 

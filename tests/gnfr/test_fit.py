@@ -271,3 +271,29 @@ def test_edge_rays_draw_more_on_edges_and_weigh_each_ray_back(scene):
     assert float(biased) > 24 / 64 + 0.05
     assert torch.allclose(masked_mse(pred, torch.zeros_like(pred), None, torch.ones(20000)),
                           masked_mse(pred, torch.zeros_like(pred), None))
+
+
+def test_logged_psnr_under_edge_rays_is_the_weighted_estimate(scene):
+    """With ``edge_rays`` the step's psnr is over the drawn rays weighted back (the image's
+    mean error, as the loss), not their plain mean, which the edges bias low; without the
+    loss mask it still leaves the flare pixels out."""
+    from gnfr.losses import masked_mse, mse_to_psnr
+    from gnfr.renderer import forward_rays
+    from gnfr.train import batch_sources, compute_loss
+
+    cfg = replace(CFG, edge_rays=0.5, rays=256, mask_loss=False)
+    torch.manual_seed(0)
+    model = GNFR(cfg.model).eval()
+    bank, cache = prepare_sources(model, scene, cfg, "cpu")
+    batch = sample_batch(scene, cfg, torch.Generator().manual_seed(5))
+    assert batch.weight is not None and batch.flare is not None
+    with torch.no_grad():
+        src, ids = batch_sources(model, batch, bank, cache, "cpu")
+        _, info = compute_loss(model, batch, src, ids, cfg)
+        torch.manual_seed(0)
+        rgb = forward_rays(model, src, ids, batch.rays_o, batch.rays_d, batch.t,
+                           cfg.point_sampler, cfg.reference)["rgb"]
+    weighted = mse_to_psnr(masked_mse(rgb, batch.rgb, batch.flare, batch.weight))
+    plain = mse_to_psnr(masked_mse(rgb, batch.rgb, batch.flare))
+    assert abs(weighted - plain) > 1e-3  # the two differ on this batch
+    assert abs(info["psnr"] - weighted) < 1e-4
