@@ -278,6 +278,49 @@ def test_finetune_ab_bad_scene_or_seed_is_one_line_and_exit_2(tmp_path, monkeypa
     assert not (tmp_path / "w").exists()
 
 
+def _ab_run(scene: str, seed: int, delta: dict, speed: float = 1.0) -> dict:
+    """A finetune_ab.py result file: base and candidate rows, the candidate moved by delta."""
+    base = {"flare_region_psnr": 20.0, "inputs_psnr": 30.0, "inputs_ssim": 0.9,
+            "heldout_psnr": 17.0, "heldout_ssim": 0.6, "train": {"it_per_s": 5.0}}
+    cand = {k: v + delta.get(k, 0.0) for k, v in base.items() if k != "train"}
+    cand["train"] = {"it_per_s": 5.0 * speed}
+    return {"scene": f"/dev/{scene}_synth", "seed": seed, "base": base, "edge_rays-0.5": cand}
+
+
+def test_finetune_ab_judge_applies_each_part_of_its_rule(tmp_path, capsys, monkeypatch):
+    """benchmarks/finetune_ab_judge.py: seed means, then scene means; a mean gain passes
+    (a) yet one scene's loss beyond the limit fails (b); SSIM of the novel views counts in
+    (c); the slowdown (d) is the mean of per-run ratios; unequal seeds are one line, exit 2."""
+    bench = _benchmark("finetune_ab_judge")
+    limits = {"min_region_gain": 0.10, "max_region_loss": 0.20, "max_photo_loss": 0.05,
+              "max_novel_loss": 0.10, "max_ssim_loss": 0.002, "max_slowdown": 0.10}
+    good = [_ab_run(s, seed, {"flare_region_psnr": g + 0.1 * (seed - 3)}, 0.95)
+            for s, g in (("a", 0.3), ("b", 0.1), ("c", 0.0)) for seed in (2, 3, 4)]
+    v = bench.judge(good, "edge_rays-0.5", limits)
+    assert v["passes"] and v["seeds"] == [2, 3, 4]
+    assert v["mean"]["region"] == pytest.approx(0.4 / 3)
+    assert v["mean"]["speed"] == pytest.approx(-0.05)
+    one_loses = [_ab_run(s, seed, {"flare_region_psnr": g}) for s, g in
+                 (("a", 0.9), ("b", 0.1), ("c", -0.25)) for seed in (2, 3, 4)]
+    v = bench.judge(one_loses, "edge_rays-0.5", limits)
+    assert v["parts"]["a_region_gain"] and not v["parts"]["b_no_scene_region_loss"]
+    assert not v["passes"]
+    ssim = [_ab_run(s, 2, {"flare_region_psnr": 0.2, "heldout_ssim": -0.003}) for s in "abc"]
+    v = bench.judge(ssim, "edge_rays-0.5", limits)
+    assert not v["parts"]["c_ssim"] and v["parts"]["c_novel"] and not v["passes"]
+    slow = [_ab_run(s, 2, {"flare_region_psnr": 0.2}, 0.85) for s in "abc"]
+    assert not bench.judge(slow, "edge_rays-0.5", limits)["parts"]["d_speed"]
+    files = []
+    for i, run in enumerate(good[:3] + [_ab_run("b", 2, {})]):
+        files.append(tmp_path / f"r{i}.json")
+        files[-1].write_text(json.dumps(run))
+    monkeypatch.setattr("sys.argv", ["finetune_ab_judge.py", *map(str, files),
+                                     "--arm", "edge_rays-0.5"])
+    assert bench.main() == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "different seeds" in err and len(err.splitlines()) == 1
+
+
 def test_mask_shape_scores_light_outside_the_mask():
     """benchmarks/mask_shape.py: a mask equal to the true square scores recall, precision
     and IoU 1 and leaves outside it exactly the light added on the square's 1-pixel rim;
