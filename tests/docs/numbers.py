@@ -1,0 +1,46 @@
+"""What the docs-number tests share: the repo's paths, reading a result file, how the
+docs write numbers, and the result files several pages quote."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+RESULTS = REPO / "docs" / "results"
+
+FERN = "fern_llff_quick_cpu.json"  # the 11 750-step weights (flare protocol, old rows)
+FERN2 = "fern_llff_quick_cpu_w27250.json"  # the 27 250-step weights (clean)
+FERN18 = "fern_llff_quick_cpu_w18500.json"  # the 18 500-step weights (clean)
+FERN3 = "fern_llff_quick_cpu_w32500.json"  # the 32 500-step weights (clean)
+FERN4 = "fern_llff_quick_cpu_w42250.json"  # the shipped 42 250-step weights (clean)
+SAMPLE = "sample_oneshot_cpu.json"
+PERF = "docs/performance.md"  # speed and memory (the README keeps a summary)
+
+
+def get(obj, path: str):
+    """The value at a '/'-separated path of a result file (list items by index)."""
+    for part in path.split("/"):
+        obj = obj[int(part)] if isinstance(obj, list) else obj[part]
+    return obj
+
+
+def fill_row(name: str, fill: str) -> dict:
+    """bench_cpu.json's render row of a fill ('network' or 'hybrid') at size x1 or x2."""
+    bench = json.loads((RESULTS / "bench_cpu.json").read_text())
+    rows = bench["results"]["cpu"]["render_workspace"]["rows"]
+    return rows[[(r["fill"], r["size"][0] > 600) for r in rows].index((fill, name == "x2"))]
+
+
+def load_benchmark(name: str):
+    """The module of benchmarks/<name>.py (the folder is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def spaced(n: int) -> str:
+    """A count as the docs write it (thin groups of three: 13 597)."""
+    return f"{n:,}".replace(",", " ")
