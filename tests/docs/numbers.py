@@ -26,6 +26,13 @@ def get(obj, path: str):
     return obj
 
 
+def assert_quoted(page: str, file: str, path: str, fmt: str) -> None:
+    """The page writes the value at ``path`` of ``file`` as ``fmt`` formats it."""
+    value = get(json.loads((RESULTS / file).read_text()), path)
+    text = (REPO / page).read_text()
+    assert fmt.format(value) in text, f"{page} should quote {fmt.format(value)} ({file}: {path})"
+
+
 def fill_row(name: str, fill: str) -> dict:
     """bench_cpu.json's render row of a fill ('network' or 'hybrid') at size x1 or x2."""
     bench = json.loads((RESULTS / "bench_cpu.json").read_text())

@@ -1,8 +1,6 @@
 """The history pages' numbers (docs/history/*.md) agree with the result files they quote.
 
-Each entry names a page, a JSON file under docs/results/, a path into it and how the page
-writes the number; the test fails when a result file is re-measured and the page is not
-updated (or the other way round), so published numbers cannot drift from their source.
+As tests/docs/test_pages.py, for the pages that keep the sessions' record.
 """
 
 from __future__ import annotations
@@ -20,7 +18,7 @@ from tests.docs.numbers import (
     REPO,
     RESULTS,
     SAMPLE,
-    get,
+    assert_quoted,
     load_benchmark,
     spaced,
 )
@@ -331,9 +329,7 @@ CHECKS = [
 @pytest.mark.parametrize("page, file, path, fmt", CHECKS,
                          ids=[f"{c[0]}:{c[1]}:{c[2]}" for c in CHECKS])
 def test_page_quotes_its_result_file(page, file, path, fmt):
-    value = get(json.loads((RESULTS / file).read_text()), path)
-    text = (REPO / page).read_text()
-    assert fmt.format(value) in text, f"{page} should quote {fmt.format(value)} ({file}: {path})"
+    assert_quoted(page, file, path, fmt)
 
 
 FMG_CLEAN = [*[("docs/history/fmg.md", f"fmg_{part}_clean_{run}.json", scene)

@@ -19,8 +19,8 @@ from tests.docs.numbers import (
     REPO,
     RESULTS,
     SAMPLE,
+    assert_quoted,
     fill_row,
-    get,
     load_benchmark,
 )
 
@@ -253,9 +253,7 @@ CHECKS = [
 @pytest.mark.parametrize("page, file, path, fmt", CHECKS,
                          ids=[f"{c[0]}:{c[1]}:{c[2]}" for c in CHECKS])
 def test_page_quotes_its_result_file(page, file, path, fmt):
-    value = get(json.loads((RESULTS / file).read_text()), path)
-    text = (REPO / page).read_text()
-    assert fmt.format(value) in text, f"{page} should quote {fmt.format(value)} ({file}: {path})"
+    assert_quoted(page, file, path, fmt)
 
 
 @pytest.mark.parametrize("name", ["x1", "x2"])
