@@ -26,7 +26,6 @@ from tests.docs.numbers import (
 
 CHECKS = [
     # page, file, path, format
-    # page, file, path, format
     # the GN-FR card: the shipped files' numbers
     *[("gnfr/weights/gnfr.md", f"pretrain_zero_shot_{s}_rs101500.json", f"rows/{i}/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
