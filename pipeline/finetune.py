@@ -66,7 +66,7 @@ class FinetuneConfig:
     edge_rays: float = option(0.0, ge=0, le=1)
     """Share of each step's rays drawn where the target photo has edges (in proportion to
     its gradient magnitude), each ray's loss weighted back so the objective is unchanged;
-    0: every ray uniform (exploration, not judged: docs/presets.md)."""
+    0: every ray uniform (judged on the development scenes, not the default: docs/presets.md)."""
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
