@@ -52,6 +52,8 @@ def judge(runs: list[dict], arm: str, limits: dict) -> dict:
         if arm not in run or "base" not in run:
             raise ValueError(f"{run.get('scene')}: no '{arm}' and 'base' rows")
         scene = Path(run["scene"]).name
+        if "seed" not in run:
+            raise ValueError(f"{scene}: the file records no seed (finetune_ab.py before --seed)")
         if run["seed"] in by_scene[scene]:
             raise ValueError(f"{scene}: seed {run['seed']} given twice")
         by_scene[scene][run["seed"]] = differences(run, arm)

@@ -319,6 +319,10 @@ def test_finetune_ab_judge_applies_each_part_of_its_rule(tmp_path, capsys, monke
     assert bench.main() == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "different seeds" in err and len(err.splitlines()) == 1
+    unseeded = _ab_run("a", 2, {})
+    del unseeded["seed"]
+    with pytest.raises(ValueError, match="records no seed"):
+        bench.judge([unseeded], "edge_rays-0.5", limits)
 
 
 def test_mask_shape_scores_light_outside_the_mask():
