@@ -592,3 +592,24 @@ def test_edge_rays_rule_table_is_its_judge():
     assert f"novel views by {judged['mean']['novel']:+.3f} dB" in opts
     goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
     assert f"{mean} dB on the mean" in goals
+
+
+def test_edge_rays_test_scenes_follow_their_files():
+    """docs/presets.md's test-scene sentence: each difference and each default arm is the
+    file's (the default arms are the README's rows again)."""
+    text = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    readme = (REPO / "README.md").read_text()
+    for scene in ("kermit", "cyprus"):
+        r = json.loads((RESULTS / f"finetune_ab_edge_rays_test_{scene}_s39.json").read_text())
+        a, b = r["edge_rays-0.5"], r["base"]
+        d = [a[k] - b[k] for k in ("flare_region_psnr", "inputs_psnr", "heldout_psnr")]
+        if scene == "kermit":
+            assert (f"kermit {d[0]:+.2f} dB in the flare region, {d[1]:+.2f} dB over the whole "
+                    f"photos, {d[2]:+.2f} dB on novel views") in text
+            base = f"kermit {b['flare_region_psnr']:.2f} / {b['inputs_psnr']:.2f} dB"
+        else:
+            assert f"cyprus {d[0]:+.2f}, {d[1]:+.2f} and {d[2]:+.2f} dB" in text
+            base = f"cyprus {b['flare_region_psnr']:.2f} / {b['inputs_psnr']:.2f}"
+        assert base in text, base
+        assert f"{b['flare_region_psnr']:.2f} / {b['inputs_psnr']:.2f}" in readme
+        assert f"{b['heldout_psnr']:.2f} dB" in text
