@@ -613,3 +613,7 @@ def test_edge_rays_test_scenes_follow_their_files():
         assert base in text, base
         assert f"{b['flare_region_psnr']:.2f} / {b['inputs_psnr']:.2f}" in readme
         assert f"{b['heldout_psnr']:.2f} dB" in text
+        s36 = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s36.json").read_text())
+        g = s36["methods"]["gnfr"]
+        assert (g["inputs"]["psnr_flare"], g["inputs"]["psnr"], g["heldout"]["psnr"]) == (
+            b["flare_region_psnr"], b["inputs_psnr"], b["heldout_psnr"])  # "to the last digit"
