@@ -91,10 +91,19 @@ def main() -> int:
     a = ap.parse_args()
     limits = {k: getattr(a, k) for k in ("min_region_gain", "max_region_loss", "max_photo_loss",
                                          "max_novel_loss", "max_ssim_loss", "max_slowdown")}
+    runs = []
+    for path in a.runs:
+        try:
+            runs.append(json.loads(path.read_text()))
+        except (OSError, ValueError) as e:
+            print(f"error: {path}: not a finetune_ab.py result file ({e})", file=sys.stderr)
+            return 2
+        if not isinstance(runs[-1], dict) or "scene" not in runs[-1]:
+            print(f"error: {path}: not a finetune_ab.py result file (no scene)", file=sys.stderr)
+            return 2
     try:
-        runs = [json.loads(p.read_text()) for p in a.runs]
         verdict = judge(runs, a.arm, limits)
-    except (OSError, ValueError, KeyError) as e:
+    except (ValueError, KeyError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     for scene, m in verdict["scene_means"].items():

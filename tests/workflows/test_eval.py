@@ -319,6 +319,11 @@ def test_finetune_ab_judge_applies_each_part_of_its_rule(tmp_path, capsys, monke
     assert bench.main() == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "different seeds" in err and len(err.splitlines()) == 1
+    monkeypatch.setattr("sys.argv", ["finetune_ab_judge.py", str(tmp_path / "none.json"),
+                                     "--arm", "edge_rays-0.5"])
+    assert bench.main() == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {tmp_path / 'none.json'}: ") and len(err.splitlines()) == 1
     unseeded = _ab_run("a", 2, {})
     del unseeded["seed"]
     with pytest.raises(ValueError, match="records no seed"):
