@@ -16,6 +16,9 @@ candidate passes iff
 (d) steps/s (each arm's fine-tune, from its own log) are no more than ``--max-slowdown``
     lower on the mean of the per-run ratios.
 
+Runs with an arm that was interrupted and resumed are listed (``resumed_runs``): such an
+arm's steps/s are of its last part alone, under that part's load.
+
 The defaults are the edge-rays rule of `docs/presets.md` ("Edge rays, explored"). Every
 scene must have the same seeds; a run file without the arm is an error.
 """
@@ -45,9 +48,16 @@ def differences(run: dict, arm: str) -> dict:
     return d
 
 
+def resumed(row: dict) -> bool:
+    """Whether an arm's fine-tune was interrupted and resumed (its model's provenance)."""
+    trained = ((row.get("provenance") or {}).get("trained") or {})
+    return bool(trained.get("resumed"))
+
+
 def judge(runs: list[dict], arm: str, limits: dict) -> dict:
     """The rule's verdict with every number it read (see the module's docstring)."""
     by_scene: dict[str, dict[int, dict]] = defaultdict(dict)
+    split: list[str] = []
     for run in runs:
         if arm not in run or "base" not in run:
             raise ValueError(f"{run.get('scene')}: no '{arm}' and 'base' rows")
@@ -57,6 +67,8 @@ def judge(runs: list[dict], arm: str, limits: dict) -> dict:
         if run["seed"] in by_scene[scene]:
             raise ValueError(f"{scene}: seed {run['seed']} given twice")
         by_scene[scene][run["seed"]] = differences(run, arm)
+        if resumed(run[arm]) or resumed(run["base"]):
+            split.append(f"{scene} seed {run['seed']}")
     seeds = {s: sorted(v) for s, v in by_scene.items()}
     if len({tuple(v) for v in seeds.values()}) != 1:
         raise ValueError(f"the scenes have different seeds: {seeds}")
@@ -76,7 +88,7 @@ def judge(runs: list[dict], arm: str, limits: dict) -> dict:
     return {"arm": arm, "limits": limits, "seeds": next(iter(seeds.values())),
             "runs": {s: {str(k): d for k, d in sorted(v.items())} for s, v in by_scene.items()},
             "scene_means": scene_means, "mean": overall, "worst_scene_region": worst_region,
-            "parts": parts, "passes": all(parts.values())}
+            "parts": parts, "passes": all(parts.values()), "resumed_runs": split}
 
 
 def main() -> int:
@@ -110,6 +122,8 @@ def main() -> int:
         print(f"{scene}: flare region {m['region']:+.3f} dB, photos {m['photo']:+.3f} dB, "
               f"novel views {m['novel']:+.3f} dB, SSIM {m['photo_ssim']:+.4f} / "
               f"{m['novel_ssim']:+.4f}, steps/s {100 * m['speed']:+.1f} %")
+    if verdict["resumed_runs"]:
+        print("resumed (steps/s of the last part only):", ", ".join(verdict["resumed_runs"]))
     print("parts:", ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in verdict["parts"].items()))
     print("passes" if verdict["passes"] else "fails")
     if a.out:

@@ -297,7 +297,9 @@ def test_finetune_ab_judge_applies_each_part_of_its_rule(tmp_path, capsys, monke
     good = [_ab_run(s, seed, {"flare_region_psnr": g + 0.1 * (seed - 3)}, 0.95)
             for s, g in (("a", 0.3), ("b", 0.1), ("c", 0.0)) for seed in (2, 3, 4)]
     v = bench.judge(good, "edge_rays-0.5", limits)
-    assert v["passes"] and v["seeds"] == [2, 3, 4]
+    assert v["passes"] and v["seeds"] == [2, 3, 4] and v["resumed_runs"] == []
+    good[4]["edge_rays-0.5"]["provenance"] = {"trained": {"resumed": [{"at_step": 1750}]}}
+    assert bench.judge(good, "edge_rays-0.5", limits)["resumed_runs"] == ["b_synth seed 3"]
     assert v["mean"]["region"] == pytest.approx(0.4 / 3)
     assert v["mean"]["speed"] == pytest.approx(-0.05)
     one_loses = [_ab_run(s, seed, {"flare_region_psnr": g}) for s, g in
