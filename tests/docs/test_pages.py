@@ -578,6 +578,7 @@ def test_edge_rays_rule_table_is_its_judge():
     assert f"lund's flare region {lund} dB" in text, lund
     novel = ", ".join(f"{runs['sceaux_synth'][k]['novel']:+.3f}" for k in "234")
     assert f"sceaux_castle's novel views {novel} dB" in text, novel
+    assert judged["resumed_runs"] == ["sceaux_synth seed 2", "et_synth seed 2"]
     split = [runs[s]["2"]["speed"] for s in ("sceaux_synth", "et_synth")]
     assert f"+{100 * split[0]:.0f} % and +{100 * split[1]:.0f} %" in text
     rest = [r["speed"] for s, v in runs.items() for k, r in v.items()
