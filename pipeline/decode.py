@@ -87,6 +87,25 @@ class Photo:
     """Other files with the same stem, tried in order if ``path`` cannot be decoded."""
 
 
+NOT_READ = {".heic": "HEIC", ".heif": "HEIF", ".avif": "AVIF", ".jxl": "JPEG XL",
+            ".jp2": "JPEG 2000", ".gif": "GIF", ".psd": "Photoshop", ".xcf": "GIMP"}
+"""Image files a user may expect to be read that are not (the OpenCV of another machine may
+not decode them): each is named in a warning with what to do."""
+VIDEO_EXTS = frozenset({".mp4", ".mov", ".m4v", ".avi", ".mkv", ".mts", ".webm"})
+
+
+def not_read_warning(path: Path) -> str | None:
+    """The warning for a file that looks like a photo or a video but is not read, or None."""
+    ext = path.suffix.lower()
+    if ext in NOT_READ:
+        return (f"skipping {path.name}: {NOT_READ[ext]} files are not read; export the photos "
+                "as JPEG, PNG or TIFF (camera raw files are read as they are)")
+    if ext in VIDEO_EXTS:
+        return (f"skipping {path.name}: videos are not read; extract frames first (e.g. "
+                f"ffmpeg -i {path.name} -vf fps=2 frames/%04d.png) and pass that folder")
+    return None
+
+
 # --------------------------------------------------------------------------- listing
 def list_photos(photos: Path) -> list[Photo]:
     """The photos of a folder, one per stem (raw preferred); clear errors when none."""
@@ -103,9 +122,16 @@ def list_photos(photos: Path) -> list[Photo]:
         ext = p.suffix.lower()
         if ext in RAW_EXTS or ext in PHOTO_EXTS:
             by_stem.setdefault(p.stem, []).append(p)
+    not_read = 0
+    for p in files:  # a HEIC beside a JPEG of the same stem (a phone's pair) is not missed
+        if p.stem not in by_stem and (message := not_read_warning(p)) is not None:
+            warn(message)
+            not_read += 1
     if not by_stem:
+        named = f"; {not_read} file(s) in formats it does not read, named above" if not_read else ""
         raise UserError(f"photo folder {photos} has no photos (no camera raw such as DNG/NEF/"
-                        "CR2/ARW, and no JPEG/PNG/TIFF files): put the photos of the scene in it")
+                        f"CR2/ARW, and no JPEG/PNG/TIFF files{named}): put the photos of the "
+                        "scene in it")
     chosen = []
     for stem, paths in sorted(by_stem.items()):
         paths.sort(key=lambda p: (p.suffix.lower() not in RAW_EXTS, p.name))

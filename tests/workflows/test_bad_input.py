@@ -54,6 +54,45 @@ def test_folder_without_images(tmp_path, capsys):
     assert digest_paths([d]) == before
 
 
+def _photos(folder: Path, n: int) -> Path:
+    """n small synthetic JPEGs (no shared data needed for decode)."""
+    import cv2
+    import numpy as np
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    for i in range(n):
+        cv2.imwrite(str(folder / f"p{i}.jpg"), rng.integers(0, 255, (48, 64, 3), np.uint8))
+    return folder
+
+
+def test_photos_and_videos_in_formats_not_read_are_named(tmp_path, capsys):
+    """HEIC photos and a video beside readable photos: one warning line each, naming the
+    file and what to do; decode goes on with the rest. A folder of HEIC alone: the error
+    line says files were skipped, and the warnings name them."""
+    d = _photos(tmp_path / "mixed", 3)
+    (d / "IMG_0001.HEIC").write_bytes(b"\x00\x00\x00\x18ftypheic")
+    (d / "walk.MOV").write_bytes(b"\x00\x00\x00\x14ftypqt  ")
+    (d / "notes.txt").write_text("hello")
+    (d / "p0.heic").write_bytes(b"\x00")  # a phone's pair of p0.jpg: nothing is missed
+    before = digest_paths([d])
+    assert main(["decode", str(d), "--out", str(tmp_path / "ws")]) == 0
+    err = capsys.readouterr().err
+    heic = [ln for ln in err.splitlines() if "IMG_0001.HEIC" in ln]
+    mov = [ln for ln in err.splitlines() if "walk.MOV" in ln]
+    assert len(heic) == 1 and "HEIC files are not read" in heic[0] and "JPEG" in heic[0]
+    assert len(mov) == 1 and "videos are not read" in mov[0] and "ffmpeg" in mov[0]
+    assert "notes.txt" not in err and "p0.heic" not in err
+    assert digest_paths([d]) == before
+    assert sorted(p.stem for p in Workspace.open(tmp_path / "ws").decoded.iterdir()) == [
+        "p0", "p1", "p2"]
+    only = tmp_path / "iphone"
+    only.mkdir()
+    for i in range(3):
+        (only / f"IMG_{i}.heic").write_bytes(b"\x00")
+    _fails(capsys, ["decode", str(only)], "has no photos", "3 file(s) in formats it does not read")
+
+
 def test_too_few_images(tmp_path, capsys):
     d = _kermit(tmp_path / "two", 2)
     before = digest_paths([d])
