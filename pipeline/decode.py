@@ -106,6 +106,18 @@ def not_read_warning(path: Path) -> str | None:
     return None
 
 
+def photo_subfolders(folder: Path) -> list[tuple[Path, int]]:
+    """(subfolder, photo count) of the folder's direct subfolders that hold photos (a
+    camera's DCIM/100CANON), most photos first."""
+    found = []
+    for d in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        n = sum(1 for f in d.iterdir() if f.is_file() and not f.name.startswith(".")
+                and (f.suffix.lower() in RAW_EXTS or f.suffix.lower() in PHOTO_EXTS))
+        if n:
+            found.append((d, n))
+    return sorted(found, key=lambda dn: -dn[1])
+
+
 # --------------------------------------------------------------------------- listing
 def list_photos(photos: Path) -> list[Photo]:
     """The photos of a folder, one per stem (raw preferred); clear errors when none."""
@@ -113,8 +125,9 @@ def list_photos(photos: Path) -> list[Photo]:
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos")
     if not photos.is_dir():
         raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
-    files = sorted(p for p in photos.iterdir() if p.is_file() and not p.name.startswith("."))
-    if not files:
+    entries = [p for p in photos.iterdir() if not p.name.startswith(".")]
+    files = sorted(p for p in entries if p.is_file())
+    if not entries:
         raise UserError(f"photo folder {photos} is empty: put at least {MIN_IMAGES} "
                         "overlapping photos of the scene in it")
     by_stem: dict[str, list[Path]] = {}
@@ -128,6 +141,12 @@ def list_photos(photos: Path) -> list[Photo]:
             warn(message)
             not_read += 1
     if not by_stem:
+        inner = photo_subfolders(photos)
+        if inner:
+            listed = ", ".join(f"{d.name} ({n} photos)" for d, n in inner[:4])
+            raise UserError(f"photo folder {photos} has no photos of its own, its subfolders "
+                            f"do ({listed}{', ...' if len(inner) > 4 else ''}): pass the one "
+                            f"that holds this scene, e.g. {inner[0][0]}")
         named = f"; {not_read} file(s) in formats it does not read, named above" if not_read else ""
         raise UserError(f"photo folder {photos} has no photos (no camera raw such as DNG/NEF/"
                         f"CR2/ARW, and no JPEG/PNG/TIFF files{named}): put the photos of the "

@@ -93,6 +93,25 @@ def test_photos_and_videos_in_formats_not_read_are_named(tmp_path, capsys):
     _fails(capsys, ["decode", str(only)], "has no photos", "3 file(s) in formats it does not read")
 
 
+def test_photos_in_subfolders_are_pointed_at(tmp_path, capsys):
+    """A camera's DCIM folder (photos one level down): not "empty" but one line naming the
+    subfolders that hold photos and the one to pass; a folder of empty subfolders has no
+    photos; nothing written."""
+    dcim = tmp_path / "DCIM"
+    _photos(dcim / "100CANON", 3)
+    _photos(dcim / "101CANON", 5)
+    (dcim / "MISC").mkdir()
+    before = digest_paths([dcim])
+    line = _fails(capsys, ["decode", str(dcim)], "no photos of its own",
+                  "101CANON (5 photos), 100CANON (3 photos)", str(dcim / "101CANON"))
+    assert "empty" not in line
+    assert digest_paths([dcim]) == before and not (tmp_path / "DCIM.deflare").exists()
+    _fails(capsys, ["decode", str(dcim / "MISC")], "is empty")
+    hollow = tmp_path / "hollow"
+    (hollow / "sub").mkdir(parents=True)
+    _fails(capsys, ["decode", str(hollow)], "has no photos")
+
+
 def test_too_few_images(tmp_path, capsys):
     d = _kermit(tmp_path / "two", 2)
     before = digest_paths([d])
