@@ -30,14 +30,10 @@ import json
 import sys
 from collections import defaultdict
 from pathlib import Path
+from statistics import fmean
 
 METRICS = {"region": "flare_region_psnr", "photo": "inputs_psnr", "photo_ssim": "inputs_ssim",
            "novel": "heldout_psnr", "novel_ssim": "heldout_ssim"}
-
-
-def mean(xs) -> float:
-    xs = list(xs)
-    return sum(xs) / len(xs)
 
 
 def differences(run: dict, arm: str) -> dict:
@@ -73,9 +69,9 @@ def judge(runs: list[dict], arm: str, limits: dict) -> dict:
     if len({tuple(v) for v in seeds.values()}) != 1:
         raise ValueError(f"the scenes have different seeds: {seeds}")
     keys = list(METRICS) + ["speed"]
-    scene_means = {s: {k: mean(d[k] for d in v.values()) for k in keys}
+    scene_means = {s: {k: fmean(d[k] for d in v.values()) for k in keys}
                    for s, v in sorted(by_scene.items())}
-    overall = {k: mean(m[k] for m in scene_means.values()) for k in keys}
+    overall = {k: fmean(m[k] for m in scene_means.values()) for k in keys}
     worst_region = min(m["region"] for m in scene_means.values())
     parts = {
         "a_region_gain": overall["region"] >= limits["min_region_gain"],

@@ -330,8 +330,6 @@ def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
     Sobel gradient magnitude of its grey image, the rest uniform (cached per view)."""
     key = (i, share)
     if key not in scene.edge_q:
-        import torch.nn.functional as F
-
         grey = scene.images[i].float().mean(0, keepdim=True)[None] / 255.0  # [1, 1, H, W]
         kx = torch.tensor([[-1.0, 0, 1], [-2, 0, 2], [-1, 0, 1]])
         k = torch.stack([kx, kx.T])[:, None]  # [2, 1, 3, 3]

@@ -106,13 +106,19 @@ def not_read_warning(path: Path) -> str | None:
     return None
 
 
+def is_photo_file(path: Path) -> bool:
+    """A file decode reads: camera raw or an ordinary image (any case), not hidden."""
+    ext = path.suffix.lower()
+    return path.is_file() and not path.name.startswith(".") and (
+        ext in RAW_EXTS or ext in PHOTO_EXTS)
+
+
 def photo_subfolders(folder: Path) -> list[tuple[Path, int]]:
     """(subfolder, photo count) of the folder's direct subfolders that hold photos (a
     camera's DCIM/100CANON), most photos first."""
     found = []
     for d in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        n = sum(1 for f in d.iterdir() if f.is_file() and not f.name.startswith(".")
-                and (f.suffix.lower() in RAW_EXTS or f.suffix.lower() in PHOTO_EXTS))
+        n = sum(1 for f in d.iterdir() if is_photo_file(f))
         if n:
             found.append((d, n))
     return sorted(found, key=lambda dn: -dn[1])
@@ -132,8 +138,7 @@ def list_photos(photos: Path) -> list[Photo]:
                         "overlapping photos of the scene in it")
     by_stem: dict[str, list[Path]] = {}
     for p in files:
-        ext = p.suffix.lower()
-        if ext in RAW_EXTS or ext in PHOTO_EXTS:
+        if is_photo_file(p):
             by_stem.setdefault(p.stem, []).append(p)
     not_read = 0
     for p in files:  # a HEIC beside a JPEG of the same stem (a phone's pair) is not missed

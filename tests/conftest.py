@@ -15,6 +15,16 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("DEFLARE_SHARED_DATA", REPO.parent / "shared" / "data"))
 
 
+def load_benchmark(name: str):
+    """The module of benchmarks/<name>.py (the folder is not a package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def shared(*parts: str) -> Path:
     """Path into ../shared/data; skips the test with a clear reason if it is absent."""
     p = SHARED_DATA.joinpath(*parts)

@@ -3,7 +3,6 @@ docs write numbers, and the result files several pages quote."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -38,14 +37,6 @@ def fill_row(name: str, fill: str) -> dict:
     bench = json.loads((RESULTS / "bench_cpu.json").read_text())
     rows = bench["results"]["cpu"]["render_workspace"]["rows"]
     return rows[[(r["fill"], r["size"][0] > 600) for r in rows].index((fill, name == "x2"))]
-
-
-def load_benchmark(name: str):
-    """The module of benchmarks/<name>.py (the folder is not a package)."""
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def spaced(n: int) -> str:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import load_benchmark
 from tests.docs.numbers import (
     FERN,
     FERN2,
@@ -19,7 +20,6 @@ from tests.docs.numbers import (
     RESULTS,
     SAMPLE,
     assert_quoted,
-    load_benchmark,
     spaced,
 )
 
@@ -521,12 +521,7 @@ def test_fmg_candidate_p_verdict_follows_its_files():
 def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, base, arms):
     """docs/history/fill.md's tables are network_scale_ab's judgements of the committed
     renders, and judging them again gives the same verdicts."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "network_scale_ab", REPO / "benchmarks" / "network_scale_ab.py")
-    ab = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ab)
+    ab = load_benchmark("network_scale_ab")
     t = ab.read_times(RESULTS / times)
     res = ab.judge(RESULTS, t, ["sceaux", "et", "lund"], [2, 3, 4], [x for x, _ in arms],
                    prefix, base)
@@ -562,12 +557,7 @@ def test_inputs_depth_samples_rule_numbers_agree_with_the_judge():
     """docs/history/fill.md's table for the de-flared photos' whole-ray sampling is
     fmg_photo_ab's judgement of the committed runs (fails (a)), and the time ratio is the
     times file's."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "fmg_photo_ab", REPO / "benchmarks" / "fmg_photo_ab.py")
-    ab = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ab)
+    ab = load_benchmark("fmg_photo_ab")
     res = ab.judge(RESULTS, "s30_ids0", "s30_ibase", ["sceaux", "et", "lund"], [2, 3, 4])
     assert res["decision"] == "fails (a)"
     cells = [" / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim"))

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import load_benchmark
 from tests.docs.numbers import (
     FERN,
     FERN4,
@@ -21,7 +22,6 @@ from tests.docs.numbers import (
     SAMPLE,
     assert_quoted,
     fill_row,
-    load_benchmark,
 )
 
 CHECKS = [
@@ -345,18 +345,13 @@ def test_readme_sample_flare_gain_per_view():
 def test_full_res_colour_rule_numbers_agree_with_the_judge():
     """docs/presets.md's table of the full-size colours rule is the judge's file, the judge
     recomputes from the committed runs, and the baseline repeat reproduces its file."""
-    import importlib.util
-
     page = " ".join((REPO / "docs" / "presets.md").read_text().split())
     res = json.loads((RESULTS / "fmg_photo_judge_full_res_colour_s234.json").read_text())
     assert res["rule"] == "novel" and res["decision"] == "passes"
     for d in (*res["per_scene"].values(), res["mean"]):
         cells = " | ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
         assert cells in page
-    spec = importlib.util.spec_from_file_location(
-        "fmg_photo_ab", REPO / "benchmarks" / "fmg_photo_ab.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_benchmark("fmg_photo_ab")
     again = mod.judge(RESULTS, "s29_frc", "s26_Mp", ["sceaux", "et", "lund"], [2, 3, 4],
                       rule="novel")
     assert again["mean"] == pytest.approx(res["mean"]) and again["decision"] == res["decision"]

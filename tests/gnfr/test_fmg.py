@@ -765,7 +765,7 @@ def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monk
         monkeypatch.setattr("pipeline.mask.load_fmg_weights", lambda p, c=Const(logit): c)
         monkeypatch.setattr(fmg_eval, "weights_info", lambda p: {"cut": 0.5})
         res = fmg_eval.negative_fractions(tmp_path / "w.safetensors", tmp_path,
-                                           ("backlit", "lamp"), count=3, size=32)
+                                          ("backlit", "lamp"), count=3, size=32)
         assert set(res["negatives"]) == {"backlit", "lamp"}
         for r in res["negatives"].values():
             assert r["mean"] == want and r["over_1pct"] == (3 if want else 0)

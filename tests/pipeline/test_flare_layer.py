@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from pipeline import metrics
@@ -114,13 +112,9 @@ def test_lowpass_is_resolution_independent():
 def test_local_bias_is_the_rings_error_nearby_and_fades_far_from_it():
     """The ``bias`` variant of benchmarks/flare_layer_variants.py (a render option in the
     ninth session, removed after it failed its rule in the eleventh)."""
-    import importlib.util
+    from tests.conftest import load_benchmark
 
-    path = Path(__file__).parents[2] / "benchmarks" / "flare_layer_variants.py"
-    spec = importlib.util.spec_from_file_location("flare_layer_variants", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    local_bias = mod.local_bias
+    local_bias = load_benchmark("flare_layer_variants").local_bias
 
     h, w = 64, 256
     err = np.zeros((h, w, 1), np.float32)

@@ -14,6 +14,7 @@ import torch
 from pipeline import flare as F
 from pipeline.synth import SynthConfig
 from pipeline.synth import run as synth_run
+from tests.conftest import load_benchmark
 from tests.fixtures import make_temple_workspace
 from workflows.cli import main
 from workflows.research.eval.workspaces import link_file, sync_tree
@@ -36,17 +37,6 @@ def scene(tmp_path_factory):
               ws)
     mp.undo()
     return root / "synth"
-
-
-def _benchmark(name: str):
-    """The module of benchmarks/<name>.py (the folder is not a package)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        name, Path(__file__).parents[2] / "benchmarks" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _eval(scene, out, *extra):
@@ -95,7 +85,7 @@ def test_eval_end_to_end(scene, tmp_path):
     assert "| GN-FR |" in table and "ground truth" in table and "tiny" in table
     # what init resolved to and the colour match are recorded; the summary script reads them
     assert res["budget"]["init_weights"] == "scratch" and res["budget"]["color_match"] is True
-    summary = _benchmark("eval_summary")
+    summary = load_benchmark("eval_summary")
     gap = (res["methods"]["gnfr"]["inputs"]["psnr_flare"]
            - res["methods"]["gnt"]["inputs"]["psnr_flare"])
     assert f"| {gap:+.2f} dB |" in summary.summarise([out / "eval" / "results.json"])
@@ -196,7 +186,7 @@ def test_mask_downstream_scores_masks_on_copies(scene, tmp_path):
                  "--device", "cpu"]) == 0
     src_masks = out / "variants" / "gnfr" / "masks"
     before = {p.name: p.read_bytes() for p in src_masks.iterdir()}
-    bench = _benchmark("mask_downstream")
+    bench = load_benchmark("mask_downstream")
     shipped = Path(__file__).parents[2] / "gnfr" / "weights" / "fmg.safetensors"
     res = tmp_path / "down.json"
     assert bench.main([str(scene), "--eval-ws", str(out), "--weights", str(shipped),
@@ -243,7 +233,7 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
                  "--device", "cpu"]) == 0
     views_json = out / "variants" / "gnfr" / "views.json"
     before = views_json.read_bytes()
-    bench = _benchmark("novel_loo")
+    bench = load_benchmark("novel_loo")
     split = json.loads((scene / "split.json").read_text())
     for flag, stems in (([], split["train"]), (["--heldout"], split["heldout"])):
         res = tmp_path / f"loo{len(flag)}.json"
@@ -258,7 +248,7 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
 def test_finetune_ab_names_its_second_arm_by_the_values():
     """benchmarks/finetune_ab.py names the second arm's workspace and result key by the
     values set: numbers as written, weight files by their stem."""
-    bench = _benchmark("finetune_ab")
+    bench = load_benchmark("finetune_ab")
     sets = bench.parse_sets(["lr_scale=0.5", "init=gnfr/weights/gnfr_paper.safetensors"])
     assert sets == {"lr_scale": 0.5, "init": "gnfr/weights/gnfr_paper.safetensors"}
     assert [bench.arm_label(v) for v in sets.values()] == ["0.5", "gnfr_paper"]
@@ -267,7 +257,7 @@ def test_finetune_ab_names_its_second_arm_by_the_values():
 def test_finetune_ab_bad_scene_or_seed_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
     """benchmarks/finetune_ab.py on a folder that is no synth scene, or with a negative
     seed: one line on stderr, exit 2, no work folder made."""
-    bench = _benchmark("finetune_ab")
+    bench = load_benchmark("finetune_ab")
     for extra in ([], ["--seed", "-1"]):
         monkeypatch.setattr("sys.argv", ["finetune_ab.py", str(tmp_path / "none"), "--set",
                                          "edge_rays=0.5", "--work", str(tmp_path / "w"),
@@ -291,7 +281,7 @@ def test_finetune_ab_judge_applies_each_part_of_its_rule(tmp_path, capsys, monke
     """benchmarks/finetune_ab_judge.py: seed means, then scene means; a mean gain passes
     (a) yet one scene's loss beyond the limit fails (b); SSIM of the novel views counts in
     (c); the slowdown (d) is the mean of per-run ratios; unequal seeds are one line, exit 2."""
-    bench = _benchmark("finetune_ab_judge")
+    bench = load_benchmark("finetune_ab_judge")
     limits = {"min_region_gain": 0.10, "max_region_loss": 0.20, "max_photo_loss": 0.05,
               "max_novel_loss": 0.10, "max_ssim_loss": 0.002, "max_slowdown": 0.10}
     good = [_ab_run(s, seed, {"flare_region_psnr": g + 0.1 * (seed - 3)}, 0.95)
@@ -337,7 +327,7 @@ def test_mask_shape_scores_light_outside_the_mask():
     and IoU 1 and leaves outside it exactly the light added on the square's 1-pixel rim;
     grown by one pixel it takes the rim in (no light left) at a lower precision."""
 
-    bench = _benchmark("mask_shape")
+    bench = load_benchmark("mask_shape")
     clean = np.full((20, 20, 3), 50, np.uint8)
     true = np.zeros((20, 20), bool)
     true[5:15, 5:15] = True
@@ -362,7 +352,7 @@ def test_score_workspace_matches_eval(scene, tmp_path):
     assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr", "--masks", "gt",
                  "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
                  "--device", "cpu"]) == 0
-    bench = _benchmark("score_workspace")
+    bench = load_benchmark("score_workspace")
     var = out / "variants" / "gnfr"
     res = tmp_path / "score.json"
     assert bench.main([str(scene), str(var), "--heldout",
@@ -384,7 +374,7 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     ``max_size`` shrinks the photo and its true mask before the FMG sees them."""
     from pipeline import mask as M
 
-    bench = _benchmark("mask_dev_scenes")
+    bench = load_benchmark("mask_dev_scenes")
     (tmp_path / "photos").mkdir()
     (tmp_path / "masks_gt").mkdir()
     yy, xx = np.mgrid[:200, :300]
@@ -420,7 +410,7 @@ def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_sc
     from pipeline import mask as M
     from pipeline.flare_ghosts import GhostConfig
 
-    bench = _benchmark("mask_dev_scenes")
+    bench = load_benchmark("mask_dev_scenes")
     (tmp_path / "photos").mkdir()
     (tmp_path / "masks_gt").mkdir()
     yy, xx = np.mgrid[:200, :300]
@@ -482,7 +472,7 @@ def test_floor_scores_measures_excess_and_gain(tmp_path):
 
 
 def _photo_ab():
-    return _benchmark("fmg_photo_ab")
+    return load_benchmark("fmg_photo_ab")
 
 
 def test_fmg_photo_rule_stops_at_the_first_failing_part():
@@ -575,7 +565,7 @@ def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     as a JPEG under its size limit."""
     from pipeline.fmg_data import HARD_NEGATIVES
 
-    ov = _benchmark("negatives_overview")
+    ov = load_benchmark("negatives_overview")
     (tmp_path / "backgrounds").mkdir()
     rng = np.random.default_rng(0)
     for i in range(2):
@@ -605,7 +595,7 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     shutil.copytree(a, b, symlinks=True)
     for m in (b / "masks").glob("*.png"):  # arm b: nothing marked
         cv2.imwrite(str(m), np.zeros_like(cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)))
-    xr = _benchmark("mask_cross_render")
+    xr = load_benchmark("mask_cross_render")
     cams = out / "eval" / "heldout_cameras.json"
     before = sorted(p.relative_to(a) for p in a.rglob("*"))
     res = tmp_path / "xr.json"
@@ -633,7 +623,7 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     one-line error naming it."""
     from pipeline.errors import UserError
 
-    mk = _benchmark("mask_kind_scenes")
+    mk = load_benchmark("mask_kind_scenes")
 
     def row(weights, scene, iou, share=0.02):
         return {"weights": weights, "scales": [1.0], "rays": True, "scene": scene,
@@ -674,7 +664,7 @@ def test_mask_kind_scenes_judge_with_a_target_kind():
     own gain is short; rows of --ghost-views are named +views."""
     from pipeline.errors import UserError
 
-    mk = _benchmark("mask_kind_scenes")
+    mk = load_benchmark("mask_kind_scenes")
 
     def rows(ghosts, glare):
         return [{"weights": "a.safetensors", "scales": [1.0], "rays": True, "scene": s,
@@ -703,7 +693,7 @@ def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_
     from pipeline.workspace import digest_paths
     from tests.fixtures import make_temple_workspace
 
-    bench = _benchmark("mask_views_scenes")
+    bench = load_benchmark("mask_views_scenes")
     ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.5)
     torch.manual_seed(0)
     weights = save_fmg(tmp_path / "tiny.safetensors", build_fmg(tiny_config()))
@@ -726,7 +716,7 @@ def test_pose_passes_errors_and_kept_pass():
     and the kept pass follows the stage's order and tie rule."""
     from scipy.spatial.transform import Rotation
 
-    pp = _benchmark("pose_passes")
+    pp = load_benchmark("pose_passes")
     rng = np.random.default_rng(0)
     ref = {}
     for i in range(6):
@@ -759,7 +749,7 @@ def test_pose_passes_errors_and_kept_pass():
 def test_clean_capture_counts_what_the_job_changed():
     """benchmarks/clean_capture.py: an untouched photo changed nothing; a patch brightened
     by 10 of 255 is the changed share and sets the PSNR (10/255 there: 28.1 dB)."""
-    cc = _benchmark("clean_capture")
+    cc = load_benchmark("clean_capture")
     rng = np.random.default_rng(0)
     photo = rng.integers(20, 200, (40, 50, 3), dtype=np.uint8)
     mask = np.zeros((39, 49), bool)
@@ -778,7 +768,7 @@ def test_clean_capture_counts_what_the_job_changed():
 def test_clean_capture_touching_counts_regions_next_to_the_network_marks():
     """A region the views added that touches the network's marks counts whole; one apart
     does not."""
-    cc = _benchmark("clean_capture")
+    cc = load_benchmark("clean_capture")
     own = np.zeros((20, 30), bool)
     own[5:10, 5:10] = True
     added = np.zeros_like(own)
@@ -791,7 +781,7 @@ def test_clean_capture_touching_counts_regions_next_to_the_network_marks():
 def test_ghost_touching_splits_the_added_pixels():
     """benchmarks/ghost_touching.py: added pixels next to the network's marks and apart,
     each counted in and out of the true flare."""
-    gt = _benchmark("ghost_touching")
+    gt = load_benchmark("ghost_touching")
     own = np.zeros((20, 30), bool)
     own[5:10, 5:10] = True
     added = np.zeros_like(own)
@@ -807,7 +797,7 @@ def test_ghost_touching_splits_the_added_pixels():
 def test_stereo_time_digest_tells_arrays_apart_by_value_shape_and_type():
     """benchmarks/stereo_time.py's digest: the same arrays give the same digest; one changed
     value, a reshape or another dtype of the same bytes give another."""
-    st = _benchmark("stereo_time")
+    st = load_benchmark("stereo_time")
     a = np.arange(12, dtype=np.float32).reshape(3, 4)
     b = np.ones((2, 2), np.float16)
     ref = st.digest([a, b])
@@ -821,7 +811,7 @@ def test_stereo_time_digest_tells_arrays_apart_by_value_shape_and_type():
 
 
 def test_stereo_time_refuses_a_workspace_without_depth_in_one_line(tmp_path, capsys):
-    st = _benchmark("stereo_time")
+    st = load_benchmark("stereo_time")
     (tmp_path / "ws").mkdir()
     (tmp_path / "ws" / "cameras.json").write_text("{}")
     assert st.main([str(tmp_path / "ws"), "--work", str(tmp_path / "w")]) == 2

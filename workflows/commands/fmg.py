@@ -48,34 +48,34 @@ def register(app: typer.Typer) -> None:
             load_fmg_weights(config.confirm, flag="--confirm")
         if config.work_sizes:
             metrics = fmg_eval.work_size_sweep(weights, config.data, config.work_sizes,
-                                                 split=config.split)
+                                               split=config.split)
             typer.echo(fmg_eval.format_work_sizes(metrics))
         elif config.clean:
             metrics = fmg_eval.clean_fractions(weights, config.data, config.work_size,
-                                                 split=config.split, rays=config.rays,
-                                                 ray_cfg=rule, confirm=config.confirm,
-                                                 confirm_keep=keep, scales=config.scales,
-                                                 ghosts=ghosts)
+                                               split=config.split, rays=config.rays,
+                                               ray_cfg=rule, confirm=config.confirm,
+                                               confirm_keep=keep, scales=config.scales,
+                                               ghosts=ghosts)
             typer.echo(fmg_eval.format_clean(metrics))
         elif config.negatives:
             metrics = fmg_eval.negative_fractions(weights, config.data, config.negatives,
-                                                   config.count, size=config.size,
-                                                   split=config.split, rays=config.rays,
-                                                   ray_cfg=rule)
+                                                  config.count, size=config.size,
+                                                  split=config.split, rays=config.rays,
+                                                  ray_cfg=rule)
             typer.echo(fmg_eval.format_negatives(metrics))
         elif config.per_kind:
             metrics = fmg_eval.evaluate_kinds(weights, config.data, config.loo, config.count,
-                                               size=config.size, split=config.split,
-                                               rays=config.rays, ray_cfg=rule,
-                                               confirm=config.confirm,
-                                               confirm_keep=keep, scales=config.scales,
-                                               flare_canvas=config.flare_canvas,
-                                               night=config.night, ghosts=ghosts)
+                                              size=config.size, split=config.split,
+                                              rays=config.rays, ray_cfg=rule,
+                                              confirm=config.confirm,
+                                              confirm_keep=keep, scales=config.scales,
+                                              flare_canvas=config.flare_canvas,
+                                              night=config.night, ghosts=ghosts)
             typer.echo(fmg_eval.format_kinds(metrics))
         else:
             metrics = fmg_eval.evaluate(weights, config.data, config.count,
-                                         refine=config.refine, size=config.size,
-                                         split=config.split)
+                                        refine=config.refine, size=config.size,
+                                        split=config.split)
             typer.echo(fmg_eval.format_metrics(metrics))
         if config.out:  # stamped with the code, the machine, the command and the weights' hash
             write_result(config.out, {**metrics, "weights_sha256": sha256(weights)})
