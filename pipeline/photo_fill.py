@@ -21,6 +21,7 @@ from pipeline.stereo import (
     Warped,
     fill_holes,
     fuse,
+    harmonize_sources,
     match_gains,
     splat_depth,
     sweep_consensus,
@@ -51,7 +52,7 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
                near: float | None = None, far: float | None = None,
-               beyond: int = 0, agree_window: int = 1) -> PhotoFill:
+               beyond: int = 0, agree_window: int = 1, harmonize: float = 0.0) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
@@ -60,7 +61,10 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     kept where their colour variance is below CONSENSUS_VAR), the rest by interpolation
     (``stereo.fill_holes``); the agreement test then decides whether the photos support
     the depth. ``beyond``: planes of that sweep past ``far`` (``stereo.beyond_depths``).
-    ``agree_window``: the agreement test over that window (``stereo.fuse``)."""
+    ``agree_window``: the agreement test over that window (``stereo.fuse``).
+    ``harmonize``: without a reference, each warped source is first brought to the others
+    by a smooth local offset, a Gaussian of this fraction of the long side
+    (``stereo.harmonize_sources``; 0 = off)."""
     depth = splat_depth(K, c2w, size, sources, fill=2)
     if dense and near is not None and (depth <= 0).any():
         holes = depth <= 0
@@ -72,6 +76,8 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
         depth = fill_holes(depth)
     w = warp_sources(K, c2w, depth, sources, occlusion_tol)
     w = match_gains(w, reference, ref_valid)
+    if harmonize > 0 and reference is None:
+        w = harmonize_sources(w, harmonize * max(size))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN medians where none sees
         colour, support = fuse(w, agree, window=agree_window)

@@ -504,6 +504,44 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
     return Warped(cols, w.ok)
 
 
+HARMONIZE_MAX = 0.15
+"""``harmonize_sources``: a warped photo's difference from the median (0..1 colours, any
+channel) over which it shows another surface and is left out of its offset's fit."""
+HARMONIZE_FADE = 0.1
+"""``harmonize_sources``: the offset applies in full where at least this share of the
+Gaussian's weight falls on pixels it was fitted on, and fades out where none does."""
+
+
+def harmonize_sources(w: Warped, sigma: float) -> Warped:
+    """Each warped source brought to the sources' per-pixel median by a smooth offset: its
+    difference from the median where it sees the same surface (within HARMONIZE_MAX),
+    averaged by a Gaussian of ``sigma`` pixels (normalised by the pixels it was fitted on,
+    faded by HARMONIZE_FADE). Global gains (``match_gains``) leave the photos' local
+    differences (vignetting, a sky's gradient, light falloff) which make the fused colour
+    jump where the set of agreeing sources changes; this takes them out."""
+    if w.colours.shape[0] < 2 or sigma <= 0:
+        return w
+    c = np.where(w.ok[..., None], w.colours, np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
+        med = nanmedian0(c)
+    seen = np.isfinite(med).all(-1) & (w.ok.sum(0) >= 2)
+    med = np.nan_to_num(med)
+    cols = w.colours.copy()
+    for k in range(cols.shape[0]):
+        d = med - w.colours[k]
+        m = (w.ok[k] & seen & (np.abs(d).max(-1) <= HARMONIZE_MAX)).astype(np.float32)
+        if not m.any():
+            continue
+        den = cv2.GaussianBlur(m, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
+        num = cv2.GaussianBlur(d * m[..., None], (0, 0), sigma,
+                               borderType=cv2.BORDER_REPLICATE)
+        off = num / np.maximum(den, 1e-6)[..., None]
+        fade = np.clip(den / HARMONIZE_FADE, 0.0, 1.0)[..., None]
+        cols[k] += np.clip(off, -HARMONIZE_MAX, HARMONIZE_MAX) * fade
+    return Warped(cols, w.ok)
+
+
 def fuse(w: Warped, agree: float = 0.08, min_views: int = 1, window: int = 1):
     """Robust per-pixel colour of warped sources: the median of the valid sources, then the
     mean of those within ``agree`` (max channel difference) of it, weighted by source
