@@ -733,3 +733,48 @@ def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
     assert depth_samples(cfg, "cpu", 6, novel=False) == 4
     assert depth_samples(RenderConfig(depth_samples=5), "cpu", 24, novel=True) == 5
     assert depth_samples(RenderConfig(fill="network"), "cpu", 24, novel=False) == 0
+
+
+def test_novel_match_brings_the_networks_pixels_to_the_photos_colours():
+    """match_network on a frame whose photos cover all but two holes, GN-FR's render of the
+    holes (and their ring) biased against the truth: ``global`` (gain and offset per channel)
+    takes out an affine bias; ``local`` also a bias that drifts across the frame, which one
+    gain and offset cannot; ``off`` and every pixel GN-FR did not render stay as they were."""
+    from pipeline.render.novel import match_network
+
+    rng = np.random.default_rng(7)
+    H, W, s = 64, 96, 0.25
+    h, w = round(H * s), round(W * s)
+    truth = cv2.resize(rng.uniform(0.2, 0.7, (4, 6, 3)).astype(np.float32), (W, H),
+                       interpolation=cv2.INTER_CUBIC)
+    wgt = np.ones((H, W), np.float32)
+    wgt[17:39, 9:30] = 0  # holes not on the low-res grid: their blocks hold photo pixels
+    wgt[25:47, 61:86] = 0
+    lacking = cv2.resize((wgt < 1).astype(np.float32), (w, h), interpolation=cv2.INTER_AREA) > 0
+    need = cv2.dilate(lacking.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    small = cv2.resize(truth, (w, h), interpolation=cv2.INTER_AREA)
+    drift = np.linspace(-0.06, 0.06, w, dtype=np.float32)[None, :, None]
+
+    def frame(bias):
+        low = small.copy()
+        low[need] = (0.7 * small + 0.2 + bias)[need]
+        return low
+
+    def err(low, mode):
+        out = match_network(low, need, lacking, truth, wgt, mode)
+        assert np.array_equal(out[~need], low[~need])  # the photos' pixels untouched
+        return np.abs(out - small)[lacking].mean()
+
+    affine = frame(0.0)
+    assert np.array_equal(match_network(affine, need, lacking, truth, wgt, "off"), affine)
+    assert np.abs(affine - small)[lacking].mean() > 0.03
+    assert err(affine, "global") < 0.005
+    drifting = frame(np.broadcast_to(drift, small.shape))
+    assert err(drifting, "local") < 0.5 * err(drifting, "global")
+    on_grid = np.ones((H, W), np.float32)
+    on_grid[16:40, 8:32] = 0  # a hole of whole low-res pixels: nothing to fit on, as rendered
+    lack2 = cv2.resize(1 - on_grid, (w, h), interpolation=cv2.INTER_AREA) > 0
+    need2 = cv2.dilate(lack2.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    low2 = small.copy()
+    low2[need2] = (0.7 * small + 0.2)[need2]
+    assert np.array_equal(match_network(low2, need2, lack2, truth, on_grid, "local"), low2)

@@ -423,3 +423,45 @@ def test_consistency_in_inverse_depth_accepts_what_the_relative_check_rejects():
     wide = consistency_count(views, 0, [1], 0.02, inverse_tol=0.02)
     assert (wide[10:][seen] == 1).mean() > 0.95 and not wide[:10].any()
     assert not consistency_count(views, 0, [1], 0.02, inverse_tol=0.005).any()
+
+
+def test_harmonize_sources_takes_out_smooth_differences_and_keeps_other_surfaces():
+    """Three warped photos of one textured surface, two with a smooth brightness ramp of
+    their own (vignetting, a sky's gradient): harmonized, each is within a small error of
+    the median photo wherever it saw the surface, so the fused colour no longer jumps where
+    a photo drops out of the set; a square where one photo sees another surface (0.4
+    brighter) is left as it was, and a lone photo (nothing to compare with) is unchanged."""
+    import cv2
+
+    from pipeline.stereo import HARMONIZE_MAX, Warped, fuse, harmonize_sources
+
+    rng = np.random.default_rng(3)
+    H, W = 60, 80
+    truth = cv2.resize(rng.uniform(0.2, 0.6, (15, 20, 3)).astype(np.float32), (W, H),
+                       interpolation=cv2.INTER_NEAREST)
+    ramp = np.linspace(0.0, 0.12, W, dtype=np.float32)[None, :, None] * np.ones((H, 1, 1))
+    cols = np.stack([truth, truth + ramp, truth + 0.5 * ramp]).astype(np.float32)
+    median = cols[2].copy()  # the middle photo at every pixel
+    cols[2, 20:30, 30:40] += 0.4  # photo 2 sees something else there
+    ok = np.ones((3, H, W), bool)
+    out = harmonize_sources(Warped(cols.copy(), ok), sigma=4.0)
+    inner = np.zeros((H, W), bool)
+    inner[8:-8, 8:-8] = True  # away from the frame's border
+    inner[8:42, 18:52] = False  # and from the other surface (which moves the median)
+    for k in (0, 1):
+        assert np.abs(cols[k] - median)[inner].max() > 0.035
+        assert np.abs(out.colours[k] - median)[inner].max() < 0.01
+    other = out.colours[2, 22:28, 32:38] - median[22:28, 32:38]
+    assert other.min() > HARMONIZE_MAX  # the other surface is not pulled to the median
+    lone = Warped(cols[:1].copy(), ok[:1])
+    assert np.array_equal(harmonize_sources(lone, 4.0).colours, cols[:1])
+    # fused, the colour does not jump where the nearest photo drops out of the set
+    part = ok.copy()
+    part[0, :, :60] = False  # the nearest photo does not see the left part
+
+    def step(w):  # the fused colour's error from the truth, across column 60
+        e = fuse(w)[0] - truth
+        return np.abs(e[8:-8, 60] - e[8:-8, 59]).max()
+
+    assert step(Warped(cols, part)) > 0.03
+    assert step(harmonize_sources(Warped(cols.copy(), part), 4.0)) < 0.01
