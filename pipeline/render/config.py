@@ -163,6 +163,12 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
+    crack_share: float = option(0.0, ge=0, le=1)
+    """hybrid novel frames: the depth splatted from the photos' depth maps closes a hole
+    (a crack of the forward projection) only where at least this share of the 5x5 pixels
+    around it is known, so a lone depth pixel (a chance match in a depth map's sky) stays a
+    point instead of growing into a 5-pixel square at its depth (0 = every hole within two
+    pixels of a known one is closed; ``pipeline.stereo.splat_depth``, docs/depth.md)."""
     novel_match: str = option("off", choices=NOVEL_MATCHES)
     """hybrid novel frames: bring GN-FR's pixels to the photos' colours before they are
     drawn beneath them, fitted on the rendered pixels the photos cover (the ring around
