@@ -52,8 +52,7 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
                near: float | None = None, far: float | None = None,
-               beyond: int = 0, agree_window: int = 1, harmonize: float = 0.0,
-               crack_share: float = 0.0) -> PhotoFill:
+               beyond: int = 0, agree_window: int = 1, harmonize: float = 0.0) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
@@ -65,10 +64,8 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     ``agree_window``: the agreement test over that window (``stereo.fuse``).
     ``harmonize``: without a reference, each warped source is first brought to the others
     by a smooth local offset, a Gaussian of this fraction of the long side
-    (``stereo.harmonize_sources``; 0 = off). ``crack_share``: the splatted depth's cracks
-    are closed only where that share of their neighbourhood is known
-    (``stereo.splat_depth``; 0 = every crack, as before)."""
-    depth = splat_depth(K, c2w, size, sources, fill=2, crack_share=crack_share)
+    (``stereo.harmonize_sources``; 0 = off)."""
+    depth = splat_depth(K, c2w, size, sources, fill=2)
     if dense and near is not None and (depth <= 0).any():
         holes = depth <= 0
         cdepth, cost = sweep_consensus(K, c2w, size, sources, near, far, where=holes,

@@ -379,15 +379,12 @@ def remove_specks(depth: np.ndarray, near: float, far: float, planes: int,
 
 
 def splat_depth(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
-                views: list[PosedView], fill: int = 2, crack_share: float = 0.0) -> np.ndarray:
+                views: list[PosedView], fill: int = 2) -> np.ndarray:
     """[H, W] z-depth of a target camera from the views' depth maps: every known depth
     pixel is projected into the target and the nearest surface wins (z-buffer); holes of up
     to ``fill`` pixels (the cracks of forward projection) are closed by a min filter of the
-    surrounding depths; ``fill`` < 0 fills every hole (``fill_holes``). ``crack_share`` > 0:
-    a hole is closed only where at least that share of the (2 fill + 1)^2 window around it
-    is known, so a crack inside a splatted surface closes while a lone point (a chance
-    match in a depth map's sky) stays a point instead of growing into a square. 0 where no
-    view saw the surface."""
+    surrounding depths; ``fill`` < 0 fills every hole (``fill_holes``). 0 where no view saw
+    the surface."""
     W, H = size
     zbuf = np.full(H * W, np.inf, np.float32)
     for v in views:
@@ -410,10 +407,6 @@ def splat_depth(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
         big = np.where(z > 0, z, np.float32(1e9))
         closed = cv2.erode(big, np.ones((k, k), np.uint8))  # min filter: nearest surface
         hole = (z == 0) & (closed < 1e9)
-        if crack_share > 0:
-            known = cv2.boxFilter((z > 0).astype(np.float32), -1, (k, k), normalize=True,
-                                  borderType=cv2.BORDER_CONSTANT)
-            hole &= known >= crack_share
         z[hole] = closed[hole]
     return z
 

@@ -15,16 +15,6 @@ INPUTS_MIN_BLOB = 0.0005
 flare draws of two development scenes (docs/history/fill.md, "Specks in the sky")."""
 
 
-NOVEL_MATCHES = ("off", "global", "local")
-NOVEL_MATCH_SIGMA = 0.02
-"""``RenderConfig.novel_match`` ``local``: the Gaussian that spreads the photos' difference
-from GN-FR into each hole, as a fraction of the frame's long side."""
-NOVEL_MATCH_MAX = 0.15
-"""``local``: ring pixels whose difference from GN-FR (0..1 colours, after the global match)
-exceeds this in any channel show another surface and are left out; the offset is capped
-at it."""
-
-
 NOVEL_SOURCES_EQUAL_BELOW = 0.1
 """``RenderConfig.sources_equal_below`` of novel frames (camera paths, held-out cameras) when
 not given. The de-flared photos always default to 0: their fill takes the sources' pixels,
@@ -163,20 +153,6 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
-    crack_share: float = option(0.0, ge=0, le=1)
-    """hybrid novel frames: the depth splatted from the photos' depth maps closes a hole
-    (a crack of the forward projection) only where at least this share of the 5x5 pixels
-    around it is known, so a lone depth pixel (a chance match in a depth map's sky) stays a
-    point instead of growing into a 5-pixel square at its depth (0 = every hole within two
-    pixels of a known one is closed; ``pipeline.stereo.splat_depth``, docs/depth.md)."""
-    novel_match: str = option("off", choices=NOVEL_MATCHES)
-    """hybrid novel frames: bring GN-FR's pixels to the photos' colours before they are
-    drawn beneath them, fitted on the rendered pixels the photos cover (the ring around
-    each hole): ``global``, a per-channel gain and offset per frame (as ``color_match``
-    does for the de-flared photos); ``local``, that and then a smooth offset, the photos'
-    remaining difference from GN-FR near each hole (a Gaussian of ``NOVEL_MATCH_SIGMA`` of
-    the frame's long side, differences over ``NOVEL_MATCH_MAX`` left out as another
-    surface), fading out away from the photos; ``off``: as rendered (docs/depth.md)."""
     depth_min_blob: float | None = option(None, ge=0, lt=1)
     """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
     than this fraction of the image are left out when the render reads them

@@ -81,8 +81,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         return photo_fill(K, c2w, size, views, reference=ref, ref_valid=ref_valid,
                           near=job.near, far=job.far, beyond=cfg.beyond_planes,
                           agree_window=cfg.agree_window,
-                          harmonize=cfg.harmonize if novel else 0.0,
-                          crack_share=cfg.crack_share if novel else 0.0)
+                          harmonize=cfg.harmonize if novel else 0.0)
 
     pf = fill(srcs)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,

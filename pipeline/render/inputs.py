@@ -132,34 +132,21 @@ MATCH_GAIN = (0.5, 2.0)
 
 def match_colours(rgb: np.ndarray, photo: np.ndarray, ring: np.ndarray | None) -> np.ndarray:
     """Map rendered colours ``rgb`` [R, 3] to the photo: per channel, least squares
-    ``photo ~ g * rgb + b`` over the ``ring`` [R] pixels (:func:`fit_gains`). Identity with
-    fewer than MATCH_MIN_PIXELS ring pixels or ``ring`` None. Values stay in the input's
-    range convention (clipped at 0 below)."""
+    ``photo ~ g * rgb + b`` over the ``ring`` [R] pixels (g clipped to MATCH_GAIN, b the
+    mean residual with that g). Identity with fewer than MATCH_MIN_PIXELS ring pixels or
+    ``ring`` None. Values stay in the input's range convention (clipped at 0 below)."""
     if ring is None or int(ring.sum()) < MATCH_MIN_PIXELS:
         return rgb
-    return apply_gains(rgb, *fit_gains(rgb[ring], photo[ring]))
-
-
-def apply_gains(rgb: np.ndarray, g: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``g * rgb + b`` per channel in float32, clipped at 0 below."""
+    x, y = rgb[ring].astype(np.float64), photo[ring].astype(np.float64)
     out = np.empty_like(rgb, dtype=np.float32)
     for c in range(rgb.shape[1]):
-        out[:, c] = float(g[c]) * rgb[:, c] + float(b[c])
-    return np.maximum(out, 0.0)
-
-
-def fit_gains(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per channel (g, b) [3] of the least-squares ``y ~ g * x + b`` over pixels [N, 3], g
-    clipped to MATCH_GAIN (1 where ``x`` has no variance), b the mean residual with that g."""
-    x, y = x.astype(np.float64), y.astype(np.float64)
-    g, b = np.ones(x.shape[1]), np.zeros(x.shape[1])
-    for c in range(x.shape[1]):
         xc, yc = x[:, c], y[:, c]
         var = float(np.var(xc))
-        gc = float(np.cov(xc, yc, bias=True)[0, 1] / var) if var > 1e-8 else 1.0
-        g[c] = float(np.clip(gc, *MATCH_GAIN))
-        b[c] = float(np.mean(yc - g[c] * xc))
-    return g, b
+        g = float(np.cov(xc, yc, bias=True)[0, 1] / var) if var > 1e-8 else 1.0
+        g = float(np.clip(g, *MATCH_GAIN))
+        b = float(np.mean(yc - g * xc))
+        out[:, c] = g * rgb[:, c] + b
+    return np.maximum(out, 0.0)
 
 
 def input_blend(frame: Frame, cfg: RenderConfig, ws: Workspace, size: tuple[int, int],

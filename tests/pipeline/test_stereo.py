@@ -466,23 +466,3 @@ def test_harmonize_sources_takes_out_smooth_differences_and_keeps_other_surfaces
     assert step(Warped(cols, part)) > 0.03
     assert step(harmonize_sources(Warped(cols.copy(), part), 4.0)) < 0.01
 
-
-def test_crack_share_closes_cracks_and_keeps_lone_depth_pixels_lone():
-    """A neighbour's depth map of a surface with every third pixel missing (cracks) and a
-    lone pixel far from it (a chance match in a sky): splatted into the neighbour's own
-    camera, the default closes both, the lone pixel into a 5x5 square; with crack_share
-    0.25 the surface's cracks still close and the lone pixel stays one pixel."""
-    from pipeline.stereo import PosedView
-
-    c2w = np.eye(4)
-    depth = np.zeros((H, W), np.float32)
-    depth[5:25, 5:35] = 3.0
-    depth[5:25:3, 5:35:3] = 0  # cracks inside the surface
-    depth[40, 60] = 2.5  # a lone point
-    view = PosedView(np.zeros((H, W, 3), np.float32), K, c2w, depth=depth)
-    plain = splat_depth(K, c2w, (W, H), [view])
-    strict = splat_depth(K, c2w, (W, H), [view], crack_share=0.25)
-    inside = (slice(5, 25), slice(5, 35))
-    assert (plain[inside] > 0).all() and (strict[inside] > 0).all()
-    assert (plain[38:43, 58:63] > 0).all()  # the default grows the point into a square
-    assert (strict[36:45, 56:65] > 0).sum() == 1 and strict[40, 60] > 0
