@@ -164,10 +164,37 @@ def list_photos(photos: Path) -> list[Photo]:
                  f"using {paths[0].name} (the others only if it cannot be decoded)")
         chosen.append(Photo(paths[0], stem, paths[0].suffix.lower() in RAW_EXTS,
                             tuple(paths[1:])))
+    chosen = without_copies(chosen)
     if len(chosen) < MIN_IMAGES:
         raise UserError(f"photo folder {photos} has only {len(chosen)} photo(s): at least "
                         f"{MIN_IMAGES} overlapping photos of the scene are needed")
     return chosen
+
+
+def without_copies(chosen: list[Photo]) -> list[Photo]:
+    """``chosen`` without byte-identical copies of an earlier photo (``IMG_1 copy.jpg``
+    beside ``IMG_1.jpg``), each named in a warning: a copy adds no view, and as a view of
+    its own it would pair the photo with itself (zero baseline in the pose, a source that
+    is its own target)."""
+    import hashlib
+
+    by_size: dict[int, list[Photo]] = {}
+    for photo in chosen:
+        by_size.setdefault(photo.path.stat().st_size, []).append(photo)
+    first: dict[str, Photo] = {}
+    copies: set[str] = set()
+    for same in by_size.values():
+        if len(same) < 2:
+            continue
+        for photo in same:
+            digest = hashlib.sha256(photo.path.read_bytes()).hexdigest()
+            if digest in first:
+                warn(f"{photo.path.name} is the same file as {first[digest].path.name}: "
+                     "left out (a copy adds no view); remove it to silence this")
+                copies.add(photo.stem)
+            else:
+                first[digest] = photo
+    return [p for p in chosen if p.stem not in copies]
 
 
 # --------------------------------------------------------------------------- pixels

@@ -139,6 +139,32 @@ def test_corrupt_files_named_and_skipped(tmp_path, capsys):
     assert sorted(ws.stage_record("decode")["skipped"]) == ["cut.jpg", "cutraw.dng", "junk.png"]
 
 
+def test_copies_of_a_photo_are_named_and_left_out(tmp_path, capsys):
+    """A byte-identical copy of a photo (``X copy.jpg``) is named in one warning and left
+    out of the workspace; a folder of one photo and its copies fails as too few photos."""
+    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
+    d = tmp_path / "photos"
+    d.mkdir()
+    for f in sorted(sample.glob("*.jpg"))[:3]:
+        shutil.copy(f, d)
+    first = sorted(d.iterdir())[0]
+    shutil.copy(first, d / f"{first.stem} copy.jpg")
+    before = digest_paths([d])
+    assert main(["decode", str(d), "--out", str(tmp_path / "ws"), "--max-size", "96"]) == 0
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "copy.jpg" in ln]
+    assert len(lines) == 1 and "same file as " + first.name in lines[0], err
+    ws = Workspace.open(tmp_path / "ws")
+    assert sorted(p.stem for p in ws.decoded.iterdir()) == sorted(p.stem for p in
+                                                                 sample.glob("*.jpg"))[:3]
+    assert digest_paths([d]) == before
+    one = tmp_path / "one"
+    one.mkdir()
+    for name in ("a.jpg", "b.jpg", "c.jpg"):
+        shutil.copy(first, one / name)
+    _fails(capsys, ["decode", str(one), "--out", str(tmp_path / "ws1")], "only 1 photo")
+
+
 def test_too_few_usable_after_skipping(tmp_path, capsys):
     d = _kermit(tmp_path / "bad", 2)
     (d / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0garbage")
