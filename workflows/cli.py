@@ -58,7 +58,16 @@ def _register_all() -> None:
         return
     for name in COMMAND_MODULES:  # every module exists: a missing one is a packaging bug
         importlib.import_module(f"workflows.commands.{name}").register(app)
+    for info in app.registered_commands:  # `--help`'s list: each summary on one line
+        if info.short_help is None and info.callback is not None and info.callback.__doc__:
+            info.short_help = short_help(info.callback.__doc__)
     _registered = True
+
+
+def short_help(doc: str) -> str:
+    """The first paragraph of a command's docstring as one line (the docstring's own line
+    breaks would otherwise break the command list of ``--help`` mid-sentence)."""
+    return " ".join(doc.strip().split("\n\n")[0].split())
 
 
 def command_names() -> set[str]:

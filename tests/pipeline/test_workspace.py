@@ -144,6 +144,13 @@ def test_cli_help_lists_commands(capsys):
     assert code == 0
     for name in ("run", "decode", "pose", "mask", "finetune", "render", "eval", "bench"):
         assert name in command_names() and name in out
+    from workflows.cli import app
+
+    for info in app.registered_commands:  # each summary one line, as written in its docstring
+        assert info.short_help and "\n" not in info.short_help, info.name
+    from workflows.cli import short_help
+
+    assert short_help("Write A and\n        B.\n\n        More.") == "Write A and B."
 
 
 def test_scene_name_of_a_scene_images_folder_is_the_scene(tmp_path):
