@@ -125,6 +125,26 @@ def photo_subfolders(folder: Path) -> list[tuple[Path, int]]:
 
 
 # --------------------------------------------------------------------------- listing
+def check_not_workspace(photos: Path) -> None:
+    """A clear error when ``photos`` is a deflare-scene workspace or a folder inside one
+    (its decoded photos would be decoded again into a workspace of their own)."""
+    from pipeline.workspace import enclosing_workspace
+
+    found = enclosing_workspace(photos)
+    if found is None:
+        return
+    import shlex
+
+    root, source = found
+    if root == photos.resolve():
+        src, ws = shlex.quote(str(source)), shlex.quote(str(photos))
+        raise UserError(f"{photos} is a deflare-scene workspace, not a photo folder: pass the "
+                        f"photos it was made from, `deflare-scene decode {src} --out {ws}` "
+                        f"(or `deflare-scene {ws}` to resume every stage)")
+    raise UserError(f"{photos} is inside the deflare-scene workspace {root} (files it wrote): "
+                    f"pass the photo folder it was made from, {source}")
+
+
 def list_photos(photos: Path) -> list[Photo]:
     """The photos of a folder, one per stem (raw preferred); clear errors when none."""
     if not photos.exists():
@@ -346,6 +366,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         raise UserError(f"--max-size {cfg.max_size} is too small: use at least 64 pixels "
                         "(or 0 to keep the full size)")
     photos = Path(photos)
+    check_not_workspace(photos)
     chosen = list_photos(photos)
     ws = Workspace.create(ws_path or default_workspace(photos), photos)
     stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,

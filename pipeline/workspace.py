@@ -167,6 +167,24 @@ def default_workspace(photos: str | os.PathLike) -> Path:
     return photos.with_name(photos.name + WS_SUFFIX)
 
 
+def enclosing_workspace(path: str | os.PathLike) -> tuple[Path, Path | None] | None:
+    """(root, its photo folder) of the deflare-scene workspace that ``path`` is or lies in
+    (a ``manifest.json`` naming a photo folder, in ``path`` or a folder above it), else
+    None: a workspace, or its ``decoded``/``images`` folder, passed where photos belong."""
+    path = Path(path).resolve()
+    for folder in (path, *path.parents):
+        man = folder / MANIFEST
+        if not man.is_file():
+            continue
+        try:
+            data = json.loads(man.read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(data, dict) and isinstance(data.get("photos"), str) and "stages" in data:
+            return folder, Path(data["photos"])  # else another program's manifest.json
+    return None
+
+
 _ABSENT = object()
 
 

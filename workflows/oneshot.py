@@ -97,6 +97,28 @@ def apply_overrides(stages: dict[str, Any], items: list[str]) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- the run
+def resume_target(photos: Path, out: str | None, ws_path: Path) -> tuple[Path, Path]:
+    """(photos, workspace) to run on: as given, or, when ``photos`` is itself a workspace,
+    the photo folder it was made from and that workspace (`deflare-scene WS` resumes it)."""
+    import shlex
+
+    from pipeline.workspace import enclosing_workspace
+
+    found = enclosing_workspace(photos)
+    if found is None or found[0] != photos.resolve():
+        return photos, ws_path  # a folder inside a workspace: decode says what to pass
+    root, source = found
+    if out and Path(out).resolve() != root:
+        raise UserError(f"{photos} is a deflare-scene workspace and --out names another: pass "
+                        f"the photo folder it was made from ({source}) with --out {out}")
+    if not source.is_dir():
+        raise UserError(f"{photos} is the workspace of {source}, which is no longer there: "
+                        "put the photos back there, or run `deflare-scene PHOTOS --out "
+                        f"{shlex.quote(str(photos))}` with the folder where they are now")
+    info(f"{photos} is the workspace of {source}: resuming it")
+    return source, root
+
+
 def run_all(cfg: OneShotConfig) -> Path:
     """Run every stage in order; return the workspace path."""
     for stage_cfg in cfg.stages.values():  # every option checked before anything is written
@@ -114,6 +136,7 @@ def run_all(cfg: OneShotConfig) -> Path:
 
     stages, force, t0 = cfg.stages, cfg.force, time.time()
     ws_path = Path(cfg.out) if cfg.out else default_workspace(photos)
+    photos, ws_path = resume_target(photos, cfg.out, ws_path)
     ws = decode.run(stages["decode"], photos, ws_path, force=force)
     pose.run(stages["pose"], ws, force=force)
     mask.run(stages["mask"], ws, force=force)

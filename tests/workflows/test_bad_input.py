@@ -165,6 +165,39 @@ def test_copies_of_a_photo_are_named_and_left_out(tmp_path, capsys):
     _fails(capsys, ["decode", str(one), "--out", str(tmp_path / "ws1")], "only 1 photo")
 
 
+def test_a_workspace_passed_for_photos(tmp_path, capsys):
+    """A workspace (or its decoded folder) where photos belong: `decode` says which folder
+    to pass, in one line; the one-shot command on a workspace resumes it on the photos it
+    was made from, refuses a different --out, and says so when those photos are gone.
+    Another program's manifest.json does not make a folder a workspace."""
+    from pipeline.workspace import enclosing_workspace
+    from workflows.oneshot import resume_target
+
+    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
+    photos = tmp_path / "my photos"
+    photos.mkdir()
+    for f in sorted(sample.glob("*.jpg"))[:3]:
+        shutil.copy(f, photos)
+    ws = tmp_path / "ws"
+    assert main(["decode", str(photos), "--out", str(ws), "--max-size", "96"]) == 0
+    capsys.readouterr()
+    before = digest_paths([ws])
+    _fails(capsys, ["decode", str(ws)], "is a deflare-scene workspace",
+           f"'{photos}'", "to resume")
+    _fails(capsys, ["decode", str(ws / "decoded")], "inside the deflare-scene workspace",
+           str(photos))
+    assert digest_paths([ws]) == before
+    assert resume_target(ws, None, tmp_path / "x") == (photos.resolve(), ws.resolve())
+    assert resume_target(photos, None, ws) == (photos, ws)
+    _fails(capsys, [str(ws), "--out", str(tmp_path / "other")], "--out names another")
+    shutil.move(photos, tmp_path / "moved")
+    _fails(capsys, [str(ws)], "no longer there", "--out")
+    other = tmp_path / "webapp"
+    other.mkdir()
+    (other / "manifest.json").write_text('{"name": "app", "icons": []}')
+    assert enclosing_workspace(other) is None
+
+
 def test_too_few_usable_after_skipping(tmp_path, capsys):
     d = _kermit(tmp_path / "bad", 2)
     (d / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0garbage")
