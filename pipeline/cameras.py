@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.workspace import atomic_write_json, read_json
 
 
@@ -108,7 +108,8 @@ def load_cameras(path: str | os.PathLike) -> Cameras:
     """Read cameras.json; a clear error when it is missing or malformed."""
     path = Path(path)
     if not path.exists():
-        raise UserError(f"{path} is missing: run `deflare-scene pose {path.parent}` first")
+        raise UserError(f"{path} is missing: run "
+                        f"`deflare-scene pose {shell_path(path.parent)}` first")
     d = read_json(path)
     try:
         frames = [Frame.from_json(f) for f in d["frames"]]

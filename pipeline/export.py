@@ -20,7 +20,7 @@ import numpy as np
 
 from pipeline.camera_models import CameraModel
 from pipeline.cameras import Cameras, Frame
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import image_size, read_image
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
@@ -124,8 +124,9 @@ def write_comparisons(ws: Workspace, cams: Cameras, cfg: ExportConfig) -> list[P
 
     stems = [f.stem for f in cams.frames if ws.deflared_path(f.stem).exists()]
     if not stems:
-        warn(f"no de-flared photos in {ws.deflared}: run `deflare-scene render {ws.root} "
-             "--path inputs` first; skipping the comparisons")
+        warn(f"no de-flared photos in {ws.deflared}: run "
+             f"`deflare-scene render {shell_path(ws.root)} --path inputs` first; skipping the "
+             "comparisons")
         return []
     height = read_decoded(ws, stems[0]).shape[0]
     pairs = [side_by_side(read_decoded(ws, s), read_image(ws.deflared_path(s), fix=REWRITE),

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.options import option, validate
 from pipeline.progress import info, warn
 from pipeline.workspace import Workspace
@@ -66,7 +66,7 @@ def check_targets(views: ViewsFile, max_flare: float, min_targets: int, root: Pa
         f"only {len(targets)} of {len(views.views)} views have at most "
         f"{100 * max_flare:.0f}% flare (need {min_targets}); flared: {flared}. Retake "
         f"some photos with less flare, raise --max-flare, or give hand-made masks with "
-        f"`deflare-scene mask {root} --masks DIR`")
+        f"`deflare-scene mask {shell_path(root)} --masks DIR`")
 
 
 def few_targets_note(views: ViewsFile, max_flare: float, root: Path) -> str | None:
@@ -80,8 +80,8 @@ def few_targets_note(views: ViewsFile, max_flare: float, root: Path) -> str | No
         return None
     return (f"only {n_t} of {n} views may be training targets: the other {n - n_t} have "
             f"more than {100 * max_flare:.0f}% of their pixels marked as flare (the paper's "
-            f"rule), and fewer targets train a softer scene. `deflare-scene select {root} "
-            f"--max-flare "
+            f"rule), and fewer targets train a softer scene. "
+            f"`deflare-scene select {shell_path(root)} --max-flare "
             f"{NOTE_MAX_FLARE}` would train on {looser} (in one shot: "
             f"`--set select.max_flare={NOTE_MAX_FLARE}`); their marked flare stays out of "
             f"the loss")

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 
 SCHEMA_VERSION = 1
 MANIFEST = "manifest.json"
@@ -415,11 +415,10 @@ class Workspace:
         root = Path(root)
         if not root.exists():
             raise UserError(f"workspace {root} does not exist: create it with "
-                            "`deflare-scene decode PHOTOS --out {root}`".replace("{root}",
-                                                                                 str(root)))
+                            f"`deflare-scene decode PHOTOS --out {shell_path(root)}`")
         if not (root / MANIFEST).is_file():
-            raise UserError(f"{root} is not a deflare-scene workspace (no {MANIFEST}): "
-                            f"create one with `deflare-scene decode PHOTOS --out {root}`")
+            raise UserError(f"{root} is not a deflare-scene workspace (no {MANIFEST}): create "
+                            f"one with `deflare-scene decode PHOTOS --out {shell_path(root)}`")
         return cls(root)
 
     # manifest -------------------------------------------------------------
@@ -476,7 +475,7 @@ class Workspace:
         for s in stages:
             if self.stage_record(s).get("status") != "complete":
                 raise UserError(f"{self.root}: stage '{s}' has not run yet: run "
-                                f"`deflare-scene {s} {self.root}` first")
+                                f"`deflare-scene {s} {shell_path(self.root)}` first")
 
     def begin_stage(self, name: str, params: dict, inputs: Iterable[str | os.PathLike],
                     force: bool = False, defaults: dict | None = None) -> StageRun:

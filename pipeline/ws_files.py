@@ -31,7 +31,7 @@ import numpy as np
 
 from gnfr.view_sampler import is_target
 from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import read_gray, read_image, read_image_float
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_path, atomic_write_json, read_json
 
@@ -65,7 +65,8 @@ def view_stems(ws: Workspace) -> list[str]:
     """Stems of WS/images/*.png, sorted; a UserError when there are none."""
     stems = sorted(p.stem for p in ws.images.glob("*.png")) if ws.images.is_dir() else []
     if not stems:
-        raise UserError(f"{ws.images} has no images: run `deflare-scene pose {ws.root}` first")
+        raise UserError(f"{ws.images} has no images: run "
+                        f"`deflare-scene pose {shell_path(ws.root)}` first")
     return stems
 
 

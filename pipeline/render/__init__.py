@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import asdict, replace
 from pathlib import Path
 
+from pipeline.errors import shell_path
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
 from pipeline.render.config import FILLS, INPUTS_MIN_BLOB, NAMED_PATHS, RenderConfig
@@ -113,7 +114,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
     use_photos = cfg.fill == "hybrid" and ws.depth.is_dir()
     if cfg.fill == "hybrid" and not use_photos:
-        warn(f"render: no {ws.depth} (run `deflare-scene depth {ws.root}`): GN-FR "
+        warn(f"render: no {ws.depth} (run `deflare-scene depth {shell_path(ws.root)}`): GN-FR "
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)

@@ -6,7 +6,7 @@ import numpy as np
 
 from pipeline.camera_models import CameraModel, warp_maps
 from pipeline.cameras import Frame
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.render.config import RenderConfig
 from pipeline.render.fill import fill_from_photos
 from pipeline.render.flare_layer import apply_flare_layer
@@ -204,8 +204,8 @@ def flare_mask_in(cam: CameraModel, frame: Frame, ws: Workspace) -> np.ndarray:
 
     path = ws.mask_path(frame.stem)
     if not path.exists():
-        raise UserError(f"{path} is missing: run `deflare-scene mask {ws.root}` first, or "
-                        "render the full image with --blend none")
+        raise UserError(f"{path} is missing: run `deflare-scene mask {shell_path(ws.root)}` "
+                        "first, or render the full image with --blend none")
     flare = read_mask(ws, frame.stem)
     pin = CameraModel.pinhole(frame.K, flare.shape[1], flare.shape[0])
     mx, my = warp_maps(pin, cam)

@@ -192,6 +192,11 @@ def test_a_workspace_passed_for_photos(tmp_path, capsys):
     _fails(capsys, [str(ws), "--out", str(tmp_path / "other")], "--out names another")
     shutil.move(photos, tmp_path / "moved")
     _fails(capsys, [str(ws)], "no longer there", "--out")
+    # a command a message suggests can be pasted: the path with a space is quoted
+    _fails(capsys, ["finetune", str(ws)], f"`deflare-scene pose {ws}` first")
+    spaced = tmp_path / "my ws"
+    shutil.copytree(ws, spaced)
+    _fails(capsys, ["finetune", str(spaced)], f"`deflare-scene pose '{spaced.resolve()}'` first")
     other = tmp_path / "webapp"
     other.mkdir()
     (other / "manifest.json").write_text('{"name": "app", "icons": []}')

@@ -377,15 +377,16 @@ def fill_widths(cfg: BenchConfig) -> tuple[int, ...]:
 def check_workspace(path: Path) -> tuple:
     """(workspace, checkpoint) of ``--workspace``, or the one-line error of what it lacks."""
     from pipeline import render
-    from pipeline.errors import UserError
+    from pipeline.errors import UserError, shell_path
     from pipeline.workspace import Workspace
 
     ws = Workspace.open(path)
     ws.require("pose")
     ckpt = render.find_checkpoint(ws, None)
     if not ws.depth.is_dir():
-        raise UserError(f"{ws.depth} is missing: run `deflare-scene depth {ws.root}` first "
-                        "(the hybrid fill the bench compares needs it)")
+        raise UserError(f"{ws.depth} is missing: run `deflare-scene depth "
+                        f"{shell_path(ws.root)}` first (the hybrid fill the bench compares "
+                        "needs it)")
     return ws, ckpt
 
 
