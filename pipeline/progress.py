@@ -50,11 +50,25 @@ class _Progress(Progress):
         if (now - last >= self.PLAIN_EVERY_S or done) and self._last.get(("done", task_id)) is None:
             total = f"/{task.total:g}" if task.total is not None else ""
             extra = " ".join(f"{k}={v}" for k, v in task.fields.items() if v not in (None, ""))
+            elapsed = task.elapsed or 0.0
+            left = ""
+            if not done and task.total is not None and task.completed > 0:
+                left = ", " + time_left(elapsed * (task.total - task.completed) / task.completed)
             console.print(f"{task.description}: {task.completed:g}{total} "
-                          f"({task.elapsed or 0:.0f} s) {extra}".rstrip())
+                          f"({elapsed:.0f} s{left}) {extra}".rstrip())
             self._last[task_id] = now
             if done:
                 self._last[("done", task_id)] = True
+
+
+def time_left(seconds: float) -> str:
+    """A plain progress line's estimate of the time left, at the rate so far: ``about 40 s
+    left``, ``about 8.5 min left``, ``about 2.3 h left``."""
+    if seconds < 90:
+        return f"about {seconds:.0f} s left"
+    if seconds < 90 * 60:
+        return f"about {seconds / 60:.{1 if seconds < 600 else 0}f} min left"
+    return f"about {seconds / 3600:.1f} h left"
 
 
 def make_progress(*extra_columns) -> Progress:
