@@ -7,7 +7,9 @@ Writes
   de-flared version (``WS/decoded`` | ``WS/deflared``), as a video and a contact sheet;
 - ``WS/scene.glb``: sparse points and input cameras plus the rendered camera path;
 - ``WS/transforms.json`` and ``WS/masks_nerfstudio/<stem>.png``: the poses and flare masks
-  in nerfstudio's format (see :func:`nerfstudio_transforms` for the choices made).
+  in nerfstudio's format (see :func:`nerfstudio_transforms` for the choices made);
+- ``WS/points.ply``: the depth maps' points (WS/depth) coloured by the photos, a binary PLY
+  in the same world frame (MeshLab, CloudCompare, Blender, Open3D read it).
 Each output is skipped when its inputs are missing, with a message saying what to run.
 """
 
@@ -47,6 +49,10 @@ class ExportConfig:
     """Rewrite WS/scene.glb with the rendered camera path."""
     transforms: bool = True
     """Write WS/transforms.json and WS/masks_nerfstudio/ (nerfstudio format)."""
+    points: bool = True
+    """Write WS/points.ply: every view's depth map (WS/depth) as coloured points."""
+    max_points: int = option(2_000_000, ge=1)
+    """At most this many points in WS/points.ply (an even sample of them when more)."""
 
 
 def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
@@ -59,8 +65,8 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     frames = rendered_frames(frames_dir)
     if not frames:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
-                        f"render {ws.root} --path {cfg.path}` first")
-    inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks]
+                        f"render {shell_path(ws.root)} --path {cfg.path}` first")
+    inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks, ws.depth]
     stage_run = ws.begin_stage("export", asdict(cfg), inputs, force,
                                 defaults=asdict(ExportConfig()))
     if stage_run.skip:
@@ -74,6 +80,9 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
         outs += [glb] if glb else []
     if cfg.transforms:
         outs += write_transforms(ws, cams)
+    if cfg.points:
+        ply = write_points(ws, cams, cfg.max_points)
+        outs += [ply] if ply else []
     return stage_run.finish(outs, versions=["imageio-ffmpeg"])
 
 
@@ -162,6 +171,70 @@ def contact_sheet(tiles: list[np.ndarray], long_side: int = 2400) -> np.ndarray:
                                    max(1, round(sheet.shape[0] * s))),
                            interpolation=cv2.INTER_AREA)
     return sheet
+
+
+# --------------------------------------------------------------------------- points.ply
+def depth_points(ws: Workspace, cams: Cameras) -> tuple[np.ndarray, np.ndarray]:
+    """(xyz [N, 3] float32 in the world frame of cameras.json, rgb [N, 3] uint8) of every
+    known pixel of every view's depth map, coloured by WS/images."""
+    import cv2
+
+    from pipeline.stereo import backproject
+    from pipeline.ws_files import read_depth, read_view_image
+
+    xyz, rgb = [], []
+    for f in cams.frames:
+        if not ws.depth_path(f.stem).exists():
+            continue
+        depth = read_depth(ws, f.stem)[0]
+        image = read_view_image(ws, f.stem)
+        K = np.array(f.K, float)
+        if image.shape[:2] != depth.shape:  # a depth map at another size than the photo
+            K[0] *= depth.shape[1] / image.shape[1]
+            K[1] *= depth.shape[0] / image.shape[0]
+            image = cv2.resize(image, depth.shape[::-1], interpolation=cv2.INTER_AREA)
+        known = depth > 0
+        xyz.append(backproject(K, np.array(f.c2w, float), depth)[known].astype(np.float32))
+        rgb.append(image[known])
+    if not xyz:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
+    return np.concatenate(xyz), np.concatenate(rgb)
+
+
+def ply_bytes(xyz: np.ndarray, rgb: np.ndarray) -> bytes:
+    """A binary little-endian PLY of coloured points (float x, y, z; uchar red, green, blue)."""
+    rows = np.empty(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                                     ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+    for i, k in enumerate("xyz"):
+        rows[k] = xyz[:, i]
+    for i, k in enumerate(("red", "green", "blue")):
+        rows[k] = rgb[:, i]
+    header = ("ply\nformat binary_little_endian 1.0\ncomment deflare-scene: depth maps, "
+              f"world frame of cameras.json\nelement vertex {len(rows)}\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n")
+    return header.encode("ascii") + rows.tobytes()
+
+
+def write_points(ws: Workspace, cams: Cameras, max_points: int) -> Path | None:
+    """WS/points.ply from the depth maps (at most ``max_points``, an even sample); None,
+    with a message, when the depth stage has not run or found no depth."""
+    from pipeline.workspace import atomic_write_bytes
+
+    if not ws.depth.is_dir():
+        warn(f"no depth maps in {ws.depth}: run `deflare-scene depth {shell_path(ws.root)}` "
+             "for WS/points.ply; skipping it")
+        return None
+    xyz, rgb = depth_points(ws, cams)
+    if not len(xyz):
+        warn(f"the depth maps in {ws.depth} know no pixel: no WS/points.ply")
+        return None
+    if len(xyz) > max_points:
+        keep = np.sort(np.random.default_rng(0).choice(len(xyz), max_points, replace=False))
+        xyz, rgb = xyz[keep], rgb[keep]
+    atomic_write_bytes(ws.points_ply, ply_bytes(xyz, rgb))
+    info(f"wrote {ws.points_ply} ({len(xyz)} points from the depth maps)")
+    return ws.points_ply
 
 
 # --------------------------------------------------------------------------- scene.glb

@@ -282,6 +282,8 @@ class Workspace:
     """WS/images/<stem>.png: undistorted pinhole images, what the model reads (pose)."""
     cameras_json = property(lambda self: self.root / "cameras.json")
     scene_glb = property(lambda self: self.root / "scene.glb")
+    points_ply = property(lambda self: self.root / "points.ply")
+    """WS/points.ply: the depth maps' points, coloured (export)."""
     masks = property(lambda self: self.root / "masks")
     """WS/masks/<stem>.png: 255 = flare (mask); read with pipeline.ws_files.read_mask."""
     flare_json = property(lambda self: self.root / "flare.json")

@@ -154,6 +154,6 @@ def run_all(cfg: OneShotConfig) -> Path:
     if video.exists():
         info(f"  video: {video}")
     for path in written:
-        if path != video and path.suffix in (".mp4", ".jpg", ".glb", ".json"):
+        if path != video and path.suffix in (".mp4", ".jpg", ".glb", ".json", ".ply"):
             info(f"  {path.name}: {path}")
     return ws.root

@@ -145,3 +145,38 @@ def test_export_without_renders_is_a_clear_message(tmp_path):
     from workflows.cli import main
 
     assert main(["export", str(ws.root), "--no-glb", "--no-transforms"]) == 2
+
+
+def test_points_ply_holds_the_depth_maps_as_a_coloured_cloud(tmp_path, capsys):
+    """WS/points.ply of a textured plane's workspace after the depth stage: a binary PLY
+    that trimesh reads back, one point per known depth pixel, lying on one plane (RMS off
+    the fitted plane under 1 % of the cloud's extent), coloured by the photos; capped at
+    ``max_points``; without WS/depth, one warning and no file."""
+    import trimesh
+
+    from pipeline.depth import DepthConfig
+    from pipeline.depth import run as depth_run
+    from pipeline.export import depth_points, write_points
+    from pipeline.ws_files import read_cameras, read_depth, read_view_image
+    from tests.fixtures import make_plane_workspace
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=4)
+    cams = read_cameras(ws)
+    assert write_points(ws, cams, 10) is None and not ws.points_ply.exists()
+    assert "no depth maps" in capsys.readouterr().err
+    depth_run(DepthConfig(neighbours=3), ws)
+    known = sum(int((read_depth(ws, f.stem)[0] > 0).sum()) for f in cams.frames)
+    assert write_points(ws, cams, 10**7) == ws.points_ply
+    cloud = trimesh.load(str(ws.points_ply), file_type="ply")
+    pts = np.asarray(cloud.vertices)
+    assert len(pts) == known > 1000
+    centred = pts - pts.mean(0)
+    rms_off = np.linalg.svd(centred, full_matrices=False)[1][-1] / np.sqrt(len(pts))
+    assert rms_off < 0.01 * np.ptp(pts, axis=0).max()
+    xyz, rgb = depth_points(ws, cams)
+    assert np.array_equal(np.asarray(cloud.colors)[:, :3], rgb)
+    f0 = cams.frames[0]
+    first = read_depth(ws, f0.stem)[0] > 0
+    assert np.array_equal(rgb[:int(first.sum())], read_view_image(ws, f0.stem)[first])
+    write_points(ws, cams, 500)
+    assert len(trimesh.load(str(ws.points_ply), file_type="ply").vertices) == 500
