@@ -477,6 +477,17 @@ def warp_sources(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray,
     return Warped(cols, ok)
 
 
+def sources_median(w: Warped) -> tuple[np.ndarray, np.ndarray]:
+    """(median [H, W, 3] of the warped sources that see each pixel, 0 where none does;
+    seen [H, W] bool: where at least two see it, so the median is a comparison)."""
+    c = np.where(w.ok[..., None], w.colours, np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
+        med = nanmedian0(c)
+    seen = np.isfinite(med).all(-1) & (w.ok.sum(0) >= 2)
+    return np.nan_to_num(med), seen
+
+
 def match_gains(w: Warped, reference: np.ndarray | None = None,
                 ref_valid: np.ndarray | None = None, min_pixels: int = 200) -> Warped:
     """Per-source, per-channel gains (0.5..2) that bring each warped source to the
@@ -485,12 +496,7 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
     exposure and white balance, and agreement is judged on colour."""
     cols = w.colours.copy()
     if reference is None:
-        c = np.where(w.ok[..., None], w.colours, np.nan)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
-            ref = nanmedian0(c)
-        rv = np.isfinite(ref).all(-1) & (w.ok.sum(0) >= 2)
-        ref = np.nan_to_num(ref)
+        ref, rv = sources_median(w)
     else:
         ref = reference
         rv = np.ones(ref.shape[:2], bool) if ref_valid is None else ref_valid
@@ -521,12 +527,7 @@ def harmonize_sources(w: Warped, sigma: float) -> Warped:
     jump where the set of agreeing sources changes; this takes them out."""
     if w.colours.shape[0] < 2 or sigma <= 0:
         return w
-    c = np.where(w.ok[..., None], w.colours, np.nan)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN where none sees
-        med = nanmedian0(c)
-    seen = np.isfinite(med).all(-1) & (w.ok.sum(0) >= 2)
-    med = np.nan_to_num(med)
+    med, seen = sources_median(w)
     cols = w.colours.copy()
     for k in range(cols.shape[0]):
         d = med - w.colours[k]
