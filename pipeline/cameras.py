@@ -116,5 +116,5 @@ def load_cameras(path: str | os.PathLike) -> Cameras:
         c2w = np.asarray(d.get("colmap_to_world", np.eye(4)), np.float64)
     except (KeyError, TypeError, ValueError) as e:
         raise UserError(f"{path} is malformed ({e!r}): rerun `deflare-scene pose "
-                        f"{path.parent} --force`") from None
+                        f"{shell_path(path.parent)} --force`") from None
     return Cameras(frames=frames, colmap_to_world=c2w)

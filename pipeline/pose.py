@@ -37,7 +37,7 @@ import numpy as np
 from pipeline import colmap_io
 from pipeline.camera_models import MODELS
 from pipeline.cameras import Cameras, Frame, normalising_scale
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import read_image
 from pipeline.options import option, validate
 from pipeline.progress import console, info, make_progress, warn
@@ -174,7 +174,7 @@ class Inputs:
         stems = sorted(s for s in sources if ws.decoded_path(s).is_file())
         if not stems:
             raise UserError(f"{ws.decoded} has no decoded images: rerun `deflare-scene decode "
-                            "PHOTOS --out " + str(ws.root) + " --force`")
+                            "PHOTOS --out " + shell_path(ws.root) + " --force`")
         sizes = {s: png_size(ws.decoded_path(s)) for s in stems}
         return cls(stems, sources, sizes, ws.photos_dir)
 

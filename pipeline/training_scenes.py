@@ -28,7 +28,7 @@ import torch
 
 from gnfr.train import Scene
 from pipeline.cameras import normalising_scale
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import image_size, is_photo, list_photos, read_image
 from pipeline.progress import warn
 from pipeline.workspace import Workspace
@@ -111,7 +111,7 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
             masks = [m | enclosed_holes(m) for m in masks]
     else:
         warn(f"{ws.masks} is missing: treating every view as flare-free (run `deflare-scene "
-             f"mask {ws.root}` for GN-FR's flare handling)")
+             f"mask {shell_path(ws.root)}` for GN-FR's flare handling)")
     flare = ranked = targets = None
     if ws.views_json.exists():
         views = read_views(ws)

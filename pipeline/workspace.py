@@ -364,7 +364,7 @@ class Workspace:
 
     def rerun(self, stage: str) -> str:
         """What to tell a user whose file from ``stage`` is missing or broken."""
-        return f"rerun `deflare-scene {stage} {self.root} --force`"
+        return f"rerun `deflare-scene {stage} {shell_path(self.root)} --force`"
 
     @property
     def scene_name(self) -> str:

@@ -219,7 +219,8 @@ def _read_stage_json(ws: Workspace, path: Path, stage: str, parse):
     """``parse`` of the JSON file ``stage`` writes; a one-line error naming the file and the
     command to run when it is missing or malformed."""
     if not path.exists():
-        raise UserError(f"{path} is missing: run `deflare-scene {stage} {ws.root}` first")
+        raise UserError(f"{path} is missing: run "
+                        f"`deflare-scene {stage} {shell_path(ws.root)}` first")
     try:
         return parse(read_json(path))
     except (KeyError, TypeError, ValueError, AttributeError) as e:

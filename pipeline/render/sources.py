@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.cameras import Cameras
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
 from pipeline.workspace import Workspace
@@ -79,7 +79,7 @@ def find_checkpoint(ws: Workspace, path: str | None) -> Path:
         found = cands[-1] if cands else None
     if not found:
         raise UserError(f"no model checkpoint in {ws.model}: run `deflare-scene finetune "
-                        f"{ws.root}` first (or pass --checkpoint FILE.safetensors)")
+                        f"{shell_path(ws.root)}` first (or pass --checkpoint FILE.safetensors)")
     return Path(found)
 
 

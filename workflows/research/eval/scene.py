@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.cameras import Cameras, load_cameras
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import PHOTO_EXTS
 from pipeline.workspace import Workspace, read_json
 from pipeline.ws_files import read_mask_file
@@ -38,7 +38,7 @@ def load_synth(root: Path) -> SynthScene:
     for s in train:
         if photo_path(root, s) is None:
             raise UserError(f"{root / 'photos' / (s + '.png')} is missing: rerun "
-                            f"`deflare-scene synth ... --out {root} --force`")
+                            f"`deflare-scene synth ... --out {shell_path(root)} --force`")
     for s in train + held:
         if not (root / "clean" / f"{s}.png").is_file() or s not in cams.by_stem():
             raise UserError(f"{root}: view {s} has no clean image or camera: rerun synth")
