@@ -161,6 +161,9 @@ CHECKS = [
       for st, fmt in (("mask", "-> {:.1f} s"), ("depth", "-> {:.1f} s"),
                       ("render:inputs", "-> {:.1f} s"), ("render:interpolate", "-> {:.1f} s"),
                       ("finetune", "took {:.1f} s"))],
+    *[(PERF, "sample_oneshot_cpu_s40.json", f"stages/{st}/seconds", fmt)
+      for st, fmt in (("finetune", "fine-tuning {:.1f} s"), ("render:interpolate",
+                                                             "frames {:.1f} s"))],
     *[(PERF, "sample_oneshot_cpu_s36_ghosts.json", f"stages/{st}/seconds", "{:.1f} s ->")
       for st in ("mask", "depth", "render:inputs", "render:interpolate")],
     *[(PERF, "clean_capture_lund_s37.json", f"stages/{st}/seconds", "| {:.1f} |")
@@ -418,6 +421,14 @@ def test_sample_scores_unchanged_by_whole_ray_novel_frames():
     new = json.loads((RESULTS / "sample_oneshot_cpu_s30_ds0.json").read_text())["mean"]
     old = json.loads((RESULTS / "sample_oneshot_cpu_s29_frc.json").read_text())["mean"]
     assert new == old
+
+
+def test_sample_scores_of_the_fortieth_sessions_fresh_clone_are_the_thirty_seventh_s():
+    """docs/performance.md says the fresh clone's main job gave every score of the
+    thirty-seventh session's run to the last digit: per view and on the mean."""
+    new = json.loads((RESULTS / "sample_oneshot_cpu_s40.json").read_text())
+    old = json.loads((RESULTS / "sample_oneshot_cpu_s37.json").read_text())
+    assert new["mean"] == old["mean"] and new["views"] == old["views"]
 
 
 @pytest.mark.parametrize("width", [504, 1008])
