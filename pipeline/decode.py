@@ -203,8 +203,8 @@ def without_copies(chosen: list[Photo]) -> list[Photo]:
         by_size.setdefault(photo.path.stat().st_size, []).append(photo)
     first: dict[str, Photo] = {}
     copies: set[str] = set()
-    for same in by_size.values():
-        if len(same) < 2:
+    for size, same in by_size.items():
+        if len(same) < 2 or size == 0:  # empty files: decoding names them as unreadable
             continue
         for photo in same:
             digest = hashlib.sha256(photo.path.read_bytes()).hexdigest()
