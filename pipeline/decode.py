@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.colour import linear_to_srgb
-from pipeline.errors import UserError
+from pipeline.errors import UserError, shell_path
 from pipeline.images import JPEG_EXTS, PHOTO_EXTS
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
@@ -133,11 +133,9 @@ def check_not_workspace(photos: Path) -> None:
     found = enclosing_workspace(photos)
     if found is None:
         return
-    import shlex
-
     root, source = found
     if root == photos.resolve():
-        src, ws = shlex.quote(str(source)), shlex.quote(str(photos))
+        src, ws = shell_path(source), shell_path(photos)
         raise UserError(f"{photos} is a deflare-scene workspace, not a photo folder: pass the "
                         f"photos it was made from, `deflare-scene decode {src} --out {ws}` "
                         f"(or `deflare-scene {ws}` to resume every stage)")
@@ -198,22 +196,29 @@ def without_copies(chosen: list[Photo]) -> list[Photo]:
     is its own target)."""
     import hashlib
 
-    by_size: dict[int, list[Photo]] = {}
-    for photo in chosen:
-        by_size.setdefault(photo.path.stat().st_size, []).append(photo)
+    def digest(path: Path, limit: int | None = None) -> str:
+        with path.open("rb") as f:
+            return hashlib.sha256(f.read(limit) if limit else f.read()).hexdigest()
+
+    by_start: dict[tuple[int, str], list[Photo]] = {}
+    for photo in chosen:  # size, then the first MiB: one camera's raw files may share a size
+        size = photo.path.stat().st_size
+        if size:  # empty files: decoding names them as unreadable
+            by_start.setdefault((size, digest(photo.path, 1 << 20) if size > 1 << 20 else ""),
+                                []).append(photo)
     first: dict[str, Photo] = {}
     copies: set[str] = set()
-    for size, same in by_size.items():
-        if len(same) < 2 or size == 0:  # empty files: decoding names them as unreadable
+    for same in by_start.values():
+        if len(same) < 2:
             continue
         for photo in same:
-            digest = hashlib.sha256(photo.path.read_bytes()).hexdigest()
-            if digest in first:
-                warn(f"{photo.path.name} is the same file as {first[digest].path.name}: "
+            full = digest(photo.path)
+            if full in first:
+                warn(f"{photo.path.name} is the same file as {first[full].path.name}: "
                      "left out (a copy adds no view); remove it to silence this")
                 copies.add(photo.stem)
             else:
-                first[digest] = photo
+                first[full] = photo
     return [p for p in chosen if p.stem not in copies]
 
 

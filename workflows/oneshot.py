@@ -100,8 +100,7 @@ def apply_overrides(stages: dict[str, Any], items: list[str]) -> dict[str, Any]:
 def resume_target(photos: Path, out: str | None, ws_path: Path) -> tuple[Path, Path]:
     """(photos, workspace) to run on: as given, or, when ``photos`` is itself a workspace,
     the photo folder it was made from and that workspace (`deflare-scene WS` resumes it)."""
-    import shlex
-
+    from pipeline.errors import shell_path
     from pipeline.workspace import enclosing_workspace
 
     found = enclosing_workspace(photos)
@@ -114,7 +113,7 @@ def resume_target(photos: Path, out: str | None, ws_path: Path) -> tuple[Path, P
     if not source.is_dir():
         raise UserError(f"{photos} is the workspace of {source}, which is no longer there: "
                         "put the photos back there, or run `deflare-scene PHOTOS --out "
-                        f"{shlex.quote(str(photos))}` with the folder where they are now")
+                        f"{shell_path(photos)}` with the folder where they are now")
     info(f"{photos} is the workspace of {source}: resuming it")
     return source, root
 

@@ -152,3 +152,22 @@ def test_resume_after_interrupt(tmp_path, monkeypatch):
     decode.run(decode.DecodeConfig(max_size=160), kermit, out)  # new parameters: all again
     assert len(calls) == 22
     assert max(cv2.imread(str(ws.decoded / "kermit000.png")).shape) == 160
+
+
+def test_without_copies_compares_whole_files_of_one_size(tmp_path, capsys):
+    """Files of one size (one camera's uncompressed raws) are copies only when every byte is
+    the same: two that share their first MiB and differ after it both stay; a true copy
+    goes, named in one warning; empty files are left to decoding."""
+    from pipeline.decode import Photo, without_copies
+
+    head = bytes(range(256)) * 4096  # 1 MiB
+    files = {"a.dng": head + b"A" * 1000, "b.dng": head + b"B" * 1000,
+             "c.dng": head + b"A" * 1000, "e1.jpg": b"", "e2.jpg": b""}
+    photos = []
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+        photos.append(Photo(tmp_path / name, name.split(".")[0], name.endswith(".dng")))
+    kept = [p.stem for p in without_copies(photos)]
+    assert kept == ["a", "b", "e1", "e2"]
+    err = capsys.readouterr().err
+    assert err.count("same file") == 1 and "c.dng is the same file as a.dng" in err
