@@ -402,9 +402,15 @@ class Workspace:
             raise UserError(f"cannot create the output folder {root} ({e.strerror}): choose an "
                             "--out on a disk you can write to") from None
         man = ws.manifest() if ws.manifest_path.exists() else {}
-        if man.get("photos") and Path(man["photos"]) != photos:
-            raise UserError(f"workspace {root} was made from {man['photos']}, not {photos}: "
-                            "choose another --out")
+        recorded = man.get("photos")
+        if recorded and Path(recorded) != photos:
+            if Path(recorded).exists():
+                raise UserError(f"workspace {root} was made from {recorded}, not {photos}: "
+                                "choose another --out")
+            from pipeline.progress import warn  # the photos were moved: follow them
+
+            warn(f"workspace {root} was made from {recorded}, which is no longer there: it "
+                 f"reads {photos} from now on (a stage whose photos changed runs again)")
         man.setdefault("schema", SCHEMA_VERSION)
         man["photos"] = str(photos)
         man.setdefault("stages", {})

@@ -124,6 +124,21 @@ def test_workspace_refuses_bad_locations(tmp_path):
         Workspace.open(other)
 
 
+def test_a_workspace_follows_its_photos_when_they_move_only(tmp_path, capsys):
+    """A workspace opened for another photo folder: refused while the folder it was made
+    from is still there; followed, with a warning, once that folder is gone (moved)."""
+    photos, other = tmp_path / "photos", tmp_path / "other"
+    photos.mkdir()
+    other.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    with pytest.raises(UserError, match="was made from"):
+        Workspace.create(ws.root, other)
+    photos.rename(tmp_path / "moved")
+    Workspace.create(ws.root, tmp_path / "moved")
+    assert ws.photos_dir == (tmp_path / "moved").resolve()
+    assert "no longer there" in capsys.readouterr().err
+
+
 def test_cli_one_line_error_and_exit_code(tmp_path, capsys):
     code = main([str(tmp_path / "missing")])
     err = capsys.readouterr().err
