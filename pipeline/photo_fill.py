@@ -52,7 +52,8 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
                near: float | None = None, far: float | None = None,
-               beyond: int = 0, agree_window: int = 1, harmonize: float = 0.0) -> PhotoFill:
+               beyond: int = 0, agree_window: int = 1, harmonize: float = 0.0,
+               prior_depth: np.ndarray | None = None, prior_only: bool = False) -> PhotoFill:
     """Warp ``sources`` (with ``depth`` and ``valid`` set) into the camera (K, c2w) of
     ``size`` = (W, H), match their gains (to ``reference`` where ``ref_valid``, e.g. the
     view's own clean pixels, else to each other) and fuse them (``pipeline.stereo.fuse``).
@@ -64,8 +65,16 @@ def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
     ``agree_window``: the agreement test over that window (``stereo.fuse``).
     ``harmonize``: without a reference, each warped source is first brought to the others
     by a smooth local offset, a Gaussian of this fraction of the long side
-    (``stereo.harmonize_sources``; 0 = off)."""
-    depth = splat_depth(K, c2w, size, sources, fill=2)
+    (``stereo.harmonize_sources``; 0 = off). ``prior_depth`` [H, W] (0 = unknown): the
+    depth where the splatted depth maps do not reach, before the sweep and interpolation
+    (a network's own depth of the camera); with ``prior_only`` the depth everywhere (the
+    depth maps are not splatted)."""
+    if prior_depth is not None and prior_only:
+        depth = np.asarray(prior_depth, np.float32).copy()
+    else:
+        depth = splat_depth(K, c2w, size, sources, fill=2)
+        if prior_depth is not None:
+            depth = np.where(depth > 0, depth, prior_depth).astype(np.float32)
     if dense and near is not None and (depth <= 0).any():
         holes = depth <= 0
         cdepth, cost = sweep_consensus(K, c2w, size, sources, near, far, where=holes,

@@ -153,6 +153,12 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
+    network_depth: str = option("off", choices=("off", "holes", "all"))
+    """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
+    first, and the photos are warped through that depth: ``holes``, where the photos' depth
+    maps do not reach (instead of the plane sweep's and the interpolation's); ``all``, at
+    every pixel (the depth maps unused); ``off``: the depth maps, sweep and interpolation
+    (docs/history/fill.md, "GN-FR's own depth for the photos")."""
     depth_min_blob: float | None = option(None, ge=0, lt=1)
     """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
     than this fraction of the image are left out when the render reads them

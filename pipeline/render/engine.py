@@ -35,16 +35,17 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
         for job in jobs:
-            rays_o, rays_d, compose, guided = prepare_job(job, cfg, ws, photos, params)
+            rays_o, rays_d, compose, guided, want_depth = prepare_job(job, cfg, ws, photos,
+                                                                      params)
             prog.reset(t_rays, total=max(len(rays_o), 1))
-            rgb = np.zeros((0, 3), np.float32)
+            rgb, depth = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
             if len(rays_o):
                 ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
                 n = len(rays_o)
                 near, far = torch.full((n,), job.near), torch.full((n,), job.far)
                 chunk = cfg.chunk or default_chunk(src.images.device.type)
                 parts = split_guided(n, guided, params.get("depth_samples", 0))
-                rgb = np.zeros((n, 3), np.float32)
+                rgb, depth = np.zeros((n, 3), np.float32), np.zeros(n, np.float32)
                 offset = 0
                 for idx, lo, hi, ns in parts:
                     if len(idx) == 0:
@@ -54,11 +55,13 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                                       far[idx] if hi is None else hi, ns or params["samples"],
                                       chunk=chunk, point_sampler=params["point_sampler"],
                                       progress=lambda k, o=offset: prog.update(
-                                          t_rays, completed=o + k), with_depth=False,
+                                          t_rays, completed=o + k), with_depth=want_depth,
                                       pad=cfg.compile)
                     rgb[idx.numpy()] = out["rgb"].numpy()
+                    if want_depth:
+                        depth[idx.numpy()] = out["depth"].numpy()
                     offset += len(idx)
-            write_frame(job.out, compose(rgb), job.exif)
+            write_frame(job.out, compose(rgb, depth) if want_depth else compose(rgb), job.exif)
             prog.advance(t_frames)
 
 

@@ -50,7 +50,8 @@ class HybridFill(NamedTuple):
 
 def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfig,
                      reference: tuple[np.ndarray, np.ndarray] | None = None,
-                     novel: bool = False) -> HybridFill:
+                     novel: bool = False, prior_depth: np.ndarray | None = None,
+                     prior_only: bool = False) -> HybridFill:
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
     ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py; where
     they do not agree, with ``photo_fallback`` more of them, the next nearest), their
@@ -59,7 +60,9 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     region apply: ``cfg.close_holes`` (filled from the photos around them,
     :func:`pipeline.photo_fill.close_small_holes`), then ``cfg.sharp_holes`` (a hard edge
     instead of eroding and feathering the photos around them,
-    :func:`pipeline.photo_fill.sharp_hole_weight`)."""
+    :func:`pipeline.photo_fill.sharp_hole_weight`). ``prior_depth``: the camera's depth
+    where the photos' depth maps do not reach, or everywhere with ``prior_only``
+    (``photo_fill``'s)."""
     from pipeline.photo_fill import (
         close_small_holes,
         photo_fill,
@@ -81,7 +84,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         return photo_fill(K, c2w, size, views, reference=ref, ref_valid=ref_valid,
                           near=job.near, far=job.far, beyond=cfg.beyond_planes,
                           agree_window=cfg.agree_window,
-                          harmonize=cfg.harmonize if novel else 0.0)
+                          harmonize=cfg.harmonize if novel else 0.0,
+                          prior_depth=prior_depth, prior_only=prior_only)
 
     pf = fill(srcs)
     real = np.where((pf.depth > 0) & (pf.support >= cfg.depth_support), pf.depth,

@@ -64,3 +64,5 @@ class Prepared(NamedTuple):
     """rgb [R, 3] float -> the frame [H, W, 3] (uint8, or uint16 for a 16-bit original)."""
     guided: tuple[Any, Any] | None = None
     """(depth [R], known [R] bool) tensors for depth-guided sampling, or None."""
+    with_depth: bool = False
+    """``compose`` takes (rgb [R, 3], depth [R]): GN-FR's z-depth of each ray too."""
