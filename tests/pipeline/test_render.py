@@ -733,3 +733,40 @@ def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
     assert depth_samples(cfg, "cpu", 6, novel=False) == 4
     assert depth_samples(RenderConfig(depth_samples=5), "cpu", 24, novel=True) == 5
     assert depth_samples(RenderConfig(fill="network"), "cpu", 24, novel=False) == 0
+
+
+@pytest.mark.parametrize("mode", ["holes", "all"])
+def test_network_depth_renders_every_low_res_pixel_and_warps_through_its_depth(
+        hws, tmp_path, monkeypatch, mode):
+    """--network-depth: GN-FR renders every pixel of the frame at --network-scale with its
+    depth, and the photos are warped through that depth, upsampled (``all``: in place of the
+    depth maps; ``holes``: beside them). The frame is written at its size."""
+    import gnfr.renderer
+    import pipeline.render.novel as novel
+    from pipeline.render import RenderConfig, run
+
+    seen: dict = {}
+    real_rays, real_fill = gnfr.renderer.render_rays, novel.fill_from_photos
+
+    def rays(*a, **k):
+        out = real_rays(*a, **k)
+        seen["rays"], seen["with_depth"] = len(a[3]), k.get("with_depth")
+        seen["depth"] = out["depth"].numpy()
+        return out
+
+    def fill(*a, **k):
+        seen["prior"], seen["only"] = k.get("prior_depth"), k.get("prior_only")
+        return real_fill(*a, **k)
+
+    monkeypatch.setattr(gnfr.renderer, "render_rays", rays)
+    monkeypatch.setattr(novel, "fill_from_photos", fill)
+    path = _path_between(hws, tmp_path)
+    run(RenderConfig(path=str(path), fill="hybrid", network_scale=0.25, network_depth=mode),
+        hws, force=True)
+    frame = cv2.imread(str(hws.renders / "between" / "v.png"))
+    H, W = frame.shape[:2]
+    h, w = round(H * 0.25), round(W * 0.25)
+    assert seen["with_depth"] and seen["rays"] == h * w
+    low = seen["depth"].reshape(h, w).astype(np.float32)
+    assert np.allclose(seen["prior"], cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR))
+    assert seen["only"] is (mode == "all")
