@@ -750,3 +750,62 @@ def test_ghost_touching_counts_in_the_fmg_history():
         assert (f"{iou[(scene + '_ghosts', 'base')]:.3f} to "
                 f"{iou[(scene + '_ghosts', 'ghost_views')]:.3f}") in page
 
+
+
+@pytest.mark.parametrize("times, judged, base, arms", [
+    ("novel_s40_times_cpu.txt", "seam_judge_s40.json", "base", ("hs", "nm", "hsnm")),
+    ("novel_s40_crack_times_cpu.txt", "crack_judge_s40.json", "base2", ("cs", "cshs")),
+    ("novel_s40_lone_times_cpu.txt", "lone_judge_s40.json", "base3", ("ms1", "nv05", "nv10")),
+    ("novel_s40_netdepth_times_cpu.txt", "netdepth_judge_s40.json", "base4", ("ndh", "nda"))],
+    ids=["seams", "crack_share", "lone_photo", "network_depth"])
+def test_fortieth_session_fill_rules_agree_with_the_judge(times, judged, base, arms):
+    """docs/history/fill.md's four tables of the fortieth session are network_scale_ab's
+    judgements of the committed renders (nothing changes in each), every base arm reproduces
+    the first one's scores, and the pages that quote them say the same."""
+    ab = load_benchmark("network_scale_ab")
+    res = ab.judge(RESULTS, ab.read_times(RESULTS / times), ["sceaux", "et", "lund"],
+                   [2, 3, 4], list(arms), "novel_s40_", base)
+    assert res == {k: v for k, v in json.loads((RESULTS / judged).read_text()).items()
+                   if k in res}
+    assert res["decision"] == "nothing changes"
+    hist = (REPO / "docs" / "history" / "fill.md").read_text()
+    for x in arms:
+        v = res["candidates"][x]
+        cells = [f"{v['per_scene'][s]['psnr']:+.3f} / {v['per_scene'][s]['ssim']:+.4f}"
+                 for s in ("sceaux", "et", "lund")]
+        failed = ", ".join(f"({k})" for k, ok in v["parts"].items() if not ok)
+        row = (f"| {x} | " + " | ".join(cells)
+               + f" | {v['mean']['psnr']:+.3f} / {v['mean']['ssim']:+.4f}"
+               + f" | x{v['time_factor']:.2f} | fails {failed} |")
+        assert row in hist, row
+    for sc in ("sceaux", "et", "lund"):
+        for seed in (2, 3, 4):
+            first = json.loads((RESULTS / f"novel_s40_base_{sc}_s{seed}.json").read_text())
+            again = json.loads((RESULTS / f"novel_s40_{base}_{sc}_s{seed}.json").read_text())
+            assert first["heldout"] == again["heldout"]
+
+
+def test_fortieth_session_fill_numbers_on_the_pages():
+    """The fill options' rows (docs/depth.md, docs/options.md) and the README quote the
+    fortieth session's judges."""
+    def mean(f, arm):
+        return json.loads((RESULTS / f).read_text())["candidates"][arm]["mean"]
+
+    def scene(f, arm, sc):
+        return json.loads((RESULTS / f).read_text())["candidates"][arm]["per_scene"][sc]
+
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    hs = mean("seam_judge_s40.json", "hs")
+    assert f"held-out frames {hs['psnr']:+.3f} dB and {hs['ssim']:+.3f} SSIM" in depth
+    assert f"+{hs['ssim']:.3f} SSIM on the development scenes" in options
+    assert f"PSNR level ({hs['psnr']:+.3f} dB)" in options
+    ndh, nda = mean("netdepth_judge_s40.json", "ndh"), mean("netdepth_judge_s40.json", "nda")
+    lund = scene("netdepth_judge_s40.json", "ndh", "lund")["psnr"]
+    assert f"held-out frames {ndh['psnr']:+.3f} dB (lund {lund:+.3f}" in depth
+    assert f"`all` (GN-FR's depth everywhere) {nda['psnr']:+.3f} dB" in depth
+    assert f"{lund:+.3f} dB on the development street walk, {ndh['psnr']:+.3f} dB" in options
+    assert f"held-out frames {lund:+.2f} dB on that street walk" in readme
+    ms1 = mean("lone_judge_s40.json", "ms1")
+    assert f"{ms1['psnr']:+.2f} dB held-out, lund " in depth
