@@ -213,4 +213,24 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                        "sweeps_from_mask_stage": len(taken)})
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average)")
+    if (note := few_depth_note(float(np.mean(kept)), config)) is not None:
+        info(note)
     return [out_dir]
+
+
+FEW_DEPTH = 0.2
+"""Mean share of the pixels with a depth under which the depth stage points at the options
+measured for such captures (the development street walk: 10 %; the others 32-50 %)."""
+
+
+def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
+    """A note when the depth maps know little (a street walk, a deep scene): the video's
+    photo share will be small; the two opt-ins measured on such a capture. None otherwise."""
+    if coverage >= FEW_DEPTH or config.consistency_planes:
+        return None
+    return (f"depth: known on few pixels ({100 * coverage:.0f}%): the video will take little "
+            "from the photos. For a street walk or another deep scene, "
+            "`--set depth.consistency_planes=1` (more depth kept) or "
+            "`--set render.network_depth=holes` (the photos warped through GN-FR's own "
+            "depth) each sharpened the development street walk's frames a little "
+            "(docs/options.md)")

@@ -129,6 +129,18 @@ def test_depth_config_rejects_bad_values(bad):
         DepthConfig(**bad).check()
 
 
+def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is_scarce():
+    """The depth stage's note: under FEW_DEPTH of the pixels known it names both opt-ins;
+    none at or above it, nor when the looser check is already on."""
+    from pipeline.depth import FEW_DEPTH, DepthConfig, few_depth_note
+
+    note = few_depth_note(0.102, DepthConfig())
+    assert note is not None and "(10%)" in note
+    assert "depth.consistency_planes=1" in note and "render.network_depth=holes" in note
+    assert few_depth_note(FEW_DEPTH, DepthConfig()) is None
+    assert few_depth_note(0.05, DepthConfig(consistency_planes=1)) is None
+
+
 def test_close_small_holes_fills_specks_and_leaves_large_holes():
     """Specks and a thin crack of the agreed region take the colours around them; a hole
     wider than the radius stays the network's, and agreed pixels keep their colour."""
