@@ -41,7 +41,8 @@ out)
   size "$@" ;;
 back)
   [ -d "$HELD" ] || { echo "nothing held ($HELD)"; exit 0; }
-  (cd "$HELD" && find . -type f -print0) | while IFS= read -r -d '' f; do
+  # files and symbolic links (samples/cyprus_truth/photos is a tracked link)
+  (cd "$HELD" && find . \( -type f -o -type l \) -print0) | while IFS= read -r -d '' f; do
     mkdir -p "$(dirname "$f")" && mv "$HELD/$f" "$f" && echo "restored: ${f#./}"
   done
   find "$HELD" -depth -type d -empty -delete

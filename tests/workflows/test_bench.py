@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
+import pytest
 import torch
 
 from workflows.cli import main
@@ -146,3 +148,38 @@ def test_bench_fill_only_times_the_workspace_frames_alone(tmp_path, one_torch_th
     bad = tmp_path / "b.json"
     assert main(["bench", "--quick", "--fill-only", "--out", str(bad)]) == 2
     assert not bad.exists()
+
+
+def test_device_slim_holds_and_restores_files_and_links(tmp_path):
+    """benchmarks/device_slim.sh in a small git checkout: `out` holds a tracked file and a
+    tracked symbolic link outside the checkout and says what would travel; `back` restores
+    both (a link was left behind before the fortieth session) and the checkout is clean."""
+    import shutil
+    import subprocess
+
+    if shutil.which("git") is None or shutil.which("bash") is None:
+        pytest.skip("needs git and bash")
+    repo = tmp_path / "repo"
+    (repo / "benchmarks").mkdir(parents=True)
+    shutil.copy(Path(__file__).resolve().parents[2] / "benchmarks" / "device_slim.sh",
+                repo / "benchmarks")
+    (repo / "samples" / "a").mkdir(parents=True)
+    (repo / "samples" / "a" / "x.jpg").write_bytes(b"x" * 1000)
+    (repo / "samples" / "b").mkdir()
+    (repo / "samples" / "b" / "photos").symlink_to("../a")
+    env = {"HELD": str(tmp_path / "held"), "PATH": "/usr/bin:/bin",
+           "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
+           "GIT_COMMITTER_EMAIL": "t@t", "HOME": str(tmp_path)}
+
+    def run(*cmd):
+        return subprocess.run(cmd, cwd=repo, env=env, capture_output=True, text=True)
+
+    for cmd in (("git", "init", "-q"), ("git", "add", "-A"), ("git", "commit", "-qm", "a")):
+        assert run(*cmd).returncode == 0
+    held = run("bash", "benchmarks/device_slim.sh", "out", "samples")
+    assert held.returncode == 0 and "would travel" in held.stdout, held.stderr
+    assert not (repo / "samples").exists()
+    back = run("bash", "benchmarks/device_slim.sh", "back")
+    assert back.returncode == 0 and "checkout whole again" in back.stdout, back.stderr
+    assert (repo / "samples" / "b" / "photos").is_symlink()
+    assert run("git", "status", "--short").stdout == ""
