@@ -807,5 +807,8 @@ def test_fortieth_session_fill_numbers_on_the_pages():
     assert f"`all` (GN-FR's depth everywhere) {nda['psnr']:+.3f} dB" in depth
     assert f"{lund:+.3f} dB on the development street walk, {ndh['psnr']:+.3f} dB" in options
     assert f"held-out frames {lund:+.2f} dB on that street walk" in readme
+    sc_all, lund_all = (scene("netdepth_judge_s40.json", "nda", s) for s in ("sceaux", "lund"))
+    assert (f"held-out frames {sc_all['psnr']:+.3f} dB and {sc_all['ssim']:+.3f} SSIM on "
+            f"sceaux_castle, {lund_all['psnr']:+.3f} dB on the street walk") in options
     ms1 = mean("lone_judge_s40.json", "ms1")
     assert f"{ms1['psnr']:+.2f} dB held-out, lund " in depth
