@@ -812,3 +812,28 @@ def test_fortieth_session_fill_numbers_on_the_pages():
             f"sceaux_castle, {lund_all['psnr']:+.3f} dB on the street walk") in options
     ms1 = mean("lone_judge_s40.json", "ms1")
     assert f"{ms1['psnr']:+.2f} dB held-out, lund " in depth
+
+
+def test_fortieth_session_test_scene_report_is_its_files():
+    """docs/history/fill.md's test-scene table of the fortieth session's opt-ins is the
+    difference of its files from the base arm, whose scores are the README's kermit and
+    cyprus held-out rows (the s36 files); the pages quote cyprus's loss with `all`."""
+    def held(arm, sc):
+        return json.loads((RESULTS / f"novel_s40_test_{arm}_{sc}.json").read_text())["heldout"]
+
+    for sc, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s36.json"),
+                  ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s36.json")):
+        s36 = json.loads((RESULTS / f).read_text())["methods"]["gnfr"]["heldout"]["psnr"]
+        assert abs(held("base", sc)["psnr"] - s36) < 1e-9
+    hist = (REPO / "docs" / "history" / "fill.md").read_text()
+    for arm, label in (("hs", "`--harmonize 0.02`"), ("ndh", "`--network-depth holes`"),
+                       ("nda", "`--network-depth all`")):
+        cells = [f"{held(arm, sc)['psnr'] - held('base', sc)['psnr']:+.3f} / "
+                 f"{held(arm, sc)['ssim'] - held('base', sc)['ssim']:+.4f}"
+                 for sc in ("kermit", "cyprus")]
+        assert f"| {label} | " + " | ".join(cells) + " |" in hist
+    loss = held("nda", "cyprus")["psnr"] - held("base", "cyprus")["psnr"]
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert f"cyprus (the sample's photos) {loss:+.2f} dB" in options
+    assert f"held-out views {loss:+.2f} dB" in readme
