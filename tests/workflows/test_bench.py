@@ -1,4 +1,5 @@
-"""`deflare-scene bench --quick`: the JSON record has every measurement, all positive."""
+"""`deflare-scene bench --quick` (the JSON record has every measurement, all positive) and the
+benchmarks' shell helper for the lent GPU (`benchmarks/device_slim.sh`)."""
 
 from __future__ import annotations
 
