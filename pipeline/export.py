@@ -1,7 +1,8 @@
 """Stage `export`: video, comparisons, scene.glb with the path, nerfstudio transforms.json.
 
 Writes
-- ``WS/<scene>.mp4``: H.264 (yuv420p) of the frames of a rendered path (default
+- ``WS/<scene>.mp4`` (``WS/<scene>_<path>.mp4`` for a path other than interpolate):
+  H.264 (yuv420p) of the frames of a rendered path (default
   ``interpolate``), see pipeline/video.py;
 - ``WS/<scene>_compare.mp4`` and ``WS/<scene>_compare.jpg``: each input photo beside its
   de-flared version (``WS/decoded`` | ``WS/deflared``), as a video and a contact sheet;
@@ -72,7 +73,7 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if stage_run.skip:
         info("export: up to date")
         return stage_run.outputs
-    outs = [write_path_video(frames, ws.video, cfg.fps, cfg.crf)]
+    outs = [write_path_video(frames, ws.video_of(cfg.path), cfg.fps, cfg.crf)]
     if cfg.compare:
         outs += write_comparisons(ws, cams, cfg)
     if cfg.glb:

@@ -319,8 +319,16 @@ class Workspace:
 
     @property
     def video(self) -> Path:
-        """WS/<scene>.mp4 (export)."""
-        return self.root / f"{self.scene_name}.mp4"
+        """WS/<scene>.mp4 (export): the video of the default path, interpolate."""
+        return self.video_of("interpolate")
+
+    def video_of(self, path: str) -> Path:
+        """The video export writes of a rendered path: WS/<scene>.mp4 for interpolate (the
+        default), WS/<scene>_<path>.mp4 for any other, so a second path's video does not
+        replace the first's."""
+        name = Path(path).stem
+        suffix = "" if name == "interpolate" else f"_{name}"
+        return self.root / f"{self.scene_name}{suffix}.mp4"
 
     @property
     def compare_video(self) -> Path:

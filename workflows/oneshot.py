@@ -146,7 +146,7 @@ def run_all(cfg: OneShotConfig) -> Path:
     render.run(stages["render"], ws, force=force)
     written = export.run(replace(stages["export"], path=Path(stages["render"].path).stem), ws,
                          force=force)
-    video = ws.video
+    video = ws.video_of(Path(stages["render"].path).stem)
     minutes = (time.time() - t0) / 60
     info(f"[green]done[/green] in {minutes:.1f} min: workspace {ws.root}")
     info(f"  de-flared photos: {ws.deflared}")

@@ -46,6 +46,9 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
         if file.suffix.lower() != ".json":
             raise UserError(f"--path {cfg.path}: use inputs, interpolate, spiral or a .json "
                             "camera path file (docs/camera_paths.md)")
+        if not file.is_file():
+            raise UserError(f"--path {cfg.path}: no such camera path file; give an existing "
+                            "one (docs/camera_paths.md) or interpolate / spiral")
         try:
             pcs = paths.path_from_json(read_json(file))
         except ValueError as e:

@@ -180,3 +180,20 @@ def test_points_ply_holds_the_depth_maps_as_a_coloured_cloud(tmp_path, capsys):
     assert np.array_equal(rgb[:int(first.sum())], read_view_image(ws, f0.stem)[first])
     write_points(ws, cams, 500)
     assert len(trimesh.load(str(ws.points_ply), file_type="ply").vertices) == 500
+
+
+def test_another_paths_video_does_not_replace_the_first(ews):
+    """Exporting a second rendered path writes WS/<scene>_<path>.mp4 beside WS/<scene>.mp4
+    (the interpolate path's), which stays as it was."""
+    import shutil
+
+    from pipeline.export import ExportConfig, run
+
+    run(ExportConfig(fps=6), ews)
+    first = ews.video.read_bytes()
+    shutil.copytree(ews.renders / "interpolate", ews.renders / "spiral")
+    outs = run(ExportConfig(fps=6, path="spiral"), ews)
+    spiral = ews.root / f"{ews.scene_name}_spiral.mp4"
+    assert spiral in outs and spiral == ews.video_of("spiral")
+    assert len(read_frames_cv2(spiral)) == 6
+    assert ews.video.read_bytes() == first

@@ -264,8 +264,14 @@ def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeyp
                                                   sources_equal_below=0.1)) == pool[:-1]
 
 
-def test_render_cli_errors(rws):
+def test_render_cli_errors(rws, capsys):
     from workflows.cli import main
+
+    missing = rws.root.parent / "no_such_path.json"
+    assert main(["render", str(rws.root), "--path", str(missing)]) == 2
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and errors[0].startswith("error: --path")
+    assert "no such camera path file" in errors[0]
 
     assert main(["render", str(rws.root), "--path", "nowhere"]) == 2
     assert main(["render", str(rws.root), "--path", "spiral", "--size", "big"]) == 2
