@@ -408,18 +408,28 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
 
 # --------------------------------------------------------------------------- given masks
 def find_given_mask(masks_dir: Path, stem: str) -> Path:
-    hits = sorted(p for p in masks_dir.iterdir() if p.stem == stem and is_photo(p))
+    images = sorted(p for p in masks_dir.iterdir() if is_photo(p))
+    hits = [p for p in images if p.stem == stem]
     if not hits:
-        raise UserError(f"--masks {masks_dir} has no mask for view '{stem}': add "
+        near = [p.name for p in images if stem in p.stem][:3]  # e.g. DSC_1_mask.png
+        named = (f" ({', '.join(near)} {'is' if len(near) == 1 else 'are'} not named after "
+                 "the view alone)") if near else ""
+        raise UserError(f"--masks {masks_dir} has no mask for view '{stem}'{named}: add "
                         f"{masks_dir / (stem + '.png')} (nonzero = flare)")
     return hits[0]
 
 
-def write_given_masks(masks_dir: Path, ws: Workspace, stems: list[str]) -> None:
-    """Copy hand-made masks (nonzero = flare), resized (nearest) to each image's size."""
+def given_masks(masks_dir: Path, stems: list[str]) -> dict[str, Path]:
+    """{stem: the hand-made mask file of each view} of ``--masks DIR``; a one-line error
+    naming the first view without one (or a DIR that is not a folder)."""
     if not masks_dir.is_dir():
         raise UserError(f"--masks {masks_dir} is not a folder of mask images")
-    srcs = {s: find_given_mask(masks_dir, s) for s in stems}   # all errors before writing
+    return {s: find_given_mask(masks_dir, s) for s in stems}
+
+
+def write_given_masks(srcs: dict[str, Path], ws: Workspace, stems: list[str]) -> None:
+    """Copy the hand-made masks ``srcs`` (:func:`given_masks`; nonzero = flare) of
+    ``stems``, resized (nearest) to each image's size."""
     for s in track(stems, "copying masks"):
         # the user's file as it is (any depth, alpha): nonzero in any channel is flare
         m = read_image_as_stored(srcs[s], fix="save the mask as PNG/JPEG")
@@ -500,8 +510,12 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
             raise UserError(f"{flag} compares each view with the others, and {ws.root} has "
                             f"{len(stems)} posed view(s): leave {flag} out")
     confirm = None
+    given: dict[str, Path] = {}
     if config.masks_dir is not None:
         masks_dir = Path(config.masks_dir).resolve()
+        # every view's mask found before the stage touches the workspace (an earlier run's
+        # masks stay when one is missing), as a missing weights file does below
+        given = given_masks(masks_dir, stems)
         source, wid, inputs = f"masks:{masks_dir}", None, [ws.images, masks_dir]
         model = None
     else:
@@ -541,7 +555,7 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
         (ws.root / GHOST_CANDIDATES_DIR).mkdir(exist_ok=True)
     todo = [s for s in stems if not ws.mask_path(s).exists()]
     if todo and config.masks_dir is not None:
-        write_given_masks(Path(config.masks_dir), ws, todo)
+        write_given_masks(given, ws, todo)
     elif todo:
         write_fmg_masks(model, config, ws, todo, confirm)
     if views_pass:

@@ -509,3 +509,29 @@ def test_select_notes_few_targets(kermit_ws, tmp_path, capsys):
     assert "may be training targets" not in out
     views = json.loads(ws.views_json.read_text())
     assert all(v["target"] for v in views["views"].values())
+
+
+def test_given_masks_with_one_missing_leave_the_earlier_masks_alone(tmp_path):
+    """`mask --masks DIR` where DIR lacks one view's mask: one error line naming the view
+    (and the file named after it with more, `<stem>_mask.png`), found before the stage
+    touches the workspace: the earlier run's masks and its record stay as they were."""
+    from pipeline.mask import MaskConfig, run
+    from pipeline.workspace import digest_paths
+    from tests.fixtures import make_plane_workspace
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=3)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    full, part = tmp_path / "full", tmp_path / "part"
+    for d, names in ((full, stems), (part, [f"{stems[0]}_mask", *stems[1:]])):
+        d.mkdir()
+        for n in names:
+            cv2.imwrite(str(d / f"{n}.png"), np.zeros((8, 8), np.uint8))
+    run(MaskConfig(masks_dir=full), ws)
+    before, record = digest_paths([ws.masks]), ws.stage_record("mask")
+    with pytest.raises(UserError, match=f"no mask for view '{stems[0]}'") as e:
+        run(MaskConfig(masks_dir=part), ws)
+    assert f"{stems[0]}_mask.png is not named after the view alone" in str(e.value)
+    assert digest_paths([ws.masks]) == before and ws.stage_record("mask") == record
+    with pytest.raises(UserError, match="not a folder"):
+        run(MaskConfig(masks_dir=tmp_path / "nowhere"), ws)
+    assert digest_paths([ws.masks]) == before
