@@ -61,6 +61,7 @@ from pipeline.render.inputs import (
     input_rays,
     match_colours,
     prepare_input,
+    require_masks,
 )
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.render.novel import prepare_hybrid_novel, prepare_novel
@@ -94,7 +95,7 @@ __all__ = [
     "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
     "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
     "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
-    "rendered_frames",
+    "rendered_frames", "require_masks",
     "resize_camera", "run", "split_guided", "train_meta", "with_exif", "write_frame",
     "write_path_cameras",
 ]
@@ -118,6 +119,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    if key == "inputs" and cfg.blend == "mask":  # before the stage clears WS/deflared
+        require_masks(ws, [job.camera.stem for job in jobs])
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     if cfg.sources_equal_below is None and key != "inputs":

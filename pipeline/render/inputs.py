@@ -196,16 +196,23 @@ def decoded_camera(frame: Frame, width: int, height: int) -> CameraModel:
     return cam
 
 
+def require_masks(ws: Workspace, stems: list[str]) -> None:
+    """A one-line error naming the first of ``stems`` without a WS/masks file (the
+    de-flared photos blend by it), with what to run."""
+    for stem in stems:
+        path = ws.mask_path(stem)
+        if not path.exists():
+            raise UserError(f"{path} is missing: run `deflare-scene mask {shell_path(ws.root)}` "
+                            "first, or render the full image with --blend none")
+
+
 def flare_mask_in(cam: CameraModel, frame: Frame, ws: Workspace) -> np.ndarray:
     """[H, W] bool flare mask of WS/masks (WS/images geometry) warped into camera ``cam``:
     the mask as 0/255 grey, bilinearly remapped, cut at ``MASK_THRESHOLD`` (flare where more
     than half of the interpolated weight is)."""
     import cv2
 
-    path = ws.mask_path(frame.stem)
-    if not path.exists():
-        raise UserError(f"{path} is missing: run `deflare-scene mask {shell_path(ws.root)}` "
-                        "first, or render the full image with --blend none")
+    require_masks(ws, [frame.stem])
     flare = read_mask(ws, frame.stem)
     pin = CameraModel.pinhole(frame.K, flare.shape[1], flare.shape[0])
     mx, my = warp_maps(pin, cam)

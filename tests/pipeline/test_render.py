@@ -776,3 +776,23 @@ def test_network_depth_renders_every_low_res_pixel_and_warps_through_its_depth(
     low = seen["depth"].reshape(h, w).astype(np.float32)
     assert np.allclose(seen["prior"], cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR))
     assert seen["only"] is (mode == "all")
+
+
+def test_a_missing_mask_fails_before_the_deflared_photos_are_cleared(tmp_path, capsys):
+    """render --path inputs whose inputs changed (one view's mask deleted): one error line
+    naming the mask and what to run, and the earlier de-flared photos are still there (the
+    stage used to clear WS/deflared first and fail on the missing mask after)."""
+    from pipeline.workspace import digest_paths
+    from workflows.cli import main
+
+    ws = make_render_ws(tmp_path / "ws", n_views=3)
+    assert main(["render", str(ws.root), "--path", "inputs"]) == 0
+    before = digest_paths([ws.deflared])
+    assert len(list(ws.deflared.glob("*.png"))) == 3
+    gone = sorted(ws.masks.glob("*.png"))[0]
+    gone.unlink()
+    capsys.readouterr()
+    assert main(["render", str(ws.root), "--path", "inputs"]) == 2
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and f"{gone} is missing" in errors[0]
+    assert digest_paths([ws.deflared]) == before
