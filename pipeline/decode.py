@@ -392,12 +392,12 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
             warn(f"skipping {e}; replace or remove the file")
             skipped[photo.path.name] = str(e)
     raw_stems = {s for s, p in done.items() if p.is_raw}
-    _remove_stale(ws.decoded, set(done), ws.decoded_path)
-    _remove_stale(ws.linear, raw_stems, ws.linear_path)
-    if len(done) < MIN_IMAGES:
+    if len(done) < MIN_IMAGES:  # before anything of an earlier run is removed
         raise UserError(f"only {len(done)} of {len(chosen)} photos in {photos} could be "
                         f"decoded (skipped: {', '.join(skipped) or 'none'}): at least "
                         f"{MIN_IMAGES} usable photos are needed; replace the unreadable files")
+    _remove_stale(ws.decoded, set(done), ws.decoded_path)
+    _remove_stale(ws.linear, raw_stems, ws.linear_path)
     outputs = [ws.decoded] + ([ws.linear] if raw_stems else [])
     if not raw_stems and ws.linear.exists():
         import shutil

@@ -265,3 +265,21 @@ def test_oneshot_mask_options_that_need_one_another_fail_before_anything_is_writ
     _fails(capsys, [str(d), "--set", "mask.confirm_keep=first"], "--confirm")
     assert not (tmp_path / "photos.deflare").exists()
     assert digest_paths([d]) == before
+
+
+def test_a_rerun_with_too_few_readable_photos_keeps_the_earlier_decoded_ones(tmp_path, capsys):
+    """decode again after the photos were replaced by unreadable files: one error line, and
+    the earlier run's decoded photos are still there (they were removed before the count)."""
+    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
+    d = tmp_path / "photos"
+    d.mkdir()
+    for f in sorted(sample.glob("*.jpg"))[:3]:
+        shutil.copy(f, d)
+    ws = tmp_path / "ws"
+    assert main(["decode", str(d), "--out", str(ws), "--max-size", "96"]) == 0
+    before = digest_paths([ws / "decoded"])
+    for i, f in enumerate(sorted(d.glob("*.jpg"))[1:]):
+        f.write_bytes(b"\xff\xd8\xff\xe0 not a photo any more " + bytes([i]))
+    capsys.readouterr()
+    _fails(capsys, ["decode", str(d), "--out", str(ws), "--max-size", "96"], "only 1 of 3")
+    assert digest_paths([ws / "decoded"]) == before
