@@ -25,6 +25,17 @@ def _fails(capsys, argv: list[str], *needles: str) -> str:
     return lines[0]
 
 
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
+
+
+def _sample_photos(folder: Path, n: int = 3) -> Path:
+    """The first ``n`` photos of the shipped sample copied into ``folder`` (no shared data)."""
+    folder.mkdir(parents=True)
+    for f in sorted(SAMPLE.glob("*.jpg"))[:n]:
+        shutil.copy(f, folder)
+    return folder
+
+
 def _kermit(folder: Path, n: int) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     for i in range(n):
@@ -142,11 +153,7 @@ def test_corrupt_files_named_and_skipped(tmp_path, capsys):
 def test_copies_of_a_photo_are_named_and_left_out(tmp_path, capsys):
     """A byte-identical copy of a photo (``X copy.jpg``) is named in one warning and left
     out of the workspace; a folder of one photo and its copies fails as too few photos."""
-    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
-    d = tmp_path / "photos"
-    d.mkdir()
-    for f in sorted(sample.glob("*.jpg"))[:3]:
-        shutil.copy(f, d)
+    d = _sample_photos(tmp_path / "photos")
     first = sorted(d.iterdir())[0]
     shutil.copy(first, d / f"{first.stem} copy.jpg")
     before = digest_paths([d])
@@ -156,7 +163,7 @@ def test_copies_of_a_photo_are_named_and_left_out(tmp_path, capsys):
     assert len(lines) == 1 and "same file as " + first.name in lines[0], err
     ws = Workspace.open(tmp_path / "ws")
     assert sorted(p.stem for p in ws.decoded.iterdir()) == sorted(p.stem for p in
-                                                                 sample.glob("*.jpg"))[:3]
+                                                                 SAMPLE.glob("*.jpg"))[:3]
     assert digest_paths([d]) == before
     one = tmp_path / "one"
     one.mkdir()
@@ -173,11 +180,7 @@ def test_a_workspace_passed_for_photos(tmp_path, capsys):
     from pipeline.workspace import enclosing_workspace
     from workflows.oneshot import resume_target
 
-    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
-    photos = tmp_path / "my photos"
-    photos.mkdir()
-    for f in sorted(sample.glob("*.jpg"))[:3]:
-        shutil.copy(f, photos)
+    photos = _sample_photos(tmp_path / "my photos")
     ws = tmp_path / "ws"
     assert main(["decode", str(photos), "--out", str(ws), "--max-size", "96"]) == 0
     capsys.readouterr()
@@ -270,11 +273,7 @@ def test_oneshot_mask_options_that_need_one_another_fail_before_anything_is_writ
 def test_a_rerun_with_too_few_readable_photos_keeps_the_earlier_decoded_ones(tmp_path, capsys):
     """decode again after the photos were replaced by unreadable files: one error line, and
     the earlier run's decoded photos are still there (they were removed before the count)."""
-    sample = Path(__file__).resolve().parents[2] / "samples" / "cyprus"
-    d = tmp_path / "photos"
-    d.mkdir()
-    for f in sorted(sample.glob("*.jpg"))[:3]:
-        shutil.copy(f, d)
+    d = _sample_photos(tmp_path / "photos")
     ws = tmp_path / "ws"
     assert main(["decode", str(d), "--out", str(ws), "--max-size", "96"]) == 0
     before = digest_paths([ws / "decoded"])
