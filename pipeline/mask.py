@@ -407,8 +407,8 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
 
 
 # --------------------------------------------------------------------------- given masks
-def find_given_mask(masks_dir: Path, stem: str) -> Path:
-    images = sorted(p for p in masks_dir.iterdir() if is_photo(p))
+def find_given_mask(masks_dir: Path, stem: str, images: list[Path]) -> Path:
+    """The mask of view ``stem`` among ``images`` (the image files of ``masks_dir``)."""
     hits = [p for p in images if p.stem == stem]
     if not hits:
         near = [p.name for p in images if stem in p.stem][:3]  # e.g. DSC_1_mask.png
@@ -424,7 +424,8 @@ def given_masks(masks_dir: Path, stems: list[str]) -> dict[str, Path]:
     naming the first view without one (or a DIR that is not a folder)."""
     if not masks_dir.is_dir():
         raise UserError(f"--masks {masks_dir} is not a folder of mask images")
-    return {s: find_given_mask(masks_dir, s) for s in stems}
+    images = sorted(p for p in masks_dir.iterdir() if is_photo(p))  # listed once
+    return {s: find_given_mask(masks_dir, s, images) for s in stems}
 
 
 def write_given_masks(srcs: dict[str, Path], ws: Workspace, stems: list[str]) -> None:

@@ -144,9 +144,9 @@ def run_all(cfg: OneShotConfig) -> Path:
     finetune.run(stages["finetune"], ws, force=force)
     render.run(replace(stages["render"], path="inputs"), ws, force=force)
     render.run(stages["render"], ws, force=force)
-    written = export.run(replace(stages["export"], path=Path(stages["render"].path).stem), ws,
-                         force=force)
-    video = ws.video_of(Path(stages["render"].path).stem)
+    path = Path(stages["render"].path).stem
+    written = export.run(replace(stages["export"], path=path), ws, force=force)
+    video = ws.video_of(path)
     minutes = (time.time() - t0) / 60
     info(f"[green]done[/green] in {minutes:.1f} min: workspace {ws.root}")
     info(f"  de-flared photos: {ws.deflared}")

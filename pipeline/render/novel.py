@@ -46,10 +46,7 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
                                                         cfg, novel=True)
     if cfg.network_vote <= 0:
         warped = None  # not kept for compose: only the vote reads the warped photos
-    w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
-    K = np.asarray(pc.K, float).copy()
-    K[0] *= w / W
-    K[1] *= h / H
+    K, w, h = low_res_camera(pc, net_scale)
     # a low-res pixel is rendered when any full-res pixel it covers lacks the photos
     need = cv2.resize((wgt < 1).astype(np.float32), (w, h), interpolation=cv2.INTER_AREA) > 0
     need = cv2.dilate(need.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # for upsampling
@@ -66,14 +63,7 @@ def prepare_hybrid_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
         low = small_photo.copy()
         low[need] = rgb
         up = cv2.resize(low, (W, H), interpolation=cv2.INTER_LINEAR)
-        out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
-        if warped is not None:
-            from pipeline.photo_fill import network_vote, support_weight
-
-            vc, vok = network_vote(up, warped, net_scale, cfg.network_vote)
-            vw = (support_weight(vok & (wgt < 1), 0) * (1 - wgt))[..., None]
-            out = out * (1 - vw) + vc * vw
-        return to_u8(out)
+        return to_u8(photos_over(up, colour, wgt, warped, net_scale, cfg.network_vote))
 
     return Prepared(rays_o, rays_d, compose, (torch.from_numpy(d_lo), known))
 
@@ -92,10 +82,7 @@ def prepare_depth_first_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
 
     pc = job.camera
     H, W = pc.height, pc.width
-    w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
-    K = np.asarray(pc.K, float).copy()
-    K[0] *= w / W
-    K[1] *= h / H
+    K, w, h = low_res_camera(pc, net_scale)
     rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
                                 torch.tensor(pc.c2w, dtype=torch.float32), image_pixels(h, w))
 
@@ -107,14 +94,32 @@ def prepare_depth_first_novel(job: FrameJob, cfg: RenderConfig, photos: dict,
                                                   prior_only=cfg.network_depth == "all")
         up = cv2.resize(rgb.reshape(h, w, 3).astype(np.float32), (W, H),
                         interpolation=cv2.INTER_LINEAR)
-        out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
-        if cfg.network_vote > 0 and warped is not None:
-            from pipeline.photo_fill import network_vote, support_weight
-
-            vc, vok = network_vote(up, warped, net_scale, cfg.network_vote)
-            vw = (support_weight(vok & (wgt < 1), 0) * (1 - wgt))[..., None]
-            out = out * (1 - vw) + vc * vw
-        return to_u8(out)
+        return to_u8(photos_over(up, colour, wgt, warped, net_scale, cfg.network_vote))
 
     return Prepared(rays_o, rays_d, compose, None, True)
+
+
+def low_res_camera(pc, net_scale: float) -> tuple[np.ndarray, int, int]:
+    """(K, w, h) of a path camera's frame at ``net_scale`` of its size (GN-FR's grid)."""
+    W, H = pc.width, pc.height
+    w, h = max(1, round(W * net_scale)), max(1, round(H * net_scale))
+    K = np.asarray(pc.K, float).copy()
+    K[0] *= w / W
+    K[1] *= h / H
+    return K, w, h
+
+
+def photos_over(up: np.ndarray, colour: np.ndarray, wgt: np.ndarray, warped, net_scale: float,
+                vote: float) -> np.ndarray:
+    """The frame: the photos' agreed ``colour`` over GN-FR's upsampled render ``up`` by their
+    weight ``wgt``, then (``vote`` > 0) a single photo where GN-FR vouches for it
+    (``pipeline.photo_fill.network_vote``) on the pixels the photos left to GN-FR."""
+    out = up * (1 - wgt[..., None]) + colour * wgt[..., None]
+    if vote > 0 and warped is not None:
+        from pipeline.photo_fill import network_vote, support_weight
+
+        vc, vok = network_vote(up, warped, net_scale, vote)
+        vw = (support_weight(vok & (wgt < 1), 0) * (1 - wgt))[..., None]
+        out = out * (1 - vw) + vc * vw
+    return out
 
