@@ -27,7 +27,7 @@ class Frame:
     """One posed view in the normalised world frame."""
 
     name: str
-    """Original photo file name."""
+    """Original photo file name (the video's, for a video's frame)."""
     stem: str
     """File name without extension: the key of the view everywhere in the workspace."""
     K: np.ndarray

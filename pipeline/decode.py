@@ -35,6 +35,12 @@ images are scaled to 8 bits; images are resized with area averaging in their own
 encoding. A JPEG without an end-of-image marker after its last scan is truncated and is
 skipped (OpenCV would silently fill the missing part with grey).
 
+Videos (MP4, MOV, MKV, ...: ``pipeline.video_input.VIDEO_EXTS``) give ``video_frames`` views
+each, ``WS/decoded/<video stem>_f<index>.png``, chosen by ``pipeline.video_input`` (the
+sharpest frame of each stretch of equal camera motion) and resized like photos; decode's
+record in the manifest names each frame's video, index and time. A video sharing its stem
+with a photo is a phone's Live Photo clip and is left out with a warning.
+
 Two photos with one stem (a RAW+JPEG pair): the raw is kept and a warning names both.
 Unreadable files are named in one line each and skipped; fewer than 3 usable photos is
 an error. Per-file resume: outputs of an interrupted run with the same inputs and
@@ -43,9 +49,7 @@ parameters are kept.
 
 from __future__ import annotations
 
-import contextlib
 import os
-import sys
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -56,7 +60,8 @@ from pipeline.colour import linear_to_srgb
 from pipeline.errors import UserError, shell_path
 from pipeline.images import JPEG_EXTS, PHOTO_EXTS
 from pipeline.options import option, validate
-from pipeline.progress import info, track, warn
+from pipeline.progress import info, make_progress, quiet_stderr, track, warn
+from pipeline.video_input import VideoError, is_video
 from pipeline.workspace import Workspace, atomic_imwrite, default_workspace
 
 RAW_EXTS = frozenset({
@@ -74,6 +79,9 @@ class DecodeConfig:
     """Long side of the decoded images in pixels (never upscaled; 0 keeps the full size)."""
     highlight_mode: int = option(2, ge=0, le=9)
     """LibRaw highlight mode for raw input: 0 clip, 1 unclip, 2 blend, 3-9 rebuild."""
+    video_frames: int = option(30, ge=1, le=5000)
+    """Views taken from each video in the folder: the sharpest frame of each of this many
+    stretches of equal camera motion (``pipeline.video_input``)."""
 
 
 @dataclass
@@ -85,24 +93,22 @@ class Photo:
     is_raw: bool
     others: tuple[Path, ...] = ()
     """Other files with the same stem, tried in order if ``path`` cannot be decoded."""
+    video: bool = False
+    """``path`` is a video: its chosen frames become views (``pipeline.video_input``)."""
 
 
 NOT_READ = {".heic": "HEIC", ".heif": "HEIF", ".avif": "AVIF", ".jxl": "JPEG XL",
             ".jp2": "JPEG 2000", ".gif": "GIF", ".psd": "Photoshop", ".xcf": "GIMP"}
 """Image files a user may expect to be read that are not (the OpenCV of another machine may
 not decode them): each is named in a warning with what to do."""
-VIDEO_EXTS = frozenset({".mp4", ".mov", ".m4v", ".avi", ".mkv", ".mts", ".webm"})
 
 
 def not_read_warning(path: Path) -> str | None:
-    """The warning for a file that looks like a photo or a video but is not read, or None."""
+    """The warning for a file that looks like a photo but is not read, or None."""
     ext = path.suffix.lower()
     if ext in NOT_READ:
         return (f"skipping {path.name}: {NOT_READ[ext]} files are not read; export the photos "
                 "as JPEG, PNG or TIFF (camera raw files are read as they are)")
-    if ext in VIDEO_EXTS:
-        return (f"skipping {path.name}: videos are not read; extract frames first (e.g. "
-                f"ffmpeg -i {path.name} -vf fps=2 frames/%04d.png) and pass that folder")
     return None
 
 
@@ -143,12 +149,23 @@ def check_not_workspace(photos: Path) -> None:
                     f"pass the photo folder it was made from, {source}")
 
 
-def list_photos(photos: Path) -> list[Photo]:
-    """The photos of a folder, one per stem (raw preferred); clear errors when none."""
-    if not photos.exists():
-        raise UserError(f"photo folder {photos} does not exist: pass a folder of photos")
+def require_folder(photos: Path) -> None:
+    """A clear error unless ``photos`` (which exists) is a folder; a video says where to
+    put it."""
+    if is_video(photos) and photos.is_file():
+        raise UserError(f"{photos} is a video: put it in a folder of its own (e.g. "
+                        f"{shell_path(photos.parent / photos.stem)}) and pass the folder; its "
+                        "sharpest frames become the views")
     if not photos.is_dir():
         raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
+
+
+def list_photos(photos: Path, video_frames: int = DecodeConfig.video_frames) -> list[Photo]:
+    """The photos of a folder, one per stem (raw preferred), then its videos (each counted
+    as ``video_frames`` views); clear errors when none."""
+    if not photos.exists():
+        raise UserError(f"photo folder {photos} does not exist: pass a folder of photos")
+    require_folder(photos)
     entries = [p for p in photos.iterdir() if not p.name.startswith(".")]
     files = sorted(p for p in entries if p.is_file())
     if not entries:
@@ -163,7 +180,8 @@ def list_photos(photos: Path) -> list[Photo]:
         if p.stem not in by_stem and (message := not_read_warning(p)) is not None:
             warn(message)
             not_read += 1
-    if not by_stem:
+    videos = live_clips_left_out(files, [p for p in files if is_video(p)])
+    if not by_stem and not videos:
         inner = photo_subfolders(photos)
         if inner:
             listed = ", ".join(f"{d.name} ({n} photos)" for d, n in inner[:4])
@@ -172,8 +190,8 @@ def list_photos(photos: Path) -> list[Photo]:
                             f"that holds this scene, e.g. {inner[0][0]}")
         named = f"; {not_read} file(s) in formats it does not read, named above" if not_read else ""
         raise UserError(f"photo folder {photos} has no photos (no camera raw such as DNG/NEF/"
-                        f"CR2/ARW, and no JPEG/PNG/TIFF files{named}): put the photos of the "
-                        "scene in it")
+                        f"CR2/ARW, no JPEG/PNG/TIFF files and no videos{named}): put the "
+                        "photos of the scene in it")
     chosen = []
     for stem, paths in sorted(by_stem.items()):
         paths.sort(key=lambda p: (p.suffix.lower() not in RAW_EXTS, p.name))
@@ -182,11 +200,28 @@ def list_photos(photos: Path) -> list[Photo]:
                  f"using {paths[0].name} (the others only if it cannot be decoded)")
         chosen.append(Photo(paths[0], stem, paths[0].suffix.lower() in RAW_EXTS,
                             tuple(paths[1:])))
+    chosen += [Photo(p, p.stem, False, video=True) for p in videos]
     chosen = without_copies(chosen)
-    if len(chosen) < MIN_IMAGES:
-        raise UserError(f"photo folder {photos} has only {len(chosen)} photo(s): at least "
+    views = sum(video_frames if p.video else 1 for p in chosen)
+    if views < MIN_IMAGES:
+        raise UserError(f"photo folder {photos} has only {views} photo(s): at least "
                         f"{MIN_IMAGES} overlapping photos of the scene are needed")
     return chosen
+
+
+def live_clips_left_out(files: list[Path], videos: list[Path]) -> list[Path]:
+    """``videos`` without a phone's Live Photo clips (``IMG_1.MOV`` beside ``IMG_1.JPG`` or
+    ``IMG_1.HEIC``: three seconds around one photo, not a walk), each named in a warning."""
+    still = {p.stem for p in files if not is_video(p) and (
+        is_photo_file(p) or p.suffix.lower() in NOT_READ)}
+    kept = []
+    for v in videos:
+        if v.stem in still:
+            warn(f"skipping {v.name}: it shares its name with a photo (a Live Photo's clip); "
+                 "rename it to take its frames")
+        else:
+            kept.append(v)
+    return kept
 
 
 def without_copies(chosen: list[Photo]) -> list[Photo]:
@@ -245,20 +280,6 @@ def jpeg_truncated(path: Path) -> bool:
     return sos < 0 or data.rfind(b"\xff\xd9") < sos
 
 
-@contextlib.contextmanager
-def _quiet_stderr():
-    """Silence LibRaw's own C-level messages on fd 2 (the stage names bad files itself)."""
-    sys.stderr.flush()
-    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 2)
-    try:
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
 class DecodeError(Exception):
     """A photo that cannot be decoded (corrupt, truncated, unsupported)."""
 
@@ -309,7 +330,7 @@ def decode_raw(path: Path, cfg: DecodeConfig) -> tuple[np.ndarray, np.ndarray]:
     import rawpy
 
     try:
-        with _quiet_stderr(), rawpy.imread(str(path)) as raw:
+        with quiet_stderr(), rawpy.imread(str(path)) as raw:
             params = _raw_params(raw, cfg)
             cam = raw.postprocess(output_color=rawpy.ColorSpace.raw, **params)
             srgb_lin = raw.postprocess(output_color=rawpy.ColorSpace.sRGB, **params)
@@ -353,6 +374,39 @@ def _decode_file(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> None
     atomic_imwrite(png, bgr)
 
 
+def _decode_video(path: Path, cfg: DecodeConfig, ws: Workspace, resume: bool,
+                  taken_stems: set[str]) -> tuple[dict[str, dict], int]:
+    """Choose and write the frames of one video (``pipeline.video_input``): ({stem: {video,
+    frame, seconds}} of the frames written or kept, how many were kept from an interrupted
+    run). Raises VideoError when the video cannot be read."""
+    from pipeline import video_input as vi
+
+    with make_progress() as prog:
+        task = prog.add_task(f"decode {path.name}: scan", total=vi.frame_count(path) or None)
+        scan = vi.scan(path, lambda: prog.advance(task))
+        prog.update(task, total=len(scan.sharpness), completed=len(scan.sharpness))
+        chosen = vi.choose(scan, cfg.video_frames)
+        stems = {i: vi.frame_stem(path, i) for i in chosen}
+        for stem in stems.values():
+            if stem in taken_stems:
+                raise UserError(f"frame {stem} of {path.name} has the name of another photo "
+                                "in the folder: rename the video or that photo")
+        todo = [i for i in chosen if not (resume and ws.decoded_path(stems[i]).exists())]
+        if todo:
+            task = prog.add_task(f"decode {path.name}: {len(todo)} frames", total=max(todo) + 1)
+            for i, bgr in vi.read_chosen(path, todo, lambda: prog.advance(task)):
+                atomic_imwrite(ws.decoded_path(stems[i]), resize_area(bgr, cfg.max_size))
+        missing = [i for i in todo if not ws.decoded_path(stems[i]).exists()]
+        if missing:  # the second pass ended early: the file changed or decodes unevenly
+            raise VideoError(f"frame {missing[0]} could not be read again")
+    fps = scan.fps if scan.fps > 0 else None
+    info(f"{path.name}: {len(chosen)} of {len(scan.sharpness)} frames taken (the sharpest of "
+         f"each stretch of equal camera motion)")
+    return ({stems[i]: {"video": path.name, "frame": i,
+                        "seconds": round(i / fps, 3) if fps else None} for i in chosen},
+            len(chosen) - len(todo))
+
+
 def _remove_stale(folder: Path, keep: set[str], path_of: Callable[[str], Path]) -> None:
     """Remove the per-view files of ``folder`` (those ``path_of(stem)`` names, e.g.
     ``Workspace.decoded_path``) whose stem is not in ``keep``."""
@@ -372,7 +426,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
                         "(or 0 to keep the full size)")
     photos = Path(photos)
     check_not_workspace(photos)
-    chosen = list_photos(photos)
+    chosen = list_photos(photos, cfg.video_frames)
     ws = Workspace.create(ws_path or default_workspace(photos), photos)
     stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,
                                 defaults=asdict(DecodeConfig()))
@@ -380,8 +434,20 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws
     resume = ws.resumable(stage_run)
-    done, skipped, reused = {}, {}, 0
-    for photo in track(chosen, "decode"):
+    done, skipped, reused, frames = {}, {}, 0, {}
+    stills = [p for p in chosen if not p.video]
+    for video in (p for p in chosen if p.video):
+        try:
+            taken, kept = _decode_video(video.path, cfg, ws, resume, set(done) | {
+                p.stem for p in stills})
+        except VideoError as e:
+            warn(f"skipping {video.path.name}: {e}; replace or remove the file")
+            skipped[video.path.name] = str(e)
+            continue
+        frames.update(taken)
+        done.update({stem: video for stem in taken})
+        reused += kept
+    for photo in track(stills, "decode") if stills else ():
         png, tiff = ws.decoded_path(photo.stem), ws.linear_path(photo.stem)
         if resume and png.exists() and (tiff.exists() or not photo.is_raw):
             done[photo.stem], reused = photo, reused + 1
@@ -393,9 +459,11 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
             skipped[photo.path.name] = str(e)
     raw_stems = {s for s, p in done.items() if p.is_raw}
     if len(done) < MIN_IMAGES:  # before anything of an earlier run is removed
-        raise UserError(f"only {len(done)} of {len(chosen)} photos in {photos} could be "
-                        f"decoded (skipped: {', '.join(skipped) or 'none'}): at least "
-                        f"{MIN_IMAGES} usable photos are needed; replace the unreadable files")
+        what = (f"{len(done)} of {len(chosen)} photos" if not frames
+                else f"{len(done)} views (photos and video frames)")
+        raise UserError(f"only {what} in {photos} could be decoded (skipped: "
+                        f"{', '.join(skipped) or 'none'}): at least {MIN_IMAGES} usable photos "
+                        "are needed; replace the unreadable files")
     _remove_stale(ws.decoded, set(done), ws.decoded_path)
     _remove_stale(ws.linear, raw_stems, ws.linear_path)
     outputs = [ws.decoded] + ([ws.linear] if raw_stems else [])
@@ -405,7 +473,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         shutil.rmtree(ws.linear)
     stage_run.finish(outputs, extra={
         "sources": {s: p.path.name for s, p in sorted(done.items())},
-        "raw": sorted(raw_stems), "skipped": skipped},
+        "raw": sorted(raw_stems), "skipped": skipped, "video_frames": frames},
         versions=["rawpy", "opencv-contrib-python-headless", "numpy"])
     info(f"decode: {len(done)} images -> {ws.decoded}"
          + (f" ({reused} kept from an interrupted run)" if reused else "")

@@ -146,8 +146,10 @@ def png_size(path: Path) -> tuple[int, int]:
 
 def focal_prior(photo: Path | None, size: tuple[int, int]) -> float | None:
     """EXIF focal length of the original photo in pixels of the decoded size, if known."""
+    from pipeline.video_input import is_video
+
     pycolmap = colmap_io.import_pycolmap()
-    if photo is None or not photo.is_file():
+    if photo is None or not photo.is_file() or is_video(photo):  # a video's frame: no EXIF
         return None
     try:
         cam = pycolmap.infer_camera_from_image(str(photo))
@@ -369,8 +371,10 @@ def solve(cfg: PoseConfig, ws: Workspace, inp: Inputs, resume: bool) -> tuple:
 # --------------------------------------------------------------------------- report
 def registration_report(rec, inp: Inputs, model_sizes: list[int], extra: dict) -> dict:
     """Which images registered, with the model's statistics (saved as report.json)."""
+    from pipeline.video_input import view_label
+
     reg = {Path(im.name).stem: im for im in colmap_io.registered_images(rec)} if rec else {}
-    per = [{"name": inp.sources.get(s, f"{s}.png"), "stem": s, "registered": s in reg,
+    per = [{"name": view_label(s, inp.sources.get(s)), "stem": s, "registered": s in reg,
             "points3D": int(reg[s].num_points3D) if s in reg else 0} for s in inp.stems]
     return {
         "images": len(inp.stems), "registered": len(reg),

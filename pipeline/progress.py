@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
 import time
 from collections.abc import Iterable, Iterator
@@ -105,3 +107,18 @@ def info(msg: str) -> None:
 
 def warn(msg: str) -> None:
     console.print(f"[yellow]warning:[/yellow] {msg}")
+
+
+@contextlib.contextmanager
+def quiet_stderr():
+    """Silence C libraries' own messages on fd 2 (LibRaw, FFmpeg): the stage names bad files
+    itself."""
+    sys.stderr.flush()
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)

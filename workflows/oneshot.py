@@ -129,9 +129,9 @@ def run_all(cfg: OneShotConfig) -> Path:
     if not photos.exists():
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos, "
                         "e.g. `deflare-scene ./photos`, or see `deflare-scene --help`")
-    if not photos.is_dir():
-        raise UserError(f"{photos} is not a folder: pass the folder that holds the photos")
     from pipeline import decode, depth, export, finetune, mask, pose, render, select
+
+    decode.require_folder(photos)
 
     stages, force, t0 = cfg.stages, cfg.force, time.time()
     ws_path = Path(cfg.out) if cfg.out else default_workspace(photos)

@@ -28,6 +28,7 @@ from pipeline.render.config import RenderConfig
 from pipeline.render.flare_layer import apply_flare_layer
 from pipeline.render.inputs import input_blend, input_rays, match_colours
 from pipeline.render.jobs import FrameJob, FullRes, Prepared
+from pipeline.video_input import is_video
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_decoded
 
@@ -49,10 +50,13 @@ def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
              "skipping full-resolution output")
         return []
     names, raw = decoded_photos(ws)
-    out = []
+    out, videos = [], set()
     for j in jobs:
         f = j.camera
         src = photos / names.get(f.stem, f.name)
+        if is_video(src):  # a video's frame: the decoded frame is all there is
+            videos.add(src.name)
+            continue
         if not src.is_file():
             warn(f"--full-res: {src} is missing; {f.stem} skipped")
             continue
@@ -70,6 +74,9 @@ def plan_full_res(ws: Workspace, jobs: list[FrameJob]) -> list[FrameJob]:
         out.append(FrameJob(ws.deflared_full_path(f.stem, ".jpg" if jpeg else ".png"),
                             j.sources, j.near, j.far, f,
                             FullRes(src, linear=False, exif=src if jpeg else None)))
+    if videos:
+        warn(f"--full-res: the frames of {', '.join(sorted(videos))} have no photo larger than "
+             "WS/decoded (decode them with --max-size 0 for full size); skipped")
     return out
 
 

@@ -78,9 +78,10 @@ def _photos(folder: Path, n: int) -> Path:
 
 
 def test_photos_and_videos_in_formats_not_read_are_named(tmp_path, capsys):
-    """HEIC photos and a video beside readable photos: one warning line each, naming the
-    file and what to do; decode goes on with the rest. A folder of HEIC alone: the error
-    line says files were skipped, and the warnings name them."""
+    """HEIC photos and a video that cannot be decoded beside readable photos: one warning
+    line each, naming the file and what to do; decode goes on with the rest. A folder of
+    HEIC alone: the error line says files were skipped, and the warnings name them. A video
+    passed where the folder belongs: one line saying to pass a folder that holds it."""
     d = _photos(tmp_path / "mixed", 3)
     (d / "IMG_0001.HEIC").write_bytes(b"\x00\x00\x00\x18ftypheic")
     (d / "walk.MOV").write_bytes(b"\x00\x00\x00\x14ftypqt  ")
@@ -92,7 +93,7 @@ def test_photos_and_videos_in_formats_not_read_are_named(tmp_path, capsys):
     heic = [ln for ln in err.splitlines() if "IMG_0001.HEIC" in ln]
     mov = [ln for ln in err.splitlines() if "walk.MOV" in ln]
     assert len(heic) == 1 and "HEIC files are not read" in heic[0] and "JPEG" in heic[0]
-    assert len(mov) == 1 and "videos are not read" in mov[0] and "ffmpeg" in mov[0]
+    assert len(mov) == 1 and "not a readable video" in mov[0] and "replace" in mov[0]
     assert "notes.txt" not in err and "p0.heic" not in err
     assert digest_paths([d]) == before
     assert sorted(p.stem for p in Workspace.open(tmp_path / "ws").decoded.iterdir()) == [
@@ -102,6 +103,8 @@ def test_photos_and_videos_in_formats_not_read_are_named(tmp_path, capsys):
     for i in range(3):
         (only / f"IMG_{i}.heic").write_bytes(b"\x00")
     _fails(capsys, ["decode", str(only)], "has no photos", "3 file(s) in formats it does not read")
+    _fails(capsys, [str(d / "walk.MOV")], "walk.MOV is a video", "folder of its own",
+           "pass the folder")
 
 
 def test_photos_in_subfolders_are_pointed_at(tmp_path, capsys):

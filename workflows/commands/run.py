@@ -38,8 +38,8 @@ def _picks() -> list[Pick]:
 def register(app: typer.Typer) -> None:
     @fields_command(app, "run", _picks())
     def run_cmd(
-        photos: Path = typer.Argument(..., help="Folder of photos (raw or JPEG/PNG/TIFF), or "
-                                      "a workspace to resume."),
+        photos: Path = typer.Argument(..., help="Folder of photos (raw or JPEG/PNG/TIFF) or "
+                                      "videos, or a workspace to resume."),
         out: Path = typer.Option(None, "--out", "-o",
                                  help="Workspace folder (default: <photos>.deflare beside it)."),
         *,
