@@ -26,6 +26,7 @@ from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
 from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
+from pipeline.errors import shell_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import UNSEEN_FILE, Workspace, atomic_write_json
@@ -91,6 +92,11 @@ class FinetuneConfig:
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
     second copy of the scene, so a few photos give the model twice the views to learn from.
     Off by default (docs/history/gnfr.md, "Twentieth session")."""
+    exposure_match: bool = False
+    """Train on every view brought to the views' common exposure (one gain per view and
+    channel from the depth maps, ``pipeline.exposure``; needs the depth stage); render
+    reads the gains from the checkpoint. Off until judged (docs/history/gnfr.md,
+    "Exposures evened out")."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
@@ -156,12 +162,13 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
-              "holes_as_flare": config.holes_as_flare}
+              "holes_as_flare": config.holes_as_flare,
+              "exposure_match": config.exposure_match}
     # an option added later is absent from older records: it matches there at the value
     # those runs had (holes_as_flare was off before it existed, whatever its default now)
     stage_run = ws.begin_stage("finetune", params, inputs, force,
                                defaults={"train": asdict(TrainConfig()),
-                                         "holes_as_flare": False})
+                                         "holes_as_flare": False, "exposure_match": False})
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)
@@ -171,11 +178,27 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
          f"{'cached features' if cfg.cached_features else 'end-to-end'})")
     from pipeline.training_scenes import load_workspace
 
-    scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare)
+    gains = exposure_gains(ws) if config.exposure_match else None
+    scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run), init=config.init,
-                preset=name)
+                preset=name, gains=gains)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
+
+
+def exposure_gains(ws: Workspace) -> dict:
+    """``finetune --exposure-match``: the views' gains (``pipeline.exposure``), said in one
+    line; every gain 1 with a warning when the workspace has no depth maps."""
+    from pipeline.exposure import estimate_gains, spread_ev
+
+    if not ws.depth.is_dir():
+        warn(f"finetune --exposure-match: no {ws.depth} (run `deflare-scene depth "
+             f"{shell_path(ws.root)}`): the views are trained at their own exposures")
+        return {}
+    gains = estimate_gains(ws)
+    info(f"finetune: exposures evened out ({spread_ev(gains):.2f} EV between the darkest and "
+         "the brightest view)")
+    return gains
 
 
 def flare_free(ws: Workspace) -> bool:
@@ -275,7 +298,7 @@ def checkpoint_provenance(path: Path) -> dict | None:
 
 # --------------------------------------------------------------------------- training
 def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume: bool = True,
-        init: str = "auto", preset: str = "custom") -> dict:
+        init: str = "auto", preset: str = "custom", gains: dict | None = None) -> dict:
     """Train on ``scene``, checkpointing into ``out``; resumes from ``out`` when allowed
     (``gnfr.fit``: weights, optimizer, RNG and step; here also the unseen counts, training
     seconds and the provenance's start)."""
@@ -287,6 +310,10 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     trainer = Trainer(model, cfg, gen=gen)
     unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
     prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
+    if gains:  # the exposure the model was trained at: render reads its sources so
+        from pipeline.exposure import gains_json
+
+        prov["exposure_gains"] = gains_json(gains)
     if resume and has_checkpoint(out):
         unseen = trainer.restore(out)["unseen"]
         # the start is what the interrupted run began from, not what init resolves to now

@@ -84,14 +84,15 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 
 # --------------------------------------------------------------------------- workspace
 def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
-                   holes_as_flare: bool = False) -> Scene:
+                   holes_as_flare: bool = False, gains: dict | None = None) -> Scene:
     """A workspace's posed views (and masks / views.json when present) as a Scene. With
     views.json its flags are the training targets (``ViewsFile.targets``, the rule select
     applied with its --max-flare); without it the training config's max_flare decides.
     ``holes_as_flare``: each mask with what it encloses marked too
     (``pipeline.ws_files.enclosed_holes``; the views' flare fractions stay select's). Off
     here, so a workspace read as a pretraining scene keeps its masks as they are; the
-    fine-tune passes its own ``FinetuneConfig.holes_as_flare`` (on by default)."""
+    fine-tune passes its own ``FinetuneConfig.holes_as_flare`` (on by default). ``gains``:
+    {stem: [3] linear gain} applied to the views (``pipeline.exposure``)."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
@@ -99,7 +100,12 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     size = (frames[0].width, frames[0].height)
     images, Ks = [], []
     for f in frames:
-        images.append(read_image(ws.image_path(f.stem), size=size, fix=ws.rerun("pose")))
+        img = read_image(ws.image_path(f.stem), size=size, fix=ws.rerun("pose"))
+        if gains and f.stem in gains:
+            from pipeline.exposure import apply_gain
+
+            img = apply_gain(img, gains[f.stem])
+        images.append(img)
         K = np.array(f.K, float)
         K[0] *= size[0] / f.width
         K[1] *= size[1] / f.height

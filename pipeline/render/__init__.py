@@ -159,11 +159,12 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         with torch.inference_mode():
             model = load_model(ckpt, device)
             stems = sorted({s for j in todo for s in j.sources})
+            gains = meta.get("exposure_gains") or None
             src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"],
-                                        params["full_res_colour"])
+                                        params["full_res_colour"], gains)
             photos = photo_views(ws, cams, todo, cfg) if use_photos else None
             if cfg.compile:  # after encoding: only the rays' forward pass is compiled
                 model = torch.compile(model, dynamic=False)
-            render_jobs(model, src, index, todo, params, cfg, ws, photos)
+            render_jobs(model, src, index, todo, params, cfg, ws, photos, gains)
     outputs = [out_dir] + ([ws.deflared_full] if full else [])
     return stage_run.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])

@@ -25,8 +25,11 @@ def default_chunk(device_type: str) -> int:
 
 
 def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params: dict,
-                cfg: RenderConfig, ws: Workspace, photos: dict | None = None) -> None:
-    """Render and write every job against the shared source cache, with progress bars."""
+                cfg: RenderConfig, ws: Workspace, photos: dict | None = None,
+                gains: dict | None = None) -> None:
+    """Render and write every job against the shared source cache, with progress bars.
+    ``gains``: the exposure the model was trained at (``pipeline.exposure``): its colours
+    are taken back to each frame's (:func:`exposure_back`)."""
     import torch
 
     from gnfr.renderer import render_rays
@@ -61,8 +64,21 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                     if want_depth:
                         depth[idx.numpy()] = out["depth"].numpy()
                     offset += len(idx)
+            if gains and len(rgb):
+                from pipeline.exposure import apply_gain
+
+                rgb = apply_gain(rgb, exposure_back(job, gains))
             write_frame(job.out, compose(rgb, depth) if want_depth else compose(rgb), job.exif)
             prog.advance(t_frames)
+
+
+def exposure_back(job: FrameJob, gains: dict) -> np.ndarray:
+    """[3] linear gain from the model's common exposure to a frame's: an input view's own
+    (the inverse of its gain), a novel frame's sources' median (where its photo fill is)."""
+    if job.is_input and job.camera.stem in gains:
+        return 1.0 / np.asarray(gains[job.camera.stem], np.float64)
+    near = [np.asarray(gains[s], np.float64) for s in job.sources if s in gains]
+    return 1.0 / np.median(near, axis=0) if near else np.ones(3)
 
 
 DEPTH_BAND = 1.25

@@ -111,10 +111,12 @@ def load_model(ckpt: Path, device: str):
 
 
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
-                   scale: float = 1.0, full_res_colour: bool = False):
+                   scale: float = 1.0, full_res_colour: bool = False,
+                   gains: dict | None = None):
     """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i});
     with ``full_res_colour`` only the encoder sees them at ``scale``, colours and masks are
-    sampled at the full size.
+    sampled at the full size. ``gains``: {stem: [3] linear gain} the model was trained at
+    (``finetune --exposure-match``), applied to the views.
 
     Images of different sizes are padded to the largest; the padding is marked as flare so
     the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
@@ -126,6 +128,11 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     by = cams.by_stem()
     feature_scale, scale = (scale, 1.0) if full_res_colour else (1.0, scale)
     imgs = [_resize_img(read_view_image(ws, s), scale) for s in stems]
+    if gains:
+        from pipeline.exposure import apply_gain
+
+        imgs = [apply_gain(i, gains[s]) if s in gains else i
+                for s, i in zip(stems, imgs, strict=True)]
     H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
     have_masks = has_masks(ws, stems)
     if not have_masks:

@@ -1,0 +1,151 @@
+"""The views' exposures evened out: one gain per view and channel, from the depth maps.
+
+Photos of one scene are rarely taken at one exposure: a camera's auto exposure moves by a
+stop between views as the sky or the light comes into the frame (the development scenes:
+0.9-1.1 EV between their darkest and brightest view, the camera's own EXIF saying the same;
+``benchmarks/exposure_spread.py``). GN-FR's fine-tune asks the network for a target's
+colours from sources exposed otherwise, which no ray can explain.
+
+``estimate_gains``: each view's known depth (WS/depth) warps its ``neighbours`` nearest
+views into it (``pipeline.stereo.warp_sources``: in view, unflared, unoccluded); on the
+pixels both see, neither near black nor clipped, the median log ratio of linear colours is
+the two views' exposure difference, per channel. A least-squares fit of one log gain per
+view to all those differences (mean zero) gives the gains: multiplying a view's linear
+colours by its gain brings it to the views' common exposure. A view no pair reaches keeps
+gain 1.
+
+Where used: ``finetune --exposure-match`` trains on every view brought to the common
+exposure and stores the gains in the checkpoint's provenance; ``render`` then reads its
+sources at the same gains and takes the network's colours back to the frame's exposure
+(an input view's own, a novel frame's nearest sources' median).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DARK = 0.01
+"""Linear values below this are left out of a ratio (noise and crushed shadows)."""
+CLIPPED = 0.95
+"""sRGB values above this in any channel are left out (clipped highlights, light cores)."""
+MIN_PIXELS = 200
+"""Fewest shared pixels for a pair's difference to count."""
+MAX_EV = 3.0
+"""Gains are held to +-3 stops."""
+CENTRE = 0.6
+"""Only pixels within this fraction of the half-diagonal from the image centre, in both
+views, are compared: lens vignetting darkens the edges, and on a walk forward a point moves
+outwards from view to view, which would read as the later view being darker."""
+
+
+def central(h: int, w: int, x: np.ndarray | None = None, y: np.ndarray | None = None
+            ) -> np.ndarray:
+    """[H, W] bool: pixels (or the points ``x``, ``y``) within ``CENTRE`` of the centre."""
+    if x is None:
+        y, x = np.mgrid[0:h, 0:w].astype(np.float32) + 0.5
+    r = np.hypot((x - w / 2) / (w / 2), (y - h / 2) / (h / 2)) / np.sqrt(2)
+    return r < CENTRE
+
+
+def srgb_to_lin(x: np.ndarray) -> np.ndarray:
+    from pipeline.colour import srgb_to_linear
+
+    return srgb_to_linear(np.clip(x, 0.0, 1.0), exact=True)
+
+
+def lin_to_srgb(x: np.ndarray) -> np.ndarray:
+    from pipeline.colour import linear_to_srgb
+
+    return linear_to_srgb(np.clip(x, 0.0, 1.0), exact=True)
+
+
+def apply_gain(srgb: np.ndarray, gain) -> np.ndarray:
+    """sRGB colours [..., 3] (float 0..1, or uint8) times a linear ``gain`` [3], as the input's
+    type (clipped)."""
+    g = np.asarray(gain, np.float32)
+    if srgb.dtype == np.uint8:
+        out = lin_to_srgb(srgb_to_lin(srgb.astype(np.float32) / 255.0) * g)
+        return np.clip(np.round(out * 255.0), 0, 255).astype(np.uint8)
+    return lin_to_srgb(srgb_to_lin(srgb) * g).astype(srgb.dtype, copy=False)
+
+
+def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, str, np.ndarray]]:
+    """(a, b, [3] log(b / a)) for each view ``a`` with depth and each of its nearest
+    ``neighbours`` b, from the pixels both see. ``views``: {stem: PosedView} with depth."""
+    from pipeline.depth import nearest_views
+    from pipeline.stereo import warp_sources
+
+    near = nearest_views(cams, neighbours)
+    out = []
+    for a, va in views.items():
+        if va.depth is None:
+            continue
+        srcs = [b for b in near.get(a, []) if b in views]
+        if not srcs:
+            continue
+        w = warp_sources(va.K, va.c2w, va.depth, [views[b] for b in srcs])
+        own_ok = (va.depth > 0) & (va.image.max(-1) < CLIPPED)
+        if va.valid is not None:
+            own_ok &= va.valid
+        own = srgb_to_lin(va.image)
+        h, wd = va.depth.shape
+        own_ok &= central(h, wd)
+        from pipeline.stereo import backproject, project_points
+
+        pts = backproject(va.K, va.c2w, va.depth)
+        for k, b in enumerate(srcs):
+            vb = views[b]
+            xy, _ = project_points(pts, vb.K, vb.c2w)
+            bh, bw = vb.image.shape[:2]
+            m = own_ok & w.ok[k] & (w.colours[k].max(-1) < CLIPPED)
+            m &= central(bh, bw, xy[..., 0], xy[..., 1])
+            other = srgb_to_lin(w.colours[k])
+            m &= (own.min(-1) > DARK) & (other.min(-1) > DARK)
+            if int(m.sum()) < MIN_PIXELS:
+                continue
+            out.append((a, b, np.median(np.log(other[m]) - np.log(own[m]), axis=0)))
+    return out
+
+
+def solve_gains(stems: list[str], diffs: list[tuple[str, str, np.ndarray]]
+                ) -> dict[str, np.ndarray]:
+    """{stem: [3] linear gain} from pairwise log differences log(b / a) = e_b - e_a: least
+    squares with the mean log exposure of the reached views at zero; gain = exp(-e)."""
+    index = {s: i for i, s in enumerate(stems)}
+    reached = sorted({index[a] for a, _, _ in diffs} | {index[b] for _, b, _ in diffs})
+    gains = {s: np.ones(3) for s in stems}
+    if len(reached) < 2:
+        return gains
+    col = {v: j for j, v in enumerate(reached)}
+    A = np.zeros((len(diffs) + 1, len(reached)))
+    y = np.zeros((len(diffs) + 1, 3))
+    for r, (a, b, d) in enumerate(diffs):
+        A[r, col[index[b]]], A[r, col[index[a]]] = 1.0, -1.0
+        y[r] = d
+    A[-1] = 1.0  # mean zero
+    e = np.linalg.lstsq(A, y, rcond=None)[0]
+    e = np.clip(e, -MAX_EV * np.log(2), MAX_EV * np.log(2))
+    for v, j in col.items():
+        gains[stems[v]] = np.exp(-e[j])
+    return gains
+
+
+def estimate_gains(ws, neighbours: int = 4) -> dict[str, np.ndarray]:
+    """{stem: [3] linear gain to the common exposure} of a workspace's views (WS/images,
+    WS/masks, WS/depth); every gain 1 without depth maps."""
+    from pipeline.depth import load_views
+    from pipeline.ws_files import read_cameras
+
+    cams = read_cameras(ws)
+    views = load_views(ws, cams, cams.stems, with_depth=True)
+    return solve_gains(cams.stems, pair_differences(views, cams, neighbours))
+
+
+def gains_json(gains: dict[str, np.ndarray]) -> dict[str, list[float]]:
+    return {s: [round(float(x), 5) for x in g] for s, g in sorted(gains.items())}
+
+
+def spread_ev(gains: dict[str, np.ndarray]) -> float:
+    """Stops between the darkest and the brightest view (grey: the channels' mean log)."""
+    e = [float(np.mean(np.log2(np.asarray(g)))) for g in gains.values()]
+    return max(e) - min(e) if e else 0.0

@@ -1,0 +1,128 @@
+"""The views' exposures evened out (pipeline/exposure.py): gains from the depth maps, the
+fine-tune that trains at them and the render that reads them back."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from pipeline import exposure as ex
+from pipeline.cameras import Cameras, Frame
+from pipeline.stereo import PosedView
+from tests.fixtures import make_plane_workspace, plane_views
+
+W, H = 160, 120
+K = np.array([[150.0, 0, W / 2], [0, 150.0, H / 2], [0, 0, 1]])
+
+
+def test_apply_gain_is_a_gain_in_linear_light_and_round_trips():
+    rng = np.random.default_rng(0)
+    srgb = rng.uniform(0.05, 0.6, (50, 3)).astype(np.float32)
+    lin = ex.srgb_to_lin(srgb)
+    out = ex.apply_gain(srgb, [2.0, 1.0, 0.5])
+    np.testing.assert_allclose(ex.srgb_to_lin(out), lin * [2.0, 1.0, 0.5], rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(ex.apply_gain(out, [0.5, 1.0, 2.0]), srgb, atol=1e-5)
+    u8 = (srgb * 255).round().astype(np.uint8)
+    assert ex.apply_gain(u8, [1.0, 1.0, 1.0]).tolist() == u8.tolist()
+    assert ex.apply_gain(np.full((1, 3), 0.9, np.float32), [4.0] * 3).max() == pytest.approx(1.0)
+
+
+def test_solve_gains_recovers_exposures_from_pair_differences():
+    stems = ["a", "b", "c", "d"]
+    e = {"a": 0.3, "b": -0.2, "c": 0.5, "d": 9.0}  # d is never compared: gain 1
+    pairs = [("a", "b"), ("b", "c"), ("a", "c"), ("c", "a")]
+    diffs = [(x, y, np.full(3, e[y] - e[x])) for x, y in pairs]
+    g = ex.solve_gains(stems, diffs)
+    mean = np.mean([e[s] for s in "abc"])
+    for s in "abc":
+        np.testing.assert_allclose(g[s], np.exp(-(e[s] - mean)), rtol=1e-9)
+    assert g["d"].tolist() == [1.0, 1.0, 1.0]
+    assert ex.solve_gains(stems, [])["a"].tolist() == [1.0, 1.0, 1.0]
+
+
+def test_gains_from_depth_warps_undo_each_views_exposure():
+    """Four photos of a textured plane, each exposed differently (a stop apart at most, one
+    channel shifted as a white balance would): the gains bring them back to one exposure,
+    to a hundredth of a stop."""
+    rng = np.random.default_rng(4)
+    centers = [[x, 0.0, -3.0] for x in (-0.3, -0.1, 0.1, 0.3)]
+    images, c2ws, depths = plane_views(rng, centers, K, (W, H))
+    ev = np.array([[0.4, 0.4, 0.4], [-0.5, -0.5, -0.5], [0.0, 0.0, 0.3], [0.5, 0.5, 0.5]])
+    views, frames = {}, []
+    for i, (img, c2w, d) in enumerate(zip(images, c2ws, depths, strict=True)):
+        shown = ex.lin_to_srgb(ex.srgb_to_lin(0.1 + 0.6 * img) * 2.0 ** ev[i])
+        s = f"v{i}"
+        views[s] = PosedView(shown.astype(np.float32), K.copy(), c2w, None,
+                             d.astype(np.float32))
+        frames.append(Frame(s, s, K, W, H, c2w, 1.0, 6.0))
+    cams = Cameras(frames)
+    g = ex.solve_gains(cams.stems, ex.pair_differences(views, cams, neighbours=3))
+    got = np.stack([np.log2(g[f"v{i}"]) for i in range(4)])
+    np.testing.assert_allclose(got, -(ev - ev.mean(0)), atol=0.01)
+    assert ex.spread_ev(g) == pytest.approx(np.ptp((ev - ev.mean(0)).mean(1)), abs=0.01)
+
+
+def test_exposure_match_trains_at_the_gains_and_render_reads_them(tmp_path, monkeypatch):
+    """finetune --exposure-match on a plane whose views differ in exposure: the fine-tune's
+    views are brought to the gains the depth maps give, the checkpoint records them, and
+    render reads them (the de-flared photos are written)."""
+    import cv2
+    import torch
+
+    import gnfr.train
+    import pipeline.finetune as ft
+    from pipeline import depth, render
+    from pipeline.depth import DepthConfig
+    from pipeline.render.sources import train_meta
+    from pipeline.ws_files import read_view_image
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=5)
+    for i, s in enumerate(sorted(p.stem for p in ws.images.glob("*.png"))):  # +-0.5 EV
+        img = read_view_image(ws, s, as_float=True)
+        out = ex.apply_gain(img, [2.0 ** (0.25 * (i - 2))] * 3)
+        cv2.imwrite(str(ws.image_path(s)), (out[..., ::-1] * 255).round().astype(np.uint8))
+    from pipeline.ws_files import make_views, read_cameras, write_mask, write_views
+
+    cams = read_cameras(ws)
+    for s in cams.stems:  # no flare: empty masks, every view a target
+        write_mask(ws, s, np.zeros((cams.by_stem()[s].height, cams.by_stem()[s].width), bool))
+    write_views(ws, make_views(cams.stems, cams.centers(), dict.fromkeys(cams.stems, 0.0), 0.1))
+    depth.run(DepthConfig(), ws)
+    seen = {}
+    from pipeline import training_scenes
+
+    load = training_scenes.load_workspace
+
+    def spy(root, **kw):
+        seen.update(kw)
+        return load(root, **kw)
+
+    monkeypatch.setattr(training_scenes, "load_workspace", spy)
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(gnfr.train.PRESETS["tiny"],
+                                                             iters=2, ckpt_every=100))
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu",
+                             exposure_match=True), ws)
+    gains = train_meta(ws.model_file)["exposure_gains"]
+    assert seen["gains"] is not None and set(gains) == set(seen["gains"])
+    ev = [float(np.mean(np.log2(gains[s]))) for s in sorted(gains)]
+    assert np.all(np.diff(ev) < 0)  # each view a quarter stop brighter: a smaller gain
+    assert ev[0] - ev[-1] == pytest.approx(1.0, abs=0.1)
+    torch.manual_seed(0)
+    render.run(render.RenderConfig(path="inputs", device="cpu", fill="network"), ws)
+    assert len(list(ws.deflared.glob("*.png"))) == 5
+
+
+def test_exposure_back_is_the_view_own_or_the_sources_median():
+    from pipeline.render.engine import exposure_back
+    from pipeline.render.jobs import FrameJob
+
+    gains = {"a": [2.0, 2.0, 2.0], "b": [0.5, 1.0, 1.0], "c": [1.0, 1.0, 4.0]}
+    frame = Frame("a.jpg", "a", K, W, H, np.eye(4), 1.0, 6.0)
+    job = FrameJob(None, ["b", "c"], 1.0, 6.0, frame)
+    np.testing.assert_allclose(exposure_back(job, gains), [0.5, 0.5, 0.5])
+    novel = FrameJob(None, ["a", "b", "c"], 1.0, 6.0, object())
+    np.testing.assert_allclose(exposure_back(novel, gains), [1.0, 1.0, 0.5])
+    np.testing.assert_allclose(exposure_back(FrameJob(None, ["x"], 1.0, 6.0, object()), gains),
+                               [1.0, 1.0, 1.0])
