@@ -1,6 +1,6 @@
 """How far apart the views of a posed workspace are in exposure, measured two ways.
 
-    python benchmarks/exposure_spread.py WS [WS ...] [--out RESULT.json]
+    python benchmarks/exposure_spread.py WS [WS ...] [--depth] [--out RESULT.json]
 
 1. *From the pixels*: every 3D point of the COLMAP model is seen in several decoded photos.
    Its colour there (a 5x5 box mean at the keypoint, sRGB decoded to linear light; pixels
@@ -13,13 +13,14 @@
    so that it reads like (1).
 
 Agreement of (1) with (2) says the spread is the camera's auto exposure, not noise of the
-estimate. Nothing is changed in the workspace.
+estimate. ``--depth`` measures (1) as ``finetune --exposure-match`` does instead
+(``pipeline.exposure.estimate_gains``: the depth maps' warps between neighbours; a workspace
+after the depth stage, no COLMAP model needed). Nothing is changed in the workspace.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import struct
 import sys
@@ -109,11 +110,24 @@ def track_gains(ws_path: Path, iters: int = 10) -> tuple[list[str], np.ndarray, 
     return names, log_gain / math.log(2), len(tracks)
 
 
-def measure(ws_path: Path) -> dict:
+def depth_gains(ws) -> tuple[list[str], np.ndarray, int]:
+    """(names, [N, 3] EV, pairs used) as the fine-tune's ``--exposure-match`` measures them."""
+    from pipeline.depth import load_views
+    from pipeline.exposure import pair_differences, solve_gains
+    from pipeline.ws_files import read_cameras
+
+    cams = read_cameras(ws)
+    diffs = pair_differences(load_views(ws, cams, cams.stems, with_depth=True), cams)
+    gains = solve_gains(cams.stems, diffs)
+    return ([f"{s}.png" for s in cams.stems],
+            np.log2(np.stack([gains[s] for s in cams.stems])), len(diffs))
+
+
+def measure(ws_path: Path, depth: bool = False) -> dict:
     from pipeline.workspace import Workspace
 
     ws = Workspace.open(ws_path)
-    names, ev, n_tracks = track_gains(ws.root)
+    names, ev, n_tracks = depth_gains(ws) if depth else track_gains(ws.root)
     sources = ws.stage_record("decode").get("sources", {})
     photos = ws.photos_dir
     camera = {}
@@ -129,7 +143,8 @@ def measure(ws_path: Path) -> dict:
     corr = float(np.corrcoef(np.array(both).T)[0, 1]) if len(both) >= 3 and np.std(
         [b for _, b in both]) > 0 else None
     return {
-        "workspace": str(ws.root), "tracks": n_tracks,
+        "workspace": str(ws.root), "method": "depth maps" if depth else "COLMAP tracks",
+        "tracks" if not depth else "pairs": n_tracks,
         "ev_from_pixels": {n: [round(float(x), 3) for x in e] for n, e in zip(
             names, ev, strict=True)},
         "ev_from_exif": from_exif,
@@ -145,17 +160,21 @@ def measure(ws_path: Path) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("workspaces", type=Path, nargs="+")
+    ap.add_argument("--depth", action="store_true",
+                    help="gains from the depth maps, as finetune --exposure-match")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
     results = {}
     for ws in a.workspaces:
-        r = measure(ws)
+        r = measure(ws, a.depth)
         results[ws.name] = r
-        print(f"{ws.name}: {r['tracks']} tracks, spread {r['spread_ev_pixels']} EV from the "
+        unit = "pairs" if a.depth else "tracks"
+        print(f"{ws.name}: {r[unit]} {unit}, spread {r['spread_ev_pixels']} EV from the "
               f"pixels, {r['spread_ev_exif']} EV from EXIF, correlation {r['correlation']}, "
               f"mean |difference| {r['mean_abs_difference_ev']} EV")
-    if a.out:
-        a.out.write_text(json.dumps(results, indent=1) + "\n")
+    from pipeline.provenance import write_result
+
+    write_result(a.out, {"workspaces": results})
 
 
 if __name__ == "__main__":

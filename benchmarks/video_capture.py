@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 from pathlib import Path
 
@@ -39,10 +38,8 @@ def summary(ws_path: Path) -> dict:
     decode = ws.stage_record("decode")
     report = json.loads((ws.root / "colmap" / "report.json").read_text())
     flare = json.loads(ws.flare_json.read_text()) if ws.flare_json.exists() else {}
-    code = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True).stdout.strip()
     return {
-        "workspace": str(ws.root), "code": code,
+        "workspace": str(ws.root),
         "frames_taken": decode.get("video_frames", {}),
         "registered": report["registered"], "images": report["images"],
         "views_posed": len(read_cameras(ws).frames),
@@ -67,11 +64,9 @@ def main() -> None:
     if a.cmd == "make":
         print(make(a.frames, a.out, a.fps, a.crf))
         return
-    result = summary(a.workspace)
-    text = json.dumps(result, indent=1)
-    if a.out:
-        a.out.write_text(text + "\n")
-    print(text)
+    from pipeline.provenance import write_result
+
+    print(json.dumps(write_result(a.out, summary(a.workspace)), indent=1, default=str))
 
 
 if __name__ == "__main__":
