@@ -73,7 +73,7 @@ def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, 
     """(a, b, [3] log(b / a)) for each view ``a`` with depth and each of its nearest
     ``neighbours`` b, from the pixels both see. ``views``: {stem: PosedView} with depth."""
     from pipeline.depth import nearest_views
-    from pipeline.stereo import warp_sources
+    from pipeline.stereo import backproject, project_points, warp_sources
 
     near = nearest_views(cams, neighbours)
     out = []
@@ -90,8 +90,6 @@ def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, 
         own = srgb_to_lin(va.image)
         h, wd = va.depth.shape
         own_ok &= central(h, wd)
-        from pipeline.stereo import backproject, project_points
-
         pts = backproject(va.K, va.c2w, va.depth)
         for k, b in enumerate(srcs):
             vb = views[b]
