@@ -382,8 +382,9 @@ def _decode_video(path: Path, cfg: DecodeConfig, ws: Workspace, resume: bool,
     from pipeline import video_input as vi
 
     with make_progress() as prog:
-        task = prog.add_task(f"decode {path.name}: scan", total=vi.frame_count(path) or None)
-        scan = vi.scan(path, lambda: prog.advance(task))
+        task = prog.add_task(f"decode {path.name}: scan", total=None)
+        scan = vi.scan(path, lambda: prog.advance(task),
+                       lambda n: prog.update(task, total=n or None))
         prog.update(task, total=len(scan.sharpness), completed=len(scan.sharpness))
         chosen = vi.choose(scan, cfg.video_frames)
         stems = {i: vi.frame_stem(path, i) for i in chosen}

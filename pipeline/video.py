@@ -79,14 +79,6 @@ def _feed(proc: subprocess.Popen, first: np.ndarray, rest, size: tuple[int, int]
 
 def read_frames_cv2(path: str | os.PathLike) -> list[np.ndarray]:
     """Decode a video with OpenCV: list of BGR frames (for checks and tests)."""
-    import cv2
+    from pipeline.video_input import frames
 
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame)
-    cap.release()
-    return frames
+    return list(frames(Path(path)))

@@ -106,9 +106,8 @@ def _open(path: Path):
     return cap
 
 
-def frames(path: Path) -> Iterator[np.ndarray]:
-    """Every frame of the video, decoded in order (BGR uint8)."""
-    cap = _open(path)
+def _read(cap) -> Iterator[np.ndarray]:
+    """Every frame left in an open capture, in order (BGR uint8); releases it."""
     try:
         while True:
             ok, frame = cap.read()
@@ -119,26 +118,23 @@ def frames(path: Path) -> Iterator[np.ndarray]:
         cap.release()
 
 
-def frame_count(path: Path) -> int:
-    """The container's frame count (an estimate in some containers; 0 when unknown)."""
+def frames(path: Path) -> Iterator[np.ndarray]:
+    """Every frame of the video, decoded in order (BGR uint8)."""
+    return _read(_open(path))
+
+
+def scan(path: Path, advance: Callable[[], None] = lambda: None,
+         on_count: Callable[[int], None] = lambda n: None) -> Scan:
+    """First pass: sharpness and change of every frame (``advance`` after each), from one
+    opening of the file; ``on_count`` first gets the container's frame count (an estimate
+    in some containers, 0 when unknown), e.g. for a progress bar."""
     import cv2
 
     cap = _open(path)
-    try:
-        return max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
-    finally:
-        cap.release()
-
-
-def scan(path: Path, advance: Callable[[], None] = lambda: None) -> Scan:
-    """First pass: sharpness and change of every frame (``advance`` after each)."""
-    import cv2
-
-    cap = _open(path)
+    on_count(max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT))))
     fps = float(cap.get(cv2.CAP_PROP_FPS)) or 0.0
-    cap.release()
     sharp, change, prev, size = [], [], None, (0, 0)
-    for bgr in frames(path):
+    for bgr in _read(cap):
         s, small = frame_measures(bgr)
         sharp.append(s)
         change.append(0.0 if prev is None or prev.shape != small.shape
