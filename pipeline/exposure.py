@@ -32,6 +32,14 @@ MIN_PIXELS = 200
 """Fewest shared pixels for a pair's difference to count."""
 MAX_EV = 3.0
 """Gains are held to +-3 stops."""
+PIVOT = 0.18
+"""Linear level a curve's slope turns about (mid grey): its gain is the gain there."""
+BINS = 5
+"""Brightness bins per pair for the curves (equal pixel counts)."""
+SLOPES = (0.75, 1.33)
+"""A curve's slope is held to this range."""
+SLOPE_PRIOR = 2.0
+"""Weight of each view's pull of its slope towards 1 in the curves' least squares."""
 CENTRE = 0.6
 """Only pixels within this fraction of the half-diagonal from the image centre, in both
 views, are compared: lens vignetting darkens the edges, and on a walk forward a point moves
@@ -61,22 +69,31 @@ def lin_to_srgb(x: np.ndarray) -> np.ndarray:
 
 def apply_gain(srgb: np.ndarray, gain) -> np.ndarray:
     """sRGB colours [..., 3] (float 0..1, or uint8) times a linear ``gain`` [3], as the input's
-    type (clipped)."""
+    type (clipped). A curve [g_r, g_g, g_b, s] (:func:`solve_curves`) maps linear x to
+    PIVOT * g * (x / PIVOT) ** s: the gain g at mid grey, the slope s about it."""
     g = np.asarray(gain, np.float32)
+
+    def lin(x: np.ndarray) -> np.ndarray:
+        x = srgb_to_lin(x)
+        if len(g) == 3:
+            return x * g
+        return PIVOT * g[:3] * np.power(np.maximum(x, 0.0) / PIVOT, g[3])
+
     if srgb.dtype == np.uint8:
-        out = lin_to_srgb(srgb_to_lin(srgb.astype(np.float32) / 255.0) * g)
+        out = lin_to_srgb(lin(srgb.astype(np.float32) / 255.0))
         return np.clip(np.round(out * 255.0), 0, 255).astype(np.uint8)
-    return lin_to_srgb(srgb_to_lin(srgb) * g).astype(srgb.dtype, copy=False)
+    return lin_to_srgb(lin(srgb)).astype(srgb.dtype, copy=False)
 
 
-def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, str, np.ndarray]]:
-    """(a, b, [3] log(b / a)) for each view ``a`` with depth and each of its nearest
-    ``neighbours`` b, from the pixels both see. ``views``: {stem: PosedView} with depth."""
+def shared_pixels(views: dict, cams, neighbours: int = 4):
+    """Yield (a, b, [M, 3] linear colours of ``a``, the same pixels seen in ``b``) for each
+    view ``a`` with depth and each of its nearest ``neighbours`` b: the pixels both see,
+    unflared, central in both, neither dark nor clipped; pairs under ``MIN_PIXELS`` are
+    left out. ``views``: {stem: PosedView} with depth."""
     from pipeline.depth import nearest_views
     from pipeline.stereo import backproject, project_points, warp_sources
 
     near = nearest_views(cams, neighbours)
-    out = []
     for a, va in views.items():
         if va.depth is None:
             continue
@@ -101,7 +118,32 @@ def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, 
             m &= (own.min(-1) > DARK) & (other.min(-1) > DARK)
             if int(m.sum()) < MIN_PIXELS:
                 continue
-            out.append((a, b, np.median(np.log(other[m]) - np.log(own[m]), axis=0)))
+            yield a, b, own[m], other[m]
+
+
+def pair_differences(views: dict, cams, neighbours: int = 4) -> list[tuple[str, str, np.ndarray]]:
+    """(a, b, [3] log(b / a)) for each pair of :func:`shared_pixels`: the median log ratio."""
+    return [(a, b, np.median(np.log(other) - np.log(own), axis=0))
+            for a, b, own, other in shared_pixels(views, cams, neighbours)]
+
+
+def pair_bins(views: dict, cams, neighbours: int = 4, bins: int = BINS
+              ) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """(a, b, [bins, 3] level in a, [bins, 3] level in b) for each pair of
+    :func:`shared_pixels` (level = log(linear / PIVOT)): its pixels cut into ``bins`` equal
+    counts by their brightness in both views together, per bin the median level in each. A
+    camera's tone curve makes two photos a stop apart differ by more in the shadows than in
+    the highlights, which one gain cannot follow. (Cut by one view's brightness alone, a
+    bin's pixels would be that view's darkest or brightest by chance too, and the other
+    view would look brighter in the dark bins and darker in the bright ones, whatever the
+    exposures.)"""
+    out = []
+    for a, b, own, other in shared_pixels(views, cams, neighbours):
+        la, lb = np.log(own / PIVOT), np.log(other / PIVOT)
+        order = np.argsort(la.mean(-1) + lb.mean(-1), kind="stable")
+        parts = np.array_split(order, bins)
+        out.append((a, b, np.stack([np.median(la[p], axis=0) for p in parts]),
+                    np.stack([np.median(lb[p], axis=0) for p in parts])))
     return out
 
 
@@ -128,15 +170,76 @@ def solve_gains(stems: list[str], diffs: list[tuple[str, str, np.ndarray]]
     return gains
 
 
-def estimate_gains(ws, neighbours: int = 4) -> dict[str, np.ndarray]:
+def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.ndarray]]
+                 ) -> dict[str, np.ndarray]:
+    """{stem: [4] curve} from :func:`pair_bins`: per view a log gain e (per channel) and a
+    slope s (all channels) such that e_a + s_a * level_a = e_b + s_b * level_b on every bin
+    of every pair;
+    least squares with the reached views' mean e at zero and mean s at 1, each s pulled
+    towards 1 by ``SLOPE_PRIOR``. A curve [g_r, g_g, g_b, s] maps linear x to
+    PIVOT * g * (x / PIVOT) ** s (:func:`apply_gain`); a view no pair reaches keeps
+    [1, 1, 1, 1]."""
+    index = {s: i for i, s in enumerate(stems)}
+    reached = sorted({index[a] for a, _, _, _ in bins} | {index[b] for _, b, _, _ in bins})
+    curves = {s: np.ones(4) for s in stems}
+    if len(reached) < 2:
+        return curves
+    col = {v: j for j, v in enumerate(reached)}
+    n = len(reached)
+    rows, rhs = [], []
+
+    def row():
+        rows.append(np.zeros(4 * n))
+        rhs.append(0.0)
+        return rows[-1]
+
+    for a, b, level_a, level_b in bins:
+        ja, jb = col[index[a]], col[index[b]]
+        for k in range(len(level_a)):
+            for c in range(3):
+                r = row()
+                r[3 * ja + c], r[3 * jb + c] = 1.0, -1.0
+                r[3 * n + ja] += level_a[k, c]
+                r[3 * n + jb] -= level_b[k, c]
+    heavy = 10.0 * np.sqrt(len(rows) / n)
+    for c in range(3):
+        r = row()
+        r[[3 * j + c for j in range(n)]] = heavy
+    r = row()
+    r[3 * n:] = heavy
+    rhs[-1] = heavy * n
+    for j in range(n):
+        r = row()
+        r[3 * n + j] = SLOPE_PRIOR
+        rhs[-1] = SLOPE_PRIOR
+    x = np.linalg.lstsq(np.stack(rows), np.array(rhs), rcond=None)[0]
+    e = np.clip(x[:3 * n].reshape(n, 3), -MAX_EV * np.log(2), MAX_EV * np.log(2))
+    slope = np.clip(x[3 * n:], *SLOPES)
+    for v, j in col.items():
+        curves[stems[v]] = np.append(np.exp(e[j]), slope[j])
+    return curves
+
+
+def estimate_gains(ws, neighbours: int = 4, curves: bool = False) -> dict[str, np.ndarray]:
     """{stem: [3] linear gain to the common exposure} of a workspace's views (WS/images,
-    WS/masks, WS/depth); every gain 1 without depth maps."""
+    WS/masks, WS/depth); with ``curves`` {stem: [4] curve} (:func:`solve_curves`)."""
     from pipeline.depth import load_views
     from pipeline.ws_files import read_cameras
 
     cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, with_depth=True)
+    if curves:
+        return solve_curves(cams.stems, pair_bins(views, cams, neighbours))
     return solve_gains(cams.stems, pair_differences(views, cams, neighbours))
+
+
+def inverse(gain) -> np.ndarray:
+    """The gain or curve that undoes ``gain``: 1 / g, or for a curve [g, s] the curve
+    [g ** (-1 / s), 1 / s]."""
+    g = np.asarray(gain, np.float64)
+    if len(g) == 3:
+        return 1.0 / g
+    return np.append(g[:3] ** (-1.0 / g[3]), 1.0 / g[3])
 
 
 def gains_json(gains: dict[str, np.ndarray]) -> dict[str, list[float]]:
@@ -145,5 +248,5 @@ def gains_json(gains: dict[str, np.ndarray]) -> dict[str, list[float]]:
 
 def spread_ev(gains: dict[str, np.ndarray]) -> float:
     """Stops between the darkest and the brightest view (grey: the channels' mean log)."""
-    e = [float(np.mean(np.log2(np.asarray(g)))) for g in gains.values()]
+    e = [float(np.mean(np.log2(np.asarray(g)[:3]))) for g in gains.values()]
     return max(e) - min(e) if e else 0.0

@@ -73,12 +73,15 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
 
 
 def exposure_back(job: FrameJob, gains: dict) -> np.ndarray:
-    """[3] linear gain from the model's common exposure to a frame's: an input view's own
-    (the inverse of its gain), a novel frame's sources' median (where its photo fill is)."""
+    """The gain (or curve, ``pipeline.exposure``) from the model's common exposure to a
+    frame's: an input view's own undone, a novel frame's sources' median undone (where its
+    photo fill is)."""
+    from pipeline.exposure import inverse
+
     if job.is_input and job.camera.stem in gains:
-        return 1.0 / np.asarray(gains[job.camera.stem], np.float64)
+        return inverse(gains[job.camera.stem])
     near = [np.asarray(gains[s], np.float64) for s in job.sources if s in gains]
-    return 1.0 / np.median(near, axis=0) if near else np.ones(3)
+    return inverse(np.median(near, axis=0)) if near else np.ones(3)
 
 
 DEPTH_BAND = 1.25

@@ -64,6 +64,66 @@ def test_gains_from_depth_warps_undo_each_views_exposure():
     assert ex.spread_ev(g) == pytest.approx(np.ptp((ev - ev.mean(0)).mean(1)), abs=0.01)
 
 
+def test_a_curve_is_a_gain_at_mid_grey_and_a_slope_about_it_and_inverts():
+    rng = np.random.default_rng(1)
+    srgb = rng.uniform(0.05, 0.8, (60, 3)).astype(np.float32)
+    lin = ex.srgb_to_lin(srgb)
+    curve = [1.5, 1.0, 0.8, 1.2]
+    out = ex.apply_gain(srgb, curve)
+    want = np.clip(ex.PIVOT * np.array(curve[:3]) * (lin / ex.PIVOT) ** 1.2, 0, 1)
+    np.testing.assert_allclose(ex.srgb_to_lin(out), want, rtol=1e-4, atol=1e-6)
+    keep = want.max(-1) < 1.0  # clipped colours cannot come back
+    np.testing.assert_allclose(ex.apply_gain(out, ex.inverse(curve))[keep], srgb[keep],
+                               atol=1e-4)
+    np.testing.assert_allclose(ex.apply_gain(srgb, [2.0, 1.0, 0.5, 1.0]),
+                               ex.apply_gain(srgb, [2.0, 1.0, 0.5]), atol=1e-6)
+    np.testing.assert_allclose(ex.inverse([2.0, 1.0, 0.5]), [0.5, 1.0, 2.0])
+
+
+def toned_plane(curves):
+    """Four views of a textured plane, view i's linear colours PIVOT * g * (x / PIVOT) ** s
+    of the scene's x for its curve (g, s): (views, cameras)."""
+    rng = np.random.default_rng(5)
+    centers = [[x, 0.0, -3.0] for x in (-0.3, -0.1, 0.1, 0.3)]
+    images, c2ws, depths = plane_views(rng, centers, K, (W, H))
+    views, frames = {}, []
+    for i, (img, c2w, d) in enumerate(zip(images, c2ws, depths, strict=True)):
+        shown = ex.apply_gain((0.05 + 0.8 * img).astype(np.float32), curves[i])
+        s = f"v{i}"
+        views[s] = PosedView(shown, K.copy(), c2w, None, d.astype(np.float32))
+        frames.append(Frame(s, s, K, W, H, c2w, 1.0, 6.0))
+    return views, Cameras(frames)
+
+
+def test_curves_even_out_a_tone_curve_one_gain_cannot():
+    """Views whose tone differs in slope as well as exposure (a stop apart in the shadows,
+    less in the highlights): the curves found are the truth's inverses (up to the common
+    exposure they are normalised to) and even the views out as well as those do, where one
+    gain per view leaves the pairs' brightness bins several times further apart."""
+    truth = [[1.0, 1.0, 1.0, 1.0], [1.4, 1.4, 1.4, 0.85], [0.8, 0.8, 1.0, 1.15],
+             [1.2, 1.2, 1.2, 1.1]]
+    views, cams = toned_plane(truth)
+    curves = ex.solve_curves(cams.stems, ex.pair_bins(views, cams, neighbours=3))
+    gains = ex.solve_gains(cams.stems, ex.pair_differences(views, cams, neighbours=3))
+    undo = np.stack([ex.inverse(t) for t in truth])  # level -> log g + s * level
+    beta = 1.0 / undo[:, 3].mean()
+    want_log_g = beta * (np.log(undo[:, :3]) - np.log(undo[:, :3]).mean(0))
+    got = np.stack([curves[f"v{i}"] for i in range(4)])
+    np.testing.assert_allclose(got[:, 3], beta * undo[:, 3], atol=0.03)
+    np.testing.assert_allclose(np.log(got[:, :3]), want_log_g, atol=0.03)
+    assert got[:, 3].mean() == pytest.approx(1.0, abs=1e-3)
+
+    def worst(fix):  # the pairs' largest brightness-bin difference after ``fix`` (stops)
+        evened = {s: replace(v, image=ex.apply_gain(v.image, fix[s])) for s, v in views.items()}
+        return max(float(np.abs(lb - la).max()) / np.log(2)
+                   for _, _, la, lb in ex.pair_bins(evened, cams, 3))
+
+    best = worst({f"v{i}": undo[i] for i in range(4)})  # what resampling leaves
+    assert worst(curves) < best + 0.05
+    assert worst(gains) > 3 * best
+    assert ex.solve_curves(cams.stems, [])["v0"].tolist() == [1.0, 1.0, 1.0, 1.0]
+
+
 def test_exposure_match_trains_at_the_gains_and_render_reads_them(tmp_path, monkeypatch):
     """finetune --exposure-match on a plane whose views differ in exposure: the fine-tune's
     views are brought to the gains the depth maps give, the checkpoint records them, and
@@ -126,3 +186,8 @@ def test_exposure_back_is_the_view_own_or_the_sources_median():
     np.testing.assert_allclose(exposure_back(novel, gains), [1.0, 1.0, 0.5])
     np.testing.assert_allclose(exposure_back(FrameJob(None, ["x"], 1.0, 6.0, object()), gains),
                                [1.0, 1.0, 1.0])
+    curves = {"a": [2.0, 2.0, 2.0, 0.5], "b": [1.0, 1.0, 1.0, 1.0]}
+    np.testing.assert_allclose(exposure_back(job, curves), [0.25, 0.25, 0.25, 2.0])
+    srgb = np.array([[0.2, 0.4, 0.6]], np.float32)
+    back = ex.apply_gain(ex.apply_gain(srgb, curves["a"]), exposure_back(job, curves))
+    np.testing.assert_allclose(back, srgb, atol=1e-5)
