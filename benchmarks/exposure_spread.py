@@ -15,7 +15,12 @@
 Agreement of (1) with (2) says the spread is the camera's auto exposure, not noise of the
 estimate. ``--depth`` measures (1) as ``finetune --exposure-match`` does instead
 (``pipeline.exposure.estimate_gains``: the depth maps' warps between neighbours; a workspace
-after the depth stage, no COLMAP model needed). Nothing is changed in the workspace.
+after the depth stage, no COLMAP model needed). ``--tone`` says instead how far one gain
+per view is from evening the views out, against one curve per view (``finetune
+--exposure-curves``): each neighbour pair's shared pixels in five brightness bins
+(``pipeline.exposure.pair_bins``), the views' levels in each bin, and the RMS over the bins
+of what the gains and what the curves leave between the two views. Nothing is changed in
+the workspace.
 """
 
 from __future__ import annotations
@@ -123,6 +128,38 @@ def depth_gains(ws) -> tuple[list[str], np.ndarray, int]:
             np.log2(np.stack([gains[s] for s in cams.stems])), len(diffs))
 
 
+def tone(ws_path: Path) -> dict:
+    """The pairs' brightness bins and what gains and curves leave of them (stops)."""
+    from pipeline import exposure as ex
+    from pipeline.depth import load_views
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_cameras
+
+    ws = Workspace.open(ws_path)
+    cams = read_cameras(ws)
+    views = load_views(ws, cams, cams.stems, with_depth=True)
+    bins = ex.pair_bins(views, cams)
+    gains = ex.solve_gains(cams.stems, ex.pair_differences(views, cams))
+    curves = ex.solve_curves(cams.stems, bins)
+    stops = 1.0 / math.log(2)
+
+    def left(fix) -> float:
+        r = [(np.log(fix[a][:3]) + (fix[a][3] if len(fix[a]) == 4 else 1.0) * la)
+             - (np.log(fix[b][:3]) + (fix[b][3] if len(fix[b]) == 4 else 1.0) * lb)
+             for a, b, la, lb in bins]
+        return round(float(np.sqrt(np.mean(np.square(r)))) * stops, 3)
+
+    return {
+        "workspace": str(ws.root), "pairs": len(bins),
+        "bins_ev": {f"{a}>{b}": [round(float(x), 3) for x in (lb - la).mean(1) * stops]
+                    for a, b, la, lb in bins},
+        "rms_left_ev": {"gains": left(gains), "curves": left(curves)},
+        "slopes": {s: round(float(c[3]), 3) for s, c in curves.items()},
+        "spread_ev": {"gains": round(ex.spread_ev(gains), 3),
+                      "curves": round(ex.spread_ev(curves), 3)},
+    }
+
+
 def measure(ws_path: Path, depth: bool = False) -> dict:
     from pipeline.workspace import Workspace
 
@@ -162,10 +199,17 @@ def main() -> None:
     ap.add_argument("workspaces", type=Path, nargs="+")
     ap.add_argument("--depth", action="store_true",
                     help="gains from the depth maps, as finetune --exposure-match")
+    ap.add_argument("--tone", action="store_true",
+                    help="gains against curves on the pairs' brightness bins (after depth)")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
     results = {}
     for ws in a.workspaces:
+        if a.tone:
+            r = results[ws.name] = tone(ws)
+            print(f"{ws.name}: {r['pairs']} pairs, RMS over the bins left by gains "
+                  f"{r['rms_left_ev']['gains']} EV, by curves {r['rms_left_ev']['curves']} EV")
+            continue
         r = measure(ws, a.depth)
         results[ws.name] = r
         unit = "pairs" if a.depth else "tracks"
