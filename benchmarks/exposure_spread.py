@@ -18,8 +18,9 @@ estimate. ``--depth`` measures (1) as ``finetune --exposure-match`` does instead
 after the depth stage, no COLMAP model needed). ``--tone`` says instead how far one gain
 per view is from evening the views out, against one curve per view (``finetune
 --exposure-curves``): each neighbour pair's shared pixels in five brightness bins
-(``pipeline.exposure.pair_bins``), the views' levels in each bin, and the RMS over the bins
-of what the gains and what the curves leave between the two views. Nothing is changed in
+(``pipeline.exposure.pair_bins``), the views' levels in each bin, the RMS over the bins
+of what the gains and what the curves leave between the two views, and the RMS over the
+pairs of what the gains leave of each pair's median difference. Nothing is changed in
 the workspace.
 """
 
@@ -139,7 +140,11 @@ def tone(ws_path: Path) -> dict:
     cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, with_depth=True)
     bins = ex.pair_bins(views, cams)
-    gains = ex.solve_gains(cams.stems, ex.pair_differences(views, cams))
+    diffs = ex.pair_differences(views, cams)
+    gains = ex.solve_gains(cams.stems, diffs)
+    # how well the pairs' median differences agree with the gains solved from them: a chain
+    # that drifts (each pair's estimate off the same way) would still agree; noise would not
+    chain = [d - (np.log(gains[a]) - np.log(gains[b])) for a, b, d in diffs]
     curves = ex.solve_curves(cams.stems, bins)
     stops = 1.0 / math.log(2)
 
@@ -154,6 +159,7 @@ def tone(ws_path: Path) -> dict:
         "bins_ev": {f"{a}>{b}": [round(float(x), 3) for x in (lb - la).mean(1) * stops]
                     for a, b, la, lb in bins},
         "rms_left_ev": {"gains": left(gains), "curves": left(curves)},
+        "pairs_left_by_gains_ev": round(float(np.sqrt(np.mean(np.square(chain)))) * stops, 3),
         "slopes": {s: round(float(c[3]), 3) for s, c in curves.items()},
         "spread_ev": {"gains": round(ex.spread_ev(gains), 3),
                       "curves": round(ex.spread_ev(curves), 3)},
