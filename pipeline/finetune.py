@@ -159,6 +159,11 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
 def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Fine-tune on ``ws``; returns the written paths."""
     validate(config)
+    if config.exposure_curves and not config.exposure_match:
+        from pipeline.errors import UserError
+
+        raise UserError("--exposure-curves: the curves replace --exposure-match's gains; drop "
+                        "--no-exposure-match (or --exposure-curves)")
     ws.require("pose")
     device = pick_device(config.device)
     name, cfg = resolve(config, device)

@@ -191,3 +191,13 @@ def test_exposure_back_is_the_view_own_or_the_sources_median():
     srgb = np.array([[0.2, 0.4, 0.6]], np.float32)
     back = ex.apply_gain(ex.apply_gain(srgb, curves["a"]), exposure_back(job, curves))
     np.testing.assert_allclose(back, srgb, atol=1e-5)
+
+
+def test_exposure_curves_without_exposure_match_is_one_line_naming_both(tmp_path):
+    import pipeline.finetune as ft
+    from pipeline.errors import UserError
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=3)
+    with pytest.raises(UserError, match=r"^--exposure-curves: .*--no-exposure-match") as e:
+        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_curves=True), ws)
+    assert "\n" not in str(e.value)
