@@ -95,8 +95,9 @@ CHECKS = [
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
     *[(page, f, f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
-      for page, files in (("README.md", ("fern_llff_quick_cpu_s30_ds0.json",)),
-                          ("gnfr/weights/gnfr.md", ("fern_llff_quick_cpu_s30_ds0.json",
+      for page, files in (("README.md", ("fern_llff_quick_cpu_s42.json",)),
+                          ("gnfr/weights/gnfr.md", ("fern_llff_quick_cpu_s42.json",
+                                                    "fern_llff_quick_cpu_s30_ds0.json",
                                                     "fern_llff_quick_cpu_s29_frc.json",
                                                     "fern_llff_quick_cpu_s29_base.json")))
       for f in files for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
@@ -523,8 +524,8 @@ def test_goals_page_rows_follow_their_files():
             label = {"sceaux_ws": "sceaux_castle"}.get(r["scene"], r["scene"][:-3])
             row = [ln for ln in text.splitlines() if ln.startswith(f"| {label} (")]
             assert len(row) == 1 and row[0].endswith(cell), (r["scene"], cell)
-    for f, fill in (("fern_llff_quick_cpu_s30_ds0.json", "hybrid"),
-                    ("fern_llff_quick_cpu_s30_ds0.json", "network"),
+    for f, fill in (("fern_llff_quick_cpu_s42.json", "hybrid"),
+                    ("fern_llff_quick_cpu_s42.json", "network"),
                     ("fern_llff_paper_cuda_h100_ptp5000.json", "hybrid"),
                     ("fern_llff_paper_cuda_h100_ptp5000.json", "network")):
         h = load(f)["clean"]["methods"][f"gnfr_{fill}"]["heldout"]
