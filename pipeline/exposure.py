@@ -14,6 +14,11 @@ view to all those differences (mean zero) gives the gains: multiplying a view's 
 colours by its gain brings it to the views' common exposure. A view no pair reaches keeps
 gain 1.
 
+``solve_curves`` (``finetune --exposure-curves``, off): one curve per view instead, a gain
+at mid grey and a slope about it, fitted on each pair's pixels in five brightness bins, for
+tone curves that make two exposures differ more in the shadows than in the highlights
+(judged in the forty-second session and not the default: docs/history/gnfr.md).
+
 Where used: ``finetune --exposure-match`` trains on every view brought to the common
 exposure and stores the gains in the checkpoint's provenance; ``render`` then reads its
 sources at the same gains and takes the network's colours back to the frame's exposure
@@ -174,9 +179,8 @@ def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.nda
                  ) -> dict[str, np.ndarray]:
     """{stem: [4] curve} from :func:`pair_bins`: per view a log gain e (per channel) and a
     slope s (all channels) such that e_a + s_a * level_a = e_b + s_b * level_b on every bin
-    of every pair;
-    least squares with the reached views' mean e at zero and mean s at 1, each s pulled
-    towards 1 by ``SLOPE_PRIOR``. A curve [g_r, g_g, g_b, s] maps linear x to
+    of every pair; least squares with the reached views' mean e at zero and mean s at 1,
+    each s pulled towards 1 by ``SLOPE_PRIOR``. A curve [g_r, g_g, g_b, s] maps linear x to
     PIVOT * g * (x / PIVOT) ** s (:func:`apply_gain`); a view no pair reaches keeps
     [1, 1, 1, 1]."""
     index = {s: i for i, s in enumerate(stems)}
@@ -222,7 +226,8 @@ def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.nda
 
 def estimate_gains(ws, neighbours: int = 4, curves: bool = False) -> dict[str, np.ndarray]:
     """{stem: [3] linear gain to the common exposure} of a workspace's views (WS/images,
-    WS/masks, WS/depth); with ``curves`` {stem: [4] curve} (:func:`solve_curves`)."""
+    WS/masks, WS/depth); with ``curves`` {stem: [4] curve} (:func:`solve_curves`). Every
+    gain 1 without depth maps."""
     from pipeline.depth import load_views
     from pipeline.ws_files import read_cameras
 
