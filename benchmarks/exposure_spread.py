@@ -17,7 +17,7 @@ estimate. ``--depth`` measures (1) as ``finetune --exposure-match`` does instead
 (``pipeline.exposure.estimate_gains``: the depth maps' warps between neighbours; a workspace
 after the depth stage, no COLMAP model needed). ``--tone`` says instead how far one gain
 per view is from evening the views out, against one curve per view (``finetune
---exposure-curves``): each neighbour pair's shared pixels in five brightness bins
+--exposure-model view-curves``): each neighbour pair's shared pixels in five brightness bins
 (``pipeline.exposure.pair_bins``), the views' levels in each bin, the RMS over the bins
 of what the gains, the curves and one tone curve for the camera with a gain per view
 (:func:`camera_curve`, a measurement: not in the product) leave between the two views, and

@@ -14,10 +14,12 @@ view to all those differences (mean zero) gives the gains: multiplying a view's 
 colours by its gain brings it to the views' common exposure. A view no pair reaches keeps
 gain 1.
 
-``solve_curves`` (``finetune --exposure-curves``, off): one curve per view instead, a gain
-at mid grey and a slope about it, fitted on each pair's pixels in five brightness bins, for
-tone curves that make two exposures differ more in the shadows than in the highlights
-(judged in the forty-second session and not the default: docs/history/gnfr.md).
+``finetune --exposure-model`` chooses how (``MODELS``): ``gain`` (the default), ``view-curves``
+(``solve_curves``: one curve per view, a gain at mid grey and a slope about it, fitted on
+each pair's pixels in five brightness bins, for tone curves that make two exposures differ
+more in the shadows than in the highlights; judged in the forty-second session and not the
+default: docs/history/gnfr.md) or ``camera-curve`` (``solve_camera_curve``: one tone curve
+shared by the camera's photos and a gain per view).
 
 Where used: ``finetune --exposure-match`` trains on every view brought to the common
 exposure and stores the gains in the checkpoint's provenance; ``render`` then reads its
@@ -45,6 +47,11 @@ SLOPES = (0.75, 1.33)
 """A curve's slope is held to this range."""
 SLOPE_PRIOR = 2.0
 """Weight of each view's pull of its slope towards 1 in the curves' least squares."""
+CAMERA_C = (-0.3, 0.3)
+"""The camera curve's coefficient is held to this range."""
+FLAT = 0.25
+"""Where the camera curve's slope falls to this, it goes on as a straight line (so that it
+stays monotone and invertible over every level)."""
 CENTRE = 0.6
 """Only pixels within this fraction of the half-diagonal from the image centre, in both
 views, are compared: lens vignetting darkens the edges, and on a walk forward a point moves
@@ -75,19 +82,54 @@ def lin_to_srgb(x: np.ndarray) -> np.ndarray:
 def apply_gain(srgb: np.ndarray, gain) -> np.ndarray:
     """sRGB colours [..., 3] (float 0..1, or uint8) times a linear ``gain`` [3], as the input's
     type (clipped). A curve [g_r, g_g, g_b, s] (:func:`solve_curves`) maps linear x to
-    PIVOT * g * (x / PIVOT) ** s: the gain g at mid grey, the slope s about it."""
+    PIVOT * g * (x / PIVOT) ** s: the gain g at mid grey, the slope s about it. A camera
+    transform [g_r, g_g, g_b, s, c] (:func:`solve_camera_curve`) takes the level
+    l = log(x / PIVOT) to log radiance by the camera curve ``c`` (:func:`to_radiance`),
+    scales it by s, adds log g and goes back by the same curve."""
     g = np.asarray(gain, np.float32)
 
     def lin(x: np.ndarray) -> np.ndarray:
         x = srgb_to_lin(x)
         if len(g) == 3:
             return x * g
-        return PIVOT * g[:3] * np.power(np.maximum(x, 0.0) / PIVOT, g[3])
+        if len(g) == 4:
+            return PIVOT * g[:3] * np.power(np.maximum(x, 0.0) / PIVOT, g[3])
+        level = np.log(np.maximum(x, 1e-6) / PIVOT)
+        u = g[3] * to_radiance(level, float(g[4])) + np.log(g[:3])
+        return np.where(x > 0, PIVOT * np.exp(from_radiance(u, float(g[4]))), 0.0)
 
     if srgb.dtype == np.uint8:
         out = lin_to_srgb(lin(srgb.astype(np.float32) / 255.0))
         return np.clip(np.round(out * 255.0), 0, 255).astype(np.uint8)
     return lin_to_srgb(lin(srgb)).astype(srgb.dtype, copy=False)
+
+
+def _knee(c: float) -> float:
+    """The level where the camera curve's slope 1 + 2 c l falls to ``FLAT``."""
+    return (FLAT - 1.0) / (2.0 * c)
+
+
+def to_radiance(level: np.ndarray, c: float) -> np.ndarray:
+    """The camera curve: level l = log(linear / PIVOT) to log radiance l + c l^2 (to second
+    order about mid grey), a straight line of slope ``FLAT`` beyond the knee."""
+    if c == 0.0:
+        return level
+    k = _knee(c)
+    quad = level + c * level * level
+    line = k + c * k * k + FLAT * (level - k)
+    beyond = level < k if c > 0 else level > k
+    return np.where(beyond, line, quad)
+
+
+def from_radiance(u: np.ndarray, c: float) -> np.ndarray:
+    """The inverse of :func:`to_radiance`."""
+    if c == 0.0:
+        return u
+    k = _knee(c)
+    uk = k + c * k * k
+    beyond = u < uk if c > 0 else u > uk
+    root = (-1.0 + np.sqrt(np.maximum(1.0 + 4.0 * c * u, 0.0))) / (2.0 * c)
+    return np.where(beyond, k + (u - uk) / FLAT, root)
 
 
 def shared_pixels(views: dict, cams, neighbours: int = 4):
@@ -224,27 +266,79 @@ def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.nda
     return curves
 
 
-def estimate_gains(ws, neighbours: int = 4, curves: bool = False) -> dict[str, np.ndarray]:
+def solve_camera_curve(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.ndarray]]
+                       ) -> dict[str, np.ndarray]:
+    """{stem: [5] camera transform [g_r, g_g, g_b, 1, c]} from :func:`pair_bins`: one tone
+    curve for the camera, shared by every view (log radiance = l + c l^2 of the level l,
+    :func:`to_radiance`), and a log gain e per view and channel, such that
+    e_a + to_radiance(level_a) = e_b + to_radiance(level_b) on every bin of every pair:
+    linear in (e, c), least squares with the reached views' mean e at zero. Photos of one
+    camera share its curve; what differs between them is the exposure. A view no pair
+    reaches keeps gain 1 (and the curve)."""
+    index = {s: i for i, s in enumerate(stems)}
+    reached = sorted({index[a] for a, _, _, _ in bins} | {index[b] for _, b, _, _ in bins})
+    out = {s: np.array([1.0, 1.0, 1.0, 1.0, 0.0]) for s in stems}
+    if len(reached) < 2:
+        return out
+    col = {v: j for j, v in enumerate(reached)}
+    n = len(reached)
+    rows, rhs = [], []
+    for a, b, la, lb in bins:
+        ja, jb = col[index[a]], col[index[b]]
+        for k in range(len(la)):
+            for ch in range(3):
+                r = np.zeros(3 * n + 1)
+                r[3 * ja + ch] += 1.0
+                r[3 * jb + ch] -= 1.0
+                r[-1] = la[k, ch] ** 2 - lb[k, ch] ** 2
+                rows.append(r)
+                rhs.append(lb[k, ch] - la[k, ch])
+    heavy = 10.0 * np.sqrt(len(rows) / n)
+    for ch in range(3):
+        r = np.zeros(3 * n + 1)
+        r[[3 * j + ch for j in range(n)]] = heavy
+        rows.append(r)
+        rhs.append(0.0)
+    x = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+    e = np.clip(x[:3 * n].reshape(n, 3), -MAX_EV * np.log(2), MAX_EV * np.log(2))
+    c = float(np.clip(x[-1], *CAMERA_C))
+    for s in stems:
+        out[s][4] = c
+    for v, j in col.items():
+        out[stems[v]][:3] = np.exp(e[j])
+    return out
+
+
+MODELS = ("gain", "view-curves", "camera-curve")
+"""How the views are brought to one exposure: a gain per view and channel
+(:func:`solve_gains`), a curve per view (:func:`solve_curves`), or one tone curve for the
+camera and a gain per view (:func:`solve_camera_curve`)."""
+
+
+def estimate_gains(ws, neighbours: int = 4, model: str = "gain") -> dict[str, np.ndarray]:
     """{stem: [3] linear gain to the common exposure} of a workspace's views (WS/images,
-    WS/masks, WS/depth); with ``curves`` {stem: [4] curve} (:func:`solve_curves`). Every
-    gain 1 without depth maps."""
+    WS/masks, WS/depth); with ``model`` "view-curves" {stem: [4] curve}, "camera-curve"
+    {stem: [5] camera transform} (``MODELS``). Every gain 1 without depth maps."""
     from pipeline.depth import load_views
     from pipeline.ws_files import read_cameras
 
     cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, with_depth=True)
-    if curves:
+    if model == "view-curves":
         return solve_curves(cams.stems, pair_bins(views, cams, neighbours))
+    if model == "camera-curve":
+        return solve_camera_curve(cams.stems, pair_bins(views, cams, neighbours))
     return solve_gains(cams.stems, pair_differences(views, cams, neighbours))
 
 
 def inverse(gain) -> np.ndarray:
-    """The gain or curve that undoes ``gain``: 1 / g, or for a curve [g, s] the curve
-    [g ** (-1 / s), 1 / s]."""
+    """The gain, curve or camera transform that undoes ``gain``: 1 / g; for a curve [g, s]
+    the curve [g ** (-1 / s), 1 / s]; for a camera transform [g, s, c] the transform
+    [g ** (-1 / s), 1 / s, c]."""
     g = np.asarray(gain, np.float64)
     if len(g) == 3:
         return 1.0 / g
-    return np.append(g[:3] ** (-1.0 / g[3]), 1.0 / g[3])
+    return np.concatenate([g[:3] ** (-1.0 / g[3]), [1.0 / g[3]], g[4:]])
 
 
 def gains_json(gains: dict[str, np.ndarray]) -> dict[str, list[float]]:

@@ -98,10 +98,12 @@ class FinetuneConfig:
     keep their own); render reads the gains from the checkpoint. On since the forty-first
     session: de-flared photos' flare region +0.106 dB, novel views +0.383 dB on the
     development scenes (two seeds; docs/history/gnfr.md, "Forty-first session")."""
-    exposure_curves: bool = False
-    """With ``exposure_match``: one curve per view instead of one gain, a gain and a slope
-    about mid grey in linear light (``pipeline.exposure.solve_curves``), for cameras whose
-    tone curve makes two exposures differ more in the shadows than in the highlights."""
+    exposure_model: str = option("gain", choices=("gain", "view-curves", "camera-curve"))
+    """With ``exposure_match``, how the views are brought to one exposure
+    (``pipeline.exposure.MODELS``): gain (one per view and channel) | view-curves (a gain
+    and a slope about mid grey per view; judged and not the default, docs/history/gnfr.md,
+    "Forty-second session") | camera-curve (one tone curve for the camera, a gain per
+    view)."""
     reference: bool = False
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
@@ -159,11 +161,12 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
 def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Fine-tune on ``ws``; returns the written paths."""
     validate(config)
-    if config.exposure_curves and not config.exposure_match:
+    if config.exposure_model != "gain" and not config.exposure_match:
         from pipeline.errors import UserError
 
-        raise UserError("--exposure-curves: the curves replace --exposure-match's gains; drop "
-                        "--no-exposure-match (or --exposure-curves)")
+        raise UserError(f"--exposure-model {config.exposure_model}: it says how "
+                        "--exposure-match evens the views out; drop --no-exposure-match (or "
+                        "--exposure-model)")
     ws.require("pose")
     device = pick_device(config.device)
     name, cfg = resolve(config, device)
@@ -175,13 +178,13 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
               "holes_as_flare": config.holes_as_flare,
               "exposure_match": config.exposure_match,
-              "exposure_curves": config.exposure_match and config.exposure_curves}
+              "exposure_model": config.exposure_model if config.exposure_match else "gain"}
     # an option added later is absent from older records: it matches there at the value
     # those runs had (holes_as_flare was off before it existed, whatever its default now)
     stage_run = ws.begin_stage("finetune", params, inputs, force,
                                defaults={"train": asdict(TrainConfig()),
                                          "holes_as_flare": False, "exposure_match": False,
-                                         "exposure_curves": False})
+                                         "exposure_model": "gain"})
     if stage_run.skip:
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)
@@ -191,7 +194,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
          f"{'cached features' if cfg.cached_features else 'end-to-end'})")
     from pipeline.training_scenes import load_workspace
 
-    gains = exposure_gains(ws, config.exposure_curves) if config.exposure_match else None
+    gains = exposure_gains(ws, config.exposure_model) if config.exposure_match else None
     scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains)
     stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run), init=config.init,
                 preset=name, gains=gains)
@@ -199,8 +202,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
 
-def exposure_gains(ws: Workspace, curves: bool = False) -> dict:
-    """``finetune --exposure-match``: the views' gains (with ``curves``: gains and slopes;
+def exposure_gains(ws: Workspace, model: str = "gain") -> dict:
+    """``finetune --exposure-match``: the views' gains (or curves, by ``model``;
     ``pipeline.exposure``), said in one line; none, with a warning, when the workspace has
     no depth maps."""
     from pipeline.exposure import estimate_gains, spread_ev
@@ -209,7 +212,7 @@ def exposure_gains(ws: Workspace, curves: bool = False) -> dict:
         warn(f"finetune --exposure-match: no {ws.depth} (run `deflare-scene depth "
              f"{shell_path(ws.root)}`): the views are trained at their own exposures")
         return {}
-    gains = estimate_gains(ws, curves=curves)
+    gains = estimate_gains(ws, model=model)
     info(f"finetune: exposures evened out ({spread_ev(gains):.2f} EV between the darkest and "
          "the brightest view)")
     return gains

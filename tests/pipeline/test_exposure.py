@@ -193,11 +193,55 @@ def test_exposure_back_is_the_view_own_or_the_sources_median():
     np.testing.assert_allclose(back, srgb, atol=1e-5)
 
 
-def test_exposure_curves_without_exposure_match_is_one_line_naming_both(tmp_path):
+def test_an_exposure_model_without_exposure_match_is_one_line_naming_both(tmp_path):
     import pipeline.finetune as ft
     from pipeline.errors import UserError
 
     ws = make_plane_workspace(tmp_path / "ws", n_views=3)
-    with pytest.raises(UserError, match=r"^--exposure-curves: .*--no-exposure-match") as e:
-        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_curves=True), ws)
+    with pytest.raises(UserError, match=r"^--exposure-model camera-curve: .*--no-exposure-match"
+                       ) as e:
+        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_model="camera-curve"), ws)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("c", [0.2, -0.25, 0.0])
+def test_the_camera_curve_is_monotone_and_inverts_beyond_its_knee(c):
+    level = np.linspace(-6.0, 4.0, 401)
+    u = ex.to_radiance(level, c)
+    assert np.all(np.diff(u) > 0)
+    np.testing.assert_allclose(ex.from_radiance(u, c), level, atol=1e-9)
+    near = np.abs(level) < 0.5  # about mid grey it is l + c l^2
+    np.testing.assert_allclose(u[near], level[near] + c * level[near] ** 2, atol=1e-12)
+
+
+def test_a_camera_transform_inverts_and_the_camera_curve_is_found_from_the_bins():
+    """Four views of one camera (one tone curve, c = 0.15) at exposures up to 1.3 stops
+    apart, one channel's white balance off: the camera curve's fit finds c and gains that
+    undo each exposure (up to the common one), evening the views out as well as the truth
+    does; a camera transform and its inverse round-trip."""
+    rng = np.random.default_rng(2)
+    srgb = rng.uniform(0.05, 0.8, (60, 3)).astype(np.float32)
+    t = [1.6, 1.2, 0.9, 1.1, 0.15]
+    np.testing.assert_allclose(ex.apply_gain(ex.apply_gain(srgb, t), ex.inverse(t)), srgb,
+                               atol=1e-4)
+    np.testing.assert_allclose(ex.apply_gain(srgb, [2.0, 1.0, 0.5, 1.0, 0.0]),
+                               ex.apply_gain(srgb, [2.0, 1.0, 0.5]), atol=1e-5)
+    c = 0.15
+    k = np.array([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [0.8, 0.8, 1.0], [1.6, 1.6, 1.6]])
+    truth = [np.append(k[i], [1.0, c]) for i in range(4)]
+    views, cams = toned_plane(truth)
+    got = ex.solve_camera_curve(cams.stems, ex.pair_bins(views, cams, neighbours=3))
+    assert got["v0"][4] == pytest.approx(c, abs=0.03)
+    want = -(np.log(k) - np.log(k).mean(0))
+    np.testing.assert_allclose(np.log([got[f"v{i}"][:3] for i in range(4)]), want, atol=0.04)
+
+    def worst(fix):
+        evened = {s: replace(v, image=ex.apply_gain(v.image, fix[s])) for s, v in views.items()}
+        return max(float(np.abs(lb - la).max()) / np.log(2)
+                   for _, _, la, lb in ex.pair_bins(evened, cams, 3))
+
+    best = worst({f"v{i}": ex.inverse(truth[i]) for i in range(4)})
+    gains = ex.solve_gains(cams.stems, ex.pair_differences(views, cams, neighbours=3))
+    assert worst(got) < best + 0.05
+    assert worst(gains) > 2 * best
+    assert ex.solve_camera_curve(cams.stems, [])["v1"].tolist() == [1.0, 1.0, 1.0, 1.0, 0.0]
