@@ -106,7 +106,7 @@ CHECKS = [
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare_input", "psnr_input")],
-    *[("README.md", "fern_llff_quick_cpu_w42250_flare_layer.json",
+    *[("README.md", "fern_llff_quick_cpu_s42.json",
        f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}") for m in ("gnfr", "gnt", "input")],
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
@@ -532,7 +532,7 @@ def test_goals_page_rows_follow_their_files():
         assert f"{h['psnr']:.2f} / {h['ssim']:.3f}" in text, (f, fill)
     for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s42.json"),
                      ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s42.json"),
-                     ("fern", "fern_llff_quick_cpu_w42250_flare_layer.json")):
+                     ("fern", "fern_llff_quick_cpu_s42.json")):
         d = load(f)
         m = d["flare"]["methods"] if "flare" in d else d["methods"]
         a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
