@@ -20,7 +20,7 @@ per view is from evening the views out, against one curve per view (``finetune
 --exposure-model view-curves``): each neighbour pair's shared pixels in five brightness bins
 (``pipeline.exposure.pair_bins``), the views' levels in each bin, the RMS over the bins
 of what the gains, the curves and one tone curve for the camera with a gain per view
-(:func:`camera_curve`, a measurement: not in the product) leave between the two views, and
+(``finetune --exposure-model camera-curve``) leave between the two views, and
 the RMS over the pairs of what the gains leave of each pair's median difference. Nothing is
 changed in the workspace.
 """
@@ -130,32 +130,6 @@ def depth_gains(ws) -> tuple[list[str], np.ndarray, int]:
             np.log2(np.stack([gains[s] for s in cams.stems])), len(diffs))
 
 
-def camera_curve(stems: list[str], bins) -> tuple[np.ndarray, float, dict[str, int]]:
-    """One tone curve for the camera and a gain per view, fitted to the pairs' bins: log
-    radiance = e_v + h(level) with h(l) = l + c * l^2 shared by every view (the inverse of the
-    camera's curve about mid grey, to second order) and e_v per view and channel; linear in
-    (e, c), least squares with the mean e at zero. Returns ([N, 3] e, c, {stem: row})."""
-    index = {s: i for i, s in enumerate(stems)}
-    n = len(stems)
-    rows, rhs = [], []
-    for a, b, la, lb in bins:
-        for k in range(len(la)):
-            for ch in range(3):
-                r = np.zeros(3 * n + 1)
-                r[3 * index[a] + ch] += 1.0
-                r[3 * index[b] + ch] -= 1.0
-                r[-1] = la[k, ch] ** 2 - lb[k, ch] ** 2
-                rows.append(r)
-                rhs.append(lb[k, ch] - la[k, ch])
-    for ch in range(3):
-        r = np.zeros(3 * n + 1)
-        r[[3 * j + ch for j in range(n)]] = 10.0
-        rows.append(r)
-        rhs.append(0.0)
-    x = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
-    return x[:3 * n].reshape(n, 3), float(x[-1]), index
-
-
 def tone(ws_path: Path) -> dict:
     """The pairs' brightness bins and what gains and curves leave of them (stops)."""
     from pipeline import exposure as ex
@@ -181,9 +155,10 @@ def tone(ws_path: Path) -> dict:
              for a, b, la, lb in bins]
         return round(float(np.sqrt(np.mean(np.square(r)))) * stops, 3)
 
-    e_cam, c_cam, row = camera_curve(cams.stems, bins)
-    cam_left = [e_cam[row[a]] + la + c_cam * la ** 2 - (e_cam[row[b]] + lb + c_cam * lb ** 2)
-                for a, b, la, lb in bins]
+    camera = ex.solve_camera_curve(cams.stems, bins)
+    c_cam = float(camera[cams.stems[0]][4])
+    cam_left = [np.log(camera[a][:3]) + ex.to_radiance(la, c_cam)
+                - (np.log(camera[b][:3]) + ex.to_radiance(lb, c_cam)) for a, b, la, lb in bins]
 
     return {
         "workspace": str(ws.root), "pairs": len(bins),

@@ -27,6 +27,7 @@ from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, rende
 from gnfr.model import GNFR
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import shell_path
+from pipeline.exposure import MODELS
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.workspace import UNSEEN_FILE, Workspace, atomic_write_json
@@ -98,7 +99,7 @@ class FinetuneConfig:
     keep their own); render reads the gains from the checkpoint. On since the forty-first
     session: de-flared photos' flare region +0.106 dB, novel views +0.383 dB on the
     development scenes (two seeds; docs/history/gnfr.md, "Forty-first session")."""
-    exposure_model: str = option("gain", choices=("gain", "view-curves", "camera-curve"))
+    exposure_model: str = option("gain", choices=MODELS)
     """With ``exposure_match``, how the views are brought to one exposure
     (``pipeline.exposure.MODELS``): gain (one per view and channel) | view-curves (a gain
     and a slope about mid grey per view; judged and not the default, docs/history/gnfr.md,
