@@ -149,25 +149,20 @@ def tone(ws_path: Path) -> dict:
     curves = ex.solve_curves(cams.stems, bins)
     stops = 1.0 / math.log(2)
 
+    camera = ex.solve_camera_curve(cams.stems, bins)
+
     def left(fix) -> float:
-        r = [(np.log(fix[a][:3]) + (fix[a][3] if len(fix[a]) == 4 else 1.0) * la)
-             - (np.log(fix[b][:3]) + (fix[b][3] if len(fix[b]) == 4 else 1.0) * lb)
+        r = [ex.corrected_level(fix[a], la) - ex.corrected_level(fix[b], lb)
              for a, b, la, lb in bins]
         return round(float(np.sqrt(np.mean(np.square(r)))) * stops, 3)
-
-    camera = ex.solve_camera_curve(cams.stems, bins)
-    c_cam = float(camera[cams.stems[0]][4])
-    cam_left = [np.log(camera[a][:3]) + ex.to_radiance(la, c_cam)
-                - (np.log(camera[b][:3]) + ex.to_radiance(lb, c_cam)) for a, b, la, lb in bins]
 
     return {
         "workspace": str(ws.root), "pairs": len(bins),
         "bins_ev": {f"{a}>{b}": [round(float(x), 3) for x in (lb - la).mean(1) * stops]
                     for a, b, la, lb in bins},
         "rms_left_ev": {"gains": left(gains), "curves": left(curves),
-                        "camera_curve": round(float(np.sqrt(np.mean(np.square(cam_left))))
-                                              * stops, 3)},
-        "camera_curve_c": round(c_cam, 4),
+                        "camera_curve": left(camera)},
+        "camera_curve_c": round(float(camera[cams.stems[0]][4]), 4),
         "pairs_left_by_gains_ev": round(float(np.sqrt(np.mean(np.square(chain)))) * stops, 3),
         "slopes": {s: round(float(c[3]), 3) for s, c in curves.items()},
         "spread_ev": {"gains": round(ex.spread_ev(gains), 3),

@@ -104,6 +104,18 @@ def apply_gain(srgb: np.ndarray, gain) -> np.ndarray:
     return lin_to_srgb(lin(srgb)).astype(srgb.dtype, copy=False)
 
 
+def corrected_level(gain, level: np.ndarray) -> np.ndarray:
+    """What ``gain`` (a gain, curve or camera transform, :func:`apply_gain`) makes of the
+    levels [..., 3] (log(linear / PIVOT)), in the log-radiance terms its fit compares views
+    in: log g + level, log g + s level, or log g + s to_radiance(level, c)."""
+    g = np.asarray(gain, np.float64)
+    if len(g) == 3:
+        return np.log(g) + level
+    if len(g) == 4:
+        return np.log(g[:3]) + g[3] * level
+    return np.log(g[:3]) + g[3] * to_radiance(level, float(g[4]))
+
+
 def _knee(c: float) -> float:
     """The level where the camera curve's slope 1 + 2 c l falls to ``FLAT``."""
     return (FLAT - 1.0) / (2.0 * c)
@@ -217,6 +229,45 @@ def solve_gains(stems: list[str], diffs: list[tuple[str, str, np.ndarray]]
     return gains
 
 
+def _solve_bins(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.ndarray]],
+                extra, bin_terms, more_rows=lambda n, heavy, width: ()):
+    """The least squares of :func:`solve_curves` and :func:`solve_camera_curve`: unknowns a
+    log gain e per reached view and channel, then ``extra(n)`` more for the n reached views;
+    one equation per bin and channel of every pair, e_a - e_b + terms = rhs, where
+    ``bin_terms(row, n, ja, jb, level_a, level_b)`` writes the terms into ``row`` and returns
+    rhs; heavy rows hold the reached views' mean e at zero, ``more_rows(n, heavy, width)``
+    adds (row, rhs) after them. Returns ({view index: j}, [n, 3] e clipped to ``MAX_EV``,
+    the extra unknowns), or None when fewer than two views are reached."""
+    index = {s: i for i, s in enumerate(stems)}
+    reached = sorted({index[a] for a, _, _, _ in bins} | {index[b] for _, b, _, _ in bins})
+    if len(reached) < 2:
+        return None
+    col = {v: j for j, v in enumerate(reached)}
+    n = len(reached)
+    width = 3 * n + extra(n)
+    rows, rhs = [], []
+    for a, b, level_a, level_b in bins:
+        ja, jb = col[index[a]], col[index[b]]
+        for k in range(len(level_a)):
+            for c in range(3):
+                r = np.zeros(width)
+                r[3 * ja + c], r[3 * jb + c] = 1.0, -1.0
+                rhs.append(bin_terms(r, n, ja, jb, level_a[k, c], level_b[k, c]))
+                rows.append(r)
+    heavy = 10.0 * np.sqrt(len(rows) / n)
+    for c in range(3):
+        r = np.zeros(width)
+        r[[3 * j + c for j in range(n)]] = heavy
+        rows.append(r)
+        rhs.append(0.0)
+    for r, y in more_rows(n, heavy, width):
+        rows.append(r)
+        rhs.append(y)
+    x = np.linalg.lstsq(np.stack(rows), np.array(rhs), rcond=None)[0]
+    e = np.clip(x[:3 * n].reshape(n, 3), -MAX_EV * np.log(2), MAX_EV * np.log(2))
+    return col, e, x[3 * n:]
+
+
 def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.ndarray]]
                  ) -> dict[str, np.ndarray]:
     """{stem: [4] curve} from :func:`pair_bins`: per view a log gain e (per channel) and a
@@ -225,42 +276,27 @@ def solve_curves(stems: list[str], bins: list[tuple[str, str, np.ndarray, np.nda
     each s pulled towards 1 by ``SLOPE_PRIOR``. A curve [g_r, g_g, g_b, s] maps linear x to
     PIVOT * g * (x / PIVOT) ** s (:func:`apply_gain`); a view no pair reaches keeps
     [1, 1, 1, 1]."""
-    index = {s: i for i, s in enumerate(stems)}
-    reached = sorted({index[a] for a, _, _, _ in bins} | {index[b] for _, b, _, _ in bins})
+
+    def slopes(r, n, ja, jb, level_a, level_b):
+        r[3 * n + ja] += level_a
+        r[3 * n + jb] -= level_b
+        return 0.0
+
+    def mean_and_prior(n, heavy, width):
+        r = np.zeros(width)
+        r[3 * n:] = heavy
+        yield r, heavy * n
+        for j in range(n):
+            r = np.zeros(width)
+            r[3 * n + j] = SLOPE_PRIOR
+            yield r, SLOPE_PRIOR
+
     curves = {s: np.ones(4) for s in stems}
-    if len(reached) < 2:
+    fit = _solve_bins(stems, bins, lambda n: n, slopes, mean_and_prior)
+    if fit is None:
         return curves
-    col = {v: j for j, v in enumerate(reached)}
-    n = len(reached)
-    rows, rhs = [], []
-
-    def row():
-        rows.append(np.zeros(4 * n))
-        rhs.append(0.0)
-        return rows[-1]
-
-    for a, b, level_a, level_b in bins:
-        ja, jb = col[index[a]], col[index[b]]
-        for k in range(len(level_a)):
-            for c in range(3):
-                r = row()
-                r[3 * ja + c], r[3 * jb + c] = 1.0, -1.0
-                r[3 * n + ja] += level_a[k, c]
-                r[3 * n + jb] -= level_b[k, c]
-    heavy = 10.0 * np.sqrt(len(rows) / n)
-    for c in range(3):
-        r = row()
-        r[[3 * j + c for j in range(n)]] = heavy
-    r = row()
-    r[3 * n:] = heavy
-    rhs[-1] = heavy * n
-    for j in range(n):
-        r = row()
-        r[3 * n + j] = SLOPE_PRIOR
-        rhs[-1] = SLOPE_PRIOR
-    x = np.linalg.lstsq(np.stack(rows), np.array(rhs), rcond=None)[0]
-    e = np.clip(x[:3 * n].reshape(n, 3), -MAX_EV * np.log(2), MAX_EV * np.log(2))
-    slope = np.clip(x[3 * n:], *SLOPES)
+    col, e, slope = fit
+    slope = np.clip(slope, *SLOPES)
     for v, j in col.items():
         curves[stems[v]] = np.append(np.exp(e[j]), slope[j])
     return curves
@@ -275,33 +311,17 @@ def solve_camera_curve(stems: list[str], bins: list[tuple[str, str, np.ndarray, 
     linear in (e, c), least squares with the reached views' mean e at zero. Photos of one
     camera share its curve; what differs between them is the exposure. A view no pair
     reaches keeps gain 1 (and the curve)."""
-    index = {s: i for i, s in enumerate(stems)}
-    reached = sorted({index[a] for a, _, _, _ in bins} | {index[b] for _, b, _, _ in bins})
+
+    def shared(r, n, ja, jb, level_a, level_b):
+        r[-1] = level_a ** 2 - level_b ** 2
+        return level_b - level_a
+
     out = {s: np.array([1.0, 1.0, 1.0, 1.0, 0.0]) for s in stems}
-    if len(reached) < 2:
+    fit = _solve_bins(stems, bins, lambda n: 1, shared)
+    if fit is None:
         return out
-    col = {v: j for j, v in enumerate(reached)}
-    n = len(reached)
-    rows, rhs = [], []
-    for a, b, la, lb in bins:
-        ja, jb = col[index[a]], col[index[b]]
-        for k in range(len(la)):
-            for ch in range(3):
-                r = np.zeros(3 * n + 1)
-                r[3 * ja + ch] += 1.0
-                r[3 * jb + ch] -= 1.0
-                r[-1] = la[k, ch] ** 2 - lb[k, ch] ** 2
-                rows.append(r)
-                rhs.append(lb[k, ch] - la[k, ch])
-    heavy = 10.0 * np.sqrt(len(rows) / n)
-    for ch in range(3):
-        r = np.zeros(3 * n + 1)
-        r[[3 * j + ch for j in range(n)]] = heavy
-        rows.append(r)
-        rhs.append(0.0)
-    x = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
-    e = np.clip(x[:3 * n].reshape(n, 3), -MAX_EV * np.log(2), MAX_EV * np.log(2))
-    c = float(np.clip(x[-1], *CAMERA_C))
+    col, e, rest = fit
+    c = float(np.clip(rest[0], *CAMERA_C))
     for s in stems:
         out[s][4] = c
     for v, j in col.items():

@@ -245,3 +245,15 @@ def test_a_camera_transform_inverts_and_the_camera_curve_is_found_from_the_bins(
     assert worst(got) < best + 0.05
     assert worst(gains) > 2 * best
     assert ex.solve_camera_curve(cams.stems, [])["v1"].tolist() == [1.0, 1.0, 1.0, 1.0, 0.0]
+
+
+def test_corrected_level_is_what_apply_gain_does_in_log_terms():
+    rng = np.random.default_rng(3)
+    srgb = rng.uniform(0.05, 0.5, (40, 3)).astype(np.float32)
+    level = np.log(ex.srgb_to_lin(srgb).astype(np.float64) / ex.PIVOT)
+    for t in ([1.3, 1.0, 0.8], [1.2, 0.9, 1.1, 1.1], [1.2, 0.9, 1.1, 1.0, 0.12]):
+        got = np.log(ex.srgb_to_lin(ex.apply_gain(srgb, t)) / ex.PIVOT)
+        want = ex.corrected_level(t, level)
+        if len(t) == 5:
+            want = ex.from_radiance(want, t[4])
+        np.testing.assert_allclose(got, want, atol=1e-4)
