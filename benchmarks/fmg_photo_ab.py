@@ -10,7 +10,8 @@ session").
 
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
         [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args=--crosscheck] \
-        [--select-args "--max-flare 0.15"] [--finetune-args=--full-res-colour]
+        [--select-args "--max-flare 0.15"] [--finetune-args=--full-res-colour] \
+        [--depth-args "--sgm 0.1,1"]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
@@ -67,10 +68,12 @@ def result_name(arm: str, scene: str, seed: int) -> str:
 def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
             holes_as_flare: bool | None = None, novel_equal_below: float | None = None,
             select_args: list[str] | None = None, mask_args: list[str] | None = None,
-            finetune_args: list[str] | None = None) -> Path:
+            finetune_args: list[str] | None = None,
+            depth_args: list[str] | None = None) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file.
-    ``mask_args`` / ``select_args`` / ``finetune_args``: extra options of the mask / select /
-    finetune stage (e.g. ``--crosscheck``, ``--max-flare 0.15``, ``--full-res-colour``)."""
+    ``mask_args`` / ``depth_args`` / ``select_args`` / ``finetune_args``: extra options of the
+    mask / depth / select / finetune stage (e.g. ``--crosscheck``, ``--sgm 0.1,1``,
+    ``--max-flare 0.15``, ``--full-res-colour``)."""
     scene = scene_short(synth)
     ws = work / f"{scene}_{arm}_s{seed}.ws"
     if not ws.is_dir():
@@ -82,7 +85,7 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
     cli = [sys.executable, "-m", "workflows.cli"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     steps = [["mask", str(ws), "--weights", str(weights), "--force", *(mask_args or [])],
-             ["depth", str(ws)], ["select", str(ws), *(select_args or [])],
+             ["depth", str(ws), *(depth_args or [])], ["select", str(ws), *(select_args or [])],
              ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
               *([] if holes_as_flare is None
                 else ["--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"]),
@@ -194,6 +197,8 @@ def main(argv: list[str] | None = None) -> int:
                         'the value starts with a dash)')
     r.add_argument("--select-args", default="",
                    help='extra options of the select stage, e.g. "--max-flare 0.15"')
+    r.add_argument("--depth-args", default="",
+                   help='extra options of the depth stage, e.g. "--sgm 0.1,1"')
     r.add_argument("--finetune-args", default="",
                    help="extra options of the finetune stage, e.g. "
                         "--finetune-args=--full-res-colour")
@@ -224,7 +229,8 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
                               a.novel_equal_below, shlex.split(a.select_args),
-                              shlex.split(a.mask_args), shlex.split(a.finetune_args)))
+                              shlex.split(a.mask_args), shlex.split(a.finetune_args),
+                              shlex.split(a.depth_args)))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "

@@ -56,15 +56,23 @@ class DepthConfig:
     consistency_planes: float = option(0.0, ge=0)
     """The consistency check's tolerance in planes of the view's own sweep, in inverse depth
     (0: the relative ``consistency`` instead; docs/history/fill.md, "Consistency in planes")."""
+    sgm: tuple[float, float] | None = option(None)
+    """P1,P2: semi-global aggregation of each view's matching costs along four scanlines
+    (a depth one plane away from a scanline neighbour's costs P1, a larger jump P2, halved at
+    an image edge), so weakly textured pixels take their neighbours' depth (none: each
+    pixel's own cost; docs/depth.md)."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
                            min_confidence=self.min_confidence, consistency=self.consistency,
-                           min_margin=self.min_margin)
+                           min_margin=self.min_margin, sgm=self.sgm)
 
     def check(self) -> None:
         """UserError for values outside their range (``pipeline.options.validate``)."""
         validate(self)
+        if self.sgm is not None and not 0 < self.sgm[0] <= self.sgm[1]:
+            raise UserError(f"--sgm {self.sgm[0]:g},{self.sgm[1]:g}: the penalties must be "
+                            "P1,P2 with 0 < P1 <= P2 (e.g. --sgm 0.1,1), or none")
 
 
 def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:

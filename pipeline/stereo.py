@@ -64,6 +64,9 @@ class SweepConfig:
     """Uniqueness: a depth is dropped when its cost beats the best cost of the planes more
     than ``MARGIN_PLANES`` away by less than this (a flat cost curve: no parallax, or a
     repeated texture; 0 = no test)."""
+    sgm: tuple[float, float] | None = None
+    """(P1, P2): semi-global aggregation of the cost volume along four scanlines
+    (:func:`aggregate_sgm`) before the winner is taken; None = the pixel's own cost alone."""
 
 
 def homography(K_t: np.ndarray, c2w_t: np.ndarray, K_s: np.ndarray, c2w_s: np.ndarray,
@@ -220,7 +223,18 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
         lower = cost[p] < lowest  # strict: ties keep the first plane, as argmin does
         np.copyto(lowest, cost[p], where=lower)
         best[lower] = p
-    depth = _refine(cost, best, depths)
+    if cfg.sgm is not None:
+        agg = aggregate_sgm(cost, g_ref, *cfg.sgm)
+        best = np.argmin(agg, 0)
+        # the winner's own cost, or, where lower, how little the scanlines disagree with
+        # it (0: every scanline's neighbours arrive at this plane; 1: each pays the large
+        # jump), so a weakly textured pixel whose neighbours agree keeps their depth
+        lowest = np.take_along_axis(cost, best[None], 0)[0]
+        disagree = np.take_along_axis(agg, best[None], 0)[0] / len(SGM_PATHS) - lowest
+        np.minimum(lowest, np.clip(disagree / cfg.sgm[1], 0, 1), out=lowest)
+        depth = _refine(agg, best, depths)
+    else:
+        depth = _refine(cost, best, depths)
     c_best = lowest  # the cost at the best plane
     conf = np.clip(1.0 - c_best, 0.0, 1.0)
     if cfg.min_margin > 0:
@@ -232,6 +246,53 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     conf[seen < keep] = 0.0
     depth[conf < cfg.min_confidence] = 0.0
     return depth.astype(np.float32), conf.astype(np.float32)
+
+
+SGM_PATHS = ((0, 1), (0, -1), (1, 1), (1, -1))
+"""Scanlines of :func:`aggregate_sgm`: (axis of the image, direction) - left to right, right
+to left, top to bottom, bottom to top."""
+
+SGM_EDGE = 0.05
+"""Grey-level step (0..1) at which the large-jump penalty P2 of :func:`aggregate_sgm` is
+halved: depth may jump where the image has an edge."""
+
+
+def aggregate_sgm(cost: np.ndarray, grey: np.ndarray, p1: float, p2: float) -> np.ndarray:
+    """Semi-global aggregation of a plane-sweep cost volume ``cost`` [P, H, W] (Hirschmueller's
+    recursion, in plane indices): along each scanline of ``SGM_PATHS``
+    ``L(x, d) = C(x, d) + min(L(x-1, d), L(x-1, d+-1) + p1, min L(x-1) + p2') - min L(x-1)``
+    with ``p2' = max(p1, p2 / (1 + |grey step| / SGM_EDGE))``; returns the sum over the
+    scanlines [P, H, W] float32. Each scanline's term lies in [C, C + p2], so the sum over
+    four is at most ``4 * (C + p2)``."""
+    P, H, W = cost.shape
+    total = np.zeros_like(cost, dtype=np.float32)
+    for axis, step in SGM_PATHS:
+        # lines along the scan axis first: [N, P, M], N steps of M parallel pixels
+        c = np.ascontiguousarray(cost.transpose(2, 0, 1) if axis == 0 else
+                                 cost.transpose(1, 0, 2))
+        g = np.ascontiguousarray(grey.T if axis == 0 else grey)
+        jump = np.abs(np.diff(g, axis=0))
+        pen = np.maximum(p2 / (1.0 + jump / SGM_EDGE), p1).astype(np.float32)
+        n = c.shape[0]
+        order = range(n) if step > 0 else range(n - 1, -1, -1)
+        out = np.empty_like(c)
+        prev = None
+        for i in order:
+            if prev is None:
+                cur = c[i].copy()
+            else:
+                j = i - 1 if step > 0 else i  # the grey step between lines i and i - step
+                m = prev.min(0)
+                cur = prev.copy()
+                np.minimum(cur[1:], prev[:-1] + p1, out=cur[1:])  # from d - 1
+                np.minimum(cur[:-1], prev[1:] + p1, out=cur[:-1])  # from d + 1
+                np.minimum(cur, m + pen[j], out=cur)
+                cur -= m
+                cur += c[i]
+            out[i] = cur
+            prev = cur
+        total += out.transpose(1, 2, 0) if axis == 0 else out.transpose(1, 0, 2)
+    return total
 
 
 def sweep_consensus(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
