@@ -1,16 +1,19 @@
 """Seconds of the photo geometry (no network) on a workspace, with digests of what it made.
 
-    python benchmarks/stereo_time.py WS --work DIR [--frames 6] [--out JSON]
+    python benchmarks/stereo_time.py WS --work DIR [--frames 6] [--out JSON] \
+        [--set depth.FIELD=VALUE ...] [--depth-only]
 
 Two timings, both numpy and OpenCV only (pipeline/stereo.py, pipeline/photo_fill.py):
 
 - the depth stage: WS is copied into DIR without its depth maps (nothing of WS is changed)
   and ``deflare-scene depth`` runs there with its defaults (plane sweep of every view and the
-  consistency check); seconds per view;
+  consistency check), or with ``--set depth.FIELD=VALUE`` (e.g. ``depth.sgm=0.1,1``); seconds
+  per view and the share of pixels with a depth;
 - the hybrid fill's photo share of novel frames: ``--frames`` frames spread over the video's
   interpolate path, at the render stage's default size and at half of it, warped from the
   photos through WS's own depth maps (``pipeline.render.fill.fill_from_photos``: depth
   splatting, the consensus sweep for the holes, warping, gains, fusion); seconds per frame.
+  Needs a fine-tuned model in WS (the frames' sources are its); ``--depth-only`` skips it.
 
 Each part also records a SHA-256 digest of its arrays (the depth maps and confidences; the
 fill's colour, weight and depth), so two runs of the script at different commits show
@@ -43,22 +46,26 @@ def digest(arrays) -> str:
     return h.hexdigest()
 
 
-def time_depth(ws_dir: Path, work: Path) -> dict:
-    """The depth stage with its defaults on a copy of ``ws_dir`` without WS/depth."""
+def time_depth(ws_dir: Path, work: Path, sets: list[str] | None = None) -> dict:
+    """The depth stage on a copy of ``ws_dir`` without WS/depth: its defaults, or with
+    ``sets`` (``depth.FIELD=VALUE``, as the one-shot command's ``--set``)."""
     from pipeline import depth
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_depth
+    from workflows.oneshot import apply_overrides
 
+    config = apply_overrides({"depth": depth.DepthConfig()}, sets or [])["depth"]
     out = work / f"{ws_dir.name}.depth"
     shutil.rmtree(out, ignore_errors=True)
     shutil.copytree(ws_dir, out, symlinks=True, ignore=shutil.ignore_patterns("depth"))
     ws = Workspace(out)
     t0 = time.perf_counter()
-    depth.run(depth.DepthConfig(), ws, force=True)
+    depth.run(config, ws, force=True)
     secs = time.perf_counter() - t0
     stems = sorted(p.stem for p in ws.depth.glob("*.npz"))
-    return {"views": len(stems), "seconds": round(secs, 2),
-            "seconds_per_view": round(secs / len(stems), 3),
+    known = np.mean([(read_depth(ws, s)[0] > 0).mean() for s in stems])
+    return {"views": len(stems), "settings": sets or [], "seconds": round(secs, 2),
+            "seconds_per_view": round(secs / len(stems), 3), "known": round(float(known), 4),
             "digest": digest(a for s in stems for a in read_depth(ws, s))}
 
 
@@ -103,6 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("ws", type=Path)
     ap.add_argument("--work", type=Path, required=True)
     ap.add_argument("--frames", type=int, default=6)
+    ap.add_argument("--set", dest="sets", action="append", default=[],
+                    metavar="depth.FIELD=VALUE", help="a depth stage option, e.g. depth.sgm=0.1,1")
+    ap.add_argument("--depth-only", action="store_true",
+                    help="time the depth stage only (a workspace without a fine-tuned model)")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from workflows.threads import apply_thread_policy
@@ -111,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
     from pipeline.provenance import write_result
 
-    for need in ("cameras.json", "depth"):
+    for need in ("cameras.json",) if a.depth_only else ("cameras.json", "depth"):
         if not (a.ws / need).exists():
             print(f"error: {a.ws / need} is missing: run `deflare-scene pose` and "
                   f"`deflare-scene depth` on {a.ws} first", file=sys.stderr)
@@ -121,14 +132,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     a.work.mkdir(parents=True, exist_ok=True)
     try:
-        rec = {"depth_stage": time_depth(a.ws, a.work),
-               "fill": [time_fill(a.ws, a.frames, s) for s in (None, 0.5)]}
+        rec = {"depth_stage": time_depth(a.ws, a.work, a.sets),
+               "fill": [] if a.depth_only else [time_fill(a.ws, a.frames, s)
+                                                for s in (None, 0.5)]}
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     d = rec["depth_stage"]
     print(f"{a.ws.name}: depth stage {d['seconds_per_view']:.2f} s per view "
-          f"({d['views']} views); photo fill " + ", ".join(
+          f"({d['views']} views, depth on {100 * d['known']:.1f} % of the pixels)"
+          + ("; photo fill " if rec["fill"] else "") + ", ".join(
               f"{f['seconds_per_frame']:.2f} s per frame at {f['size'][0]}x{f['size'][1]}"
               for f in rec["fill"]))
     write_result(a.out, {"workspace": str(a.ws), **rec})

@@ -817,3 +817,24 @@ def test_stereo_time_refuses_a_workspace_without_depth_in_one_line(tmp_path, cap
     assert st.main([str(tmp_path / "ws"), "--work", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "depth" in err and str(tmp_path / "ws") in err
+
+
+def test_stereo_time_times_the_depth_stage_with_an_option_and_leaves_the_workspace(tmp_path):
+    """``--depth-only --set depth.sgm=...``: the depth stage alone, on a copy, with the
+    option; the known share is the copy's depth maps'; the workspace gains no depth maps."""
+    import json
+
+    from tests.fixtures import make_plane_workspace
+
+    st = load_benchmark("stereo_time")
+    ws = make_plane_workspace(tmp_path / "ws", n_views=4)
+    out = tmp_path / "t.json"
+    assert st.main([str(ws.root), "--work", str(tmp_path / "w"), "--depth-only",
+                    "--set", "depth.sgm=0.1,1", "--out", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    d = rec["depth_stage"]
+    assert d["settings"] == ["depth.sgm=0.1,1"] and d["views"] == 4 and rec["fill"] == []
+    assert 0.3 < d["known"] <= 1.0  # a textured plane: most pixels have a depth
+    assert not (ws.root / "depth").exists()
+    manifest = json.loads((tmp_path / "w" / "ws.depth" / "manifest.json").read_text())
+    assert manifest["stages"]["depth"]["params"]["sgm"] == [0.1, 1.0]
