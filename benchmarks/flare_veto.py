@@ -1,6 +1,7 @@
 """Evidence across views the other way: drop FMG marks the neighbouring photos confirm as scene.
 
     python benchmarks/flare_veto.py --scene SYNTH [--scene SYNTH ...] [--clean WS ...] \
+        [--depth-set depth.FIELD=VALUE ...] \
         --work DIR [--out JSON]
 
 Flare moves with the camera; the scene does not. ``benchmarks/flare_evidence.py`` looked
@@ -68,12 +69,13 @@ def _more(c: np.ndarray) -> dict:
             "recall": round(float(c[1, 1] / max(c[1].sum(), 1)), 5)}
 
 
-def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
+def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule],
+                depth_sets: list[str] | None = None) -> dict:
     """Pooled over the flared views of a synth scene: the FMG's scores and each setting's."""
     fmg_c = np.zeros((2, 2), np.int64)
     cut_c = np.zeros((len(cfgs), 2, 2), np.int64)
     views = 0
-    for fmg, cons, gt in flared_views(root, work, EvidenceConfig()):
+    for fmg, cons, gt in flared_views(root, work, EvidenceConfig(), depth_sets):
         views += 1
         fmg_c += _confusion(fmg, gt)
         for i, cfg in enumerate(cfgs):
@@ -83,7 +85,8 @@ def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
                          for i, c in enumerate(cfgs)]}
 
 
-def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
+def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule],
+                depth_sets: list[str] | None = None) -> dict:
     """Share of pixels marked on a clean posed workspace (a copy in ``work``): the FMG's
     and each setting's (mean and max over views, views over 10 %)."""
     from pipeline.workspace import Workspace
@@ -95,7 +98,7 @@ def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule]) -> dict:
         shutil.copytree(path, tmp, symlinks=True)
         tmp.rename(copy)
     ws = Workspace(copy)
-    prepare(ws)
+    prepare(ws, depth_sets)
 
     data = view_data(ws, EvidenceConfig())
     return {"fmg": clean_stats([float(m.mean()) for m, _ in data.values()]),
@@ -110,6 +113,9 @@ def main() -> None:
     ap.add_argument("--clean", type=Path, action="append", default=[])
     ap.add_argument("--work", type=Path, required=True)
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--depth-set", action="append", default=[], metavar="depth.FIELD=VALUE",
+                    help="an option of the depth stage whose maps the veto warps through, "
+                         "e.g. depth.sgm=0.1,1")
     a = ap.parse_args()
     from workflows.threads import apply_thread_policy
 
@@ -118,9 +124,10 @@ def main() -> None:
 
     cfgs = settings()
     a.work.mkdir(parents=True, exist_ok=True)
-    res = {"sweep": {k: list(v) for k, v in SWEEP.items()}, "scenes": {}, "clean": {}}
+    res = {"sweep": {k: list(v) for k, v in SWEEP.items()}, "depth_sets": a.depth_set,
+           "scenes": {}, "clean": {}}
     for root in a.scene:
-        r = res["scenes"][root.name] = score_scene(root.resolve(), a.work, cfgs)
+        r = res["scenes"][root.name] = score_scene(root.resolve(), a.work, cfgs, a.depth_set)
         print(f"{root.name} ({r['views']} flared views): FMG flare IoU "
               f"{r['fmg']['IoU_flare']:.3f}, outside {100 * r['fmg']['outside']:.2f} %, recall "
               f"{r['fmg']['recall']:.3f}")
@@ -128,7 +135,7 @@ def main() -> None:
             print(f"  {x['config']}: IoU {x['veto']['IoU_flare']:.3f}, outside "
                   f"{100 * x['veto']['outside']:.2f} %, recall {x['veto']['recall']:.3f}")
     for ws in a.clean:
-        r = res["clean"][ws.name] = score_clean(ws.resolve(), a.work, cfgs)
+        r = res["clean"][ws.name] = score_clean(ws.resolve(), a.work, cfgs, a.depth_set)
         print(f"{ws.name} (clean): FMG marks {100 * r['fmg']['mean']:.2f} % "
               f"(max {100 * r['fmg']['max']:.2f})")
         for x in r["settings"]:

@@ -837,3 +837,34 @@ def test_fortieth_session_test_scene_report_is_its_files():
     readme = " ".join((REPO / "README.md").read_text().split())
     assert f"cyprus (the sample's photos) {loss:+.2f} dB" in options
     assert f"held-out views {loss:+.2f} dB" in readme
+
+
+def test_sgm_rule_numbers_agree_with_the_judge():
+    """docs/history/fill.md, "Semi-global aggregation of the sweep": the table is the judge's
+    files (both rules fail (a)), the judge recomputes them from the committed runs, and the
+    veto's clean shares are flare_veto's files at the product's setting."""
+    page = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    section = page[page.index("Semi-global aggregation of the sweep (forty-third session)"):]
+    ab = load_benchmark("fmg_photo_ab")
+    for rule, decision in (("flare", "fails (a)"), ("novel", "fails (a)")):
+        res = json.loads((RESULTS / f"sgm_judge_{rule}_s43.json").read_text())
+        assert res["decision"] == decision and res["rule"] == rule
+        for d in (*res["per_scene"].values(), res["mean"]):
+            cells = " / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
+            assert cells in section
+        again = ab.judge(RESULTS, "s43_sgm", "s41_expo", ["sceaux", "et", "lund"], [2, 3],
+                         rule=rule)
+        assert again["mean"] == pytest.approx(res["mean"]) and again["decision"] == decision
+    assert f"{res['per_scene']['lund']['held']:+.3f} dB" in section
+    shares = []
+    for name in ("flare_veto_dev_s43.json", "flare_veto_dev_sgm_s43.json"):
+        clean = json.loads((RESULTS / name).read_text())["clean"]
+        row = []
+        for ws in ("sceaux_ws", "et_ws", "lund_ws"):
+            x = next(s for s in clean[ws]["settings"] if (s["config"]["min_support"],
+                     s["config"]["min_judged"], s["config"]["min_confirmed"]) == (2, 0.3, 0.95))
+            row.append((clean[ws]["fmg"]["mean"], x["veto"]["mean"]))
+        shares.append(row)
+    for (fmg, today), (_, sgm), scene in zip(shares[0], shares[1], ("sceaux_castle", "et", "lund"),
+                                             strict=True):
+        assert f"{scene} {100 * fmg:.3f} / {100 * today:.3f} / {100 * sgm:.3f} %" in section
