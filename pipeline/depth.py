@@ -234,11 +234,12 @@ measured for such captures (the development street walk: 10 %; the others 32-50 
 def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
     """A note when the depth maps know little (a street walk, a deep scene): the video's
     photo share will be small; the two opt-ins measured on such a capture. None otherwise."""
-    if coverage >= FEW_DEPTH or config.consistency_planes:
+    if coverage >= FEW_DEPTH or config.consistency_planes or config.sgm is not None:
         return None
     return (f"depth: known on few pixels ({100 * coverage:.0f}%): the video will take little "
             "from the photos. For a street walk or another deep scene, "
-            "`--set depth.consistency_planes=1` (more depth kept) or "
+            "`--set depth.consistency_planes=1` (more depth kept), "
+            "`--set depth.sgm=0.1,1` (weakly textured pixels take their neighbours' depth) or "
             "`--set render.network_depth=holes` (the photos warped through GN-FR's own "
             "depth) each sharpened the development street walk's frames a little "
             "(docs/options.md)")

@@ -856,6 +856,9 @@ def test_sgm_rule_numbers_agree_with_the_judge():
                          rule=rule)
         assert again["mean"] == pytest.approx(res["mean"]) and again["decision"] == decision
     assert f"{res['per_scene']['lund']['held']:+.3f} dB" in section
+    readme = " ".join((REPO / "README.md").read_text().split())
+    sc, lund = res["per_scene"]["sceaux"]["held"], res["per_scene"]["lund"]["held"]
+    assert f"held-out frames {lund:+.2f} dB there, {sc:+.2f} dB on a facade" in readme
     shares = []
     for name in ("flare_veto_dev_s43.json", "flare_veto_dev_sgm_s43.json"):
         clean = json.loads((RESULTS / name).read_text())["clean"]

@@ -142,6 +142,8 @@ def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is
     assert "depth.consistency_planes=1" in note and "render.network_depth=holes" in note
     assert few_depth_note(FEW_DEPTH, DepthConfig()) is None
     assert few_depth_note(0.05, DepthConfig(consistency_planes=1)) is None
+    assert "depth.sgm=0.1,1" in few_depth_note(0.05, DepthConfig())
+    assert few_depth_note(0.05, DepthConfig(sgm=(0.1, 1.0))) is None
 
 
 def test_close_small_holes_fills_specks_and_leaves_large_holes():
