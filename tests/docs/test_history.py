@@ -871,3 +871,19 @@ def test_sgm_rule_numbers_agree_with_the_judge():
     for (fmg, today), (_, sgm), scene in zip(shares[0], shares[1], ("sceaux_castle", "et", "lund"),
                                              strict=True):
         assert f"{scene} {100 * fmg:.3f} / {100 * today:.3f} / {100 * sgm:.3f} %" in section
+
+
+def test_sgm_depth_share_and_time_are_the_stereo_time_files():
+    """The known shares and the time ratio the depth page and the history quote."""
+    depth_page = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    ratios = []
+    for sc, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
+        base, sgm = (json.loads((RESULTS / f"depth_sgm_time_dev_{sc}_{arm}_s43.json")
+                                .read_text())["depth_stage"] for arm in ("base", "sgm"))
+        assert base["settings"] == [] and sgm["settings"] == ["depth.sgm=0.1,1"]
+        quoted = f"{name} {100 * base['known']:.1f} % to {100 * sgm['known']:.1f} %"
+        assert quoted in depth_page and quoted in history
+        ratios.append(sgm["seconds_per_view"] / base["seconds_per_view"])
+    assert all(f"{r:.1f}" == "1.6" for r in ratios)
+    assert "1.6 times as long" in depth_page and "1.6 times as long" in history
