@@ -887,3 +887,18 @@ def test_sgm_depth_share_and_time_are_the_stereo_time_files():
         ratios.append(sgm["seconds_per_view"] / base["seconds_per_view"])
     assert all(f"{r:.1f}" == "1.6" for r in ratios)
     assert "1.6 times as long" in depth_page and "1.6 times as long" in history
+
+
+def test_sgm_test_scene_rows_are_their_files():
+    """The history's test-scene table after the aggregation's decision (reported only)."""
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    for sc in ("kermit", "cyprus"):
+        cells = []
+        for arm in ("base", "sgm"):
+            i = json.loads((RESULTS / f"sgm_test_inputs_{sc}_{arm}_s43.json").read_text())
+            i = i["rows"]["hybrid_guided_support2"]
+            h = json.loads((RESULTS / f"sgm_test_heldout_{sc}_{arm}_s43.json").read_text())
+            cells.append((f"{i['psnr']:.2f} / {i['psnr_flare']:.2f} / {i['ssim']:.3f}",
+                          f"{h['psnr']:.2f} / {h['ssim']:.3f}"))
+        (ib, hb), (isg, hs) = cells
+        assert f"| {sc} | {ib} -> {isg} | {hb} -> {hs} |" in history
