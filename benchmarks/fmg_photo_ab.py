@@ -13,9 +13,13 @@ session").
         [--select-args "--max-flare 0.15"] [--finetune-args=--full-res-colour] \
         [--depth-args "--sgm 0.1,1"]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
+    python benchmarks/fmg_photo_ab.py rerender SYNTH --from-arm BASE --arm NAME --seed S \
+        --work DIR --depth-args "--sgm 0.1,1"
+        # BASE's workspace copied, the depth stage rerun with the options, the de-flared
+        # photos and held-out cameras rendered again with BASE's model; scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
-        [--held-baseline SCENE=ARM] [--rule flare|novel] [--out JSON]
+        [--held-baseline SCENE=ARM] [--rule flare|novel|depth] [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -26,6 +30,11 @@ another baseline arm on that scene, e.g. one trained on the same targets as the 
 novel-view gain >= +0.10 dB, (b) no scene's novel views lower by more than 0.20 dB, (c) the
 de-flared photos' flare region and whole photo (means) not lower by more than 0.05 dB and
 SSIM by more than 0.002 (docs/presets.md, "Full-size colours in the fine-tune").
+``--rule depth`` judges a change of the depth stage with the model held fixed (``rerender``
+arms against their ``run`` arm), with the thirty-seventh session's thresholds (docs/history/
+fill.md, "Consistency in planes"): (a) mean flare-region gain >= +0.05 dB, no scene's flare
+region or whole photo lower by more than 0.05 dB nor its SSIM by more than 0.002; (b) novel
+views' mean PSNR not lower by more than 0.05 dB nor their mean SSIM by more than 0.002.
 About 10 minutes per run on one CPU thread.
 
 Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f0517 those sample
@@ -59,6 +68,12 @@ RULE_NOVEL = {"held_gain": 0.10, "held_scene_loss": 0.20, "flare_loss": 0.05,
 def scene_short(synth: Path) -> str:
     """``/work/dev/et_synth`` -> ``et``."""
     return synth.name.removesuffix("_synth")
+
+
+RULE_DEPTH = {"flare_gain": 0.05, "scene_loss": 0.05, "ssim_loss": 0.002, "held_loss": 0.05,
+              "held_ssim_loss": 0.002}
+"""``--rule depth``'s thresholds (the thirty-seventh session's rule for a depth stage
+default, the model held fixed)."""
 
 
 def result_name(arm: str, scene: str, seed: int) -> str:
@@ -104,11 +119,48 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
     return out
 
 
-def arm_means(results: list[dict]) -> dict:
-    """Seed means of one arm on one scene: whole, flare region, SSIM, novel views."""
+def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
+                 depth_args: list[str]) -> Path:
+    """A copy of ``base_arm``'s workspace (``run``'s) with the depth stage rerun with
+    ``depth_args`` and the de-flared photos and held-out cameras rendered again by the same
+    model (not fine-tuned again); scored as ``run`` scores. Returns the result file."""
+    from pipeline.errors import UserError
+
+    scene = scene_short(synth)
+    base = work / f"{scene}_{base_arm}_s{seed}.ws"
+    if not (base / "model").is_dir():
+        raise UserError(f"{base}: no fine-tuned arm workspace; run the base arm first "
+                        f"(python benchmarks/fmg_photo_ab.py run {synth} --arm {base_arm} "
+                        f"--seed {seed} --work {work} ...)")
+    ws = work / f"{scene}_{arm}_s{seed}.ws"
+    if not ws.is_dir():
+        tmp = ws.with_suffix(".tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.copytree(base, tmp, symlinks=True,
+                        ignore=shutil.ignore_patterns("deflared", "renders"))
+        tmp.rename(ws)
+    cli = [sys.executable, "-m", "workflows.cli"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    for step in (["depth", str(ws), "--force", *depth_args],
+                 ["render", str(ws), "--path", "inputs"],
+                 ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
+                                                   "heldout_cameras.json"), "--scale", "0.5"]):
+        subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
+    out = work / result_name(arm, scene, seed)
+    subprocess.run([sys.executable, str(ROOT / "benchmarks" / "score_workspace.py"), str(synth),
+                    str(ws), "--heldout", str(ws / "renders" / "heldout_cameras"),
+                    "--out", str(out)], check=True, env=env, cwd=ROOT)
+    return out
+
+
+def arm_means(results: list[dict], held_ssim: bool = False) -> dict:
+    """Seed means of one arm on one scene: whole, flare region, SSIM, novel views (and
+    their SSIM with ``held_ssim``)."""
     n = len(results)
     m = {k: sum(r["inputs"][k] for r in results) / n for k in ("psnr", "psnr_flare", "ssim")}
     m["held"] = sum(r["heldout"]["psnr"] for r in results) / n
+    if held_ssim:
+        m["held_ssim"] = sum(r["heldout"]["ssim"] for r in results) / n
     return m
 
 
@@ -119,8 +171,14 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
     ``rule``: "flare" (the FMG photo rule, ``RULE``) or "novel" (``RULE_NOVEL``)."""
     diff = {s: {k: candidate[s][k] - baseline[s][k] for k in baseline[s]} for s in baseline}
     mean = {k: sum(d[k] for d in diff.values()) / len(diff)
-            for k in ("psnr", "psnr_flare", "ssim", "held")}
-    if rule == "novel":
+            for k in next(iter(diff.values()))}
+    if rule == "depth":
+        r = RULE_DEPTH
+        parts = {"a": (mean["psnr_flare"] >= r["flare_gain"]
+                       and all(d["psnr_flare"] >= -r["scene_loss"] and d["psnr"] >= -r["scene_loss"]
+                               and d["ssim"] >= -r["ssim_loss"] for d in diff.values())),
+                 "b": mean["held"] >= -r["held_loss"] and mean["held_ssim"] >= -r["held_ssim_loss"]}
+    elif rule == "novel":
         r = RULE_NOVEL
         parts = {"a": mean["held"] >= r["held_gain"],
                  "b": all(d["held"] >= -r["held_scene_loss"] for d in diff.values()),
@@ -154,7 +212,7 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
-        return arm_means([json.loads(f.read_text()) for f in files])
+        return arm_means([json.loads(f.read_text()) for f in files], rule == "depth")
 
     cand = {s: load(candidate, s, seeds) for s in scenes}
     base = {s: load(baseline, s, base_seeds) for s in scenes}
@@ -202,6 +260,14 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--finetune-args", default="",
                    help="extra options of the finetune stage, e.g. "
                         "--finetune-args=--full-res-colour")
+    rr = sub.add_parser("rerender")
+    rr.add_argument("synth", type=Path)
+    rr.add_argument("--from-arm", required=True)
+    rr.add_argument("--arm", required=True)
+    rr.add_argument("--seed", type=int, default=0)
+    rr.add_argument("--work", type=Path, required=True)
+    rr.add_argument("--depth-args", default="",
+                    help='options of the depth stage, e.g. "--sgm 0.1,1"')
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
@@ -212,8 +278,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="the baseline arms' seeds (default: --seeds)")
     j.add_argument("--held-baseline", action="append", default=[], metavar="SCENE=ARM",
                    help="part (d)'s baseline arm on one scene (like-for-like targets)")
-    j.add_argument("--rule", choices=("flare", "novel"), default="flare",
-                   help="flare: the FMG photo rule; novel: a change for the novel views")
+    j.add_argument("--rule", choices=("flare", "novel", "depth"), default="flare",
+                   help="flare: the FMG photo rule; novel: a change for the novel views; "
+                        "depth: a depth stage change, the model held fixed (rerender arms)")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
@@ -235,6 +302,15 @@ def main(argv: list[str] | None = None) -> int:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
                                 "finished stages are kept") from None
+            return 0
+        if a.cmd == "rerender":
+            try:
+                print(rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
+                                   shlex.split(a.depth_args)))
+            except subprocess.CalledProcessError as e:
+                step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
+                raise UserError(f"{step} failed (its message is above); fix that and rerun") \
+                    from None
             return 0
         held = dict(x.split("=", 1) for x in a.held_baseline if "=" in x)
         if len(held) != len(a.held_baseline):

@@ -902,3 +902,28 @@ def test_sgm_test_scene_rows_are_their_files():
                           f"{h['psnr']:.2f} / {h['ssim']:.3f}"))
         (ib, hb), (isg, hs) = cells
         assert f"| {sc} | {ib} -> {isg} | {hb} -> {hs} |" in history
+
+
+def test_sgm_render_alone_table_and_the_baselines_reproduction():
+    """"Where the rule's losses came from": the re-run baseline arms equal the committed
+    s41_expo files, and each row of the table is the render-alone and the rule's run minus
+    that baseline."""
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+
+    def load(arm, sc, seed):
+        return json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{seed}.json").read_text())
+
+    def cells(x, base):
+        d = (x["inputs"]["psnr"] - base["inputs"]["psnr"],
+             x["inputs"]["psnr_flare"] - base["inputs"]["psnr_flare"],
+             x["heldout"]["psnr"] - base["heldout"]["psnr"],
+             x["heldout"]["ssim"] - base["heldout"]["ssim"])
+        return " / ".join(f"{v:+.3f}" for v in d)
+
+    for sc, seed in (("sceaux", 2), ("sceaux", 3), ("et", 2), ("lund", 2)):
+        base, old = load("s43_expo", sc, seed), load("s41_expo", sc, seed)
+        assert base["inputs"]["psnr_flare"] == old["inputs"]["psnr_flare"]
+        assert base["heldout"]["psnr"] == old["heldout"]["psnr"]
+        alone, rerun = load("s43_sgmro", sc, seed), load("s43_sgm", sc, seed)
+        assert f"| {names[sc]}, {seed} | {cells(alone, base)} | {cells(rerun, base)} |" in history

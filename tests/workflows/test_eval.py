@@ -519,6 +519,33 @@ def test_novel_rule_judges_the_video_and_guards_the_photos():
     assert m.photo_rule(cand(**flare_only), base)["decision"] == "passes"
 
 
+def test_depth_rule_holds_the_photos_per_scene_and_the_novel_views_on_the_mean(tmp_path, capsys):
+    """``--rule depth`` (a depth stage change, the model fixed): +0.06 dB in every flare
+    region passes; a mean gain with one scene's flare region -0.06 dB fails (a), as does a
+    scene's SSIM -0.003; novel views' mean SSIM -0.003 fails (b). ``rerender`` without the
+    base arm's workspace is one line, exit 2."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0, "held_ssim": 0.5}
+            for s in "xyz"}
+
+    def cand(**by_scene):
+        return {s: {**base[s], **by_scene.get(s, {})} for s in base}
+
+    up = {s: {"psnr_flare": 20.06} for s in "xyz"}
+    assert m.photo_rule(cand(**up), base, "depth")["decision"] == "passes"
+    one_down = {"x": {"psnr_flare": 20.4}, "y": {"psnr_flare": 19.94}, "z": {}}
+    got = m.photo_rule(cand(**one_down), base, "depth")
+    assert got["mean"]["psnr_flare"] > 0.05 and got["decision"] == "fails (a)"
+    ssim = {**up, "x": {"psnr_flare": 20.06, "ssim": 0.947}}
+    assert m.photo_rule(cand(**ssim), base, "depth")["decision"] == "fails (a)"
+    blur = {s: {"psnr_flare": 20.06, "held_ssim": 0.497} for s in "xyz"}
+    assert m.photo_rule(cand(**blur), base, "depth")["decision"] == "fails (b)"
+    assert m.main(["rerender", str(tmp_path / "sceaux_synth"), "--from-arm", "b", "--arm", "c",
+                   "--work", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "sceaux_b_s0.ws: no fine-tuned arm workspace" in err and len(err.splitlines()) == 1
+
+
 def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path, capsys):
     """`judge` on the twenty-third session's committed results gives fmg.md's table (L
     minus the shipped file, et's flare region -0.31 dB: fails (b)); with --baseline-seeds
