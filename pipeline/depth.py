@@ -233,7 +233,8 @@ measured for such captures (the development street walk: 10 %; the others 32-50 
 
 def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
     """A note when the depth maps know little (a street walk, a deep scene): the video's
-    photo share will be small; the two opt-ins measured on such a capture. None otherwise."""
+    photo share will be small; the opt-ins measured on such a capture. None otherwise (or
+    when one of the depth stage's is already on)."""
     if coverage >= FEW_DEPTH or config.consistency_planes or config.sgm is not None:
         return None
     return (f"depth: known on few pixels ({100 * coverage:.0f}%): the video will take little "

@@ -249,8 +249,8 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
 
 
 SGM_PATHS = ((0, 1), (0, -1), (1, 1), (1, -1))
-"""Scanlines of :func:`aggregate_sgm`: (axis of the image, direction) - left to right, right
-to left, top to bottom, bottom to top."""
+"""Scanlines of :func:`aggregate_sgm` as (along, direction): along 0, a row is walked (left
+to right, then right to left); along 1, a column (top to bottom, then bottom to top)."""
 
 SGM_EDGE = 0.05
 """Grey-level step (0..1) at which the large-jump penalty P2 of :func:`aggregate_sgm` is
@@ -264,7 +264,6 @@ def aggregate_sgm(cost: np.ndarray, grey: np.ndarray, p1: float, p2: float) -> n
     with ``p2' = max(p1, p2 / (1 + |grey step| / SGM_EDGE))``; returns the sum over the
     scanlines [P, H, W] float32. Each scanline's term lies in [C, C + p2], so the sum over
     four is at most ``4 * (C + p2)``."""
-    P, H, W = cost.shape
     total = np.zeros_like(cost, dtype=np.float32)
     for axis, step in SGM_PATHS:
         # lines along the scan axis first: [N, P, M], N steps of M parallel pixels
