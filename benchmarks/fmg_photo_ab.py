@@ -90,15 +90,7 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
     mask / depth / select / finetune stage (e.g. ``--crosscheck``, ``--sgm 0.1,1``,
     ``--max-flare 0.15``, ``--full-res-colour``)."""
     scene = scene_short(synth)
-    ws = work / f"{scene}_{arm}_s{seed}.ws"
-    if not ws.is_dir():
-        tmp = ws.with_suffix(".tmp")
-        shutil.rmtree(tmp, ignore_errors=True)
-        shutil.copytree(synth / "eval.ws", tmp, symlinks=True,
-                        ignore=shutil.ignore_patterns("variants"))
-        tmp.rename(ws)
-    cli = [sys.executable, "-m", "workflows.cli"]
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    ws = _copy_once(synth / "eval.ws", work / f"{scene}_{arm}_s{seed}.ws", "variants")
     steps = [["mask", str(ws), "--weights", str(weights), "--force", *(mask_args or [])],
              ["depth", str(ws), *(depth_args or [])], ["select", str(ws), *(select_args or [])],
              ["finetune", str(ws), "--preset", "quick", "--iters", "3000", "--seed", str(seed),
@@ -110,9 +102,27 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
                                                "heldout_cameras.json"), "--scale", "0.5",
               *([] if novel_equal_below is None
                 else ["--sources-equal-below", str(novel_equal_below)])]]
+    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
+
+
+def _copy_once(src: Path, ws: Path, *ignore: str) -> Path:
+    """``src`` copied to ``ws`` (without the ``ignore`` patterns) unless ``ws`` exists: through
+    a temporary folder, so an interrupted copy is never taken for a finished one."""
+    if not ws.is_dir():
+        tmp = ws.with_suffix(".tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.copytree(src, tmp, symlinks=True, ignore=shutil.ignore_patterns(*ignore))
+        tmp.rename(ws)
+    return ws
+
+
+def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path) -> Path:
+    """Each of ``steps`` (``deflare-scene`` arguments) on this checkout's code, then the
+    workspace scored against the synth scene as ``eval`` scores (``score_workspace.py``)."""
+    cli = [sys.executable, "-m", "workflows.cli"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     for step in steps:
         subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
-    out = work / result_name(arm, scene, seed)
     subprocess.run([sys.executable, str(ROOT / "benchmarks" / "score_workspace.py"), str(synth),
                     str(ws), "--heldout", str(ws / "renders" / "heldout_cameras"),
                     "--out", str(out)], check=True, env=env, cwd=ROOT)
@@ -132,25 +142,12 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
         raise UserError(f"{base}: no fine-tuned arm workspace; run the base arm first "
                         f"(python benchmarks/fmg_photo_ab.py run {synth} --arm {base_arm} "
                         f"--seed {seed} --work {work} ...)")
-    ws = work / f"{scene}_{arm}_s{seed}.ws"
-    if not ws.is_dir():
-        tmp = ws.with_suffix(".tmp")
-        shutil.rmtree(tmp, ignore_errors=True)
-        shutil.copytree(base, tmp, symlinks=True,
-                        ignore=shutil.ignore_patterns("deflared", "renders"))
-        tmp.rename(ws)
-    cli = [sys.executable, "-m", "workflows.cli"]
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    for step in (["depth", str(ws), "--force", *depth_args],
-                 ["render", str(ws), "--path", "inputs"],
-                 ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
-                                                   "heldout_cameras.json"), "--scale", "0.5"]):
-        subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
-    out = work / result_name(arm, scene, seed)
-    subprocess.run([sys.executable, str(ROOT / "benchmarks" / "score_workspace.py"), str(synth),
-                    str(ws), "--heldout", str(ws / "renders" / "heldout_cameras"),
-                    "--out", str(out)], check=True, env=env, cwd=ROOT)
-    return out
+    ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
+    steps = [["depth", str(ws), "--force", *depth_args],
+             ["render", str(ws), "--path", "inputs"],
+             ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
+                                               "heldout_cameras.json"), "--scale", "0.5"]]
+    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
 
 
 def arm_means(results: list[dict], held_ssim: bool = False) -> dict:
