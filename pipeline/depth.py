@@ -56,7 +56,7 @@ class DepthConfig:
     consistency_planes: float = option(0.0, ge=0)
     """The consistency check's tolerance in planes of the view's own sweep, in inverse depth
     (0: the relative ``consistency`` instead; docs/history/fill.md, "Consistency in planes")."""
-    sgm: tuple[float, float] | None = option(None)
+    sgm: tuple[float, float] | None = option(None, gt=0)
     """P1,P2: semi-global aggregation of each view's matching costs along four scanlines
     (a depth one plane away from a scanline neighbour's costs P1, a larger jump P2, halved at
     an image edge), so weakly textured pixels take their neighbours' depth (none: each

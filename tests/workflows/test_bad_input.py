@@ -269,6 +269,8 @@ def test_oneshot_mask_options_that_need_one_another_fail_before_anything_is_writ
     _fails(capsys, [str(d), "--set", "mask.ghost_lines=false", "--set",
                     "mask.ghost_views=true"], "--ghost-views", "--ghost-lines")
     _fails(capsys, [str(d), "--set", "mask.confirm_keep=first"], "--confirm")
+    _fails(capsys, [str(d), "--set", "depth.sgm=2,1"], "--sgm 2,1", "P1 <= P2")
+    _fails(capsys, [str(d), "--set", "depth.sgm=0,1"], "depth.sgm=0,1")
     assert not (tmp_path / "photos.deflare").exists()
     assert digest_paths([d]) == before
 
