@@ -107,7 +107,7 @@ def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule],
                                          for m, c in data.values()])} for cfg in cfgs]}
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", type=Path, action="append", default=[])
     ap.add_argument("--clean", type=Path, action="append", default=[])
@@ -116,11 +116,28 @@ def main() -> None:
     ap.add_argument("--depth-set", action="append", default=[], metavar="depth.FIELD=VALUE",
                     help="an option of the depth stage whose maps the veto warps through, "
                          "e.g. depth.sgm=0.1,1")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
+    from pipeline.depth import DepthConfig
+    from pipeline.errors import UserError
     from pipeline.provenance import write_result
+    from workflows.oneshot import apply_overrides
+
+    try:  # every input checked before the first scene's stages run
+        apply_overrides({"depth": DepthConfig()}, a.depth_set)["depth"].check()
+        for root in a.scene:
+            if not (root / "masks_gt").is_dir():
+                raise UserError(f"{root}: not a synth scene (no masks_gt/): pass a folder "
+                                "made by `deflare-scene synth`")
+        for ws in a.clean:
+            if not (ws / "cameras.json").is_file():
+                raise UserError(f"{ws}: not a posed workspace (no cameras.json): run "
+                                f"`deflare-scene pose {ws}` first")
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
     cfgs = settings()
     a.work.mkdir(parents=True, exist_ok=True)
@@ -143,7 +160,8 @@ def main() -> None:
                   f"(max {100 * x['veto']['max']:.2f})")
     if a.out:
         write_result(a.out, res)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -865,3 +865,17 @@ def test_stereo_time_times_the_depth_stage_with_an_option_and_leaves_the_workspa
     assert not (ws.root / "depth").exists()
     manifest = json.loads((tmp_path / "w" / "ws.depth" / "manifest.json").read_text())
     assert manifest["stages"]["depth"]["params"]["sgm"] == [0.1, 1.0]
+
+
+def test_flare_veto_checks_its_inputs_in_one_line_before_any_stage(tmp_path, capsys):
+    """benchmarks/flare_veto.py: a folder that is not a synth scene, a clean folder that is
+    not posed, and a bad --depth-set are each one line, exit 2, before anything runs."""
+    fv = load_benchmark("flare_veto")
+    work = tmp_path / "w"
+    for argv, needle in (([ "--scene", str(tmp_path / "nope")], "not a synth scene"),
+                         (["--clean", str(tmp_path)], "not a posed workspace"),
+                         (["--depth-set", "depth.sgm=2,1"], "P1 <= P2")):
+        assert fv.main([*argv, "--work", str(work)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and needle in err
+    assert not work.exists()
