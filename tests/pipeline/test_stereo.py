@@ -37,6 +37,10 @@ W, H = 160, 120
 K = np.array([[150.0, 0, W / 2], [0, 150.0, H / 2], [0, 0, 1]])
 
 
+FOUR = [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0], [0.0, 0.3, -3.0]]
+"""A reference camera and three neighbours around it, all looking at the plane."""
+
+
 def plane_views(rng, centers):
     """PosedViews of a textured plane (tests.fixtures.plane_views) and the first view's true
     depth."""
@@ -57,8 +61,7 @@ def test_homography_maps_plane_points():
 
 def test_sweep_recovers_a_textured_plane():
     rng = np.random.default_rng(0)
-    views, true = plane_views(rng, [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0],
-                                    [0.0, 0.3, -3.0]])
+    views, true = plane_views(rng, FOUR)
     depth, conf = sweep_depth(views[0], views[1:], 2.0, 5.0, SweepConfig(planes=64, keep=2))
     known = depth > 0
     assert known.mean() > 0.7, "most of a textured plane must get a depth"
@@ -69,8 +72,7 @@ def test_sweep_recovers_a_textured_plane():
 
 def test_sweep_ignores_a_flared_neighbour():
     rng = np.random.default_rng(1)
-    views, true = plane_views(rng, [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0],
-                                    [0.0, 0.3, -3.0]])
+    views, true = plane_views(rng, FOUR)
     flared = views[1]
     flared.image = flared.image.copy()
     flared.image[:, : W // 2] = 1.0  # a blown-out flare over half the neighbour
@@ -206,9 +208,8 @@ def test_beyond_planes_reach_a_surface_past_the_far_bound():
     assert len(d) == 8 and (np.diff(d) > 0).all() and d[0] > 1.0
     assert d[-1] == pytest.approx(BEYOND_FAR) and len(beyond_depths(1.0, 0)) == 0
     rng = np.random.default_rng(2)
-    images, c2ws, depths = fixture_plane_views(
-        rng, [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0], [0.0, 0.3, -3.0]],
-        K, (W, H), tilt=0.0)  # fronto-parallel at depth 3; a plane past far=1.5 is at 2.97
+    # fronto-parallel at depth 3; a plane past far=1.5 is at 2.97
+    images, c2ws, depths = fixture_plane_views(rng, FOUR, K, (W, H), tilt=0.0)
     views = [PosedView(img, K.copy(), m) for img, m in zip(images, c2ws, strict=True)]
     true = depths[0]
     inner = (slice(20, -20), slice(20, -20))
@@ -549,8 +550,7 @@ def test_sgm_aggregation_is_the_recursion_along_four_scanlines():
 
 def test_sgm_gives_a_textureless_band_its_neighbours_depth():
     rng = np.random.default_rng(0)
-    views, true = plane_views(rng, [[0.0, 0.0, -3.0], [0.35, 0.0, -3.0], [-0.35, 0.05, -3.0],
-                                    [0.0, 0.3, -3.0]])
+    views, true = plane_views(rng, FOUR)
     ref = views[0]
     ref.image = ref.image.copy()
     ref.image[:, 64:96] = 0.5  # no texture in the reference: every plane matches as badly
