@@ -950,3 +950,20 @@ def test_sgm_fixed_model_rule_is_the_judge_of_the_committed_runs():
     assert (f"(+{res['mean']['held_ssim']:.3f} on the mean; lund {lund['held_ssim']:+.3f}, "
             f"PSNR {lund['held']:+.3f} dB)") in options
     assert f"flare region {res['mean']['psnr_flare']:+.3f} dB, under the +0.05" in options
+
+
+def test_sgm_exposure_gain_moves_are_the_files():
+    """"Where the rule's losses came from": the largest move of a view's exposure gain (any
+    channel) with the aggregated depth, sceaux_castle and lund, seed 2."""
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    ws = json.loads((RESULTS / "sgm_exposure_gains_dev_s43.json").read_text())["workspaces"]
+
+    def gains(name):
+        return next(v for k, v in ws.items() if name in k)["ev_from_pixels"]
+
+    moves = []
+    for sc in ("sceaux", "lund"):
+        a, b = gains(f"{sc}_s43_expo_s2"), gains(f"{sc}_s43_sgm_s2")
+        moves.append(max(abs(x - y) for v in a for x, y in zip(a[v], b[v], strict=True)))
+    assert f"at most {moves[0]:.3f} EV in any view and channel" in history
+    assert f"lund's by up to {moves[1]:.3f} EV" in history
