@@ -283,31 +283,28 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
 
     try:
-        if a.cmd == "run":
-            if not (a.synth / "eval.ws" / "eval" / "heldout_cameras.json").is_file():
-                raise UserError(f"{a.synth}: no evaluated workspace (eval.ws); build the "
-                                "development scenes first (benchmarks/build_dev_scenes.sh)")
-            if not a.weights.is_file():
-                raise UserError(f"{a.weights}: no such weights file")
-            a.work.mkdir(parents=True, exist_ok=True)
+        if a.cmd in ("run", "rerender"):
+            if a.cmd == "run":
+                if not (a.synth / "eval.ws" / "eval" / "heldout_cameras.json").is_file():
+                    raise UserError(f"{a.synth}: no evaluated workspace (eval.ws); build the "
+                                    "development scenes first (benchmarks/build_dev_scenes.sh)")
+                if not a.weights.is_file():
+                    raise UserError(f"{a.weights}: no such weights file")
+                a.work.mkdir(parents=True, exist_ok=True)
             try:
-                print(run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
-                              a.novel_equal_below, shlex.split(a.select_args),
-                              shlex.split(a.mask_args), shlex.split(a.finetune_args),
-                              shlex.split(a.depth_args)))
+                if a.cmd == "run":
+                    out = run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
+                                  a.novel_equal_below, shlex.split(a.select_args),
+                                  shlex.split(a.mask_args), shlex.split(a.finetune_args),
+                                  shlex.split(a.depth_args))
+                else:
+                    out = rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
+                                       shlex.split(a.depth_args))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
                                 "finished stages are kept") from None
-            return 0
-        if a.cmd == "rerender":
-            try:
-                print(rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
-                                   shlex.split(a.depth_args)))
-            except subprocess.CalledProcessError as e:
-                step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
-                raise UserError(f"{step} failed (its message is above); fix that and rerun") \
-                    from None
+            print(out)
             return 0
         held = dict(x.split("=", 1) for x in a.held_baseline if "=" in x)
         if len(held) != len(a.held_baseline):

@@ -91,12 +91,13 @@ def apply_gain(srgb: np.ndarray, gain) -> np.ndarray:
     def lin(x: np.ndarray) -> np.ndarray:
         x = srgb_to_lin(x)
         if len(g) == 3:
-            return x * g
-        if len(g) == 4:
-            return PIVOT * g[:3] * np.power(np.maximum(x, 0.0) / PIVOT, g[3])
+            return x * g  # the default, kept as a plain product
+        # a curve or camera transform: the level through corrected_level and back by the
+        # camera curve (none for a curve)
         level = np.log(np.maximum(x, 1e-6) / PIVOT)
-        u = g[3] * to_radiance(level, float(g[4])) + np.log(g[:3])
-        return np.where(x > 0, PIVOT * np.exp(from_radiance(u, float(g[4]))), 0.0)
+        c = float(g[4]) if len(g) == 5 else 0.0
+        u = from_radiance(corrected_level(g, level), c)
+        return np.where(x > 0, PIVOT * np.exp(u), 0.0).astype(np.float32)
 
     if srgb.dtype == np.uint8:
         out = lin_to_srgb(lin(srgb.astype(np.float32) / 255.0))
@@ -344,11 +345,10 @@ def estimate_gains(ws, neighbours: int = 4, model: str = "gain") -> dict[str, np
 
     cams = read_cameras(ws)
     views = load_views(ws, cams, cams.stems, with_depth=True)
-    if model == "view-curves":
-        return solve_curves(cams.stems, pair_bins(views, cams, neighbours))
-    if model == "camera-curve":
-        return solve_camera_curve(cams.stems, pair_bins(views, cams, neighbours))
-    return solve_gains(cams.stems, pair_differences(views, cams, neighbours))
+    if model == "gain":
+        return solve_gains(cams.stems, pair_differences(views, cams, neighbours))
+    solve = {"view-curves": solve_curves, "camera-curve": solve_camera_curve}[model]
+    return solve(cams.stems, pair_bins(views, cams, neighbours))
 
 
 def inverse(gain) -> np.ndarray:

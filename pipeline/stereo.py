@@ -265,32 +265,34 @@ def aggregate_sgm(cost: np.ndarray, grey: np.ndarray, p1: float, p2: float) -> n
     scanlines [P, H, W] float32. Each scanline's term lies in [C, C + p2], so the sum over
     four is at most ``4 * (C + p2)``."""
     total = np.zeros_like(cost, dtype=np.float32)
-    for axis, step in SGM_PATHS:
-        # lines along the scan axis first: [N, P, M], N steps of M parallel pixels
+    for axis in dict.fromkeys(a for a, _ in SGM_PATHS):
+        # lines along the scan axis first: [N, P, M], N steps of M parallel pixels; the copy
+        # and the penalties serve both directions along the axis
         c = np.ascontiguousarray(cost.transpose(2, 0, 1) if axis == 0 else
                                  cost.transpose(1, 0, 2))
         g = np.ascontiguousarray(grey.T if axis == 0 else grey)
         jump = np.abs(np.diff(g, axis=0))
         pen = np.maximum(p2 / (1.0 + jump / SGM_EDGE), p1).astype(np.float32)
         n = c.shape[0]
-        order = range(n) if step > 0 else range(n - 1, -1, -1)
         out = np.empty_like(c)
-        prev = None
-        for i in order:
-            if prev is None:
-                cur = c[i].copy()
-            else:
-                j = i - 1 if step > 0 else i  # the grey step between lines i and i - step
-                m = prev.min(0)
-                cur = prev.copy()
-                np.minimum(cur[1:], prev[:-1] + p1, out=cur[1:])  # from d - 1
-                np.minimum(cur[:-1], prev[1:] + p1, out=cur[:-1])  # from d + 1
-                np.minimum(cur, m + pen[j], out=cur)
-                cur -= m
-                cur += c[i]
-            out[i] = cur
-            prev = cur
-        total += out.transpose(1, 2, 0) if axis == 0 else out.transpose(1, 0, 2)
+        for step in (d for a, d in SGM_PATHS if a == axis):
+            order = range(n) if step > 0 else range(n - 1, -1, -1)
+            prev = None
+            for i in order:
+                if prev is None:
+                    cur = c[i].copy()
+                else:
+                    j = i - 1 if step > 0 else i  # the grey step between lines i and i - step
+                    m = prev.min(0)
+                    cur = prev.copy()
+                    np.minimum(cur[1:], prev[:-1] + p1, out=cur[1:])  # from d - 1
+                    np.minimum(cur[:-1], prev[1:] + p1, out=cur[:-1])  # from d + 1
+                    np.minimum(cur, m + pen[j], out=cur)
+                    cur -= m
+                    cur += c[i]
+                out[i] = cur
+                prev = cur
+            total += out.transpose(1, 2, 0) if axis == 0 else out.transpose(1, 0, 2)
     return total
 
 
