@@ -19,7 +19,7 @@ session").
         # photos and held-out cameras rendered again with BASE's model; scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
-        [--held-baseline SCENE=ARM] [--rule flare|novel|depth] [--out JSON]
+        [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames] [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -35,6 +35,12 @@ arms against their ``run`` arm), with the thirty-seventh session's thresholds (d
 fill.md, "Consistency in planes"): (a) mean flare-region gain >= +0.05 dB, no scene's flare
 region or whole photo lower by more than 0.05 dB nor its SSIM by more than 0.002; (b) novel
 views' mean PSNR not lower by more than 0.05 dB nor their mean SSIM by more than 0.002.
+``--rule frames`` judges a depth change made for the novel frames alone (``rerender`` arms;
+the de-flared photos are not judged: the change leaves them as they were), with the
+forty-fourth session's thresholds (docs/history/fill.md, "The aggregated depth for the
+novel frames alone"): (a) the novel views' mean SSIM gain >= +0.008, no scene's SSIM lower
+by more than 0.002; (b) their mean PSNR not lower by more than 0.05 dB, no scene's lower by
+more than 0.10 dB.
 About 10 minutes per run on one CPU thread.
 
 Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f0517 those sample
@@ -74,6 +80,12 @@ RULE_DEPTH = {"flare_gain": 0.05, "scene_loss": 0.05, "ssim_loss": 0.002, "held_
               "held_ssim_loss": 0.002}
 """``--rule depth``'s thresholds (the thirty-seventh session's rule for a depth stage
 default, the model held fixed)."""
+
+
+RULE_FRAMES = {"held_ssim_gain": 0.008, "held_ssim_scene_loss": 0.002, "held_loss": 0.05,
+               "held_scene_loss": 0.10}
+"""``--rule frames``' thresholds (the forty-fourth session's rule for the novel frames' depth,
+the model held fixed, the de-flared photos unchanged)."""
 
 
 def result_name(arm: str, scene: str, seed: int) -> str:
@@ -165,7 +177,8 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
                rule: str = "flare") -> dict:
     """Per scene candidate minus baseline (``arm_means`` dicts), their mean, and each part's
     verdict, in the rule's order; ``decision`` is the first failing part or 'passes'.
-    ``rule``: "flare" (the FMG photo rule, ``RULE``) or "novel" (``RULE_NOVEL``)."""
+    ``rule``: "flare" (the FMG photo rule, ``RULE``), "novel" (``RULE_NOVEL``), "depth"
+    (``RULE_DEPTH``) or "frames" (``RULE_FRAMES``)."""
     diff = {s: {k: candidate[s][k] - baseline[s][k] for k in baseline[s]} for s in baseline}
     mean = {k: sum(d[k] for d in diff.values()) / len(diff)
             for k in next(iter(diff.values()))}
@@ -175,6 +188,12 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
                        and all(d["psnr_flare"] >= -r["scene_loss"] and d["psnr"] >= -r["scene_loss"]
                                and d["ssim"] >= -r["ssim_loss"] for d in diff.values())),
                  "b": mean["held"] >= -r["held_loss"] and mean["held_ssim"] >= -r["held_ssim_loss"]}
+    elif rule == "frames":
+        r = RULE_FRAMES
+        parts = {"a": (mean["held_ssim"] >= r["held_ssim_gain"]
+                       and all(d["held_ssim"] >= -r["held_ssim_scene_loss"] for d in diff.values())),
+                 "b": (mean["held"] >= -r["held_loss"]
+                       and all(d["held"] >= -r["held_scene_loss"] for d in diff.values()))}
     elif rule == "novel":
         r = RULE_NOVEL
         parts = {"a": mean["held"] >= r["held_gain"],
@@ -209,7 +228,7 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
-        return arm_means([json.loads(f.read_text()) for f in files], rule == "depth")
+        return arm_means([json.loads(f.read_text()) for f in files], rule in ("depth", "frames"))
 
     cand = {s: load(candidate, s, seeds) for s in scenes}
     base = {s: load(baseline, s, base_seeds) for s in scenes}
@@ -275,9 +294,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="the baseline arms' seeds (default: --seeds)")
     j.add_argument("--held-baseline", action="append", default=[], metavar="SCENE=ARM",
                    help="part (d)'s baseline arm on one scene (like-for-like targets)")
-    j.add_argument("--rule", choices=("flare", "novel", "depth"), default="flare",
+    j.add_argument("--rule", choices=("flare", "novel", "depth", "frames"), default="flare",
                    help="flare: the FMG photo rule; novel: a change for the novel views; "
-                        "depth: a depth stage change, the model held fixed (rerender arms)")
+                        "depth: a depth stage change, the model held fixed (rerender arms); "
+                        "frames: a depth change for the novel frames alone (rerender arms)")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError

@@ -519,6 +519,32 @@ def test_novel_rule_judges_the_video_and_guards_the_photos():
     assert m.photo_rule(cand(**flare_only), base)["decision"] == "passes"
 
 
+def test_frames_rule_asks_a_structure_gain_of_the_novel_views_and_no_scene_lost():
+    """``--rule frames`` (a depth change for the novel frames alone): SSIM +0.01 on every
+    scene passes whatever the photos do; a mean gain with one scene's SSIM -0.003 fails (a),
+    as does +0.005 everywhere; a scene's novel PSNR -0.11 dB fails (b), and so does the mean
+    -0.06 dB with no scene under -0.10."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0, "held_ssim": 0.5}
+            for s in "xyz"}
+
+    def cand(**by_scene):
+        return {s: {**base[s], **by_scene.get(s, {})} for s in base}
+
+    up = {s: {"held_ssim": 0.51, "psnr_flare": 19.0} for s in "xyz"}
+    assert m.photo_rule(cand(**up), base, "frames")["decision"] == "passes"
+    one_down = {"x": {"held_ssim": 0.53}, "y": {"held_ssim": 0.497}, "z": {"held_ssim": 0.51}}
+    got = m.photo_rule(cand(**one_down), base, "frames")
+    assert got["mean"]["held_ssim"] > 0.008 and got["decision"] == "fails (a)"
+    small = {s: {"held_ssim": 0.505} for s in "xyz"}
+    assert m.photo_rule(cand(**small), base, "frames")["decision"] == "fails (a)"
+    scene_loss = {**up, "x": {"held_ssim": 0.51, "held": 16.89}}
+    assert m.photo_rule(cand(**scene_loss), base, "frames")["decision"] == "fails (b)"
+    mean_loss = {s: {"held_ssim": 0.51, "held": 16.94} for s in "xyz"}
+    got = m.photo_rule(cand(**mean_loss), base, "frames")
+    assert got["parts"] == {"a": True, "b": False}
+
+
 def test_depth_rule_holds_the_photos_per_scene_and_the_novel_views_on_the_mean(tmp_path, capsys):
     """``--rule depth`` (a depth stage change, the model fixed): +0.06 dB in every flare
     region passes; a mean gain with one scene's flare region -0.06 dB fails (a), as does a
