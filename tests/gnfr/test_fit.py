@@ -297,3 +297,42 @@ def test_logged_psnr_under_edge_rays_is_the_weighted_estimate(scene):
     plain = mse_to_psnr(masked_mse(rgb, batch.rgb, batch.flare))
     assert abs(weighted - plain) > 1e-3  # the two differ on this batch
     assert abs(info["psnr"] - weighted) < 1e-4
+
+
+def test_a_running_average_leaves_training_as_it_was_and_resumes_bitwise(scene, tmp_path):
+    """``cfg.ema``: the steps are those of the same run without it (its trained weights, in
+    the training state, equal the plain run's weights file bit for bit); the weights file
+    holds the average, which is the recursion over every step's weights from the initial
+    ones; a run killed after step 5 and resumed from the step-4 checkpoint ends with the
+    same average and trained weights as one run straight through."""
+    plain = new_trainer()
+    run(plain, scene, tmp_path / "plain")
+    cfg = replace(CFG, ema=0.7)
+    straight = new_trainer(cfg)
+    avg = {k: v.clone() for k, v in straight.model.state_dict().items() if v.is_floating_point()}
+
+    def follow(inp, r):
+        for k, v in straight.model.state_dict().items():
+            if k in avg:
+                avg[k] = 0.7 * avg[k] + 0.3 * v
+
+    run(straight, scene, tmp_path / "straight", after_step=follow)
+    st = torch.load(tmp_path / "straight" / STATE_FILE, weights_only=True)
+    trained, weights = st["trained"], load_file(str(tmp_path / "straight" / MODEL_FILE))
+    p = load_file(str(tmp_path / "plain" / MODEL_FILE))
+    assert all(torch.equal(trained[k], p[k]) for k in p)
+    moved = [k for k in avg if not torch.equal(weights[k], trained[k])]
+    assert moved, "the average is the trained weights"
+    assert all(torch.allclose(weights[k], avg[k], atol=1e-6) for k in avg)
+    assert read_metadata(tmp_path / "straight" / MODEL_FILE)[1]["ema"] == 0.7
+    killed = new_trainer(cfg)
+    with pytest.raises(KeyboardInterrupt):
+        run(killed, scene, tmp_path / "split", stop_at=5)
+    resumed = new_trainer(cfg)
+    resumed.restore(tmp_path / "split")
+    assert resumed.step == 4
+    run(resumed, scene, tmp_path / "split")
+    again = load_file(str(tmp_path / "split" / MODEL_FILE))
+    st2 = torch.load(tmp_path / "split" / STATE_FILE, weights_only=True)
+    assert all(torch.equal(again[k], weights[k]) for k in weights)
+    assert all(torch.equal(st2["trained"][k], trained[k]) for k in trained)
