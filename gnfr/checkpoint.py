@@ -25,15 +25,13 @@ class CheckpointError(ValueError):
 
 
 def save_model(path: str | os.PathLike, model: GNFR, meta: dict | None = None,
-               dtype: torch.dtype | None = None, state: dict | None = None) -> Path:
+               dtype: torch.dtype | None = None) -> Path:
     """Write the model's weights (optionally cast, e.g. fp16 for shipping) to ``path``
-    (written to a temporary name and renamed). ``meta`` values are stored as JSON strings.
-    ``state``: the weights to write in place of the model's own (its state_dict's keys,
-    e.g. a running average of them); the architecture is still the model's."""
+    (written to a temporary name and renamed). ``meta`` values are stored as JSON strings."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tensors = {k: (v.to(dtype) if dtype and v.is_floating_point() else v).detach().cpu()
-               .contiguous() for k, v in (state or model.state_dict()).items()}
+               .contiguous() for k, v in model.state_dict().items()}
     metadata = {"format": FORMAT, "gnfr_config": model.config.to_json()}
     metadata.update({k: json.dumps(v) for k, v in (meta or {}).items()})
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")

@@ -3,9 +3,7 @@
 A run folder holds ``gnfr.safetensors`` (weights; ``meta`` from the caller in the
 metadata), ``train_state.pt`` (``{"step", "optimizer", "rng", **extra}``: the optimizer's
 state_dict, the sampling generator's and torch's RNG states, the step count, and what the
-caller adds, e.g. fine-tuning's ``unseen`` and ``seconds``; with a running average of the
-weights, ``cfg.ema``, also ``trained``, the weights the steps trained, and ``average``, while
-the weights file holds the average) and ``metrics.jsonl`` (one JSON
+caller adds, e.g. fine-tuning's ``unseen`` and ``seconds``) and ``metrics.jsonl`` (one JSON
 line every ``cfg.log_every`` steps and at the last step). ``Trainer.run`` trains to
 ``cfg.iters`` from ``Trainer.step``, checkpointing every ``cfg.ckpt_every`` steps and at the
 last one; ``Trainer.restore`` resumes from a folder's checkpoint. The learning-rate schedule
@@ -78,8 +76,6 @@ def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
             "source_scale": cfg.source_scale, "full_res_colour": cfg.full_res_colour}
     if cfg.lr_restart > 0:  # how the rates went (provenance; render does not read it)
         meta.update(lr_restart=cfg.lr_restart, lr_restart_step=cfg.lr_restart_step)
-    if cfg.ema > 0:  # the weights are a running average (provenance)
-        meta["ema"] = cfg.ema
     return meta
 
 
@@ -128,9 +124,8 @@ def last_record(step: int, window: list[dict], it_s: float) -> dict:
 @dataclass
 class Trainer:
     """One training run's state: model, optimizer, sampling generator, steps done and
-    training seconds before this process, and with ``cfg.ema`` the running average of the
-    weights. ``opt`` defaults to ``make_optimizer`` and ``gen`` to a generator seeded with
-    ``cfg.seed``."""
+    training seconds before this process. ``opt`` defaults to ``make_optimizer`` and
+    ``gen`` to a generator seeded with ``cfg.seed``."""
 
     model: GNFR
     cfg: TrainConfig
@@ -138,72 +133,36 @@ class Trainer:
     gen: torch.Generator | None = None
     step: int = 0
     seconds: float = 0.0
-    average: dict[str, torch.Tensor] | None = None
-    """{name: tensor} of the model's floating-point weights averaged (``cfg.ema``)."""
 
     def __post_init__(self) -> None:
         if self.opt is None:
             self.opt = make_optimizer(self.model, self.cfg)
         if self.gen is None:
             self.gen = torch.Generator().manual_seed(self.cfg.seed)
-        if self.cfg.ema > 0 and self.average is None:
-            self.start_average()
-
-    def start_average(self) -> None:
-        """The running average starts at the model's weights as they are."""
-        self.average = {k: v.detach().clone() for k, v in self.model.state_dict().items()
-                        if v.is_floating_point()}
 
     def train_one(self, inp: StepInput, grad_hook: Callable | None = None) -> dict:
-        """One optimizer step at ``self.step`` (``gnfr.train.train_step``); counts it and
-        moves the running average (``cfg.ema``) toward the new weights. Returns loss, psnr,
-        all_flared and lr_factor."""
+        """One optimizer step at ``self.step`` (``gnfr.train.train_step``); counts it.
+        Returns loss, psnr, all_flared and lr_factor."""
         r = train_step(self.model, self.opt, inp.batch, inp.bank, inp.cache, self.cfg,
                        self.step, grad_hook)
         self.step += 1
-        if self.average is not None:
-            with torch.no_grad():
-                live = self.model.state_dict()
-                for k, avg in self.average.items():  # lerp: a weight that holds stays exact
-                    avg.lerp_(live[k], 1.0 - self.cfg.ema)
         return r
 
-    def exported(self) -> dict[str, torch.Tensor]:
-        """The weights a checkpoint's weights file holds: the model's, with ``cfg.ema`` its
-        floating-point ones averaged."""
-        live = self.model.state_dict()
-        return live if self.average is None else {k: self.average.get(k, v)
-                                                  for k, v in live.items()}
-
     def save(self, out: str | Path, meta: dict, extra: dict | None = None) -> None:
-        """Checkpoint into ``out``: the weights (``exported``) with ``meta`` in their
-        metadata, then the training state (step, optimizer, RNG, with ``cfg.ema`` the
-        trained weights and the average, and ``extra``)."""
+        """Checkpoint into ``out``: the weights with ``meta`` in their metadata, then the
+        training state (step, optimizer, RNG, and ``extra``)."""
         weights, state = checkpoint_files(out)
-        save_model(weights, self.model, meta, state=self.exported())
-        averaged = ({} if self.average is None else
-                    {"trained": self.model.state_dict(), "average": self.average})
+        save_model(weights, self.model, meta)
         save_train_state(state, {"step": self.step, "optimizer": self.opt.state_dict(),
-                                 "rng": rng_state(self.gen), **averaged, **(extra or {})})
+                                 "rng": rng_state(self.gen), **(extra or {})})
 
     def restore(self, out: str | Path, rng: bool = True) -> dict:
-        """Resume from the checkpoint in ``out`` (see ``has_checkpoint``): weights (with
-        ``cfg.ema``, the trained ones and the average), optimizer state, step count,
-        training seconds (when saved) and, with ``rng``, the RNG states. Returns the whole
-        training state (for the caller's extra keys)."""
+        """Resume from the checkpoint in ``out`` (see ``has_checkpoint``): weights,
+        optimizer state, step count, training seconds (when saved) and, with ``rng``, the
+        RNG states. Returns the whole training state (for the caller's extra keys)."""
         weights, state = checkpoint_files(out)
         load_weights(self.model, weights)
         st = load_train_state(state)
-        if "trained" in st:  # the weights file holds the average
-            self.model.load_state_dict(st["trained"])
-        if self.cfg.ema > 0:
-            if "average" in st:
-                dev = next(iter(self.model.state_dict().values())).device
-                self.average = {k: v.to(dev) for k, v in st["average"].items()}
-            else:  # a run checkpointed without an average starts one here
-                self.start_average()
-        else:
-            self.average = None
         self.opt.load_state_dict(st["optimizer"])
         if rng:
             set_rng_state(self.gen, st["rng"])

@@ -80,11 +80,6 @@ class TrainConfig:
     max_flare: float = MAX_FLARE
     """Views with more flare than this are never targets (with the View Sampler), unless the
     scene lists its targets (``Scene.targets``: a workspace's views.json)."""
-    ema: float = 0.0
-    """Decay of a running average of the weights, updated after every step
-    (``avg += (1 - ema) * (weights - avg)``, started from the initial weights); the
-    checkpoints' weights file holds the average, the training state the weights trained on
-    (0: no average, the weights file holds the trained weights)."""
     reference: bool = False
     """Plain fp32 path: no autocast, no fused attention (for checks and timing)."""
     seed: int = 0

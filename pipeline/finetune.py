@@ -69,11 +69,6 @@ class FinetuneConfig:
     """Share of each step's rays drawn where the target photo has edges (in proportion to
     its gradient magnitude), each ray's loss weighted back so the objective is unchanged;
     0: every ray uniform (judged on the development scenes, not the default: docs/presets.md)."""
-    ema: float = option(0.0, ge=0, lt=1)
-    """Render from a running average of the weights instead of the last step's: after every
-    step the average moves ``1 - ema`` of the way to the new weights (0.998: about the last
-    500 steps). 0: the last step's weights (docs/presets.md, "A running average of the
-    weights")."""
     lr_scale: float | None = option(None, gt=0)
     """Multiply both of the preset's learning rates (encoder and transformers) by this
     (default 1; docs/presets.md)."""
@@ -152,8 +147,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   view_sampler=config.view_sampler, mask_loss=config.mask_loss,
                   reference=config.reference, seed=config.seed,
                   random_sources=bool(config.random_sources), mirror=config.mirror,
-                  full_res_colour=config.full_res_colour, edge_rays=config.edge_rays,
-                  ema=config.ema)
+                  full_res_colour=config.full_res_colour, edge_rays=config.edge_rays)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:

@@ -967,3 +967,25 @@ def test_sgm_exposure_gain_moves_are_the_files():
         moves.append(max(abs(x - y) for v in a for x, y in zip(a[v], b[v], strict=True)))
     assert f"at most {moves[0]:.3f} EV in any view and channel" in history
     assert f"lund's by up to {moves[1]:.3f} EV" in history
+
+
+def test_ema_rule_table_is_the_judges_file_and_both_rules_fail():
+    """docs/presets.md, "A running average of the weights": the table is the photo rule's
+    judge file, recomputed from the committed runs; both rules fail (a)."""
+    presets = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    res = json.loads((RESULTS / "ema_judge_flare_s44.json").read_text())
+    novel = json.loads((RESULTS / "ema_judge_novel_s44.json").read_text())
+    assert res["decision"] == "fails (a)" == novel["decision"]
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    for k, d in [*res["per_scene"].items(), ("mean", res["mean"])]:
+        row = (f"| {names.get(k, k)} | {d['psnr_flare']:+.3f} | {d['psnr']:+.3f} | "
+               f"{d['ssim']:+.3f} | {d['held']:+.3f} |")
+        assert row in presets, row
+    judge = load_benchmark("fmg_photo_ab").judge
+    for rule, r in (("flare", res), ("novel", novel)):
+        again = judge(RESULTS, "s44_ema", "s44_base", ["sceaux", "et", "lund"], [6, 7],
+                      rule=rule)
+        assert again["mean"] == pytest.approx(r["mean"]) and again["decision"] == r["decision"]
+    assert f"(+{res['mean']['psnr_flare']:.3f} dB where +0.10 is asked)" in presets
+    assert f"({novel['mean']['held']:+.3f} dB where +0.10 is asked)" in presets
+
