@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import shutil
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +61,12 @@ class DepthConfig:
     (a depth one plane away from a scanline neighbour's costs P1, a larger jump P2, halved at
     an image edge), so weakly textured pixels take their neighbours' depth (none: each
     pixel's own cost; docs/depth.md)."""
+    frames_sgm: tuple[float, float] | None = option((0.1, 1.0), gt=0)
+    """P1,P2 of a second set of maps, ``WS/depth/frames/``, that only the novel frames warp
+    the photos through: the sweep's costs aggregated as ``sgm`` aggregates them, so weakly
+    textured pixels of the video take their neighbours' depth; the de-flared photos, the
+    fine-tune's exposure gains and the mask stage keep ``WS/depth`` (none: the novel frames
+    use ``WS/depth`` too; docs/depth.md, "Maps for the novel frames")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
@@ -70,9 +76,17 @@ class DepthConfig:
     def check(self) -> None:
         """UserError for values outside their range (``pipeline.options.validate``)."""
         validate(self)
-        if self.sgm is not None and not 0 < self.sgm[0] <= self.sgm[1]:
-            raise UserError(f"--sgm {self.sgm[0]:g},{self.sgm[1]:g}: the penalties must be "
-                            "P1,P2 with 0 < P1 <= P2 (e.g. --sgm 0.1,1), or none")
+        for flag, pen in (("--sgm", self.sgm), ("--frames-sgm", self.frames_sgm)):
+            if pen is not None and not 0 < pen[0] <= pen[1]:
+                raise UserError(f"{flag} {pen[0]:g},{pen[1]:g}: the penalties must be P1,P2 "
+                                f"with 0 < P1 <= P2 (e.g. {flag} 0.1,1), or none")
+
+    def frames(self) -> DepthConfig | None:
+        """The settings of the novel frames' maps (``frames_sgm``), or None when they are
+        the main maps (no ``frames_sgm``, or the same aggregation as ``sgm``)."""
+        if self.frames_sgm is None or tuple(self.frames_sgm) == tuple(self.sgm or ()):
+            return None
+        return replace(self, sgm=tuple(self.frames_sgm))
 
 
 def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
@@ -85,10 +99,11 @@ def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
 
 
 def load_views(ws: Workspace, cams: Cameras, stems: list[str],
-               with_depth: bool = False, masks: dict[str, np.ndarray] | None = None
-               ) -> dict[str, PosedView]:
+               with_depth: bool = False, masks: dict[str, np.ndarray] | None = None,
+               frames: bool = False) -> dict[str, PosedView]:
     """{stem: PosedView} of WS/images (float RGB), flare masks as validity (``masks`` when
-    given, else WS/masks where it has them), and WS/depth where ``with_depth`` and present."""
+    given, else WS/masks where it has them), and WS/depth where ``with_depth`` and present
+    (with ``frames``, the novel frames' maps WS/depth/frames)."""
     by = cams.by_stem()
     out = {}
     for s in stems:
@@ -96,7 +111,8 @@ def load_views(ws: Workspace, cams: Cameras, stems: list[str],
             valid = ~masks[s]
         else:
             valid = ~read_mask(ws, s) if ws.mask_path(s).exists() else None
-        depth = read_depth(ws, s)[0] if with_depth and ws.depth_path(s).exists() else None
+        path = ws.depth_path(s, frames)
+        depth = read_depth(ws, s, path)[0] if with_depth and path.exists() else None
         out[s] = PosedView(read_view_image(ws, s, as_float=True), np.array(by[s].K, float),
                            np.array(by[s].c2w), valid, depth)
     return out
@@ -209,18 +225,30 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     taken: list[str] = []
     depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws,
                          shared=ws.sweeps if ws.sweeps.is_dir() else None, taken=taken)
-    kept = []
+    frames_raw = out_dir / ".raw_frames"
+    frames = None
+    if (frames_cfg := config.frames()) is not None:  # the same views, their costs aggregated
+        frames_raw.mkdir(exist_ok=True)
+        frames = sweep_views(views, cams, near, frames_cfg, frames_raw, ws.resumable(stage_run),
+                             ws, label="depth: aggregated sweep for the novel frames")
+    kept, kept_frames = [], []
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
-    for p in raw_dir.iterdir():
-        p.unlink()
-    raw_dir.rmdir()
+    shutil.rmtree(ws.depth_frames, ignore_errors=True)  # none left of other settings
+    for s, (d, conf) in (frames or {}).items():
+        write_depth(ws.depth_path(s, frames=True), d, conf)
+        kept_frames.append(float((d > 0).mean()))
+    for raw in (raw_dir, frames_raw):
+        shutil.rmtree(raw, ignore_errors=True)
     shutil.rmtree(ws.sweeps, ignore_errors=True)  # the mask stage's, used or out of date
-    stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4),
-                                       "sweeps_from_mask_stage": len(taken)})
+    extra = {"coverage": round(float(np.mean(kept)), 4), "sweeps_from_mask_stage": len(taken)}
+    if frames:
+        extra["coverage_frames"] = round(float(np.mean(kept_frames)), 4)
+    stage_run.finish([out_dir], extra=extra)
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
-         "of pixels on average)")
+         "of pixels on average" + (f"; {100 * np.mean(kept_frames):.0f}% in the novel frames' "
+                                   "maps, WS/depth/frames" if frames else "") + ")")
     if (note := few_depth_note(float(np.mean(kept)), config)) is not None:
         info(note)
     return [out_dir]

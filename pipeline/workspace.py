@@ -290,6 +290,9 @@ class Workspace:
     masks_overview = property(lambda self: self.root / "masks_overview.jpg")
     depth = property(lambda self: self.root / "depth")
     """WS/depth/<stem>.npz: depth and confidence per view (depth)."""
+    depth_frames = property(lambda self: self.root / "depth" / "frames")
+    """WS/depth/frames/<stem>.npz: the maps the novel frames warp the photos through, the
+    sweep's costs aggregated (depth ``--frames-sgm``); absent: the novel frames use WS/depth."""
     sweeps = property(lambda self: self.root / ".sweeps")
     """WS/.sweeps/<stem>.npz and .key: the mask stage's plane sweeps, which the depth stage
     takes where their key matches (pipeline.depth.sweep_views) and then removes."""
@@ -353,8 +356,9 @@ class Workspace:
     def mask_path(self, stem: str) -> Path:
         return self.masks / f"{stem}.png"
 
-    def depth_path(self, stem: str) -> Path:
-        return self.depth / f"{stem}.npz"
+    def depth_path(self, stem: str, frames: bool = False) -> Path:
+        """WS/depth/<stem>.npz, or with ``frames`` WS/depth/frames/<stem>.npz."""
+        return (self.depth_frames if frames else self.depth) / f"{stem}.npz"
 
     def deflared_path(self, stem: str) -> Path:
         return self.deflared / f"{stem}.png"
