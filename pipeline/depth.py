@@ -249,7 +249,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
          "of pixels on average" + (f"; {100 * np.mean(kept_frames):.0f}% in the novel frames' "
                                    "maps, WS/depth/frames" if frames else "") + ")")
-    if (note := few_depth_note(float(np.mean(kept)), config)) is not None:
+    if (note := few_depth_note(float(np.mean(kept_frames or kept)), config)) is not None:
         info(note)
     return [out_dir]
 
@@ -260,15 +260,19 @@ measured for such captures (the development street walk: 10 %; the others 32-50 
 
 
 def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
-    """A note when the depth maps know little (a street walk, a deep scene): the video's
-    photo share will be small; the opt-ins measured on such a capture. None otherwise (or
-    when one of the depth stage's is already on)."""
-    if coverage >= FEW_DEPTH or config.consistency_planes or config.sgm is not None:
+    """A note when the maps the video warps through (the novel frames' own where written)
+    know little (a street walk, a deep scene): the video's photo share will be small; the
+    opt-ins measured on such a capture. None otherwise (or when the depth stage's looser
+    check is already on). ``coverage``: the mean share of pixels with a depth in those
+    maps."""
+    if coverage >= FEW_DEPTH or config.consistency_planes:
         return None
+    aggregated = config.sgm is not None or config.frames_sgm is not None
     return (f"depth: known on few pixels ({100 * coverage:.0f}%): the video will take little "
             "from the photos. For a street walk or another deep scene, "
             "`--set depth.consistency_planes=1` (more depth kept), "
-            "`--set depth.sgm=0.1,1` (weakly textured pixels take their neighbours' depth) or "
-            "`--set render.network_depth=holes` (the photos warped through GN-FR's own "
+            + ("" if aggregated else "`--set depth.frames_sgm=0.1,1` (weakly textured pixels "
+               "take their neighbours' depth), ")
+            + "or `--set render.network_depth=holes` (the photos warped through GN-FR's own "
             "depth) each sharpened the development street walk's frames a little "
             "(docs/options.md)")

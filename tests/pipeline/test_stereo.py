@@ -136,8 +136,9 @@ def test_depth_config_rejects_bad_values(bad):
 
 
 def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is_scarce():
-    """The depth stage's note: under FEW_DEPTH of the pixels known it names both opt-ins;
-    none at or above it, nor when the looser check is already on."""
+    """The depth stage's note: under FEW_DEPTH of the pixels known (in the maps the video
+    warps through) it names the opt-ins; none at or above it, nor when the looser check is
+    already on."""
     from pipeline.depth import FEW_DEPTH, DepthConfig, few_depth_note
 
     note = few_depth_note(0.102, DepthConfig())
@@ -145,8 +146,12 @@ def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is
     assert "depth.consistency_planes=1" in note and "render.network_depth=holes" in note
     assert few_depth_note(FEW_DEPTH, DepthConfig()) is None
     assert few_depth_note(0.05, DepthConfig(consistency_planes=1)) is None
-    assert "depth.sgm=0.1,1" in few_depth_note(0.05, DepthConfig())
-    assert few_depth_note(0.05, DepthConfig(sgm=(0.1, 1.0))) is None
+    # the aggregation is named only where the video's maps are not aggregated already
+    assert "depth.frames_sgm" not in note
+    bare = few_depth_note(0.05, DepthConfig(frames_sgm=None))
+    assert "depth.frames_sgm=0.1,1" in bare and "render.network_depth=holes" in bare
+    assert "depth.frames_sgm" not in few_depth_note(0.05, DepthConfig(sgm=(0.1, 1.0),
+                                                                      frames_sgm=None))
 
 
 def test_close_small_holes_fills_specks_and_leaves_large_holes():
