@@ -8,6 +8,11 @@ plane sweep over its nearest ``neighbours`` views with windowed ZNCC, best-k sou
 matched), sub-plane refinement, then a multi-view consistency check that keeps a depth only
 where another view's depth agrees. Render uses the depths to warp clean photo pixels into
 flare regions and novel frames (pipeline/photo_fill.py).
+
+With ``frames_sgm`` (the default) the stage also writes ``WS/depth/frames/<stem>.npz`` in the
+same format: the same sweep with its costs aggregated along four scanlines
+(``pipeline.stereo.aggregate_sgm``), which only the novel frames warp the photos through
+(docs/depth.md, "Maps for the novel frames").
 """
 
 from __future__ import annotations
