@@ -356,6 +356,17 @@ class Workspace:
     def mask_path(self, stem: str) -> Path:
         return self.masks / f"{stem}.png"
 
+    def depth_inputs(self, frames: bool = False) -> list[Path]:
+        """What a stage that reads the depth maps names among its inputs: the files of
+        WS/depth/<stem>.npz (with ``frames`` also the novel frames' WS/depth/frames), so the
+        novel frames' maps changing leaves the stages that never read them up to date; the
+        folder itself while it holds no map (a missing folder is a state of its own). For a
+        workspace without WS/depth/frames the digest is the folder's, as before."""
+        maps = sorted(self.depth.glob("*.npz"))
+        if frames and self.depth_frames.is_dir():
+            maps.append(self.depth_frames)
+        return maps or [self.depth]
+
     def depth_path(self, stem: str, frames: bool = False) -> Path:
         """WS/depth/<stem>.npz, or with ``frames`` WS/depth/frames/<stem>.npz."""
         return (self.depth_frames if frames else self.depth) / f"{stem}.npz"

@@ -140,7 +140,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "point_sampler": bool(meta.get("point_sampler", True)),
               "depth_maps": "frames" if frames_maps else "depth"}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
-    inputs += [ws.depth] if use_photos else []
+    inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     stage_run = ws.begin_stage(f"render:{key}", params, inputs, force,
