@@ -191,7 +191,8 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
     elif rule == "frames":
         r = RULE_FRAMES
         parts = {"a": (mean["held_ssim"] >= r["held_ssim_gain"]
-                       and all(d["held_ssim"] >= -r["held_ssim_scene_loss"] for d in diff.values())),
+                       and all(d["held_ssim"] >= -r["held_ssim_scene_loss"]
+                               for d in diff.values())),
                  "b": (mean["held"] >= -r["held_loss"]
                        and all(d["held"] >= -r["held_scene_loss"] for d in diff.values()))}
     elif rule == "novel":

@@ -8,6 +8,11 @@ plane sweep over its nearest ``neighbours`` views with windowed ZNCC, best-k sou
 matched), sub-plane refinement, then a multi-view consistency check that keeps a depth only
 where another view's depth agrees. Render uses the depths to warp clean photo pixels into
 flare regions and novel frames (pipeline/photo_fill.py).
+
+With ``frames_sgm`` (the default) the stage also writes ``WS/depth/frames/<stem>.npz`` in the
+same format: the same sweep with its costs aggregated along four scanlines
+(``pipeline.stereo.aggregate_sgm``), which only the novel frames warp the photos through
+(docs/depth.md, "Maps for the novel frames").
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import shutil
 import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +66,12 @@ class DepthConfig:
     (a depth one plane away from a scanline neighbour's costs P1, a larger jump P2, halved at
     an image edge), so weakly textured pixels take their neighbours' depth (none: each
     pixel's own cost; docs/depth.md)."""
+    frames_sgm: tuple[float, float] | None = option((0.1, 1.0), gt=0)
+    """P1,P2 of a second set of maps, ``WS/depth/frames/``, that only the novel frames warp
+    the photos through: the sweep's costs aggregated as ``sgm`` aggregates them, so weakly
+    textured pixels of the video take their neighbours' depth; the de-flared photos, the
+    fine-tune's exposure gains and the mask stage keep ``WS/depth`` (none: the novel frames
+    use ``WS/depth`` too; docs/depth.md, "Maps for the novel frames")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
@@ -70,9 +81,17 @@ class DepthConfig:
     def check(self) -> None:
         """UserError for values outside their range (``pipeline.options.validate``)."""
         validate(self)
-        if self.sgm is not None and not 0 < self.sgm[0] <= self.sgm[1]:
-            raise UserError(f"--sgm {self.sgm[0]:g},{self.sgm[1]:g}: the penalties must be "
-                            "P1,P2 with 0 < P1 <= P2 (e.g. --sgm 0.1,1), or none")
+        for flag, pen in (("--sgm", self.sgm), ("--frames-sgm", self.frames_sgm)):
+            if pen is not None and not 0 < pen[0] <= pen[1]:
+                raise UserError(f"{flag} {pen[0]:g},{pen[1]:g}: the penalties must be P1,P2 "
+                                f"with 0 < P1 <= P2 (e.g. {flag} 0.1,1), or none")
+
+    def frames(self) -> DepthConfig | None:
+        """The settings of the novel frames' maps (``frames_sgm``), or None when they are
+        the main maps (no ``frames_sgm``, or the same aggregation as ``sgm``)."""
+        if self.frames_sgm is None or tuple(self.frames_sgm) == tuple(self.sgm or ()):
+            return None
+        return replace(self, sgm=tuple(self.frames_sgm))
 
 
 def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
@@ -85,10 +104,11 @@ def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
 
 
 def load_views(ws: Workspace, cams: Cameras, stems: list[str],
-               with_depth: bool = False, masks: dict[str, np.ndarray] | None = None
-               ) -> dict[str, PosedView]:
+               with_depth: bool = False, masks: dict[str, np.ndarray] | None = None,
+               frames: bool = False) -> dict[str, PosedView]:
     """{stem: PosedView} of WS/images (float RGB), flare masks as validity (``masks`` when
-    given, else WS/masks where it has them), and WS/depth where ``with_depth`` and present."""
+    given, else WS/masks where it has them), and WS/depth where ``with_depth`` and present
+    (with ``frames``, the novel frames' maps WS/depth/frames)."""
     by = cams.by_stem()
     out = {}
     for s in stems:
@@ -96,7 +116,8 @@ def load_views(ws: Workspace, cams: Cameras, stems: list[str],
             valid = ~masks[s]
         else:
             valid = ~read_mask(ws, s) if ws.mask_path(s).exists() else None
-        depth = read_depth(ws, s)[0] if with_depth and ws.depth_path(s).exists() else None
+        path = ws.depth_path(s, frames)
+        depth = read_depth(ws, s, path)[0] if with_depth and path.exists() else None
         out[s] = PosedView(read_view_image(ws, s, as_float=True), np.array(by[s].K, float),
                            np.array(by[s].c2w), valid, depth)
     return out
@@ -209,19 +230,31 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     taken: list[str] = []
     depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws,
                          shared=ws.sweeps if ws.sweeps.is_dir() else None, taken=taken)
-    kept = []
+    frames_raw = out_dir / ".raw_frames"
+    frames = None
+    if (frames_cfg := config.frames()) is not None:  # the same views, their costs aggregated
+        frames_raw.mkdir(exist_ok=True)
+        frames = sweep_views(views, cams, near, frames_cfg, frames_raw, ws.resumable(stage_run),
+                             ws, label="depth: aggregated sweep for the novel frames")
+    kept, kept_frames = [], []
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)
         kept.append(float((d > 0).mean()))
-    for p in raw_dir.iterdir():
-        p.unlink()
-    raw_dir.rmdir()
+    shutil.rmtree(ws.depth_frames, ignore_errors=True)  # none left of other settings
+    for s, (d, conf) in (frames or {}).items():
+        write_depth(ws.depth_path(s, frames=True), d, conf)
+        kept_frames.append(float((d > 0).mean()))
+    for raw in (raw_dir, frames_raw):
+        shutil.rmtree(raw, ignore_errors=True)
     shutil.rmtree(ws.sweeps, ignore_errors=True)  # the mask stage's, used or out of date
-    stage_run.finish([out_dir], extra={"coverage": round(float(np.mean(kept)), 4),
-                                       "sweeps_from_mask_stage": len(taken)})
+    extra = {"coverage": round(float(np.mean(kept)), 4), "sweeps_from_mask_stage": len(taken)}
+    if frames:
+        extra["coverage_frames"] = round(float(np.mean(kept_frames)), 4)
+    stage_run.finish([out_dir], extra=extra)
     info(f"depth: {len(depths)} views -> {out_dir} (depth known on {100 * np.mean(kept):.0f}% "
-         "of pixels on average)")
-    if (note := few_depth_note(float(np.mean(kept)), config)) is not None:
+         "of pixels on average" + (f"; {100 * np.mean(kept_frames):.0f}% in the novel frames' "
+                                   "maps, WS/depth/frames" if frames else "") + ")")
+    if (note := few_depth_note(float(np.mean(kept_frames or kept)), config)) is not None:
         info(note)
     return [out_dir]
 
@@ -232,15 +265,19 @@ measured for such captures (the development street walk: 10 %; the others 32-50 
 
 
 def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
-    """A note when the depth maps know little (a street walk, a deep scene): the video's
-    photo share will be small; the opt-ins measured on such a capture. None otherwise (or
-    when one of the depth stage's is already on)."""
-    if coverage >= FEW_DEPTH or config.consistency_planes or config.sgm is not None:
+    """A note when the maps the video warps through (the novel frames' own where written)
+    know little (a street walk, a deep scene): the video's photo share will be small; the
+    opt-ins measured on such a capture. None otherwise (or when the depth stage's looser
+    check is already on). ``coverage``: the mean share of pixels with a depth in those
+    maps."""
+    if coverage >= FEW_DEPTH or config.consistency_planes:
         return None
+    aggregated = config.sgm is not None or config.frames_sgm is not None
     return (f"depth: known on few pixels ({100 * coverage:.0f}%): the video will take little "
             "from the photos. For a street walk or another deep scene, "
             "`--set depth.consistency_planes=1` (more depth kept), "
-            "`--set depth.sgm=0.1,1` (weakly textured pixels take their neighbours' depth) or "
-            "`--set render.network_depth=holes` (the photos warped through GN-FR's own "
+            + ("" if aggregated else "`--set depth.frames_sgm=0.1,1` (weakly textured pixels "
+               "take their neighbours' depth), ")
+            + "or `--set render.network_depth=holes` (the photos warped through GN-FR's own "
             "depth) each sharpened the development street walk's frames a little "
             "(docs/options.md)")

@@ -67,7 +67,7 @@ def run(cfg: ExportConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if not frames:
         raise UserError(f"nothing rendered in {frames_dir} to export: run `deflare-scene "
                         f"render {shell_path(ws.root)} --path {cfg.path}` first")
-    inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks, ws.depth]
+    inputs = [ws.cameras_json, frames_dir, ws.deflared, ws.masks, *ws.depth_inputs()]
     stage_run = ws.begin_stage("export", asdict(cfg), inputs, force,
                                 defaults=asdict(ExportConfig()))
     if stage_run.skip:

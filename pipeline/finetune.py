@@ -175,7 +175,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         cfg = replace(cfg, random_sources=True)
         info("finetune: no view has flare marked: random sources inside the nearest pool")
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
-    inputs += [ws.depth] if config.exposure_match else []  # the gains come from the depth
+    inputs += ws.depth_inputs() if config.exposure_match else []  # the gains come from the depth
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
               "holes_as_flare": config.holes_as_flare,
               "exposure_match": config.exposure_match,

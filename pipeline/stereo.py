@@ -263,18 +263,20 @@ def aggregate_sgm(cost: np.ndarray, grey: np.ndarray, p1: float, p2: float) -> n
     ``L(x, d) = C(x, d) + min(L(x-1, d), L(x-1, d+-1) + p1, min L(x-1) + p2') - min L(x-1)``
     with ``p2' = max(p1, p2 / (1 + |grey step| / SGM_EDGE))``; returns the sum over the
     scanlines [P, H, W] float32. Each scanline's term lies in [C, C + p2], so the sum over
-    four is at most ``4 * (C + p2)``."""
+    four is at most ``4 * (C + p2)``. Memory: the sum and one reordered copy of ``cost``
+    besides ``cost`` itself."""
     total = np.zeros_like(cost, dtype=np.float32)
     for axis in dict.fromkeys(a for a, _ in SGM_PATHS):
         # lines along the scan axis first: [N, P, M], N steps of M parallel pixels; the copy
-        # and the penalties serve both directions along the axis
+        # and the penalties serve both directions along the axis; each line's term is added
+        # to the sum where it stands (a view of it in the same order)
         c = np.ascontiguousarray(cost.transpose(2, 0, 1) if axis == 0 else
                                  cost.transpose(1, 0, 2))
         g = np.ascontiguousarray(grey.T if axis == 0 else grey)
         jump = np.abs(np.diff(g, axis=0))
         pen = np.maximum(p2 / (1.0 + jump / SGM_EDGE), p1).astype(np.float32)
         n = c.shape[0]
-        out = np.empty_like(c)
+        out = total.transpose(2, 0, 1) if axis == 0 else total.transpose(1, 0, 2)
         for step in (d for a, d in SGM_PATHS if a == axis):
             order = range(n) if step > 0 else range(n - 1, -1, -1)
             prev = None
@@ -290,9 +292,9 @@ def aggregate_sgm(cost: np.ndarray, grey: np.ndarray, p1: float, p2: float) -> n
                     np.minimum(cur, m + pen[j], out=cur)
                     cur -= m
                     cur += c[i]
-                out[i] = cur
+                out[i] += cur
                 prev = cur
-            total += out.transpose(1, 2, 0) if axis == 0 else out.transpose(1, 0, 2)
+        del c  # before the next axis' copy
     return total
 
 

@@ -290,6 +290,9 @@ class Workspace:
     masks_overview = property(lambda self: self.root / "masks_overview.jpg")
     depth = property(lambda self: self.root / "depth")
     """WS/depth/<stem>.npz: depth and confidence per view (depth)."""
+    depth_frames = property(lambda self: self.root / "depth" / "frames")
+    """WS/depth/frames/<stem>.npz: the maps the novel frames warp the photos through, the
+    sweep's costs aggregated (depth ``--frames-sgm``); absent: the novel frames use WS/depth."""
     sweeps = property(lambda self: self.root / ".sweeps")
     """WS/.sweeps/<stem>.npz and .key: the mask stage's plane sweeps, which the depth stage
     takes where their key matches (pipeline.depth.sweep_views) and then removes."""
@@ -353,8 +356,20 @@ class Workspace:
     def mask_path(self, stem: str) -> Path:
         return self.masks / f"{stem}.png"
 
-    def depth_path(self, stem: str) -> Path:
-        return self.depth / f"{stem}.npz"
+    def depth_inputs(self, frames: bool = False) -> list[Path]:
+        """What a stage that reads the depth maps names among its inputs: the files of
+        WS/depth/<stem>.npz (with ``frames`` also the novel frames' WS/depth/frames), so the
+        novel frames' maps changing leaves the stages that never read them up to date; the
+        folder itself while it holds no map (a missing folder is a state of its own). For a
+        workspace without WS/depth/frames the digest is the folder's, as before."""
+        maps = sorted(self.depth.glob("*.npz"))
+        if frames and self.depth_frames.is_dir():
+            maps.append(self.depth_frames)
+        return maps or [self.depth]
+
+    def depth_path(self, stem: str, frames: bool = False) -> Path:
+        """WS/depth/<stem>.npz, or with ``frames`` WS/depth/frames/<stem>.npz."""
+        return (self.depth_frames if frames else self.depth) / f"{stem}.npz"
 
     def deflared_path(self, stem: str) -> Path:
         return self.deflared / f"{stem}.png"

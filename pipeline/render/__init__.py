@@ -121,6 +121,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
     if key == "inputs" and cfg.blend == "mask":  # before the stage clears WS/deflared
         require_masks(ws, [job.camera.stem for job in jobs])
+    # novel frames warp the photos through the depth stage's maps for them where it wrote
+    # them (depth --frames-sgm); the de-flared photos always through WS/depth
+    frames_maps = use_photos and key != "inputs" and ws.depth_frames.is_dir()
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     if cfg.sources_equal_below is None and key != "inputs":
@@ -134,13 +137,14 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                       if cfg.full_res_colour is None else cfg.full_res_colour),
               "scale": novel_scale(cfg, device), "network_scale": network_scale(cfg, device),
               "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
-              "point_sampler": bool(meta.get("point_sampler", True))}
+              "point_sampler": bool(meta.get("point_sampler", True)),
+              "depth_maps": "frames" if frames_maps else "depth"}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
-    inputs += [ws.depth] if use_photos else []
+    inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     stage_run = ws.begin_stage(f"render:{key}", params, inputs, force,
-                               defaults=asdict(RenderConfig()))
+                               defaults={**asdict(RenderConfig()), "depth_maps": "depth"})
     if stage_run.skip:
         info(f"render {key}: up to date ({out_dir})")
         return stage_run.outputs
@@ -162,7 +166,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
             gains = meta.get("exposure_gains") or None
             src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"],
                                         params["full_res_colour"], gains)
-            photos = photo_views(ws, cams, todo, cfg) if use_photos else None
+            photos = photo_views(ws, cams, todo, cfg, frames_maps) if use_photos else None
             if cfg.compile:  # after encoding: only the rays' forward pass is compiled
                 model = torch.compile(model, dynamic=False)
             render_jobs(model, src, index, todo, params, cfg, ws, photos, gains)

@@ -15,15 +15,17 @@ if TYPE_CHECKING:
     from pipeline.stereo import Warped
 
 
-def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig) -> dict:
-    """{stem: PosedView} (WS/images, flare masks, WS/depth) of every photo a job warps; with
-    ``cfg.depth_min_blob`` the depth maps' islands under that share of the image removed
+def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig,
+                frames: bool = False) -> dict:
+    """{stem: PosedView} (WS/images, flare masks, WS/depth or with ``frames`` the novel
+    frames' WS/depth/frames) of every photo a job warps; with ``cfg.depth_min_blob`` the
+    depth maps' islands under that share of the image removed
     (``pipeline.stereo.remove_specks``, at the depth stage's plane step)."""
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
     stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources + cfg.photo_fallback]})
-    views = load_views(ws, cams, stems, with_depth=True)
+    views = load_views(ws, cams, stems, with_depth=True, frames=frames)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         params = ws.stage_record("depth").get("params", {})
         planes = int(params.get("planes", DepthConfig().planes))

@@ -468,14 +468,15 @@ def test_colour_match_undoes_a_gain_and_offset_fitted_on_the_ring():
 @pytest.fixture(scope="module")
 def hws(tmp_path_factory):
     """A textured-plane workspace (exact cameras) with a fake flare square in one view,
-    views.json, a tiny random model, and WS/depth from the depth stage."""
+    views.json, a tiny random model, and WS/depth from the depth stage (without the novel
+    frames' maps: the tests of the render's options were written against WS/depth)."""
     from pipeline.depth import DepthConfig
     from pipeline.depth import run as depth_run
     from tests.fixtures import make_plane_workspace
 
     ws = make_plane_workspace(tmp_path_factory.mktemp("hybrid") / "ws")
     add_masks_views_model(ws, HYBRID_FLARED, HYBRID_BOX, 0)
-    depth_run(DepthConfig(neighbours=3), ws)
+    depth_run(DepthConfig(neighbours=3, frames_sgm=None), ws)
     return ws
 
 
@@ -520,6 +521,43 @@ def test_hybrid_novel_frame_at_an_input_camera_reproduces_the_photo(hws, tmp_pat
     assert got.shape == orig.shape  # hybrid frames default to the input size
     inner = (slice(12, -12), slice(12, -12))  # the border only this photo sees: the network
     assert _psnr(got[inner], orig[inner]) > 30
+
+
+def test_novel_frames_warp_through_the_frames_maps_and_the_inputs_through_ws_depth(hws,
+                                                                                  tmp_path):
+    """A novel frame at an input camera warps the photos through WS/depth/frames: without
+    that folder (the render falls back to WS/depth) it comes out different, both close to
+    the photo; the de-flared inputs are WS/depth's to the bit either way; the render
+    records which maps it used."""
+    import shutil
+
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.depth import DepthConfig
+    from pipeline.depth import run as depth_run
+    from pipeline.render import RenderConfig, run
+    from pipeline.workspace import Workspace
+
+    ws = Workspace(shutil.copytree(hws.root, tmp_path / "ws", symlinks=True))
+    depth_run(DepthConfig(neighbours=3), ws)  # the defaults: WS/depth/frames too
+    assert ws.depth_frames.is_dir()
+    f = load_cameras(ws.cameras_json).by_stem()["plane03"]
+    path = tmp_path / "at_input.json"
+    atomic_write_json(path, path_to_json([PathCamera("v", f.K, f.c2w, f.width, f.height)]))
+    orig = cv2.imread(str(ws.images / f"{f.stem}.png")).astype(int)
+    inner = (slice(12, -12), slice(12, -12))
+    inputs = RenderConfig(path="inputs", fill="hybrid", color_match=False, flare_layer=0)
+    frames, deflared = {}, {}
+    for maps in ("frames", "depth"):
+        if maps == "depth":
+            shutil.rmtree(ws.depth_frames)
+        run(RenderConfig(path=str(path), fill="hybrid"), ws)
+        assert ws.stage_record("render:at_input")["params"]["depth_maps"] == maps
+        frames[maps] = cv2.imread(str(ws.renders / "at_input" / "v.png")).astype(int)
+        assert _psnr(frames[maps][inner], orig[inner]) > 30, maps
+        run(inputs, ws, force=True)
+        deflared[maps] = cv2.imread(str(ws.deflared / f"{HYBRID_FLARED}.png"))
+    assert not np.array_equal(frames["frames"], frames["depth"])
+    assert np.array_equal(deflared["frames"], deflared["depth"])
 
 
 def test_depth_guided_samples_stay_in_their_band_and_equal_uniform_on_the_whole_ray():

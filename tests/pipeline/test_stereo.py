@@ -125,7 +125,8 @@ def test_fill_has_no_support_where_every_neighbour_is_flared():
 
 
 @pytest.mark.parametrize("bad", [{"window": 4}, {"keep": 9}, {"planes": 1},
-                                 {"sgm": (0.5, 0.1)}, {"sgm": (0.0, 1.0)}])
+                                 {"sgm": (0.5, 0.1)}, {"sgm": (0.0, 1.0)},
+                                 {"frames_sgm": (2.0, 1.0)}, {"frames_sgm": (0.0, 0.5)}])
 def test_depth_config_rejects_bad_values(bad):
     from pipeline.depth import DepthConfig
     from pipeline.errors import UserError
@@ -135,8 +136,9 @@ def test_depth_config_rejects_bad_values(bad):
 
 
 def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is_scarce():
-    """The depth stage's note: under FEW_DEPTH of the pixels known it names both opt-ins;
-    none at or above it, nor when the looser check is already on."""
+    """The depth stage's note: under FEW_DEPTH of the pixels known (in the maps the video
+    warps through) it names the opt-ins; none at or above it, nor when the looser check is
+    already on."""
     from pipeline.depth import FEW_DEPTH, DepthConfig, few_depth_note
 
     note = few_depth_note(0.102, DepthConfig())
@@ -144,8 +146,12 @@ def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is
     assert "depth.consistency_planes=1" in note and "render.network_depth=holes" in note
     assert few_depth_note(FEW_DEPTH, DepthConfig()) is None
     assert few_depth_note(0.05, DepthConfig(consistency_planes=1)) is None
-    assert "depth.sgm=0.1,1" in few_depth_note(0.05, DepthConfig())
-    assert few_depth_note(0.05, DepthConfig(sgm=(0.1, 1.0))) is None
+    # the aggregation is named only where the video's maps are not aggregated already
+    assert "depth.frames_sgm" not in note
+    bare = few_depth_note(0.05, DepthConfig(frames_sgm=None))
+    assert "depth.frames_sgm=0.1,1" in bare and "render.network_depth=holes" in bare
+    assert "depth.frames_sgm" not in few_depth_note(0.05, DepthConfig(sgm=(0.1, 1.0),
+                                                                      frames_sgm=None))
 
 
 def test_close_small_holes_fills_specks_and_leaves_large_holes():
@@ -572,3 +578,41 @@ def test_sgm_gives_a_textureless_band_its_neighbours_depth():
     both = textured & (own > 0) & (agg > 0)
     assert both.mean() > 0.5
     assert np.median(np.abs(agg[both] - true[both]) / true[both]) < 0.01
+
+
+def test_the_depth_stage_writes_the_novel_frames_maps_as_an_aggregated_run_would(tmp_path):
+    """By default the depth stage writes WS/depth as it did without ``frames_sgm`` and
+    WS/depth/frames as the stage run with ``--sgm`` writes WS/depth (bit for bit: the
+    novel frames' maps are what the rule judged); with ``--frames-sgm none`` the folder of
+    an earlier run is gone; with ``frames_sgm`` equal to ``sgm`` none is written."""
+    import shutil
+
+    from pipeline.depth import DepthConfig, run
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_depth
+    from tests.fixtures import make_plane_workspace
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=4)
+    plain = Workspace(shutil.copytree(ws.root, tmp_path / "plain"))
+    aggregated = Workspace(shutil.copytree(ws.root, tmp_path / "aggregated"))
+    run(DepthConfig(neighbours=3), ws)
+    run(DepthConfig(neighbours=3, frames_sgm=None), plain)
+    run(DepthConfig(neighbours=3, sgm=(0.1, 1.0), frames_sgm=None), aggregated)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    assert sorted(p.stem for p in ws.depth_frames.glob("*.npz")) == stems
+    assert not plain.depth_frames.exists() and not aggregated.depth_frames.exists()
+    differ = 0
+    for s in stems:
+        main, frames = read_depth(ws, s), read_depth(ws, s, ws.depth_path(s, frames=True))
+        for a, b in zip(main, read_depth(plain, s), strict=True):
+            assert np.array_equal(a, b), s
+        for a, b in zip(frames, read_depth(aggregated, s), strict=True):
+            assert np.array_equal(a, b), s
+        differ += int(not np.array_equal(main[0], frames[0]))
+    assert differ > 0, "the aggregation changed no map"
+    assert ws.stage_record("depth")["coverage_frames"] > 0
+    assert not any(p.name.startswith(".raw") for p in ws.depth.iterdir())
+    run(DepthConfig(neighbours=3, frames_sgm=None), ws)
+    assert not ws.depth_frames.exists()
+    run(DepthConfig(neighbours=3, sgm=(0.1, 1.0)), ws)
+    assert not ws.depth_frames.exists()

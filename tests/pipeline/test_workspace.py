@@ -39,6 +39,30 @@ def test_digest_changes_with_content_and_ignores_hidden(tmp_path):
     assert digest_paths([d]) != before
 
 
+def test_depth_inputs_leave_the_novel_frames_maps_out_of_the_stages_that_never_read_them(
+        tmp_path):
+    """The stages that read WS/depth name its maps, not the folder: the digest equals the
+    folder's while there is no WS/depth/frames (records of earlier versions stay up to
+    date), the frames' maps leave it unchanged and change only the novel frames' inputs; a
+    missing or empty folder is the folder itself."""
+    (tmp_path / "photos").mkdir()
+    ws = Workspace.create(tmp_path / "ws", tmp_path / "photos")
+    assert ws.depth_inputs() == [ws.depth] == ws.depth_inputs(frames=True)
+    ws.depth.mkdir(parents=True)
+    for s in ("b", "a"):
+        (ws.depth / f"{s}.npz").write_bytes(s.encode())
+    folder = digest_paths([ws.cameras_json, ws.depth, ws.images], ws.root)
+    maps = digest_paths([ws.cameras_json, *ws.depth_inputs(), ws.images], ws.root)
+    assert maps == folder
+    assert [p.name for p in ws.depth_inputs()] == ["a.npz", "b.npz"]
+    before = digest_paths(ws.depth_inputs(frames=True), ws.root)
+    ws.depth_frames.mkdir()
+    (ws.depth_frames / "a.npz").write_bytes(b"aggregated")
+    assert digest_paths([ws.cameras_json, *ws.depth_inputs(), ws.images], ws.root) == maps
+    assert digest_paths(ws.depth_inputs(frames=True), ws.root) != before
+    assert digest_paths([ws.depth], ws.root) != folder  # what naming the folder would do
+
+
 def test_stage_skip_and_staleness(tmp_path):
     photos = tmp_path / "photos"
     photos.mkdir()

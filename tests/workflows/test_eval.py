@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 import cv2
@@ -164,6 +165,17 @@ def test_sync_tree_links_and_prunes(tmp_path):
     assert (dst / "x.png").read_bytes() == b"3"
     link_file(src / "x.png", dst / "x.png")   # already linked: a no-op
     assert (dst / "x.png").samefile(src / "x.png")
+    # sub-folders (WS/depth/frames) are mirrored and pruned alike; hidden ones left alone
+    (src / "frames").mkdir()
+    (src / "frames" / "z.npz").write_bytes(b"4")
+    (src / ".raw").mkdir()
+    (src / ".raw" / "r.npz").write_bytes(b"5")
+    sync_tree(src, dst)
+    assert (dst / "frames" / "z.npz").samefile(src / "frames" / "z.npz")
+    assert not (dst / ".raw").exists()
+    shutil.rmtree(src / "frames")
+    sync_tree(src, dst)
+    assert sorted(p.name for p in dst.iterdir()) == ["x.png"]
 
 
 def test_shipped_sample_reads_as_a_synth_scene_with_jpeg_photos():

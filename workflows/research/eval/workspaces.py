@@ -47,17 +47,27 @@ def link_file(src: Path, dst: Path) -> None:
 
 
 def sync_tree(src: Path, dst: Path) -> None:
-    """Mirror folder or file ``src`` at ``dst`` with hard links (extra files removed)."""
+    """Mirror folder or file ``src`` at ``dst`` with hard links, its sub-folders too (e.g.
+    WS/depth/frames); extra files and folders removed, hidden ones (a stage's
+    intermediates) neither mirrored nor touched."""
     if src.is_file():
         link_file(src, dst)
         return
     dst.mkdir(parents=True, exist_ok=True)
-    names = {p.name for p in src.iterdir() if p.is_file() and not p.name.startswith(".")}
+    shown = [p for p in src.iterdir() if not p.name.startswith(".")]
+    names = {p.name for p in shown if p.is_file()}
+    folders = {p.name for p in shown if p.is_dir()}
     for name in names:
         link_file(src / name, dst / name)
+    for name in folders:
+        sync_tree(src / name, dst / name)
     for p in dst.iterdir():
+        if p.name.startswith("."):
+            continue
         if p.is_file() and p.name not in names:
             p.unlink()
+        elif p.is_dir() and p.name not in folders:
+            shutil.rmtree(p)
 
 
 def pinhole_frame(f: Frame) -> Frame:
