@@ -640,3 +640,15 @@ def test_edge_rays_test_scenes_follow_their_files():
         g = s36["methods"]["gnfr"]
         assert (g["inputs"]["psnr_flare"], g["inputs"]["psnr"], g["heldout"]["psnr"]) == (
             b["flare_region_psnr"], b["inputs_psnr"], b["heldout_psnr"])  # "to the last digit"
+
+
+def test_performance_depth_stage_with_the_frames_maps_follows_its_files():
+    """docs/performance.md: the depth stage's seconds per view without and with the novel
+    frames' maps are the files', and WS/depth is the same either way (its digest)."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    for sc, name in names.items():
+        a, b = (json.loads((RESULTS / f"depth_frames_time_dev_{sc}_{arm}_s44.json").read_text())
+                ["depth_stage"] for arm in ("none", "frames"))
+        assert f"{name} {a['seconds_per_view']:.2f} / {b['seconds_per_view']:.2f}" in text, sc
+        assert a["digest"] == b["digest"] and b["seconds_per_view"] > a["seconds_per_view"]
