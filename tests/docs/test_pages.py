@@ -652,3 +652,14 @@ def test_performance_depth_stage_with_the_frames_maps_follows_its_files():
                 ["depth_stage"] for arm in ("none", "frames"))
         assert f"{name} {a['seconds_per_view']:.2f} / {b['seconds_per_view']:.2f}" in text, sc
         assert a["digest"] == b["digest"] and b["seconds_per_view"] > a["seconds_per_view"]
+
+
+def test_the_sample_gives_the_same_deflared_photos_with_the_frames_maps():
+    """README: the one-shot at the forty-fourth session's defaults (the video's own depth
+    maps) gives the sample's de-flared photos of the forty-first session to the digit."""
+    new = json.loads((RESULTS / "sample_oneshot_cpu_s44.json").read_text())["mean"]
+    old = json.loads((RESULTS / "sample_oneshot_cpu_s41_expo.json").read_text())["mean"]
+    assert new == old
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert "to the last digit in 10:34 wall" in readme and "sample_oneshot_cpu_s44.json" in readme
+
