@@ -70,8 +70,9 @@ class DepthConfig:
     """P1,P2 of a second set of maps, ``WS/depth/frames/``, that only the novel frames warp
     the photos through: the sweep's costs aggregated as ``sgm`` aggregates them, so weakly
     textured pixels of the video take their neighbours' depth; the de-flared photos, the
-    fine-tune's exposure gains and the mask stage keep ``WS/depth`` (none: the novel frames
-    use ``WS/depth`` too; docs/depth.md, "Maps for the novel frames")."""
+    fine-tune's exposure gains and the export read ``WS/depth`` (the mask stage's own
+    sweeps are never aggregated); none: the novel frames use ``WS/depth`` too
+    (docs/depth.md, "Maps for the novel frames")."""
 
     def sweep(self) -> SweepConfig:
         return SweepConfig(planes=self.planes, window=self.window, keep=self.keep,
