@@ -1015,3 +1015,20 @@ def test_ema_rule_table_is_the_judges_file_and_both_rules_fail():
     assert f"(+{res['mean']['psnr_flare']:.3f} dB where +0.10 is asked)" in presets
     assert f"({novel['mean']['held']:+.3f} dB where +0.10 is asked)" in presets
 
+
+
+def test_frames_penalties_exploration_table_is_the_files():
+    """"The frames' penalties, explored": each row is the seed means of its arm's files."""
+    history = (REPO / "docs" / "history" / "fill.md").read_text()
+    names = ("sceaux", "et", "lund")
+    for arm, label in (("s43_base", "none (WS/depth)"), ("s43_sgmro", "0.1,1 (default)"),
+                       ("s44_fsl", "0.05,0.5"), ("s44_fsh", "0.2,2")):
+        cells, ps, ss = [], [], []
+        for sc in names:
+            hs = [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())["heldout"]
+                  for s in (4, 5)]
+            ps.append(sum(h["psnr"] for h in hs) / 2)
+            ss.append(sum(h["ssim"] for h in hs) / 2)
+            cells.append(f"{ps[-1]:.3f} / {ss[-1]:.4f}")
+        cells.append(f"{sum(ps) / 3:.3f} / {sum(ss) / 3:.4f}")
+        assert f"| {label} | " + " | ".join(cells) + " |" in history, arm
