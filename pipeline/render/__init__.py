@@ -124,6 +124,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     # novel frames warp the photos through the depth stage's maps for them where it wrote
     # them (depth --frames-sgm); the de-flared photos always through WS/depth
     frames_maps = use_photos and key != "inputs" and ws.depth_frames.is_dir()
+    if (use_photos and key != "inputs" and not frames_maps
+            and "frames_sgm" not in ws.stage_record("depth").get("params", {})):
+        info(f"render: {ws.depth} was made before the depth stage wrote maps of its own for "
+             f"the novel frames; `deflare-scene depth {shell_path(ws.root)} --force` writes them "
+             "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     if cfg.sources_equal_below is None and key != "inputs":

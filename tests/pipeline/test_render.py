@@ -560,6 +560,27 @@ def test_novel_frames_warp_through_the_frames_maps_and_the_inputs_through_ws_dep
     assert np.array_equal(deflared["frames"], deflared["depth"])
 
 
+def test_a_depth_stage_of_an_earlier_version_gets_a_hint_for_the_frames_maps(hws, tmp_path,
+                                                                               capsys):
+    """A novel render on a workspace whose depth stage predates the frames' maps says how to
+    make them; none where the stage ran with them off (``--frames-sgm none``)."""
+    import shutil
+
+    from pipeline.render import RenderConfig, run
+    from pipeline.workspace import Workspace
+
+    path = _path_between(hws, tmp_path)
+    ws = Workspace(shutil.copytree(hws.root, tmp_path / "ws", symlinks=True))
+    run(RenderConfig(path=str(path), fill="hybrid"), ws)
+    assert "--force` writes them" not in capsys.readouterr().err  # switched off: no hint
+    manifest = json.loads((ws.root / "manifest.json").read_text())
+    del manifest["stages"]["depth"]["params"]["frames_sgm"]  # as an earlier version wrote it
+    (ws.root / "manifest.json").write_text(json.dumps(manifest))
+    run(RenderConfig(path=str(path), fill="hybrid"), ws, force=True)
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"deflare-scene depth {ws.root} --force` writes them" in err
+
+
 def test_depth_guided_samples_stay_in_their_band_and_equal_uniform_on_the_whole_ray():
     from gnfr.geometry import sample_depths
     from pipeline.render import DEPTH_BAND, split_guided
