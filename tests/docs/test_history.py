@@ -1014,6 +1014,9 @@ def test_ema_rule_table_is_the_judges_file_and_both_rules_fail():
         assert again["mean"] == pytest.approx(r["mean"]) and again["decision"] == r["decision"]
     assert f"(+{res['mean']['psnr_flare']:.3f} dB where +0.10 is asked)" in presets
     assert f"({novel['mean']['held']:+.3f} dB where +0.10 is asked)" in presets
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    assert (f"flare region {res['mean']['psnr_flare']:+.3f} dB and novel views "
+            f"{novel['mean']['held']:+.3f} dB on the development mean") in goals
 
 
 
