@@ -29,7 +29,7 @@ from pipeline.cameras import Cameras
 from pipeline.errors import UserError
 from pipeline.options import option, validate
 from pipeline.progress import info, track
-from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depth
+from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depths
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
 
@@ -149,7 +149,9 @@ def sweep_key(views: dict[str, PosedView], s: str, near: list[str], bounds: tupl
 def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list[str]],
                 config: DepthConfig, raw_dir: Path, keep_raw: bool, ws: Workspace,
                 label: str = "depth: plane sweep", shared: Path | None = None,
-                taken: list[str] | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                taken: list[str] | None = None,
+                also: tuple[tuple[float, float], Path] | None = None
+                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """{stem: (depth, confidence)} of every view of ``views`` (their flare masks as
     validity): the plane sweep against its ``near`` views, each result kept in
     ``raw_dir/<stem>.npz`` (taken from there when ``keep_raw``: a resumed run), then the
@@ -157,7 +159,10 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
     ``shared``: a folder of sweeps another stage made (``<stem>.npz`` beside ``<stem>.key``,
     :func:`sweep_key`); a view whose key matches is moved from there, not swept again, and
     every view swept here is added to it when ``shared`` is ``raw_dir``; the stems taken
-    from another folder are appended to ``taken``."""
+    from another folder are appended to ``taken``. ``also`` = (P1,P2, folder): each view
+    swept here also leaves the same cost volume's aggregated winner in ``folder/<stem>.npz``
+    (``pipeline.stereo.sweep_depths``), which a second call with those penalties and
+    ``keep_raw`` takes instead of sweeping again."""
     by = cams.by_stem()
     sweep = config.sweep()
     digests: dict[str, bytes] = {}
@@ -179,9 +184,11 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
                 kf.unlink(missing_ok=True)  # never an old key beside a new sweep
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            d, c = sweep_depth(views[s], [views[n] for n in near[s]], by[s].near, by[s].far,
-                               sweep)
-        write_depth(raw, d, c, compressed=False)
+            got_depths = sweep_depths(views[s], [views[n] for n in near[s]], by[s].near,
+                                      by[s].far, sweep, None if also is None else also[0])
+        write_depth(raw, *got_depths[0], compressed=False)
+        if also is not None:
+            write_depth(also[1] / f"{s}.npz", *got_depths[1], compressed=False)
         if key is not None and shared == raw_dir:
             (shared / f"{s}.key").write_text(key)
     if got:
@@ -226,17 +233,24 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
         raise UserError(f"{ws.cameras_json}: depth needs at least 2 posed views")
     raw_dir = out_dir / ".raw"
     raw_dir.mkdir(parents=True, exist_ok=True)
+    frames_raw = out_dir / ".raw_frames"
+    frames_cfg = config.frames()
+    if not ws.resumable(stage_run):  # a winner of other settings is never taken below
+        shutil.rmtree(frames_raw, ignore_errors=True)
+    if frames_cfg is not None:
+        frames_raw.mkdir(exist_ok=True)
     near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
     taken: list[str] = []
+    # each view swept here leaves both winners of its one cost volume; the views whose
+    # sweep comes from the mask stage are swept once more for the aggregated one
     depths = sweep_views(views, cams, near, config, raw_dir, ws.resumable(stage_run), ws,
-                         shared=ws.sweeps if ws.sweeps.is_dir() else None, taken=taken)
-    frames_raw = out_dir / ".raw_frames"
+                         shared=ws.sweeps if ws.sweeps.is_dir() else None, taken=taken,
+                         also=None if frames_cfg is None else (frames_cfg.sgm, frames_raw))
     frames = None
-    if (frames_cfg := config.frames()) is not None:  # the same views, their costs aggregated
-        frames_raw.mkdir(exist_ok=True)
-        frames = sweep_views(views, cams, near, frames_cfg, frames_raw, ws.resumable(stage_run),
-                             ws, label="depth: aggregated sweep for the novel frames")
+    if frames_cfg is not None:
+        frames = sweep_views(views, cams, near, frames_cfg, frames_raw, True, ws,
+                             label="depth: aggregated sweep for the novel frames")
     kept, kept_frames = [], []
     for s, (d, conf) in depths.items():
         write_depth(ws.depth_path(s), d, conf)

@@ -14,7 +14,7 @@ bool (False = flare, padding or unknown).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -195,6 +195,15 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
     out-of-view source pixels cost 2); the best plane wins, refined by a parabola through
     its neighbours' costs in inverse depth. Confidence = 1 - that cost, 0 where fewer than
     ``keep`` sources see the pixel."""
+    return sweep_depths(ref, sources, near, far, cfg)[0]
+
+
+def sweep_depths(ref: PosedView, sources: list[PosedView], near: float, far: float,
+                 cfg: SweepConfig = SweepConfig(),
+                 also: tuple[float, float] | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """[(depth, confidence)] of :func:`sweep_depth` with ``cfg``, then, with ``also``, the
+    same sweep's winner with its costs aggregated at those penalties (``cfg`` with ``sgm =
+    also``), from the one cost volume: each result the same to the bit as its own sweep."""
     W, H = ref.size
     win = cfg.window
     g_ref = _grey(ref.image)
@@ -223,6 +232,18 @@ def sweep_depth(ref: PosedView, sources: list[PosedView], near: float, far: floa
         lower = cost[p] < lowest  # strict: ties keep the first plane, as argmin does
         np.copyto(lowest, cost[p], where=lower)
         best[lower] = p
+    out = []
+    for sgm in (cfg.sgm, *(() if also is None else (tuple(also),))):
+        out.append(_sweep_winner(ref, cost, best, lowest, seen, keep, depths, g_ref,
+                                 replace(cfg, sgm=sgm)))
+    return out
+
+
+def _sweep_winner(ref: PosedView, cost: np.ndarray, best: np.ndarray, lowest: np.ndarray,
+                  seen: np.ndarray, keep: int, depths: np.ndarray, g_ref: np.ndarray,
+                  cfg: SweepConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(depth, confidence) of a swept cost volume ``cost`` (its plain winner ``best`` at
+    cost ``lowest``), aggregated first when ``cfg.sgm``; reads its arrays, writes none."""
     if cfg.sgm is not None:
         agg = aggregate_sgm(cost, g_ref, *cfg.sgm)
         best = np.argmin(agg, 0)

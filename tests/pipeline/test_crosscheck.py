@@ -349,13 +349,13 @@ def test_the_depth_stage_takes_the_checks_plane_sweeps_where_their_inputs_match(
     alone = Workspace(shutil.copytree(ws.root, tmp_path / "alone",
                                       ignore=shutil.ignore_patterns(".sweeps")))
     swept = []
-    real = depth.sweep_depth
+    real = depth.sweep_depths
 
     def counted(ref, *a, **k):
         swept.append(ref)
         return real(ref, *a, **k)
 
-    monkeypatch.setattr(depth, "sweep_depth", counted)
+    monkeypatch.setattr(depth, "sweep_depths", counted)
     main_only = depth.DepthConfig(frames_sgm=None)  # the novel frames' maps sweep every view
     depth.run(main_only, ws)
     near = depth.nearest_views(read_cameras(ws), depth.DepthConfig().neighbours)

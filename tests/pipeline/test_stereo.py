@@ -616,3 +616,47 @@ def test_the_depth_stage_writes_the_novel_frames_maps_as_an_aggregated_run_would
     assert not ws.depth_frames.exists()
     run(DepthConfig(neighbours=3, sgm=(0.1, 1.0)), ws)
     assert not ws.depth_frames.exists()
+
+
+def test_the_depth_stage_takes_both_maps_from_one_cost_volume_per_view(tmp_path, monkeypatch):
+    """Without the mask stage's sweeps each view's costs are swept once for both its maps;
+    a run killed after the first pass resumes without sweeping again and writes the same
+    maps as one run straight through."""
+    import shutil
+
+    from pipeline import depth
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_depth
+    from tests.fixtures import make_plane_workspace
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=4)
+    killed = Workspace(shutil.copytree(ws.root, tmp_path / "killed"))
+    calls = []
+    real = depth.sweep_depths
+
+    def counted(ref, *a, **k):
+        calls.append(k.get("also", a[4] if len(a) > 4 else None))
+        return real(ref, *a, **k)
+
+    monkeypatch.setattr(depth, "sweep_depths", counted)
+    depth.run(depth.DepthConfig(neighbours=3), ws)
+    assert len(calls) == 4 and all(c == (0.1, 1.0) for c in calls)
+    calls.clear()
+    real_views = depth.sweep_views
+
+    def stop_after_first_pass(*a, **k):
+        if k.get("label", "").endswith("novel frames"):
+            raise KeyboardInterrupt
+        return real_views(*a, **k)
+
+    monkeypatch.setattr(depth, "sweep_views", stop_after_first_pass)
+    with pytest.raises(KeyboardInterrupt):
+        depth.run(depth.DepthConfig(neighbours=3), killed)
+    monkeypatch.setattr(depth, "sweep_views", real_views)
+    calls.clear()
+    depth.run(depth.DepthConfig(neighbours=3), killed)
+    assert calls == []  # both winners of every view were kept from the first run
+    for s in sorted(p.stem for p in ws.images.glob("*.png")):
+        for frames in (False, True):
+            a, b = (read_depth(w, s, w.depth_path(s, frames)) for w in (ws, killed))
+            assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True)), (s, frames)
