@@ -122,11 +122,12 @@ def main(argv: list[str] | None = None) -> int:
     apply_thread_policy()  # before torch loads (workflows/threads.py)
     from pipeline.depth import DepthConfig
     from pipeline.errors import UserError
+    from pipeline.options import validate
     from pipeline.provenance import write_result
     from workflows.oneshot import apply_overrides
 
     try:  # every input checked before the first scene's stages run
-        apply_overrides({"depth": DepthConfig()}, a.depth_set)["depth"].check()
+        validate(apply_overrides({"depth": DepthConfig()}, a.depth_set)["depth"])
         for root in a.scene:
             if not (root / "masks_gt").is_dir():
                 raise UserError(f"{root}: not a synth scene (no masks_gt/): pass a folder "

@@ -79,9 +79,9 @@ class DepthConfig:
                            min_confidence=self.min_confidence, consistency=self.consistency,
                            min_margin=self.min_margin, sgm=self.sgm)
 
-    def check(self) -> None:
-        """UserError for values outside their range (``pipeline.options.validate``)."""
-        validate(self)
+    def rules(self) -> None:
+        """The rules between numbers (``pipeline.options.validate`` calls it after each
+        field's range): the aggregation's penalties P1 <= P2."""
         for flag, pen in (("--sgm", self.sgm), ("--frames-sgm", self.frames_sgm)):
             if pen is not None and not 0 < pen[0] <= pen[1]:
                 raise UserError(f"{flag} {pen[0]:g},{pen[1]:g}: the penalties must be P1,P2 "
@@ -218,7 +218,7 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
 
 def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Write WS/depth/<stem>.npz for every view; returns [WS/depth]."""
-    config.check()
+    validate(config)
     ws.require("pose")
     cams = read_cameras(ws)
     masks = [ws.mask_path(s) for s in cams.stems if ws.mask_path(s).exists()]

@@ -177,9 +177,13 @@ def check_field(cfg: Any, name: str, where: str | None = None) -> None:
 
 def validate(cfg: Any) -> Any:
     """Check every field of the config dataclass ``cfg`` (first failure: one-line UserError
-    naming the option, the value and what is allowed); returns ``cfg``."""
+    naming the option, the value and what is allowed), then the rules between its fields
+    where the class has them (a ``rules()`` method raising such a UserError, e.g. the depth
+    stage's P1 <= P2); returns ``cfg``."""
     for f in dataclasses.fields(cfg):
         check_field(cfg, f.name)
+    if callable(rules := getattr(cfg, "rules", None)):
+        rules()
     return cfg
 
 

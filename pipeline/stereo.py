@@ -232,11 +232,8 @@ def sweep_depths(ref: PosedView, sources: list[PosedView], near: float, far: flo
         lower = cost[p] < lowest  # strict: ties keep the first plane, as argmin does
         np.copyto(lowest, cost[p], where=lower)
         best[lower] = p
-    out = []
-    for sgm in (cfg.sgm, *(() if also is None else (tuple(also),))):
-        out.append(_sweep_winner(ref, cost, best, lowest, seen, keep, depths, g_ref,
-                                 replace(cfg, sgm=sgm)))
-    return out
+    cfgs = [cfg] + ([] if also is None else [replace(cfg, sgm=tuple(also))])
+    return [_sweep_winner(ref, cost, best, lowest, seen, keep, depths, g_ref, c) for c in cfgs]
 
 
 def _sweep_winner(ref: PosedView, cost: np.ndarray, best: np.ndarray, lowest: np.ndarray,

@@ -130,9 +130,10 @@ def test_fill_has_no_support_where_every_neighbour_is_flared():
 def test_depth_config_rejects_bad_values(bad):
     from pipeline.depth import DepthConfig
     from pipeline.errors import UserError
+    from pipeline.options import validate
 
     with pytest.raises(UserError, match="--"):
-        DepthConfig(**bad).check()
+        validate(DepthConfig(**bad))
 
 
 def test_few_depth_note_points_at_the_options_for_deep_scenes_only_when_depth_is_scarce():
