@@ -148,6 +148,31 @@ class MaskConfig:
     device: str = option("auto", device=True)
     """torch device for the FMG: auto (CUDA when present), cpu, cuda or cuda:N."""
 
+    def rules(self) -> None:
+        """The options that need another or exclude one (a one-line UserError), run by
+        ``pipeline.options.validate`` after the fields' ranges, before anything is read or
+        written; resolving the defaults is :func:`check_config`'s."""
+        if self.ghost_views and self.masks_dir is not None:
+            raise UserError("--ghost-views lets the other photos judge an FMG's weak marks: "
+                            "it has no use with --masks (your masks are kept as given); leave "
+                            "one out")
+        lines = self.masks_dir is None if self.ghost_lines is None else self.ghost_lines
+        ghost_config(replace(self, ghost_lines=lines))  # --ghost-chain without the lines
+        if self.confirm_weights is not None and not self.confirm:
+            raise UserError("--confirm-weights names the second network of --confirm: add "
+                            "--confirm, or leave --confirm-weights out")
+        if self.confirm_keep is not None and not self.confirm:
+            raise UserError("--confirm-keep says which regions --confirm keeps: add "
+                            "--confirm, or leave --confirm-keep out")
+        for on, flag, what in (
+                (self.confirm, "--confirm", "checks an FMG's marks with a second network"),
+                (self.ghost_lines, "--ghost-lines", "adds to an FMG's marks"),
+                (self.crosscheck, "--crosscheck",
+                 "checks an FMG's marks against the other photos")):
+            if on and self.masks_dir is not None:
+                raise UserError(f"{flag} {what}: it has no use with --masks (your masks are "
+                                "kept as given); leave one out")
+
 
 # --------------------------------------------------------------------------- weights
 def weights_path(config: MaskConfig) -> Path:
@@ -466,36 +491,14 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
 
 # --------------------------------------------------------------------------- stage
 def check_config(config: MaskConfig) -> MaskConfig:
-    """``config`` checked as a whole (options that need another, or exclude one: a one-line
-    UserError) before anything is read or written; the one-shot calls it before its first
-    stage. Returns it with ``confirm_keep`` and ``ghost_lines`` resolved
-    (``ghost_views`` is resolved by ``run``, which knows how many views are posed)."""
+    """``config`` checked (``validate``: its fields, then :meth:`MaskConfig.rules`) and
+    returned with ``ghost_lines`` and ``confirm_keep`` resolved (``ghost_views`` is resolved
+    by ``run``, which knows how many views are posed)."""
     validate(config)
-    if config.ghost_views and config.masks_dir is not None:
-        raise UserError("--ghost-views lets the other photos judge an FMG's weak marks: it "
-                        "has no use with --masks (your masks are kept as given); leave one "
-                        "out")
     if config.ghost_lines is None:  # on by default where it has a use
         config = replace(config, ghost_lines=config.masks_dir is None)
-    ghost_config(config)  # --ghost-chain without --ghost-lines: one line, nothing written
-    if config.confirm_weights is not None and not config.confirm:
-        raise UserError("--confirm-weights names the second network of --confirm: add "
-                        "--confirm, or leave --confirm-weights out")
-    if config.confirm_keep is not None and not config.confirm:
-        raise UserError("--confirm-keep says which regions --confirm keeps: add --confirm, "
-                        "or leave --confirm-keep out")
     if config.confirm:
         config = replace(config, confirm_keep=config.confirm_keep or "both")
-    if config.confirm and config.masks_dir is not None:
-        raise UserError("--confirm checks an FMG's marks with a second network: it has no "
-                        "use with --masks (your masks are kept as given); leave one out")
-    if config.ghost_lines and config.masks_dir is not None:
-        raise UserError("--ghost-lines adds to an FMG's marks: it has no use with --masks "
-                        "(your masks are kept as given); leave one out")
-    if config.crosscheck and config.masks_dir is not None:
-        raise UserError("--crosscheck checks an FMG's marks against the other photos: it "
-                        "has no use with --masks (your masks are kept as given); leave one "
-                        "out")
     return config
 
 

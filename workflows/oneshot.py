@@ -121,10 +121,8 @@ def resume_target(photos: Path, out: str | None, ws_path: Path) -> tuple[Path, P
 def run_all(cfg: OneShotConfig) -> Path:
     """Run every stage in order; return the workspace path."""
     for stage_cfg in cfg.stages.values():  # every option checked before anything is written
-        validate(stage_cfg)  # ranges, and rules between numbers (depth.sgm's P1 <= P2)
-    from pipeline.mask import check_config
-
-    check_config(cfg.stages["mask"])  # options that need one another (mask.ghost_views ...)
+        validate(stage_cfg)  # ranges, and the rules between options (depth.sgm's P1 <= P2,
+        # mask --ghost-views with --masks ...)
     photos = Path(cfg.photos)
     if not photos.exists():
         raise UserError(f"photo folder {photos} does not exist: pass a folder of photos, "

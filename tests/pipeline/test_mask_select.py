@@ -378,6 +378,13 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
         M.run(M.MaskConfig(ghost_lines=True, masks_dir=tmp_path), ws)
     with pytest.raises(UserError, match="--ghost-views lets the other photos judge"):
         M.check_config(M.MaskConfig(ghost_views=True, masks_dir=tmp_path))
+    # the same rules through validate alone (the one-shot checks every stage so)
+    from pipeline.options import validate
+
+    with pytest.raises(UserError, match="--crosscheck checks an FMG's marks"):
+        validate(M.MaskConfig(crosscheck=True, masks_dir=tmp_path))
+    with pytest.raises(UserError, match="--ghost-chain sets the ghost lines' rule"):
+        validate(M.MaskConfig(masks_dir=tmp_path, ghost_chain=2))
     # hand-made masks with the defaults: the ghost lines are off, no error
     assert M.check_config(M.MaskConfig(masks_dir=tmp_path)).ghost_lines is False
     with pytest.raises(UserError, match="--ghost-chain sets the ghost lines' rule"):
