@@ -173,39 +173,47 @@ def arm_means(results: list[dict], held_ssim: bool = False) -> dict:
     return m
 
 
+PARTS = {
+    "flare": {"a": [("mean", "psnr_flare", RULE["flare_gain"])],
+              "b": [("scene", "psnr_flare", -RULE["flare_scene_loss"])],
+              "c": [("mean", "psnr", -RULE["whole_loss"]), ("mean", "ssim", -RULE["ssim_loss"])],
+              "d": [("mean", "held", -RULE["held_loss"])]},
+    "novel": {"a": [("mean", "held", RULE_NOVEL["held_gain"])],
+              "b": [("scene", "held", -RULE_NOVEL["held_scene_loss"])],
+              "c": [("mean", "psnr_flare", -RULE_NOVEL["flare_loss"]),
+                    ("mean", "psnr", -RULE_NOVEL["whole_loss"]),
+                    ("mean", "ssim", -RULE_NOVEL["ssim_loss"])]},
+    "depth": {"a": [("mean", "psnr_flare", RULE_DEPTH["flare_gain"]),
+                    ("scene", "psnr_flare", -RULE_DEPTH["scene_loss"]),
+                    ("scene", "psnr", -RULE_DEPTH["scene_loss"]),
+                    ("scene", "ssim", -RULE_DEPTH["ssim_loss"])],
+              "b": [("mean", "held", -RULE_DEPTH["held_loss"]),
+                    ("mean", "held_ssim", -RULE_DEPTH["held_ssim_loss"])]},
+    "frames": {"a": [("mean", "held_ssim", RULE_FRAMES["held_ssim_gain"]),
+                     ("scene", "held_ssim", -RULE_FRAMES["held_ssim_scene_loss"])],
+               "b": [("mean", "held", -RULE_FRAMES["held_loss"]),
+                     ("scene", "held", -RULE_FRAMES["held_scene_loss"])]},
+}
+"""Each rule's parts, in order: a part holds when each of its checks does, a check
+(``mean``, KEY, X) when the scenes' mean difference of KEY is at least X, (``scene``, KEY, X)
+when every scene's is."""
+
+
 def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
                rule: str = "flare") -> dict:
     """Per scene candidate minus baseline (``arm_means`` dicts), their mean, and each part's
-    verdict, in the rule's order; ``decision`` is the first failing part or 'passes'.
-    ``rule``: "flare" (the FMG photo rule, ``RULE``), "novel" (``RULE_NOVEL``), "depth"
-    (``RULE_DEPTH``) or "frames" (``RULE_FRAMES``)."""
+    verdict (``PARTS[rule]``), in the rule's order; ``decision`` is the first failing part or
+    'passes'. ``rule``: "flare" (the FMG photo rule, ``RULE``), "novel" (``RULE_NOVEL``),
+    "depth" (``RULE_DEPTH``) or "frames" (``RULE_FRAMES``)."""
     diff = {s: {k: candidate[s][k] - baseline[s][k] for k in baseline[s]} for s in baseline}
     mean = {k: sum(d[k] for d in diff.values()) / len(diff)
             for k in next(iter(diff.values()))}
-    if rule == "depth":
-        r = RULE_DEPTH
-        parts = {"a": (mean["psnr_flare"] >= r["flare_gain"]
-                       and all(d["psnr_flare"] >= -r["scene_loss"] and d["psnr"] >= -r["scene_loss"]
-                               and d["ssim"] >= -r["ssim_loss"] for d in diff.values())),
-                 "b": mean["held"] >= -r["held_loss"] and mean["held_ssim"] >= -r["held_ssim_loss"]}
-    elif rule == "frames":
-        r = RULE_FRAMES
-        parts = {"a": (mean["held_ssim"] >= r["held_ssim_gain"]
-                       and all(d["held_ssim"] >= -r["held_ssim_scene_loss"]
-                               for d in diff.values())),
-                 "b": (mean["held"] >= -r["held_loss"]
-                       and all(d["held"] >= -r["held_scene_loss"] for d in diff.values()))}
-    elif rule == "novel":
-        r = RULE_NOVEL
-        parts = {"a": mean["held"] >= r["held_gain"],
-                 "b": all(d["held"] >= -r["held_scene_loss"] for d in diff.values()),
-                 "c": (mean["psnr_flare"] >= -r["flare_loss"] and mean["psnr"] >= -r["whole_loss"]
-                       and mean["ssim"] >= -r["ssim_loss"])}
-    else:
-        parts = {"a": mean["psnr_flare"] >= RULE["flare_gain"],
-                 "b": all(d["psnr_flare"] >= -RULE["flare_scene_loss"] for d in diff.values()),
-                 "c": mean["psnr"] >= -RULE["whole_loss"] and mean["ssim"] >= -RULE["ssim_loss"],
-                 "d": mean["held"] >= -RULE["held_loss"]}
+
+    def holds(where: str, key: str, least: float) -> bool:
+        return (mean[key] >= least if where == "mean"
+                else all(d[key] >= least for d in diff.values()))
+
+    parts = {p: all(holds(*c) for c in checks) for p, checks in PARTS[rule].items()}
     failed = [p for p, ok in parts.items() if not ok]
     return {"per_scene": diff, "mean": mean, "parts": parts,
             "decision": f"fails ({failed[0]})" if failed else "passes"}
@@ -295,7 +303,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="the baseline arms' seeds (default: --seeds)")
     j.add_argument("--held-baseline", action="append", default=[], metavar="SCENE=ARM",
                    help="part (d)'s baseline arm on one scene (like-for-like targets)")
-    j.add_argument("--rule", choices=("flare", "novel", "depth", "frames"), default="flare",
+    j.add_argument("--rule", choices=tuple(PARTS), default="flare",
                    help="flare: the FMG photo rule; novel: a change for the novel views; "
                         "depth: a depth stage change, the model held fixed (rerender arms); "
                         "frames: a depth change for the novel frames alone (rerender arms)")
