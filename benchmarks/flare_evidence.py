@@ -123,27 +123,25 @@ def settings(sweep: bool) -> list[EvidenceConfig]:
     return out
 
 
-def prepare(ws, depth_sets: list[str] | None = None) -> None:
+def prepare(ws, depth_cfg=None) -> None:
     """The one-shot's mask and depth stages, with their defaults (the depth stage with
-    ``depth_sets``, ``depth.FIELD=VALUE`` as the one-shot command's ``--set``, if given)."""
+    ``depth_cfg``, a ``pipeline.depth.DepthConfig``, when given)."""
     from pipeline import depth, mask
-    from workflows.oneshot import apply_overrides
 
     mask.run(mask.MaskConfig(), ws)
-    depth.run(apply_overrides({"depth": depth.DepthConfig()}, depth_sets or [])["depth"], ws)
+    depth.run(depth_cfg or depth.DepthConfig(), ws)
 
 
-def flared_views(root: Path, work: Path, cfg: EvidenceConfig,
-                 depth_sets: list[str] | None = None):
+def flared_views(root: Path, work: Path, cfg: EvidenceConfig, depth_cfg=None):
     """For each flared view of the synth scene ``root`` (posed with its true cameras in
-    ``work``, `mask` and `depth` run, the latter with ``depth_sets``): (FMG mask, Consensus,
+    ``work``, `mask` and `depth` run, the latter with ``depth_cfg``): (FMG mask, Consensus,
     true mask)."""
     from pipeline.ws_files import read_mask_file
     from workflows.research.eval.scene import load_synth
     from workflows.research.eval.workspaces import build_workspace
 
     ws = build_workspace(load_synth(root), work / f"{root.name}.ws")
-    prepare(ws, depth_sets)
+    prepare(ws, depth_cfg)
     for s, (fmg, cons) in view_data(ws, cfg).items():
         h, w = fmg.shape
         gt = read_mask_file(root / "masks_gt" / f"{s}.png", size=(w, h))

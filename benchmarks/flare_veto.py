@@ -69,13 +69,12 @@ def _more(c: np.ndarray) -> dict:
             "recall": round(float(c[1, 1] / max(c[1].sum(), 1)), 5)}
 
 
-def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule],
-                depth_sets: list[str] | None = None) -> dict:
+def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule], depth_cfg=None) -> dict:
     """Pooled over the flared views of a synth scene: the FMG's scores and each setting's."""
     fmg_c = np.zeros((2, 2), np.int64)
     cut_c = np.zeros((len(cfgs), 2, 2), np.int64)
     views = 0
-    for fmg, cons, gt in flared_views(root, work, EvidenceConfig(), depth_sets):
+    for fmg, cons, gt in flared_views(root, work, EvidenceConfig(), depth_cfg):
         views += 1
         fmg_c += _confusion(fmg, gt)
         for i, cfg in enumerate(cfgs):
@@ -85,8 +84,7 @@ def score_scene(root: Path, work: Path, cfgs: list[CrosscheckRule],
                          for i, c in enumerate(cfgs)]}
 
 
-def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule],
-                depth_sets: list[str] | None = None) -> dict:
+def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule], depth_cfg=None) -> dict:
     """Share of pixels marked on a clean posed workspace (a copy in ``work``): the FMG's
     and each setting's (mean and max over views, views over 10 %)."""
     from pipeline.workspace import Workspace
@@ -98,7 +96,7 @@ def score_clean(path: Path, work: Path, cfgs: list[CrosscheckRule],
         shutil.copytree(path, tmp, symlinks=True)
         tmp.rename(copy)
     ws = Workspace(copy)
-    prepare(ws, depth_sets)
+    prepare(ws, depth_cfg)
 
     data = view_data(ws, EvidenceConfig())
     return {"fmg": clean_stats([float(m.mean()) for m, _ in data.values()]),
@@ -127,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.oneshot import apply_overrides
 
     try:  # every input checked before the first scene's stages run
-        validate(apply_overrides({"depth": DepthConfig()}, a.depth_set)["depth"])
+        depth_cfg = validate(apply_overrides({"depth": DepthConfig()}, a.depth_set)["depth"])
         for root in a.scene:
             if not (root / "masks_gt").is_dir():
                 raise UserError(f"{root}: not a synth scene (no masks_gt/): pass a folder "
@@ -145,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     res = {"sweep": {k: list(v) for k, v in SWEEP.items()}, "depth_sets": a.depth_set,
            "scenes": {}, "clean": {}}
     for root in a.scene:
-        r = res["scenes"][root.name] = score_scene(root.resolve(), a.work, cfgs, a.depth_set)
+        r = res["scenes"][root.name] = score_scene(root.resolve(), a.work, cfgs, depth_cfg)
         print(f"{root.name} ({r['views']} flared views): FMG flare IoU "
               f"{r['fmg']['IoU_flare']:.3f}, outside {100 * r['fmg']['outside']:.2f} %, recall "
               f"{r['fmg']['recall']:.3f}")
@@ -153,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {x['config']}: IoU {x['veto']['IoU_flare']:.3f}, outside "
                   f"{100 * x['veto']['outside']:.2f} %, recall {x['veto']['recall']:.3f}")
     for ws in a.clean:
-        r = res["clean"][ws.name] = score_clean(ws.resolve(), a.work, cfgs, a.depth_set)
+        r = res["clean"][ws.name] = score_clean(ws.resolve(), a.work, cfgs, depth_cfg)
         print(f"{ws.name} (clean): FMG marks {100 * r['fmg']['mean']:.2f} % "
               f"(max {100 * r['fmg']['max']:.2f})")
         for x in r["settings"]:
