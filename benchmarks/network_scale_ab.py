@@ -13,7 +13,9 @@ side by side), its seconds appended to a times file as ``SCENE SEED ARM SECONDS`
 
 then ``python benchmarks/network_scale_ab.py DIR --times TIMES --out JSON`` (X written
 without its point in file names: 025, 050, 100; other arms: ``--prefix P --base B --arms
-A1,A2`` read ``DIR/P{arm}_SCENE_sSEED.json``).
+A1,A2`` read ``DIR/P{arm}_SCENE_sSEED.json``). ``--video-times FILE`` (lines as the
+times file's, of each arm rendering a camera path, e.g. ``render WS --path interpolate``)
+adds part (e): the video's frames at most twice the base's time too.
 """
 
 from __future__ import annotations
@@ -40,10 +42,24 @@ def read_times(path: Path) -> dict[tuple[str, int, str], float]:
     return out
 
 
+def _total(times: dict, scenes: list[str], arm: str) -> float:
+    """Seconds of ``arm`` over ``scenes`` (every seed the times file has for them)."""
+    from pipeline.errors import UserError
+
+    got = [v for (sc, _, x), v in times.items() if x == arm and sc in scenes]
+    if len(got) < len(scenes):
+        raise UserError(f"the video times file lacks arm {arm} on some of {scenes}")
+    return sum(got)
+
+
 def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
-          scales: list[str], prefix: str = "novel_ns", base: str = BASE) -> dict:
+          scales: list[str], prefix: str = "novel_ns", base: str = BASE,
+          video: dict | None = None) -> dict:
     """Seed means per scene and arm, each candidate's differences from ``base``, the rule's
-    parts and the decision (the passing arm of larger mean PSNR gain, or none)."""
+    parts and the decision (the passing arm of larger mean PSNR gain, or none). ``video``
+    ({(scene, seed, arm): seconds} of a camera path's frames, as ``read_times``): part (e),
+    the arm's total at most ``time_factor`` times the base's (the forty-fifth session's
+    rule: the video's own frames, not only the held-out ones)."""
     from pipeline.errors import UserError
 
     means: dict[str, dict] = {}
@@ -70,9 +86,13 @@ def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
                  "b": all(d["psnr"] >= -RULE["scene_loss"] for d in diff.values()),
                  "c": mean["ssim"] >= -RULE["ssim_loss"],
                  "d": factor <= RULE["time_factor"]}
+        extra = {}
+        if video is not None:
+            extra["video_time_factor"] = _total(video, scenes, x) / _total(video, scenes, base)
+            parts["e"] = extra["video_time_factor"] <= RULE["time_factor"]
         failed = [p for p, ok in parts.items() if not ok]
-        verdicts[x] = {"per_scene": diff, "mean": mean, "time_factor": factor, "parts": parts,
-                       "decision": f"fails ({failed[0]})" if failed else "passes"}
+        verdicts[x] = {"per_scene": diff, "mean": mean, "time_factor": factor, **extra,
+                       "parts": parts, "decision": f"fails ({failed[0]})" if failed else "passes"}
     passing = [x for x in scales if verdicts[x]["decision"] == "passes"]
     best = max(passing, key=lambda x: verdicts[x]["mean"]["psnr"]) if passing else None
     return {"rule": RULE, "scenes": scenes, "seeds": seeds, "means": means,
@@ -92,6 +112,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the candidates' labels in file names")
     ap.add_argument("--base", default=BASE, help="the baseline arm's label")
     ap.add_argument("--prefix", default="novel_ns", help="file names: PREFIX{arm}_SCENE_sSEED.json")
+    ap.add_argument("--video-times", type=Path, default=None,
+                    help="times of a camera path's frames per scene, seed and arm: part (e)")
     ap.add_argument("--out", type=Path)
     a = ap.parse_args(argv)
     try:
@@ -100,14 +122,19 @@ def main(argv: list[str] | None = None) -> int:
             if not t.is_file():
                 raise UserError(f"{t}: no such times file")
             times.update(read_times(t))
+        if a.video_times is not None and not a.video_times.is_file():
+            raise UserError(f"{a.video_times}: no such times file")
         res = judge(a.work, times, a.scenes.split(","), [int(s) for s in a.seeds.split(",")],
-                    a.arms.split(","), a.prefix, a.base)
+                    a.arms.split(","), a.prefix, a.base,
+                    read_times(a.video_times) if a.video_times else None)
     except (UserError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     for x, v in res["candidates"].items():
         print(f"{x}: mean {v['mean']['psnr']:+.3f} dB / {v['mean']['ssim']:+.4f} SSIM, "
-              f"time x{v['time_factor']:.2f}: {v['decision']}")
+              f"time x{v['time_factor']:.2f}"
+              + (f", video x{v['video_time_factor']:.2f}" if "video_time_factor" in v else "")
+              + f": {v['decision']}")
     print(f"decision: {res['decision']}")
     if a.out:
         from pipeline.provenance import write_result

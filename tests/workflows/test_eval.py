@@ -917,3 +917,27 @@ def test_flare_veto_checks_its_inputs_in_one_line_before_any_stage(tmp_path, cap
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and needle in err
     assert not work.exists()
+
+
+def test_network_scale_judge_video_part(tmp_path):
+    """network_scale_ab's part (e): with the video's times, an arm whose camera-path frames
+    take more than twice the base's fails there even when its held-out renders are cheap;
+    without them the verdict has no part (e) (the committed judgements stay as they were)."""
+    ab = load_benchmark("network_scale_ab")
+    for arm, gain in (("base", 0.0), ("x", 0.3)):
+        for sc in ("a", "b"):
+            (tmp_path / f"p{arm}_{sc}_s1.json").write_text(json.dumps(
+                {"heldout": {"psnr": 20.0 + gain, "ssim": 0.6}}))
+    times = {(sc, 1, arm): 10.0 for sc in ("a", "b") for arm in ("base", "x")}
+    plain = ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base")
+    assert plain["candidates"]["x"]["decision"] == "passes"
+    assert "e" not in plain["candidates"]["x"]["parts"]
+    video = {("a", 1, "base"): 30.0, ("b", 1, "base"): 30.0,
+             ("a", 1, "x"): 50.0, ("b", 1, "x"): 75.0}
+    slow = ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base", video)
+    assert slow["candidates"]["x"]["video_time_factor"] == pytest.approx(125 / 60)
+    assert slow["candidates"]["x"]["decision"] == "fails (e)"
+    assert slow["decision"] == "nothing changes"
+    video[("b", 1, "x")] = 60.0
+    ok = ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base", video)
+    assert ok["candidates"]["x"]["decision"] == "passes" and ok["decision"] == "x"
