@@ -1035,3 +1035,27 @@ def test_frames_penalties_exploration_table_is_the_files():
             cells.append(f"{ps[-1]:.3f} / {ss[-1]:.4f}")
         cells.append(f"{sum(ps) / 3:.3f} / {sum(ss) / 3:.4f}")
         assert f"| {label} | " + " | ".join(cells) + " |" in history, arm
+
+
+def test_novel_render_exploration_table_is_its_file():
+    """"The novel frames' fill on the frames' own depth": each row of the exploration's table
+    is its arm in novel_render_explore_s45.json, whose scene and mean differences are its
+    draws' (seed means, then scene means) against the base arm's."""
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    res = json.loads((RESULTS / "novel_render_explore_s45.json").read_text())
+    arms, seeds = res["arms"], res["seeds"]
+    assert len(arms) == 25 and seeds == [6, 7]  # 24 settings and the base
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    rows = 0
+    for arm in arms.values():
+        for sc, d in arm["scenes"].items():
+            again = [sum(arm["draws"][f"{sc}_s{s}"][i] - arms["base"]["draws"][f"{sc}_s{s}"][i]
+                         for s in seeds) / len(seeds) for i in (0, 1)]
+            assert d == pytest.approx(again)
+        flags = " ".join(f"--{x.split('=')[0].removeprefix('render.').replace('_', '-')} "
+                         f"{x.split('=')[1]}" for x in arm["sets"])
+        cells = " | ".join(f"{arm['scenes'][sc][0]:+.3f} / {arm['scenes'][sc][1]:+.4f}"
+                           for sc in names)
+        row = f"| `{flags}` | {cells} | {arm['mean'][0]:+.3f} / {arm['mean'][1]:+.4f} |"
+        rows += row in history
+    assert rows == 8
