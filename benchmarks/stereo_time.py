@@ -80,7 +80,7 @@ def time_fill(ws_dir: Path, frames: int, scale: float | None) -> dict:
         photo_views,
         train_meta,
     )
-    from pipeline.render.plan import plan_jobs
+    from pipeline.render.plan import plan_jobs, resolve_fill
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_cameras, read_views
 
@@ -90,6 +90,7 @@ def time_fill(ws_dir: Path, frames: int, scale: float | None) -> dict:
     meta = train_meta(find_checkpoint(ws, None))  # the sources as the render stage picks them
     cfg = replace(cfg, n_sources=int(meta.get("eval_views") or 10),
                   sources_equal_below=cfg.equal_below(novel=True))
+    cfg = resolve_fill(cfg, "cpu", novel=True)  # the novel frames' fill as render's
     _, _, jobs = plan_jobs(cfg, ws, cams, read_views(ws), "cpu")
     jobs = [jobs[i] for i in np.linspace(0, len(jobs) - 1, frames).round().astype(int)]
     photos = photo_views(ws, cams, jobs, cfg)

@@ -293,6 +293,6 @@ def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
             "`--set depth.consistency_planes=1` (more depth kept), "
             + ("" if aggregated else "`--set depth.frames_sgm=0.1,1` (weakly textured pixels "
                "take their neighbours' depth), ")
-            + "or `--set render.network_depth=holes` (the photos warped through GN-FR's own "
-            "depth) each sharpened the development street walk's frames a little "
-            "(docs/options.md)")
+            + "or, on a GPU, `--set render.network_depth=holes` (the photos warped through "
+            "GN-FR's own depth; the CPU's default) each sharpened the development street "
+            "walk's frames a little (docs/options.md)")

@@ -74,6 +74,7 @@ from pipeline.render.plan import (
     plan_jobs,
     reference_frame,
     resize_camera,
+    resolve_fill,
 )
 from pipeline.render.sources import (
     encode_sources,
@@ -91,7 +92,7 @@ __all__ = [
     "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
     "clear_frames", "decoded_camera", "default_chunk", "depth_samples", "enclosed_holes",
     "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in", "input_blend",
-    "input_rays", "input_sources", "load_model", "match_colours", "network_scale",
+    "input_rays", "input_sources", "load_model", "match_colours", "network_scale", "resolve_fill",
     "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
     "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
     "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
@@ -131,6 +132,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
+    cfg = resolve_fill(cfg, device, novel=key != "inputs")
     if cfg.sources_equal_below is None and key != "inputs":
         # novel frames record the line they used: a render made at another line re-renders
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))

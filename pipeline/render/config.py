@@ -23,6 +23,15 @@ where a mask's misses bring flare in, so the least flared sources serve them bes
 twenty-sixth session); 0 before."""
 
 
+NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes"}
+"""The hybrid fill of novel frames on the CPU where the options are not given (``plan.
+network_scale``, ``plan.resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
+own depth where the depth maps do not reach, the photos' agreement judged over 3x3 pixels.
+Chosen by the forty-fifth session's rule on fresh development draws (docs/history/fill.md,
+"The novel frames' fill on the frames' own depth"). The de-flared photos keep a 1-pixel
+agreement; CUDA keeps GN-FR at full size with the depth maps' depth (never timed there)."""
+
+
 @dataclass
 class RenderConfig:
     """Options of the render stage."""
@@ -113,10 +122,12 @@ class RenderConfig:
     """hybrid: photos that must agree on a pixel's colour before it is taken from them."""
     photo_sources: int = option(4, ge=1)
     """hybrid: nearest clean photos warped into each image."""
-    agree_window: int = option(1, ge=1, odd=True)
+    agree_window: int | None = option(None, ge=1, odd=True)
     """hybrid: a photo agrees with the others at a pixel when its colour difference from
     their median, averaged over this window around the pixel, is within the agreement
-    tolerance (1 = the pixel alone; docs/history/fill.md, "Agreement over a patch")."""
+    tolerance (1 = the pixel alone; docs/history/fill.md, "Agreement over a patch").
+    Default: 3 for novel frames on the CPU (``NOVEL_CPU_FILL``), 1 for the de-flared photos
+    and on CUDA."""
     photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel
@@ -125,8 +136,8 @@ class RenderConfig:
     disagree")."""
     network_scale: float | None = option(None, gt=0)
     """hybrid novel frames: GN-FR renders the pixels the photos do not cover at this
-    fraction of the frame size, upsampled under the photos' detail (default 1/4 on CPU, 1
-    on CUDA)."""
+    fraction of the frame size, upsampled under the photos' detail (default:
+    ``NOVEL_CPU_FILL``'s on CPU, 1 on CUDA)."""
     beyond_planes: int = option(0, ge=0, le=64)
     """hybrid: planes past the far bound (out to 100 times it) in the sweep that finds a depth
     where no depth map reaches, so distant scenery and the sky can be taken from the photos
@@ -153,12 +164,13 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
-    network_depth: str = option("off", choices=("off", "holes", "all"))
+    network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth
     maps do not reach (instead of the plane sweep's and the interpolation's); ``all``, at
     every pixel (the depth maps unused); ``off``: the depth maps, sweep and interpolation
-    (docs/history/fill.md, "GN-FR's own depth for the photos")."""
+    (docs/history/fill.md, "GN-FR's own depth for the photos"). Default: ``holes`` on the
+    CPU (``NOVEL_CPU_FILL``), ``off`` on CUDA."""
     depth_min_blob: float | None = option(None, ge=0, lt=1)
     """hybrid: islands of the photos' depth maps (connected within one plane step) smaller
     than this fraction of the image are left out when the render reads them

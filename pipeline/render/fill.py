@@ -72,6 +72,9 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         support_weight,
     )
 
+    if cfg.agree_window is None:
+        raise ValueError("fill_from_photos: the config's fill defaults are not resolved "
+                         "(pipeline.render.plan.resolve_fill)")
     K, c2w = np.asarray(K, float), np.asarray(c2w, float)
     c = c2w[:3, 3]
     near = sorted((s for s in job.sources if s in photos),

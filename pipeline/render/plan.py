@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
-from pipeline.render.config import NAMED_PATHS, RenderConfig
+from pipeline.render.config import NAMED_PATHS, NOVEL_CPU_FILL, RenderConfig
 from pipeline.render.jobs import FrameJob
 from pipeline.render.sources import input_sources, novel_sources
 from pipeline.workspace import Workspace, read_json
@@ -106,10 +107,24 @@ def novel_scale(cfg: RenderConfig, device: str) -> float:
 
 
 def network_scale(cfg: RenderConfig, device: str) -> float:
-    """Fraction of a hybrid novel frame's size at which GN-FR renders its uncovered pixels."""
+    """Fraction of a hybrid novel frame's size at which GN-FR renders its uncovered pixels:
+    the option when given, else 1 on CUDA and ``NOVEL_CPU_FILL``'s on the CPU."""
     if cfg.network_scale:
         return float(cfg.network_scale)
-    return 1.0 if device.startswith("cuda") else 0.25
+    return 1.0 if device.startswith("cuda") else float(NOVEL_CPU_FILL["network_scale"])
+
+
+def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
+    """``cfg`` with the hybrid fill's ``agree_window`` and ``network_depth`` resolved where
+    not given: ``NOVEL_CPU_FILL``'s for novel frames on the CPU, a 1-pixel agreement and the
+    depth maps' depth for the de-flared photos and on CUDA. The one place those defaults
+    are resolved (the render records them; a benchmark that calls the fill itself resolves
+    them here too)."""
+    cpu_novel = novel and not device.startswith("cuda")
+    return replace(cfg, agree_window=cfg.agree_window or (
+                       NOVEL_CPU_FILL["agree_window"] if cpu_novel else 1),
+                   network_depth=cfg.network_depth or (
+                       NOVEL_CPU_FILL["network_depth"] if cpu_novel else "off"))
 
 
 def depth_samples(cfg: RenderConfig, device: str, samples: int, novel: bool) -> int:

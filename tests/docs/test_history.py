@@ -1059,3 +1059,32 @@ def test_novel_render_exploration_table_is_its_file():
         row = f"| `{flags}` | {cells} | {arm['mean'][0]:+.3f} / {arm['mean'][1]:+.4f} |"
         rows += row in history
     assert rows == 8
+
+
+def test_novel_fill_rule_table_is_the_judge_of_the_committed_scores():
+    """"The novel frames' fill on the frames' own depth": the table is network_scale_ab's
+    judgement of the committed scores and both times files (w3d35 passes and is the CPU
+    default), and the base renders reproduce the base arms' own held-out scores."""
+    from pipeline.render.config import NOVEL_CPU_FILL
+
+    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    ab = load_benchmark("network_scale_ab")
+    res = ab.judge(RESULTS, ab.read_times(RESULTS / "novel_s45_times_cpu.txt"),
+                   ["sceaux", "et", "lund"], [8, 9], ["w3d", "w3d35", "w3d50"], "novel_s45_",
+                   "base", ab.read_times(RESULTS / "novel_s45_video_times_cpu.txt"))
+    saved = json.loads((RESULTS / "novel_fill_judge_s45.json").read_text())
+    assert res["decision"] == saved["decision"] == "w3d35"
+    for arm, v in res["candidates"].items():
+        assert v["mean"] == pytest.approx(saved["candidates"][arm]["mean"])
+        cells = " | ".join(f"{v['per_scene'][sc]['psnr']:+.3f} / {v['per_scene'][sc]['ssim']:+.4f}"
+                           for sc in ("sceaux", "et", "lund"))
+        row = (f"| {arm} | {cells} | {v['mean']['psnr']:+.3f} / {v['mean']['ssim']:+.4f} | "
+               f"x{v['time_factor']:.2f} | x{v['video_time_factor']:.2f} | {v['decision']} |")
+        assert row in history, row
+    assert NOVEL_CPU_FILL == {"network_scale": 0.35, "agree_window": 3,
+                              "network_depth": "holes"}
+    for sc in ("sceaux", "et", "lund"):
+        for s in (8, 9):
+            mine = json.loads((RESULTS / f"novel_s45_base_{sc}_s{s}.json").read_text())
+            run = json.loads((RESULTS / f"fmg_s45_base_fair_{sc}_s{s}.json").read_text())
+            assert mine["heldout"]["psnr"] == pytest.approx(run["heldout"]["psnr"], abs=0.01)

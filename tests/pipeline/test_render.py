@@ -694,7 +694,7 @@ def test_small_hole_options_give_the_photos_more_of_a_novel_frame(hws, tmp_path,
     """A frame between two cameras: with --close-holes (the small holes of the photos'
     agreed region are filled from the photos) or --sharp-holes (they no longer feather the
     photos around them) the network renders fewer rays, and the frame stays as close to the
-    plane's texture as without."""
+    plane's texture as without (GN-FR's depth first off: with it GN-FR draws every pixel)."""
     from pipeline.render import RenderConfig, run
 
     rays, _ = counters
@@ -702,8 +702,8 @@ def test_small_hole_options_give_the_photos_more_of_a_novel_frame(hws, tmp_path,
     frames = {}
     for value in (0.0, 0.03):
         before = rays.rays
-        run(RenderConfig(path=str(path), fill="hybrid", network_scale=1.0, **{field: value}),
-            hws, force=True)
+        run(RenderConfig(path=str(path), fill="hybrid", network_scale=1.0, network_depth="off",
+                         **{field: value}), hws, force=True)
         frames[value] = (rays.rays - before,
                          cv2.imread(str(hws.renders / "between" / "v.png")).astype(int))
     assert frames[0.03][0] < frames[0.0][0], (frames[0.03][0], frames[0.0][0])
@@ -798,6 +798,29 @@ def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
     assert depth_samples(cfg, "cpu", 6, novel=False) == 4
     assert depth_samples(RenderConfig(depth_samples=5), "cpu", 24, novel=True) == 5
     assert depth_samples(RenderConfig(fill="network"), "cpu", 24, novel=False) == 0
+
+
+def test_novel_frames_on_the_cpu_fill_as_the_forty_fifth_rule_chose():
+    """Novel frames on the CPU: GN-FR's share at NOVEL_CPU_FILL's scale, its own depth in the
+    holes, a 3x3 agreement (the rule in docs/history/fill.md); the de-flared photos keep a
+    1-pixel agreement and the depth maps' depth, CUDA its full-size share with them too;
+    what the user gives is kept."""
+    from pipeline.render import RenderConfig, network_scale, resolve_fill
+    from pipeline.render.config import NOVEL_CPU_FILL
+
+    cfg = RenderConfig()
+    got = resolve_fill(cfg, "cpu", novel=True)
+    assert (got.agree_window, got.network_depth) == (3, "holes")
+    assert network_scale(cfg, "cpu") == NOVEL_CPU_FILL["network_scale"]
+    assert NOVEL_CPU_FILL["network_scale"] == 0.35  # w3d35 of the rule
+    for device, novel in (("cpu", False), ("cuda", True), ("cuda", False)):
+        got = resolve_fill(cfg, device, novel)
+        assert (got.agree_window, got.network_depth) == (1, "off"), (device, novel)
+    assert network_scale(cfg, "cuda") == 1.0
+    mine = RenderConfig(agree_window=5, network_depth="off", network_scale=0.25)
+    got = resolve_fill(mine, "cpu", novel=True)
+    assert (got.agree_window, got.network_depth, network_scale(got, "cpu")) == (5, "off", 0.25)
+    assert resolve_fill(RenderConfig(network_depth="all"), "cuda", True).network_depth == "all"
 
 
 @pytest.mark.parametrize("mode", ["holes", "all"])

@@ -291,6 +291,7 @@ def test_photo_fallback_takes_farther_photos_only_where_the_nearest_disagree():
     from pipeline.render.config import RenderConfig
     from pipeline.render.fill import fill_from_photos
     from pipeline.render.jobs import FrameJob
+    from pipeline.render.plan import resolve_fill
 
     rng = np.random.default_rng(7)
     centers = [[0.0, 0.0, -3.0], [0.12, 0.0, -3.0], [-0.12, 0.0, -3.0], [0.0, 0.12, -3.0],
@@ -309,7 +310,8 @@ def test_photo_fallback_takes_farther_photos_only_where_the_nearest_disagree():
     left = (slice(20, -20), slice(10, W // 2 - 20))
     right = (slice(20, -20), slice(W // 2 + 30, -20))
     fills = {fb: fill_from_photos(K, target.c2w, (W, H), job, by,
-                                  RenderConfig(photo_fallback=fb)) for fb in (0, 2)}
+                                  resolve_fill(RenderConfig(photo_fallback=fb), "cpu", False))
+             for fb in (0, 2)}
     assert fills[0].weight[left].mean() < 0.05
     assert fills[2].weight[left].mean() > 0.5
     covered = fills[2].weight[left] >= 1
