@@ -150,8 +150,14 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
-    stage_run = ws.begin_stage(f"render:{key}", params, inputs, force,
-                               defaults={**asdict(RenderConfig()), "depth_maps": "depth"})
+    defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
+                "depth_maps": "depth"}
+    if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
+        # network scale to record; records before the forty-fifth session hold the novel
+        # frames' default of then, which must not make finished photos render again
+        params.pop("network_scale")
+        defaults["network_scale"] = 1.0 if device.startswith("cuda") else 0.25
+    stage_run = ws.begin_stage(f"render:{key}", params, inputs, force, defaults=defaults)
     if stage_run.skip:
         info(f"render {key}: up to date ({out_dir})")
         return stage_run.outputs

@@ -785,6 +785,36 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:inputs")["params"]["sources_equal_below"] is None
 
 
+def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
+    """The novel frames record the CPU fill they used (NOVEL_CPU_FILL); the de-flared photos
+    record no network scale (they do not use one), and a record written before the
+    forty-fifth session (network_scale 0.25 there) is still up to date, while a novel
+    path's old record (1-pixel agreement, depth maps only) is not."""
+    from pipeline.render import RenderConfig, run
+    from pipeline.render.config import NOVEL_CPU_FILL
+
+    run(RenderConfig(path="inputs", fill="hybrid"), hws)
+    rec = hws.stage_record("render:inputs")
+    assert "network_scale" not in rec["params"]
+    assert (rec["params"]["agree_window"], rec["params"]["network_depth"]) == (1, "off")
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    nov = hws.stage_record("render:interpolate")["params"]
+    assert (nov["network_scale"], nov["agree_window"], nov["network_depth"]) == (
+        NOVEL_CPU_FILL["network_scale"], 3, "holes")
+    for name, old in (("render:inputs", {"network_scale": 0.25}),
+                      ("render:interpolate", {"network_scale": 0.25, "agree_window": 1,
+                                              "network_depth": "off"})):
+        r = hws.stage_record(name)
+        hws.update_manifest(name, {**r, "params": {**r["params"], **old}})
+    photos = sorted((hws.deflared).iterdir())
+    stamps = [f.stat().st_mtime_ns for f in photos]
+    run(RenderConfig(path="inputs", fill="hybrid"), hws)  # up to date: nothing rewritten
+    assert [f.stat().st_mtime_ns for f in photos] == stamps
+    assert hws.stage_record("render:inputs")["params"].get("network_scale") == 0.25
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    assert hws.stage_record("render:interpolate")["params"]["agree_window"] == 3
+
+
 def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
     """Hybrid novel frames on the CPU sample GN-FR's rays along the whole ray (the rule in
     docs/history/fill.md); the de-flared photos and CUDA keep the band of a third of the
