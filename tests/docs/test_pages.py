@@ -537,15 +537,17 @@ def test_goals_page_rows_follow_their_files():
         m = d["flare"]["methods"] if "flare" in d else d["methods"]
         a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
         assert f"| {scene} | {a:.2f} | {b:.2f} | {a - b:+.2f} |" in text, scene
-        if scene != "fern":  # the held-out frames: the forty-fourth session's renders
-            h = load(f.replace("_s42", "_s44"))["methods"]
+        if scene != "fern":  # the held-out frames: the forty-fifth session's renders
+            h = load(f.replace("_s42", "_s45"))["methods"]
             for k in ("gnfr", "gnt"):  # the same models: the de-flared photos to the digit
                 assert h[k]["inputs"]["psnr_flare"] == m[k]["inputs"]["psnr_flare"], (scene, k)
             assert f"{scene} {h['gnfr']['heldout']['psnr']:.2f} dB (GNT " \
                    f"{h['gnt']['heldout']['psnr']:.2f}" in " ".join(text.split()), scene
-            assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before them"
+            before = load(f.replace("_s42", "_s44"))["methods"]["gnfr"]["heldout"]["psnr"]
+            assert f"{before:.2f}" in text, scene  # "before it"
+            assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before those"
     readme = " ".join((REPO / "README.md").read_text().split())
-    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s44.json")["methods"] for s in ("kermit", "cyprus"))
+    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s45.json")["methods"] for s in ("kermit", "cyprus"))
     ahead = c["gnfr"]["heldout"]["psnr"] - c["gnt"]["heldout"]["psnr"]
     behind = k["gnt"]["heldout"]["psnr"] - k["gnfr"]["heldout"]["psnr"]
     assert (f"On novel views GN-FR is {ahead:.2f} dB ahead on cyprus and {behind:.2f} dB "
@@ -674,3 +676,18 @@ def test_the_one_cost_volume_one_shot_is_the_same_and_its_depth_stage_faster():
     text = " ".join((REPO / "docs" / "performance.md").read_text().split())
     sa, sb = (x["stages"]["depth"]["seconds"] for x in (a, b))
     assert f"{sb:.1f} s ({sa:.1f} s with a second sweep per view)" in text and sb < sa
+
+
+def test_eval_page_test_scene_frames_of_the_forty_fifth_session_are_the_files():
+    """docs/eval.md: the test scenes' held-out frames with the forty-fifth session's fill are
+    the eval files' numbers, and those files' de-flared photos equal the forty-fourth's."""
+    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    for scene in ("kermit", "cyprus"):
+        m = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s45.json").read_text())["methods"]
+        old = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s44.json").read_text())["methods"]
+        g, n = m["gnfr"]["heldout"], m["gnt"]["heldout"]
+        assert (f"{scene} {g['psnr']:.2f} / {g['ssim']:.3f} against {n['psnr']:.2f} / "
+                f"{n['ssim']:.3f}") in text, scene
+        for k in ("gnfr", "gnt"):
+            assert m[k]["inputs"]["psnr_flare"] == old[k]["inputs"]["psnr_flare"]
+            assert m[k]["inputs"]["ssim"] == old[k]["inputs"]["ssim"]
