@@ -450,10 +450,13 @@ def test_performance_whole_ray_frame_times_match(width):
     row = (f"| {net['size'][0]}x{net['size'][1]} | {net['s_per_frame']:.1f} s | "
            f"{hyb['s_per_frame']:.1f} s | {net['s_per_frame'] / hyb['s_per_frame']:.0f}x |")
     assert row in (REPO / "docs" / "performance.md").read_text(), row
-    if width == 504:
+    if width == 504:  # the README: the sample one-shot's frames now, before, GN-FR alone
         readme = " ".join((REPO / "README.md").read_text().split())
-        assert (f"about {hyb['s_per_frame']:.1f} s each at 504x331 with the default fill, "
-                f"{net['s_per_frame']:.1f} s with GN-FR alone") in readme
+        now, before = (json.loads((RESULTS / f).read_text())["stages"]["render:interpolate"]
+                       ["seconds"] / 48 for f in ("sample_oneshot_cpu_s45.json",
+                                                  "sample_oneshot_cpu_s45_before.json"))
+        assert f"about {now:.1f} s each at 512x336 with the default fill" in readme
+        assert f"{before:.1f} s before it; {net['s_per_frame']:.1f} s with GN-FR alone" in readme
 
 
 def test_mask_kinds_pooled_summary_is_the_card_and_history():
@@ -691,3 +694,19 @@ def test_eval_page_test_scene_frames_of_the_forty_fifth_session_are_the_files():
         for k in ("gnfr", "gnt"):
             assert m[k]["inputs"]["psnr_flare"] == old[k]["inputs"]["psnr_flare"]
             assert m[k]["inputs"]["ssim"] == old[k]["inputs"]["ssim"]
+
+
+def test_performance_sample_stage_times_of_the_forty_fifth_session_are_the_files():
+    """docs/performance.md: the sample one-shot's fine-tune and video times before and with
+    the new fill of novel frames are the two files', and their de-flared photos agree."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    runs = [json.loads((RESULTS / f).read_text()) for f in
+            ("sample_oneshot_cpu_s45.json", "sample_oneshot_cpu_s45_before.json")]
+    for r in runs:
+        st = r["stages"]
+        assert (f"fine-tuning {st['finetune']['seconds']:.1f} s, the 48 frames "
+                f"{st['render:interpolate']['seconds']:.1f} s") in text
+    assert runs[0]["mean"] == runs[1]["mean"]
+    ratio = (runs[0]["stages"]["render:interpolate"]["seconds"]
+             / runs[1]["stages"]["render:interpolate"]["seconds"])
+    assert f"take {ratio:.1f} times as long on the sample" in text
