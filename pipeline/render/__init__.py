@@ -92,13 +92,12 @@ __all__ = [
     "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
     "clear_frames", "decoded_camera", "default_chunk", "depth_samples", "enclosed_holes",
     "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in", "input_blend",
-    "input_rays", "input_sources", "load_model", "match_colours", "network_scale", "resolve_fill",
+    "input_rays", "input_sources", "load_model", "match_colours", "network_scale",
     "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
     "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
     "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
-    "rendered_frames", "require_masks",
-    "resize_camera", "run", "split_guided", "train_meta", "with_exif", "write_frame",
-    "write_path_cameras",
+    "rendered_frames", "require_masks", "resize_camera", "resolve_fill", "run", "split_guided",
+    "train_meta", "with_exif", "write_frame", "write_path_cameras",
 ]
 
 

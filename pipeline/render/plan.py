@@ -116,11 +116,12 @@ def network_scale(cfg: RenderConfig, device: str) -> float:
 
 def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
     """``cfg`` with the hybrid fill's ``agree_window`` and ``network_depth`` resolved where
-    not given: ``NOVEL_CPU_FILL``'s for novel frames on the CPU, a 1-pixel agreement and the
-    depth maps' depth for the de-flared photos and on CUDA. The one place those defaults
-    are resolved (the render records them; a benchmark that calls the fill itself resolves
-    them here too)."""
-    cpu_novel = novel and not device.startswith("cuda")
+    not given: ``NOVEL_CPU_FILL``'s for hybrid novel frames on the CPU, a 1-pixel agreement
+    and the depth maps' depth for the de-flared photos, on CUDA and where GN-FR renders
+    every pixel (``fill`` network: neither is used). The one place those defaults are
+    resolved (the render records them; a benchmark that calls the fill itself resolves them
+    here too)."""
+    cpu_novel = novel and not device.startswith("cuda") and cfg.fill == "hybrid"
     return replace(cfg, agree_window=cfg.agree_window or (
                        NOVEL_CPU_FILL["agree_window"] if cpu_novel else 1),
                    network_depth=cfg.network_depth or (

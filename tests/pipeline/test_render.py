@@ -851,6 +851,8 @@ def test_novel_frames_on_the_cpu_fill_as_the_forty_fifth_rule_chose():
     got = resolve_fill(mine, "cpu", novel=True)
     assert (got.agree_window, got.network_depth, network_scale(got, "cpu")) == (5, "off", 0.25)
     assert resolve_fill(RenderConfig(network_depth="all"), "cuda", True).network_depth == "all"
+    net = resolve_fill(RenderConfig(fill="network"), "cpu", novel=True)  # nothing to fill
+    assert (net.agree_window, net.network_depth) == (1, "off")
 
 
 @pytest.mark.parametrize("mode", ["holes", "all"])
