@@ -941,3 +941,26 @@ def test_network_scale_judge_video_part(tmp_path):
     video[("b", 1, "x")] = 60.0
     ok = ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base", video)
     assert ok["candidates"]["x"]["decision"] == "passes" and ok["decision"] == "x"
+
+
+def test_novel_loo_table_reads_arms_and_names_a_missing_file(tmp_path, capsys):
+    """novel_loo_table.py: arms found by their files, differences from the base as seed means
+    then scene means; a missing draw or bad seeds are one line and exit 2."""
+    tab = load_benchmark("novel_loo_table")
+    for arm, (p, s) in (("base", (20.0, 0.5)), ("x", (20.5, 0.52))):
+        for sc in ("a", "b"):
+            for seed, bump in ((6, 0.0), (7, 0.2)):
+                (tmp_path / f"{arm}_{sc}_s{seed}.json").write_text(json.dumps(
+                    {"psnr": p + bump + (0.1 if sc == "b" and arm == "x" else 0.0),
+                     "ssim": s, "sets": [] if arm == "base" else ["render.agree_window=3"]}))
+    res = tab.table(tmp_path, "base", ["a", "b"], [6, 7])
+    assert set(res) == {"base", "x"} and res["x"]["sets"] == ["render.agree_window=3"]
+    assert res["x"]["scenes"]["a"] == pytest.approx([0.5, 0.02])
+    assert res["x"]["scenes"]["b"] == pytest.approx([0.6, 0.02])
+    assert res["x"]["mean"] == pytest.approx([0.55, 0.02])
+    (tmp_path / "x_b_s7.json").unlink()
+    assert tab.main([str(tmp_path), "--scenes", "a,b", "--arms", "x"]) == 2
+    assert capsys.readouterr().err.strip().endswith(
+        "x_b_s7.json: no such result; render it with novel_loo.py first")
+    assert tab.main([str(tmp_path), "--seeds", "six"]) == 2
+    assert "--seeds takes integers" in capsys.readouterr().err
