@@ -42,14 +42,21 @@ def read_times(path: Path) -> dict[tuple[str, int, str], float]:
     return out
 
 
-def _total(times: dict, scenes: list[str], arm: str) -> float:
-    """Seconds of ``arm`` over ``scenes`` (every seed the times file has for them)."""
+def total_seconds(times: dict, scenes: list[str], arm: str, seeds: list[int] | None = None,
+                  what: str = "times file") -> float:
+    """Seconds of ``arm`` over ``scenes`` and ``seeds`` (None: the seeds the file has for
+    each scene, at least one) from ``read_times``' dict; a line missing is a UserError."""
     from pipeline.errors import UserError
 
-    got = [v for (sc, _, x), v in times.items() if x == arm and sc in scenes]
-    if len(got) < len(scenes):
-        raise UserError(f"the video times file lacks arm {arm} on some of {scenes}")
-    return sum(got)
+    values = []
+    for sc in scenes:
+        want = seeds if seeds is not None else [s for c, s, x in times if c == sc and x == arm]
+        missing = [(sc, s, arm) for s in want if (sc, s, arm) not in times] or (
+            [] if want else [(sc, "any seed", arm)])
+        if missing:
+            raise UserError(f"the {what} has no line for {missing[0]}")
+        values += [times[(sc, s, arm)] for s in want]
+    return sum(values)  # scene by scene, seed by seed: the committed judgements' order
 
 
 def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
@@ -72,10 +79,7 @@ def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
                 raise UserError(f"{missing[0]}: no such score; render and score it first")
             held = [json.loads(f.read_text())["heldout"] for f in files]
             means[x][sc] = {k: sum(h[k] for h in held) / len(held) for k in ("psnr", "ssim")}
-        try:
-            means[x]["seconds"] = sum(times[(sc, s, x)] for sc in scenes for s in seeds)
-        except KeyError as e:
-            raise UserError(f"the times file has no line for {e.args[0]}") from None
+        means[x]["seconds"] = total_seconds(times, scenes, x, seeds)
     verdicts = {}
     for x in scales:
         diff = {sc: {k: means[x][sc][k] - means[base][sc][k] for k in ("psnr", "ssim")}
@@ -88,7 +92,9 @@ def judge(work: Path, times: dict, scenes: list[str], seeds: list[int],
                  "d": factor <= RULE["time_factor"]}
         extra = {}
         if video is not None:
-            extra["video_time_factor"] = _total(video, scenes, x) / _total(video, scenes, base)
+            extra["video_time_factor"] = (total_seconds(video, scenes, x, what="video times file")
+                                          / total_seconds(video, scenes, base,
+                                                          what="video times file"))
             parts["e"] = extra["video_time_factor"] <= RULE["time_factor"]
         failed = [p for p, ok in parts.items() if not ok]
         verdicts[x] = {"per_scene": diff, "mean": mean, "time_factor": factor, **extra,

@@ -941,6 +941,11 @@ def test_network_scale_judge_video_part(tmp_path):
     video[("b", 1, "x")] = 60.0
     ok = ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base", video)
     assert ok["candidates"]["x"]["decision"] == "passes" and ok["decision"] == "x"
+    from pipeline.errors import UserError
+
+    del video[("b", 1, "x")]  # one scene's line missing: named, not summed without it
+    with pytest.raises(UserError, match="video times file has no line for .'b', 'any seed'"):
+        ab.judge(tmp_path, times, ["a", "b"], [1], ["x"], "p", "base", video)
 
 
 def test_novel_loo_table_reads_arms_and_names_a_missing_file(tmp_path, capsys):
