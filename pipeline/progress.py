@@ -73,9 +73,10 @@ def time_left(seconds: float) -> str:
     return f"about {seconds / 3600:.1f} h left"
 
 
-def make_progress(*extra_columns) -> Progress:
-    """A rich progress bar on stderr; plain periodic lines when not a terminal."""
-    plain = not sys.stderr.isatty()
+def make_progress(*extra_columns, quiet: bool = False) -> Progress:
+    """A rich progress bar on stderr; plain periodic lines when not a terminal; nothing
+    shown when ``quiet``."""
+    plain = not quiet and not sys.stderr.isatty()
     return _Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -84,7 +85,7 @@ def make_progress(*extra_columns) -> Progress:
         TimeElapsedColumn(),
         TimeRemainingColumn(),
         console=console,
-        disable=plain,
+        disable=plain or quiet,
         transient=False,
         plain=plain,
     )

@@ -36,12 +36,15 @@ def shared(*parts: str) -> Path:
 
 @pytest.fixture(autouse=True)
 def _few_threads(monkeypatch):
-    """Keep torch to the 2 cores CI has and make CPU runs reproducible."""
+    """Keep torch to the 2 cores CI has and make CPU runs reproducible; the render renders
+    in the test's process unless a test asks for workers (``pipeline.render.workers.
+    AUTO_WORKERS``: the tests' counters and simulated interrupts patch this process)."""
     try:
         import torch
     except ImportError:  # pragma: no cover
         return
     torch.set_num_threads(min(2, os.cpu_count() or 1))
+    monkeypatch.setattr("pipeline.render.workers.AUTO_WORKERS", False)
 
 
 @pytest.fixture

@@ -19,7 +19,8 @@ Modules (each imports only those listed before it): ``config`` (RenderConfig), `
 (the typed FrameJob), ``frames`` (frame files), ``sources`` (source views, model),
 ``plan`` (frame jobs, camera paths), ``fill`` (hybrid photo fill), ``inputs`` (input
 views), ``novel`` (novel frames), ``full_res`` (original photos), ``engine`` (rendering
-the jobs); this module is the stage entry and re-exports their public names.
+the jobs), ``workers`` (in this process or split over one-thread processes); this module is the
+stage entry and re-exports their public names.
 """
 
 from __future__ import annotations
@@ -67,7 +68,6 @@ from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.render.novel import prepare_hybrid_novel, prepare_novel
 from pipeline.render.plan import (
     depth_samples,
-    network_scale,
     novel_depth_range,
     novel_path,
     novel_scale,
@@ -84,28 +84,32 @@ from pipeline.render.sources import (
     novel_sources,
     train_meta,
 )
+from pipeline.render.workers import (
+    RenderSetup,
+    frame_workers,
+    render_here,
+    render_in_workers,
+)
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_views
 
 __all__ = [
     "CHUNK", "DEPTH_BAND", "FILLS", "MATCH_GAIN", "MATCH_MIN_PIXELS", "NAMED_PATHS",
-    "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "blend_weights",
-    "clear_frames", "decoded_camera", "default_chunk", "depth_samples", "enclosed_holes",
-    "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in", "input_blend",
-    "input_rays", "input_sources", "load_model", "match_colours", "network_scale",
+    "RING_TOLERANCE", "FrameJob", "FullRes", "Prepared", "RenderConfig", "RenderSetup",
+    "blend_weights", "clear_frames", "decoded_camera", "default_chunk", "depth_samples",
+    "enclosed_holes", "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in",
+    "frame_workers", "input_blend", "input_rays", "input_sources", "load_model", "match_colours",
     "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
-    "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel",
-    "prepare_input", "prepare_job", "prepare_novel", "reference_frame", "render_jobs",
-    "rendered_frames", "require_masks", "resize_camera", "resolve_fill", "run", "split_guided",
-    "train_meta", "with_exif", "write_frame", "write_path_cameras",
+    "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel", "prepare_input",
+    "prepare_job", "prepare_novel", "reference_frame", "render_here", "render_in_workers",
+    "render_jobs", "rendered_frames", "require_masks", "resize_camera", "resolve_fill", "run",
+    "split_guided", "train_meta", "with_exif", "write_frame", "write_path_cameras",
 ]
 
 
 def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
     validate(cfg)
-    import torch
-
     ws.require("pose")
     cams = read_cameras(ws)
     views = read_views(ws)
@@ -137,11 +141,12 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
-    params = {**asdict(cfg), "device": None, "chunk": None, "compile": None, "samples": samples,
+    params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,
+              "compile": None, "samples": samples,
               "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
               "full_res_colour": bool(meta.get("full_res_colour", False)
                                       if cfg.full_res_colour is None else cfg.full_res_colour),
-              "scale": novel_scale(cfg, device), "network_scale": network_scale(cfg, device),
+              "scale": novel_scale(cfg, device),
               "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
               "point_sampler": bool(meta.get("point_sampler", True)),
               "depth_maps": "frames" if frames_maps else "depth"}
@@ -172,15 +177,13 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         info(f"render {key}: {len(jobs) + len(full) - len(todo)} of {len(jobs) + len(full)} "
              "images already done")
     if todo:
-        with torch.inference_mode():
-            model = load_model(ckpt, device)
-            stems = sorted({s for j in todo for s in j.sources})
-            gains = meta.get("exposure_gains") or None
-            src, index = encode_sources(model, ws, cams, stems, device, params["source_scale"],
-                                        params["full_res_colour"], gains)
-            photos = photo_views(ws, cams, todo, cfg, frames_maps) if use_photos else None
-            if cfg.compile:  # after encoding: only the rays' forward pass is compiled
-                model = torch.compile(model, dynamic=False)
-            render_jobs(model, src, index, todo, params, cfg, ws, photos, gains)
+        setup = RenderSetup(ws, ckpt, cfg, params, device,
+                            sorted({s for j in todo for s in j.sources}),
+                            meta.get("exposure_gains") or None, use_photos, frames_maps)
+        workers = frame_workers(cfg, device, len(todo))
+        if workers > 1:
+            render_in_workers(setup, todo, workers)
+        else:
+            render_here(setup, cams, todo)
     outputs = [out_dir] + ([ws.deflared_full] if full else [])
     return stage_run.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])

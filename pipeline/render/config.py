@@ -25,7 +25,7 @@ twenty-sixth session); 0 before."""
 
 NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes"}
 """The hybrid fill of novel frames on the CPU where the options are not given (``plan.
-network_scale``, ``plan.resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
+resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
 own depth where the depth maps do not reach, the photos' agreement judged over 3x3 pixels.
 Chosen by the forty-fifth session's rule on fresh development draws (docs/history/fill.md,
 "The novel frames' fill on the frames' own depth"). The de-flared photos keep a 1-pixel
@@ -54,6 +54,15 @@ class RenderConfig:
     runs out)."""
     device: str = option("auto", device=True)
     """auto (CUDA when available), cpu, cuda or cuda:N."""
+    workers: int | None = option(None, ge=1)
+    """On the CPU: processes that render the frames side by side, one thread each (default:
+    one per thread torch would use, at least two frames each; 1 renders in this process with
+    torch's threads, and holds the photos and the model once). The frames are the same but
+    for rounding (threads sum in another order: a few values in a million 1 level apart); on
+    the 2-core machine two one-thread processes rendered the sample's video frames 1.4x
+    faster than one with two threads (``python benchmarks/render_speed.py``,
+    docs/performance.md, "Video frames in two processes"). CUDA and ``compile`` render in
+    this process."""
     samples: int | None = option(None, ge=1)
     """Samples per ray (default: the checkpoint's training value, else 64 CUDA / 32 CPU)."""
     blend: str = option("mask", choices=("mask", "none"))

@@ -26,15 +26,16 @@ def default_chunk(device_type: str) -> int:
 
 def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params: dict,
                 cfg: RenderConfig, ws: Workspace, photos: dict | None = None,
-                gains: dict | None = None) -> None:
-    """Render and write every job against the shared source cache, with progress bars.
+                gains: dict | None = None, quiet: bool = False) -> None:
+    """Render and write every job against the shared source cache, with progress bars (none
+    when ``quiet``: a worker process, ``pipeline.render.workers``).
     ``gains``: the exposure the model was trained at (``pipeline.exposure``): its colours
     are taken back to each frame's (:func:`exposure_back`)."""
     import torch
 
     from gnfr.renderer import render_rays
 
-    with make_progress() as prog:
+    with make_progress(quiet=quiet) as prog:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
         for job in jobs:

@@ -106,23 +106,21 @@ def novel_scale(cfg: RenderConfig, device: str) -> float:
     return 1.0 if device.startswith("cuda") or cfg.fill == "hybrid" else 0.25
 
 
-def network_scale(cfg: RenderConfig, device: str) -> float:
-    """Fraction of a hybrid novel frame's size at which GN-FR renders its uncovered pixels:
-    the option when given, else 1 on CUDA and ``NOVEL_CPU_FILL``'s on the CPU."""
-    if cfg.network_scale:
-        return float(cfg.network_scale)
-    return 1.0 if device.startswith("cuda") else float(NOVEL_CPU_FILL["network_scale"])
-
-
 def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
-    """``cfg`` with the hybrid fill's ``agree_window`` and ``network_depth`` resolved where
-    not given: ``NOVEL_CPU_FILL``'s for hybrid novel frames on the CPU, a 1-pixel agreement
-    and the depth maps' depth for the de-flared photos, on CUDA and where GN-FR renders
-    every pixel (``fill`` network: neither is used). The one place those defaults are
-    resolved (the render records them; a benchmark that calls the fill itself resolves them
-    here too)."""
-    cpu_novel = novel and not device.startswith("cuda") and cfg.fill == "hybrid"
-    return replace(cfg, agree_window=cfg.agree_window or (
+    """``cfg`` with the hybrid fill's ``network_scale``, ``agree_window`` and ``network_depth``
+    resolved where not given: ``NOVEL_CPU_FILL``'s for hybrid novel frames on the CPU, a
+    1-pixel agreement and the depth maps' depth for the de-flared photos, on CUDA and where
+    GN-FR renders every pixel (``fill`` network: neither is used). GN-FR's share of a novel
+    frame is 1 on CUDA and ``NOVEL_CPU_FILL``'s on the CPU (with ``fill`` network too, where
+    nothing reads it: the value its records hold); the de-flared photos' GN-FR renders at
+    their own size, so theirs stays unset. The one place those defaults are resolved (the
+    render records them; a benchmark that calls the fill itself resolves them here too)."""
+    cpu = not device.startswith("cuda")
+    cpu_novel = novel and cpu and cfg.fill == "hybrid"
+    scale = cfg.network_scale or (
+        (float(NOVEL_CPU_FILL["network_scale"]) if cpu else 1.0) if novel else None)
+    return replace(cfg, network_scale=scale,
+                   agree_window=cfg.agree_window or (
                        NOVEL_CPU_FILL["agree_window"] if cpu_novel else 1),
                    network_depth=cfg.network_depth or (
                        NOVEL_CPU_FILL["network_depth"] if cpu_novel else "off"))

@@ -833,26 +833,26 @@ def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
 def test_novel_frames_on_the_cpu_fill_as_the_forty_fifth_rule_chose():
     """Novel frames on the CPU: GN-FR's share at NOVEL_CPU_FILL's scale, its own depth in the
     holes, a 3x3 agreement (the rule in docs/history/fill.md); the de-flared photos keep a
-    1-pixel agreement and the depth maps' depth, CUDA its full-size share with them too;
-    what the user gives is kept."""
-    from pipeline.render import RenderConfig, network_scale, resolve_fill
+    1-pixel agreement and the depth maps' depth (no network scale: GN-FR renders them at their
+    size), CUDA its full-size share with them too; what the user gives is kept."""
+    from pipeline.render import RenderConfig, resolve_fill
     from pipeline.render.config import NOVEL_CPU_FILL
 
     cfg = RenderConfig()
     got = resolve_fill(cfg, "cpu", novel=True)
     assert (got.agree_window, got.network_depth) == (3, "holes")
-    assert network_scale(cfg, "cpu") == NOVEL_CPU_FILL["network_scale"]
-    assert NOVEL_CPU_FILL["network_scale"] == 0.35  # w3d35 of the rule
+    assert got.network_scale == NOVEL_CPU_FILL["network_scale"] == 0.35  # w3d35 of the rule
     for device, novel in (("cpu", False), ("cuda", True), ("cuda", False)):
         got = resolve_fill(cfg, device, novel)
         assert (got.agree_window, got.network_depth) == (1, "off"), (device, novel)
-    assert network_scale(cfg, "cuda") == 1.0
+        assert got.network_scale == (1.0 if novel else None), (device, novel)
     mine = RenderConfig(agree_window=5, network_depth="off", network_scale=0.25)
     got = resolve_fill(mine, "cpu", novel=True)
-    assert (got.agree_window, got.network_depth, network_scale(got, "cpu")) == (5, "off", 0.25)
+    assert (got.agree_window, got.network_depth, got.network_scale) == (5, "off", 0.25)
     assert resolve_fill(RenderConfig(network_depth="all"), "cuda", True).network_depth == "all"
     net = resolve_fill(RenderConfig(fill="network"), "cpu", novel=True)  # nothing to fill
     assert (net.agree_window, net.network_depth) == (1, "off")
+    assert net.network_scale == NOVEL_CPU_FILL["network_scale"]  # what its records hold
 
 
 @pytest.mark.parametrize("mode", ["holes", "all"])
@@ -910,3 +910,73 @@ def test_a_missing_mask_fails_before_the_deflared_photos_are_cleared(tmp_path, c
     errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
     assert len(errors) == 1 and f"{gone} is missing" in errors[0]
     assert digest_paths([ws.deflared]) == before
+
+
+def test_frame_workers_one_process_per_thread_on_the_cpu_only(monkeypatch):
+    """The render's processes: one per torch thread on the CPU when not asked, at most one per
+    MIN_FRAMES_PER_WORKER frames; what the user asks; this process alone on CUDA, with
+    ``compile`` and (the test suite's setting) with AUTO_WORKERS off."""
+    import torch
+
+    import pipeline.render.workers as W
+    from pipeline.render import RenderConfig, frame_workers
+
+    assert W.MIN_FRAMES_PER_WORKER == 2
+    monkeypatch.setattr(W, "AUTO_WORKERS", True)
+    monkeypatch.setattr(torch, "get_num_threads", lambda: 2)
+    cfg = RenderConfig()
+    assert frame_workers(cfg, "cpu", 48) == 2
+    assert frame_workers(cfg, "cpu", 3) == 1  # 3 frames: a second process would not pay
+    assert frame_workers(cfg, "cuda", 48) == frame_workers(cfg, "cuda:1", 48) == 1
+    assert frame_workers(RenderConfig(compile=True), "cpu", 48) == 1
+    assert frame_workers(RenderConfig(workers=3), "cpu", 48) == 3
+    assert frame_workers(RenderConfig(workers=3), "cpu", 4) == 2
+    assert frame_workers(RenderConfig(workers=1), "cpu", 48) == 1
+    monkeypatch.setattr(W, "AUTO_WORKERS", False)
+    assert frame_workers(cfg, "cpu", 48) == 1
+    assert frame_workers(RenderConfig(workers=2), "cpu", 48) == 2
+
+
+def test_two_worker_processes_render_the_frames_one_process_does(hws, one_torch_thread,
+                                                                  monkeypatch):
+    """A hybrid video rendered by two spawned one-thread processes: the same frames, byte for
+    byte, as this process with one thread renders; the stage's record does not hold the
+    workers (a speed setting: a render made with other workers is up to date)."""
+    import pipeline.render as R
+    from pipeline.render import RenderConfig, run
+
+    cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30))
+    out = hws.renders / "interpolate"
+    run(cfg, hws, force=True)
+    here = {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
+    assert len(here) == 4
+
+    def not_here(*a, **k):
+        raise AssertionError("rendered in the test's process, not in the workers")
+
+    monkeypatch.setattr(R, "render_here", not_here)  # the spawned workers do not see this
+    run(RenderConfig(path="interpolate", frames=4, size=(40, 30), workers=2), hws, force=True)
+    there = {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
+    assert there == here
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["workers"] is None
+    mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    run(RenderConfig(path="interpolate", frames=4, size=(40, 30), workers=1), hws)
+    assert {p: p.stat().st_mtime_ns for p in out.glob("*.png")} == mtimes  # up to date
+
+
+def test_a_worker_error_is_raised_in_the_stage(hws, tmp_path):
+    """A worker that fails (here: an unreadable checkpoint) stops the render with its error,
+    the one-line UserError a single process gives."""
+    from pipeline.errors import UserError
+    from pipeline.render import RenderConfig, RenderSetup, plan_jobs, render_in_workers
+    from pipeline.ws_files import read_cameras, read_views
+
+    bad = tmp_path / "broken.safetensors"
+    bad.write_bytes(b"not a checkpoint")
+    cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), fill="network", n_sources=3)
+    _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
+    setup = RenderSetup(hws, bad, cfg, {}, "cpu", sorted({s for j in jobs for s in j.sources}),
+                        None, False, False)
+    with pytest.raises(UserError, match="broken.safetensors"):
+        render_in_workers(setup, jobs, 2)

@@ -969,3 +969,25 @@ def test_novel_loo_table_reads_arms_and_names_a_missing_file(tmp_path, capsys):
         "x_b_s7.json: no such result; render it with novel_loo.py first")
     assert tab.main([str(tmp_path), "--seeds", "six"]) == 2
     assert "--seeds takes integers" in capsys.readouterr().err
+
+
+def test_render_speed_compares_frames_and_names_bad_settings(tmp_path):
+    """render_speed.py: two renders' frames compared value by value (how far, how many), a
+    different set of frames named as such; a bad list of settings is a one-line error."""
+    rs = load_benchmark("render_speed")
+    assert rs.parse_counts("256, 128", "--chunks") == [256, 128]
+    for bad in ("", "0,1", "1,1", "a"):
+        with pytest.raises(SystemExit, match="--workers"):
+            rs.parse_counts(bad, "--workers")
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    img = np.zeros((4, 5, 3), np.uint8)
+    for folder, value in ((a, 10), (b, 12)):
+        cv2.imwrite(str(folder / "00000.png"), img)
+        moved = img.copy()
+        moved[1, 2, 0] = value
+        cv2.imwrite(str(folder / "00001.png"), moved)
+    assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(a)) == (0, 0)
+    assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(b)) == (2, 1)
+    (b / "00002.png").write_bytes((b / "00001.png").read_bytes())
+    assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(b)) == (-1, -1)
