@@ -1,5 +1,6 @@
-"""Benchmark of the render stage's speed settings on the CPU: rays per forward pass
-(``--chunk``) and frame processes (``--workers``).
+"""Benchmark of the render stage's speed settings on the CPU: chunk size and processes.
+
+Rays per forward pass (``--chunk``) and the processes that render the frames (``--workers``).
 
     python benchmarks/render_speed.py --workspace WS [--chunks 128,256] [--workers 1,2] \
         [--frames 12] [--repeats 3] [--threads N] [--out docs/results/render_speed_cpu.json]

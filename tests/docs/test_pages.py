@@ -235,6 +235,13 @@ CHECKS = [
     (PERF, "render_compile_cpu.json", "eager_s", "{:.2f} s eager"),
     (PERF, "render_compile_cpu.json", "compiled_s", "{:.2f} s compiled"),
     (PERF, "render_compile_cpu.json", "compile_s", "{:.0f} s of compiling"),
+    # the frames in two processes (forty-sixth session): rows are (chunk, workers)
+    *[(PERF, f"render_speed_cpu_{n}f_s46.json", f"rows/{i}/s_per_frame",
+       "| {:.2f} s per frame |") for n in (48, 12) for i in (0, 1)],
+    (PERF, "render_speed_cpu_12f_s46.json", "rows/2/s_per_frame", "({:.2f} s per frame"),
+    (PERF, "render_speed_cpu_12f_s46.json", "rows/3/s_per_frame", "({:.2f} s both)"),
+    (PERF, "render_speed_cpu_48f_s46.json", "rows/1/pixels_differing", "{} of the 48 frames'"),
+    (PERF, "render_speed_cpu_12f_s46.json", "rows/1/pixels_differing", "({} of\nthe 12"),
     *[("docs/presets.md", "finetune_ab_dropout_dev_et.json", f"{row}/{m}",
        "{:.3f}" if m.endswith("ssim") else "{:.2f}")
       for row in ("base", "dropout-0.1")
@@ -710,3 +717,17 @@ def test_performance_sample_stage_times_of_the_forty_fifth_session_are_the_files
     ratio = (runs[0]["stages"]["render:interpolate"]["seconds"]
              / runs[1]["stages"]["render:interpolate"]["seconds"])
     assert f"take {ratio:.1f} times as long on the sample" in text
+
+
+def test_performance_frames_in_two_processes_are_the_files():
+    """docs/performance.md: the table of one process against two is the two files' fastest
+    passes (rows 0 and 1: chunk 256 with workers 1 and 2), its speed-ups their ratios, and
+    the files say the two processes' frames differ from one's by at most one level."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    for n in (48, 12):
+        rows = json.loads((RESULTS / f"render_speed_cpu_{n}f_s46.json").read_text())["rows"]
+        one, two = rows[0], rows[1]
+        assert (one["chunk"], one["workers"], two["chunk"], two["workers"]) == (256, 1, 256, 2)
+        assert (f"{one['s_per_frame']:.2f} s per frame | {two['s_per_frame']:.2f} s per frame | "
+                f"{one['s_per_frame'] / two['s_per_frame']:.2f}x |") in text, n
+        assert one["max_abs_diff"] == 0 and two["max_abs_diff"] == 1, n
