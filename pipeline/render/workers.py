@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -97,7 +96,7 @@ environment (workflows/threads.py)."""
 
 
 def _one_thread() -> None:
-    """A worker's initializer: torch and OpenCV on one thread (OpenCV's own pool would
+    """A worker's first step: torch and OpenCV on one thread (OpenCV's own pool would
     otherwise take every core in each process: the processes then ran a frame hardly faster
     than one process with two threads)."""
     import cv2
@@ -123,38 +122,86 @@ def one_thread_env():
                 os.environ[k] = v
 
 
-def _render_part(setup: RenderSetup, jobs: list[FrameJob]) -> int:
-    """A worker process's share (its thread count set by the pool's initializer)."""
+def _worker_main(setup: RenderSetup, jobs: list[FrameJob], index: int, results) -> None:
+    """A worker process: one thread, its share of the jobs, then ``(index, error or None)``
+    on the ``results`` queue (an error that does not pickle is sent as its text)."""
+    import pickle
+    import traceback
+
+    from pipeline.errors import UserError
     from pipeline.ws_files import read_cameras
 
-    render_here(setup, read_cameras(setup.ws), jobs, quiet=True)
-    return len(jobs)
+    _one_thread()
+    try:
+        render_here(setup, read_cameras(setup.ws), jobs, quiet=True)
+    except KeyboardInterrupt:  # Ctrl-C reaches every process: the parent reports it
+        return
+    except Exception as e:  # noqa: BLE001 (sent to the parent, which raises it)
+        if not isinstance(e, UserError):
+            e = RuntimeError(f"a render process failed: {type(e).__name__}: {e}\n"
+                             f"{traceback.format_exc()}")
+        try:
+            pickle.dumps(e)
+        except Exception:  # noqa: BLE001
+            e = RuntimeError(f"a render process failed: {e}")
+        results.put((index, e))
+        return
+    results.put((index, None))
 
 
-def render_in_workers(setup: RenderSetup, jobs: list[FrameJob], workers: int) -> None:
+def render_in_workers(setup: RenderSetup, jobs: list[FrameJob], workers: int,
+                      target=_worker_main) -> None:
     """Render ``jobs`` in ``workers`` spawned one-thread processes, job i in process
     i mod ``workers``, with one progress bar of the frames written. A worker's error is
-    raised here; an interrupt (Ctrl-C, SIGTERM) stops every worker, the frames written so
-    far stay."""
+    raised here; a worker that dies without a word (killed for memory) is a one-line
+    UserError; an interrupt (Ctrl-C, SIGTERM) stops every worker. The frames written so far
+    stay either way (a rerun resumes). ``target``: the workers' function (tests)."""
     import multiprocessing as mp
+    import queue
 
-    with one_thread_env():  # the processes start here and inherit it
-        pool = mp.get_context("spawn").Pool(workers, initializer=_one_thread)
+    from pipeline.errors import UserError
+
+    ctx = mp.get_context("spawn")
+    results = ctx.Queue()
+    procs = [ctx.Process(target=target, args=(setup, jobs[i::workers], i, results),
+                         daemon=True) for i in range(workers)]
+    finished: set[int] = set()
+
+    def collect(wait: float) -> None:
+        while True:
+            try:
+                index, error = results.get(timeout=wait)
+            except queue.Empty:
+                return
+            if error is not None:
+                raise error
+            finished.add(index)
+            wait = 0.0
+
     try:
-        results = [pool.apply_async(_render_part, (setup, jobs[i::workers]))
-                   for i in range(workers)]
-        pool.close()
+        with one_thread_env():  # the processes start here and inherit it
+            for p in procs:
+                p.start()
         with make_progress() as prog:
             task = prog.add_task(f"frames ({workers} processes)", total=len(jobs))
-            while True:
+            while len(finished) < workers:
+                collect(0.25)
                 prog.update(task, completed=sum(j.out.exists() for j in jobs))
-                for r in results:
-                    if r.ready() and not r.successful():
-                        r.get()  # the worker's exception, raised here
-                if all(r.ready() for r in results):
-                    break
-                time.sleep(0.25)
-        pool.join()
+                dead = [i for i, p in enumerate(procs)
+                        if i not in finished and p.exitcode is not None]
+                if dead:
+                    collect(0.5)  # a result sent just before the process ended
+                    dead = [i for i in dead if i not in finished]
+                if dead:
+                    code = procs[dead[0]].exitcode
+                    raise UserError(
+                        f"render: a frame process stopped without finishing (exit code {code}"
+                        f"{', killed: out of memory?' if code and code < 0 else ''}); the "
+                        "frames written so far are kept: rerun to resume, with `--set "
+                        "render.workers=1` to render in one process (less memory)")
     finally:
-        pool.terminate()
-        pool.join()
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+        for p in procs:
+            p.join()

@@ -965,6 +965,31 @@ def test_two_worker_processes_render_the_frames_one_process_does(hws, one_torch_
     assert {p: p.stat().st_mtime_ns for p in out.glob("*.png")} == mtimes  # up to date
 
 
+def _dies_silently(setup, jobs, index, results):
+    """A render worker killed before it reports (spawned processes import it from here)."""
+    import os
+
+    os._exit(9 if index == 1 else 0)
+
+
+def test_a_worker_that_dies_without_a_word_is_a_one_line_error(hws):
+    """A frame process that ends without reporting (the system killed it for memory) stops
+    the render with a one-line UserError that says how to go on, instead of a wait that never
+    ends; no process is left running."""
+    import multiprocessing as mp
+
+    from pipeline.errors import UserError
+    from pipeline.render import RenderConfig, RenderSetup, plan_jobs, render_in_workers
+    from pipeline.ws_files import read_cameras, read_views
+
+    cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), n_sources=3)
+    _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
+    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None, False, False)
+    with pytest.raises(UserError, match=r"exit code \d+.*render\.workers=1"):
+        render_in_workers(setup, jobs, 2, target=_dies_silently)
+    assert not mp.active_children()
+
+
 def test_a_worker_error_is_raised_in_the_stage(hws, tmp_path):
     """A worker that fails (here: an unreadable checkpoint) stops the render with its error,
     the one-line UserError a single process gives."""
