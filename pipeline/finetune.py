@@ -52,6 +52,11 @@ class FinetuneConfig:
     """Frozen encoder, every source encoded once (default: off, the encoder is fine-tuned)."""
     device: str = option("auto", device=True)
     """auto (CUDA when present) | cpu | cuda | cuda:N."""
+    threads: int | None = option(None, ge=1)
+    """torch threads of the fine-tune on the CPU (default ``CPU_THREADS``, 1: a step is many
+    small products, which two threads share poorly; on the 2-core machine one thread trained
+    the sample 1.25x faster than two, docs/performance.md, "The fine-tune on one thread").
+    A speed setting: not in the stage's record. CUDA runs keep torch's."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""
     view_sampler: bool = True
@@ -112,6 +117,32 @@ class FinetuneConfig:
     a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""
     seed: int = option(0, ge=0)
     """Seed of initialisation and sampling."""
+
+
+CPU_THREADS = 1
+"""``FinetuneConfig.threads`` when not given, on the CPU."""
+
+
+def fit_threads(config: FinetuneConfig, device: torch.device) -> int | None:
+    """torch threads the fine-tune runs on: ``config.threads`` or ``CPU_THREADS`` on the CPU;
+    None (torch's own) on CUDA."""
+    if device.type == "cuda":
+        return None
+    return int(config.threads or CPU_THREADS)
+
+
+@contextlib.contextmanager
+def torch_threads(n: int | None):
+    """torch on ``n`` threads inside the block (None: unchanged), its own count restored."""
+    if n is None:
+        yield
+        return
+    before = torch.get_num_threads()
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 def pick_device(name: str) -> torch.device:
@@ -197,8 +228,9 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
 
     gains = exposure_gains(ws, config.exposure_model) if config.exposure_match else None
     scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains)
-    stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run), init=config.init,
-                preset=name, gains=gains)
+    with torch_threads(fit_threads(config, device)):
+        stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run),
+                    init=config.init, preset=name, gains=gains)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
 

@@ -388,3 +388,32 @@ def test_finetune_full_res_colour_trains_on_full_size_colours_and_records_it(tmp
     (size, fscale, full), = banks
     assert size == (full[0] // 2, full[1] // 2) and fscale == 1.0
     assert read_metadata(ws.model_file)[1]["full_res_colour"] is False
+
+
+def test_finetune_trains_on_one_cpu_thread_unless_told(tmp_path, monkeypatch):
+    """On the CPU the fine-tune runs on CPU_THREADS (1) torch threads, or ``threads`` when
+    given, and torch's own count is back after it; on CUDA it is left alone. The count is a
+    speed setting: a run at another count is up to date."""
+    import torch
+
+    import pipeline.finetune as ft
+
+    assert ft.CPU_THREADS == 1
+    seen = []
+
+    def fake_fit(*a, **k):
+        seen.append(torch.get_num_threads())
+        return {}
+
+    monkeypatch.setattr(ft, "fit", fake_fit)
+    ws = make_temple_workspace(tmp_path / "ws", n_views=4, scale=0.25)
+    torch.set_num_threads(2)
+    for threads in (None, 2):
+        ft.run(FinetuneConfig(device="cpu", preset="tiny", iters=1, init="scratch",
+                              threads=threads), ws, force=True)
+        assert torch.get_num_threads() == 2
+    assert seen == [1, 2]
+    rec = ws.stage_record("finetune")
+    assert "threads" not in json.dumps(rec["params"])
+    assert ft.fit_threads(FinetuneConfig(threads=3), torch.device("cpu")) == 3
+    assert ft.fit_threads(FinetuneConfig(), torch.device("cuda")) is None
