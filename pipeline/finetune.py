@@ -55,7 +55,7 @@ class FinetuneConfig:
     threads: int | None = option(None, ge=1)
     """torch threads of the fine-tune on the CPU (default ``CPU_THREADS``, 1: a step is many
     small products, which two threads share poorly; on the 2-core machine one thread trained
-    the sample 1.25x faster than two, docs/performance.md, "The fine-tune on one thread").
+    the sample 1.35x faster than two, docs/performance.md, "The fine-tune on one thread").
     A speed setting: not in the stage's record. CUDA runs keep torch's."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""

@@ -457,13 +457,17 @@ def test_performance_whole_ray_frame_times_match(width):
     row = (f"| {net['size'][0]}x{net['size'][1]} | {net['s_per_frame']:.1f} s | "
            f"{hyb['s_per_frame']:.1f} s | {net['s_per_frame'] / hyb['s_per_frame']:.0f}x |")
     assert row in (REPO / "docs" / "performance.md").read_text(), row
-    if width == 504:  # the README: the sample one-shot's frames now, before, GN-FR alone
+    if width == 504:  # the README: the sample one-shot's frames now, in the forty-fifth
+        # session and before its fill, GN-FR alone
         readme = " ".join((REPO / "README.md").read_text().split())
-        now, before = (json.loads((RESULTS / f).read_text())["stages"]["render:interpolate"]
-                       ["seconds"] / 48 for f in ("sample_oneshot_cpu_s45.json",
-                                                  "sample_oneshot_cpu_s45_before.json"))
-        assert f"about {now:.1f} s each at 512x336 with the default fill" in readme
-        assert f"{before:.1f} s before it; {net['s_per_frame']:.1f} s with GN-FR alone" in readme
+        now, s45, before = (json.loads((RESULTS / f).read_text())["stages"][
+            "render:interpolate"]["seconds"] / 48 for f in (
+                "sample_oneshot_cpu_s46.json", "sample_oneshot_cpu_s45.json",
+                "sample_oneshot_cpu_s45_before.json"))
+        assert f"video frames ({now:.1f} s each at 512x336" in readme
+        assert f"{s45:.1f} s on the Intel Xeon of the forty-fifth session" in readme
+        assert (f"{before:.1f} s before it there; {net['s_per_frame']:.1f} s with GN-FR "
+                "alone") in readme
 
 
 def test_mask_kinds_pooled_summary_is_the_card_and_history():
@@ -731,3 +735,29 @@ def test_performance_frames_in_two_processes_are_the_files():
         assert (f"{one['s_per_frame']:.2f} s per frame | {two['s_per_frame']:.2f} s per frame | "
                 f"{one['s_per_frame'] / two['s_per_frame']:.2f}x |") in text, n
         assert one["max_abs_diff"] == 0 and two["max_abs_diff"] == 1, n
+
+
+def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session():
+    """docs/performance.md: the fine-tune's steps/s on one thread and on two are the runs'
+    lines in finetune_threads_cpu_s46.txt (one faster in every pair), and the sample's stage
+    times and scores are sample_oneshot_cpu_s46.json's."""
+    import re
+
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    runs = [(int(m[1]), float(m[2])) for m in re.finditer(
+        r"^threads (\d): finetune: 300/300 \(\d+ s\) speed=([\d.]+)",
+        (RESULTS / "finetune_threads_cpu_s46.txt").read_text(), re.M)]
+    assert [t for t, _ in runs] == [1, 2, 1, 2]
+    one, two = [v for t, v in runs if t == 1], [v for t, v in runs if t == 2]
+    assert min(one) > max(two)
+    assert (f"{one[0]:.2f} and {one[1]:.2f} steps/s on one thread against {two[0]:.2f} and "
+            f"{two[1]:.2f} on two") in text
+    rec = json.loads((RESULTS / "sample_oneshot_cpu_s46.json").read_text())
+    st = rec["stages"]
+    assert (f"fine-tuning {st['finetune']['seconds']:.1f} s at 7.2 steps/s, the 48 frames "
+            f"{st['render:interpolate']['seconds']:.1f} s "
+            f"({st['render:interpolate']['seconds'] / 48:.1f} s each), the de-flared photos "
+            f"{st['render:inputs']['seconds']:.1f} s; {rec['mean']['psnr_flare']:.2f} / "
+            f"{rec['mean']['psnr']:.2f} dB") in text
+    assert rec["model"]["provenance"]["machine"]["torch_threads"] == 2
+    assert round(3000 / st["finetune"]["seconds"], 1) == 7.2
