@@ -761,3 +761,22 @@ def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session
             f"{rec['mean']['psnr']:.2f} dB") in text
     assert rec["model"]["provenance"]["machine"]["torch_threads"] == 2
     assert round(3000 / st["finetune"]["seconds"], 1) == 7.2
+
+
+def test_performance_one_shot_before_and_after_the_fill_and_the_speed_ups():
+    """docs/performance.md's table of the sample's main job at f4908b8 and at this session's
+    code is the two files' (stage times, scores, commits, threads of the fine-tune)."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    for f, commit, threads in (("sample_oneshot_cpu_s46_f4908b8.json", "f4908b8", 2),
+                               ("sample_oneshot_cpu_s46_head.json", "0f54f5b", 1)):
+        rec = json.loads((RESULTS / f).read_text())
+        st = rec["stages"]
+        assert rec["code"]["commit"].startswith(commit), f
+        assert rec["model"]["provenance"]["machine"]["torch_threads"] == threads, f
+        cells = (f"{st['finetune']['seconds']:.1f} s | {st['render:inputs']['seconds']:.1f} s | "
+                 f"{st['render:interpolate']['seconds']:.1f} s | {rec['mean']['psnr_flare']:.2f} "
+                 f"/ {rec['mean']['psnr']:.2f} dB |")
+        assert cells in text, f
+    a, b = (json.loads((RESULTS / f).read_text())["mean"]["psnr_flare"] for f in
+            ("sample_oneshot_cpu_s46_head.json", "sample_oneshot_cpu_s46_f4908b8.json"))
+    assert f"flare region {a - b:.3f} dB" in text
