@@ -59,7 +59,7 @@ class RenderConfig:
     one per thread torch would use, at least two frames each; 1 renders in this process with
     torch's threads, and holds the photos and the model once). The frames are the same but
     for rounding (threads sum in another order: a few values in a million 1 level apart); on
-    the 2-core machine two one-thread processes rendered the sample's video frames 1.4x
+    the 2-core machine two one-thread processes rendered the sample's video frames 1.3x
     faster than one with two threads (``python benchmarks/render_speed.py``,
     docs/performance.md, "Video frames in two processes"). CUDA and ``compile`` render in
     this process."""

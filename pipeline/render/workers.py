@@ -1,12 +1,14 @@
 """Rendering the frame jobs: in this process, or on the CPU split over one-thread processes.
 
-A frame's GN-FR rays are many small products (a chunk of 256 rays is a few thousand rows of
+A frame's GN-FR rays are many small products (a chunk of 256 rays is some 40 000 rows of
 32 channels): on the CPU torch's threads share them poorly, so on the 2-core machine two
-processes of one thread, each rendering every other frame, finish a video 1.4x sooner than
-one process with two threads (``benchmarks/render_workers.py``). Every process loads the
-model, encodes the same source views (the whole job list's, so each frame sees the sources
-it would in one process) and writes its frames atomically as the single process does: the
-frames are the same, and an interrupted render resumes from the frames on disk.
+processes of one thread, each rendering every other frame, finish a video 1.3x sooner than
+one process with two threads (``benchmarks/render_speed.py``, docs/performance.md). Every
+process loads the model, encodes the same source views (the whole job list's, so each frame
+sees the sources it would in one process) and writes its frames atomically as the single
+process does: the frames are the same but for the rounding of sums taken in another order
+(a few values in a million one level apart), and an interrupted render resumes from the
+frames on disk.
 """
 
 from __future__ import annotations
