@@ -990,6 +990,43 @@ def test_a_worker_that_dies_without_a_word_is_a_one_line_error(hws):
     assert not mp.active_children()
 
 
+def _sleeps(setup, jobs, index, results):
+    """A render worker that takes its time (spawned processes import it from here)."""
+    import time
+
+    time.sleep(60)
+
+
+def test_an_interrupt_stops_every_worker(hws, monkeypatch):
+    """Ctrl-C while the workers render (here: raised by the parent's progress bar) reaches
+    the stage as the KeyboardInterrupt it is, and no worker is left running."""
+    import multiprocessing as mp
+    import time
+
+    import pipeline.render.workers as W
+    from pipeline.render import RenderConfig, RenderSetup, plan_jobs, render_in_workers
+    from pipeline.ws_files import read_cameras, read_views
+
+    class Interrupted:
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def add_task(self, *a, **k):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(W, "make_progress", lambda *a, **k: Interrupted())
+    cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), n_sources=3)
+    _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
+    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None, False, False)
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        render_in_workers(setup, jobs, 2, target=_sleeps)
+    assert not mp.active_children() and time.monotonic() - t0 < 30
+
+
 def test_a_worker_error_is_raised_in_the_stage(hws, tmp_path):
     """A worker that fails (here: an unreadable checkpoint) stops the render with its error,
     the one-line UserError a single process gives."""
