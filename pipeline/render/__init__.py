@@ -179,7 +179,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if todo:
         setup = RenderSetup(ws, ckpt, cfg, params, device,
                             sorted({s for j in todo for s in j.sources}),
-                            meta.get("exposure_gains") or None, use_photos, frames_maps)
+                            meta.get("exposure_gains") or None)
         workers = frame_workers(cfg, device, len(todo))
         if workers > 1:
             render_in_workers(setup, todo, workers)

@@ -117,8 +117,9 @@ def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
     render records them; a benchmark that calls the fill itself resolves them here too)."""
     cpu = not device.startswith("cuda")
     cpu_novel = novel and cpu and cfg.fill == "hybrid"
-    scale = cfg.network_scale or (
-        (float(NOVEL_CPU_FILL["network_scale"]) if cpu else 1.0) if novel else None)
+    scale = cfg.network_scale
+    if scale is None and novel:
+        scale = float(NOVEL_CPU_FILL["network_scale"]) if cpu else 1.0
     return replace(cfg, network_scale=scale,
                    agree_window=cfg.agree_window or (
                        NOVEL_CPU_FILL["agree_window"] if cpu_novel else 1),

@@ -51,8 +51,18 @@ class RenderSetup:
     stems: list[str]
     """The source views to encode: every job's, whichever process renders it."""
     gains: dict | None
-    use_photos: bool
-    frames_maps: bool
+    """The exposure the model was trained at (the checkpoint's ``exposure_gains``)."""
+
+    @property
+    def use_photos(self) -> bool:
+        """The hybrid fill warps the photos (``run`` has turned it to ``network`` where the
+        workspace has no depth maps)."""
+        return self.cfg.fill == "hybrid"
+
+    @property
+    def frames_maps(self) -> bool:
+        """Novel frames warp through the depth stage's maps for them (``WS/depth/frames``)."""
+        return self.params.get("depth_maps") == "frames"
 
 
 def frame_workers(cfg: RenderConfig, device: str, n_jobs: int) -> int:

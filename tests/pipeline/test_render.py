@@ -984,7 +984,7 @@ def test_a_worker_that_dies_without_a_word_is_a_one_line_error(hws):
 
     cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), n_sources=3)
     _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
-    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None, False, False)
+    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None)
     with pytest.raises(UserError, match=r"exit code \d+.*render\.workers=1"):
         render_in_workers(setup, jobs, 2, target=_dies_silently)
     assert not mp.active_children()
@@ -1020,7 +1020,7 @@ def test_an_interrupt_stops_every_worker(hws, monkeypatch):
     monkeypatch.setattr(W, "make_progress", lambda *a, **k: Interrupted())
     cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), n_sources=3)
     _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
-    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None, False, False)
+    setup = RenderSetup(hws, hws.root, cfg, {}, "cpu", [], None)
     t0 = time.monotonic()
     with pytest.raises(KeyboardInterrupt):
         render_in_workers(setup, jobs, 2, target=_sleeps)
@@ -1039,6 +1039,6 @@ def test_a_worker_error_is_raised_in_the_stage(hws, tmp_path):
     cfg = RenderConfig(path="interpolate", frames=4, size=(40, 30), fill="network", n_sources=3)
     _, _, jobs = plan_jobs(cfg, hws, read_cameras(hws), read_views(hws), "cpu")
     setup = RenderSetup(hws, bad, cfg, {}, "cpu", sorted({s for j in jobs for s in j.sources}),
-                        None, False, False)
+                        None)
     with pytest.raises(UserError, match="broken.safetensors"):
         render_in_workers(setup, jobs, 2)
