@@ -12,7 +12,8 @@ is applied per step by ``gnfr.train.train_step`` (``set_learning_rates``).
 What differs between callers comes in as callables: ``draw(generator) -> StepInput`` (the
 batch and the source bank it reads: one scene for fine-tuning, a random scene for
 pretraining), the checkpoint metadata and extra state, what a metrics line holds, a
-per-step hook, a gradient hook (a DDP all-reduce) and a progress report. Nothing here knows
+per-step hook, a gradient hook (a DDP all-reduce), a progress report and the processes
+that share each step's rays (``gnfr.ray_split``). Nothing here knows
 workspaces or the CLI.
 """
 
@@ -140,11 +141,13 @@ class Trainer:
         if self.gen is None:
             self.gen = torch.Generator().manual_seed(self.cfg.seed)
 
-    def train_one(self, inp: StepInput, grad_hook: Callable | None = None) -> dict:
-        """One optimizer step at ``self.step`` (``gnfr.train.train_step``); counts it.
-        Returns loss, psnr, all_flared and lr_factor."""
+    def train_one(self, inp: StepInput, grad_hook: Callable | None = None,
+                  split=None) -> dict:
+        """One optimizer step at ``self.step`` (``gnfr.train.train_step``, ``split`` a
+        started ``gnfr.ray_split.RaySplit`` or None); counts it. Returns loss, psnr,
+        all_flared and lr_factor."""
         r = train_step(self.model, self.opt, inp.batch, inp.bank, inp.cache, self.cfg,
-                       self.step, grad_hook)
+                       self.step, grad_hook, split)
         self.step += 1
         return r
 
@@ -176,7 +179,8 @@ class Trainer:
             record: Record = mean_record,
             after_step: Callable[[StepInput, dict], None] | None = None,
             grad_hook: Callable | None = None, writer: bool = True,
-            report: Callable[[int, float, dict | None], None] | None = None) -> dict:
+            report: Callable[[int, float, dict | None], None] | None = None,
+            split=None) -> dict:
         """Train from ``self.step`` to ``cfg.iters``.
 
         Each step trains on ``draw(self.gen)``, then calls ``after_step(input, result)``.
@@ -186,8 +190,9 @@ class Trainer:
         since the last line with its input's ``fields``); every ``ckpt_every`` steps and at
         the last the weights are saved with ``meta(step, seconds)`` and the state with
         ``state(step, seconds)``'s extra keys. ``report(step, it_s, line or None)`` follows
-        every step (progress display). Returns steps, it_per_s and train_seconds (seconds
-        of all runs so far)."""
+        every step (progress display). ``split``: a started ``gnfr.ray_split.RaySplit``
+        whose processes take a share of each step's rays. Returns steps, it_per_s and
+        train_seconds (seconds of all runs so far)."""
         cfg = self.cfg
         write = writer and out is not None
         if write:
@@ -199,7 +204,7 @@ class Trainer:
             metrics = files.enter_context(open(out / METRICS_FILE, "a")) if write else None
             while self.step < cfg.iters:
                 inp = draw(self.gen)
-                r = self.train_one(inp, grad_hook)
+                r = self.train_one(inp, grad_hook, split)
                 if after_step is not None:
                     after_step(inp, r)
                 step = self.step

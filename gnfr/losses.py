@@ -6,22 +6,45 @@ import torch
 
 
 def masked_mse(pred: torch.Tensor, target: torch.Tensor,
-               flare: torch.Tensor | None, weight: torch.Tensor | None = None) -> torch.Tensor:
+               flare: torch.Tensor | None, weight: torch.Tensor | None = None,
+               denominator: torch.Tensor | None = None) -> torch.Tensor:
     """``|| (pred - target) * (1 - M) ||^2`` averaged over the unmasked pixels (and channels).
 
     pred, target: [R, 3]; flare: [R] (1 = flare pixel of the target) or None (plain MSE).
     Flare pixels contribute neither to the loss nor to its gradient; with no unmasked pixel
     the loss is 0 (still attached to the graph). ``weight`` [R]: each ray's weight in the
     average (rays drawn unevenly, ``TrainConfig.edge_rays``); None: all equal.
+    ``denominator``: divide the sum by this instead of these rays' own count
+    (``mse_denominator`` of a whole batch of which these rays are a part, so that the
+    parts' losses add up to the whole's: ``gnfr.ray_split``).
     """
     err = (pred.float() - target.float()).square()
+    keep = _keep(flare, weight)
+    if denominator is not None:
+        return (err.sum() if keep is None else (err * keep[:, None]).sum()) / denominator
+    if keep is None:
+        return err.mean()
+    return (err * keep[:, None]).sum() / mse_denominator(err.shape[0], err.shape[1], flare,
+                                                         weight)
+
+
+def _keep(flare: torch.Tensor | None, weight: torch.Tensor | None) -> torch.Tensor | None:
+    """[R] each ray's share of ``masked_mse``'s sum (None: all 1)."""
     keep = None if flare is None else 1.0 - flare.float()
     if weight is not None:
         keep = weight.float() if keep is None else keep * weight.float()
+    return keep
+
+
+def mse_denominator(rays: int, channels: int, flare: torch.Tensor | None,
+                    weight: torch.Tensor | None = None) -> torch.Tensor:
+    """What ``masked_mse`` divides the sum of ``rays`` rays' squared errors by: the count of
+    unmasked values (their weights' sum with ``weight``), at least one pixel's worth."""
+    keep = _keep(flare, weight)
     if keep is None:
-        return err.mean()
+        return torch.tensor(float(rays * channels))
     floor = 1.0 if weight is None else 1e-12  # a pixel count; weights may sum under one
-    return (err * keep[:, None]).sum() / (keep.sum() * err.shape[1]).clamp_min(floor)
+    return (keep.sum() * channels).clamp_min(floor)
 
 
 PSNR_CAP = 100.0

@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 
 from gnfr.geometry import pixel_rays, sample_depths
-from gnfr.losses import masked_mse, mse_to_psnr
+from gnfr.losses import masked_mse, mse_denominator, mse_to_psnr
 from gnfr.model import GNFR, GNFRConfig
 from gnfr.renderer import SourceViews, encoder_input, forward_rays
 from gnfr.view_sampler import MAX_FLARE, target_stems, train_sources
@@ -373,36 +373,65 @@ def batch_sources(model: GNFR, batch: Batch, bank: SourceBank, cache: SourceView
 
 
 def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
-                 cfg: TrainConfig) -> tuple[torch.Tensor, dict]:
+                 cfg: TrainConfig, whole: Batch | None = None) -> tuple[torch.Tensor, dict]:
+    """The masking loss of ``batch``'s rays and what a metrics line reports of them: psnr
+    (the unflared pixels), all_flared (the mean of ``forward_rays``'s) and mse (psnr's mean
+    squared error). ``whole``: the step's whole batch when ``batch`` holds a part of its rays
+    (``gnfr.ray_split``): the loss, mse and all_flared are then this part's share of the whole
+    batch's (normalised by the whole's counts), so that the parts' add up to the whole's
+    (``add_parts``); psnr is then the part's alone."""
     dev = src.images.device
     out = forward_rays(model, src, ids, batch.rays_o.to(dev), batch.rays_d.to(dev),
                        batch.t.to(dev), cfg.point_sampler, cfg.reference)
     flare = None if batch.flare is None else batch.flare.to(dev)
     weight = None if batch.weight is None else batch.weight.to(dev)
-    loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None, weight)
+    den_loss = den_psnr = None
+    rays = len(batch.rgb)
+    if whole is not None:
+        rays = len(whole.rgb)
+        den_loss = mse_denominator(rays, 3, whole.flare if cfg.mask_loss else None,
+                                   whole.weight).to(dev)
+        den_psnr = mse_denominator(rays, 3, whole.flare, whole.weight).to(dev)
+    loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None, weight,
+                      den_loss)
     with torch.no_grad():  # weighted too: edge-drawn rays estimate the image's mean error
-        psnr_mse = masked_mse(out["rgb"], batch.rgb.to(dev), flare, weight)
-    return loss, {"psnr": mse_to_psnr(psnr_mse), "all_flared": float(out["all_flared"].mean())}
+        psnr_mse = float(masked_mse(out["rgb"], batch.rgb.to(dev), flare, weight, den_psnr))
+    return loss, {"psnr": mse_to_psnr(psnr_mse), "mse": psnr_mse,
+                  "all_flared": float(out["all_flared"].sum()) / rays}
+
+
+def add_parts(parts: list[dict]) -> dict:
+    """One step's loss, psnr, mse and all_flared from its parts' (``compute_loss`` with
+    ``whole``, a ``loss`` value added to each)."""
+    mse = sum(p["mse"] for p in parts)
+    return {"loss": sum(p["loss"] for p in parts), "psnr": mse_to_psnr(mse), "mse": mse,
+            "all_flared": sum(p["all_flared"] for p in parts)}
 
 
 def train_step(model: GNFR, opt: torch.optim.Optimizer, batch: Batch, bank: SourceBank,
                cache: SourceViews | None, cfg: TrainConfig, step: int,
-               grad_hook=None) -> dict:
+               grad_hook=None, split=None) -> dict:
     """One optimizer step at the learning rates of ``step`` (``set_learning_rates``).
     ``bank``: all views at source scale; ``cache`` the pre-encoded views in cached-feature
     mode (``prepare_sources`` makes both).
     ``grad_hook`` (e.g. a DDP all-reduce) runs between backward and the update.
+    ``split`` (a started ``gnfr.ray_split.RaySplit``): other processes take a share of the
+    batch's rays and their gradients are added to this one's before the update.
     Returns loss, psnr (non-flare pixels of the target), all_flared, lr factor."""
     model.train()
     lr_f = set_learning_rates(opt, cfg, step)
     opt.zero_grad(set_to_none=True)
     device = next(model.parameters()).device
+    part = batch if split is None else split.send(batch, bank, cache)
     ctx = torch.no_grad() if cache is not None else contextlib.nullcontext()
     with ctx:  # the encoder's graph is only needed end-to-end
-        src, ids = batch_sources(model, batch, bank, cache, device)
-    loss, info = compute_loss(model, batch, src, ids, cfg)
+        src, ids = batch_sources(model, part, bank, cache, device)
+    loss, info = compute_loss(model, part, src, ids, cfg, None if split is None else batch)
     loss.backward()
+    info = {"loss": float(loss.detach()), **info}
+    if split is not None:
+        info = add_parts([info, *split.gather(model)])
     if grad_hook is not None:
         grad_hook(model)
     opt.step()
-    return {"loss": float(loss.detach()), **info, "lr_factor": lr_f}
+    return {k: info[k] for k in ("loss", "psnr", "all_flared")} | {"lr_factor": lr_f}

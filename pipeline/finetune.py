@@ -25,6 +25,7 @@ from gnfr import WEIGHTS_DIR
 from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
 from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
+from gnfr.ray_split import HelperDied
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import shell_path
 from pipeline.exposure import MODELS
@@ -57,6 +58,14 @@ class FinetuneConfig:
     small products, which two threads share poorly; on the 2-core machine one thread trained
     the sample 1.35x faster than two, docs/performance.md, "The fine-tune on one thread").
     A speed setting: not in the stage's record. CUDA runs keep torch's."""
+    workers: int | None = option(None, ge=1)
+    """On the CPU: processes that share each step's rays, ``threads`` threads each (default:
+    as many as the threads torch would use allow, at most ``MAX_AUTO_WORKERS``; 1 trains in
+    this process alone, with less memory). The whole batch's gradient either way, but for
+    rounding; on the 2-core machine two one-thread processes trained the sample 1.3x faster
+    than one (``python benchmarks/finetune_split.py``, docs/performance.md, "The fine-tune's
+    rays in two processes"). A speed setting: not in the stage's record. CUDA trains in one
+    process."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""
     view_sampler: bool = True
@@ -121,6 +130,33 @@ class FinetuneConfig:
 
 CPU_THREADS = 1
 """``FinetuneConfig.threads`` when not given, on the CPU."""
+MAX_AUTO_WORKERS = 4
+"""Most processes ``FinetuneConfig.workers`` unset gives: each encodes the step's sources
+itself, which more processes do not shorten (``gnfr.ray_split``); measured up to 2 (the
+2-core machine)."""
+AUTO_WORKERS = True
+"""Whether ``FinetuneConfig.workers`` unset shares the CPU's threads out (True) or trains in
+this process alone. The test suite sets it False (as ``pipeline.render.workers.AUTO_WORKERS``):
+its counters and simulated interrupts patch this process; its tests of the split ask for it
+by ``workers``."""
+
+
+def fit_workers(config: FinetuneConfig, device: torch.device, cfg: TrainConfig) -> int:
+    """Processes the fine-tune's steps are shared by (``gnfr.ray_split.parts``): 1 on CUDA;
+    ``config.workers`` when given; else (``AUTO_WORKERS``) the threads torch would use over
+    ``fit_threads``, at most ``MAX_AUTO_WORKERS``; never so many that a process gets under
+    ``gnfr.ray_split.MIN_RAYS`` rays."""
+    from gnfr.ray_split import parts
+
+    if device.type == "cuda":
+        return 1
+    if config.workers is not None:
+        want = int(config.workers)
+    elif AUTO_WORKERS:
+        want = min(MAX_AUTO_WORKERS, torch.get_num_threads() // fit_threads(config, device))
+    else:
+        want = 1
+    return parts(cfg.rays, want)
 
 
 def fit_threads(config: FinetuneConfig, device: torch.device) -> int | None:
@@ -228,9 +264,11 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
 
     gains = exposure_gains(ws, config.exposure_model) if config.exposure_match else None
     scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains)
-    with torch_threads(fit_threads(config, device)):
+    workers, threads = fit_workers(config, device, cfg), fit_threads(config, device)
+    with torch_threads(threads):
         stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run),
-                    init=config.init, preset=name, gains=gains)
+                    init=config.init, preset=name, gains=gains, workers=workers,
+                    threads=threads or 1)
     outs = [ws.model_file, ws.train_state, ws.metrics_jsonl, ws.unseen_json]
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
@@ -348,10 +386,13 @@ def checkpoint_provenance(path: Path) -> dict | None:
 
 # --------------------------------------------------------------------------- training
 def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume: bool = True,
-        init: str = "auto", preset: str = "custom", gains: dict | None = None) -> dict:
+        init: str = "auto", preset: str = "custom", gains: dict | None = None,
+        workers: int = 1, threads: int = 1) -> dict:
     """Train on ``scene``, checkpointing into ``out``; resumes from ``out`` when allowed
     (``gnfr.fit``: weights, optimizer, RNG and step; here also the unseen counts, training
-    seconds and the provenance's start)."""
+    seconds and the provenance's start). ``workers`` > 1 (on the CPU): that many processes
+    share each step's rays (``gnfr.ray_split.RaySplit``; its helpers on ``threads``
+    threads)."""
     from rich.progress import TextColumn
 
     out.mkdir(parents=True, exist_ok=True)
@@ -393,8 +434,15 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             **prov, "steps_done": step, "train_seconds": round(seconds, 1)}}
 
     cols = TextColumn("{task.fields[speed]} it/s  PSNR {task.fields[psnr]}")
-    with make_progress(cols) as prog:
-        task = prog.add_task("finetune", total=cfg.iters, completed=trainer.step, speed="-",
+    label = "finetune" if workers == 1 else f"finetune ({workers} processes)"
+    with contextlib.ExitStack() as stack:
+        split = None
+        if workers > 1 and trainer.step < cfg.iters:
+            from gnfr.ray_split import RaySplit
+
+            split = stack.enter_context(RaySplit(model, banks, cfg, workers, threads))
+        prog = stack.enter_context(make_progress(cols))
+        task = prog.add_task(label, total=cfg.iters, completed=trainer.step, speed="-",
                              psnr="-")
 
         def report(step: int, speed: float, line: dict | None) -> None:
@@ -402,11 +450,27 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                 prog.update(task, psnr=f"{line['psnr']:.2f}")
             prog.update(task, completed=step, speed=f"{speed:.2f}")
 
-        stats = trainer.run(draw, out=out, meta=meta,
-                            state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
-                            after_step=count_unseen, report=report)
+        try:
+            stats = trainer.run(draw, out=out, meta=meta,
+                                state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
+                                after_step=count_unseen, report=report, split=split)
+        except HelperDied as e:
+            from pipeline.errors import UserError
+
+            raise UserError(f"finetune: {e}; the checkpoint of step {saved_step(out)} is kept: "
+                            "rerun to resume, with `--workers 1` (`--set finetune.workers=1` "
+                            "in the one-shot command) to train in one process (less memory)"
+                            ) from None
     _write_unseen(out / UNSEEN_FILE, scene, unseen)
     return {**stats, "init": prov["init"]}
+
+
+def saved_step(out: Path) -> int:
+    """The step of the checkpoint in ``out`` (0 when there is none)."""
+    if not has_checkpoint(out):
+        return 0
+    prov = checkpoint_provenance(checkpoint_files(out)[0]) or {}
+    return int(prov.get("steps_done", 0))
 
 
 def _write_unseen(path: Path, scene: Scene, unseen: torch.Tensor) -> None:

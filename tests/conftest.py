@@ -45,6 +45,7 @@ def _few_threads(monkeypatch):
         return
     torch.set_num_threads(min(2, os.cpu_count() or 1))
     monkeypatch.setattr("pipeline.render.workers.AUTO_WORKERS", False)
+    monkeypatch.setattr("pipeline.finetune.AUTO_WORKERS", False)
 
 
 @pytest.fixture

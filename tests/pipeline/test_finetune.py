@@ -6,6 +6,7 @@ import json
 from dataclasses import replace
 
 import numpy as np
+import pytest
 import torch
 from safetensors.torch import load_file
 
@@ -417,3 +418,108 @@ def test_finetune_trains_on_one_cpu_thread_unless_told(tmp_path, monkeypatch):
     assert "threads" not in json.dumps(rec["params"])
     assert ft.fit_threads(FinetuneConfig(threads=3), torch.device("cpu")) == 3
     assert ft.fit_threads(FinetuneConfig(), torch.device("cuda")) is None
+
+
+def test_finetune_workers_default_shares_the_cpu_threads(monkeypatch):
+    """Unset, ``workers`` is the threads torch would use over the fine-tune's threads, at
+    most MAX_AUTO_WORKERS and never under MIN_RAYS rays a process; 1 on CUDA, with the test
+    switch off, or when asked."""
+    import pipeline.finetune as ft
+    from gnfr.ray_split import MIN_RAYS
+
+    cpu, cuda = torch.device("cpu"), torch.device("cuda")
+    monkeypatch.setattr(ft, "AUTO_WORKERS", True)
+    torch.set_num_threads(2)
+    assert ft.fit_workers(FinetuneConfig(), cpu, QUICK) == 2
+    assert ft.fit_workers(FinetuneConfig(threads=2), cpu, QUICK) == 1
+    assert ft.fit_workers(FinetuneConfig(workers=1), cpu, QUICK) == 1
+    assert ft.fit_workers(FinetuneConfig(workers=3), cpu, QUICK) == 3
+    assert ft.fit_workers(FinetuneConfig(), cuda, QUICK) == 1
+    assert ft.fit_workers(FinetuneConfig(workers=8), cpu, replace(QUICK, rays=3 * MIN_RAYS)) == 3
+    monkeypatch.setattr(torch, "get_num_threads", lambda: 16)
+    assert ft.fit_workers(FinetuneConfig(), cpu, QUICK) == ft.MAX_AUTO_WORKERS
+    monkeypatch.setattr(ft, "AUTO_WORKERS", False)
+    assert ft.fit_workers(FinetuneConfig(), cpu, QUICK) == 1
+
+
+def test_finetune_in_two_processes_trains_as_one_and_resumes_in_one(tmp_path, monkeypatch):
+    """The stage with ``workers=2`` logs the numbers one process logs (to rounding), writes
+    its checkpoint, is up to date for a one-process run (a speed setting), and a run
+    interrupted in two processes resumes in one."""
+    import gnfr.train
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=10))
+    ws = masked_workspace(tmp_path / "ws")
+    one = masked_workspace(tmp_path / "one")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1), one)
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=2), ws)
+    a, b = _metrics(one.metrics_jsonl), _metrics(ws.metrics_jsonl)
+    assert [m["step"] for m in a] == [m["step"] for m in b] == [5, 10]
+    assert b[0]["loss"] == pytest.approx(a[0]["loss"], rel=1e-3)
+    assert b[0]["psnr"] == pytest.approx(a[0]["psnr"], abs=0.01)
+    assert "workers" not in json.dumps(ws.stage_record("finetune")["params"])
+    before = ws.model_file.stat().st_mtime_ns
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1), ws)
+    assert ws.model_file.stat().st_mtime_ns == before  # up to date
+    # interrupted at step 5 (its checkpoint) in two processes, resumed in one
+    scene, cpu = load_workspace(ws.root), torch.device("cpu")
+    fit(scene, replace(TINY, iters=10), cpu, tmp_path / "straight", resume=False,
+        init="scratch")
+    fit(scene, replace(TINY, iters=5), cpu, tmp_path / "resumed", resume=False, init="scratch",
+        workers=2)
+    fit(scene, replace(TINY, iters=10), cpu, tmp_path / "resumed", resume=True, init="scratch")
+    want = _metrics(tmp_path / "straight" / "metrics.jsonl")
+    got = _metrics(tmp_path / "resumed" / "metrics.jsonl")
+    assert [x["step"] for x in got] == [x["step"] for x in want] == [5, 10]
+    for x, y in zip(got, want, strict=True):
+        assert x["loss"] == pytest.approx(y["loss"], rel=1e-3)
+
+
+def test_finetune_helper_death_is_one_line_and_an_interrupt_stops_the_helpers(tmp_path,
+                                                                              monkeypatch):
+    """A helper that dies (``HelperDied``, raised by ``RaySplit.gather``: tests/gnfr) is one
+    line naming the checkpoint kept and ``--workers 1``; Ctrl-C in the trainer leaves no
+    helper running."""
+    from gnfr.fit import Trainer
+    from gnfr.ray_split import HelperDied, RaySplit
+    from pipeline.errors import UserError
+
+    ws = masked_workspace(tmp_path / "ws")
+    scene = load_workspace(ws.root)
+    cfg = replace(TINY, iters=10)
+    started = []
+    enter = RaySplit.__enter__
+
+    def keep(self):
+        started.append(self)
+        return enter(self)
+
+    monkeypatch.setattr(RaySplit, "__enter__", keep)
+    train_one = Trainer.train_one
+
+    def died(self, *a, **k):
+        if self.step == 7:
+            raise HelperDied("a training process stopped without answering (exit code -9, "
+                             "killed: out of memory?)")
+        return train_one(self, *a, **k)
+
+    monkeypatch.setattr(Trainer, "train_one", died)
+    with pytest.raises(UserError) as e:
+        fit(scene, cfg, torch.device("cpu"), tmp_path / "run", resume=False, init="scratch",
+            workers=2)
+    msg = str(e.value)
+    assert "\n" not in msg and "checkpoint of step 5 is kept" in msg and "--workers 1" in msg
+    assert started and not started[-1].helpers  # stopped and forgotten on the way out
+
+    def interrupt(self, *a, **k):
+        if self.step == 2:
+            started.append([h.process for h in started[-1].helpers])
+            raise KeyboardInterrupt
+        return train_one(self, *a, **k)
+
+    monkeypatch.setattr(Trainer, "train_one", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        fit(scene, cfg, torch.device("cpu"), tmp_path / "run2", resume=False, init="scratch",
+            workers=2)
+    procs = started[-1]
+    assert len(procs) == 1 and not procs[0].is_alive()
