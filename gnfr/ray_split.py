@@ -2,26 +2,34 @@
 
 GN-FR's rays are independent of each other (the view transformer mixes one point's source
 views, the ray transformer one ray's samples), so a step's loss is a sum over its rays: each
-process takes a part of the batch's rays, computes that part's loss normalised by the whole
-batch's count (``gnfr.train.compute_loss`` with ``whole``) and its gradients, and the sum of
-the parts' gradients is the whole batch's gradient, but for the rounding of sums taken in
-another order. This process draws the batch, computes part 0, adds the helpers' gradients
-and steps the optimizer; the helpers hold the same parameters in shared memory, so each sees
-every update without a copy. Nothing of a helper's is state: the checkpoint, the resume, the
-RNG and the metrics stay this process's alone, and a run may change its number of processes
-between an interruption and its resume.
+process takes a part of the batch's rays and computes that part's loss normalised by the
+whole batch's count (``gnfr.train.compute_loss`` with ``whole``), and the parts' gradients
+add up to the whole batch's gradient, but for the rounding of sums taken in another order.
 
-Each process encodes the step's source views itself: the encoder's forward and backward do
-not shrink with the rays (on a ``quick`` step of 128 rays they are some 60 of 155 ms), so
-two processes of one thread take a step 1.3x sooner than one, not 2x
-(``benchmarks/finetune_split.py``, docs/performance.md).
+This process draws the batch, sends the helpers their rows, computes its own part, adds the
+helpers' gradients and steps the optimizer; the helpers hold the same parameters in shared
+memory, so each sees every update without a copy. End to end (the encoder trained), the
+step's source views are shared out too: each process encodes a share of them
+(``view_groups``) into a shared buffer, takes its rays' loss on every view's features as a
+leaf, writes that leaf's gradient back, and runs the encoder's backward for its own views on
+every process's gradient for them, summed. So the encoder's forward and backward, a third of
+a ``quick`` step on the CPU, are shared as well as the rays, at the cost of two exchanges
+through the pipes per step.
+
+Nothing of a helper's is state: the checkpoint, the resume, the RNG and the metrics stay
+this process's alone, and a run may change its number of processes between an interruption
+and its resume. With dropout each process draws its own masks. The processes encode a
+share of the views each where one process encodes them together, and sum in another order:
+a run's weights differ from a one-process run's by rounding, which training compounds as
+another thread count does.
 
 The helpers are spawned (a fresh interpreter: no copy of this process's threads or locks),
 on ``threads`` torch threads each (1 by default); they start with their sources' tensors and
-the model (moved to shared memory once, so nothing is copied per step), get each step's whole
-batch (a few kB) and the index of its source bank through a pipe, and answer with their
-part's sums after writing their gradients into a shared buffer. A helper's exception comes
-back as one; a helper that dies without a word raises ``HelperDied``.
+the model (moved to shared memory once, so nothing is copied per step), get each step's
+whole batch (a few kB), its bank's index and their rows through a pipe, and answer with
+their part's sums after writing their gradients into shared buffers. A helper's exception
+comes back as one; a helper that dies without a word raises ``HelperDied``. Measured by
+``benchmarks/finetune_split.py`` (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -34,10 +42,10 @@ import torch
 
 from gnfr.model import GNFR
 from gnfr.renderer import SourceViews
-from gnfr.train import Batch, SourceBank, TrainConfig, batch_sources, compute_loss
+from gnfr.train import Batch, SourceBank, TrainConfig, add_parts, batch_sources, compute_loss
 
 MIN_RAYS = 16
-"""Fewest rays a process takes of a step (``parts``): below it the per-process cost (the
+"""Fewest rays a helper takes of a step (``parts``): below it the per-process cost (the
 sources' encoding) outweighs the rays' share."""
 THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 """Variables a helper starts with at its thread count, so that the libraries that read them
@@ -123,20 +131,91 @@ def add_grads(model: GNFR, buf: torch.Tensor) -> None:
         off += n
 
 
-def part_step(model: GNFR, batch: Batch, index: int, n: int, bank: SourceBank,
-              cache: SourceViews | None, cfg: TrainConfig) -> dict:
-    """Part ``index`` of ``n`` of one step: its loss's gradients left in the model's
-    ``.grad`` (set afresh) and its sums returned (``compute_loss`` with the whole batch)."""
+def view_groups(views: int, n: int) -> list[slice]:
+    """``n`` contiguous slices of ``range(views)`` (the step's source views each process
+    encodes), the first (this process's, which also steps the optimizer) the smallest."""
+    bounds = [i * views // n for i in range(n + 1)]
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+@dataclass
+class Shared:
+    """The buffers the processes exchange a step's feature maps through (shared memory)."""
+
+    feats: torch.Tensor
+    """[max views * C * h * w] every source view's features, each process writing its
+    ``view_groups`` share."""
+    feat_grads: list[torch.Tensor]
+    """Per process, the same size: its part's gradient with respect to every view's
+    features."""
+    shapes: list[tuple[int, int, int]]
+    """(C, h, w) of each input's feature maps."""
+
+    def features(self, k: int, views: int) -> torch.Tensor:
+        return self.feats[:views * _numel(self.shapes[k])].view(views, *self.shapes[k])
+
+    def grads(self, p: int, k: int, views: int) -> torch.Tensor:
+        return self.feat_grads[p][:views * _numel(self.shapes[k])].view(views, *self.shapes[k])
+
+
+def _numel(shape: tuple[int, ...]) -> int:
+    out = 1
+    for x in shape:
+        out *= x
+    return out
+
+
+def part_step(model: GNFR, batch: Batch, rows: slice, k: int, bank: SourceBank,
+              cache: SourceViews | None, cfg: TrainConfig, me: int = 0, n: int = 1,
+              shared: Shared | None = None, sync=None) -> dict:
+    """Process ``me`` of ``n``'s part of one step, its gradients left in the model's
+    ``.grad`` (set afresh); returns its sums (``compute_loss`` with the whole batch, and
+    ``loss``). With the cached features (``cache``) the rays ``rows`` alone. End to end:
+    the process encodes its ``view_groups`` share of the step's sources into ``shared``,
+    ``sync("feats")`` waits until every process has; its rays' loss is taken on every
+    view's features as a leaf, whose gradient goes into ``shared``; after ``sync("grads")``
+    its views' encoder backward runs on every process's gradient for them, summed. One
+    process (``n`` = 1, no ``shared``) is the whole step."""
     model.train()
     model.zero_grad(set_to_none=True)
     device = next(model.parameters()).device
-    part = part_of(batch, ray_slices(len(batch.rgb), n)[index])
-    ctx = torch.no_grad() if cache is not None else contextlib.nullcontext()
-    with ctx:
-        src, ids = batch_sources(model, part, bank, cache, device)
-    loss, info = compute_loss(model, part, src, ids, cfg, whole=batch)
+    part = part_of(batch, rows)
+    if cache is not None:
+        with torch.no_grad():
+            src, ids = batch_sources(model, part, bank, cache, device)
+        loss, info = compute_loss(model, part, src, ids, cfg, whole=batch)
+        loss.backward()
+        return {"loss": float(loss.detach()), **info}
+    ids = batch.sources
+    group = view_groups(len(ids), n)[me]
+    own = (bank.encode(model, device, ids[group], grad=True).feats
+           if group.stop > group.start else None)
+    if shared is None:
+        feats = own
+    else:
+        feats = shared.features(k, len(ids))
+        if own is not None:
+            feats[group].copy_(own.detach())
+        sync("feats")
+    leaf = feats.detach().clone().requires_grad_()
+    src = bank.views(ids, leaf, device)
+    loss, info = compute_loss(model, part, src, torch.arange(len(ids), device=device), cfg,
+                              whole=batch)
     loss.backward()
+    grad = leaf.grad if leaf.grad is not None else torch.zeros_like(leaf)
+    if shared is not None:
+        shared.grads(me, k, len(ids)).copy_(grad)
+        sync("grads")
+        grad = shared.grads(0, k, len(ids)).clone()
+        for q in range(1, n):
+            grad += shared.grads(q, k, len(ids))
+    if own is not None:
+        own.backward(grad[group])
     return {"loss": float(loss.detach()), **info}
+
+
+class _Stop(Exception):
+    """The trainer asked a helper to end (or went away)."""
 
 
 @dataclass
@@ -146,28 +225,39 @@ class _Helper:
     grads: torch.Tensor
 
 
-def _helper_main(model: GNFR, inputs: list, cfg: TrainConfig, index: int, n: int,
-                 threads: int, conn, grads: torch.Tensor) -> None:
-    """A helper process: for each ``(input index, batch)`` received, part ``index`` of ``n``
-    of that step, its gradients into ``grads``, then ``("ok", sums)`` back; ``("error",
-    exception)`` on a failure; returns on ``None``. Runs on ``threads`` torch threads."""
+def _helper_main(model: GNFR, inputs: list, cfg: TrainConfig, me: int, n: int,
+                 threads: int, conn, grads: torch.Tensor, shared: Shared) -> None:
+    """Helper ``me`` of ``n``: for each ``(input, batch, rows)`` received, its part of that
+    step (``part_step``, its syncs answered through ``conn``), its parameters' gradients
+    into ``grads``, then ``("ok", sums)`` back; ``("error", exception)`` on a failure;
+    returns on ``None``. Runs on ``threads`` torch threads."""
     import pickle
     import traceback
 
     torch.set_num_threads(threads)
-    while True:
+
+    def recv():
         try:
             msg = conn.recv()
-        except (EOFError, KeyboardInterrupt):  # the trainer has gone, or Ctrl-C: it reports
-            return
+        except EOFError:  # the trainer has gone
+            raise _Stop from None
         if msg is None:
-            return
-        k, batch = msg[0], from_wire(msg[1])
+            raise _Stop
+        return msg
+
+    def sync(kind: str) -> None:
+        conn.send((kind,))
+        if recv() != ("go",):
+            raise RuntimeError("a training process lost step with the trainer")
+
+    while True:
         try:
+            k, wire, a, b = recv()
             bank, cache = inputs[k]
-            sums = part_step(model, batch, index, n, bank, cache, cfg)
+            sums = part_step(model, from_wire(wire), slice(a, b), k, bank, cache, cfg, me, n,
+                             shared, sync)
             write_grads(model, grads)
-        except KeyboardInterrupt:
+        except (_Stop, KeyboardInterrupt):  # Ctrl-C reaches every process: the trainer reports
             return
         except Exception as e:  # noqa: BLE001 (sent to the trainer, which raises it)
             err = RuntimeError(f"a training process failed: {type(e).__name__}: {e}\n"
@@ -175,7 +265,8 @@ def _helper_main(model: GNFR, inputs: list, cfg: TrainConfig, index: int, n: int
             with contextlib.suppress(Exception):
                 pickle.dumps(e)
                 err = e
-            conn.send(("error", err))
+            with contextlib.suppress(OSError, ValueError):
+                conn.send(("error", err))
             return
         conn.send(("ok", sums))
 
@@ -197,9 +288,10 @@ def _threads_env(threads: int):
 
 
 class RaySplit:
-    """``n`` processes per step (this one and ``n - 1`` spawned helpers), each taking a
-    contiguous share of the batch's rays (``ray_slices``). A context manager: entering
-    starts the helpers (the model's parameters move to shared memory), leaving stops them.
+    """``n`` processes per step (this one and ``n - 1`` spawned helpers), each taking an
+    even contiguous share of the batch's rays (``ray_slices``) and, end to end, of its
+    source views' encoding (``view_groups``). A context manager: entering starts the
+    helpers (the model's parameters move to shared memory), leaving stops them.
     ``inputs``: every (bank, cache) a step may read (one per scene; the step's own are
     found among them by identity). The helpers run on ``threads`` torch threads each. Pass
     it to ``gnfr.train.train_step`` as ``split``."""
@@ -211,6 +303,20 @@ class RaySplit:
         self.model, self.inputs, self.cfg, self.n = model, list(inputs), cfg, n
         self.threads = threads
         self.helpers: list[_Helper] = []
+        self.shared: Shared | None = None
+
+    def _shared(self) -> Shared:
+        """Buffers for the largest step: ``cfg.n_views``' most views of the largest
+        feature maps (each input's shape from encoding one of its views)."""
+        device = next(self.model.parameters()).device
+        shapes = []
+        with torch.no_grad():
+            for bank, _ in self.inputs:
+                f = bank.encode(self.model, device, torch.tensor([0])).feats
+                shapes.append(tuple(int(x) for x in f.shape[1:]))
+        size = max(self.cfg.n_views) * max(_numel(s) for s in shapes)
+        return Shared(torch.zeros(size).share_memory_(),
+                      [torch.zeros(size).share_memory_() for _ in range(self.n)], shapes)
 
     def __enter__(self) -> RaySplit:
         import torch.multiprocessing as mp
@@ -218,6 +324,7 @@ class RaySplit:
         if next(self.model.parameters()).device.type != "cpu":
             raise ValueError("RaySplit shares CPU memory: the model must be on the CPU")
         self.model.share_memory()
+        self.shared = self._shared()
         ctx = mp.get_context("spawn")
         try:
             with _threads_env(self.threads):  # the helpers start here and inherit it
@@ -226,7 +333,7 @@ class RaySplit:
                     grads = torch.zeros(grad_size(self.model)).share_memory_()
                     p = ctx.Process(target=_helper_main, daemon=True,
                                     args=(self.model, self.inputs, self.cfg, i, self.n,
-                                          self.threads, theirs, grads))
+                                          self.threads, theirs, grads, self.shared))
                     p.start()
                     theirs.close()
                     self.helpers.append(_Helper(p, ours, grads))
@@ -252,38 +359,57 @@ class RaySplit:
             h.conn.close()
         self.helpers = []
 
-    def send(self, batch: Batch, bank: SourceBank, cache: SourceViews | None) -> Batch:
-        """Hand the helpers their parts of ``batch`` (read from ``bank`` / ``cache``) and
-        return this process's part (the first)."""
+    def step(self, model: GNFR, batch: Batch, bank: SourceBank,
+             cache: SourceViews | None) -> dict:
+        """One step's gradients of ``batch`` (read from ``bank`` / ``cache``) in ``model``'s
+        ``.grad``, its parts computed by every process; returns the step's loss, psnr, mse
+        and all_flared (``add_parts``)."""
+        if model is not self.model:
+            raise ValueError("RaySplit.step: not the model the helpers share")
         k = next((i for i, (b, c) in enumerate(self.inputs) if b is bank and c is cache),
                  None)
         if k is None:
             raise ValueError("the step's source bank is not one the helpers were given")
-        wire = (k, to_wire(batch))
-        for h in self.helpers:
+        rows = ray_slices(len(batch.rgb), self.n)
+        wire = to_wire(batch)
+        for h, r in zip(self.helpers, rows[1:], strict=True):
             try:
-                h.conn.send(wire)
+                h.conn.send((k, wire, r.start, r.stop))
             except (OSError, ValueError) as e:
                 raise self._died(h) from e
-        return part_of(batch, ray_slices(len(batch.rgb), self.n)[0])
-
-    def gather(self, model: GNFR) -> list[dict]:
-        """Wait for every helper's part, add its gradients to ``model``'s and return its
-        sums (``compute_loss``'s, with ``loss``)."""
-        out = []
+        sums = part_step(model, batch, rows[0], k, bank, cache, self.cfg, 0, self.n,
+                         self.shared, self._sync)
+        parts = [sums]
         for h in self.helpers:
-            while not h.conn.poll(WAIT_S):
-                if not h.process.is_alive() and not h.conn.poll():
-                    raise self._died(h)
-            try:
-                kind, value = h.conn.recv()
-            except EOFError as e:
-                raise self._died(h) from e
-            if kind == "error":
-                raise value
+            parts.append(self._expect(h, "ok")[1])
             add_grads(model, h.grads)
-            out.append(value)
-        return out
+        return add_parts(parts)
+
+    def _sync(self, kind: str) -> None:
+        """This process's side of a sync: every helper's ``kind`` message, then go."""
+        for h in self.helpers:
+            self._expect(h, kind)
+        for h in self.helpers:
+            try:
+                h.conn.send(("go",))
+            except (OSError, ValueError) as e:
+                raise self._died(h) from e
+
+    def _expect(self, h: _Helper, kind: str) -> tuple:
+        """The helper's next message, of ``kind``; its error raised; ``HelperDied`` when it
+        ends without one."""
+        while not h.conn.poll(WAIT_S):
+            if not h.process.is_alive() and not h.conn.poll():
+                raise self._died(h)
+        try:
+            msg = h.conn.recv()
+        except EOFError as e:
+            raise self._died(h) from e
+        if msg[0] == "error":
+            raise msg[1]
+        if msg[0] != kind:
+            raise RuntimeError(f"a training process answered {msg[0]!r}, not {kind!r}")
+        return msg
 
     @staticmethod
     def _died(h: _Helper) -> HelperDied:

@@ -230,6 +230,21 @@ class SourceBank:
                    enc_images=(None if feature_scale == 1.0
                                else encoder_input(imgs.float(), feature_scale)))
 
+    def views(self, ids: torch.Tensor, feats: torch.Tensor, device) -> SourceViews:
+        """The views ``ids`` with their feature maps ``feats`` [len(ids), C, h, w] made
+        elsewhere (``gnfr.ray_split``: each process encodes a share of a step's views), as
+        ``encode(model, device, ids)`` would give them."""
+        device = torch.device(device)
+        f32 = torch.float32
+        if self.enc_images is not None:  # full-size colours: the views are rows of the bank
+            return SourceViews(images=self.images.to(device, f32), feats=feats,
+                               K=self.K[ids].to(device, f32), c2w=self.c2w[ids].to(device, f32),
+                               masks=None if self.masks is None else self.masks.to(device, f32),
+                               rows=ids.to(device))
+        return SourceViews(images=self.images[ids].to(device, f32), feats=feats,
+                           K=self.K[ids].to(device, f32), c2w=self.c2w[ids].to(device, f32),
+                           masks=None if self.masks is None else self.masks[ids].to(device, f32))
+
     def encode(self, model: GNFR, device, ids: torch.Tensor | None = None,
                grad: bool = False) -> SourceViews:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
@@ -415,22 +430,23 @@ def train_step(model: GNFR, opt: torch.optim.Optimizer, batch: Batch, bank: Sour
     ``bank``: all views at source scale; ``cache`` the pre-encoded views in cached-feature
     mode (``prepare_sources`` makes both).
     ``grad_hook`` (e.g. a DDP all-reduce) runs between backward and the update.
-    ``split`` (a started ``gnfr.ray_split.RaySplit``): other processes take a share of the
-    batch's rays and their gradients are added to this one's before the update.
+    ``split`` (a started ``gnfr.ray_split.RaySplit`` of this model and ``cfg``): other
+    processes take a share of the batch's rays and its views' encoding, and their gradients
+    are added to this one's before the update.
     Returns loss, psnr (non-flare pixels of the target), all_flared, lr factor."""
     model.train()
     lr_f = set_learning_rates(opt, cfg, step)
     opt.zero_grad(set_to_none=True)
     device = next(model.parameters()).device
-    part = batch if split is None else split.send(batch, bank, cache)
-    ctx = torch.no_grad() if cache is not None else contextlib.nullcontext()
-    with ctx:  # the encoder's graph is only needed end-to-end
-        src, ids = batch_sources(model, part, bank, cache, device)
-    loss, info = compute_loss(model, part, src, ids, cfg, None if split is None else batch)
-    loss.backward()
-    info = {"loss": float(loss.detach()), **info}
     if split is not None:
-        info = add_parts([info, *split.gather(model)])
+        info = split.step(model, batch, bank, cache)
+    else:
+        ctx = torch.no_grad() if cache is not None else contextlib.nullcontext()
+        with ctx:  # the encoder's graph is only needed end-to-end
+            src, ids = batch_sources(model, batch, bank, cache, device)
+        loss, info = compute_loss(model, batch, src, ids, cfg)
+        loss.backward()
+        info = {"loss": float(loss.detach()), **info}
     if grad_hook is not None:
         grad_hook(model)
     opt.step()

@@ -19,6 +19,7 @@ from gnfr.ray_split import (
     part_step,
     parts,
     ray_slices,
+    view_groups,
     to_wire,
     write_grads,
 )
@@ -64,12 +65,12 @@ def test_parts_add_up_to_the_whole_batch(scene, cached):
     batch = next(b for b in (sample_batch(scene, cfg, gen) for _ in range(50))
                  if 0 < b.flare.sum() < len(b.flare))  # a target with flare where rays fall
     assert batch.flare is not None and batch.flare.sum() > 0 and batch.weight is not None
-    whole = part_step(model, batch, 0, 1, bank, cache, cfg)
+    whole = part_step(model, batch, slice(0, len(batch.rgb)), 0, bank, cache, cfg)
     want = {n: p.grad.clone() for n, p in model.named_parameters() if p.grad is not None}
     buf, acc = torch.zeros(grad_size(model)), torch.zeros(grad_size(model))
     sums = []
-    for i in range(3):
-        sums.append(part_step(model, batch, i, 3, bank, cache, cfg))
+    for rows in ray_slices(len(batch.rgb), 3):
+        sums.append(part_step(model, batch, rows, 0, bank, cache, cfg))
         write_grads(model, buf)
         acc += buf
     model.zero_grad(set_to_none=True)
@@ -86,22 +87,33 @@ def test_parts_add_up_to_the_whole_batch(scene, cached):
     assert got["all_flared"] == pytest.approx(whole["all_flared"], abs=1e-6)
 
 
-def test_two_processes_step_as_one(scene):
+def test_view_groups_share_the_views_the_first_least():
+    for views, n in [(7, 2), (5, 3), (1, 2), (8, 4)]:
+        groups = view_groups(views, n)
+        assert [i for g in groups for i in range(views)[g]] == list(range(views))
+        sizes = [g.stop - g.start for g in groups]
+        assert sizes[0] == min(sizes) and max(sizes) - min(sizes) <= 1
+
+
+@pytest.mark.parametrize("cached", [False, True])
+def test_two_processes_step_as_one(scene, cached):
     """Steps with a helper process taking half of each batch's rays leave the same weights
     and the same logged numbers as steps in one process (to float rounding), and the helper
     sees each update (its half of the next step is computed with the new weights). Plain
     SGD: Adam's step would turn rounding-level gradients into steps of the full rate."""
+    cfg = replace(CFG, cached_features=cached)
     torch.manual_seed(0)
-    model = GNFR(CFG.model)
+    model = GNFR(cfg.model)
     twin, start = copy.deepcopy(model), copy.deepcopy(model)
-    bank, cache = prepare_sources(model, scene, CFG, "cpu")
+    bank, cache = prepare_sources(model, scene, cfg, "cpu")
+    bank2, cache2 = prepare_sources(twin, scene, cfg, "cpu")
     opt, opt2 = sgd(model), sgd(twin)
     g1, g2 = torch.Generator().manual_seed(4), torch.Generator().manual_seed(4)
-    with RaySplit(twin, [(bank, cache)], CFG, 2) as split:
+    with RaySplit(twin, [(bank2, cache2)], cfg, 2) as split:
         assert len(split.helpers) == 1 and split.helpers[0].process.is_alive()
         for step in range(3):
-            a = train_step(model, opt, sample_batch(scene, CFG, g1), bank, cache, CFG, step)
-            b = train_step(twin, opt2, sample_batch(scene, CFG, g2), bank, cache, CFG, step,
+            a = train_step(model, opt, sample_batch(scene, cfg, g1), bank, cache, cfg, step)
+            b = train_step(twin, opt2, sample_batch(scene, cfg, g2), bank2, cache2, cfg, step,
                            split=split)
             assert list(a) == list(b)
             for k in ("loss", "psnr", "all_flared"):
@@ -143,6 +155,6 @@ def test_a_bank_the_helpers_lack_is_refused(scene):
     other, _ = prepare_sources(model, scene, CFG, "cpu")
     with (RaySplit(model, [(bank, cache)], CFG, 2) as split,
           pytest.raises(ValueError, match="not one the helpers were given")):
-        split.send(sample_batch(scene, CFG, torch.Generator()), other, None)
+        split.step(model, sample_batch(scene, CFG, torch.Generator()), other, None)
     with pytest.raises(ValueError, match="2 or more"):
         RaySplit(model, [(bank, cache)], CFG, 1)
