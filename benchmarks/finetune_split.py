@@ -1,4 +1,4 @@
-"""Benchmark of the fine-tune's processes on the CPU: each step's rays shared by 1, 2, ... processes.
+"""Benchmark of the fine-tune's processes on the CPU: each step shared by 1, 2, ... processes.
 
     python benchmarks/finetune_split.py --workspace WS [--workers 1,2] [--iters 300] \
         [--repeats 2] [--out docs/results/finetune_split_cpu.json]
@@ -13,7 +13,9 @@ preparation included, as a user's fine-tune pays them) and the training loop's o
 The trained weights and the metric lines of each count are compared with the first count's:
 the same training but for the rounding of sums taken in another order, which training
 compounds step by step as a different seed would (``max_weight_diff``, and the first metric
-line's loss and psnr, where the runs have not yet drifted apart).
+line's loss and psnr, where the runs have not yet drifted apart). Memory: the peak resident
+size of this process (which holds the one-process runs too) and of the largest helper
+(``RUSAGE_CHILDREN``: the helpers are this process's only children).
 """
 
 from __future__ import annotations
@@ -101,8 +103,12 @@ def main(argv: list[str] | None = None) -> int:
                         "first_line": {k: lines[0][k] for k in ("step", "loss", "psnr")},
                         "first_line_of_first_count": {k: first[0][k]
                                                       for k in ("step", "loss", "psnr")}}
+    import resource
+
     rec = {"workspace": str(base.root), "iters": a.iters, "repeats": a.repeats,
            "cores_torch_would_use": cores,
+           "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+           "helper_peak_rss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
            "rows": [{"workers": w, "steps_per_s": a.iters / best[w], "wall_s": best[w],
                      "speedup": best[counts[0]] / best[w], "passes": passes[w], **compare[w]}
                     for w in counts],
@@ -111,6 +117,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"workers {row['workers']}: {row['steps_per_s']:.2f} steps/s (fastest of "
               f"{a.repeats}), {row['speedup']:.2f}x; weights differ from workers "
               f"{counts[0]}'s by at most {row['max_weight_diff']:.2e}")
+    print(f"peak memory: {rec['peak_rss_mb']:.0f} MB here, {rec['helper_peak_rss_mb']:.0f} MB "
+          "the largest helper")
     write_result(a.out, rec)
     return 0
 

@@ -59,13 +59,14 @@ class FinetuneConfig:
     the sample 1.35x faster than two, docs/performance.md, "The fine-tune on one thread").
     A speed setting: not in the stage's record. CUDA runs keep torch's."""
     workers: int | None = option(None, ge=1)
-    """On the CPU: processes that share each step's rays, ``threads`` threads each (default:
-    as many as the threads torch would use allow, at most ``MAX_AUTO_WORKERS``; 1 trains in
-    this process alone, with less memory). The whole batch's gradient either way, but for
-    rounding; on the 2-core machine two one-thread processes trained the sample 1.3x faster
-    than one (``python benchmarks/finetune_split.py``, docs/performance.md, "The fine-tune's
-    rays in two processes"). A speed setting: not in the stage's record. CUDA trains in one
-    process."""
+    """On the CPU: processes that share each step's rays and the encoding of its source
+    views, ``threads`` threads each (default: one per thread torch would use, at most 4; 1
+    trains in this process alone, with less memory and bitwise-reproducible runs). The whole
+    batch's gradient either way, but for rounding; on the 2-core machine two one-thread
+    processes took a step SPEEDUP_SAMPLE faster than one on the sample's small photos and
+    SPEEDUP_1008 faster at the default 1008 px (``python benchmarks/finetune_split.py``,
+    docs/performance.md, "The fine-tune in two processes"). A speed setting: not in the
+    stage's record (the checkpoint's provenance says it). CUDA trains in one process."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""
     view_sampler: bool = True
@@ -401,6 +402,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     trainer = Trainer(model, cfg, gen=gen)
     unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
     prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
+    prov["processes"] = workers  # a speed setting, but it decides the rounding: say it
     if gains:  # the exposure the model was trained at: render reads its sources so
         from pipeline.exposure import gains_json
 
@@ -413,7 +415,8 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             prov["init"] = prev.get("init", prov["init"])
             prov["started"] = prev.get("started", prov["started"])
             prov["resumed"] = [*prev.get("resumed", []), {"at_step": trainer.step, **{
-                k: prov[k] for k in ("device_name", "code")}}]
+                k: prov[k] for k in ("device_name", "code", "processes")}}]
+            prov["processes"] = prev.get("processes", 1)  # the start's; each resume's above
         info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")

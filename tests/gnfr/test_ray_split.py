@@ -19,8 +19,8 @@ from gnfr.ray_split import (
     part_step,
     parts,
     ray_slices,
-    view_groups,
     to_wire,
+    view_groups,
     write_grads,
 )
 from gnfr.train import TINY, add_parts, make_optimizer, prepare_sources, sample_batch, train_step

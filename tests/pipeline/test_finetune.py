@@ -445,8 +445,9 @@ def test_finetune_workers_default_shares_the_cpu_threads(monkeypatch):
 def test_finetune_in_two_processes_trains_as_one_and_resumes_in_one(tmp_path, monkeypatch):
     """The stage with ``workers=2`` logs the numbers one process logs (to rounding), writes
     its checkpoint, is up to date for a one-process run (a speed setting), and a run
-    interrupted in two processes resumes in one."""
+    interrupted in two processes resumes in one; the checkpoint says how many trained it."""
     import gnfr.train
+    import pipeline.finetune as ft
 
     monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=10))
     ws = masked_workspace(tmp_path / "ws")
@@ -473,6 +474,9 @@ def test_finetune_in_two_processes_trains_as_one_and_resumes_in_one(tmp_path, mo
     assert [x["step"] for x in got] == [x["step"] for x in want] == [5, 10]
     for x, y in zip(got, want, strict=True):
         assert x["loss"] == pytest.approx(y["loss"], rel=1e-3)
+    prov = ft.checkpoint_provenance(tmp_path / "resumed" / "gnfr.safetensors")
+    assert prov["processes"] == 2 and [r["processes"] for r in prov["resumed"]] == [1]
+    assert ft.checkpoint_provenance(ws.model_file)["processes"] == 2
 
 
 def test_finetune_helper_death_is_one_line_and_an_interrupt_stops_the_helpers(tmp_path,
