@@ -14,8 +14,9 @@ The trained weights and the metric lines of each count are compared with the fir
 the same training but for the rounding of sums taken in another order, which training
 compounds step by step as a different seed would (``max_weight_diff``, and the first metric
 line's loss and psnr, where the runs have not yet drifted apart). Memory: the peak resident
-size of this process (which holds the one-process runs too) and of the largest helper
-(``RUSAGE_CHILDREN``: the helpers are this process's only children).
+size of this process (which holds the one-process runs too) and of the largest helper (each
+child process's ``VmHWM`` read every half second while it runs: ``RUSAGE_CHILDREN`` would
+count the parent's memory a spawned child held between its fork and its exec).
 """
 
 from __future__ import annotations
@@ -32,6 +33,42 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.render_speed import parse_counts  # noqa: E402
+
+
+class ChildPeak:
+    """The largest ``VmHWM`` (peak resident memory, kB) of this process's children seen
+    while it runs (a thread reading /proc every ``every`` seconds)."""
+
+    def __init__(self, every: float = 0.5):
+        import threading
+
+        self.kb, self.every, self.stop = 0, every, threading.Event()
+        self.thread = threading.Thread(target=self._poll, daemon=True)
+
+    def _poll(self) -> None:
+        import os
+
+        me = os.getpid()
+        while not self.stop.wait(self.every):
+            try:
+                kids = Path(f"/proc/{me}/task/{me}/children").read_text().split()
+            except OSError:
+                continue
+            for pid in kids:
+                try:
+                    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+                        if line.startswith("VmHWM:"):
+                            self.kb = max(self.kb, int(line.split()[1]))
+                except OSError:
+                    pass
+
+    def __enter__(self) -> ChildPeak:
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop.set()
+        self.thread.join()
 
 
 def weights_diff(a: Path, b: Path) -> float:
@@ -76,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     best = {w: math.inf for w in counts}
     passes: dict[int, list[dict]] = {w: [] for w in counts}
     compare: dict[int, dict] = {}
-    with tempfile.TemporaryDirectory(prefix="deflare-finetune-split-") as tmp:
+    with (tempfile.TemporaryDirectory(prefix="deflare-finetune-split-") as tmp,
+          ChildPeak() as helpers):
         ws = shared_workspace(base, Path(tmp) / "ws")
         keep = Path(tmp) / "first"
         for rep in range(a.repeats):
@@ -108,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     rec = {"workspace": str(base.root), "iters": a.iters, "repeats": a.repeats,
            "cores_torch_would_use": cores,
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-           "helper_peak_rss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+           "helper_peak_rss_mb": helpers.kb / 1024,
            "rows": [{"workers": w, "steps_per_s": a.iters / best[w], "wall_s": best[w],
                      "speedup": best[counts[0]] / best[w], "passes": passes[w], **compare[w]}
                     for w in counts],
