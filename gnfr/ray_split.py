@@ -12,8 +12,8 @@ memory, so each sees every update without a copy. End to end (the encoder traine
 step's source views are shared out too: each process encodes a share of them
 (``view_groups``) into a shared buffer, takes its rays' loss on every view's features as a
 leaf, writes that leaf's gradient back, and runs the encoder's backward for its own views on
-every process's gradient for them, summed. So the encoder's forward and backward, a third of
-a ``quick`` step on the CPU, are shared as well as the rays, at the cost of two exchanges
+every process's gradient for them, summed. So the encoder's forward and backward, which do
+not shrink with the rays, are shared as well as the rays, at the cost of two exchanges
 through the pipes per step.
 
 Nothing of a helper's is state: the checkpoint, the resume, the RNG and the metrics stay

@@ -63,8 +63,8 @@ class FinetuneConfig:
     views, ``threads`` threads each (default: one per thread torch would use, at most 4; 1
     trains in this process alone, with less memory and bitwise-reproducible runs). The whole
     batch's gradient either way, but for rounding; on the 2-core machine two one-thread
-    processes took a step SPEEDUP_SAMPLE faster than one on the sample's small photos and
-    SPEEDUP_1008 faster at the default 1008 px (``python benchmarks/finetune_split.py``,
+    processes took a step 1.47x faster than one on the sample's small photos and
+    1.48x faster at the default 1008 px (``python benchmarks/finetune_split.py``,
     docs/performance.md, "The fine-tune in two processes"). A speed setting: not in the
     stage's record (the checkpoint's provenance says it). CUDA trains in one process."""
     point_sampler: bool = True

@@ -327,8 +327,8 @@ def test_holes_as_flare_trains_on_the_enclosed_core_as_flare(tmp_path, monkeypat
 
 def test_finetune_mirror_trains_on_the_scene_and_its_mirror_image(tmp_path, monkeypatch):
     """--mirror: the steps draw batches of the scene and of its mirror image (its views
-    flipped left-right); recorded in the stage's parameters; the run without it draws the
-    scene alone at every step."""
+    flipped left-right), also with the steps shared by two processes; recorded in the
+    stage's parameters; the run without it draws the scene alone at every step."""
     import gnfr.train
     import pipeline.finetune as ft
 
@@ -342,7 +342,8 @@ def test_finetune_mirror_trains_on_the_scene_and_its_mirror_image(tmp_path, monk
 
     monkeypatch.setattr(ft, "sample_batch", spy)
     ws = masked_workspace(tmp_path / "ws")
-    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", mirror=True), ws)
+    # in two processes: the helpers read whichever of the two scenes' banks a step draws
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", mirror=True, workers=2), ws)
     names = {n for n, _ in seen}
     assert len(names) == 2 and any(n.endswith("~mirror") for n in names)
     pixels = {n: px for n, px in seen}

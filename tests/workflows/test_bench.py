@@ -22,9 +22,10 @@ def test_bench_quick_writes_json(tmp_path, one_torch_thread):
     assert rec["settings"]["quick"] and rec["preset"]["name"] == "quick"
     assert list(rec["results"]) == ["cpu"]
     r = rec["results"]["cpu"]
-    assert set(r["train"]) == {"end_to_end", "cached", "reference"}
+    assert set(r["train"]) == {"end_to_end", "cached", "reference", "processes"}
     for mode in r["train"].values():
         assert mode["it_per_s"] > 0 and mode["steps"] == 2 and "peak_mib" in mode
+    assert r["train"]["processes"]["processes"] == 2  # the fine-tune's split, 1 thread each
     assert set(r["render"]) == {"504x378", "1008x756"}
     for rr in r["render"].values():
         assert rr["rays_timed"] == 128 and rr["samples"] == 8

@@ -6,7 +6,10 @@ device (CPU, and CUDA when present) it measures, in the same process and run:
 
 - training iterations/s at a preset (default ``quick``) in three modes: end-to-end (the
   encoder trained, sources encoded every step), cached features (frozen encoder, sources
-  encoded once) and the plain reference path (end-to-end, fp32, no fused attention);
+  encoded once) and the plain reference path (end-to-end, fp32, no fused attention); on
+  the CPU a fourth, end-to-end with every step shared by one-thread processes as the
+  fine-tune does by default there (``gnfr.ray_split``; its peak memory is the first
+  process's alone);
 - rendering seconds per frame at 504x378 and 1008x756: fast = the render stage's path
   (sources encoded once and shared by all frames, bf16 autocast and fused attention on
   CUDA), reference = sources re-encoded for every frame, fp32, no fused attention. Rays
@@ -26,6 +29,7 @@ scratch workspace of hard links; the given workspace is only read.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
@@ -222,8 +226,23 @@ def synthetic_scene(n: int, size: tuple[int, int], seed: int = 0):
 # --------------------------------------------------------------------------- training
 TRAIN_MODES = {"end_to_end": {"cached_features": False, "reference": False},
                "cached": {"cached_features": True, "reference": False},
-               "reference": {"cached_features": False, "reference": True}}
-"""reference = the plain fp32 path, end-to-end (no cached features, no fused attention)."""
+               "reference": {"cached_features": False, "reference": True},
+               "processes": {"cached_features": False, "reference": False}}
+"""reference = the plain fp32 path, end-to-end (no cached features, no fused attention);
+processes = end-to-end with each step shared by one-thread processes as the fine-tune does
+on the CPU by default (``gnfr.ray_split``, ``split_processes``; CPU only)."""
+
+
+def split_processes(tcfg) -> int:
+    """Processes of the ``processes`` mode: one per torch thread, at least 2 and at most
+    the fine-tune's ``MAX_AUTO_WORKERS``, fewer where a process would get under
+    ``gnfr.ray_split.MIN_RAYS`` rays (then 1: the mode is skipped)."""
+    import torch
+
+    from gnfr.ray_split import parts
+    from pipeline.finetune import MAX_AUTO_WORKERS
+
+    return parts(tcfg.rays, max(2, min(MAX_AUTO_WORKERS, torch.get_num_threads())))
 
 
 def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
@@ -238,21 +257,36 @@ def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
     torch.manual_seed(0)
     model = GNFR(train_cfg.model).to(device)
     trainer = Trainer(model, train_cfg, gen=torch.Generator().manual_seed(0))
-    with PeakMemory(device) as mem:
+    n = split_processes(train_cfg) if mode == "processes" else 1
+    with contextlib.ExitStack() as stack:
+        mem = stack.enter_context(PeakMemory(device))
         t0 = time.perf_counter()
         bank, cache = prepare_sources(model, scene, train_cfg, torch.device(device))
+        split = None
+        if n > 1:
+            from gnfr.ray_split import RaySplit
+            from pipeline.finetune import torch_threads
+
+            stack.enter_context(torch_threads(1))
+            split = stack.enter_context(RaySplit(model, [(bank, cache)], train_cfg, n))
         _sync(device)
         prep = time.perf_counter() - t0
-        for _ in range(cfg.warmup):
-            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank, cache))
+        for _ in range(cfg.warmup + (n > 1)):  # and the helpers' start
+            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank,
+                                        cache), split=split)
         _sync(device)
         t0 = time.perf_counter()
         for _ in range(cfg.steps):
-            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank, cache))
+            trainer.train_one(StepInput(sample_batch(scene, train_cfg, trainer.gen), bank,
+                                        cache), split=split)
         _sync(device)
         dt = time.perf_counter() - t0
-    return {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,
-            "peak_mib": mem.mib, "steps": cfg.steps}
+    out = {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,
+           "peak_mib": mem.mib, "steps": cfg.steps}
+    if n > 1:
+        out.update(processes=n, threads_each=1,
+                   peak_mib_note="this process's alone: each helper holds its own torch")
+    return out
 
 
 # --------------------------------------------------------------------------- rendering
@@ -512,6 +546,8 @@ def run(cfg: BenchConfig) -> dict:
         iso = cfg.isolate and dev == "cpu"
         res = {"train": {}, "render": {}, "isolated_processes": iso}
         for mode in () if cfg.fill_only else TRAIN_MODES:
+            if mode == "processes" and (dev != "cpu" or split_processes(tcfg) < 2):
+                continue  # the fine-tune shares its steps out on the CPU only
             info(f"bench: {dev} training, {mode} ({cfg.warmup}+{cfg.steps} steps)")
             res["train"][mode] = measure(iso, bench_train, cfg, tcfg, scene, dev, mode)
         for W, H in () if cfg.fill_only else SIZES:
@@ -558,6 +594,14 @@ def print_table(record: dict) -> None:
                           f"{train[mode]['it_per_s']:.2f}", f"{ref['it_per_s']:.2f}",
                           f"{train[mode]['it_per_s'] / ref['it_per_s']:.2f}x faster",
                           f"{train[mode]['peak_mib']:.0f} / {ref['peak_mib']:.0f}")
+        split = train.get("processes")
+        if split:
+            one = train["end_to_end"]
+            table.add_row(device, f"train it/s ({split['processes']} processes of 1 thread, "
+                          "the fine-tune's CPU default; ref: one process)",
+                          f"{split['it_per_s']:.2f}", f"{one['it_per_s']:.2f}",
+                          f"{split['it_per_s'] / one['it_per_s']:.2f}x faster",
+                          f"{split['peak_mib']:.0f} (+ helpers) / {one['peak_mib']:.0f}")
         for size, render in results["render"].items():
             table.add_row(device, f"render s/frame {size}",
                           f"{render['fast']['s_per_frame']:.2f}",
