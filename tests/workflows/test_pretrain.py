@@ -148,7 +148,7 @@ def steps_taken(monkeypatch):
     taken, real = [], gnfr.fit.train_step
 
     def counting(model, opt, batch, *args):
-        taken.append(args[-2])                       # (..., cfg, step, hook)
+        taken.append(args[3])                        # (bank, cache, cfg, step, ...)
         return real(model, opt, batch, *args)
     monkeypatch.setattr(gnfr.fit, "train_step", counting)
     return taken
@@ -216,7 +216,7 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     real = gnfr.fit.train_step
 
     def dies_at_step_5(model, opt, batch, *args):
-        if args[-2] == 5:
+        if args[3] == 5:                             # (bank, cache, cfg, step, ...)
             raise Killed
         return real(model, opt, batch, *args)
     cfg = replace(PRESETS["tiny"], ckpt_every=2)
