@@ -61,9 +61,9 @@ class FinetuneConfig:
     workers: int | None = option(None, ge=1)
     """On the CPU: processes that share each step's rays and the encoding of its source
     views, ``threads`` threads each (default: one per thread torch would use, at most 4; 1
-    trains in this process alone, with less memory and bitwise-reproducible runs). The whole
-    batch's gradient either way, but for rounding; on the 2-core machine two one-thread
-    processes took a step 1.47x faster than one on the sample's small photos and
+    trains in this process alone, with less memory). The whole batch's gradient either way,
+    but for rounding (a run repeats bitwise at one count); on the 2-core machine two
+    one-thread processes took a step 1.47x faster than one on the sample's small photos and
     1.48x faster at the default 1008 px (``python benchmarks/finetune_split.py``,
     docs/performance.md, "The fine-tune in two processes"). A speed setting: not in the
     stage's record (the checkpoint's provenance says it). CUDA trains in one process."""

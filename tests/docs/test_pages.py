@@ -830,3 +830,16 @@ def test_performance_fine_tune_in_two_processes_is_the_files():
     assert speed["sceaux1008"] in options
     for body in (readme, goals, text):
         assert "7:32.0" in body and "9:18.9" in body
+
+
+def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
+    """README: the sample's row is the forty-seventh session's fresh clone (the fine-tune in
+    two processes); the earlier runs it names are their files'."""
+    readme = " ".join((REPO / "README.md").read_text().split())
+    now = json.loads((RESULTS / "sample_oneshot_cpu_s47_head.json").read_text())["mean"]
+    assert (f"(the main job above) | {now['psnr_flare']:.2f} / {now['psnr']:.2f} |") in readme
+    for f, words in (("sample_oneshot_cpu_s46_head.json", "(the forty-sixth session"),
+                     ("sample_oneshot_cpu_s46.json", "(its run on two threads"),
+                     ("sample_oneshot_cpu_s41_expo.json", "(the forty-first session")):
+        m = json.loads((RESULTS / f).read_text())["mean"]
+        assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f} {words}" in readme, f

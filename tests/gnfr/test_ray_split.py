@@ -127,6 +127,23 @@ def test_two_processes_step_as_one(scene, cached):
     assert sum(moved) > len(moved) // 2  # the steps trained
 
 
+def test_two_process_runs_repeat_bitwise(scene):
+    """Each process's share of the rays and views is fixed and the sums are taken in a fixed
+    order: two runs of the same steps in two processes end with the same weights."""
+    ends = []
+    for _ in range(2):
+        torch.manual_seed(0)
+        model = GNFR(CFG.model)
+        bank, cache = prepare_sources(model, scene, CFG, "cpu")
+        opt, gen = make_optimizer(model, CFG), torch.Generator().manual_seed(2)
+        with RaySplit(model, [(bank, cache)], CFG, 2) as split:
+            for step in range(3):
+                train_step(model, opt, sample_batch(scene, CFG, gen), bank, cache, CFG, step,
+                           split=split)
+        ends.append(copy.deepcopy(model.state_dict()))
+    assert all(torch.equal(ends[0][k], ends[1][k]) for k in ends[0])
+
+
 def sgd(model: GNFR) -> torch.optim.SGD:
     """``make_optimizer``'s groups (their names set the rates) under plain SGD."""
     groups = make_optimizer(model, CFG).param_groups
