@@ -54,8 +54,53 @@ WAIT_S = 0.5
 """How often a wait for a helper's answer checks that the helper is still alive."""
 
 
+SHM = "/dev/shm"
+"""Where torch's shared tensors live on Linux (a tmpfs: Docker gives containers 64 MB of it
+unless told ``--shm-size``)."""
+SHM_MARGIN = 1.25
+"""The free shared memory a split asks for, over what it counts it will put there."""
+
+
 class HelperDied(RuntimeError):
     """A helper process ended without answering (killed, e.g. for memory)."""
+
+
+class NoSharedMemory(RuntimeError):
+    """The processes would need more shared memory than the machine has free."""
+
+
+def free_shared_memory() -> int | None:
+    """Bytes free in ``SHM`` (None where there is no such folder: torch then shares memory
+    another way, unchecked)."""
+    try:
+        st = os.statvfs(SHM)
+    except OSError:
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def tensor_bytes(*objs) -> int:
+    """Bytes of the distinct tensor storages held by ``objs`` (tensors, dataclasses of them,
+    lists and tuples of either, modules' parameters)."""
+    seen: dict[int, int] = {}
+
+    def visit(x) -> None:
+        if isinstance(x, torch.Tensor):
+            st = x.untyped_storage()
+            seen[st.data_ptr()] = st.nbytes()
+        elif isinstance(x, torch.nn.Module):
+            for t in x.parameters():
+                visit(t)
+        elif isinstance(x, (list, tuple)):
+            for t in x:
+                visit(t)
+        elif hasattr(x, "__dataclass_fields__"):
+            for name in x.__dataclass_fields__:
+                visit(getattr(x, name))
+
+    for o in objs:
+        visit(o)
+    return sum(seen.values())
 
 
 def parts(rays: int, processes: int) -> int:
@@ -315,16 +360,34 @@ class RaySplit:
                 f = bank.encode(self.model, device, torch.tensor([0])).feats
                 shapes.append(tuple(int(x) for x in f.shape[1:]))
         size = max(self.cfg.n_views) * max(_numel(s) for s in shapes)
-        return Shared(torch.zeros(size).share_memory_(),
-                      [torch.zeros(size).share_memory_() for _ in range(self.n)], shapes)
+        return Shared(torch.zeros(size), [torch.zeros(size) for _ in range(self.n)], shapes)
+
+    def _check_room(self) -> None:
+        """``NoSharedMemory`` unless ``SHM`` has room (with ``SHM_MARGIN``) for what the
+        split puts there: the parameters, every input's tensors, the exchange buffers and
+        the helpers' gradients."""
+        free = free_shared_memory()
+        if free is None:
+            return
+        need = tensor_bytes(self.model, self.inputs, self.shared)
+        need += (self.n - 1) * 4 * grad_size(self.model)
+        if need * SHM_MARGIN > free:
+            raise NoSharedMemory(f"the {self.n} processes need {need / 2**20:.0f} MB of shared "
+                                 f"memory and {SHM} has {free / 2**20:.0f} MB free")
 
     def __enter__(self) -> RaySplit:
         import torch.multiprocessing as mp
 
         if next(self.model.parameters()).device.type != "cpu":
             raise ValueError("RaySplit shares CPU memory: the model must be on the CPU")
-        self.model.share_memory()
         self.shared = self._shared()
+        self._check_room()
+        try:
+            self.model.share_memory()
+            for t in (self.shared.feats, *self.shared.feat_grads):
+                t.share_memory_()
+        except RuntimeError as e:  # e.g. "unable to write to file </torch_...>"
+            raise NoSharedMemory(f"shared memory for the {self.n} processes: {e}") from None
         ctx = mp.get_context("spawn")
         try:
             with _threads_env(self.threads):  # the helpers start here and inherit it

@@ -402,7 +402,6 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     trainer = Trainer(model, cfg, gen=gen)
     unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
     prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
-    prov["processes"] = workers  # a speed setting, but it decides the rounding: say it
     if gains:  # the exposure the model was trained at: render reads its sources so
         from pipeline.exposure import gains_json
 
@@ -415,8 +414,8 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             prov["init"] = prev.get("init", prov["init"])
             prov["started"] = prev.get("started", prov["started"])
             prov["resumed"] = [*prev.get("resumed", []), {"at_step": trainer.step, **{
-                k: prov[k] for k in ("device_name", "code", "processes")}}]
-            prov["processes"] = prev.get("processes", 1)  # the start's; each resume's above
+                k: prov[k] for k in ("device_name", "code")}}]
+            prov["processes"] = prev.get("processes", 1)  # the start's; each resume's below
         info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
     else:
         info(f"finetune: starting {how}")
@@ -437,13 +436,23 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             **prov, "steps_done": step, "train_seconds": round(seconds, 1)}}
 
     cols = TextColumn("{task.fields[speed]} it/s  PSNR {task.fields[psnr]}")
-    label = "finetune" if workers == 1 else f"finetune ({workers} processes)"
     with contextlib.ExitStack() as stack:
         split = None
         if workers > 1 and trainer.step < cfg.iters:
-            from gnfr.ray_split import RaySplit
+            from gnfr.ray_split import NoSharedMemory, RaySplit
 
-            split = stack.enter_context(RaySplit(model, banks, cfg, workers, threads))
+            try:
+                split = stack.enter_context(RaySplit(model, banks, cfg, workers, threads))
+            except NoSharedMemory as e:
+                warn(f"finetune: {e}: training in one process (more shared memory, e.g. "
+                     "Docker's `--shm-size 2g`, lets the processes share each step)")
+                workers = 1
+        # a speed setting, but it decides the rounding: the checkpoint says it
+        if "resumed" in prov:
+            prov["resumed"][-1]["processes"] = workers
+        else:
+            prov["processes"] = workers
+        label = "finetune" if workers == 1 else f"finetune ({workers} processes)"
         prog = stack.enter_context(make_progress(cols))
         task = prog.add_task(label, total=cfg.iters, completed=trainer.step, speed="-",
                              psnr="-")

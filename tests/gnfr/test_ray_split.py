@@ -12,6 +12,7 @@ from gnfr.model import GNFR
 from gnfr.ray_split import (
     MIN_RAYS,
     HelperDied,
+    NoSharedMemory,
     RaySplit,
     add_grads,
     from_wire,
@@ -19,6 +20,7 @@ from gnfr.ray_split import (
     part_step,
     parts,
     ray_slices,
+    tensor_bytes,
     to_wire,
     view_groups,
     write_grads,
@@ -175,3 +177,26 @@ def test_a_bank_the_helpers_lack_is_refused(scene):
         split.step(model, sample_batch(scene, CFG, torch.Generator()), other, None)
     with pytest.raises(ValueError, match="2 or more"):
         RaySplit(model, [(bank, cache)], CFG, 1)
+
+
+def test_tensor_bytes_counts_each_storage_once():
+    a = torch.zeros(10)
+    assert tensor_bytes(a, [a, a[2:]], (a.view(2, 5),)) == 40
+    assert tensor_bytes(a, torch.zeros(3, dtype=torch.float64)) == 64
+
+
+def test_too_little_shared_memory_is_said_before_anything_moves(scene, monkeypatch):
+    """With less free shared memory than the split would use (Docker's 64 MB /dev/shm on a
+    large capture), entering raises NoSharedMemory naming both sizes, starts no helper and
+    leaves the parameters where they were."""
+    import gnfr.ray_split as rs
+
+    torch.manual_seed(0)
+    model = GNFR(CFG.model)
+    bank, cache = prepare_sources(model, scene, CFG, "cpu")
+    monkeypatch.setattr(rs, "free_shared_memory", lambda: 1000)
+    split = RaySplit(model, [(bank, cache)], CFG, 2)
+    with pytest.raises(NoSharedMemory, match=r"need \d+ MB of shared memory and .* has 0 MB"):
+        split.__enter__()
+    assert not split.helpers
+    assert not any(p.is_shared() for p in model.parameters())

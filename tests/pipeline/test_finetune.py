@@ -528,3 +528,20 @@ def test_finetune_helper_death_is_one_line_and_an_interrupt_stops_the_helpers(tm
             workers=2)
     procs = started[-1]
     assert len(procs) == 1 and not procs[0].is_alive()
+
+
+def test_finetune_without_room_in_shared_memory_trains_in_one_process(tmp_path, monkeypatch,
+                                                                      capsys):
+    """Where the processes would not fit in the free shared memory, the fine-tune says so in
+    one line and trains in one process; the checkpoint says one process trained it."""
+    import gnfr.ray_split as rs
+    import pipeline.finetune as ft
+
+    monkeypatch.setattr(rs, "free_shared_memory", lambda: 1000)
+    ws = masked_workspace(tmp_path / "ws")
+    fit(load_workspace(ws.root), replace(TINY, iters=5), torch.device("cpu"), tmp_path / "run",
+        resume=False, init="scratch", workers=2)
+    err = capsys.readouterr().err
+    assert "shared memory" in err and "training in one process" in err and "--shm-size" in err
+    assert ft.checkpoint_provenance(tmp_path / "run" / "gnfr.safetensors")["processes"] == 1
+    assert len(_metrics(tmp_path / "run" / "metrics.jsonl")) == 1
