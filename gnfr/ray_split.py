@@ -317,9 +317,9 @@ def _helper_main(model: GNFR, inputs: list, cfg: TrainConfig, me: int, n: int,
 
 
 @contextlib.contextmanager
-def _threads_env(threads: int):
-    """``THREAD_ENV`` at ``threads`` in this process's environment while helpers start
-    (they inherit it), restored after."""
+def threads_env(threads: int):
+    """``THREAD_ENV`` at ``threads`` in this process's environment while child processes
+    start (they inherit it; the render's frame workers too), restored after."""
     old = {k: os.environ.get(k) for k in THREAD_ENV}
     os.environ.update({k: str(threads) for k in THREAD_ENV})
     try:
@@ -390,7 +390,7 @@ class RaySplit:
             raise NoSharedMemory(f"shared memory for the {self.n} processes: {e}") from None
         ctx = mp.get_context("spawn")
         try:
-            with _threads_env(self.threads):  # the helpers start here and inherit it
+            with threads_env(self.threads):  # the helpers start here and inherit it
                 for i in range(1, self.n):
                     ours, theirs = ctx.Pipe()
                     grads = torch.zeros(grad_size(self.model)).share_memory_()

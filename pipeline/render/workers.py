@@ -13,8 +13,6 @@ frames on disk.
 
 from __future__ import annotations
 
-import contextlib
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -101,12 +99,6 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
                     setup.gains, quiet=quiet)
 
 
-ONE_THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-"""Variables a worker starts with at 1, so that the libraries that read them when they load
-(OpenMP, numpy's BLAS) keep to one thread; OMP_WAIT_POLICY comes with the parent's
-environment (workflows/threads.py)."""
-
-
 def _one_thread() -> None:
     """A worker's first step: torch and OpenCV on one thread (OpenCV's own pool would
     otherwise take every core in each process: the processes then ran a frame hardly faster
@@ -116,22 +108,6 @@ def _one_thread() -> None:
 
     torch.set_num_threads(1)
     cv2.setNumThreads(1)
-
-
-@contextlib.contextmanager
-def one_thread_env():
-    """``ONE_THREAD_ENV`` at 1 in this process's environment while the workers start (they
-    inherit it), restored after."""
-    old = {k: os.environ.get(k) for k in ONE_THREAD_ENV}
-    os.environ.update({k: "1" for k in ONE_THREAD_ENV})
-    try:
-        yield
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
 def _worker_main(setup: RenderSetup, jobs: list[FrameJob], index: int, results) -> None:
@@ -171,6 +147,7 @@ def render_in_workers(setup: RenderSetup, jobs: list[FrameJob], workers: int,
     import multiprocessing as mp
     import queue
 
+    from gnfr.ray_split import threads_env
     from pipeline.errors import UserError
 
     ctx = mp.get_context("spawn")
@@ -191,7 +168,7 @@ def render_in_workers(setup: RenderSetup, jobs: list[FrameJob], workers: int,
             wait = 0.0
 
     try:
-        with one_thread_env():  # the processes start here and inherit it
+        with threads_env(1):  # the processes start here and inherit it (OMP, BLAS)
             for p in procs:
                 p.start()
         with make_progress() as prog:
