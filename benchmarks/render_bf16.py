@@ -1,0 +1,106 @@
+"""Would bf16 autocast on the CPU speed up the video's frames, and what would it change?
+
+    python benchmarks/render_bf16.py --workspace WS [--frames 6] [--repeats 2] [--out ...]
+
+An exploration, not a product option: the render stage renders the workspace's
+``interpolate`` path (``--frames`` frames, one process of one thread, the stage's defaults
+otherwise) in a scratch workspace sharing WS's stages, alternately as it is (fp32 on the CPU)
+and with ``torch.autocast("cpu", dtype=torch.bfloat16)`` around GN-FR's forward pass
+(``gnfr.renderer.autocast`` patched: on CUDA the stage already renders in bf16), ``--repeats``
+times each; the fastest pass of each counts. The bf16 frames are compared with the fp32
+frames value by value: PSNR between them, the largest difference in 8-bit levels and the
+share of values that differ. The record says whether this CPU has native bf16 (oneDNN's
+``_is_mkldnn_bf16_supported``): without it bf16 is emulated and slower.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workspace", type=Path, required=True,
+                    help="A workspace with a fine-tuned model and its depth maps.")
+    ap.add_argument("--frames", type=int, default=6)
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    if a.frames < 1 or a.repeats < 1:
+        raise SystemExit("--frames and --repeats: give at least 1")
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy(1)  # one thread, as each of the render's processes runs
+    import cv2
+    import numpy as np
+    import torch
+
+    import gnfr.renderer as renderer
+    from benchmarks.render_speed import frame_pixels
+    from pipeline import render
+    from pipeline.errors import UserError
+    from pipeline.provenance import write_result
+    from workflows.research.bench import check_workspace
+    from workflows.research.eval.workspaces import shared_workspace
+
+    cv2.setNumThreads(1)
+    try:
+        base, ckpt = check_workspace(a.workspace)
+    except UserError as e:
+        raise SystemExit(str(e)) from None
+    fp32 = renderer.autocast
+
+    def cpu_bf16(device, enabled: bool = True):
+        if enabled and torch.device(device).type == "cpu":
+            return torch.autocast("cpu", dtype=torch.bfloat16)
+        return fp32(device, enabled)
+
+    best = {"fp32": math.inf, "bf16": math.inf}
+    frames = {}
+    with tempfile.TemporaryDirectory(prefix="deflare-bf16-") as tmp:
+        ws = shared_workspace(base, Path(tmp) / "ws")
+        for rep in range(a.repeats):
+            for mode in ("fp32", "bf16"):
+                renderer.autocast = cpu_bf16 if mode == "bf16" else fp32
+                try:
+                    rc = render.RenderConfig(path="interpolate", frames=a.frames, device="cpu",
+                                             workers=1, checkpoint=str(ckpt))
+                    t0 = time.perf_counter()
+                    render.run(rc, ws, force=True)
+                    s = (time.perf_counter() - t0) / a.frames
+                finally:
+                    renderer.autocast = fp32
+                best[mode] = min(best[mode], s)
+                print(f"pass {rep + 1}, {mode}: {s:.2f} s per frame", flush=True)
+                if rep == 0:
+                    frames[mode] = frame_pixels(ws.render_dir("interpolate"))
+    x, y = frames["fp32"], frames["bf16"]
+    d = [np.abs(x[k].astype(float) - y[k].astype(float)) for k in x]
+    mse = float(np.mean([(v ** 2).mean() for v in d]))
+    native = None
+    with contextlib.suppress(Exception):
+        native = bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    rec = {"workspace": str(base.root), "checkpoint": str(ckpt), "frames": a.frames,
+           "repeats": a.repeats, "native_bf16": native,
+           "s_per_frame": best, "speedup": best["fp32"] / best["bf16"],
+           "psnr_bf16_vs_fp32": 10 * math.log10(255 ** 2 / max(mse, 1e-12)),
+           "max_abs_diff": int(max(v.max() for v in d)),
+           "share_of_values_differing": float(np.mean([(v > 0).mean() for v in d]))}
+    print(f"fp32 {best['fp32']:.2f} s, bf16 {best['bf16']:.2f} s per frame "
+          f"({rec['speedup']:.2f}x; native bf16: {native}); bf16 frames "
+          f"{rec['psnr_bf16_vs_fp32']:.1f} dB from fp32, at most {rec['max_abs_diff']} levels")
+    write_result(a.out, rec)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
