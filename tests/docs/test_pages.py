@@ -843,3 +843,16 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
                      ("sample_oneshot_cpu_s41_expo.json", "(the forty-first session")):
         m = json.loads((RESULTS / f).read_text())["mean"]
         assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f} {words}" in readme, f
+
+
+def test_performance_bf16_frames_exploration_is_its_file():
+    """docs/performance.md: the bf16 exploration's times, speed-up and differences are
+    render_bf16_cpu_sample_s47.json's."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    r = json.loads((RESULTS / "render_bf16_cpu_sample_s47.json").read_text())
+    assert r["native_bf16"] is True
+    assert (f"{r['s_per_frame']['fp32']:.2f} s per frame in fp32 against "
+            f"{r['s_per_frame']['bf16']:.2f} s with bf16 autocast, {r['speedup']:.2f}x") in text
+    assert (f"{r['psnr_bf16_vs_fp32']:.1f} dB from the fp32 frames, but "
+            f"{r['share_of_values_differing'] * 100:.1f} % of the values differ and the largest "
+            f"difference is {r['max_abs_diff']} levels") in text
