@@ -837,6 +837,12 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     two processes); the earlier runs it names are their files'."""
     readme = " ".join((REPO / "README.md").read_text().split())
     now = json.loads((RESULTS / "sample_oneshot_cpu_s47_head.json").read_text())["mean"]
+    final = json.loads((RESULTS / "sample_oneshot_cpu_s47_final.json").read_text())
+    assert final["mean"] == now and final["code"]["commit"].startswith("be7779b")
+    st = final["stages"]
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    assert (f"fine-tuning {st['finetune']['seconds']:.1f} s, the 48 frames "
+            f"{st['render:interpolate']['seconds']:.1f} s, and the same scores") in perf
     assert (f"(the main job above) | {now['psnr_flare']:.2f} / {now['psnr']:.2f} |") in readme
     for f, words in (("sample_oneshot_cpu_s46_head.json", "(the forty-sixth session"),
                      ("sample_oneshot_cpu_s46.json", "(its run on two threads"),
