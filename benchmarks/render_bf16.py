@@ -1,13 +1,12 @@
-"""Would bf16 autocast on the CPU speed up the video's frames, and what would it change?
+"""How much faster does ``render --bf16`` make the CPU's video frames, and what does it change?
 
     python benchmarks/render_bf16.py --workspace WS [--frames 6] [--repeats 2] [--out ...]
 
-An exploration, not a product option: the render stage renders the workspace's
-``interpolate`` path (``--frames`` frames, one process of one thread, the stage's defaults
-otherwise) in a scratch workspace sharing WS's stages, alternately as it is (fp32 on the CPU)
-and with ``torch.autocast("cpu", dtype=torch.bfloat16)`` around GN-FR's forward pass
-(``gnfr.renderer.autocast`` patched: on CUDA the stage already renders in bf16), ``--repeats``
-times each; the fastest pass of each counts. The bf16 frames are compared with the fp32
+The render stage renders the workspace's ``interpolate`` path (``--frames`` frames, one
+process of one thread, the stage's defaults otherwise) in a scratch workspace sharing WS's
+stages, alternately as it is (fp32 on the CPU) and with ``bf16`` (GN-FR's forward pass under
+``torch.autocast("cpu", dtype=torch.bfloat16)``, as CUDA always renders), ``--repeats`` times
+each; the fastest pass of each counts. The bf16 frames are compared with the fp32
 frames value by value: PSNR between them, the largest difference in 8-bit levels and the
 share of values that differ. The record says whether this CPU has native bf16 (oneDNN's
 ``_is_mkldnn_bf16_supported``): without it bf16 is emulated and slower.
@@ -44,7 +43,6 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
     import torch
 
-    import gnfr.renderer as renderer
     from benchmarks.render_speed import frame_pixels
     from pipeline import render
     from pipeline.errors import UserError
@@ -57,28 +55,17 @@ def main(argv: list[str] | None = None) -> int:
         base, ckpt = check_workspace(a.workspace)
     except UserError as e:
         raise SystemExit(str(e)) from None
-    fp32 = renderer.autocast
-
-    def cpu_bf16(device, enabled: bool = True):
-        if enabled and torch.device(device).type == "cpu":
-            return torch.autocast("cpu", dtype=torch.bfloat16)
-        return fp32(device, enabled)
-
     best = {"fp32": math.inf, "bf16": math.inf}
     frames = {}
     with tempfile.TemporaryDirectory(prefix="deflare-bf16-") as tmp:
         ws = shared_workspace(base, Path(tmp) / "ws")
         for rep in range(a.repeats):
             for mode in ("fp32", "bf16"):
-                renderer.autocast = cpu_bf16 if mode == "bf16" else fp32
-                try:
-                    rc = render.RenderConfig(path="interpolate", frames=a.frames, device="cpu",
-                                             workers=1, checkpoint=str(ckpt))
-                    t0 = time.perf_counter()
-                    render.run(rc, ws, force=True)
-                    s = (time.perf_counter() - t0) / a.frames
-                finally:
-                    renderer.autocast = fp32
+                rc = render.RenderConfig(path="interpolate", frames=a.frames, device="cpu",
+                                         workers=1, checkpoint=str(ckpt), bf16=mode == "bf16")
+                t0 = time.perf_counter()
+                render.run(rc, ws, force=True)
+                s = (time.perf_counter() - t0) / a.frames
                 best[mode] = min(best[mode], s)
                 print(f"pass {rep + 1}, {mode}: {s:.2f} s per frame", flush=True)
                 if rep == 0:

@@ -149,7 +149,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "scale": novel_scale(cfg, device),
               "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
               "point_sampler": bool(meta.get("point_sampler", True)),
-              "depth_maps": "frames" if frames_maps else "depth"}
+              "depth_maps": "frames" if frames_maps else "depth",
+              "bf16": bool(cfg.bf16) and not device.startswith("cuda")}  # CUDA: always
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []

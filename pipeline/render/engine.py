@@ -60,7 +60,7 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
                                       chunk=chunk, point_sampler=params["point_sampler"],
                                       progress=lambda k, o=offset: prog.update(
                                           t_rays, completed=o + k), with_depth=want_depth,
-                                      pad=cfg.compile)
+                                      pad=cfg.compile, cpu_bf16=cfg.bf16)
                     rgb[idx.numpy()] = out["rgb"].numpy()
                     if want_depth:
                         depth[idx.numpy()] = out["depth"].numpy()

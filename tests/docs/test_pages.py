@@ -852,8 +852,10 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
 
 
 def test_performance_bf16_frames_exploration_is_its_file():
-    """docs/performance.md: the bf16 exploration's times, speed-up and differences are
-    render_bf16_cpu_sample_s47.json's."""
+    """docs/performance.md, options.md and ``render --bf16``'s help: its times, speed-up and
+    differences are render_bf16_cpu_sample_s47.json's."""
+    import inspect
+
     text = " ".join((REPO / "docs" / "performance.md").read_text().split())
     r = json.loads((RESULTS / "render_bf16_cpu_sample_s47.json").read_text())
     assert r["native_bf16"] is True
@@ -862,3 +864,11 @@ def test_performance_bf16_frames_exploration_is_its_file():
     assert (f"{r['psnr_bf16_vs_fp32']:.1f} dB from the fp32 frames, but "
             f"{r['share_of_values_differing'] * 100:.1f} % of the values differ and the largest "
             f"difference is {r['max_abs_diff']} levels") in text
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    assert (f"frames {r['speedup']:.2f}x faster on this EPYC, {r['psnr_bf16_vs_fp32']:.1f} dB "
+            f"from the fp32 frames with a few pixels up to {r['max_abs_diff']} levels "
+            "off") in options
+    from pipeline.render.config import RenderConfig
+
+    source = " ".join(inspect.getsource(RenderConfig).split())
+    assert f"rendered {r['speedup']:.2f}x faster" in source

@@ -650,6 +650,37 @@ def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
     assert all(p.stat().st_mtime_ns == t for p, t in mtimes.items())
 
 
+def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monkeypatch):
+    """--bf16: GN-FR's forward pass runs under bf16 autocast on the CPU (every chunk), the
+    frames stay close to the fp32 frames, and the setting is in the stage's parameters (a
+    render without it renders again); without it no pass runs under autocast."""
+    import gnfr.renderer as gr
+    import pipeline.render as R
+
+    seen = []
+    real = gr.GNFR.forward
+
+    def spy(self, *a, **k):
+        seen.append(torch.is_autocast_enabled("cpu"))
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(gr.GNFR, "forward", spy)
+    out = rws.renders / "interpolate"
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), rws,
+          force=True)
+    plain = {p.name: cv2.imread(str(p)).astype(float) for p in out.glob("*.png")}
+    assert seen and not any(seen)
+    assert rws.stage_record("render:interpolate")["params"]["bf16"] is False
+    seen.clear()
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network",
+                         bf16=True), rws)  # not forced: the recorded setting differs
+    assert seen and all(seen)
+    assert rws.stage_record("render:interpolate")["params"]["bf16"] is True
+    for name, img in plain.items():
+        diff = cv2.imread(str(out / name)).astype(float) - img
+        assert 10 * np.log10(255 ** 2 / max((diff ** 2).mean(), 1e-9)) > 30, name
+
+
 def test_render_compile_wraps_the_model_once_and_changes_nothing(rws, monkeypatch):
     """--compile: torch.compile(dynamic=False) is applied once per render, chunks are
     padded to one shape, and the frames equal the uncompiled ones (the setting is not part
