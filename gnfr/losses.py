@@ -20,12 +20,11 @@ def masked_mse(pred: torch.Tensor, target: torch.Tensor,
     """
     err = (pred.float() - target.float()).square()
     keep = _keep(flare, weight)
-    if denominator is not None:
-        return (err.sum() if keep is None else (err * keep[:, None]).sum()) / denominator
-    if keep is None:
+    if denominator is None and keep is None:
         return err.mean()
-    return (err * keep[:, None]).sum() / mse_denominator(err.shape[0], err.shape[1], flare,
-                                                         weight)
+    if denominator is None:
+        denominator = _kept_count(keep, err.shape[1], weight is not None)
+    return (err.sum() if keep is None else (err * keep[:, None]).sum()) / denominator
 
 
 def _keep(flare: torch.Tensor | None, weight: torch.Tensor | None) -> torch.Tensor | None:
@@ -43,7 +42,12 @@ def mse_denominator(rays: int, channels: int, flare: torch.Tensor | None,
     keep = _keep(flare, weight)
     if keep is None:
         return torch.tensor(float(rays * channels))
-    floor = 1.0 if weight is None else 1e-12  # a pixel count; weights may sum under one
+    return _kept_count(keep, channels, weight is not None)
+
+
+def _kept_count(keep: torch.Tensor, channels: int, weighted: bool) -> torch.Tensor:
+    """``keep``'s sum over the channels, at least one pixel's worth."""
+    floor = 1e-12 if weighted else 1.0  # a pixel count; weights may sum under one
     return (keep.sum() * channels).clamp_min(floor)
 
 

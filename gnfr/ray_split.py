@@ -35,6 +35,7 @@ comes back as one; a helper that dies without a word raises ``HelperDied``. Meas
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 from dataclasses import dataclass
 
@@ -197,17 +198,16 @@ class Shared:
     """(C, h, w) of each input's feature maps."""
 
     def features(self, k: int, views: int) -> torch.Tensor:
-        return self.feats[:views * _numel(self.shapes[k])].view(views, *self.shapes[k])
+        """[views, C, h, w] of input ``k``'s step: the features buffer's head."""
+        return self._head(self.feats, k, views)
 
     def grads(self, p: int, k: int, views: int) -> torch.Tensor:
-        return self.feat_grads[p][:views * _numel(self.shapes[k])].view(views, *self.shapes[k])
+        """[views, C, h, w]: process ``p``'s feature gradients of input ``k``'s step."""
+        return self._head(self.feat_grads[p], k, views)
 
-
-def _numel(shape: tuple[int, ...]) -> int:
-    out = 1
-    for x in shape:
-        out *= x
-    return out
+    def _head(self, buf: torch.Tensor, k: int, views: int) -> torch.Tensor:
+        shape = self.shapes[k]
+        return buf[:views * math.prod(shape)].view(views, *shape)
 
 
 def part_step(model: GNFR, batch: Batch, rows: slice, k: int, bank: SourceBank,
@@ -359,7 +359,7 @@ class RaySplit:
             for bank, _ in self.inputs:
                 f = bank.encode(self.model, device, torch.tensor([0])).feats
                 shapes.append(tuple(int(x) for x in f.shape[1:]))
-        size = max(self.cfg.n_views) * max(_numel(s) for s in shapes)
+        size = max(self.cfg.n_views) * max(math.prod(s) for s in shapes)
         return Shared(torch.zeros(size), [torch.zeros(size) for _ in range(self.n)], shapes)
 
     def _check_room(self) -> None:

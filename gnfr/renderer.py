@@ -68,7 +68,8 @@ class SourceViews:
                masks: torch.Tensor | None, device, chunk: int = 4,
                grad: bool = False, feature_scale: float = 1.0,
                enc_images: torch.Tensor | None = None,
-               rows: torch.Tensor | None = None) -> SourceViews:
+               rows: torch.Tensor | None = None,
+               feats: torch.Tensor | None = None) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
@@ -78,20 +79,24 @@ class SourceViews:
         ``enc_images``: the encoder's input already made (:func:`encoder_input` of
         ``images``), for a caller that encodes the same views at every step. ``rows``: the
         views are these rows of ``images`` and ``masks`` (a bank kept whole, not copied;
-        ``enc_images``, ``K`` and ``c2w`` are then the views' own)."""
+        ``enc_images``, ``K`` and ``c2w`` are then the views' own). ``feats``: the views'
+        feature maps made elsewhere (``gnfr.ray_split``): the encoder does not run."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         if rows is not None and enc_images is None:
             raise ValueError("SourceViews.encode: rows need the views' enc_images")
         n = images.shape[0] if rows is None else len(rows)
-        feats = []
-        ctx = contextlib.nullcontext() if grad else torch.no_grad()
-        with ctx, autocast(device, enabled=not grad):
-            for i in range(0, n, chunk):
-                x = (encoder_input(images[i:i + chunk], feature_scale) if enc_images is None
-                     else enc_images[i:i + chunk].to(device, torch.float32))
-                feats.append(model.encode(x).float())
-        return cls(images=images, feats=torch.cat(feats), K=K.to(device, torch.float32),
+        if feats is None:
+            parts = []
+            ctx = contextlib.nullcontext() if grad else torch.no_grad()
+            with ctx, autocast(device, enabled=not grad):
+                for i in range(0, n, chunk):
+                    x = (encoder_input(images[i:i + chunk], feature_scale)
+                         if enc_images is None
+                         else enc_images[i:i + chunk].to(device, torch.float32))
+                    parts.append(model.encode(x).float())
+            feats = torch.cat(parts)
+        return cls(images=images, feats=feats, K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
                    masks=None if masks is None else masks.to(device, torch.float32),
                    rows=None if rows is None else rows.to(device))

@@ -234,35 +234,27 @@ class SourceBank:
         """The views ``ids`` with their feature maps ``feats`` [len(ids), C, h, w] made
         elsewhere (``gnfr.ray_split``: each process encodes a share of a step's views), as
         ``encode(model, device, ids)`` would give them."""
-        device = torch.device(device)
-        f32 = torch.float32
-        if self.enc_images is not None:  # full-size colours: the views are rows of the bank
-            return SourceViews(images=self.images.to(device, f32), feats=feats,
-                               K=self.K[ids].to(device, f32), c2w=self.c2w[ids].to(device, f32),
-                               masks=None if self.masks is None else self.masks.to(device, f32),
-                               rows=ids.to(device))
-        return SourceViews(images=self.images[ids].to(device, f32), feats=feats,
-                           K=self.K[ids].to(device, f32), c2w=self.c2w[ids].to(device, f32),
-                           masks=None if self.masks is None else self.masks[ids].to(device, f32))
+        return self.encode(None, device, ids, feats=feats)
 
-    def encode(self, model: GNFR, device, ids: torch.Tensor | None = None,
-               grad: bool = False) -> SourceViews:
+    def encode(self, model: GNFR | None, device, ids: torch.Tensor | None = None,
+               grad: bool = False, feats: torch.Tensor | None = None) -> SourceViews:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
-        ``grad`` keeps the encoder's graph)."""
+        ``grad`` keeps the encoder's graph; ``feats``: their features made elsewhere, the
+        encoder not run: ``views``)."""
         enc = self.enc_images
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,
-                                      enc_images=enc)
+                                      enc_images=enc, feats=feats)
         if enc is not None:  # full-size colours: the views are rows of the bank, not copies
             return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
                                       self.masks, device, grad=grad,
                                       feature_scale=self.feature_scale, enc_images=enc[ids],
-                                      rows=ids)
+                                      rows=ids, feats=feats)
         # the encoder reads the views themselves: stack them
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
-                                  grad=grad, feature_scale=self.feature_scale)
+                                  grad=grad, feature_scale=self.feature_scale, feats=feats)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
@@ -404,9 +396,9 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     rays = len(batch.rgb)
     if whole is not None:
         rays = len(whole.rgb)
-        den_loss = mse_denominator(rays, 3, whole.flare if cfg.mask_loss else None,
-                                   whole.weight).to(dev)
         den_psnr = mse_denominator(rays, 3, whole.flare, whole.weight).to(dev)
+        den_loss = (den_psnr if cfg.mask_loss
+                    else mse_denominator(rays, 3, None, whole.weight).to(dev))
     loss = masked_mse(out["rgb"], batch.rgb.to(dev), flare if cfg.mask_loss else None, weight,
                       den_loss)
     with torch.no_grad():  # weighted too: edge-drawn rays estimate the image's mean error
