@@ -148,33 +148,33 @@ def grad_size(model: GNFR) -> int:
     return sum(p.numel() for p in model.parameters() if p.requires_grad)
 
 
-def write_grads(model: GNFR, buf: torch.Tensor) -> None:
-    """The trained parameters' gradients, flattened in order, into ``buf`` (0 where none)."""
+def _grad_rows(model: GNFR):
+    """(parameter, its slice of a flat gradient buffer) for every parameter that trains, in
+    order (``grad_size`` values in all)."""
     off = 0
     for p in model.parameters():
-        if not p.requires_grad:
-            continue
-        n = p.numel()
+        if p.requires_grad:
+            yield p, slice(off, off + p.numel())
+            off += p.numel()
+
+
+def write_grads(model: GNFR, buf: torch.Tensor) -> None:
+    """The trained parameters' gradients, flattened in order, into ``buf`` (0 where none)."""
+    for p, rows in _grad_rows(model):
         if p.grad is None:
-            buf[off:off + n].zero_()
+            buf[rows].zero_()
         else:
-            buf[off:off + n].copy_(p.grad.reshape(-1))
-        off += n
+            buf[rows].copy_(p.grad.reshape(-1))
 
 
 def add_grads(model: GNFR, buf: torch.Tensor) -> None:
     """Add the flattened gradients ``buf`` (``write_grads``) to the model's."""
-    off = 0
-    for p in model.parameters():
-        if not p.requires_grad:
-            continue
-        n = p.numel()
-        g = buf[off:off + n].view_as(p)
+    for p, rows in _grad_rows(model):
+        g = buf[rows].view_as(p)
         if p.grad is None:
             p.grad = g.clone()
         else:
             p.grad.add_(g)
-        off += n
 
 
 def view_groups(views: int, n: int) -> list[slice]:
