@@ -104,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.workspace import Workspace
     from workflows.research.eval.workspaces import shared_workspace
 
-    base = Workspace(a.workspace)
     try:
+        base = Workspace.open(a.workspace)
         base.require("select")
     except UserError as e:
         raise SystemExit(str(e)) from None
