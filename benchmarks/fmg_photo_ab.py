@@ -11,15 +11,16 @@ session").
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
         [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args=--crosscheck] \
         [--select-args "--max-flare 0.15"] [--finetune-args=--full-res-colour] \
-        [--depth-args "--sgm 0.1,1"]
+        [--depth-args "--sgm 0.1,1"] [--render-args=--bf16]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py rerender SYNTH --from-arm BASE --arm NAME --seed S \
-        --work DIR --depth-args "--sgm 0.1,1"
-        # BASE's workspace copied, the depth stage rerun with the options, the de-flared
-        # photos and held-out cameras rendered again with BASE's model; scored as ``run``
+        --work DIR [--depth-args "--sgm 0.1,1"] [--render-args=--bf16]
+        # BASE's workspace copied, the depth stage rerun with the options (if any), the
+        # de-flared photos and held-out cameras rendered again with BASE's model (with the
+        # render options); scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
-        [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames] [--out JSON]
+        [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed] [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -35,6 +36,11 @@ arms against their ``run`` arm), with the thirty-seventh session's thresholds (d
 fill.md, "Consistency in planes"): (a) mean flare-region gain >= +0.05 dB, no scene's flare
 region or whole photo lower by more than 0.05 dB nor its SSIM by more than 0.002; (b) novel
 views' mean PSNR not lower by more than 0.05 dB nor their mean SSIM by more than 0.002.
+``--rule speed`` judges a change made for speed (the forty-eighth session's bf16 on the CPU):
+no gain asked, only that nothing users see is lost beyond a seed's spread: (a) the de-flared
+photos' flare region not lower by more than 0.05 dB on the mean nor 0.20 dB on any scene, (b)
+the whole photo not lower by more than 0.05 dB nor SSIM by more than 0.002 (means), (c) the
+novel views not lower by more than 0.10 dB (mean).
 ``--rule frames`` judges a depth change made for the novel frames alone (``rerender`` arms;
 the de-flared photos are not judged: the change leaves them as they were), with the
 forty-fourth session's thresholds (docs/history/fill.md, "The aggregated depth for the
@@ -88,6 +94,12 @@ RULE_FRAMES = {"held_ssim_gain": 0.008, "held_ssim_scene_loss": 0.002, "held_los
 the model held fixed, the de-flared photos unchanged)."""
 
 
+RULE_SPEED = {"flare_loss": 0.05, "flare_scene_loss": 0.20, "whole_loss": 0.05,
+              "ssim_loss": 0.002, "held_loss": 0.10}
+"""``--rule speed``'s thresholds (the forty-eighth session's rule for a change made for speed,
+which must not cost what users see: no gain asked, the losses a seed's spread allows)."""
+
+
 def result_name(arm: str, scene: str, seed: int) -> str:
     return f"fmg_{arm}_fair_{scene}_s{seed}.json"
 
@@ -96,11 +108,13 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
             holes_as_flare: bool | None = None, novel_equal_below: float | None = None,
             select_args: list[str] | None = None, mask_args: list[str] | None = None,
             finetune_args: list[str] | None = None,
-            depth_args: list[str] | None = None) -> Path:
+            depth_args: list[str] | None = None,
+            render_args: list[str] | None = None) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file.
-    ``mask_args`` / ``depth_args`` / ``select_args`` / ``finetune_args``: extra options of the
-    mask / depth / select / finetune stage (e.g. ``--crosscheck``, ``--sgm 0.1,1``,
-    ``--max-flare 0.15``, ``--full-res-colour``)."""
+    ``mask_args`` / ``depth_args`` / ``select_args`` / ``finetune_args`` / ``render_args``:
+    extra options of the mask / depth / select / finetune / both renders' stage (e.g.
+    ``--crosscheck``, ``--sgm 0.1,1``, ``--max-flare 0.15``, ``--full-res-colour``,
+    ``--bf16``)."""
     scene = scene_short(synth)
     ws = _copy_once(synth / "eval.ws", work / f"{scene}_{arm}_s{seed}.ws", "variants")
     steps = [["mask", str(ws), "--weights", str(weights), "--force", *(mask_args or [])],
@@ -109,11 +123,12 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
               *([] if holes_as_flare is None
                 else ["--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"]),
               *(finetune_args or [])],
-             ["render", str(ws), "--path", "inputs"],
+             ["render", str(ws), "--path", "inputs", *(render_args or [])],
              ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
                                                "heldout_cameras.json"), "--scale", "0.5",
               *([] if novel_equal_below is None
-                else ["--sources-equal-below", str(novel_equal_below)])]]
+                else ["--sources-equal-below", str(novel_equal_below)]),
+              *(render_args or [])]]
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
 
 
@@ -142,10 +157,11 @@ def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path) -> 
 
 
 def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
-                 depth_args: list[str]) -> Path:
+                 depth_args: list[str], render_args: list[str] | None = None) -> Path:
     """A copy of ``base_arm``'s workspace (``run``'s) with the depth stage rerun with
-    ``depth_args`` and the de-flared photos and held-out cameras rendered again by the same
-    model (not fine-tuned again); scored as ``run`` scores. Returns the result file."""
+    ``depth_args`` (when given) and the de-flared photos and held-out cameras rendered again
+    by the same model (not fine-tuned again), with ``render_args``; scored as ``run`` scores.
+    Returns the result file."""
     from pipeline.errors import UserError
 
     scene = scene_short(synth)
@@ -155,10 +171,11 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                         f"(python benchmarks/fmg_photo_ab.py run {synth} --arm {base_arm} "
                         f"--seed {seed} --work {work} ...)")
     ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
-    steps = [["depth", str(ws), "--force", *depth_args],
-             ["render", str(ws), "--path", "inputs"],
-             ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
-                                               "heldout_cameras.json"), "--scale", "0.5"]]
+    steps = [["depth", str(ws), "--force", *depth_args]] if depth_args else []
+    steps += [["render", str(ws), "--path", "inputs", *(render_args or [])],
+              ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
+                                                "heldout_cameras.json"), "--scale", "0.5",
+               *(render_args or [])]]
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
 
 
@@ -193,6 +210,11 @@ PARTS = {
                      ("scene", "held_ssim", -RULE_FRAMES["held_ssim_scene_loss"])],
                "b": [("mean", "held", -RULE_FRAMES["held_loss"]),
                      ("scene", "held", -RULE_FRAMES["held_scene_loss"])]},
+    "speed": {"a": [("mean", "psnr_flare", -RULE_SPEED["flare_loss"]),
+                    ("scene", "psnr_flare", -RULE_SPEED["flare_scene_loss"])],
+              "b": [("mean", "psnr", -RULE_SPEED["whole_loss"]),
+                    ("mean", "ssim", -RULE_SPEED["ssim_loss"])],
+              "c": [("mean", "held", -RULE_SPEED["held_loss"])]},
 }
 """Each rule's parts, in order: a part holds when each of its checks does, a check
 (``mean``, KEY, X) when the scenes' mean difference of KEY is at least X, (``scene``, KEY, X)
@@ -285,6 +307,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--finetune-args", default="",
                    help="extra options of the finetune stage, e.g. "
                         "--finetune-args=--full-res-colour")
+    r.add_argument("--render-args", default="",
+                   help="extra options of both renders (de-flared photos, held-out cameras), "
+                        "e.g. --render-args=--bf16")
     rr = sub.add_parser("rerender")
     rr.add_argument("synth", type=Path)
     rr.add_argument("--from-arm", required=True)
@@ -292,7 +317,10 @@ def main(argv: list[str] | None = None) -> int:
     rr.add_argument("--seed", type=int, default=0)
     rr.add_argument("--work", type=Path, required=True)
     rr.add_argument("--depth-args", default="",
-                    help='options of the depth stage, e.g. "--sgm 0.1,1"')
+                    help='options of the depth stage, e.g. "--sgm 0.1,1" (none: the depth '
+                         "maps are kept)")
+    rr.add_argument("--render-args", default="",
+                    help="options of both renders, e.g. --render-args=--bf16")
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
@@ -306,7 +334,8 @@ def main(argv: list[str] | None = None) -> int:
     j.add_argument("--rule", choices=tuple(PARTS), default="flare",
                    help="flare: the FMG photo rule; novel: a change for the novel views; "
                         "depth: a depth stage change, the model held fixed (rerender arms); "
-                        "frames: a depth change for the novel frames alone (rerender arms)")
+                        "frames: a depth change for the novel frames alone (rerender arms); "
+                        "speed: a change for speed that must lose nothing users see")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
@@ -325,10 +354,10 @@ def main(argv: list[str] | None = None) -> int:
                     out = run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
                                   a.novel_equal_below, shlex.split(a.select_args),
                                   shlex.split(a.mask_args), shlex.split(a.finetune_args),
-                                  shlex.split(a.depth_args))
+                                  shlex.split(a.depth_args), shlex.split(a.render_args))
                 else:
                     out = rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
-                                       shlex.split(a.depth_args))
+                                       shlex.split(a.depth_args), shlex.split(a.render_args))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "

@@ -8,15 +8,17 @@ stages, alternately as it is (fp32 on the CPU) and with ``bf16`` (GN-FR's forwar
 ``torch.autocast("cpu", dtype=torch.bfloat16)``, as CUDA always renders), ``--repeats`` times
 each; the fastest pass of each counts. The bf16 frames are compared with the fp32
 frames value by value: PSNR between them, the largest difference in 8-bit levels and the
-share of values that differ. The record says whether this CPU has native bf16 (oneDNN's
-``_is_mkldnn_bf16_supported``): without it bf16 is emulated and slower.
+share of values that differ. The record says whether this CPU has native bf16
+(``gnfr.renderer.native_bf16``): without it bf16 is emulated and slower. Run under
+``ONEDNN_MAX_CPU_ISA=AVX2 ATEN_CPU_CAPABILITY=avx2`` it measures a CPU without native bf16
+(the record keeps both).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
+import os
 import sys
 import tempfile
 import time
@@ -44,6 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     from benchmarks.render_speed import frame_diff, frame_pixels
+    from gnfr.renderer import native_bf16
     from pipeline import render
     from pipeline.errors import UserError
     from pipeline.provenance import write_result
@@ -73,17 +76,17 @@ def main(argv: list[str] | None = None) -> int:
     x, y = frames["fp32"], frames["bf16"]
     largest, differing = frame_diff(x, y)
     mse = float(np.mean([((x[k].astype(float) - y[k].astype(float)) ** 2).mean() for k in x]))
-    native = None
-    with contextlib.suppress(Exception):
-        native = bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
     rec = {"workspace": str(base.root), "checkpoint": str(ckpt), "frames": a.frames,
-           "repeats": a.repeats, "native_bf16": native,
+           "repeats": a.repeats, "native_bf16": native_bf16(),
+           # set to emulate an older CPU (docs/performance.md, "bf16 on the CPU")
+           "onednn_max_cpu_isa": os.environ.get("ONEDNN_MAX_CPU_ISA"),
+           "aten_cpu_capability": torch.backends.cpu.get_cpu_capability(),
            "s_per_frame": best, "speedup": best["fp32"] / best["bf16"],
            "psnr_bf16_vs_fp32": 10 * math.log10(255 ** 2 / max(mse, 1e-12)),
            "max_abs_diff": largest,
            "share_of_values_differing": differing / sum(v.size for v in x.values())}
     print(f"fp32 {best['fp32']:.2f} s, bf16 {best['bf16']:.2f} s per frame "
-          f"({rec['speedup']:.2f}x; native bf16: {native}); bf16 frames "
+          f"({rec['speedup']:.2f}x; native bf16: {rec['native_bf16']}); bf16 frames "
           f"{rec['psnr_bf16_vs_fp32']:.1f} dB from fp32, at most {rec['max_abs_diff']} levels")
     write_result(a.out, rec)
     return 0

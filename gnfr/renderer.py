@@ -28,6 +28,30 @@ from gnfr.model import GNFR
 from gnfr.transformer import attention_mask
 
 
+def native_bf16() -> bool:
+    """Whether this CPU computes bf16 natively (AVX512-BF16 or AMX, as oneDNN sees it):
+    without it bf16 is emulated, about ten times slower than fp32."""
+    try:
+        return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):
+        return False
+
+
+AUTO_BF16 = False
+"""Whether the render's and the fine-tune's ``bf16`` left unset turns CPU bf16 on where the CPU
+has it natively (``native_bf16``). Off until the development scenes judge it
+(docs/performance.md, "bf16 on the CPU")."""
+
+
+def cpu_bf16(choice: bool | None, device: torch.device | str) -> bool:
+    """Whether a stage on ``device`` runs GN-FR under CPU bf16 autocast: never on CUDA (which
+    always autocasts its own way), ``choice`` when given, else ``AUTO_BF16`` where the CPU
+    has native bf16."""
+    if torch.device(device).type != "cpu":
+        return False
+    return bool(choice) if choice is not None else AUTO_BF16 and native_bf16()
+
+
 def autocast(device: torch.device | str, enabled: bool = True, cpu: bool = False):
     """bf16 autocast on CUDA, and on the CPU with ``cpu`` (the render's ``--bf16``); a no-op
     elsewhere."""

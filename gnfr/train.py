@@ -82,6 +82,10 @@ class TrainConfig:
     scene lists its targets (``Scene.targets``: a workspace's views.json)."""
     reference: bool = False
     """Plain fp32 path: no autocast, no fused attention (for checks and timing)."""
+    cpu_bf16: bool = False
+    """On the CPU: the transformers' forward and backward under bf16 autocast, as CUDA always
+    trains (the encoder and the weights stay fp32). Fast only where the CPU has native bf16
+    (``gnfr.renderer.native_bf16``)."""
     seed: int = 0
     """Seed of initialisation and of every random draw of the run."""
     log_every: int = 50
@@ -389,7 +393,8 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     (``add_parts``); psnr is then the part's alone."""
     dev = src.images.device
     out = forward_rays(model, src, ids, batch.rays_o.to(dev), batch.rays_d.to(dev),
-                       batch.t.to(dev), cfg.point_sampler, cfg.reference)
+                       batch.t.to(dev), cfg.point_sampler, cfg.reference,
+                       cpu_bf16=cfg.cpu_bf16)
     flare = None if batch.flare is None else batch.flare.to(dev)
     weight = None if batch.weight is None else batch.weight.to(dev)
     den_loss = den_psnr = None

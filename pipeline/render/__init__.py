@@ -136,6 +136,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
+    from gnfr.renderer import cpu_bf16
+
+    cfg = replace(cfg, bf16=cpu_bf16(cfg.bf16, device))  # recorded resolved: CUDA always
     if cfg.sources_equal_below is None and key != "inputs":
         # novel frames record the line they used: a render made at another line re-renders
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))
@@ -150,13 +153,13 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
               "point_sampler": bool(meta.get("point_sampler", True)),
               "depth_maps": "frames" if frames_maps else "depth",
-              "bf16": bool(cfg.bf16) and not device.startswith("cuda")}  # CUDA: always
+              "bf16": cfg.bf16}
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
-                "depth_maps": "depth"}
+                "depth_maps": "depth", "bf16": False}  # records before bf16 rendered fp32
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

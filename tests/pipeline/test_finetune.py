@@ -545,3 +545,61 @@ def test_finetune_without_room_in_shared_memory_trains_in_one_process(tmp_path, 
     assert "shared memory" in err and "training in one process" in err and "--shm-size" in err
     assert ft.checkpoint_provenance(tmp_path / "run" / "gnfr.safetensors")["processes"] == 1
     assert len(_metrics(tmp_path / "run" / "metrics.jsonl")) == 1
+
+
+def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it(tmp_path,
+                                                                                 monkeypatch):
+    """--bf16: every step's GN-FR forward runs under CPU bf16 autocast while the encoder
+    does not, the weights stay fp32, the setting is in the stage's record (a run without it
+    trains again); a record made before the setting existed is up to date at the fp32
+    default."""
+    import gnfr.renderer as gr
+    import gnfr.train
+    import pipeline.finetune as ft
+
+    monkeypatch.setattr(gr, "AUTO_BF16", False)
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
+    seen = {"model": [], "encoder": []}
+    real_fwd, real_enc = gr.GNFR.forward, gr.GNFR.encode
+
+    def fwd(self, *a, **k):
+        seen["model"].append(torch.is_autocast_enabled("cpu"))
+        return real_fwd(self, *a, **k)
+
+    def enc(self, *a, **k):
+        seen["encoder"].append(torch.is_autocast_enabled("cpu"))
+        return real_enc(self, *a, **k)
+
+    monkeypatch.setattr(gr.GNFR, "forward", fwd)
+    monkeypatch.setattr(gr.GNFR, "encode", enc)
+    ws = masked_workspace(tmp_path / "ws")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=True), ws)
+    assert seen["model"] and all(seen["model"]) and not any(seen["encoder"])
+    assert ws.stage_record("finetune")["params"]["train"]["cpu_bf16"] is True
+    assert all(t.dtype == torch.float32 for t in load_file(str(ws.model_file)).values())
+    for v in seen.values():
+        v.clear()
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)  # trains again
+    assert seen["model"] and not any(seen["model"])
+    rec = ws.stage_record("finetune")
+    del rec["params"]["train"]["cpu_bf16"]  # as written before the setting existed
+    ws.update_manifest("finetune", rec)
+    stamp = ws.model_file.stat().st_mtime_ns
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert ws.model_file.stat().st_mtime_ns == stamp
+
+
+def test_cpu_bf16_rule():
+    """bf16 on the CPU: never on CUDA, as asked when asked, else on where AUTO_BF16 says so
+    and the CPU computes bf16 natively."""
+    import gnfr.renderer as gr
+
+    assert gr.cpu_bf16(True, "cuda") is False and gr.cpu_bf16(None, "cuda:0") is False
+    assert gr.cpu_bf16(True, "cpu") is True and gr.cpu_bf16(False, "cpu") is False
+    for auto in (False, True):
+        for native in (False, True):
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(gr, "AUTO_BF16", auto)
+                mp.setattr(gr, "native_bf16", lambda n=native: n)
+                assert gr.cpu_bf16(None, "cpu") is (auto and native)
+    assert isinstance(gr.native_bf16(), bool)

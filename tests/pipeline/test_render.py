@@ -653,7 +653,8 @@ def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
 def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monkeypatch):
     """--bf16: GN-FR's forward pass runs under bf16 autocast on the CPU (every chunk), the
     frames stay close to the fp32 frames, and the setting is in the stage's parameters (a
-    render without it renders again); without it no pass runs under autocast."""
+    render without it renders again); without it no pass runs under autocast, and a record
+    made before the setting existed is up to date at the fp32 default."""
     import gnfr.renderer as gr
     import pipeline.render as R
 
@@ -665,6 +666,7 @@ def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monke
         return real(self, *a, **k)
 
     monkeypatch.setattr(gr.GNFR, "forward", spy)
+    monkeypatch.setattr(gr, "AUTO_BF16", False)  # the default is fp32 here
     out = rws.renders / "interpolate"
     R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), rws,
           force=True)
@@ -679,6 +681,16 @@ def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monke
     for name, img in plain.items():
         diff = cv2.imread(str(out / name)).astype(float) - img
         assert 10 * np.log10(255 ** 2 / max((diff ** 2).mean(), 1e-9)) > 30, name
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network",
+                         bf16=False), rws)  # renders fp32 again
+    rec = rws.stage_record("render:interpolate")
+    assert rec["params"]["bf16"] is False
+    del rec["params"]["bf16"]  # a record made before the setting existed rendered fp32
+    rws.update_manifest("render:interpolate", rec)
+    stamps = {p: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    seen.clear()
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), rws)
+    assert not seen and all(p.stat().st_mtime_ns == t for p, t in stamps.items())
 
 
 def test_render_compile_wraps_the_model_once_and_changes_nothing(rws, monkeypatch):

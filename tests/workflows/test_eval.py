@@ -557,6 +557,53 @@ def test_frames_rule_asks_a_structure_gain_of_the_novel_views_and_no_scene_lost(
     assert got["parts"] == {"a": True, "b": False}
 
 
+def test_speed_rule_asks_no_gain_and_allows_only_a_seeds_spread_of_loss():
+    """``--rule speed`` (a change for speed): the same numbers pass; -0.04 dB in every flare
+    region passes, -0.06 fails (a), as does one scene's -0.25 with the mean -0.03; the whole
+    photo -0.06 dB or its SSIM -0.003 fails (b); novel views -0.11 dB on the mean fails (c),
+    while one scene's -0.25 with the mean -0.05 passes (no per-scene check of the novel
+    views: two held-out cameras a scene)."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0} for s in "xyz"}
+
+    def cand(**by_scene):
+        return {s: {**base[s], **by_scene.get(s, {})} for s in base}
+
+    def verdict(**by_scene):
+        return m.photo_rule(cand(**by_scene), base, "speed")["decision"]
+
+    assert verdict() == "passes"
+    assert verdict(**{s: {"psnr_flare": 19.96} for s in "xyz"}) == "passes"
+    assert verdict(**{s: {"psnr_flare": 19.94} for s in "xyz"}) == "fails (a)"
+    assert verdict(x={"psnr_flare": 19.75}, y={"psnr_flare": 20.08},
+                   z={"psnr_flare": 20.08}) == "fails (a)"
+    assert verdict(**{s: {"psnr": 29.94} for s in "xyz"}) == "fails (b)"
+    assert verdict(**{s: {"ssim": 0.947} for s in "xyz"}) == "fails (b)"
+    assert verdict(**{s: {"held": 16.89} for s in "xyz"}) == "fails (c)"
+    assert verdict(x={"held": 16.75}, y={"held": 17.05}, z={"held": 17.05}) == "passes"
+
+
+def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch):
+    """``run --render-args`` and ``rerender --render-args`` give the options to both renders
+    (the de-flared photos and the held-out cameras); ``rerender`` without depth options
+    keeps the base arm's depth maps (no depth step)."""
+    m = _photo_ab()
+    steps = {}
+    monkeypatch.setattr(m, "_run_and_score",
+                        lambda synth, ws, st, out: steps.setdefault(ws.name, st) and out)
+    synth = tmp_path / "sceaux_synth"
+    (synth / "eval.ws" / "variants").mkdir(parents=True)
+    m.run_arm(synth, "c", tmp_path / "w.safetensors", 3, tmp_path, render_args=["--bf16"])
+    renders = [st for st in steps["sceaux_c_s3.ws"] if st[0] == "render"]
+    assert len(renders) == 2 and all(st[-1] == "--bf16" for st in renders)
+    (tmp_path / "sceaux_c_s3.ws" / "model").mkdir()
+    m.rerender_arm(synth, "c", "r", 3, tmp_path, [], ["--bf16"])
+    assert [st[0] for st in steps["sceaux_r_s3.ws"]] == ["render", "render"]
+    assert all(st[-1] == "--bf16" for st in steps["sceaux_r_s3.ws"])
+    m.rerender_arm(synth, "c", "d", 3, tmp_path, ["--sgm", "0.1,1"])
+    assert [st[0] for st in steps["sceaux_d_s3.ws"]] == ["depth", "render", "render"]
+
+
 def test_depth_rule_holds_the_photos_per_scene_and_the_novel_views_on_the_mean(tmp_path, capsys):
     """``--rule depth`` (a depth stage change, the model fixed): +0.06 dB in every flare
     region passes; a mean gain with one scene's flare region -0.06 dB fails (a), as does a
