@@ -26,6 +26,12 @@ def test_bench_quick_writes_json(tmp_path, one_torch_thread):
     for mode in r["train"].values():
         assert mode["it_per_s"] > 0 and mode["steps"] == 2 and "peak_mib" in mode
     assert r["train"]["processes"]["processes"] == 2  # the fine-tune's split, 1 thread each
+    from gnfr.renderer import cpu_bf16
+
+    default = cpu_bf16(None, "cpu")  # the fast paths run the stages' default, recorded
+    assert r["train"]["reference"]["cpu_bf16"] is False
+    assert all(r["train"][m]["cpu_bf16"] is default for m in ("end_to_end", "cached"))
+    assert all(rr["cpu_bf16"] is default for rr in r["render"].values())
     assert set(r["render"]) == {"504x378", "1008x756"}
     for rr in r["render"].values():
         assert rr["rays_timed"] == 128 and rr["samples"] == 8

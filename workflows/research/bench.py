@@ -12,9 +12,11 @@ device (CPU, and CUDA when present) it measures, in the same process and run:
   process's alone);
 - rendering seconds per frame at 504x378 and 1008x756: fast = the render stage's path
   (sources encoded once and shared by all frames, bf16 autocast and fused attention on
-  CUDA), reference = sources re-encoded for every frame, fp32, no fused attention. Rays
-  are timed on ``rays`` pixels of the frame (default: all of it on CUDA, 4096 on CPU) and
-  scaled to the whole frame (cost is linear in rays: fixed chunks);
+  CUDA, bf16 on the CPU where the stage's default uses it, ``gnfr.renderer.cpu_bf16``;
+  the training modes but ``reference`` follow the fine-tune's the same way), reference =
+  sources re-encoded for every frame, fp32, no fused attention. Rays are timed on ``rays``
+  pixels of the frame (default: all of it on CUDA, 4096 on CPU) and scaled to the whole
+  frame (cost is linear in rays: fixed chunks);
 - peak memory of each measurement: CUDA ``torch.cuda.max_memory_allocated``; CPU the peak
   resident set size above the level at the start of the measurement, sampled every 5 ms
   (psutil when installed, else /proc/self/statm, else ``resource`` maxrss).
@@ -251,9 +253,12 @@ def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
 
     from gnfr.fit import StepInput, Trainer
     from gnfr.model import GNFR
+    from gnfr.renderer import cpu_bf16
     from gnfr.train import prepare_sources, sample_batch
 
     train_cfg = replace(tcfg, **TRAIN_MODES[mode])
+    if not train_cfg.reference:  # as the fine-tune trains by default on this device
+        train_cfg = replace(train_cfg, cpu_bf16=cpu_bf16(None, device))
     torch.manual_seed(0)
     model = GNFR(train_cfg.model).to(device)
     trainer = Trainer(model, train_cfg, gen=torch.Generator().manual_seed(0))
@@ -282,7 +287,7 @@ def bench_train(cfg: BenchConfig, tcfg, scene, device: str, mode: str) -> dict:
         _sync(device)
         dt = time.perf_counter() - t0
     out = {"it_per_s": cfg.steps / dt, "s_per_it": dt / cfg.steps, "prepare_s": prep,
-           "peak_mib": mem.mib, "steps": cfg.steps}
+           "peak_mib": mem.mib, "steps": cfg.steps, "cpu_bf16": train_cfg.cpu_bf16}
     if n > 1:
         out.update(processes=n, threads_each=1,
                    peak_mib_note="this process's alone: each helper holds its own torch")
@@ -325,7 +330,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
 
     from gnfr.geometry import sample_depths
     from gnfr.model import GNFR
-    from gnfr.renderer import SourceViews, forward_rays, render_rays
+    from gnfr.renderer import SourceViews, cpu_bf16, forward_rays, render_rays
     from pipeline.render import default_chunk
 
     torch.manual_seed(0)
@@ -342,7 +347,8 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     near, far = torch.full((R,), 1.0), torch.full((R,), 4.5)
     ids = torch.arange(n_src)
     scale = W * H / R
-    out = {"rays_timed": R, "samples": samples, "chunk": chunk,
+    bf16 = cpu_bf16(None, device)  # the render stage's default on this device
+    out = {"rays_timed": R, "samples": samples, "chunk": chunk, "cpu_bf16": bf16,
            "sources": f"{n_src} x {imgs.shape[-1]}x"
            f"{imgs.shape[-2]}"}
 
@@ -354,7 +360,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
         _sync(device)
         enc = time.perf_counter() - t0
         t0 = time.perf_counter()
-        render_rays(model, src, ids, o, d, near, far, samples, chunk=chunk)
+        render_rays(model, src, ids, o, d, near, far, samples, chunk=chunk, cpu_bf16=bf16)
         _sync(device)
         return enc, time.perf_counter() - t0
 
@@ -382,7 +388,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     with torch.inference_mode():
         src0 = SourceViews.encode(model, imgs, K, c2w, masks, device)
         render_rays(model, src0, ids, o[warm], d[warm], near[warm], far[warm], samples,
-                    chunk=chunk)
+                    chunk=chunk, cpu_bf16=bf16)
         t = sample_depths(near[warm].to(o), far[warm].to(o), samples, jitter=False)
         forward_rays(model, src0, ids.to(device), o[warm], d[warm], t, reference=True)
         del src0
