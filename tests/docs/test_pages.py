@@ -851,6 +851,19 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
         assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f} {words}" in readme, f
 
 
+def test_performance_bf16_without_native_bf16_is_its_file():
+    """docs/performance.md's frames on a CPU without native bf16 (emulated by limiting oneDNN
+    and ATen to AVX2) are render_bf16_cpu_avx2_sample_s48.json's, and the run did see no
+    native bf16."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    r = json.loads((RESULTS / "render_bf16_cpu_avx2_sample_s48.json").read_text())
+    assert r["native_bf16"] is False and r["onednn_max_cpu_isa"] == "AVX2"
+    assert r["aten_cpu_capability"] == "AVX2"
+    assert (f"{r['s_per_frame']['fp32']:.2f} s per frame in fp32 and "
+            f"{r['s_per_frame']['bf16']:.2f} s with bf16, {1 / r['speedup']:.1f} times "
+            "slower") in text
+
+
 def test_performance_bf16_frames_exploration_is_its_file():
     """docs/performance.md, options.md and ``render --bf16``'s help: its times, speed-up and
     differences are render_bf16_cpu_sample_s47.json's."""

@@ -557,7 +557,6 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     import gnfr.train
     import pipeline.finetune as ft
 
-    monkeypatch.setattr(gr, "AUTO_BF16", False)
     monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
     seen = {"model": [], "encoder": []}
     real_fwd, real_enc = gr.GNFR.forward, gr.GNFR.encode

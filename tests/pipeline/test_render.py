@@ -666,7 +666,6 @@ def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monke
         return real(self, *a, **k)
 
     monkeypatch.setattr(gr.GNFR, "forward", spy)
-    monkeypatch.setattr(gr, "AUTO_BF16", False)  # the default is fp32 here
     out = rws.renders / "interpolate"
     R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), rws,
           force=True)
