@@ -130,6 +130,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"pass {rep + 1}, workers {w}: {a.iters / wall:.2f} steps/s "
                       f"({wall:.1f} s; loop {loop:.2f} it/s)", flush=True)
                 if rep == 0:
+                    # the weights every run started from (path, sha256), as the model says
+                    init = (finetune.checkpoint_provenance(ws.model_file) or {}).get("init")
                     lines = [json.loads(x) for x in ws.metrics_jsonl.read_text().splitlines()]
                     if w == counts[0]:
                         shutil.copytree(ws.model, keep)
@@ -150,7 +152,8 @@ def main(argv: list[str] | None = None) -> int:
            "rows": [{"workers": w, "steps_per_s": a.iters / best[w], "wall_s": best[w],
                      "speedup": best[counts[0]] / best[w], "passes": passes[w], **compare[w]}
                     for w in counts],
-           "compared_with": {"workers": counts[0]}}
+           "compared_with": {"workers": counts[0]},
+           "init": init}
     for row in rec["rows"]:
         print(f"workers {row['workers']}: {row['steps_per_s']:.2f} steps/s (fastest of "
               f"{a.repeats}), {row['speedup']:.2f}x; weights differ from workers "
