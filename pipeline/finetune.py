@@ -125,10 +125,12 @@ class FinetuneConfig:
     """Plain fp32 path (no bf16 autocast, no fused attention)."""
     bf16: bool | None = option(None, flag="--bf16/--no-bf16")
     """On the CPU: the transformers' forward and backward under bf16 autocast, as CUDA always
-    trains (the encoder and the weights stay fp32). Default: ``gnfr.renderer.cpu_bf16``'s rule
-    (off until judged on the development scenes). On a CPU with native bf16 (AVX512-BF16 or
-    AMX) a step of the sample took about 1.35x less time; elsewhere bf16 is emulated and
-    slower. Changes what is learnt beyond rounding: in the stage's record."""
+    trains (the encoder and the weights stay fp32). Default: on where the CPU has native bf16
+    (AVX512-BF16 or AMX), fp32 elsewhere, where bf16 is emulated and slower
+    (``gnfr.renderer.cpu_bf16``; judged on the development scenes, docs/performance.md, "bf16
+    on the CPU"). There a step of the sample took about 1.3x less time. Changes what is
+    learnt beyond rounding: in the stage's record (a workspace moved to a CPU that decides
+    otherwise fine-tunes again; ``--bf16`` / ``--no-bf16`` pin it)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
     """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
     a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""

@@ -121,12 +121,12 @@ class RenderConfig:
     worth it where GN-FR draws most pixels (``--fill network``, large frames), not for the
     default hybrid video of a small scene. Needs a C++ compiler on CPU."""
     bf16: bool | None = option(None, flag="--bf16/--no-bf16")
-    """On the CPU: GN-FR's forward pass under bf16 autocast, as CUDA always renders (default:
-    ``gnfr.renderer.cpu_bf16``'s rule: off until judged on the development scenes). On a
-    CPU with native bf16 (AVX512-BF16 or AMX) the sample's frames rendered 1.39x faster;
-    elsewhere bf16 is emulated and about ten times slower. The frames change (12 % of the
-    values, a few pixels by far more than rounding) (`python benchmarks/render_bf16.py`,
-    docs/performance.md, "bf16 on the CPU")."""
+    """On the CPU: GN-FR's forward pass under bf16 autocast, as CUDA always renders. Default:
+    on where the CPU has native bf16 (AVX512-BF16 or AMX), fp32 elsewhere, where bf16 is
+    emulated and about ten times slower (``gnfr.renderer.cpu_bf16``; judged with the
+    fine-tune's on the development scenes). On this EPYC the sample's frames rendered 1.39x
+    faster; they change by more than rounding (12 % of the values, a few pixels by far
+    more) (`python benchmarks/render_bf16.py`, docs/performance.md, "bf16 on the CPU")."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
     fill: str = option("hybrid", choices=FILLS)

@@ -555,7 +555,6 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     default."""
     import gnfr.renderer as gr
     import gnfr.train
-    import pipeline.finetune as ft
 
     monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
     seen = {"model": [], "encoder": []}
