@@ -11,6 +11,7 @@ Shapes: V cached views, Vs views used for a batch of rays, R rays, S samples per
 from __future__ import annotations
 
 import contextlib
+import os
 from dataclasses import dataclass
 
 import torch
@@ -45,13 +46,20 @@ within the rule's seed spread; the fine-tune about 1.3x and the frames 1.39x fas
 EPYC; docs/performance.md, "bf16 on the CPU")."""
 
 
+BF16_ENV = "DEFLARE_CPU_BF16"
+"""Environment variable: ``0`` keeps every stage's default in fp32 on any CPU (explicit
+``--bf16`` still wins): for runs that must repeat across machines, and the test suite."""
+
+
 def cpu_bf16(choice: bool | None, device: torch.device | str) -> bool:
     """Whether a stage on ``device`` runs GN-FR under CPU bf16 autocast: never on CUDA (which
     always autocasts its own way), ``choice`` when given, else ``AUTO_BF16`` where the CPU
-    has native bf16."""
+    has native bf16 and ``DEFLARE_CPU_BF16`` is not ``0``."""
     if torch.device(device).type != "cpu":
         return False
-    return bool(choice) if choice is not None else AUTO_BF16 and native_bf16()
+    if choice is not None:
+        return bool(choice)
+    return AUTO_BF16 and os.environ.get(BF16_ENV, "").strip() != "0" and native_bf16()
 
 
 def autocast(device: torch.device | str, enabled: bool = True, cpu: bool = False):

@@ -39,8 +39,9 @@ def _few_threads(monkeypatch):
     """Keep torch to the 2 cores CI has and make CPU runs reproducible; the render renders
     in the test's process unless a test asks for workers (``pipeline.render.workers.
     AUTO_WORKERS``: the tests' counters and simulated interrupts patch this process); the
-    stages run fp32 unless a test asks for bf16 (``gnfr.renderer.AUTO_BF16``: whether the
-    default is bf16 depends on the CPU, and the suite must mean the same on every machine)."""
+    stages run fp32 unless a test asks for bf16 (``DEFLARE_CPU_BF16=0``, which the
+    benchmarks' and CLI's child processes inherit: whether the default is bf16 depends on
+    the CPU, and the suite must mean the same on every machine)."""
     try:
         import torch
     except ImportError:  # pragma: no cover
@@ -48,7 +49,7 @@ def _few_threads(monkeypatch):
     torch.set_num_threads(min(2, os.cpu_count() or 1))
     monkeypatch.setattr("pipeline.render.workers.AUTO_WORKERS", False)
     monkeypatch.setattr("pipeline.finetune.AUTO_WORKERS", False)
-    monkeypatch.setattr("gnfr.renderer.AUTO_BF16", False)
+    monkeypatch.setenv("DEFLARE_CPU_BF16", "0")
 
 
 @pytest.fixture

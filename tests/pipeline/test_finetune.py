@@ -548,13 +548,15 @@ def test_finetune_without_room_in_shared_memory_trains_in_one_process(tmp_path, 
 
 
 def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it(tmp_path,
-                                                                                 monkeypatch):
+                                                                                 monkeypatch,
+                                                                                 capsys):
     """--bf16: every step's GN-FR forward runs under CPU bf16 autocast while the encoder
     does not, the weights stay fp32, the setting is in the stage's record (a run without it
-    trains again); a record made before the setting existed is up to date at the fp32
-    default."""
+    trains again); on a CPU without native bf16 it warns that bf16 is emulated; a record made
+    before the setting existed is up to date at the fp32 default."""
     import gnfr.renderer as gr
     import gnfr.train
+    import pipeline.finetune as ft
 
     monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
     seen = {"model": [], "encoder": []}
@@ -571,7 +573,9 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     monkeypatch.setattr(gr.GNFR, "forward", fwd)
     monkeypatch.setattr(gr.GNFR, "encode", enc)
     ws = masked_workspace(tmp_path / "ws")
+    monkeypatch.setattr(ft, "native_bf16", lambda: False)
     run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=True), ws)
+    assert "no native bf16" in " ".join(capsys.readouterr().err.split())
     assert seen["model"] and all(seen["model"]) and not any(seen["encoder"])
     assert ws.stage_record("finetune")["params"]["train"]["cpu_bf16"] is True
     assert all(t.dtype == torch.float32 for t in load_file(str(ws.model_file)).values())
@@ -587,17 +591,26 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     assert ws.model_file.stat().st_mtime_ns == stamp
 
 
-def test_cpu_bf16_rule():
+def test_cpu_bf16_rule(monkeypatch):
     """bf16 on the CPU: never on CUDA, as asked when asked, else on where AUTO_BF16 says so
-    and the CPU computes bf16 natively."""
+    and the CPU computes bf16 natively, unless DEFLARE_CPU_BF16=0 (which the test suite
+    sets) keeps the default fp32."""
     import gnfr.renderer as gr
 
     assert gr.cpu_bf16(True, "cuda") is False and gr.cpu_bf16(None, "cuda:0") is False
     assert gr.cpu_bf16(True, "cpu") is True and gr.cpu_bf16(False, "cpu") is False
-    for auto in (False, True):
-        for native in (False, True):
-            with pytest.MonkeyPatch.context() as mp:
-                mp.setattr(gr, "AUTO_BF16", auto)
-                mp.setattr(gr, "native_bf16", lambda n=native: n)
-                assert gr.cpu_bf16(None, "cpu") is (auto and native)
+    assert gr.cpu_bf16(None, "cpu") is False  # the suite's DEFLARE_CPU_BF16=0
+    for env in (None, "1", "0"):
+        for auto in (False, True):
+            for native in (False, True):
+                with pytest.MonkeyPatch.context() as mp:
+                    if env is None:
+                        mp.delenv(gr.BF16_ENV, raising=False)
+                    else:
+                        mp.setenv(gr.BF16_ENV, env)
+                    mp.setattr(gr, "AUTO_BF16", auto)
+                    mp.setattr(gr, "native_bf16", lambda n=native: n)
+                    want = auto and native and env != "0"
+                    assert gr.cpu_bf16(None, "cpu") is want, (env, auto, native)
+                    assert gr.cpu_bf16(True, "cpu") is True
     assert isinstance(gr.native_bf16(), bool)

@@ -650,11 +650,13 @@ def test_inputs_path_resumes_after_a_kill(rws, monkeypatch):
     assert all(p.stat().st_mtime_ns == t for p, t in mtimes.items())
 
 
-def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monkeypatch):
+def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monkeypatch,
+                                                                       capsys):
     """--bf16: GN-FR's forward pass runs under bf16 autocast on the CPU (every chunk), the
     frames stay close to the fp32 frames, and the setting is in the stage's parameters (a
     render without it renders again); without it no pass runs under autocast, and a record
-    made before the setting existed is up to date at the fp32 default."""
+    made before the setting existed is up to date at the fp32 default. On a CPU without native
+    bf16 it warns that bf16 is emulated."""
     import gnfr.renderer as gr
     import pipeline.render as R
 
@@ -673,8 +675,11 @@ def test_render_bf16_runs_the_rays_under_cpu_autocast_and_is_recorded(rws, monke
     assert seen and not any(seen)
     assert rws.stage_record("render:interpolate")["params"]["bf16"] is False
     seen.clear()
+    monkeypatch.setattr(gr, "native_bf16", lambda: False)
+    capsys.readouterr()
     R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network",
                          bf16=True), rws)  # not forced: the recorded setting differs
+    assert "no native bf16" in " ".join(capsys.readouterr().err.split())
     assert seen and all(seen)
     assert rws.stage_record("render:interpolate")["params"]["bf16"] is True
     for name, img in plain.items():
