@@ -123,13 +123,20 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
               *([] if holes_as_flare is None
                 else ["--holes-as-flare" if holes_as_flare else "--no-holes-as-flare"]),
               *(finetune_args or [])],
-             ["render", str(ws), "--path", "inputs", *(render_args or [])],
-             ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
-                                               "heldout_cameras.json"), "--scale", "0.5",
-              *([] if novel_equal_below is None
-                else ["--sources-equal-below", str(novel_equal_below)]),
-              *(render_args or [])]]
+             *render_steps(synth, ws, render_args or [],
+                           [] if novel_equal_below is None
+                           else ["--sources-equal-below", str(novel_equal_below)])]
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
+
+
+def render_steps(synth: Path, ws: Path, render_args: list[str],
+                 novel_args: list[str] | tuple = ()) -> list[list[str]]:
+    """An arm's two renders: the de-flared photos, then the eval's held-out cameras at half
+    size (with ``novel_args`` too); both with ``render_args``."""
+    held = synth / "eval.ws" / "eval" / "heldout_cameras.json"
+    return [["render", str(ws), "--path", "inputs", *render_args],
+            ["render", str(ws), "--path", str(held), "--scale", "0.5", *novel_args,
+             *render_args]]
 
 
 def _copy_once(src: Path, ws: Path, *ignore: str) -> Path:
@@ -172,10 +179,7 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                         f"--seed {seed} --work {work} ...)")
     ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
     steps = [["depth", str(ws), "--force", *depth_args]] if depth_args else []
-    steps += [["render", str(ws), "--path", "inputs", *(render_args or [])],
-              ["render", str(ws), "--path", str(synth / "eval.ws" / "eval" /
-                                                "heldout_cameras.json"), "--scale", "0.5",
-               *(render_args or [])]]
+    steps += render_steps(synth, ws, render_args or [])
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
 
 
