@@ -922,6 +922,29 @@ def test_bf16_rule_table_and_decision_are_the_judgments():
             f"{j['mean']['held']:+.3f} dB on the mean") in options
 
 
+def test_bf16_test_scene_table_is_the_evals():
+    """docs/performance.md's test-scene table (fp32 and bf16 evals of kermit and cyprus) and
+    goals.md's margins are the four eval files', and the arms trained as labelled."""
+    text = (REPO / "docs" / "performance.md").read_text()
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    for scene in ("kermit", "cyprus"):
+        for arm in ("fp32", "bf16"):
+            r = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s48_{arm}.json").read_text())
+            g, t = r["methods"]["gnfr"], r["methods"]["gnt"]
+            margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
+            row = (f"| {scene} | {arm} | {g['inputs']['psnr_flare']:.2f} / "
+                   f"{g['inputs']['psnr']:.2f} | {t['inputs']['psnr_flare']:.2f} / "
+                   f"{t['inputs']['psnr']:.2f} | {margin:+.2f} | {g['heldout']['psnr']:.2f} | "
+                   f"{t['heldout']['psnr']:.2f} |")
+            assert row in text, (scene, arm)
+            if arm == "bf16":
+                assert f"{scene} {margin:+.2f}" in goals, scene
+            assert r["provenance"]["code"]["commit"].startswith("66d2311")
+            for m in ("gnfr", "gnt"):
+                assert r["methods"][m]["provenance"]["trained"]["train"]["cpu_bf16"] is (
+                    arm == "bf16")
+
+
 def test_performance_bf16_frames_exploration_is_its_file():
     """docs/performance.md, options.md and ``render --bf16``'s help: its times, speed-up and
     differences are render_bf16_cpu_sample_s47.json's."""
