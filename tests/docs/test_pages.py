@@ -882,6 +882,14 @@ def test_bf16_oneshot_pair_is_its_files():
     assert old["code"]["commit"].startswith("0d97d56") and new["code"]["commit"].startswith(
         "978a505")
     assert new["model"]["provenance"]["train"]["cpu_bf16"] is True
+    import inspect
+
+    from pipeline.finetune import FinetuneConfig
+
+    pair = f"{n['finetune']['seconds']:.1f} s against {o['finetune']['seconds']:.1f} s in fp32"
+    assert pair in " ".join(inspect.getsource(FinetuneConfig).split())
+    assert pair in " ".join((REPO / "docs" / "options.md").read_text().split())
+    assert f"({o['finetune']['seconds'] / n['finetune']['seconds']:.2f}x in the default two" in perf
     assert "cpu_bf16" not in old["model"]["provenance"]["train"]  # before the setting
 
 
