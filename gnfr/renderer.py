@@ -62,6 +62,15 @@ def cpu_bf16(choice: bool | None, device: torch.device | str) -> bool:
     return AUTO_BF16 and os.environ.get(BF16_ENV, "").strip() != "0" and native_bf16()
 
 
+def emulated_bf16(stage: str, on: bool) -> str | None:
+    """The one line a stage warns with when it runs CPU bf16 (``on``, as ``cpu_bf16``
+    resolved it) on a CPU without native bf16; None otherwise."""
+    if on and not native_bf16():
+        return (f"{stage}: this CPU has no native bf16: --bf16 is emulated, several times "
+                "slower than fp32 (drop --bf16)")
+    return None
+
+
 def autocast(device: torch.device | str, enabled: bool = True, cpu: bool = False):
     """bf16 autocast on CUDA, and on the CPU with ``cpu`` (the render's ``--bf16``); a no-op
     elsewhere."""

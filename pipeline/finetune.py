@@ -26,7 +26,7 @@ from gnfr.checkpoint import CheckpointError, load_weights, read_metadata
 from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, render_meta
 from gnfr.model import GNFR
 from gnfr.ray_split import HelperDied
-from gnfr.renderer import cpu_bf16, native_bf16
+from gnfr.renderer import cpu_bf16, emulated_bf16
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import shell_path
 from pipeline.exposure import MODELS
@@ -273,9 +273,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
          f"{'cached features' if cfg.cached_features else 'end-to-end'}"
          f"{', bf16' if cfg.cpu_bf16 else ''})")
-    if cfg.cpu_bf16 and not native_bf16():
-        warn("finetune: this CPU has no native bf16: --bf16 is emulated, several times slower "
-             "than fp32 (drop --bf16)")
+    if note := emulated_bf16("finetune", cfg.cpu_bf16):
+        warn(note)
     from pipeline.training_scenes import load_workspace
 
     gains = exposure_gains(ws, config.exposure_model) if config.exposure_match else None

@@ -136,12 +136,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
-    from gnfr.renderer import cpu_bf16, native_bf16
+    from gnfr.renderer import cpu_bf16, emulated_bf16
 
     cfg = replace(cfg, bf16=cpu_bf16(cfg.bf16, device))  # recorded resolved: CUDA always
-    if cfg.bf16 and not native_bf16():
-        warn("render: this CPU has no native bf16: --bf16 is emulated, several times slower "
-             "than fp32 (drop --bf16)")
+    if note := emulated_bf16("render", cfg.bf16):
+        warn(note)
     if cfg.sources_equal_below is None and key != "inputs":
         # novel frames record the line they used: a render made at another line re-renders
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))

@@ -556,7 +556,6 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     before the setting existed is up to date at the fp32 default."""
     import gnfr.renderer as gr
     import gnfr.train
-    import pipeline.finetune as ft
 
     monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
     seen = {"model": [], "encoder": []}
@@ -573,7 +572,7 @@ def test_finetune_bf16_trains_the_transformers_under_cpu_autocast_and_records_it
     monkeypatch.setattr(gr.GNFR, "forward", fwd)
     monkeypatch.setattr(gr.GNFR, "encode", enc)
     ws = masked_workspace(tmp_path / "ws")
-    monkeypatch.setattr(ft, "native_bf16", lambda: False)
+    monkeypatch.setattr(gr, "native_bf16", lambda: False)
     run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=True), ws)
     assert "no native bf16" in " ".join(capsys.readouterr().err.split())
     assert seen["model"] and all(seen["model"]) and not any(seen["encoder"])
