@@ -14,10 +14,11 @@ session").
         [--depth-args "--sgm 0.1,1"] [--render-args=--bf16]
         # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
     python benchmarks/fmg_photo_ab.py rerender SYNTH --from-arm BASE --arm NAME --seed S \
-        --work DIR [--depth-args "--sgm 0.1,1"] [--render-args=--bf16]
+        --work DIR [--depth-args "--sgm 0.1,1"] [--render-args=--bf16] \
+        [--novel-args "--sources-equal-below 1"]
         # BASE's workspace copied, the depth stage rerun with the options (if any), the
         # de-flared photos and held-out cameras rendered again with BASE's model (with the
-        # render options); scored as ``run``
+        # render options; --novel-args: the held-out cameras' render only); scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
         [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed] [--out JSON]
@@ -164,11 +165,12 @@ def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path) -> 
 
 
 def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
-                 depth_args: list[str], render_args: list[str] | None = None) -> Path:
+                 depth_args: list[str], render_args: list[str] | None = None,
+                 novel_args: list[str] | None = None) -> Path:
     """A copy of ``base_arm``'s workspace (``run``'s) with the depth stage rerun with
     ``depth_args`` (when given) and the de-flared photos and held-out cameras rendered again
-    by the same model (not fine-tuned again), with ``render_args``; scored as ``run`` scores.
-    Returns the result file."""
+    by the same model (not fine-tuned again), with ``render_args`` (and ``novel_args`` for
+    the held-out cameras alone); scored as ``run`` scores. Returns the result file."""
     from pipeline.errors import UserError
 
     scene = scene_short(synth)
@@ -179,7 +181,7 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                         f"--seed {seed} --work {work} ...)")
     ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
     steps = [["depth", str(ws), "--force", *depth_args]] if depth_args else []
-    steps += render_steps(synth, ws, render_args or [])
+    steps += render_steps(synth, ws, render_args or [], novel_args or [])
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
 
 
@@ -325,6 +327,9 @@ def main(argv: list[str] | None = None) -> int:
                          "maps are kept)")
     rr.add_argument("--render-args", default="",
                     help="options of both renders, e.g. --render-args=--bf16")
+    rr.add_argument("--novel-args", default="",
+                    help='options of the held-out cameras\' render alone, e.g. '
+                         '"--sources-equal-below 1"')
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
@@ -361,7 +366,8 @@ def main(argv: list[str] | None = None) -> int:
                                   shlex.split(a.depth_args), shlex.split(a.render_args))
                 else:
                     out = rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
-                                       shlex.split(a.depth_args), shlex.split(a.render_args))
+                                       shlex.split(a.depth_args), shlex.split(a.render_args),
+                                       shlex.split(a.novel_args))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "

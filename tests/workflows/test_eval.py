@@ -586,7 +586,8 @@ def test_speed_rule_asks_no_gain_and_allows_only_a_seeds_spread_of_loss():
 def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch):
     """``run --render-args`` and ``rerender --render-args`` give the options to both renders
     (the de-flared photos and the held-out cameras); ``rerender`` without depth options
-    keeps the base arm's depth maps (no depth step)."""
+    keeps the base arm's depth maps (no depth step); ``rerender --novel-args`` gives its
+    options to the held-out cameras' render alone."""
     m = _photo_ab()
     steps = {}
     monkeypatch.setattr(m, "_run_and_score",
@@ -602,6 +603,9 @@ def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch
     assert all(st[-1] == "--bf16" for st in steps["sceaux_r_s3.ws"])
     m.rerender_arm(synth, "c", "d", 3, tmp_path, ["--sgm", "0.1,1"])
     assert [st[0] for st in steps["sceaux_d_s3.ws"]] == ["depth", "render", "render"]
+    m.rerender_arm(synth, "c", "n", 3, tmp_path, [], [], ["--sources-equal-below", "1"])
+    photos, held = steps["sceaux_n_s3.ws"]
+    assert "--sources-equal-below" not in photos and held[-2:] == ["--sources-equal-below", "1"]
 
 
 def test_depth_rule_holds_the_photos_per_scene_and_the_novel_views_on_the_mean(tmp_path, capsys):
