@@ -78,6 +78,15 @@ RULE_NOVEL = {"held_gain": 0.10, "held_scene_loss": 0.20, "flare_loss": 0.05,
 """``--rule novel``'s thresholds: a change for the novel views that must not cost the photos."""
 
 
+RULE_KEYS = {"keys_gain": 0.20, "keys_scene_loss": 0.05, "keys_flare_loss": 0.10,
+             "held_loss": 0.05, "held_scene_loss": 0.20}
+"""``--rule keys``' thresholds (the forty-ninth session's rule for the novel frames' sources
+near flared photos, the model held fixed): the video's frames at the photos' own cameras
+(``--keys``) and the held-out views; ``--rule keys-guard`` asks the lightly flared scenes only
+that nothing is lost (docs/history/fill.md, "Novel frames' sources near heavily flared
+photos")."""
+
+
 def scene_short(synth: Path) -> str:
     """``/work/dev/et_synth`` -> ``et``."""
     return synth.name.removesuffix("_synth")
@@ -110,7 +119,7 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
             select_args: list[str] | None = None, mask_args: list[str] | None = None,
             finetune_args: list[str] | None = None,
             depth_args: list[str] | None = None,
-            render_args: list[str] | None = None) -> Path:
+            render_args: list[str] | None = None, keys: bool = False) -> Path:
     """The hand-built workspace of one arm, scored; returns the result file.
     ``mask_args`` / ``depth_args`` / ``select_args`` / ``finetune_args`` / ``render_args``:
     extra options of the mask / depth / select / finetune / both renders' stage (e.g.
@@ -126,18 +135,46 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
               *(finetune_args or [])],
              *render_steps(synth, ws, render_args or [],
                            [] if novel_equal_below is None
-                           else ["--sources-equal-below", str(novel_equal_below)])]
-    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
+                           else ["--sources-equal-below", str(novel_equal_below)], keys)]
+    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed), keys)
 
 
 def render_steps(synth: Path, ws: Path, render_args: list[str],
-                 novel_args: list[str] | tuple = ()) -> list[list[str]]:
-    """An arm's two renders: the de-flared photos, then the eval's held-out cameras at half
-    size (with ``novel_args`` too); both with ``render_args``."""
+                 novel_args: list[str] | tuple = (), keys: bool = False) -> list[list[str]]:
+    """An arm's renders: the de-flared photos, then the eval's held-out cameras at half
+    size (with ``novel_args`` too), and with ``keys`` the photos' own cameras as a novel
+    path at half size (``keys_path_json``; with ``novel_args``); all with ``render_args``."""
     held = synth / "eval.ws" / "eval" / "heldout_cameras.json"
-    return [["render", str(ws), "--path", "inputs", *render_args],
-            ["render", str(ws), "--path", str(held), "--scale", "0.5", *novel_args,
-             *render_args]]
+    steps = [["render", str(ws), "--path", "inputs", *render_args],
+             ["render", str(ws), "--path", str(held), "--scale", "0.5", *novel_args,
+              *render_args]]
+    if keys:
+        steps.append(["render", str(ws), "--path", str(keys_path_json(synth, ws)), "--scale",
+                      "0.5", *novel_args, *render_args])
+    return steps
+
+
+KEYS_NAME = "input_cameras"
+"""The photos' own cameras as a camera path: WS/eval/input_cameras.json, rendered into
+WS/renders/input_cameras/ (``--keys``)."""
+
+
+def keys_path_json(synth: Path, ws: Path) -> Path:
+    """WS/eval/input_cameras.json: the synth scene's training cameras as a novel path, the
+    keys the video passes through (a frame at each photo's position, drawn as novel frames
+    are), written once."""
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.workspace import atomic_write_json
+    from workflows.research.eval.scene import load_synth
+
+    path = ws / "eval" / f"{KEYS_NAME}.json"
+    if not path.is_file():
+        scene = load_synth(synth)
+        by_stem = scene.cams.by_stem()
+        atomic_write_json(path, path_to_json([
+            PathCamera(s, by_stem[s].K, by_stem[s].c2w, by_stem[s].width, by_stem[s].height)
+            for s in scene.train]))
+    return path
 
 
 def _copy_once(src: Path, ws: Path, *ignore: str) -> Path:
@@ -151,22 +188,25 @@ def _copy_once(src: Path, ws: Path, *ignore: str) -> Path:
     return ws
 
 
-def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path) -> Path:
+def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path,
+                   keys: bool = False) -> Path:
     """Each of ``steps`` (``deflare-scene`` arguments) on this checkout's code, then the
-    workspace scored against the synth scene as ``eval`` scores (``score_workspace.py``)."""
+    workspace scored against the synth scene as ``eval`` scores (``score_workspace.py``;
+    with ``keys`` the frames at the photos' cameras too)."""
     cli = [sys.executable, "-m", "workflows.cli"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     for step in steps:
         subprocess.run(cli + step, check=True, env=env, cwd=ROOT)
     subprocess.run([sys.executable, str(ROOT / "benchmarks" / "score_workspace.py"), str(synth),
                     str(ws), "--heldout", str(ws / "renders" / "heldout_cameras"),
+                    *(["--keys", str(ws / "renders" / KEYS_NAME)] if keys else []),
                     "--out", str(out)], check=True, env=env, cwd=ROOT)
     return out
 
 
 def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                  depth_args: list[str], render_args: list[str] | None = None,
-                 novel_args: list[str] | None = None) -> Path:
+                 novel_args: list[str] | None = None, keys: bool = False) -> Path:
     """A copy of ``base_arm``'s workspace (``run``'s) with the depth stage rerun with
     ``depth_args`` (when given) and the de-flared photos and held-out cameras rendered again
     by the same model (not fine-tuned again), with ``render_args`` (and ``novel_args`` for
@@ -181,18 +221,22 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                         f"--seed {seed} --work {work} ...)")
     ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
     steps = [["depth", str(ws), "--force", *depth_args]] if depth_args else []
-    steps += render_steps(synth, ws, render_args or [], novel_args or [])
-    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed))
+    steps += render_steps(synth, ws, render_args or [], novel_args or [], keys)
+    return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed), keys)
 
 
-def arm_means(results: list[dict], held_ssim: bool = False) -> dict:
+def arm_means(results: list[dict], held_ssim: bool = False, keys: bool = False) -> dict:
     """Seed means of one arm on one scene: whole, flare region, SSIM, novel views (and
-    their SSIM with ``held_ssim``)."""
+    their SSIM with ``held_ssim``; with ``keys`` the frames at the photos' cameras, whole
+    and inside the true flare)."""
     n = len(results)
     m = {k: sum(r["inputs"][k] for r in results) / n for k in ("psnr", "psnr_flare", "ssim")}
     m["held"] = sum(r["heldout"]["psnr"] for r in results) / n
     if held_ssim:
         m["held_ssim"] = sum(r["heldout"]["ssim"] for r in results) / n
+    if keys:
+        m["keys"] = sum(r["keys"]["psnr"] for r in results) / n
+        m["keys_flare"] = sum(r["keys"]["psnr_flare"] for r in results) / n
     return m
 
 
@@ -221,6 +265,15 @@ PARTS = {
               "b": [("mean", "psnr", -RULE_SPEED["whole_loss"]),
                     ("mean", "ssim", -RULE_SPEED["ssim_loss"])],
               "c": [("mean", "held", -RULE_SPEED["held_loss"])]},
+    "keys": {"a": [("mean", "keys", RULE_KEYS["keys_gain"]),
+                   ("scene", "keys", -RULE_KEYS["keys_scene_loss"])],
+             "b": [("mean", "keys_flare", -RULE_KEYS["keys_flare_loss"])],
+             "c": [("mean", "held", -RULE_KEYS["held_loss"]),
+                   ("scene", "held", -RULE_KEYS["held_scene_loss"])]},
+    "keys-guard": {"a": [("mean", "keys", -RULE_KEYS["keys_scene_loss"]),
+                         ("mean", "keys_flare", -RULE_KEYS["keys_flare_loss"])],
+                   "b": [("mean", "held", -RULE_KEYS["held_loss"]),
+                         ("scene", "held", -RULE_KEYS["held_scene_loss"])]},
 }
 """Each rule's parts, in order: a part holds when each of its checks does, a check
 (``mean``, KEY, X) when the scenes' mean difference of KEY is at least X, (``scene``, KEY, X)
@@ -265,7 +318,8 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
-        return arm_means([json.loads(f.read_text()) for f in files], rule in ("depth", "frames"))
+        return arm_means([json.loads(f.read_text()) for f in files], rule in ("depth", "frames"),
+                         rule.startswith("keys"))
 
     cand = {s: load(candidate, s, seeds) for s in scenes}
     base = {s: load(baseline, s, base_seeds) for s in scenes}
@@ -316,6 +370,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--render-args", default="",
                    help="extra options of both renders (de-flared photos, held-out cameras), "
                         "e.g. --render-args=--bf16")
+    r.add_argument("--keys", action="store_true",
+                   help="also render the photos' own cameras as novel frames and score them")
     rr = sub.add_parser("rerender")
     rr.add_argument("synth", type=Path)
     rr.add_argument("--from-arm", required=True)
@@ -330,6 +386,8 @@ def main(argv: list[str] | None = None) -> int:
     rr.add_argument("--novel-args", default="",
                     help='options of the held-out cameras\' render alone, e.g. '
                          '"--sources-equal-below 1"')
+    rr.add_argument("--keys", action="store_true",
+                    help="also render the photos' own cameras as novel frames and score them")
     j = sub.add_parser("judge")
     j.add_argument("work", type=Path)
     j.add_argument("--candidate", required=True)
@@ -363,11 +421,12 @@ def main(argv: list[str] | None = None) -> int:
                     out = run_arm(a.synth, a.arm, a.weights, a.seed, a.work, a.holes_as_flare,
                                   a.novel_equal_below, shlex.split(a.select_args),
                                   shlex.split(a.mask_args), shlex.split(a.finetune_args),
-                                  shlex.split(a.depth_args), shlex.split(a.render_args))
+                                  shlex.split(a.depth_args), shlex.split(a.render_args),
+                                  a.keys)
                 else:
                     out = rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
                                        shlex.split(a.depth_args), shlex.split(a.render_args),
-                                       shlex.split(a.novel_args))
+                                       shlex.split(a.novel_args), a.keys)
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "

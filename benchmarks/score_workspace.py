@@ -7,7 +7,9 @@ e.g. `deflare-scene mask WS --fill-holes` then select, finetune and render), sco
 as `deflare-scene eval` scores its methods: PSNR / SSIM of WS/deflared over SYNTH's flared
 training views and PSNR inside the true flare (workflows.research.eval.scoring.score_views),
 and with ``--heldout`` the renders of SYNTH's held-out cameras in RENDER_DIR (e.g.
-WS/renders/heldout_cameras after `render WS --path EVAL_WS/eval/heldout_cameras.json`).
+WS/renders/heldout_cameras after `render WS --path EVAL_WS/eval/heldout_cameras.json`), and
+with ``--keys`` the training views' cameras rendered as novel frames (whole and inside the
+true flare).
 """
 
 from __future__ import annotations
@@ -26,6 +28,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("workspace", type=Path, help="a workspace with WS/deflared")
     ap.add_argument("--heldout", type=Path, default=None,
                     help="folder of the held-out cameras' renders")
+    ap.add_argument("--keys", type=Path, default=None,
+                    help="folder of the training views' cameras rendered as novel frames "
+                         "(benchmarks/fmg_photo_ab.py --keys)")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.provenance import write_result
@@ -50,6 +55,10 @@ def main(argv: list[str] | None = None) -> int:
         rec["heldout"] = score_views(scene, a.heldout, scene.heldout, with_region=False)
         line += (f"; held-out PSNR {rec['heldout']['psnr']:.2f}, "
                  f"SSIM {rec['heldout']['ssim']:.4f}")
+    if a.keys is not None:
+        rec["keys"] = score_views(scene, a.keys, scene.train, with_region=True)
+        line += (f"; at the photos' cameras PSNR {rec['keys']['psnr']:.2f}, flare region "
+                 f"{rec['keys']['psnr_flare']:.2f}")
     print(f"{a.workspace}: {line}")
     write_result(a.out, rec)
     return 0

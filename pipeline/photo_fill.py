@@ -108,6 +108,45 @@ def support_weight(support: np.ndarray, min_support: int, feather: int = 3) -> n
     return np.clip(dist / feather, 0.0, 1.0).astype(np.float32)
 
 
+def lean_to_nearest(colour: np.ndarray, weight: np.ndarray, warped: Warped,
+                    share: float) -> tuple[np.ndarray, np.ndarray]:
+    """The hybrid fill's (colour, weight) leaning by ``share`` (0..1) to the nearest photo
+    (``warped``'s first source) where that photo sees the frame (``support_weight`` of its
+    valid pixels: in view, unflared, unoccluded): the frame the fill composes,
+    ``weight * colour + (1 - weight) * network``, becomes ``share * photo + (1 - share) *
+    that`` there. At a photo's own camera with ``share`` 1 the frame is the photo outside
+    its flare mask."""
+    if share <= 0:
+        return colour, weight
+    lean = share * support_weight(warped.ok[0], 1)
+    total = lean + (1.0 - lean) * weight
+    mixed = (lean[..., None] * warped.colours[0]
+             + ((1.0 - lean) * weight)[..., None] * colour) / np.maximum(total, 1e-6)[..., None]
+    return mixed.astype(np.float32), total.astype(np.float32)
+
+
+def nearest_seen(K: np.ndarray, c2w: np.ndarray, fill: PhotoFill, view: PosedView,
+                 far: float, min_pixels: int = 200) -> Warped:
+    """The fill's nearest photo (``view``, its first source) warped into the camera through
+    the fill's depth, and through the far bound where the fill has none (sky, holes of the
+    depth maps), without the occlusion test against the photo's own depth map (near the
+    photo's camera depth matters little and hides little, at it not at all), with the
+    per-channel gains the fill gave it (fitted where both warps see). Flare masks are kept
+    out. For :func:`lean_to_nearest`."""
+    from dataclasses import replace
+
+    depth = np.where(fill.depth > 0, fill.depth, far).astype(np.float32)
+    own = warp_sources(K, c2w, depth, [replace(view, depth=None)])  # no occlusion test
+    cols = own.colours[0]
+    if fill.warped is not None:
+        both = fill.warped.ok[0] & own.ok[0]
+        if both.sum() >= min_pixels:
+            x, y = cols[both].astype(np.float64), fill.warped.colours[0][both].astype(np.float64)
+            g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
+            cols = cols * np.clip(g, 0.5, 2.0).astype(np.float32)
+    return Warped(cols[None], own.ok[:1])
+
+
 def small_holes(ok: np.ndarray, radius: float) -> np.ndarray:
     """[H, W] bool: the pixels of the holes of ``ok`` (connected parts of ``~ok``,
     8-connected) whose widest inscribed disc has at most ``radius`` pixels: every pixel of

@@ -144,6 +144,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if cfg.sources_equal_below is None and key != "inputs":
         # novel frames record the line they used: a render made at another line re-renders
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))
+    if key != "inputs":  # recorded resolved; for the de-flared photos it does nothing
+        cfg = replace(cfg, nearest_source=cfg.keeps_nearest())
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,
@@ -162,6 +164,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
                 "depth_maps": "depth", "bf16": False}  # records before bf16 rendered fp32
+    if key != "inputs":  # records before the options: without the nearest view, no lean
+        defaults["nearest_source"] = False
+        defaults["key_blend"] = 0.0
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

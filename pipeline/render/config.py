@@ -23,6 +23,12 @@ where a mask's misses bring flare in, so the least flared sources serve them bes
 twenty-sixth session); 0 before."""
 
 
+NOVEL_NEAREST_SOURCE = False
+"""``RenderConfig.nearest_source`` of novel frames when not given: whether the input view
+nearest a novel camera is always one of its sources, however flared (docs/history/fill.md,
+"Novel frames' sources near heavily flared photos")."""
+
+
 NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes"}
 """The hybrid fill of novel frames on the CPU where the options are not given (``plan.
 resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
@@ -108,6 +114,12 @@ class RenderConfig:
     those views win (0.1: every view the 10 % target rule trains on is an equally good
     source; 0: the least flared first, fractions within 2 points equal). Default:
     ``NOVEL_SOURCES_EQUAL_BELOW`` for novel frames, 0 for the de-flared photos."""
+    nearest_source: bool | None = option(None, flag="--nearest-source/--no-nearest-source")
+    """Novel frames: the input view nearest the camera is always one of its sources, however
+    flared (its mask keeps its flare out of GN-FR's attention, and the photo fill takes a
+    pixel only where a second photo agrees), so a frame at a flared photo's position is drawn
+    from that photo. Default: ``NOVEL_NEAREST_SOURCE``. The de-flared photos never take
+    themselves; for them the option does nothing."""
     source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""
@@ -180,6 +192,13 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
+    key_blend: float = option(0.0, ge=0, le=1)
+    """hybrid novel frames: near an input photo's camera the frame leans to that photo
+    warped into it (its flare masks respected), fully at the photo's own camera and less
+    with distance, to none at this fraction of the way to the photo's nearest neighbour
+    camera (0 = off), so the video passes through each photo as sharp as the photo
+    (``pipeline.photo_fill.lean_to_nearest``; docs/history/fill.md, "Novel frames' sources
+    near heavily flared photos")."""
     network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth
@@ -210,3 +229,8 @@ class RenderConfig:
         if self.sources_equal_below is not None:
             return float(self.sources_equal_below)
         return NOVEL_SOURCES_EQUAL_BELOW if novel else 0.0
+
+    def keeps_nearest(self) -> bool:
+        """``nearest_source`` as it applies to a novel frame: the option when given, else
+        ``NOVEL_NEAREST_SOURCE``."""
+        return NOVEL_NEAREST_SOURCE if self.nearest_source is None else self.nearest_source

@@ -55,13 +55,17 @@ def input_sources(stem: str, views: ViewsFile | Mapping, cfg: RenderConfig,
 def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
                   cfg: RenderConfig) -> list[str]:
     """Sources of a novel camera: the input views views.json lists, ranked by distance to
-    ``center``."""
+    ``center``; with ``cfg.keeps_nearest()`` the nearest of them is always one (in place of
+    the farthest chosen), however flared."""
     views = _views_file(views)
     d = np.linalg.norm(cams.centers() - center, axis=1)
     ranked = [cams.frames[i].stem for i in np.argsort(d, kind="stable")]
     ranked = [s for s in ranked if s in views]
     fractions = views.fractions(ranked)
-    return _eval_sources(ranked, [fractions[s] for s in ranked], cfg, novel=True)
+    chosen = _eval_sources(ranked, [fractions[s] for s in ranked], cfg, novel=True)
+    if ranked and cfg.keeps_nearest() and ranked[0] not in chosen:
+        chosen = [ranked[0], *chosen[:-1]]  # chosen come nearest first, all n of them
+    return chosen
 
 
 # --------------------------------------------------------------------------- model, cache

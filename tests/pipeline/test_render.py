@@ -241,6 +241,27 @@ def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
         n_sources=3, pool=4, sources_equal_below=0.04)) == strict
 
 
+def test_nearest_source_keeps_the_nearest_view_however_flared(rws, monkeypatch):
+    """``nearest_source``: the nearest view, 40 % flared, is a source of a novel frame in
+    place of the farthest chosen one (nearest first, as many sources); without it that view
+    gives way; the default follows NOVEL_NEAREST_SOURCE."""
+    from pipeline.render import RenderConfig, novel_sources
+    from pipeline.render import config as C
+
+    cams, views, c, nearest = _nearest_view_flared(rws)
+    views = {s: {**v, "flare_fraction": 0.4 if s == nearest[0] else 0.0}
+             for s, v in views.items()}
+    off = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
+                                                      nearest_source=False))
+    assert off == nearest[1:4]
+    on = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4, nearest_source=True))
+    assert on == [nearest[0], *nearest[1:3]]
+    for flag in (False, True):
+        monkeypatch.setattr(C, "NOVEL_NEAREST_SOURCE", flag)
+        assert novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4)) == \
+            (on if flag else off)
+
+
 def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeypatch):
     """Not given, novel frames use NOVEL_SOURCES_EQUAL_BELOW and the de-flared photos 0."""
     from pipeline.render import RenderConfig, input_sources, novel_sources
@@ -830,6 +851,10 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:interpolate")["params"]["sources_equal_below"] == \
         NOVEL_SOURCES_EQUAL_BELOW
     assert hws.stage_record("render:inputs")["params"]["sources_equal_below"] is None
+    from pipeline.render.config import NOVEL_NEAREST_SOURCE
+    assert hws.stage_record("render:interpolate")["params"]["nearest_source"] is \
+        NOVEL_NEAREST_SOURCE
+    assert hws.stage_record("render:inputs")["params"]["nearest_source"] is None
 
 
 def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):

@@ -591,7 +591,8 @@ def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch
     m = _photo_ab()
     steps = {}
     monkeypatch.setattr(m, "_run_and_score",
-                        lambda synth, ws, st, out: steps.setdefault(ws.name, st) and out)
+                        lambda synth, ws, st, out, keys=False: steps.setdefault(ws.name, st)
+                        and out)
     synth = tmp_path / "sceaux_synth"
     (synth / "eval.ws" / "variants").mkdir(parents=True)
     m.run_arm(synth, "c", tmp_path / "w.safetensors", 3, tmp_path, render_args=["--bf16"])
@@ -606,6 +607,14 @@ def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch
     m.rerender_arm(synth, "c", "n", 3, tmp_path, [], [], ["--sources-equal-below", "1"])
     photos, held = steps["sceaux_n_s3.ws"]
     assert "--sources-equal-below" not in photos and held[-2:] == ["--sources-equal-below", "1"]
+    # --keys: a third render, the photos' own cameras as a novel path, with the novel options
+    (synth / "cameras_gt.json").write_text("{}")
+    monkeypatch.setattr(m, "keys_path_json", lambda s, ws: ws / "eval" / "input_cameras.json")
+    m.rerender_arm(synth, "c", "k", 3, tmp_path, [], [], ["--nearest-source"], keys=True)
+    keys = steps["sceaux_k_s3.ws"][2]
+    assert keys[2:4] == ["--path", str(tmp_path / "sceaux_k_s3.ws" / "eval" /
+                                       "input_cameras.json")]
+    assert keys[-1] == "--nearest-source" and "--nearest-source" not in steps["sceaux_k_s3.ws"][0]
 
 
 def test_depth_rule_holds_the_photos_per_scene_and_the_novel_views_on_the_mean(tmp_path, capsys):

@@ -1,0 +1,48 @@
+"""The novel frames' lean to the nearest photo (``render --key-blend``): at a photo's own
+camera the frame is that photo outside its flare mask, however wrong the fill's depth and
+however the other photos' fused colour differs; the lean fades with distance."""
+
+import numpy as np
+
+from pipeline.photo_fill import PhotoFill, lean_to_nearest, nearest_seen
+from pipeline.render.fill import key_share
+from pipeline.stereo import PosedView, Warped
+
+
+def _view(x: float, seed: int, valid=None, depth=None) -> PosedView:
+    rng = np.random.default_rng(seed)
+    K = np.array([[40.0, 0, 24], [0, 40.0, 16], [0, 0, 1]])
+    c2w = np.eye(4)
+    c2w[0, 3] = x
+    return PosedView(rng.random((32, 48, 3)).astype(np.float32), K, c2w, valid, depth)
+
+
+def test_key_share_is_one_at_the_photo_and_fades_to_none():
+    views = [_view(0.0, 0), _view(1.0, 1), _view(3.0, 2)]
+    assert key_share(np.zeros(3), views, 0.5) == 1.0
+    assert abs(key_share(np.array([0.25, 0, 0]), views, 0.5) - 0.5) < 1e-9
+    assert key_share(np.array([0.5, 0, 0]), views, 0.5) == 0.0
+    assert key_share(np.zeros(3), views, 0.0) == 0.0 and key_share(np.zeros(3), views[:1], 0.5) == 0
+
+
+def test_at_the_photos_camera_the_frame_is_the_photo_outside_its_mask():
+    mask = np.ones((32, 48), bool)
+    mask[10:20, 10:30] = False  # flare: never taken from the photo
+    wrong_depth = np.full((32, 48), 2.0, np.float32)  # the photo's own map disagrees
+    photo = _view(0.0, 0, valid=mask, depth=np.full((32, 48), 5.0, np.float32))
+    fill = PhotoFill(colour=np.full((32, 48, 3), 0.5, np.float32),
+                     support=np.zeros((32, 48), int), depth=wrong_depth,
+                     warped=Warped(photo.image[None].copy(), mask[None].copy()))
+    seen = nearest_seen(photo.K, photo.c2w, fill, photo, far=10.0)
+    assert seen.ok[0][mask].all() and not seen.ok[0][~mask].any()  # no occlusion test
+    net_weight = np.zeros((32, 48), np.float32)  # the fill left every pixel to GN-FR
+    colour, weight = lean_to_nearest(fill.colour, net_weight, seen, 1.0)
+    inner = np.zeros_like(mask)
+    inner[2:-2, 2:-2] = True
+    far_from_flare = inner & ~np.pad(~mask, 4, mode="edge")[4:-4, 4:-4]
+    far_from_flare &= np.abs(np.arange(32)[:, None] - 15) > 9  # clear of the feathered edge
+    assert np.allclose(colour[far_from_flare], photo.image[far_from_flare], atol=1e-4)
+    assert np.allclose(weight[far_from_flare], 1.0)
+    assert (weight[~mask] == 0).all()  # inside the flare mask GN-FR stays
+    half_colour, half_weight = lean_to_nearest(fill.colour, net_weight, seen, 0.5)
+    assert np.allclose(half_weight[far_from_flare], 0.5)
