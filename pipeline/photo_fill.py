@@ -19,6 +19,7 @@ import numpy as np
 from pipeline.stereo import (
     PosedView,
     Warped,
+    channel_gains,
     fill_holes,
     fuse,
     harmonize_sources,
@@ -141,9 +142,7 @@ def nearest_seen(K: np.ndarray, c2w: np.ndarray, fill: PhotoFill, view: PosedVie
     if fill.warped is not None:
         both = fill.warped.ok[0] & own.ok[0]
         if both.sum() >= min_pixels:
-            x, y = cols[both].astype(np.float64), fill.warped.colours[0][both].astype(np.float64)
-            g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
-            cols = cols * np.clip(g, 0.5, 2.0).astype(np.float32)
+            cols = cols * channel_gains(cols[both], fill.warped.colours[0][both])
     return Warped(cols[None], own.ok[:1])
 
 

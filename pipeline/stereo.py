@@ -586,10 +586,16 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
         m = w.ok[k] & rv
         if m.sum() < min_pixels:
             continue
-        x, y = cols[k][m].astype(np.float64), ref[m].astype(np.float64)
-        g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
-        cols[k] *= np.clip(g, 0.5, 2.0).astype(np.float32)
+        cols[k] *= channel_gains(cols[k][m], ref[m])
     return Warped(cols, w.ok)
+
+
+def channel_gains(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """[3] float32 per-channel gains (0.5..2) that bring colours ``x`` [N, 3] closest to
+    ``y`` [N, 3] in least squares."""
+    x, y = x.astype(np.float64), y.astype(np.float64)
+    g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
+    return np.clip(g, 0.5, 2.0).astype(np.float32)
 
 
 HARMONIZE_MAX = 0.15
