@@ -171,6 +171,7 @@ def keys_path_json(synth: Path, ws: Path) -> Path:
     if not path.is_file():
         scene = load_synth(synth)
         by_stem = scene.cams.by_stem()
+        path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_json(path, path_to_json([
             PathCamera(s, by_stem[s].K, by_stem[s].c2w, by_stem[s].width, by_stem[s].height)
             for s in scene.train]))
