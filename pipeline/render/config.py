@@ -23,13 +23,15 @@ where a mask's misses bring flare in, so the least flared sources serve them bes
 twenty-sixth session); 0 before."""
 
 
-NOVEL_NEAREST_SOURCE = False
+NOVEL_NEAREST_SOURCE = True
 """``RenderConfig.nearest_source`` of novel frames when not given: whether the input view
-nearest a novel camera is always one of its sources, however flared (docs/history/fill.md,
-"Novel frames' sources near heavily flared photos")."""
+nearest a novel camera is always one of its sources, however flared. On since the
+forty-ninth session, with the CPU's key blend (``NOVEL_CPU_FILL``), by the rule in
+docs/history/fill.md, "Novel frames' sources near heavily flared photos"."""
 
 
-NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes"}
+NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes",
+                  "key_blend": 0.5}
 """The hybrid fill of novel frames on the CPU where the options are not given (``plan.
 resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
 own depth where the depth maps do not reach, the photos' agreement judged over 3x3 pixels.
@@ -192,13 +194,14 @@ class RenderConfig:
     Gaussian of this fraction of the frame's long side, so the fused colour does not jump
     where the set of agreeing photos changes (vignetting, a sky's gradient; 0 = off;
     ``pipeline.stereo.harmonize_sources``, docs/depth.md)."""
-    key_blend: float = option(0.0, ge=0, le=1)
+    key_blend: float | None = option(None, ge=0, le=1)
     """hybrid novel frames: near an input photo's camera the frame leans to that photo
     warped into it (its flare masks respected), fully at the photo's own camera and less
     with distance, to none at this fraction of the way to the photo's nearest neighbour
     camera (0 = off), so the video passes through each photo as sharp as the photo
-    (``pipeline.photo_fill.lean_to_nearest``; docs/history/fill.md, "Novel frames' sources
-    near heavily flared photos")."""
+    (``pipeline.photo_fill.lean_to_nearest``). Default: 0.5 on the CPU
+    (``NOVEL_CPU_FILL``; docs/history/fill.md, "Novel frames' sources near heavily flared
+    photos"), 0 on CUDA (not measured there) and for the de-flared photos."""
     network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth

@@ -109,7 +109,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     if close > 0:
         colour, ok = close_small_holes(colour, ok, close * max(size))
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
-    share = key_share(c, [photos[s] for s in near], cfg.key_blend) if novel else 0.0
+    share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0) if novel else 0.0
     if share > 0:
         seen = nearest_seen(K, c2w, pf, srcs[0], job.far)
         colour, weight = lean_to_nearest(colour, weight, seen, share)

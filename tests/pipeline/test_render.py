@@ -231,14 +231,14 @@ def test_sources_equal_below_keeps_a_near_view_under_the_line(rws):
     from pipeline.render import RenderConfig, novel_sources
 
     cams, views, c, nearest = _nearest_view_flared(rws)
-    strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
+    strict = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4, nearest_source=False,
                                                          sources_equal_below=0.0))
     assert strict == [s for s in nearest[1:4]]  # 5 % is more than the tolerance: dropped
-    under = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4,
+    under = novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=4, nearest_source=False,
                                                         sources_equal_below=0.1))
     assert sorted(under) == sorted(nearest[:3])  # under the 10 % line: the nearest three
     assert novel_sources(c, cams, views, RenderConfig(
-        n_sources=3, pool=4, sources_equal_below=0.04)) == strict
+        n_sources=3, pool=4, nearest_source=False, sources_equal_below=0.04)) == strict
 
 
 def test_nearest_source_keeps_the_nearest_view_however_flared(rws, monkeypatch):
@@ -268,7 +268,7 @@ def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeyp
     from pipeline.render import config as C
 
     cams, views, c, nearest = _nearest_view_flared(rws)
-    cfg = RenderConfig(n_sources=3, pool=4)
+    cfg = RenderConfig(n_sources=3, pool=4, nearest_source=False)  # the line alone
     for line, want in ((0.0, nearest[1:4]), (0.1, nearest[:3])):
         monkeypatch.setattr(C, "NOVEL_SOURCES_EQUAL_BELOW", line)
         assert cfg.equal_below(novel=True) == line and cfg.equal_below(novel=False) == 0.0
@@ -871,13 +871,17 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     assert (rec["params"]["agree_window"], rec["params"]["network_depth"]) == (1, "off")
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     nov = hws.stage_record("render:interpolate")["params"]
-    assert (nov["network_scale"], nov["agree_window"], nov["network_depth"]) == (
-        NOVEL_CPU_FILL["network_scale"], 3, "holes")
+    assert (nov["network_scale"], nov["agree_window"], nov["network_depth"],
+            nov["key_blend"]) == (NOVEL_CPU_FILL["network_scale"], 3, "holes", 0.5)
+    assert rec["params"]["key_blend"] == 0.0
     for name, old in (("render:inputs", {"network_scale": 0.25}),
                       ("render:interpolate", {"network_scale": 0.25, "agree_window": 1,
                                               "network_depth": "off"})):
         r = hws.stage_record(name)
-        hws.update_manifest(name, {**r, "params": {**r["params"], **old}})
+        # records from before the forty-ninth session's options hold neither
+        kept = {k: v for k, v in r["params"].items()
+                if k not in ("key_blend", "nearest_source")}
+        hws.update_manifest(name, {**r, "params": {**kept, **old}})
     photos = sorted((hws.deflared).iterdir())
     stamps = [f.stat().st_mtime_ns for f in photos]
     run(RenderConfig(path="inputs", fill="hybrid"), hws)  # up to date: nothing rewritten
@@ -914,9 +918,11 @@ def test_novel_frames_on_the_cpu_fill_as_the_forty_fifth_rule_chose():
     got = resolve_fill(cfg, "cpu", novel=True)
     assert (got.agree_window, got.network_depth) == (3, "holes")
     assert got.network_scale == NOVEL_CPU_FILL["network_scale"] == 0.35  # w3d35 of the rule
+    assert got.key_blend == NOVEL_CPU_FILL["key_blend"] == 0.5  # nkb50 of the 49th rule
     for device, novel in (("cpu", False), ("cuda", True), ("cuda", False)):
         got = resolve_fill(cfg, device, novel)
         assert (got.agree_window, got.network_depth) == (1, "off"), (device, novel)
+        assert got.key_blend == 0.0, (device, novel)
         assert got.network_scale == (1.0 if novel else None), (device, novel)
     mine = RenderConfig(agree_window=5, network_depth="off", network_scale=0.25)
     got = resolve_fill(mine, "cpu", novel=True)
