@@ -974,3 +974,59 @@ def test_performance_bf16_frames_exploration_is_its_file():
 
     source = " ".join(inspect.getsource(RenderConfig).split())
     assert f"rendered {r['speedup']:.2f}x faster" in source
+
+
+def test_key_blend_rules_tables_and_defaults_are_the_judgments():
+    """docs/history/fill.md's two tables of the forty-ninth session (the sources' line, the
+    key blend and the nearest source) are the judge files'; the chosen candidate passed both
+    its rule and the guard and is the code's default; options.md, depth.md and
+    camera_paths.md quote the same numbers."""
+    from pipeline.render.config import NOVEL_CPU_FILL, NOVEL_NEAREST_SOURCE
+
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    eb = json.loads((RESULTS / "eb_judge_eb25_s49.json").read_text())
+    eb100 = json.loads((RESULTS / "eb_judge_eb100_s49.json").read_text())
+    guard = json.loads((RESULTS / "eb_guard_eb25_s49.json").read_text())
+    assert eb["decision"] == eb100["decision"] == "fails (b)"
+    assert eb["per_scene"] == eb100["per_scene"]  # the same sources on these scenes
+    assert ("| `s49_eb25`, `s49_eb100` | " + " | ".join(
+        f"{d['held']:+.3f}" for d in eb["per_scene"].values())
+        + f" | {eb['mean']['held']:+.3f} | {guard['mean']['held']:+.3f} |") in fill
+
+    def cell(d):
+        return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
+
+    for c in ("kb50", "nkb50", "near"):
+        j = json.loads((RESULTS / f"keys_judge_{c}_s49.json").read_text())
+        g = json.loads((RESULTS / f"keys_guard_{c}_s49.json").read_text())
+        assert j["rule"] == "keys" and g["rule"] == "keys-guard" and j["seeds"] == [22, 23]
+        assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
+                + f" | {cell(j['mean'])} | {cell(g['mean'])} | {j['decision']}, guard "
+                f"{g['decision']} |") in fill, c
+    chosen = json.loads((RESULTS / "keys_judge_nkb50_s49.json").read_text())
+    gains = {c: json.loads((RESULTS / f"keys_judge_{c}_s49.json").read_text())["mean"]["keys"]
+             for c in ("kb50", "nkb50", "near")}
+    assert chosen["decision"] == "passes" and max(gains, key=gains.get) == "nkb50"
+    assert NOVEL_CPU_FILL["key_blend"] == 0.5 and NOVEL_NEAREST_SOURCE is True
+    m = chosen["mean"]
+    near = json.loads((RESULTS / "keys_judge_near_s49.json").read_text())["mean"]
+    et = chosen["per_scene"]["et_p5"]["held"]
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    assert (f"gained {m['keys']:.2f} dB on three development scenes flared like the sample and "
+            f"the held-out views between them {m['held']:+.3f} dB on the mean, et's "
+            f"{et:.2f} dB") in options
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    assert (f"the frames at the photos' own cameras {m['keys']:+.2f} dB, the held-out views "
+            f"between them {m['held']:+.3f} dB on the mean (et {et:.2f} dB)") in depth
+    assert (f"alone {near['keys']:+.2f} dB at the photos' cameras and {near['held']:+.3f} dB "
+            "held-out") in depth
+    guard = json.loads((RESULTS / "keys_guard_nkb50_s49.json").read_text())
+    per = [d["keys"] for d in [*chosen["per_scene"].values(), *guard["per_scene"].values()]]
+    paths = " ".join((REPO / "docs" / "camera_paths.md").read_text().split())
+    assert f"gained {min(per):.1f} to {max(per):.1f} dB per development scene" in paths
+    before = [d["keys"] for d in chosen["means"]["baseline"].values()]
+    after = [d["keys"] for d in chosen["means"]["candidate"].values()]
+    flat = " ".join(fill.split())
+    assert ("scored " + ", ".join(f"{v:.1f}" for v in before[:2]) + f" and {before[2]:.1f} dB "
+            "on the three flared scenes and now " + ", ".join(f"{v:.1f}" for v in after[:2])
+            + f" and {after[2]:.1f}") in flat
