@@ -1030,3 +1030,25 @@ def test_key_blend_rules_tables_and_defaults_are_the_judgments():
     assert ("scored " + ", ".join(f"{v:.1f}" for v in before[:2]) + f" and {before[2]:.1f} dB "
             "on the three flared scenes and now " + ", ".join(f"{v:.1f}" for v in after[:2])
             + f" and {after[2]:.1f}") in flat
+
+
+def test_key_blend_test_scene_rows_are_their_files():
+    """fill.md's test-scene table of the forty-ninth session and goals.md's summary are the
+    four rerenders' files; the 'old' arms rendered with the options off, the 'new' ones
+    with today's defaults (key blend 0.5, the nearest source)."""
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    for s in ("kermit", "cyprus"):
+        o = json.loads((RESULTS / f"keys_test_{s}_s49_old.json").read_text())
+        n = json.loads((RESULTS / f"keys_test_{s}_s49_new.json").read_text())
+        assert (f"| {s} | {o['keys']['psnr']:.2f} / {o['keys']['psnr_flare']:.2f} | "
+                f"{n['keys']['psnr']:.2f} / {n['keys']['psnr_flare']:.2f} | "
+                f"{o['heldout']['psnr']:.2f} / {o['heldout']['ssim']:.3f} | "
+                f"{n['heldout']['psnr']:.2f} / {n['heldout']['ssim']:.3f} |") in fill, s
+        assert f"{o['heldout']['psnr']:.2f} -> {n['heldout']['psnr']:.2f}" in goals, s
+        gain = n["keys"]["psnr"] - o["keys"]["psnr"]
+        assert f"{gain:+.2f}" in goals, s
+        assert (o["stages"]["render:heldout_cameras"]["key_blend"],
+                o["stages"]["render:heldout_cameras"]["nearest_source"]) == (0.0, False)
+        assert (n["stages"]["render:heldout_cameras"]["key_blend"],
+                n["stages"]["render:heldout_cameras"]["nearest_source"]) == (0.5, True)
