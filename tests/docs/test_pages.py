@@ -1052,3 +1052,30 @@ def test_key_blend_test_scene_rows_are_their_files():
                 o["stages"]["render:heldout_cameras"]["nearest_source"]) == (0.0, False)
         assert (n["stages"]["render:heldout_cameras"]["key_blend"],
                 n["stages"]["render:heldout_cameras"]["nearest_source"]) == (0.5, True)
+
+
+def test_key_blend_reported_seeds_and_ets_loss_are_the_files():
+    """fill.md's row of the reported seeds 20 and 21 is keys_report_nkb50_s2021_s49.json's,
+    and its range of et's held-out losses over six draws is the arm files'."""
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    flat = " ".join(fill.split())
+    j = json.loads((RESULTS / "keys_report_nkb50_s2021_s49.json").read_text())
+
+    def cell(d):
+        return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
+
+    assert ("| 20, 21 | " + " | ".join(cell(d) for d in j["per_scene"].values())
+            + f" | {cell(j['mean'])} | {j['decision']} |") in fill
+    pairs = [(f"fmg_s49_kbase_fair_et_p5_s{s}.json", f"fmg_s49_nkb50_fair_et_p5_s{s}.json")
+             for s in (20, 21, 22, 23)]
+    pairs += [(f"fmg_s49_dev_kbase_fair_et_s{s}.json", f"fmg_s49_dev_nkb50_fair_et_s{s}.json")
+              for s in (10, 11)]
+    diffs = []
+    for b, c in pairs:
+        rb, rc = (json.loads((RESULTS / f).read_text())["heldout"] for f in (b, c))
+        diffs.append((rc["psnr"] - rb["psnr"], rc["ssim"] - rb["ssim"]))
+    assert all(d < 0 for d, _ in diffs)
+    lo, hi = -max(d for d, _ in diffs), -min(d for d, _ in diffs)
+    assert f"lost {lo:.2f} to {hi:.2f} dB, every draw lower" in flat
+    ups = [s for _, s in diffs if s > 0]
+    assert len(ups) == 5 and f"SSIM up by {min(ups):.3f} to {max(ups):.3f} on five of six" in flat
