@@ -11,17 +11,19 @@ session").
     python benchmarks/fmg_photo_ab.py run SYNTH --arm NAME --weights W --seed S --work DIR \
         [--[no-]holes-as-flare] [--novel-equal-below F] [--mask-args=--crosscheck] \
         [--select-args "--max-flare 0.15"] [--finetune-args=--full-res-colour] \
-        [--depth-args "--sgm 0.1,1"] [--render-args=--bf16]
-        # writes DIR/fmg_NAME_fair_<scene>_s<S>.json
+        [--depth-args "--sgm 0.1,1"] [--render-args=--bf16] [--keys]
+        # writes DIR/fmg_NAME_fair_<scene>_s<S>.json; --keys (run and rerender): the
+        # photos' own cameras rendered as novel frames too and scored (``keys_path_json``)
     python benchmarks/fmg_photo_ab.py rerender SYNTH --from-arm BASE --arm NAME --seed S \
         --work DIR [--depth-args "--sgm 0.1,1"] [--render-args=--bf16] \
-        [--novel-args "--sources-equal-below 1"]
+        [--novel-args "--sources-equal-below 1"] [--keys]
         # BASE's workspace copied, the depth stage rerun with the options (if any), the
         # de-flared photos and held-out cameras rendered again with BASE's model (with the
         # render options; --novel-args: the held-out cameras' render only); scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
-        [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed] [--out JSON]
+        [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed|keys|keys-guard]
+        [--out JSON]
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -48,6 +50,13 @@ forty-fourth session's thresholds (docs/history/fill.md, "The aggregated depth f
 novel frames alone"): (a) the novel views' mean SSIM gain >= +0.008, no scene's SSIM lower
 by more than 0.002; (b) their mean PSNR not lower by more than 0.05 dB, no scene's lower by
 more than 0.10 dB.
+``--rule keys`` judges a render change for the frames near the photos (``--keys`` arms,
+the model held fixed; the forty-ninth session's key blend): (a) the frames at the photos'
+cameras +0.20 dB on the mean and no scene lower by more than 0.05 dB, (b) their flare region
+not lower by more than 0.10 dB (mean), (c) the held-out views not lower by more than 0.05 dB
+on the mean nor 0.20 dB on any scene; ``--rule keys-guard`` asks lightly flared scenes only
+that the frames at the photos' cameras (0.05 dB) and their flare region (0.10 dB) not fall on
+the mean and (c).
 About 10 minutes per run on one CPU thread.
 
 Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f0517 those sample
@@ -403,7 +412,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="flare: the FMG photo rule; novel: a change for the novel views; "
                         "depth: a depth stage change, the model held fixed (rerender arms); "
                         "frames: a depth change for the novel frames alone (rerender arms); "
-                        "speed: a change for speed that must lose nothing users see")
+                        "speed: a change for speed that must lose nothing users see; "
+                        "keys / keys-guard: a render change for the frames near the photos "
+                        "(--keys arms)")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError

@@ -1051,3 +1051,28 @@ def test_render_speed_compares_frames_and_names_bad_settings(tmp_path):
     assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(b)) == (2, 1)
     (b / "00002.png").write_bytes((b / "00001.png").read_bytes())
     assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(b)) == (-1, -1)
+
+
+def test_keys_rule_asks_the_frames_at_the_photos_and_holds_the_held_out_views():
+    """``--rule keys``: +0.25 dB at the photos' cameras everywhere passes; a mean gain with
+    one scene -0.06 fails (a); their flare region -0.11 on the mean fails (b); held-out -0.21
+    on one scene fails (c). ``keys-guard`` asks no gain, only that nothing falls."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0, "keys": 20.0,
+                "keys_flare": 15.0} for s in "xyz"}
+
+    def cand(**by_scene):
+        return {s: {**base[s], **by_scene.get(s, {})} for s in base}
+
+    up = {s: {"keys": 20.25} for s in "xyz"}
+    assert m.photo_rule(cand(**up), base, "keys")["decision"] == "passes"
+    assert m.photo_rule(cand(), base, "keys")["decision"] == "fails (a)"
+    assert m.photo_rule(cand(x={"keys": 19.94}, y={"keys": 21.0}, z={"keys": 21.0}), base,
+                        "keys")["decision"] == "fails (a)"
+    down = {s: {"keys": 20.25, "keys_flare": 14.89} for s in "xyz"}
+    assert m.photo_rule(cand(**down), base, "keys")["decision"] == "fails (b)"
+    held = {**up, "x": {"keys": 20.25, "held": 16.79}}
+    assert m.photo_rule(cand(**held), base, "keys")["decision"] == "fails (c)"
+    assert m.photo_rule(cand(), base, "keys-guard")["decision"] == "passes"
+    assert m.photo_rule(cand(**{s: {"keys": 19.94} for s in "xyz"}), base,
+                        "keys-guard")["decision"] == "fails (a)"
