@@ -1079,3 +1079,20 @@ def test_key_blend_reported_seeds_and_ets_loss_are_the_files():
     assert f"lost {lo:.2f} to {hi:.2f} dB, every draw lower" in flat
     ups = [s for _, s in diffs if s > 0]
     assert len(ups) == 5 and f"SSIM up by {min(ups):.3f} to {max(ups):.3f} on five of six" in flat
+
+
+def test_key_blend_cost_is_the_one_shot_pair():
+    """docs/performance.md's one-shot pair of the forty-ninth session: the stage times are
+    the two files', the de-flared photos scored alike, and the README's sample row is
+    today's run."""
+    o = json.loads((RESULTS / "sample_oneshot_cpu_s49_f9719de.json").read_text())
+    h = json.loads((RESULTS / "sample_oneshot_cpu_s49_head.json").read_text())
+    assert o["code"]["commit"].startswith("f9719de") and h["code"]["commit"].startswith("e8c259f")
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    fo, fh = (r["stages"]["render:interpolate"]["seconds"] for r in (o, h))
+    to, th = (r["stages"]["finetune"]["seconds"] for r in (o, h))
+    assert (f"the 48 frames {fh:.1f} s against {fo:.1f} s, the fine-tune {th:.1f} s against "
+            f"{to:.1f} s") in text
+    assert o["mean"] == h["mean"]
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert (f"| {h['mean']['psnr_flare']:.2f} / {h['mean']['psnr']:.2f} |") in readme
