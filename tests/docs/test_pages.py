@@ -1096,3 +1096,18 @@ def test_key_blend_cost_is_the_one_shot_pair():
     assert o["mean"] == h["mean"]
     readme = " ".join((REPO / "README.md").read_text().split())
     assert (f"| {h['mean']['psnr_flare']:.2f} / {h['mean']['psnr']:.2f} |") in readme
+
+
+def test_key_blend_shorter_reach_row_is_its_exploration():
+    """fill.md's row of the shorter reach (explored after the decision) is its judge file's,
+    and its gains at the photos' cameras equal the chosen arm's (distance 0 for any reach)."""
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    j = json.loads((RESULTS / "keys_explore_nkb25_s49.json").read_text())
+    chosen = json.loads((RESULTS / "keys_judge_nkb50_s49.json").read_text())
+
+    def cell(d):
+        return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
+
+    assert ("| `nkb25` | " + " | ".join(cell(d) for d in j["per_scene"].values())
+            + f" | {cell(j['mean'])} |") in fill
+    assert j["mean"]["keys"] == pytest.approx(chosen["mean"]["keys"])
