@@ -4,6 +4,7 @@ benchmarks' shell helper for the lent GPU (`benchmarks/device_slim.sh`)."""
 from __future__ import annotations
 
 import json
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -191,3 +192,14 @@ def test_device_slim_holds_and_restores_files_and_links(tmp_path):
     assert back.returncode == 0 and "checkout whole again" in back.stdout, back.stderr
     assert (repo / "samples" / "b" / "photos").is_symlink()
     assert run("git", "status", "--short").stdout == ""
+
+
+def test_build_flared_dev_scenes_names_the_missing_workspace(tmp_path):
+    """benchmarks/build_flared_dev_scenes.sh without the posed development workspaces: one
+    line naming the first missing one and what to run, exit 2, nothing written."""
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "build_flared_dev_scenes.sh"
+    out = subprocess.run(["bash", str(script), str(tmp_path)], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert out.stderr.strip() == (f"no {tmp_path}/sceaux_ws: run "
+                                  f"benchmarks/build_dev_scenes.sh {tmp_path} first")
+    assert list(tmp_path.iterdir()) == []
