@@ -19,7 +19,6 @@ import numpy as np
 from pipeline.stereo import (
     PosedView,
     Warped,
-    channel_gains,
     fill_holes,
     fuse,
     harmonize_sources,
@@ -126,24 +125,13 @@ def lean_to_nearest(colour: np.ndarray, weight: np.ndarray, warped: Warped,
     return mixed.astype(np.float32), total.astype(np.float32)
 
 
-def nearest_seen(K: np.ndarray, c2w: np.ndarray, fill: PhotoFill, view: PosedView,
-                 far: float, min_pixels: int = 200) -> Warped:
-    """The fill's nearest photo (``view``, its first source) warped into the camera through
-    the fill's depth, and through the far bound where the fill has none (sky, holes of the
-    depth maps), without the occlusion test against the photo's own depth map (near the
-    photo's camera depth matters little and hides little, at it not at all), with the
-    per-channel gains the fill gave it (fitted where both warps see). Flare masks are kept
-    out. For :func:`lean_to_nearest`."""
-    from dataclasses import replace
-
-    depth = np.where(fill.depth > 0, fill.depth, far).astype(np.float32)
-    own = warp_sources(K, c2w, depth, [replace(view, depth=None)])  # no occlusion test
-    cols = own.colours[0]
-    if fill.warped is not None:
-        both = fill.warped.ok[0] & own.ok[0]
-        if both.sum() >= min_pixels:
-            cols = cols * channel_gains(cols[both], fill.warped.colours[0][both])
-    return Warped(cols[None], own.ok[:1])
+def nearest_seen(fill: PhotoFill) -> Warped:
+    """The fill's nearest photo (its first source) as the fill warped it (through the
+    fill's depth, with the gains the fill gave it), valid wherever it sees the frame outside
+    its flare mask, without the occlusion test against the photo's own depth map (near the
+    photo's camera depth hides little, at it nothing). For :func:`lean_to_nearest`."""
+    w = fill.warped
+    return Warped(w.colours[:1], (w.ok if w.seen is None else w.seen)[:1])
 
 
 def small_holes(ok: np.ndarray, radius: float) -> np.ndarray:

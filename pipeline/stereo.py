@@ -528,6 +528,9 @@ class Warped:
     """[N, H, W, 3] float32 colour each source sees at the target's surface point."""
     ok: np.ndarray
     """[N, H, W] bool: in view, not flared, not occluded (its depth agrees)."""
+    seen: np.ndarray | None = None
+    """[N, H, W] bool: ``ok`` before the occlusion test (in view, not flared, the target's
+    depth known), as ``warp_sources`` found it; None where not kept."""
 
 
 def warp_sources(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray,
@@ -540,6 +543,7 @@ def warp_sources(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray,
     pts = backproject(K, c2w, depth)
     cols = np.zeros((len(sources), H, W, 3), np.float32)
     ok = np.zeros((len(sources), H, W), bool)
+    seen = np.zeros((len(sources), H, W), bool)
     for k, s in enumerate(sources):
         xy, z = project_points(pts, s.K, s.c2w)
         mx, my = xy[..., 0] - 0.5, xy[..., 1] - 0.5
@@ -551,12 +555,13 @@ def warp_sources(K: np.ndarray, c2w: np.ndarray, depth: np.ndarray,
             vv = cv2.remap(s.valid.astype(np.uint8), mx, my, cv2.INTER_NEAREST,
                            borderMode=cv2.BORDER_CONSTANT, borderValue=0)
             good &= vv > 0
+        seen[k] = good
         if s.depth is not None:
             sd = cv2.remap(s.depth, mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
                            borderValue=0)
             good &= (sd <= 0) | (np.abs(sd - z) < occlusion_tol * z)
         ok[k] = good
-    return Warped(cols, ok)
+    return Warped(cols, ok, seen)
 
 
 def sources_median(w: Warped) -> tuple[np.ndarray, np.ndarray]:
@@ -586,16 +591,10 @@ def match_gains(w: Warped, reference: np.ndarray | None = None,
         m = w.ok[k] & rv
         if m.sum() < min_pixels:
             continue
-        cols[k] *= channel_gains(cols[k][m], ref[m])
-    return Warped(cols, w.ok)
-
-
-def channel_gains(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """[3] float32 per-channel gains (0.5..2) that bring colours ``x`` [N, 3] closest to
-    ``y`` [N, 3] in least squares."""
-    x, y = x.astype(np.float64), y.astype(np.float64)
-    g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
-    return np.clip(g, 0.5, 2.0).astype(np.float32)
+        x, y = cols[k][m].astype(np.float64), ref[m].astype(np.float64)
+        g = (x * y).sum(0) / np.maximum((x * x).sum(0), 1e-9)
+        cols[k] *= np.clip(g, 0.5, 2.0).astype(np.float32)
+    return Warped(cols, w.ok, w.seen)
 
 
 HARMONIZE_MAX = 0.15
@@ -628,7 +627,7 @@ def harmonize_sources(w: Warped, sigma: float) -> Warped:
         off = num / np.maximum(den, 1e-6)[..., None]
         fade = np.clip(den / HARMONIZE_FADE, 0.0, 1.0)[..., None]
         cols[k] += np.clip(off, -HARMONIZE_MAX, HARMONIZE_MAX) * fade
-    return Warped(cols, w.ok)
+    return Warped(cols, w.ok, w.seen)
 
 
 def fuse(w: Warped, agree: float = 0.08, min_views: int = 1, window: int = 1):

@@ -141,11 +141,10 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     cfg = replace(cfg, bf16=cpu_bf16(cfg.bf16, device))  # recorded resolved: CUDA always
     if note := emulated_bf16("render", cfg.bf16):
         warn(note)
-    if cfg.sources_equal_below is None and key != "inputs":
-        # novel frames record the line they used: a render made at another line re-renders
-        cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True))
-    if key != "inputs":  # recorded resolved; for the de-flared photos it does nothing
-        cfg = replace(cfg, nearest_source=cfg.keeps_nearest())
+    if key != "inputs":  # novel frames record how they chose their sources: a render made
+        # another way re-renders (for the de-flared photos neither applies)
+        cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True),
+                      nearest_source=cfg.keeps_nearest())
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,

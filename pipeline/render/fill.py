@@ -111,8 +111,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
     share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0) if novel else 0.0
     if share > 0:
-        seen = nearest_seen(K, c2w, pf, srcs[0], job.far)
-        colour, weight = lean_to_nearest(colour, weight, seen, share)
+        colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf), share)
     return HybridFill(colour, weight, real, pf.warped)
 
 

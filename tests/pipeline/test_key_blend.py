@@ -6,7 +6,7 @@ import numpy as np
 
 from pipeline.photo_fill import PhotoFill, lean_to_nearest, nearest_seen
 from pipeline.render.fill import key_share
-from pipeline.stereo import PosedView, Warped
+from pipeline.stereo import PosedView, warp_sources
 
 
 def _view(x: float, seed: int, valid=None, depth=None) -> PosedView:
@@ -30,10 +30,11 @@ def test_at_the_photos_camera_the_frame_is_the_photo_outside_its_mask():
     mask[10:20, 10:30] = False  # flare: never taken from the photo
     wrong_depth = np.full((32, 48), 2.0, np.float32)  # the photo's own map disagrees
     photo = _view(0.0, 0, valid=mask, depth=np.full((32, 48), 5.0, np.float32))
+    warped = warp_sources(photo.K, photo.c2w, wrong_depth, [photo])
+    assert not warped.ok.any()  # the fill's own warp finds it all occluded
     fill = PhotoFill(colour=np.full((32, 48, 3), 0.5, np.float32),
-                     support=np.zeros((32, 48), int), depth=wrong_depth,
-                     warped=Warped(photo.image[None].copy(), mask[None].copy()))
-    seen = nearest_seen(photo.K, photo.c2w, fill, photo, far=10.0)
+                     support=np.zeros((32, 48), int), depth=wrong_depth, warped=warped)
+    seen = nearest_seen(fill)
     assert seen.ok[0][mask].all() and not seen.ok[0][~mask].any()  # no occlusion test
     net_weight = np.zeros((32, 48), np.float32)  # the fill left every pixel to GN-FR
     colour, weight = lean_to_nearest(fill.colour, net_weight, seen, 1.0)
