@@ -57,6 +57,13 @@ not lower by more than 0.10 dB (mean), (c) the held-out views not lower by more 
 on the mean nor 0.20 dB on any scene; ``--rule keys-guard`` asks lightly flared scenes only
 that the frames at the photos' cameras (0.05 dB) and their flare region (0.10 dB) not fall on
 the mean and (c).
+``--rule reach`` judges a change of the key blend itself (its reach, its occlusion test)
+against today's (``--keys`` arms, the model held fixed; the fiftieth session): (a) the
+held-out views +0.05 dB on the mean and no scene lower by more than 0.10 dB, (b) their SSIM
+not lower by more than 0.002 (mean), (c) the frames at the photos' cameras and their flare
+region not lower by more than 0.05 and 0.10 dB (means); ``--rule reach-guard`` asks scenes
+already seen (a') the held-out views not lower by more than 0.05 dB on the mean nor 0.20 dB
+on any scene, and (b), (c).
 About 10 minutes per run on one CPU thread.
 
 Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f0517 those sample
@@ -94,6 +101,15 @@ near flared photos, the model held fixed): the video's frames at the photos' own
 (``--keys``) and the held-out views; ``--rule keys-guard`` asks the lightly flared scenes only
 that nothing is lost (docs/history/fill.md, "Novel frames' sources near heavily flared
 photos")."""
+
+
+RULE_REACH = {"held_gain": 0.05, "held_scene_loss": 0.10, "held_ssim_loss": 0.002,
+              "keys_loss": 0.05, "keys_flare_loss": 0.10, "guard_held_loss": 0.05,
+              "guard_held_scene_loss": 0.20}
+"""``--rule reach``'s thresholds (the fiftieth session's rule for the key blend's reach and
+its occlusion test against today's key blend, the model held fixed): the held-out views must
+gain, nothing else may fall; ``--rule reach-guard`` asks scenes already seen only that
+nothing is lost (docs/history/fill.md, "The key blend's reach and its occlusion test")."""
 
 
 def scene_short(synth: Path) -> str:
@@ -284,6 +300,16 @@ PARTS = {
                          ("mean", "keys_flare", -RULE_KEYS["keys_flare_loss"])],
                    "b": [("mean", "held", -RULE_KEYS["held_loss"]),
                          ("scene", "held", -RULE_KEYS["held_scene_loss"])]},
+    "reach": {"a": [("mean", "held", RULE_REACH["held_gain"]),
+                    ("scene", "held", -RULE_REACH["held_scene_loss"])],
+              "b": [("mean", "held_ssim", -RULE_REACH["held_ssim_loss"])],
+              "c": [("mean", "keys", -RULE_REACH["keys_loss"]),
+                    ("mean", "keys_flare", -RULE_REACH["keys_flare_loss"])]},
+    "reach-guard": {"a": [("mean", "held", -RULE_REACH["guard_held_loss"]),
+                          ("scene", "held", -RULE_REACH["guard_held_scene_loss"])],
+                    "b": [("mean", "held_ssim", -RULE_REACH["held_ssim_loss"])],
+                    "c": [("mean", "keys", -RULE_REACH["keys_loss"]),
+                          ("mean", "keys_flare", -RULE_REACH["keys_flare_loss"])]},
 }
 """Each rule's parts, in order: a part holds when each of its checks does, a check
 (``mean``, KEY, X) when the scenes' mean difference of KEY is at least X, (``scene``, KEY, X)
@@ -328,8 +354,9 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
-        return arm_means([json.loads(f.read_text()) for f in files], rule in ("depth", "frames"),
-                         rule.startswith("keys"))
+        return arm_means([json.loads(f.read_text()) for f in files],
+                         rule in ("depth", "frames") or rule.startswith("reach"),
+                         rule.startswith(("keys", "reach")))
 
     cand = {s: load(candidate, s, seeds) for s in scenes}
     base = {s: load(baseline, s, base_seeds) for s in scenes}
@@ -414,7 +441,8 @@ def main(argv: list[str] | None = None) -> int:
                         "frames: a depth change for the novel frames alone (rerender arms); "
                         "speed: a change for speed that must lose nothing users see; "
                         "keys / keys-guard: a render change for the frames near the photos "
-                        "(--keys arms)")
+                        "(--keys arms); reach / reach-guard: the key blend's reach and "
+                        "occlusion test (--keys arms)")
     j.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError

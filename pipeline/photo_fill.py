@@ -125,13 +125,14 @@ def lean_to_nearest(colour: np.ndarray, weight: np.ndarray, warped: Warped,
     return mixed.astype(np.float32), total.astype(np.float32)
 
 
-def nearest_seen(fill: PhotoFill) -> Warped:
+def nearest_seen(fill: PhotoFill, occluded: bool = False) -> Warped:
     """The fill's nearest photo (its first source) as the fill warped it (through the
     fill's depth, with the gains the fill gave it), valid wherever it sees the frame outside
     its flare mask, without the occlusion test against the photo's own depth map (near the
-    photo's camera depth hides little, at it nothing). For :func:`lean_to_nearest`."""
+    photo's camera depth hides little, at it nothing); with ``occluded``, only where it
+    passes that test too. For :func:`lean_to_nearest`."""
     w = fill.warped
-    return Warped(w.colours[:1], (w.ok if w.seen is None else w.seen)[:1])
+    return Warped(w.colours[:1], (w.ok if occluded or w.seen is None else w.seen)[:1])
 
 
 def small_holes(ok: np.ndarray, radius: float) -> np.ndarray:

@@ -202,6 +202,11 @@ class RenderConfig:
     (``pipeline.photo_fill.lean_to_nearest``). Default: 0.5 on the CPU
     (``NOVEL_CPU_FILL``; docs/history/fill.md, "Novel frames' sources near heavily flared
     photos"), 0 on CUDA (not measured there) and for the de-flared photos."""
+    key_occlusion: bool = option(False, flag="--key-occlusion/--no-key-occlusion")
+    """hybrid novel frames, with ``key_blend``: the frame leans to its nearest photo only
+    where that photo passes the fill's occlusion test against its own depth map (off: wherever
+    it sees the frame outside its flare mask; docs/history/fill.md, "The key blend's reach
+    and its occlusion test")."""
     network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth

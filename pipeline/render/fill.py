@@ -111,7 +111,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
     share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0) if novel else 0.0
     if share > 0:
-        colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf), share)
+        colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf, cfg.key_occlusion),
+                                         share)
     return HybridFill(colour, weight, real, pf.warped)
 
 

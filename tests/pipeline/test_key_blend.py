@@ -45,3 +45,22 @@ def test_at_the_photos_camera_the_frame_is_the_photo_outside_its_mask():
     assert (weight[~mask] == 0).all()  # inside the flare mask GN-FR stays
     half_colour, half_weight = lean_to_nearest(fill.colour, net_weight, seen, 0.5)
     assert np.allclose(half_weight[far_from_flare], 0.5)
+
+
+def test_with_the_occlusion_test_the_lean_keeps_to_what_the_test_passes():
+    """``render --key-occlusion``: the photo's pixels its own depth map hides are not leaned
+    to; where the map agrees with the fill's depth they are."""
+    depth = np.full((32, 48), 2.0, np.float32)
+    own = depth.copy()
+    own[:, 24:] = 5.0  # the photo's map disagrees on the right half: occluded there
+    photo = _view(0.0, 0, valid=np.ones((32, 48), bool), depth=own)
+    warped = warp_sources(photo.K, photo.c2w, depth, [photo])
+    fill = PhotoFill(colour=np.full((32, 48, 3), 0.5, np.float32),
+                     support=np.zeros((32, 48), int), depth=depth, warped=warped)
+    assert nearest_seen(fill).ok[0].all()  # the default: no occlusion test
+    tested = nearest_seen(fill, occluded=True).ok[0]
+    assert tested[:, :23].all() and not tested[:, 25:].any()
+    colour, weight = lean_to_nearest(fill.colour, np.zeros((32, 48), np.float32),
+                                     nearest_seen(fill, occluded=True), 1.0)
+    assert np.allclose(colour[4:-4, 4:18], photo.image[4:-4, 4:18], atol=1e-4)
+    assert (weight[:, 25:] == 0).all()

@@ -1076,3 +1076,29 @@ def test_keys_rule_asks_the_frames_at_the_photos_and_holds_the_held_out_views():
     assert m.photo_rule(cand(), base, "keys-guard")["decision"] == "passes"
     assert m.photo_rule(cand(**{s: {"keys": 19.94} for s in "xyz"}), base,
                         "keys-guard")["decision"] == "fails (a)"
+
+
+def test_reach_rule_asks_the_held_out_views_and_holds_the_rest():
+    """``--rule reach``: held-out +0.06 dB everywhere passes; +0.04 fails (a), so does a mean
+    gain with one scene -0.11; held-out SSIM -0.003 fails (b); the frames at the photos'
+    cameras -0.06 fails (c), their flare region -0.11 too. ``reach-guard`` asks no gain: a
+    held-out mean -0.04 passes, -0.06 fails (a)."""
+    m = _photo_ab()
+    base = {s: {"psnr": 30.0, "psnr_flare": 20.0, "ssim": 0.95, "held": 17.0,
+                "held_ssim": 0.6, "keys": 20.0, "keys_flare": 15.0} for s in "xyz"}
+
+    def cand(held: float, **more):
+        return {s: {**base[s], "held": 17.0 + held, **more.get(s, {})} for s in base}
+
+    assert m.photo_rule(cand(0.06), base, "reach")["decision"] == "passes"
+    assert m.photo_rule(cand(0.04), base, "reach")["decision"] == "fails (a)"
+    assert m.photo_rule(cand(0.3, x={"held": 16.89}), base, "reach")["decision"] == "fails (a)"
+    low_ssim = {s: {"held_ssim": 0.597} for s in "xyz"}
+    assert m.photo_rule(cand(0.06, **low_ssim), base, "reach")["decision"] == "fails (b)"
+    for k, v in (("keys", 19.94), ("keys_flare", 14.89)):
+        worse = {s: {k: v} for s in "xyz"}
+        assert m.photo_rule(cand(0.06, **worse), base, "reach")["decision"] == "fails (c)"
+    assert m.photo_rule(cand(-0.04), base, "reach-guard")["decision"] == "passes"
+    assert m.photo_rule(cand(-0.06), base, "reach-guard")["decision"] == "fails (a)"
+    assert m.photo_rule(cand(0.0, x={"held": 16.79}), base,
+                        "reach-guard")["decision"] == "fails (a)"
