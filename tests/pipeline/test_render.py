@@ -878,9 +878,9 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
                       ("render:interpolate", {"network_scale": 0.25, "agree_window": 1,
                                               "network_depth": "off"})):
         r = hws.stage_record(name)
-        # records from before the forty-ninth session's options hold neither
+        # records from before the forty-ninth and fiftieth sessions' options hold none
         kept = {k: v for k, v in r["params"].items()
-                if k not in ("key_blend", "nearest_source")}
+                if k not in ("key_blend", "nearest_source", "key_occlusion")}
         hws.update_manifest(name, {**r, "params": {**kept, **old}})
     photos = sorted((hws.deflared).iterdir())
     stamps = [f.stat().st_mtime_ns for f in photos]
@@ -889,6 +889,25 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     assert hws.stage_record("render:inputs")["params"].get("network_scale") == 0.25
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     assert hws.stage_record("render:interpolate")["params"]["agree_window"] == 3
+
+
+def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
+    """``--key-occlusion`` only shapes the key blend: asked where there is none (the de-flared
+    photos, or ``--key-blend 0``) the render says so in one line; with the blend it is
+    recorded."""
+    from pipeline.render import RenderConfig, run
+
+    run(RenderConfig(path="inputs", fill="hybrid", key_occlusion=True), hws)
+    err = capsys.readouterr().err
+    assert "--key-occlusion does nothing without the key blend" in err
+    assert "the de-flared photos have none" in err
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_blend=0.0,
+                     key_occlusion=True), hws)
+    assert "(--key-blend 0)" in capsys.readouterr().err
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25,
+                     key_occlusion=True), hws)
+    assert "does nothing" not in capsys.readouterr().err
+    assert hws.stage_record("render:interpolate")["params"]["key_occlusion"] is True
 
 
 def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
