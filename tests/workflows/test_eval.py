@@ -380,6 +380,23 @@ def test_score_workspace_matches_eval(scene, tmp_path):
                               "views": len(views)}
 
 
+def test_truth_mask_at_a_smaller_frame_keeps_pixels_half_covered(scene):
+    """The region score of a frame smaller than the photos (the novel frames at the photos'
+    cameras): the true mask at the frame's size marks the pixels at least half covered."""
+    from workflows.research.eval.scene import load_synth, truth_mask
+
+    synth = load_synth(scene)
+    stem = next(s for s in synth.train if truth_mask(synth, s).any())
+    full = truth_mask(synth, stem)
+    assert (truth_mask(synth, stem, full.shape) == full).all()
+    assert full.shape[0] % 2 == 0 == full.shape[1] % 2  # a factor of exactly 2 below
+    h, w = full.shape[0] // 2, full.shape[1] // 2
+    small = truth_mask(synth, stem, (h, w))
+    cover = full[:2 * h, :2 * w].reshape(h, 2, w, 2).mean(axis=(1, 3))
+    assert small.shape == (h, w) and small.dtype == bool
+    assert (small == (cover >= 0.5)).all()
+
+
 def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py: ``fill_holes`` scores the masks as `mask --fill-holes`
     writes them (a ring around an unmarked core then matches a true disc exactly), and

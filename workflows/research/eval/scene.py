@@ -69,10 +69,19 @@ def photo_path(root: Path, stem: str, folder: str = "photos") -> Path | None:
 
 
 
-def truth_mask(scene: SynthScene, stem: str) -> np.ndarray:
-    """[H, W] bool ground-truth flare mask SCENE/masks_gt/<stem>.png."""
-    return read_mask_file(scene.root / "masks_gt" / f"{stem}.png",
+def truth_mask(scene: SynthScene, stem: str,
+               shape: tuple[int, int] | None = None) -> np.ndarray:
+    """[H, W] bool ground-truth flare mask SCENE/masks_gt/<stem>.png; at ``shape`` (h, w)
+    when given, the pixels at least half covered by it (area resizing: a render smaller than
+    the photos, e.g. the novel frames at the photos' own cameras, scored inside the flare)."""
+    mask = read_mask_file(scene.root / "masks_gt" / f"{stem}.png",
                           f"rerun `deflare-scene synth ... --out {scene.root} --force`")
+    if shape is None or mask.shape == tuple(shape):
+        return mask
+    import cv2
+
+    return cv2.resize(mask.astype(np.float32), (shape[1], shape[0]),
+                      interpolation=cv2.INTER_AREA) >= 0.5
 
 
 

@@ -34,21 +34,10 @@ def score_views(scene: SynthScene, folder: Path, stems: list[str],
         gt = read_bgr(scene.root / "clean" / f"{s}.png", pred.shape[:2])
         rec = {"psnr": metrics.psnr(pred, gt), "ssim": metrics.ssim(pred, gt)}
         if with_region:
-            rec["psnr_flare"] = metrics.masked_psnr(pred, gt, _mask_at(truth_mask(scene, s),
-                                                                       pred.shape[:2]))
+            rec["psnr_flare"] = metrics.masked_psnr(pred, gt,
+                                                    truth_mask(scene, s, pred.shape[:2]))
         per[s] = rec
     return {**summarise(per), "views": per}
-
-
-def _mask_at(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """``mask`` [H, W] bool at ``shape`` (h, w): the pixels at least half covered by it (a
-    render smaller than the photos, e.g. the novel frames at the photos' own cameras)."""
-    if mask.shape == tuple(shape):
-        return mask
-    import cv2
-
-    return cv2.resize(mask.astype(np.float32), (shape[1], shape[0]),
-                      interpolation=cv2.INTER_AREA) >= 0.5
 
 
 def summarise(per: dict) -> dict:
