@@ -202,6 +202,11 @@ class RenderConfig:
     (``pipeline.photo_fill.lean_to_nearest``). Default: 0.5 on the CPU
     (``NOVEL_CPU_FILL``; docs/history/fill.md, "Novel frames' sources near heavily flared
     photos"), 0 on CUDA (not measured there) and for the de-flared photos."""
+    key_power: float = option(1.0, gt=0, le=8)
+    """hybrid novel frames, with ``key_blend``: how the lean falls from the photo's camera to
+    the reach, ``1 - x ** key_power`` at the fraction ``x`` of the way (1: linearly; above 1
+    it stays near the photo longer and falls faster near the reach; docs/history/fill.md,
+    "The key blend's falloff")."""
     key_occlusion: bool = option(False, flag="--key-occlusion/--no-key-occlusion")
     """hybrid novel frames, with ``key_blend``: the frame leans to its nearest photo only
     where that photo passes the fill's occlusion test against its own depth map (off: wherever

@@ -109,21 +109,24 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     if close > 0:
         colour, ok = close_small_holes(colour, ok, close * max(size))
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
-    share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0) if novel else 0.0
+    share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0,
+                      cfg.key_power) if novel else 0.0
     if share > 0:
         colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf, cfg.key_occlusion),
                                          share)
     return HybridFill(colour, weight, real, pf.warped)
 
 
-def key_share(centre: np.ndarray, views: list, reach: float) -> float:
+def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0) -> float:
     """How much a novel frame at ``centre`` leans to the first of ``views`` (its sources
-    nearest first; ``RenderConfig.key_blend``): 1 at that photo's camera, falling linearly
-    with the distance to none at ``reach`` times the distance from that camera to the
-    nearest of the other sources' (0 without another source)."""
+    nearest first; ``RenderConfig.key_blend``): 1 at that photo's camera, falling with the
+    distance to none at ``reach`` times the distance from that camera to the nearest of the
+    other sources' (0 without another source): ``1 - x ** power`` of that fraction ``x``
+    of the way (``RenderConfig.key_power``; 1: linearly)."""
     own = np.asarray(views[0].c2w)[:3, 3]
     spacing = min((d for d in (float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own))
                                for v in views[1:]) if d > 0), default=0.0)
     if spacing <= 0 or reach <= 0:
         return 0.0
-    return float(np.clip(1.0 - np.linalg.norm(centre - own) / (reach * spacing), 0.0, 1.0))
+    x = min(float(np.linalg.norm(centre - own)) / (reach * spacing), 1.0)
+    return float(1.0 - x ** power)

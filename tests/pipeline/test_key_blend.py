@@ -25,6 +25,20 @@ def test_key_share_is_one_at_the_photo_and_fades_to_none():
     assert key_share(np.zeros(3), views, 0.0) == 0.0 and key_share(np.zeros(3), views[:1], 0.5) == 0
 
 
+def test_key_power_keeps_the_lean_longer_and_still_ends_at_the_reach():
+    """``render --key-power P``: the share is ``1 - x ** P`` at the fraction ``x`` of the way
+    to the reach: 1 at the photo, none at the reach for any P, above the linear share between
+    for P > 1."""
+    views = [_view(0.0, 0), _view(1.0, 1)]
+    for power in (1.0, 2.0, 3.0):
+        assert key_share(np.zeros(3), views, 0.5, power) == 1.0
+        assert key_share(np.array([0.5, 0, 0]), views, 0.5, power) == 0.0
+        assert key_share(np.array([0.7, 0, 0]), views, 0.5, power) == 0.0
+    at = np.array([0.25, 0, 0])  # half way to the reach
+    assert key_share(at, views, 0.5, 2.0) == 0.75 and key_share(at, views, 0.5, 3.0) == 0.875
+    assert key_share(at, views, 0.5) == 0.5
+
+
 def test_at_the_photos_camera_the_frame_is_the_photo_outside_its_mask():
     mask = np.ones((32, 48), bool)
     mask[10:20, 10:30] = False  # flare: never taken from the photo
