@@ -1111,3 +1111,38 @@ def test_key_blend_shorter_reach_row_is_its_exploration():
     assert ("| `nkb25` | " + " | ".join(cell(d) for d in j["per_scene"].values())
             + f" | {cell(j['mean'])} |") in fill
     assert j["mean"]["keys"] == pytest.approx(chosen["mean"]["keys"])
+
+
+def test_key_blend_reach_outcome_rows_are_the_judgments():
+    """fill.md's table of the fiftieth session's reach rule is the four judge files'; no
+    candidate passed, so the code's key blend is as the forty-ninth session left it, with
+    the occlusion test off; the reference's gain quoted beside it is the `near` file's."""
+    from pipeline.render.config import NOVEL_CPU_FILL, RenderConfig
+
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    flat = " ".join(fill.split())
+
+    def cell(d):
+        return f"{d['held']:+.3f} / {d['held_ssim']:+.3f} / {d['keys']:+.2f}"
+
+    for c in ("nkb25", "nkb50o", "nkb25o", "near"):
+        j = json.loads((RESULTS / f"reach_judge_{c}_s50.json").read_text())
+        assert j["rule"] == "reach" and j["seeds"] == [24, 25] and j["baseline"] == "s50_nkb50"
+        assert j["decision"].startswith("fails")
+        assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
+                + f" | {cell(j['mean'])} | {j['decision']} |") in fill, c
+    near = json.loads((RESULTS / "reach_judge_near_s50.json").read_text())
+    m, per = near["mean"], near["per_scene"]
+    assert (f"the held-out views are {-m['held']:+.3f} dB and {-m['held_ssim']:+.3f} SSIM on "
+            f"the mean (sceaux_p4h {-per['sceaux_p4h']['held']:+.3f}, lund_k4h "
+            f"{-per['lund_k4h']['held']:+.3f}; et_p5h's three cameras lie beyond the reach of "
+            f"any photo, {per['et_p5h']['held']:.3f}), the frames at the photos' cameras "
+            f"{-m['keys']:+.2f} dB") in flat
+    occl = json.loads((RESULTS / "reach_judge_nkb50o_s50.json").read_text())["per_scene"]
+    lo, hi = sorted(-d["keys"] for d in occl.values())[::2]
+    assert f"costs the frames at the photos' own cameras {lo:.1f} to {hi:.1f} dB" in flat
+    assert NOVEL_CPU_FILL["key_blend"] == 0.5 and RenderConfig().key_occlusion is False
+    for sd in (24, 25):  # the arms ran the code of the rule's commit
+        for s in ("sceaux_p4h", "et_p5h", "lund_k4h"):
+            r = json.loads((RESULTS / f"fmg_s50_nkb25o_fair_{s}_s{sd}.json").read_text())
+            assert r["code"]["commit"].startswith("c6f23f7") and not r["code"]["dirty"]
