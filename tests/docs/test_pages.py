@@ -1146,3 +1146,42 @@ def test_key_blend_reach_outcome_rows_are_the_judgments():
         for s in ("sceaux_p4h", "et_p5h", "lund_k4h"):
             r = json.loads((RESULTS / f"fmg_s50_nkb25o_fair_{s}_s{sd}.json").read_text())
             assert r["code"]["commit"].startswith("c6f23f7") and not r["code"]["dirty"]
+
+
+def test_key_blend_falloff_outcome_rows_are_the_judgments():
+    """fill.md's falloff table is its two judge files'; neither passed, so the lean is
+    linear (``key_power`` 1); the ranges quoted after it are the baseline's means."""
+    from pipeline.render.config import RenderConfig
+
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    flat = " ".join(fill.split())
+
+    def cell(d):
+        return f"{d['held']:+.3f} / {d['held_ssim']:+.3f} / {d['keys']:+.2f}"
+
+    for c in ("nkb50p2", "nkb50p3"):
+        j = json.loads((RESULTS / f"fall_judge_{c}_s50.json").read_text())
+        assert j["rule"] == "reach" and j["seeds"] == [24, 25] and j["baseline"] == "s50_nkb50"
+        assert j["decision"] == "fails (a)"
+        assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
+                + f" | {cell(j['mean'])} | {j['decision']} |") in fill, c
+    assert RenderConfig().key_power == 1.0
+    base = json.loads((RESULTS / "fall_judge_nkb50p2_s50.json").read_text())["means"]["baseline"]
+    held = sorted(d["held"] for d in base.values())
+    keys = sorted(d["keys"] for d in base.values())
+    assert (f"the held-out views ({held[0]:.1f}-{held[-1]:.1f} dB on these scenes, where the "
+            f"frames at the photos' cameras score {keys[0]:.1f}-{keys[-1]:.1f})") in flat
+
+
+def test_depth_options_table_quotes_the_fiftieth_session_files():
+    """docs/depth.md's rows of the key blend's options quote the fiftieth session's judge
+    files."""
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    load = lambda n: json.loads((RESULTS / n).read_text())["mean"]  # noqa: E731
+    near, short, occl = (load(f"reach_judge_{c}_s50.json") for c in ("near", "nkb25", "nkb50o"))
+    assert (f"{-near['held']:+.3f} dB and {-near['held_ssim']:+.3f} SSIM against no lean, and a "
+            f"reach of 0.25 lower by {-short['held']:.3f} dB") in depth
+    assert (f"the frames at the photos' own cameras {occl['keys']:+.2f} dB and the held-out "
+            f"views {occl['held']:+.3f} dB on the mean") in depth
+    p2, p3 = (load(f"fall_judge_{c}_s50.json") for c in ("nkb50p2", "nkb50p3"))
+    assert f"2 and 3 scored {p2['held']:+.3f} and {p3['held']:+.3f} dB" in depth
