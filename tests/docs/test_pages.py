@@ -95,8 +95,11 @@ CHECKS = [
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for row in ("base", "random_sources-true") for m in ("psnr", "ssim")],
     *[(page, f, f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
-      for page, files in (("README.md", ("fern_llff_quick_cpu_s42.json",)),
-                          ("gnfr/weights/gnfr.md", ("fern_llff_quick_cpu_s42.json",
+      for page, files in (("README.md", ("fern_llff_quick_cpu_s50.json",)),
+                          ("docs/goals.md", ("fern_llff_quick_cpu_s50.json",)),
+                          ("docs/eval.md", ("fern_llff_quick_cpu_s50.json",)),
+                          ("gnfr/weights/gnfr.md", ("fern_llff_quick_cpu_s50.json",
+                                                    "fern_llff_quick_cpu_s42.json",
                                                     "fern_llff_quick_cpu_s30_ds0.json",
                                                     "fern_llff_quick_cpu_s29_frc.json",
                                                     "fern_llff_quick_cpu_s29_base.json")))
@@ -106,8 +109,9 @@ CHECKS = [
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[("README.md", "sample_oneshot_cpu_w42250.json", f"mean/{m}", "{:.2f}")
       for m in ("psnr_flare_input", "psnr_input")],
-    *[("README.md", "fern_llff_quick_cpu_s42.json",
-       f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}") for m in ("gnfr", "gnt", "input")],
+    *[(page, "fern_llff_quick_cpu_s50.json",
+       f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}") for m in ("gnfr", "gnt", "input")
+      for page in ("README.md", "docs/eval.md")],
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
@@ -541,15 +545,15 @@ def test_goals_page_rows_follow_their_files():
             label = {"sceaux_ws": "sceaux_castle"}.get(r["scene"], r["scene"][:-3])
             row = [ln for ln in text.splitlines() if ln.startswith(f"| {label} (")]
             assert len(row) == 1 and row[0].endswith(cell), (r["scene"], cell)
-    for f, fill in (("fern_llff_quick_cpu_s42.json", "hybrid"),
-                    ("fern_llff_quick_cpu_s42.json", "network"),
+    for f, fill in (("fern_llff_quick_cpu_s50.json", "hybrid"),
+                    ("fern_llff_quick_cpu_s50.json", "network"),
                     ("fern_llff_paper_cuda_h100_ptp5000.json", "hybrid"),
                     ("fern_llff_paper_cuda_h100_ptp5000.json", "network")):
         h = load(f)["clean"]["methods"][f"gnfr_{fill}"]["heldout"]
         assert f"{h['psnr']:.2f} / {h['ssim']:.3f}" in text, (f, fill)
     for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s42.json"),
                      ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s42.json"),
-                     ("fern", "fern_llff_quick_cpu_s42.json")):
+                     ("fern", "fern_llff_quick_cpu_s50.json")):
         d = load(f)
         m = d["flare"]["methods"] if "flare" in d else d["methods"]
         a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
@@ -1185,3 +1189,22 @@ def test_depth_options_table_quotes_the_fiftieth_session_files():
             f"views {occl['held']:+.3f} dB on the mean") in depth
     p2, p3 = (load(f"fall_judge_{c}_s50.json") for c in ("nkb50p2", "nkb50p3"))
     assert f"2 and 3 scored {p2['held']:+.3f} and {p3['held']:+.3f} dB" in depth
+
+
+def test_fern_at_todays_defaults_sentences_are_the_file():
+    """The README's and depth.md's sentences on fern at the fiftieth session's defaults: the
+    flare region's gains over the flared input, and the hybrid fill now above GN-FR alone."""
+    d = json.loads((RESULTS / "fern_llff_quick_cpu_s50.json").read_text())
+    f = d["flare"]["methods"]
+    gn, gt, inp = (f[k]["inputs"]["psnr_flare"] for k in ("gnfr", "gnt", "input"))
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert (f"GN-FR takes the flare region {gn - inp:.2f} dB above leaving the flare in "
+            f"(vanilla GNT {gt - inp:+.2f};") in readme
+    c = d["clean"]["methods"]
+    hy, net = c["gnfr_hybrid"]["heldout"], c["gnfr_network"]["heldout"]
+    assert hy["psnr"] > net["psnr"]
+    assert (f"The hybrid fill now scores above GN-FR alone there ({net['psnr']:.2f} / "
+            f"{net['ssim']:.3f})") in readme
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    assert f"{hy['psnr']:.2f} against {net['psnr']:.2f} dB" in depth
+    assert d["clean"]["provenance"]["code"]["commit"].startswith("e38f2f7")
