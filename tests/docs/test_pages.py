@@ -1208,3 +1208,12 @@ def test_fern_at_todays_defaults_sentences_are_the_file():
     depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
     assert f"{hy['psnr']:.2f} against {net['psnr']:.2f} dB" in depth
     assert d["clean"]["provenance"]["code"]["commit"].startswith("e38f2f7")
+
+
+def test_goals_fiftieth_session_summary_is_the_reference_file():
+    """goals.md's summary of the fiftieth session quotes the `near` reference's held-out gain
+    (today's key blend against no lean)."""
+    near = json.loads((RESULTS / "reach_judge_near_s50.json").read_text())["mean"]
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    assert (f"today's key blend held, {-near['held']:+.3f} dB and {-near['held_ssim']:+.3f} SSIM "
+            "on the held-out views against no lean") in goals
