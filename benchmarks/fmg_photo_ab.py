@@ -57,7 +57,7 @@ not lower by more than 0.10 dB (mean), (c) the held-out views not lower by more 
 on the mean nor 0.20 dB on any scene; ``--rule keys-guard`` asks lightly flared scenes only
 that the frames at the photos' cameras (0.05 dB) and their flare region (0.10 dB) not fall on
 the mean and (c).
-``--rule reach`` judges a change of the key blend itself (its reach, its occlusion test)
+``--rule reach`` judges a change of the key blend itself (its reach, occlusion test, falloff)
 against today's (``--keys`` arms, the model held fixed; the fiftieth session): (a) the
 held-out views +0.05 dB on the mean and no scene lower by more than 0.10 dB, (b) their SSIM
 not lower by more than 0.002 (mean), (c) the frames at the photos' cameras and their flare
@@ -106,10 +106,11 @@ photos")."""
 RULE_REACH = {"held_gain": 0.05, "held_scene_loss": 0.10, "held_ssim_loss": 0.002,
               "keys_loss": 0.05, "keys_flare_loss": 0.10, "guard_held_loss": 0.05,
               "guard_held_scene_loss": 0.20}
-"""``--rule reach``'s thresholds (the fiftieth session's rule for the key blend's reach and
-its occlusion test against today's key blend, the model held fixed): the held-out views must
-gain, nothing else may fall; ``--rule reach-guard`` asks scenes already seen only that
-nothing is lost (docs/history/fill.md, "The key blend's reach and its occlusion test")."""
+"""``--rule reach``'s thresholds (the fiftieth session's rules for the key blend's reach, its
+occlusion test and its falloff against today's key blend, the model held fixed): the
+held-out views must gain, nothing else may fall; ``--rule reach-guard`` asks scenes already
+seen only that nothing is lost (docs/history/fill.md, "The key blend's reach and its
+occlusion test", "The key blend's falloff")."""
 
 
 def scene_short(synth: Path) -> str:

@@ -136,8 +136,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
-    if cfg.key_occlusion and not cfg.key_blend:
-        warn("render: --key-occlusion does nothing without the key blend "
+    shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
+                               (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]
+    if shaping and not cfg.key_blend:
+        warn(f"render: {' and '.join(shaping)} "
+             f"{'does' if len(shaping) == 1 else 'do'} nothing without the key blend "
              f"({'the de-flared photos have none' if key == 'inputs' else '--key-blend 0'})")
     from gnfr.renderer import cpu_bf16, emulated_bf16
 

@@ -880,7 +880,8 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
         r = hws.stage_record(name)
         # records from before the forty-ninth and fiftieth sessions' options hold none
         kept = {k: v for k, v in r["params"].items()
-                if k not in ("key_blend", "nearest_source", "key_occlusion")}
+                if k not in ("key_blend", "nearest_source", "key_occlusion",
+                              "key_power")}
         hws.update_manifest(name, {**r, "params": {**kept, **old}})
     photos = sorted((hws.deflared).iterdir())
     stamps = [f.stat().st_mtime_ns for f in photos]
@@ -892,9 +893,9 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
 
 
 def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
-    """``--key-occlusion`` only shapes the key blend: asked where there is none (the de-flared
-    photos, or ``--key-blend 0``) the render says so in one line; with the blend it is
-    recorded."""
+    """``--key-occlusion`` and ``--key-power`` only shape the key blend: asked where there is
+    none (the de-flared photos, or ``--key-blend 0``) the render says so in one line; with
+    the blend they are recorded."""
     from pipeline.render import RenderConfig, run
 
     run(RenderConfig(path="inputs", fill="hybrid", key_occlusion=True), hws)
@@ -904,10 +905,15 @@ def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_blend=0.0,
                      key_occlusion=True), hws)
     assert "(--key-blend 0)" in capsys.readouterr().err
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_blend=0.0,
+                     key_occlusion=True, key_power=2.0), hws)
+    assert "--key-occlusion and --key-power 2 do nothing" in capsys.readouterr().err
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25,
-                     key_occlusion=True), hws)
-    assert "does nothing" not in capsys.readouterr().err
-    assert hws.stage_record("render:interpolate")["params"]["key_occlusion"] is True
+                     key_occlusion=True, key_power=2.0), hws)
+    err = capsys.readouterr().err
+    assert "nothing without" not in err
+    params = hws.stage_record("render:interpolate")["params"]
+    assert params["key_occlusion"] is True and params["key_power"] == 2.0
 
 
 def test_depth_samples_default_novel_frames_on_the_cpu_sample_the_whole_ray():
