@@ -203,3 +203,47 @@ def test_build_flared_dev_scenes_names_the_missing_workspace(tmp_path):
     assert out.stderr.strip() == (f"no {tmp_path}/sceaux_ws: run "
                                   f"benchmarks/build_dev_scenes.sh {tmp_path} first")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_arm_frames_figure_labels_each_arm_with_its_psnr(tmp_path, capsys):
+    """benchmarks/arm_frames.py: truth first, then each arm's held-out render labelled with
+    its PSNR against the truth (scored as the eval scores it); a missing arm or a label
+    count that does not match is one line, exit 2."""
+    import cv2
+    import numpy as np
+
+    from pipeline import metrics
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("arm_frames")
+    synth = tmp_path / "toy_synth"
+    (synth / "clean").mkdir(parents=True)
+    rng = np.random.default_rng(0)
+    truth = rng.integers(0, 256, (40, 60, 3), dtype=np.uint8)
+    cv2.imwrite(str(synth / "clean" / "v1.png"), truth)
+    renders = {}
+    for arm, noise in (("a", 10), ("b", 40)):
+        d = tmp_path / "work" / f"toy_{arm}_s3.ws" / "renders" / "heldout_cameras"
+        d.mkdir(parents=True)
+        img = np.clip(truth.astype(int) + rng.integers(-noise, noise, truth.shape), 0, 255)
+        renders[arm] = img.astype(np.uint8)
+        cv2.imwrite(str(d / "v1.png"), renders[arm])
+    out = tmp_path / "fig.jpg"
+    assert m.main([str(synth), "v1", "--work", str(tmp_path / "work"), "--seed", "3",
+                   "--arms", "a,b", "--height", "80", "--out", str(out)]) == 0
+    fig = cv2.imread(str(out))
+    assert fig.shape == (80, 3 * 120, 3)  # truth and two arms, each 120 px wide at 80 px
+    labels = [f"{arm}: {metrics.psnr(renders[arm], truth):.2f} dB" for arm in "ab"]
+    seen = []
+    monkey = m.tile
+    m.tile = lambda img, label, height: (seen.append(label), monkey(img, label, height))[1]
+    m.figure(synth, "v1", tmp_path / "work", 3, ["a", "b"], ["a", "b"], 80)
+    assert seen == ["truth v1", *labels]
+    capsys.readouterr()
+    assert m.main([str(synth), "v1", "--work", str(tmp_path / "work"), "--seed", "4",
+                   "--arms", "a", "--out", str(tmp_path / "x.jpg")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "toy_a_s4.ws" in err[0] and "run the arm first" in err[0]
+    assert m.main([str(synth), "v1", "--work", str(tmp_path / "work"), "--seed", "3",
+                   "--arms", "a,b", "--labels", "one", "--out", str(tmp_path / "x.jpg")]) == 2
+    assert not (tmp_path / "x.jpg").exists()
