@@ -1217,3 +1217,30 @@ def test_goals_fiftieth_session_summary_is_the_reference_file():
     goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
     assert (f"today's key blend held, {-near['held']:+.3f} dB and {-near['held_ssim']:+.3f} SSIM "
             "on the held-out views against no lean") in goals
+
+
+def test_held_out_photo_share_sentence_is_the_fill_regions_file():
+    """fill.md's shares of the held-out views drawn by the photos alone, and both parts'
+    PSNR, are fill_regions_heldout_s50.json's."""
+    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"]
+    s, e, lu = (d[f"{n}_synth"] for n in ("sceaux_p4h", "et_p5h", "lund_k4h"))
+    flat = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    assert (f"are {100 * s['photo_share']:.0f} % of sceaux_p4h's held-out views, "
+            f"{100 * e['photo_share']:.0f} % of et_p5h's and {100 * lu['photo_share']:.0f} % "
+            f"of lund_k4h's, and score {s['heldout_cameras']['photo']:.2f}, "
+            f"{e['heldout_cameras']['photo']:.2f} and {lu['heldout_cameras']['photo']:.2f} dB "
+            "there") in flat
+    assert (f"scores {s['heldout_cameras']['network']:.2f}, {e['heldout_cameras']['network']:.2f}"
+            f" and {lu['heldout_cameras']['network']:.2f} dB") in flat
+
+
+def test_goals_held_out_parts_are_the_fill_regions_file():
+    """goals.md's ranges of the held-out views' two parts are fill_regions_heldout_s50.json's."""
+    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"].values()
+    share = sorted(100 * (1 - m["photo_share"]) for m in d)
+    net = sorted(m["heldout_cameras"]["network"] for m in d)
+    photo = sorted(m["heldout_cameras"]["photo"] for m in d)
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    assert (f"({share[0]:.0f}-{share[-1]:.0f} % of their pixels on those scenes, "
+            f"{net[0]:.1f}-{net[-1]:.1f} dB, where the pixels the photos alone draw score "
+            f"{photo[0]:.1f}-{photo[-1]:.1f} dB;") in goals
