@@ -301,16 +301,13 @@ PARTS = {
                          ("mean", "keys_flare", -RULE_KEYS["keys_flare_loss"])],
                    "b": [("mean", "held", -RULE_KEYS["held_loss"]),
                          ("scene", "held", -RULE_KEYS["held_scene_loss"])]},
-    "reach": {"a": [("mean", "held", RULE_REACH["held_gain"]),
-                    ("scene", "held", -RULE_REACH["held_scene_loss"])],
+    **{name: {"a": [("mean", "held", held), ("scene", "held", scene)],
               "b": [("mean", "held_ssim", -RULE_REACH["held_ssim_loss"])],
               "c": [("mean", "keys", -RULE_REACH["keys_loss"]),
-                    ("mean", "keys_flare", -RULE_REACH["keys_flare_loss"])]},
-    "reach-guard": {"a": [("mean", "held", -RULE_REACH["guard_held_loss"]),
-                          ("scene", "held", -RULE_REACH["guard_held_scene_loss"])],
-                    "b": [("mean", "held_ssim", -RULE_REACH["held_ssim_loss"])],
-                    "c": [("mean", "keys", -RULE_REACH["keys_loss"]),
-                          ("mean", "keys_flare", -RULE_REACH["keys_flare_loss"])]},
+                    ("mean", "keys_flare", -RULE_REACH["keys_flare_loss"])]}
+       for name, held, scene in (
+           ("reach", RULE_REACH["held_gain"], -RULE_REACH["held_scene_loss"]),
+           ("reach-guard", -RULE_REACH["guard_held_loss"], -RULE_REACH["guard_held_scene_loss"]))},
 }
 """Each rule's parts, in order: a part holds when each of its checks does, a check
 (``mean``, KEY, X) when the scenes' mean difference of KEY is at least X, (``scene``, KEY, X)
