@@ -1,5 +1,6 @@
-"""A figure of one held-out camera as several arms of ``fmg_photo_ab.py`` rendered it, beside
-the clean truth, each tile labelled with its arm and PSNR.
+"""A figure of one held-out camera as several A/B arms rendered it, beside the truth.
+
+The arms are ``benchmarks/fmg_photo_ab.py``'s; each tile is labelled with its arm and PSNR.
 
     python benchmarks/arm_frames.py SYNTH STEM --work DIR --seed S --arms s50_near,s50_nkb50 \
         [--labels "no lean,key blend 0.5"] [--height 240] --out FIG.jpg
