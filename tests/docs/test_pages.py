@@ -1244,3 +1244,14 @@ def test_goals_held_out_parts_are_the_fill_regions_file():
     assert (f"({share[0]:.0f}-{share[-1]:.0f} % of their pixels on those scenes, "
             f"{net[0]:.1f}-{net[-1]:.1f} dB, where the pixels the photos alone draw score "
             f"{photo[0]:.1f}-{photo[-1]:.1f} dB;") in goals
+
+
+def test_network_scale_exploration_rows_are_the_fill_regions_file():
+    """fill.md's table of the part GN-FR decides at four sizes is fill_regions_heldout_s50's."""
+    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"]
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    for s in ("sceaux_p4h", "et_p5h", "lund_k4h"):
+        m = d[f"{s}_synth"]
+        cells = [m[f]["network"] for f in ("heldout_ns25", "heldout_cameras", "heldout_ns05",
+                                            "heldout_ns10")]
+        assert f"| {s} | " + " | ".join(f"{v:.2f}" for v in cells) + " |" in fill, s
