@@ -1255,3 +1255,16 @@ def test_network_scale_exploration_rows_are_the_fill_regions_file():
         cells = [m[f]["network"] for f in ("heldout_ns25", "heldout_cameras", "heldout_ns05",
                                             "heldout_ns10")]
         assert f"| {s} | " + " | ".join(f"{v:.2f}" for v in cells) + " |" in fill, s
+
+
+def test_network_scale_exploration_times_are_the_times_file():
+    """fill.md's rerender times at 1.0 and 0.5 are network_scale_times_s50.txt's lines."""
+    times = {}
+    for line in (RESULTS / "network_scale_times_s50.txt").read_text().splitlines():
+        scene, scale, secs, _ = line.split()
+        times[(scene, scale)] = float(secs)
+    flat = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    order = ("sceaux_p4h", "et_p5h", "lund_k4h")
+    full = " / ".join(f"{times[(s, 'ns1.0')]:.1f}" for s in order)
+    half = " / ".join(f"{times[(s, 'ns0.5')]:.1f}" for s in order)
+    assert f"took {full} s against {half} s at 0.5" in flat
