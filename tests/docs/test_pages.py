@@ -1244,6 +1244,9 @@ def test_goals_held_out_parts_are_the_fill_regions_file():
     assert (f"({share[0]:.0f}-{share[-1]:.0f} % of their pixels on those scenes, "
             f"{net[0]:.1f}-{net[-1]:.1f} dB, where the pixels the photos alone draw score "
             f"{photo[0]:.1f}-{photo[-1]:.1f} dB;") in goals
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert (f"most of a frame is GN-FR's own render ({share[0]:.0f}-{share[-1]:.0f} % of the "
+            "held-out views of three development scenes)") in readme
 
 
 def test_network_scale_exploration_rows_are_the_fill_regions_file():
