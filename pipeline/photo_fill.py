@@ -47,8 +47,13 @@ class PhotoFill:
     """Each source warped into the camera (gains matched), nearest first."""
 
 
+AGREE = 0.08
+"""The photo fill's agreement tolerance: a warped photo agrees where its largest channel
+difference from the photos' median (0..1 colours) is under this (``stereo.fuse``)."""
+
+
 def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],
-               sources: list[PosedView], agree: float = 0.08,
+               sources: list[PosedView], agree: float = AGREE,
                occlusion_tol: float = 0.03, reference: np.ndarray | None = None,
                ref_valid: np.ndarray | None = None, dense: bool = True,
                near: float | None = None, far: float | None = None,

@@ -158,6 +158,11 @@ class RenderConfig:
     tolerance (1 = the pixel alone; docs/history/fill.md, "Agreement over a patch").
     Default: 3 for novel frames on the CPU (``NOVEL_CPU_FILL``), 1 for the de-flared photos
     and on CUDA."""
+    novel_agree: float = option(0.08, gt=0, le=1)
+    """hybrid novel frames: the agreement tolerance, the largest channel difference (0..1
+    colours) from the warped photos' median at which a photo agrees (``stereo.fuse``'s
+    ``agree``; the de-flared photos keep 0.08; docs/history/fill.md, "A looser agreement for
+    the novel frames")."""
     photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel

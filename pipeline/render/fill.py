@@ -66,6 +66,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     where the photos' depth maps do not reach, or everywhere with ``prior_only``
     (``photo_fill``'s)."""
     from pipeline.photo_fill import (
+        AGREE,
         close_small_holes,
         lean_to_nearest,
         nearest_seen,
@@ -91,6 +92,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         return photo_fill(K, c2w, size, views, reference=ref, ref_valid=ref_valid,
                           near=job.near, far=job.far, beyond=cfg.beyond_planes,
                           agree_window=cfg.agree_window,
+                          agree=cfg.novel_agree if novel else AGREE,
                           harmonize=cfg.harmonize if novel else 0.0,
                           prior_depth=prior_depth, prior_only=prior_only)
 

@@ -663,3 +663,41 @@ def test_the_depth_stage_takes_both_maps_from_one_cost_volume_per_view(tmp_path,
         for frames in (False, True):
             a, b = (read_depth(w, s, w.depth_path(s, frames)) for w in (ws, killed))
             assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True)), (s, frames)
+
+
+def test_novel_agree_loosens_the_agreement_of_novel_frames_only():
+    """``render --novel-agree``: four photos of a plane, two of them with noise of up to 0.15
+    no gain removes: at the default tolerance fewer pixels have three agreeing photos than at
+    0.3; the de-flared photos' fill (``novel`` off) keeps the default whatever the option
+    says."""
+    from dataclasses import replace
+
+    from pipeline.render.config import RenderConfig
+    from pipeline.render.fill import fill_from_photos
+    from pipeline.render.jobs import FrameJob
+    from pipeline.render.plan import resolve_fill
+
+    rng = np.random.default_rng(3)
+    centers = [[0.0, 0.0, -3.0], [0.12, 0.0, -3.0], [-0.12, 0.0, -3.0], [0.0, 0.12, -3.0],
+               [0.0, -0.12, -3.0]]
+    views, _ = plane_views(rng, centers)
+    target, photos = views[0], views[1:]
+    for v in photos:
+        v.depth, _ = sweep_depth(v, [u for u in photos if u is not v], 2.0, 5.0,
+                                 SweepConfig(planes=64))
+    for v in photos[2:]:
+        v.image = np.clip(v.image + rng.uniform(-0.15, 0.15, v.image.shape), 0, 1).astype(
+            np.float32)  # noise no gain removes: the two disagree by more than 0.08
+    stems = [f"v{i}" for i in range(1, 5)]
+    by = dict(zip(stems, photos, strict=True))
+    job = FrameJob(out=None, sources=stems, near=2.0, far=5.0, camera=None)
+    base = RenderConfig(min_support=3)
+
+    def weight(cfg, novel):
+        return fill_from_photos(K, target.c2w, (W, H), job, by,
+                                resolve_fill(cfg, "cpu", novel), novel=novel).weight.mean()
+
+    tight, loose = (weight(replace(base, novel_agree=a, key_blend=0.0), True)
+                    for a in (0.08, 0.3))
+    assert loose > tight + 0.1, (tight, loose)
+    assert weight(replace(base, novel_agree=0.3), False) == weight(base, False)
