@@ -169,9 +169,12 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
                 "depth_maps": "depth", "bf16": False}  # records before bf16 rendered fp32
-    if key != "inputs":  # records before the options: without the nearest view, no lean
+    if key != "inputs":  # records before the options: without the nearest view, no lean,
+        from pipeline.photo_fill import AGREE  # and the photo fill's one tolerance
+
         defaults["nearest_source"] = False
         defaults["key_blend"] = 0.0
+        defaults["novel_agree"] = AGREE
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

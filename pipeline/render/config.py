@@ -31,13 +31,16 @@ docs/history/fill.md, "Novel frames' sources near heavily flared photos"."""
 
 
 NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes",
-                  "key_blend": 0.5}
+                  "key_blend": 0.5, "novel_agree": 0.12}
 """The hybrid fill of novel frames on the CPU where the options are not given (``plan.
 resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
 own depth where the depth maps do not reach, the photos' agreement judged over 3x3 pixels.
 Chosen by the forty-fifth session's rule on fresh development draws (docs/history/fill.md,
 "The novel frames' fill on the frames' own depth"). The de-flared photos keep a 1-pixel
-agreement; CUDA keeps GN-FR at full size with the depth maps' depth (never timed there)."""
+agreement; CUDA keeps GN-FR at full size with the depth maps' depth (never timed there).
+``key_blend`` since the forty-ninth session, ``novel_agree`` (the photos' agreement
+tolerance, 0.12 against ``photo_fill.AGREE``'s 0.08) since the fiftieth, each by its rule in
+docs/history/fill.md."""
 
 
 @dataclass
@@ -158,11 +161,12 @@ class RenderConfig:
     tolerance (1 = the pixel alone; docs/history/fill.md, "Agreement over a patch").
     Default: 3 for novel frames on the CPU (``NOVEL_CPU_FILL``), 1 for the de-flared photos
     and on CUDA."""
-    novel_agree: float = option(0.08, gt=0, le=1)
+    novel_agree: float | None = option(None, gt=0, le=1)
     """hybrid novel frames: the agreement tolerance, the largest channel difference (0..1
     colours) from the warped photos' median at which a photo agrees (``stereo.fuse``'s
-    ``agree``; the de-flared photos keep 0.08; docs/history/fill.md, "A looser agreement for
-    the novel frames")."""
+    ``agree``). Default: 0.12 on the CPU (``NOVEL_CPU_FILL``; docs/history/fill.md, "A
+    looser agreement for the novel frames"), ``photo_fill.AGREE`` (0.08) on CUDA (not
+    measured there); the de-flared photos always use 0.08."""
     photo_fallback: int = option(0, ge=0)
     """hybrid: where fewer than ``min_support`` of the nearest ``photo_sources`` photos agree,
     fuse the nearest ``photo_sources`` + this many of the image's sources and take the pixel

@@ -107,15 +107,18 @@ def novel_scale(cfg: RenderConfig, device: str) -> float:
 
 
 def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
-    """``cfg`` with the hybrid fill's ``network_scale``, ``agree_window``, ``network_depth``
-    and ``key_blend`` resolved where not given: ``NOVEL_CPU_FILL``'s for hybrid novel frames
-    on the CPU, a 1-pixel agreement, the depth maps' depth and no key blend for the de-flared
-    photos, on CUDA and where GN-FR renders every pixel (``fill`` network: none is used).
+    """``cfg`` with the hybrid fill's ``network_scale``, ``agree_window``, ``network_depth``,
+    ``key_blend`` and ``novel_agree`` resolved where not given: ``NOVEL_CPU_FILL``'s for
+    hybrid novel frames on the CPU; a 1-pixel agreement, the depth maps' depth, no key blend
+    and the photo fill's own tolerance for the de-flared photos, on CUDA and where GN-FR
+    renders every pixel (``fill`` network: none is used).
     GN-FR's share of a novel frame is 1 on CUDA and ``NOVEL_CPU_FILL``'s on the CPU (with
     ``fill`` network too, where nothing reads it: the value its records hold); the de-flared
     photos' GN-FR renders at their own size, so theirs stays unset. The one place those
     defaults are resolved (the render records them; a benchmark that calls the fill itself
     resolves them here too)."""
+    from pipeline.photo_fill import AGREE
+
     cpu = not device.startswith("cuda")
     cpu_novel = novel and cpu and cfg.fill == "hybrid"
     scale = cfg.network_scale
@@ -127,7 +130,9 @@ def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
                    network_depth=cfg.network_depth or (
                        NOVEL_CPU_FILL["network_depth"] if cpu_novel else "off"),
                    key_blend=cfg.key_blend if cfg.key_blend is not None else (
-                       NOVEL_CPU_FILL["key_blend"] if cpu_novel else 0.0))
+                       NOVEL_CPU_FILL["key_blend"] if cpu_novel else 0.0),
+                   novel_agree=cfg.novel_agree if cfg.novel_agree is not None else (
+                       NOVEL_CPU_FILL["novel_agree"] if cpu_novel else AGREE))
 
 
 def depth_samples(cfg: RenderConfig, device: str, samples: int, novel: bool) -> int:

@@ -1271,3 +1271,34 @@ def test_network_scale_exploration_times_are_the_times_file():
     full = " / ".join(f"{times[(s, 'ns1.0')]:.1f}" for s in order)
     half = " / ".join(f"{times[(s, 'ns0.5')]:.1f}" for s in order)
     assert f"took {full} s against {half} s at 0.5" in flat
+
+
+def test_looser_agreement_rows_are_the_judgments_and_the_default():
+    """fill.md's table of the agreement rule is its six judge files'; the chosen tolerance
+    passed the rule and both guards, the other failed a guard, and the code's CPU default is
+    the chosen one."""
+    from pipeline.photo_fill import AGREE
+    from pipeline.render.config import NOVEL_CPU_FILL
+
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+
+    def cell(d):
+        return f"{d['held']:+.3f} / {d['held_ssim']:+.3f} / {d['keys']:+.2f}"
+
+    labels = {"judge": "the rule", "guard49": "the forty-ninth's", "guarddev": "the usual"}
+    verdicts = {}
+    for c in ("ag12", "ag16"):
+        for k, lab in labels.items():
+            j = json.loads((RESULTS / f"agree_{k}_{c}_s50.json").read_text())
+            assert j["rule"] == ("reach" if k == "judge" else "reach-guard")
+            verdicts[c, k] = j["decision"]
+            row = [ln for ln in fill.splitlines() if ln.startswith(f"| `{c}`, {lab}")]
+            assert len(row) == 1, (c, k)
+            assert row[0].endswith(" | ".join(cell(d) for d in j["per_scene"].values())
+                                   + f" | {cell(j['mean'])} | {j['decision']} |"), (c, k)
+    assert all(verdicts["ag12", k] == "passes" for k in labels)
+    assert verdicts["ag16", "judge"] == "passes" and verdicts["ag16", "guard49"] == "fails (b)"
+    assert NOVEL_CPU_FILL["novel_agree"] == 0.12 and AGREE == 0.08
+    gain = json.loads((RESULTS / "agree_judge_ag12_s50.json").read_text())["mean"]["held"]
+    for page in ("docs/options.md", "docs/depth.md"):
+        assert f"+{gain:.3f} dB" in " ".join((REPO / page).read_text().split()), page

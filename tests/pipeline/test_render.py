@@ -872,8 +872,9 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     nov = hws.stage_record("render:interpolate")["params"]
     assert (nov["network_scale"], nov["agree_window"], nov["network_depth"],
-            nov["key_blend"]) == (NOVEL_CPU_FILL["network_scale"], 3, "holes", 0.5)
-    assert rec["params"]["key_blend"] == 0.0
+            nov["key_blend"], nov["novel_agree"]) == (NOVEL_CPU_FILL["network_scale"], 3,
+                                                      "holes", 0.5, 0.12)
+    assert (rec["params"]["key_blend"], rec["params"]["novel_agree"]) == (0.0, 0.08)
     for name, old in (("render:inputs", {"network_scale": 0.25}),
                       ("render:interpolate", {"network_scale": 0.25, "agree_window": 1,
                                               "network_depth": "off"})):
@@ -881,7 +882,7 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
         # records from before the forty-ninth and fiftieth sessions' options hold none
         kept = {k: v for k, v in r["params"].items()
                 if k not in ("key_blend", "nearest_source", "key_occlusion",
-                              "key_power")}
+                              "key_power", "novel_agree")}
         hws.update_manifest(name, {**r, "params": {**kept, **old}})
     photos = sorted((hws.deflared).iterdir())
     stamps = [f.stat().st_mtime_ns for f in photos]
@@ -890,6 +891,16 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     assert hws.stage_record("render:inputs")["params"].get("network_scale") == 0.25
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     assert hws.stage_record("render:interpolate")["params"]["agree_window"] == 3
+    # a video of the forty-ninth session (its options, no agreement tolerance recorded)
+    # renders again at the fiftieth's looser agreement
+    r = hws.stage_record("render:interpolate")
+    hws.update_manifest("render:interpolate", {**r, "params": {
+        k: v for k, v in r["params"].items() if k != "novel_agree"}})
+    frames = sorted(hws.render_dir("interpolate").glob("*.png"))
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    assert [f.stat().st_mtime_ns for f in frames] != stamps
+    assert hws.stage_record("render:interpolate")["params"]["novel_agree"] == 0.12
 
 
 def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
@@ -944,10 +955,12 @@ def test_novel_frames_on_the_cpu_fill_as_the_forty_fifth_rule_chose():
     assert (got.agree_window, got.network_depth) == (3, "holes")
     assert got.network_scale == NOVEL_CPU_FILL["network_scale"] == 0.35  # w3d35 of the rule
     assert got.key_blend == NOVEL_CPU_FILL["key_blend"] == 0.5  # nkb50 of the 49th rule
+    assert got.novel_agree == NOVEL_CPU_FILL["novel_agree"] == 0.12  # ag12 of the 50th rule
     for device, novel in (("cpu", False), ("cuda", True), ("cuda", False)):
         got = resolve_fill(cfg, device, novel)
         assert (got.agree_window, got.network_depth) == (1, "off"), (device, novel)
         assert got.key_blend == 0.0, (device, novel)
+        assert got.novel_agree == 0.08, (device, novel)
         assert got.network_scale == (1.0 if novel else None), (device, novel)
     mine = RenderConfig(agree_window=5, network_depth="off", network_scale=0.25)
     got = resolve_fill(mine, "cpu", novel=True)
