@@ -1302,3 +1302,20 @@ def test_looser_agreement_rows_are_the_judgments_and_the_default():
     gain = json.loads((RESULTS / "agree_judge_ag12_s50.json").read_text())["mean"]["held"]
     for page in ("docs/options.md", "docs/depth.md"):
         assert f"+{gain:.3f} dB" in " ".join((REPO / page).read_text().split()), page
+
+
+def test_looser_agreement_test_scene_rows_are_their_files():
+    """fill.md's test-scene rows of the agreement rule and goals.md's summary are the four
+    rerenders' files; the de-flared photos are the same in both."""
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    for s in ("kermit", "cyprus"):
+        o, n = (json.loads((RESULTS / f"agree_test_{s}_s50_{a}.json").read_text())
+                for a in ("old", "new"))
+        assert (f"| {s} | {o['heldout']['psnr']:.2f} / {o['heldout']['ssim']:.3f} | "
+                f"{n['heldout']['psnr']:.2f} / {n['heldout']['ssim']:.3f} | "
+                f"{o['keys']['psnr']:.2f} | {n['keys']['psnr']:.2f} |") in fill, s
+        assert f"{o['heldout']['psnr']:.2f} -> {n['heldout']['psnr']:.2f}" in goals, s
+        assert o["inputs"] == n["inputs"]
+        assert (o["stages"]["render:heldout_cameras"]["novel_agree"],
+                n["stages"]["render:heldout_cameras"]["novel_agree"]) == (0.08, 0.12)
