@@ -135,6 +135,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
+    if key == "inputs" and cfg.novel_agree is not None:
+        warn("render: --novel-agree is for the video's frames; the de-flared photos keep "
+             "the photo fill's own tolerance")
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
     shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
                                (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]

@@ -909,10 +909,12 @@ def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
     the blend they are recorded."""
     from pipeline.render import RenderConfig, run
 
-    run(RenderConfig(path="inputs", fill="hybrid", key_occlusion=True), hws)
+    run(RenderConfig(path="inputs", fill="hybrid", key_occlusion=True, novel_agree=0.2), hws)
     err = capsys.readouterr().err
     assert "--key-occlusion does nothing without the key blend" in err
     assert "the de-flared photos have none" in err
+    assert "--novel-agree is for the video's frames" in err  # and not recorded as used:
+    assert hws.stage_record("render:inputs")["params"]["novel_agree"] == 0.08
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_blend=0.0,
                      key_occlusion=True), hws)
     assert "(--key-blend 0)" in capsys.readouterr().err
