@@ -1319,3 +1319,12 @@ def test_looser_agreement_test_scene_rows_are_their_files():
         assert o["inputs"] == n["inputs"]
         assert (o["stages"]["render:heldout_cameras"]["novel_agree"],
                 n["stages"]["render:heldout_cameras"]["novel_agree"]) == (0.08, 0.12)
+
+
+def test_sample_one_shot_at_the_looser_agreement_keeps_the_photos():
+    """The fiftieth session's one-shot at the looser agreement scored the de-flared photos as
+    the forty-ninth's head did (the option never touches them)."""
+    a = json.loads((RESULTS / "sample_oneshot_cpu_s49_head.json").read_text())
+    b = json.loads((RESULTS / "sample_oneshot_cpu_s50_head.json").read_text())
+    assert a["mean"] == b["mean"]
+    assert b["code"]["commit"].startswith("eef1146") and not b["code"]["dirty"]
