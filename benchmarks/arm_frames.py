@@ -22,15 +22,12 @@ sys.path.insert(0, str(ROOT))
 
 
 def tile(img: np.ndarray, label: str, height: int) -> np.ndarray:
-    """``img`` (BGR uint8) scaled to ``height`` with ``label`` on a dark band at its top."""
-    import cv2
+    """``img`` (BGR uint8) scaled to ``height``, captioned with ``label`` as the eval's
+    report captions its tiles (``workflows.research.eval.report.caption_tile``)."""
+    from workflows.research.eval.report import caption_tile
 
     w = max(1, round(img.shape[1] * height / img.shape[0]))
-    out = cv2.resize(img, (w, height), interpolation=cv2.INTER_AREA)
-    out[:22] = (out[:22] * 0.35).astype(np.uint8)
-    cv2.putText(out, label, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1,
-                cv2.LINE_AA)
-    return out
+    return caption_tile(img, (w, height), label)
 
 
 def figure(synth: Path, stem: str, work: Path, seed: int, arms: list[str],

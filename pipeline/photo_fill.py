@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.stereo import (
+    AGREE,
     PosedView,
     Warped,
     fill_holes,
@@ -45,11 +46,6 @@ class PhotoFill:
     """[H, W] float32 splatted z-depth (0 = no neighbour saw the surface)."""
     warped: Warped | None = None
     """Each source warped into the camera (gains matched), nearest first."""
-
-
-AGREE = 0.08
-"""The photo fill's agreement tolerance: a warped photo agrees where its largest channel
-difference from the photos' median (0..1 colours) is under this (``stereo.fuse``)."""
 
 
 def photo_fill(K: np.ndarray, c2w: np.ndarray, size: tuple[int, int],

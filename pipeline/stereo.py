@@ -630,7 +630,13 @@ def harmonize_sources(w: Warped, sigma: float) -> Warped:
     return Warped(cols, w.ok, w.seen)
 
 
-def fuse(w: Warped, agree: float = 0.08, min_views: int = 1, window: int = 1):
+AGREE = 0.08
+"""The photos' agreement tolerance: a warped photo agrees where its largest channel
+difference from the photos' median (0..1 colours) is under this (:func:`fuse`; the photo
+fill's default, ``pipeline.photo_fill.AGREE``)."""
+
+
+def fuse(w: Warped, agree: float = AGREE, min_views: int = 1, window: int = 1):
     """Robust per-pixel colour of warped sources: the median of the valid sources, then the
     mean of those within ``agree`` (max channel difference) of it, weighted by source
     order (nearer sources first get more weight). ``window`` > 1: a source's difference

@@ -66,7 +66,6 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     where the photos' depth maps do not reach, or everywhere with ``prior_only``
     (``photo_fill``'s)."""
     from pipeline.photo_fill import (
-        AGREE,
         close_small_holes,
         lean_to_nearest,
         nearest_seen,
@@ -75,7 +74,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         support_weight,
     )
 
-    if cfg.agree_window is None:
+    if cfg.agree_window is None or cfg.novel_agree is None:
         raise ValueError("fill_from_photos: the config's fill defaults are not resolved "
                          "(pipeline.render.plan.resolve_fill)")
     K, c2w = np.asarray(K, float), np.asarray(c2w, float)
@@ -92,7 +91,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         return photo_fill(K, c2w, size, views, reference=ref, ref_valid=ref_valid,
                           near=job.near, far=job.far, beyond=cfg.beyond_planes,
                           agree_window=cfg.agree_window,
-                          agree=cfg.novel_agree if novel else AGREE,
+                          agree=cfg.novel_agree,  # resolved: 0.08 for the photos
                           harmonize=cfg.harmonize if novel else 0.0,
                           prior_depth=prior_depth, prior_only=prior_only)
 

@@ -127,7 +127,7 @@ def provenance_lines(res: dict) -> list[str]:
     return lines
 
 
-def _tile(img: np.ndarray | None, size: tuple[int, int], text: str) -> np.ndarray:
+def caption_tile(img: np.ndarray | None, size: tuple[int, int], text: str) -> np.ndarray:
     """[h, w, 3] uint8 BGR thumbnail with a caption (grey when there is no image)."""
     w, h = size
     tile = np.full((h, w, 3), 64, np.uint8) if img is None else \
@@ -153,14 +153,15 @@ def image_grid(cfg: EvalConfig, scene: SynthScene, base: Workspace, methods: dic
     for stem in rows:
         held = stem in scene.heldout
         photo = None if held else read_bgr(base.image_path(stem))
-        tiles = [_tile(photo, size, f"{stem} held-out" if held else f"{stem} input")]
+        tiles = [caption_tile(photo, size, f"{stem} held-out" if held else f"{stem} input")]
         for name in columns:
             key = "heldout" if held else "inputs"
             folder = methods[name].get(key)
             score = res["methods"][name].get(key, {}).get("views", {}).get(stem, {})
             img = read_bgr(folder / f"{stem}.png") if folder is not None else None
             psnr = format_or_dash(score.get("psnr"), "{:.1f}")
-            tiles.append(_tile(img, size, f"{name} {psnr}dB"))
-        tiles.append(_tile(read_bgr(scene.root / "clean" / f"{stem}.png"), size, "ground truth"))
+            tiles.append(caption_tile(img, size, f"{name} {psnr}dB"))
+        truth = read_bgr(scene.root / "clean" / f"{stem}.png")
+        tiles.append(caption_tile(truth, size, "ground truth"))
         out.append(np.concatenate(tiles, 1))
     return np.concatenate(out, 0)
