@@ -1,7 +1,8 @@
 """Leave-one-out novel views of an evaluated synth scene, for comparing render settings.
 
     python benchmarks/novel_loo.py SCENE_SYNTH [--variant gnfr] [--scale 0.5] \
-        [--set render.FIELD=VALUE ...] [--eval-ws DIR] [--heldout] [--frames DIR] --out JSON
+        [--set render.FIELD=VALUE ...] [--eval-ws DIR | --ws DIR] [--heldout] [--frames DIR] \
+        --out JSON
 
 `deflare-scene eval` holds out few cameras (2 per development scene): too few to choose a
 render setting. This renders every training camera of the eval's variant as a novel frame
@@ -19,7 +20,8 @@ fine-tuning target (views.json: flared over the 10 % rule): the network never le
 draw them, so, like ``--heldout``, it is unbiased, and it has more cameras on a heavily
 flared scene.
 ``--eval-ws`` names the evaluation workspace (default SCENE/eval.ws; finetune_ab.py writes
-DIR/base.ws).
+DIR/base.ws). ``--ws`` names a fine-tuned workspace itself instead (an arm of
+``fmg_photo_ab.py``: DIR/<scene>_<arm>_s<seed>.ws).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="render.FIELD=VALUE, as the one-shot's --set")
     ap.add_argument("--eval-ws", type=Path, default=None,
                     help="evaluation workspace (default SCENE/eval.ws)")
+    ap.add_argument("--ws", type=Path, default=None,
+                    help="a fine-tuned workspace itself (not an eval's variant)")
     ap.add_argument("--heldout", action="store_true",
                     help="render the held-out cameras from the whole workspace instead")
     ap.add_argument("--non-targets", action="store_true",
@@ -69,7 +73,10 @@ def main(argv: list[str] | None = None) -> int:
 
     cfg = apply_overrides({"render": render.RenderConfig(scale=a.scale)}, a.sets)["render"]
     scene = load_synth(a.scene)
-    base = Workspace(Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
+    if a.ws is not None and a.eval_ws is not None:
+        raise SystemExit("novel_loo: --ws and --eval-ws exclude each other")
+    base = Workspace(a.ws) if a.ws is not None else Workspace(
+        Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
     ckpt = render.find_checkpoint(base, cfg.checkpoint)
     views = read_views(base)
     by_stem = scene.cams.by_stem()

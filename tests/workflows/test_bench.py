@@ -247,3 +247,41 @@ def test_arm_frames_figure_labels_each_arm_with_its_psnr(tmp_path, capsys):
     assert m.main([str(synth), "v1", "--work", str(tmp_path / "work"), "--seed", "3",
                    "--arms", "a,b", "--labels", "one", "--out", str(tmp_path / "x.jpg")]) == 2
     assert not (tmp_path / "x.jpg").exists()
+
+
+def test_refine_sim_aligns_exposure_starts_as_identity_and_learns(one_torch_thread):
+    """benchmarks/refine_sim.py (the fifty-first session's exploration): a photo is brought
+    to its render's exposure by one gain per channel on the clear pixels; an untrained
+    refiner returns its input; a few dozen steps fit a scene-wide colour change on the clear
+    pixels and ignore what the mask leaves out."""
+    import numpy as np
+
+    from pipeline.colour import linear_to_srgb, srgb_to_linear
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("refine_sim")
+    rng = np.random.default_rng(0)
+    render = rng.integers(40, 200, (32, 48, 3)).astype(np.uint8)
+    lin = srgb_to_linear(render.astype(np.float32) / 255) / np.array([2.0, 1.5, 1.0])
+    photo = np.clip(linear_to_srgb(lin) * 255 + 0.5, 0, 255).astype(np.uint8)
+    clear = np.ones((32, 48), bool)
+    back = m.align_exposure(photo, render, clear)
+    assert np.abs(back.astype(int) - render).max() <= 2
+    assert np.array_equal(m.align_exposure(photo, render, ~clear), photo)  # too few pixels
+
+    net = m.refiner(8)
+    x = m.to_tensor(render)
+    with torch.no_grad():
+        assert torch.equal(net(x), x)
+    target = np.clip(render.astype(int) * 0.8, 0, 255).astype(np.uint8)
+    weight = torch.ones(1, 1, 32, 48)
+    weight[..., :, :24] = 0  # the left half is "flare": not in the loss
+    poisoned = target.copy()
+    poisoned[:, :24] = 255
+    data = [(x, m.to_tensor(poisoned), weight)]
+    net = m.train(data, iters=60, crop=24, width=8, seed=0)
+    with torch.no_grad():
+        out = m.to_bgr(net(x)).astype(float)
+    before = np.abs(render.astype(float) - target).mean()
+    after = np.abs(out - target).mean()
+    assert after < 0.6 * before, (before, after)
