@@ -254,6 +254,14 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
         rec = json.loads(res.read_text())
         assert rec["views"] == stems and sorted(rec["per_view"]) == sorted(stems)
         assert rec["heldout"] is bool(flag) and 0 < rec["psnr"] < 60 and 0 < rec["ssim"] <= 1
+        if flag:  # --ws: the fine-tuned workspace itself renders the same frames
+            res_ws = tmp_path / "loo_ws.json"
+            assert bench.main([str(scene), "--ws", str(out / "variants" / "gnfr"), "--scale",
+                               "0.25", "--set", "render.fill=network", *flag,
+                               "--out", str(res_ws)]) == 0
+            assert json.loads(res_ws.read_text())["per_view"] == rec["per_view"]
+            with pytest.raises(SystemExit, match="exclude each other"):
+                bench.main([str(scene), "--ws", str(out), "--eval-ws", str(out), *flag])
     assert views_json.read_bytes() == before
 
 
