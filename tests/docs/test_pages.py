@@ -1353,3 +1353,45 @@ def test_sample_one_shot_at_the_looser_agreement_keeps_the_photos():
     assert a["mean"] == b["mean"]
     assert b["code"]["commit"].startswith("eef1146")
     assert b["code"]["dirty_files"] == ["oneshot.log"]  # only the log the script writes
+
+
+def test_refiner_exploration_tables_are_its_runs():
+    """docs/history/fill.md, "A per-scene refiner of the frames, explored": every cell (gain
+    in held-out PSNR / SSIM per draw, the scene means, each set's mean) is refine_sim_s51.json's,
+    and the outcome's counts and ranges are those runs'."""
+    import numpy as np
+
+    runs = json.loads((RESULTS / "refine_sim_s51.json").read_text())["runs"]
+    text = (REPO / "docs" / "history" / "fill.md").read_text()
+    section = text[text.index("## A per-scene refiner of the frames, explored"):]
+    flat = " ".join(section.split())
+    sets = {"mean, with the exposure step": [(sc, f"align_{sc}_s{{}}", (24, 25))
+                                              for sc in ("sceaux_p4h", "et_p5h", "lund_k4h")],
+            "mean, the forty-ninth session's cameras": [
+                (sc, f"align_{sc}_s50_ag12_s{{}}", (22, 23)) for sc in ("sceaux_p4", "et_p5", "lund_k4")],
+            "mean, the usual development scenes": [
+                (sc, f"align_{sc}_s50_dev_ag12_s{{}}", (10, 11)) for sc in ("sceaux", "et", "lund")]}
+    cell = "{:+.3f} / {:+.4f}"
+    for label, scenes in sets.items():
+        means = []
+        for scene, key, seeds in scenes:
+            g = [runs[key.format(s)]["gain"] for s in seeds]
+            m = (np.mean([x["psnr"] for x in g]), np.mean([x["ssim"] for x in g]))
+            means.append(m)
+            row = " | ".join(cell.format(x["psnr"], x["ssim"]) for x in g)
+            assert f"{row} | {cell.format(*m)} |" in section, (label, scene)
+        total = cell.format(*np.mean(means, axis=0))
+        assert f"| {label} | | | {total} |" in section, label
+    noalign = np.mean([[runs[f"noalign_{sc}_s{s}"]["gain"][k] for k in ("psnr", "ssim")]
+                       for sc in ("sceaux_p4h", "et_p5h", "lund_k4h") for s in (24, 25)], axis=0)
+    assert f"| mean, `--no-align` | | | {cell.format(*noalign)}" in section
+    aligned = [r for k, r in runs.items() if k.startswith("align_")]
+    assert len(aligned) == 18
+    up = sum(r["gain"]["ssim"] > 0 for r in aligned)
+    lo, hi = (f(r["gain"]["psnr"] for r in aligned) for f in (min, max))
+    assert f"SSIM up on {['fifteen', 'sixteen', 'seventeen'][up - 15]}" in flat
+    assert f"PSNR by {lo:+.2f} to {hi:+.2f} dB" in flat
+    secs = [r["train_seconds"] for r in aligned]
+    assert f"trained {min(secs):.0f}-{max(secs):.0f} s on one thread" in flat
+    n = sorted({len(r["train_views"]) for r in runs.values()})
+    assert (n[0], n[-1]) == (6, 13) and "six to thirteen photos per scene" in flat
