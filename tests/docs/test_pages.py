@@ -1368,9 +1368,11 @@ def test_refiner_exploration_tables_are_its_runs():
     sets = {"mean, with the exposure step": [(sc, f"align_{sc}_s{{}}", (24, 25))
                                               for sc in ("sceaux_p4h", "et_p5h", "lund_k4h")],
             "mean, the forty-ninth session's cameras": [
-                (sc, f"align_{sc}_s50_ag12_s{{}}", (22, 23)) for sc in ("sceaux_p4", "et_p5", "lund_k4")],
+                (sc, f"align_{sc}_s50_ag12_s{{}}", (22, 23))
+                for sc in ("sceaux_p4", "et_p5", "lund_k4")],
             "mean, the usual development scenes": [
-                (sc, f"align_{sc}_s50_dev_ag12_s{{}}", (10, 11)) for sc in ("sceaux", "et", "lund")]}
+                (sc, f"align_{sc}_s50_dev_ag12_s{{}}", (10, 11))
+                for sc in ("sceaux", "et", "lund")]}
     cell = "{:+.3f} / {:+.4f}"
     for label, scenes in sets.items():
         means = []
