@@ -47,6 +47,8 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()
+    import importlib.util
+
     import torch
 
     from pipeline import metrics
@@ -55,9 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.research.eval.scene import load_synth
     from workflows.research.eval.scoring import read_bgr
 
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("refine_sim", ROOT / "benchmarks" / "refine_sim.py")
+    spec = importlib.util.spec_from_file_location("refine_sim",
+                                                  ROOT / "benchmarks" / "refine_sim.py")
     rs = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(rs)
     ws = {k: a.work / f"{k[0]}_{k[1]}_s{k[2]}.ws" for arms in FAMILIES.values() for k in arms}
