@@ -285,3 +285,25 @@ def test_refine_sim_aligns_exposure_starts_as_identity_and_learns(one_torch_thre
     before = np.abs(render.astype(float) - target).mean()
     after = np.abs(out - target).mean()
     assert after < 0.6 * before, (before, after)
+
+
+def test_refine_cross_families_are_development_scenes_and_a_missing_arm_is_one_line(
+        tmp_path, capsys):
+    """benchmarks/refine_cross.py: each family is one development scene's three builds, two
+    seeds each, and no test scene is among them; a missing arm or render folder is one line
+    naming it, exit 2."""
+    from pipeline.scene_splits import DEV_SCENES, FMG_DEV_SCENES, TEST_SCENES
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("refine_cross")
+    assert sorted(m.FAMILIES) == ["et", "lund", "sceaux"]
+    for fam, arms in m.FAMILIES.items():
+        assert len(arms) == 6 and len({(a, s) for _, a, s in arms}) == 6
+        assert all(scene.startswith(fam) for scene, _, _ in arms)
+        assert not any(scene.startswith(t) for scene, _, _ in arms for t in TEST_SCENES)
+    assert {"sceaux_castle", "et", "lund"} <= set(DEV_SCENES + FMG_DEV_SCENES)
+    rc = m.main(["--test", "et", "--work", str(tmp_path / "w"), "--loo", str(tmp_path / "l"),
+                 "--out", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "is missing" in err[0] and str(tmp_path) in err[0]
+    assert not (tmp_path / "o.json").exists()
