@@ -1397,3 +1397,19 @@ def test_refiner_exploration_tables_are_its_runs():
     assert f"trained {min(secs):.0f}-{max(secs):.0f} s on one thread" in flat
     n = sorted({len(r["train_views"]) for r in runs.values()})
     assert (n[0], n[-1]) == (6, 13) and "six to thirteen photos per scene" in flat
+
+
+def test_refiner_across_scenes_sentences_are_its_runs():
+    """docs/history/fill.md and goals.md: the cross-scene refiner's gains, pairs and training
+    seconds are refine_cross_s51.json's."""
+    runs = json.loads((RESULTS / "refine_cross_s51.json").read_text())["runs"]
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    label = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    for fam, r in runs.items():
+        m = r["mean"]
+        assert f"{label[fam]} {m['psnr']:+.3f} / {m['ssim']:+.4f} ({r['pairs']} pairs" in hist
+        assert f"{label[fam]} {m['psnr']:+.3f}" in goals
+        assert r["test"] == fam and r["iters"] == 1500
+    secs = [r["train_seconds"] for r in runs.values()]
+    assert f"each trained {min(secs):.0f}-{max(secs):.0f} s on one thread" in hist
