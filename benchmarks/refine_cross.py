@@ -1,5 +1,6 @@
-"""Exploration (fifty-first session): the frame refiner of ``refine_sim.py`` trained across
-scenes, scored on a scene family it never saw.
+"""Exploration (fifty-first session): the frame refiner trained across scene families.
+
+``refine_sim.py``'s refiner, trained across scenes and scored on a family it never saw.
 
     python benchmarks/refine_cross.py --test FAMILY --work DIR --loo DIR [--iters 1500] \
         --out JSON
