@@ -48,20 +48,11 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()
-    import importlib.util
-
-    import torch
-
-    from pipeline import metrics
+    from benchmarks import refine_sim as rs
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
     from workflows.research.eval.scene import load_synth
-    from workflows.research.eval.scoring import read_bgr
 
-    spec = importlib.util.spec_from_file_location("refine_sim",
-                                                  ROOT / "benchmarks" / "refine_sim.py")
-    rs = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(rs)
     ws = {k: a.work / f"{k[0]}_{k[1]}_s{k[2]}.ws" for arms in FAMILIES.values() for k in arms}
     loo = {k: a.loo / f"{k[0]}_{k[1]}_s{k[2]}" for k in ws}
     missing = [p for k in ws for p in (ws[k], loo[k]) if not p.exists()]
@@ -79,18 +70,12 @@ def main(argv: list[str] | None = None) -> int:
     net = rs.train(data, a.iters, 96, 32, 0)
     train_s = time.time() - t0
     gains = {}
-    with torch.no_grad():
-        for k in FAMILIES[a.test]:
-            scene = load_synth(a.dev / f"{k[0]}_synth")
-            g = []
-            for v in scene.heldout:
-                x = read_bgr(ws[k] / "renders" / "heldout_cameras" / f"{v}.png")
-                gt = read_bgr(scene.root / "clean" / f"{v}.png", x.shape[:2])
-                r = rs.to_bgr(net(rs.to_tensor(x)))
-                g.append((metrics.psnr(r, gt) - metrics.psnr(x, gt),
-                          metrics.ssim(r, gt) - metrics.ssim(x, gt)))
-            gains[f"{k[0]}_{k[1]}_s{k[2]}"] = {"psnr": float(np.mean([x[0] for x in g])),
-                                                "ssim": float(np.mean([x[1] for x in g]))}
+    for k in FAMILIES[a.test]:
+        per = rs.score_heldout(net, load_synth(a.dev / f"{k[0]}_synth"),
+                               ws[k] / "renders" / "heldout_cameras")
+        gains[f"{k[0]}_{k[1]}_s{k[2]}"] = {
+            m: float(np.mean([v["refined"][m] - v["base"][m] for v in per.values()]))
+            for m in ("psnr", "ssim")}
     mean = {m: float(np.mean([v[m] for v in gains.values()])) for m in ("psnr", "ssim")}
     print(f"{a.test}: {mean['psnr']:+.3f} dB, SSIM {mean['ssim']:+.4f} ({len(data)} pairs, "
           f"trained {train_s:.0f} s)", flush=True)

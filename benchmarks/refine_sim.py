@@ -147,6 +147,25 @@ def train(data, iters: int, crop: int, width: int, seed: int):
     return net.eval()
 
 
+def score_heldout(net, scene, held: Path) -> dict:
+    """PSNR / SSIM of each held-out frame in ``held`` (``<stem>.png``) against the clean
+    truth, as rendered (``base``) and refined by ``net`` (``refined``), per view."""
+    import torch
+
+    from pipeline import metrics
+    from workflows.research.eval.scoring import read_bgr
+
+    per = {}
+    with torch.no_grad():
+        for s in scene.heldout:
+            x = read_bgr(held / f"{s}.png")
+            gt = read_bgr(scene.root / "clean" / f"{s}.png", x.shape[:2])
+            r = to_bgr(net(to_tensor(x)))
+            per[s] = {"base": {"psnr": metrics.psnr(x, gt), "ssim": metrics.ssim(x, gt)},
+                      "refined": {"psnr": metrics.psnr(r, gt), "ssim": metrics.ssim(r, gt)}}
+    return per
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", type=Path)
@@ -164,13 +183,9 @@ def main(argv: list[str] | None = None) -> int:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()
-    import torch
-
-    from pipeline import metrics
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace
     from workflows.research.eval.scene import load_synth
-    from workflows.research.eval.scoring import read_bgr
 
     scene = load_synth(a.scene)
     ws_dir = a.work / f"{a.scene.name.removesuffix('_synth')}_{a.arm}_s{a.seed}.ws"
@@ -183,14 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.time()
     net = train(pairs(scene, Workspace(ws_dir), a.loo, a.align), a.iters, a.crop, a.width, 0)
     train_s = time.time() - t0
-    per = {}
-    with torch.no_grad():
-        for s in scene.heldout:
-            x = read_bgr(held / f"{s}.png")
-            gt = read_bgr(scene.root / "clean" / f"{s}.png", x.shape[:2])
-            r = to_bgr(net(to_tensor(x)))
-            per[s] = {"base": {"psnr": metrics.psnr(x, gt), "ssim": metrics.ssim(x, gt)},
-                      "refined": {"psnr": metrics.psnr(r, gt), "ssim": metrics.ssim(r, gt)}}
+    per = score_heldout(net, scene, held)
     mean = {k: {m: float(np.mean([v[k][m] for v in per.values()])) for m in ("psnr", "ssim")}
             for k in ("base", "refined")}
     rec = {"scene": str(a.scene), "workspace": str(ws_dir), "loo": str(a.loo),

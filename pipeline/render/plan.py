@@ -131,9 +131,8 @@ def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
                        NOVEL_CPU_FILL["network_depth"] if cpu_novel else "off"),
                    key_blend=cfg.key_blend if cfg.key_blend is not None else (
                        NOVEL_CPU_FILL["key_blend"] if cpu_novel else 0.0),
-                   novel_agree=AGREE if not novel else (
-                       cfg.novel_agree if cfg.novel_agree is not None else
-                       NOVEL_CPU_FILL["novel_agree"] if cpu_novel else AGREE))
+                   novel_agree=cfg.novel_agree if novel and cfg.novel_agree is not None
+                   else NOVEL_CPU_FILL["novel_agree"] if cpu_novel else AGREE)
 
 
 def depth_samples(cfg: RenderConfig, device: str, samples: int, novel: bool) -> int:
