@@ -6,7 +6,9 @@ convention (x right, y down, z forward), the convention of ``WS/cameras.json``.
 - :func:`order_tour` orders camera centres into a short tour (nearest neighbour + 2-opt).
 - :func:`interpolate_path` runs a smooth path through key poses: Catmull-Rom positions
   (centripetal knots) and spherical Catmull-Rom rotations (the Barry-Goldman pyramid with
-  slerp in place of lerp), resampled to constant speed. It passes through every key pose.
+  slerp in place of lerp), resampled to an even pace of image motion where the scene's
+  points are given (:func:`image_shift`), else to constant speed. It passes through every
+  key pose.
 - :func:`spiral_path` is the LLFF spiral for forward-facing captures, and an orbit with a
   vertical wave for captures that surround the scene.
 - :class:`PathCamera`, :func:`path_from_json`, :func:`path_to_json` read and write the
@@ -257,13 +259,22 @@ class PoseSpline:
 
 
 def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
-                     order: bool = True, up: np.ndarray | None = None) -> np.ndarray:
-    """A smooth constant-speed path [n_frames, 4, 4] through key poses c2ws [N, 4, 4].
+                     order: bool = True, up: np.ndarray | None = None,
+                     points: np.ndarray | None = None,
+                     fov: tuple[float, float] = (1.0, 0.75)) -> np.ndarray:
+    """A smooth path [n_frames, 4, 4] through key poses c2ws [N, 4, 4] at an even pace.
 
     ``order`` first sorts the keys into a short tour (:func:`order_tour`); the path starts
     at the first key of the tour and (open path) ends at its last. With ``up`` the keys are
     first rolled upright (:func:`upright`), so portrait or upside-down photos do not make
     the video spin.
+
+    The frames lie evenly along an arc. With ``points`` [P, 3] (the scene, e.g.
+    :func:`bounds_points`) the arc is the image motion: between two of the spline's dense
+    samples, the median shift of the points both see (:func:`image_shift`, ``fov`` the
+    half-width and half-height of the view at unit focal length), so a whip-pan and a walk
+    towards a close wall get the frames their motion needs. Without, it is the travel plus
+    0.1 x the keys' spread per radian turned.
     """
     c2ws = np.asarray(c2ws, np.float64)
     if up is not None:
@@ -275,17 +286,63 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
     if order:
         c2ws = c2ws[order_tour(c2ws[:, :3, 3])]
     spline = PoseSpline.fit(c2ws, closed)
-    # arc length (travel + scaled turning) on a dense sampling, then even steps along it
     dense_t = np.linspace(spline.knots[0], spline.knots[-1], 64 * len(c2ws) + 1)
     dense = spline(dense_t)
-    dp = np.linalg.norm(np.diff(dense[:, :3, 3], axis=0), axis=1)
     da = rotation_angle(dense[:-1, :3, :3], dense[1:, :3, :3])
-    span = np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0
-    arc = np.concatenate([[0.0], np.cumsum(dp + 0.1 * span * da)])
+    if points is not None and len(points):
+        step = image_shift(dense, np.asarray(points, np.float64), fov, fallback=da)
+    else:
+        dp = np.linalg.norm(np.diff(dense[:, :3, 3], axis=0), axis=1)
+        span = np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0
+        step = dp + 0.1 * span * da
+    arc = np.concatenate([[0.0], np.cumsum(step)])
     s = np.linspace(0.0, arc[-1], n_frames + (1 if closed else 0))[: n_frames]
     if n_frames == 1:
         s = np.zeros(1)
     return spline(np.interp(s, arc, dense_t))
+
+
+def image_shift(c2ws: np.ndarray, points: np.ndarray, fov: tuple[float, float],
+                fallback: np.ndarray) -> np.ndarray:
+    """[F - 1] image motion between consecutive cameras c2ws [F, 4, 4]: the median shift,
+    in the image plane at unit focal length, of the ``points`` [P, 3] both cameras see in
+    front of them within ``fov`` = (tan of the half-width, tan of the half-height angle);
+    ``fallback`` [F - 1] (e.g. the angle turned) where they share no point."""
+    tx, ty = fov
+    out = np.asarray(fallback, np.float64).copy()
+
+    def view(c2w):
+        R, t = c2w[:3, :3], c2w[:3, 3]
+        cam = (points - t) @ R
+        z = cam[:, 2]
+        xy = cam[:, :2] / np.where(z > 1e-9, z, 1.0)[:, None]
+        seen = (z > 1e-9) & (np.abs(xy[:, 0]) <= tx) & (np.abs(xy[:, 1]) <= ty)
+        return xy, seen
+
+    prev = view(c2ws[0])
+    for i in range(1, len(c2ws)):
+        cur = view(c2ws[i])
+        both = prev[1] & cur[1]
+        if both.any():
+            out[i - 1] = float(np.median(np.linalg.norm(cur[0][both] - prev[0][both], axis=1)))
+        prev = cur
+    return out
+
+
+def bounds_points(c2ws: np.ndarray, near: np.ndarray, far: np.ndarray,
+                  fov: tuple[float, float], grid: int = 8) -> np.ndarray:
+    """[N * grid * grid, 3] stand-in scene points where no depth is known: for each camera
+    c2ws [N, 4, 4] a ``grid`` x ``grid`` of points across its view (``fov`` as in
+    :func:`image_shift`) at sqrt(near x far) of its bounds [N], the middle of its depth
+    range on a log scale."""
+    c2ws = np.asarray(c2ws, np.float64)
+    z = np.sqrt(np.maximum(np.asarray(near, float), 1e-9) * np.maximum(np.asarray(far, float),
+                                                                      1e-9))
+    u = (np.arange(grid) + 0.5) / grid * 2 - 1
+    gx, gy = np.meshgrid(u * fov[0], u * fov[1])
+    rays = np.stack([gx.ravel(), gy.ravel(), np.ones(grid * grid)], -1)  # [G, 3], z = 1
+    pts = z[:, None, None] * rays[None]  # [N, G, 3] in each camera
+    return (pts @ np.swapaxes(c2ws[:, :3, :3], 1, 2) + c2ws[:, None, :3, 3]).reshape(-1, 3)
 
 
 # --------------------------------------------------------------------------- spiral / orbit

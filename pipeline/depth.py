@@ -29,12 +29,18 @@ from pipeline.cameras import Cameras
 from pipeline.errors import UserError
 from pipeline.options import option, validate
 from pipeline.progress import info, track
-from pipeline.stereo import PosedView, SweepConfig, consistency_count, sweep_depths
+from pipeline.stereo import (
+    PosedView,
+    SweepConfig,
+    backproject,
+    consistency_count,
+    sweep_depths,
+)
 from pipeline.workspace import Workspace
 from pipeline.ws_files import read_cameras, read_depth, read_mask, read_view_image, write_depth
 
-__all__ = ["DepthConfig", "load_views", "nearest_views", "read_depth", "run", "sweep_key",
-           "sweep_views"]
+__all__ = ["DepthConfig", "depth_points", "load_views", "nearest_views", "read_depth", "run",
+           "sweep_key", "sweep_views"]
 # read_depth: pipeline/ws_files.py (the WS/depth reader), named here for its callers
 
 
@@ -296,3 +302,32 @@ def few_depth_note(coverage: float, config: DepthConfig) -> str | None:
             + "or, on a GPU, `--set render.network_depth=holes` (the photos warped through "
             "GN-FR's own depth; the CPU's default) each sharpened the development street "
             "walk's frames a little (docs/options.md)")
+
+
+def depth_points(ws: Workspace, cams: Cameras, stride: int = 1, colour: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """(xyz [N, 3] float32 in the world frame of cameras.json, rgb [N, 3] uint8) of every
+    known pixel (every ``stride``-th in each direction) of every view's depth map, coloured
+    by WS/images (rgb None without ``colour``: the photos are not read)."""
+    import cv2
+
+    xyz, rgb = [], []
+    for f in cams.frames:
+        if not ws.depth_path(f.stem).exists():
+            continue
+        depth = read_depth(ws, f.stem)[0]
+        K = np.array(f.K, float)
+        if depth.shape != (f.height, f.width):  # a depth map at another size than the photo
+            K[0] *= depth.shape[1] / f.width
+            K[1] *= depth.shape[0] / f.height
+        pts = backproject(K, np.array(f.c2w, float), depth)[::stride, ::stride]
+        known = depth[::stride, ::stride] > 0
+        xyz.append(pts[known].astype(np.float32))
+        if colour:
+            image = read_view_image(ws, f.stem)
+            if image.shape[:2] != depth.shape:
+                image = cv2.resize(image, depth.shape[::-1], interpolation=cv2.INTER_AREA)
+            rgb.append(image[::stride, ::stride][known])
+    if not xyz:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8) if colour else None
+    return np.concatenate(xyz), np.concatenate(rgb) if colour else None

@@ -175,33 +175,6 @@ def contact_sheet(tiles: list[np.ndarray], long_side: int = 2400) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- points.ply
-def depth_points(ws: Workspace, cams: Cameras) -> tuple[np.ndarray, np.ndarray]:
-    """(xyz [N, 3] float32 in the world frame of cameras.json, rgb [N, 3] uint8) of every
-    known pixel of every view's depth map, coloured by WS/images."""
-    import cv2
-
-    from pipeline.stereo import backproject
-    from pipeline.ws_files import read_depth, read_view_image
-
-    xyz, rgb = [], []
-    for f in cams.frames:
-        if not ws.depth_path(f.stem).exists():
-            continue
-        depth = read_depth(ws, f.stem)[0]
-        image = read_view_image(ws, f.stem)
-        K = np.array(f.K, float)
-        if image.shape[:2] != depth.shape:  # a depth map at another size than the photo
-            K[0] *= depth.shape[1] / image.shape[1]
-            K[1] *= depth.shape[0] / image.shape[0]
-            image = cv2.resize(image, depth.shape[::-1], interpolation=cv2.INTER_AREA)
-        known = depth > 0
-        xyz.append(backproject(K, np.array(f.c2w, float), depth)[known].astype(np.float32))
-        rgb.append(image[known])
-    if not xyz:
-        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
-    return np.concatenate(xyz), np.concatenate(rgb)
-
-
 def ply_bytes(xyz: np.ndarray, rgb: np.ndarray) -> bytes:
     """A binary little-endian PLY of coloured points (float x, y, z; uchar red, green, blue)."""
     rows = np.empty(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
@@ -226,6 +199,8 @@ def write_points(ws: Workspace, cams: Cameras, max_points: int) -> Path | None:
         warn(f"no depth maps in {ws.depth}: run `deflare-scene depth {shell_path(ws.root)}` "
              "for WS/points.ply; skipping it")
         return None
+    from pipeline.depth import depth_points
+
     xyz, rgb = depth_points(ws, cams)
     if not len(xyz):
         warn(f"the depth maps in {ws.depth} know no pixel: no WS/points.ply")

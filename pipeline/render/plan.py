@@ -26,7 +26,8 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
                          input_sources(f.stem, views, cfg, among=cams.stems), f.near, f.far, f)
                 for f in cams.frames]
         return "inputs", ws.deflared, jobs
-    path_cams, key = novel_path(cfg, cams, device)
+    points = scene_points(ws, cams) if cfg.path == "interpolate" else None
+    path_cams, key = novel_path(cfg, cams, device, points)
     out_dir = ws.render_dir(cfg.path)
     jobs = []
     for i, pc in enumerate(path_cams):
@@ -38,8 +39,11 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
 
 
 # --------------------------------------------------------------------------- cameras
-def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
-    """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json."""
+def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
+               points: np.ndarray | None = None):
+    """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json; the
+    interpolate path paced by the image motion of ``points`` (:func:`scene_points`; None:
+    ``gnfr.paths.bounds_points`` of the photos' bounds)."""
     from gnfr import paths
 
     if cfg.path not in NAMED_PATHS:
@@ -62,18 +66,40 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str):
                         f"{len(cams.frames)}")
     n = cfg.frames or max(1, round(cfg.seconds * cfg.fps))
     c2ws = np.stack([f.c2w for f in cams.frames])
-    if cfg.path == "interpolate":
-        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
-                                       up=paths.world_up(c2ws))
-    else:
-        near = np.array([f.near for f in cams.frames])
-        far = np.array([f.far for f in cams.frames])
-        poses = paths.spiral_path(c2ws, near, far, n)
+    near = np.array([f.near for f in cams.frames])
+    far = np.array([f.far for f in cams.frames])
     ref = reference_frame(cams)
     base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
     base = resize_camera(base, cfg, device)
+    if cfg.path == "interpolate":
+        fov = (base.width / 2 / base.K[0][0], base.height / 2 / base.K[1][1])
+        if points is None or not len(points):
+            points = paths.bounds_points(c2ws, near, far, fov)
+        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
+                                       up=paths.world_up(c2ws), points=points, fov=fov)
+    else:
+        poses = paths.spiral_path(c2ws, near, far, n)
     return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)
             for i, p in enumerate(poses)], cfg.path
+
+
+PACE_POINTS = 4000
+"""Scene points the interpolate path's pace is measured on (``scene_points``): an even
+sample of the depth maps' pixels, a few thousand being enough for a median shift."""
+
+
+def scene_points(ws: Workspace, cams: Cameras) -> np.ndarray | None:
+    """[P, 3] points of the scene for the interpolate path's pace: an even sample of
+    PACE_POINTS of every 8th pixel of the photos' depth maps (WS/depth); None without
+    depth maps (the path then paces on the photos' bounds)."""
+    from pipeline.depth import depth_points
+
+    if not ws.depth.is_dir():
+        return None
+    xyz = depth_points(ws, cams, stride=8, colour=False)[0]
+    if len(xyz) > PACE_POINTS:
+        xyz = xyz[np.random.default_rng(0).choice(len(xyz), PACE_POINTS, replace=False)]
+    return xyz.astype(np.float64) if len(xyz) else None
 
 
 def reference_frame(cams: Cameras) -> Frame:

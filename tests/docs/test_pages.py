@@ -1413,3 +1413,54 @@ def test_refiner_across_scenes_sentences_are_its_runs():
         assert r["test"] == fam and r["iters"] == 1500
     secs = [r["train_seconds"] for r in runs.values()]
     assert f"each trained {min(secs):.0f}-{max(secs):.0f} s on one thread" in hist
+
+
+def _flow_rows(name: str) -> dict:
+    """{build: {arm: (90th percentile / median, largest)}} of a path_motion flow file."""
+    import numpy as np
+
+    rows: dict = {}
+    for folder, rec in json.loads((RESULTS / name).read_text())["flow"].items():
+        build, arm = Path(folder).name.rsplit("_", 1)
+        steps = np.asarray(rec["steps"])
+        rows.setdefault(build, {})[arm] = (float(np.percentile(steps, 90) / np.median(steps)),
+                                           rec["max"], rec["p95"])
+    return rows
+
+
+def test_video_pace_tables_and_sentences_are_their_files():
+    """docs/history/fill.md: the pace rules' numbers (the points' largest steps and spreads on
+    the development scenes, the rendered flow there and on the six fresh builds, the means
+    and counts the third rule reads) are path_motion_*_s52.json's."""
+    import numpy as np
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    label = {"sceaux_synth": "sceaux_castle", "et_synth": "et", "lund_synth": "lund"}
+    first = json.loads((RESULTS / "path_motion_dev_s52.json").read_text())["scenes"]
+    points = json.loads((RESULTS / "path_motion_dev_points_s52.json").read_text())["scenes"]
+    for ws, r in first.items():
+        name = label[Path(ws).parent.name]
+        assert f"{name} {r['travel']['max']:.4f} -> {r['today']['max']:.4f}" in hist
+    for ws, r in points.items():
+        name = label[Path(ws).parent.name]
+        assert f"{r['travel']['max']:.4f} -> {r['today']['max']:.4f} on {name}" in hist or (
+            f"{r['travel']['max']:.4f} -> {r['today']['max']:.4f} of the width on {name}"
+            in hist)
+    for build, r in _flow_rows("path_motion_dev_flow_s52.json").items():
+        (_, mx0, p0), (_, mx1, p1) = r["travel"], r["today"]
+        assert f"{mx0:.4f} -> {mx1:.4f} on {label[build]}" in hist
+        assert f"{p0:.4f} -> {p1:.4f}" in hist
+    fresh = _flow_rows("path_motion_fresh_flow_s52.json")
+    assert len(fresh) == 6
+    for build, r in fresh.items():
+        short = build.split("_s50_")[0]
+        (s0, mx0, _), (s1, mx1, _) = r["travel"], r["today"]
+        assert f"| {short} | {s0:.3f} -> {s1:.3f} | {mx0:.4f} -> {mx1:.4f} |" in hist
+    s0 = np.mean([r["travel"][0] for r in fresh.values()])
+    s1 = np.mean([r["today"][0] for r in fresh.values()])
+    m0 = np.mean([r["travel"][1] for r in fresh.values()])
+    m1 = np.mean([r["today"][1] for r in fresh.values()])
+    falls = sum(r["today"][0] < r["travel"][0] for r in fresh.values())
+    assert (f"| mean | {s0:.3f} -> {s1:.3f} ({100 * (s1 / s0 - 1):+.1f} %) | "
+            f"{m0:.4f} -> {m1:.4f} |").replace("+", "") in hist.replace("+", "")
+    assert s1 < 0.9 * s0 and falls == 4 and m1 < m0  # the rule's (a), (b), (c)

@@ -10,6 +10,8 @@ import pytest
 from gnfr.paths import (
     PathCamera,
     PoseSpline,
+    bounds_points,
+    image_shift,
     interpolate_path,
     is_surrounding,
     look_at,
@@ -20,6 +22,7 @@ from gnfr.paths import (
     path_to_json,
     path_to_nerfstudio,
     quat_from_matrix,
+    rotation_angle,
     spiral_path,
 )
 from pipeline.camera_models import MODELS, CameraModel, warp_maps
@@ -94,6 +97,73 @@ def test_interpolate_smooth_and_through_keys(make, closed):
         order = order_tour(keys[:, :3, 3])
         assert np.allclose(P[0], keys[order[0]], atol=1e-9)
         assert np.allclose(P[-1], keys[order[-1]], atol=1e-9)
+
+
+def wall(z=2.0, half=3.0, n=41):
+    """Points of a wall [n * n, 3] across x and y at depth ``z`` ahead of the origin."""
+    u = np.linspace(-half, half, n)
+    x, y = np.meshgrid(u, u)
+    return np.stack([x.ravel(), y.ravel(), np.full(x.size, z)], -1)
+
+
+def turned(angle_deg, at=(0.0, 0.0, 0.0)):
+    """[4, 4] an OpenCV camera at ``at`` turned right by ``angle_deg`` about its y axis."""
+    a = np.radians(angle_deg)
+    P = np.eye(4)
+    P[:3, :3] = [[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]
+    P[:3, 3] = at
+    return P
+
+
+def test_image_shift_of_a_sideways_step_and_of_a_turn():
+    pts, fov = wall(), (0.5, 0.4)
+    step = np.stack([turned(0), turned(0, (0.1, 0, 0))])
+    # a step of 0.1 sideways moves a wall at depth 2 by 0.1 / 2 in the image at unit focal
+    assert image_shift(step, pts, fov, np.zeros(1))[0] == pytest.approx(0.05, rel=1e-6)
+    turn = np.stack([turned(0), turned(2)])
+    # turning by a small angle moves the middle of the view by its tangent, the edges by
+    # up to 1 + x ** 2 + y ** 2 times that: the median lies between
+    shift, t = image_shift(turn, pts, fov, np.zeros(1))[0], np.tan(np.radians(2))
+    assert t < shift < (1 + fov[0] ** 2 + fov[1] ** 2) * t
+    away = np.stack([turned(0), turned(180)])  # they share no point: the fallback
+    assert image_shift(away, pts, fov, np.array([7.0]))[0] == 7.0
+
+
+def test_paced_path_spreads_a_whip_pan_and_still_passes_every_key():
+    """Two photos from one spot 30 degrees apart, then a walk: by travel the turn is done in
+    a frame or two; paced on the scene's image motion every frame moves the image alike,
+    and the path still passes through every photo's camera."""
+    keys = np.stack([turned(0), turned(30, (0.002, 0, 0)), turned(0, (0.3, 0, 0)),
+                     turned(0, (0.6, 0, 0)), turned(0, (0.9, 0, 0))])
+    pts, fov, n = wall(z=2.0, half=6.0, n=81), (0.5, 0.4), 40
+    by_travel = interpolate_path(keys, n)
+    paced = interpolate_path(keys, n, points=pts, fov=fov)
+    assert_rotations(paced)
+    fallback = np.zeros(n - 1)
+    old = image_shift(by_travel, pts, fov, fallback)
+    new = image_shift(paced, pts, fov, fallback)
+    assert old.max() / np.median(old) > 3  # the whip-pan
+    assert new.max() / np.median(new) < 1.25
+    assert new.max() < 0.5 * old.max()
+    # every key is passed: some frame within one step's turn and travel of it
+    dp = np.linalg.norm(np.diff(paced[:, :3, 3], axis=0), axis=1).max()
+    da = rotation_angle(paced[:-1, :3, :3], paced[1:, :3, :3]).max()
+    for k in keys:
+        near = (np.linalg.norm(paced[:, :3, 3] - k[:3, 3], axis=1) <= dp + 1e-9) & (
+            rotation_angle(paced[:, :3, :3], k[None, :3, :3]) <= da + 1e-9)
+        assert near.any()
+
+
+def test_bounds_points_stand_in_for_the_scene_across_each_view():
+    cams = np.stack([turned(0), turned(90, (1.0, 0, 0))])
+    near, far, fov = np.array([1.0, 4.0]), np.array([4.0, 9.0]), (0.5, 0.25)
+    pts = bounds_points(cams, near, far, fov, grid=4).reshape(2, 16, 3)
+    for c, z, p in zip(cams, np.sqrt(near * far), pts, strict=True):
+        local = (p - c[:3, 3]) @ c[:3, :3]  # in the camera's own axes
+        assert np.allclose(local[:, 2], z)  # at the middle of its depth range (log scale)
+        xy = local[:, :2] / local[:, 2:]
+        assert (np.abs(xy) <= np.array(fov) + 1e-12).all()  # across its view
+        assert np.ptp(xy[:, 0]) > fov[0] and np.ptp(xy[:, 1]) > fov[1]
 
 
 def test_spline_hits_keys_exactly():

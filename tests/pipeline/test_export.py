@@ -154,9 +154,9 @@ def test_points_ply_holds_the_depth_maps_as_a_coloured_cloud(tmp_path, capsys):
     ``max_points``; without WS/depth, one warning and no file."""
     import trimesh
 
-    from pipeline.depth import DepthConfig
+    from pipeline.depth import DepthConfig, depth_points
     from pipeline.depth import run as depth_run
-    from pipeline.export import depth_points, write_points
+    from pipeline.export import write_points
     from pipeline.ws_files import read_cameras, read_depth, read_view_image
     from tests.fixtures import make_plane_workspace
 
@@ -178,6 +178,14 @@ def test_points_ply_holds_the_depth_maps_as_a_coloured_cloud(tmp_path, capsys):
     f0 = cams.frames[0]
     first = read_depth(ws, f0.stem)[0] > 0
     assert np.array_equal(rgb[:int(first.sum())], read_view_image(ws, f0.stem)[first])
+    # every 4th pixel each way, without reading the photos: those pixels' points
+    sub, none = depth_points(ws, cams, stride=4, colour=False)
+    assert none is None
+    assert len(sub) == sum(int((read_depth(ws, f.stem)[0][::4, ::4] > 0).sum())
+                           for f in cams.frames)
+    i, j = np.nonzero(first)
+    on_grid = (i % 4 == 0) & (j % 4 == 0)
+    assert np.array_equal(sub[:int(on_grid.sum())], xyz[:int(first.sum())][on_grid])
     write_points(ws, cams, 500)
     assert len(trimesh.load(str(ws.points_ply), file_type="ply").vertices) == 500
 

@@ -903,6 +903,38 @@ def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     assert hws.stage_record("render:interpolate")["params"]["novel_agree"] == 0.12
 
 
+def test_the_video_is_paced_on_the_depth_maps_points_and_older_videos_render_again(hws):
+    """The interpolate path is paced on the image motion of the depth maps' points
+    (``plan.scene_points``; the photos' bounds without depth maps) and records it; a video
+    recorded before (no pace) renders again, on the new path."""
+    from gnfr import paths
+    from pipeline.render import RenderConfig, novel_path, run
+    from pipeline.render.plan import PACE_POINTS, scene_points
+
+    cams = load_cameras(hws.cameras_json)
+    pts = scene_points(hws, cams)
+    assert pts is not None and 0 < len(pts) <= PACE_POINTS
+    cfg = RenderConfig(path="interpolate", fill="hybrid", frames=6, scale=0.25)
+    on_points = np.stack([p.c2w for p in novel_path(cfg, cams, "cpu", pts)[0]])
+    on_bounds = np.stack([p.c2w for p in novel_path(cfg, cams, "cpu")[0]])
+    c2ws = np.stack([f.c2w for f in cams.frames])
+    by_travel = paths.interpolate_path(c2ws, 6, closed=paths.is_surrounding(c2ws),
+                                       up=paths.world_up(c2ws))
+    assert np.abs(on_points - by_travel).max() > 1e-3  # the pace moves the frames
+    assert np.abs(on_points - on_bounds).max() > 1e-6  # and the points are what it reads
+    run(cfg, hws)
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["pace"] == "image"
+    got = json.loads((hws.render_dir("interpolate") / "cameras.json").read_text())
+    assert np.allclose([f["c2w"] for f in got["frames"]], on_points)
+    hws.update_manifest("render:interpolate", {**rec, "params": {
+        k: v for k, v in rec["params"].items() if k != "pace"}})
+    frames = sorted(hws.render_dir("interpolate").glob("*.png"))
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    run(cfg, hws)
+    assert [f.stat().st_mtime_ns for f in frames] != stamps
+
+
 def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
     """``--key-occlusion`` and ``--key-power`` only shape the key blend: asked where there is
     none (the de-flared photos, or ``--key-blend 0``) the render says so in one line; with
