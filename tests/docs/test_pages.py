@@ -1464,3 +1464,52 @@ def test_video_pace_tables_and_sentences_are_their_files():
     assert (f"| mean | {s0:.3f} -> {s1:.3f} ({100 * (s1 / s0 - 1):+.1f} %) | "
             f"{m0:.4f} -> {m1:.4f} |").replace("+", "") in hist.replace("+", "")
     assert s1 < 0.9 * s0 and falls == 4 and m1 < m0  # the rule's (a), (b), (c)
+
+
+def test_video_pace_test_scenes_are_their_file():
+    """docs/history/fill.md, the README and docs/camera_paths.md: the test scenes' points'
+    pace (largest step, largest over median) is path_motion_test_s52.json's."""
+    scenes = json.loads((RESULTS / "path_motion_test_s52.json").read_text())["scenes"]
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    label = {"cyprus.deflare": "the sample (cyprus)", "kermit_bf16": "kermit",
+             "fern_ws": "fern"}
+    for ws, r in scenes.items():
+        p = Path(ws)
+        name = label[p.name if p.name == "cyprus.deflare" else p.parent.name]
+        t, n = r["travel"], r["today"]
+        assert f"{name} {t['max']:.4f} -> {n['max']:.4f}" in hist
+        assert f"{t['max_over_median']:.2f} -> {n['max_over_median']:.2f}" in hist
+        if name.startswith("the sample"):
+            assert f"{t['max']:.3f} of the width before, {n['max']:.3f} now" in readme
+
+
+def test_video_pace_sample_flow_and_cost_are_their_files():
+    """The sample's video before and after the pace (its frames' flow) in the history and
+    README, and docs/performance.md's one-shot pair and render times, are the files'."""
+    flow = json.loads((RESULTS / "path_motion_sample_flow_s52.json").read_text())["flow"]
+    (old,) = [v for k, v in flow.items() if "fresh51o" in k]
+    (new,) = [v for k, v in flow.items() if "s52head" in k]
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    assert f"step {old['max']:.4f} -> {new['max']:.4f} of the width" in hist
+    assert f"{old['max_over_median']:.2f} -> {new['max_over_median']:.2f}" in hist
+    assert f"optical flow {old['max']:.3f} and {new['max']:.3f}" in readme
+    head = json.loads((RESULTS / "sample_oneshot_cpu_s52_head.json").read_text())
+    base = json.loads((RESULTS / "sample_oneshot_cpu_s52_49b4096.json").read_text())
+    assert head["code"]["commit"].startswith("b4f97db")
+    assert base["code"]["commit"].startswith("49b4096")
+    st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
+          for r in (head, base)]
+    assert (f"the 48 frames {st[0][0]:.1f} s against {st[1][0]:.1f} s, the fine-tune "
+            f"{st[0][1]:.1f} s against {st[1][1]:.1f} s") in perf
+    assert head["mean"] == base["mean"]  # the de-flared photos to the last digit
+    m = head["mean"]
+    assert f"({m['psnr_flare']:.2f} / {m['psnr']:.2f} dB)" in perf
+    times = [ln.split() for ln in (RESULTS / "path_pace_render_times_s52.txt").read_text()
+             .splitlines() if ln and not ln.startswith("#")]
+    secs = {i: float(t[-2]) for i, t in enumerate(times)}
+    assert (f"took {secs[2]:.1f} s (49b4096) and {secs[3]:.1f} s (b4f97db)") in perf
+    assert (f"{secs[0]:.1f} s (old) against {secs[1]:.1f} s (new), then {secs[4]:.1f} s "
+            f"(new) against {secs[5]:.1f} s (old)") in perf
