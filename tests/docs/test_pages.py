@@ -1482,6 +1482,11 @@ def test_video_pace_test_scenes_are_their_file():
         assert f"{t['max_over_median']:.2f} -> {n['max_over_median']:.2f}" in hist
         if name.startswith("the sample"):
             assert f"{t['max']:.3f} of the width before, {n['max']:.3f} now" in readme
+            # its pace a second at the CPU's 12 fps and 4 s, as the README and paths page say
+            pct = f"{100 * n['median'] * 12:.0f} %"
+            paths = " ".join((REPO / "docs" / "camera_paths.md").read_text().split())
+            assert f"(the sample: {pct} of the frame's width a second" in readme
+            assert f"4-second tour moves {pct} a second at 12 fps" in paths
 
 
 def test_video_pace_sample_flow_and_cost_are_their_files():

@@ -935,6 +935,33 @@ def test_the_video_is_paced_on_the_depth_maps_points_and_older_videos_render_aga
     assert [f.stat().st_mtime_ns for f in frames] != stamps
 
 
+def test_the_pace_line_says_how_fast_the_video_moves_and_how_to_calm_it(hws, capsys):
+    """Rendering the interpolate path says how far the scene moves a frame and a second; over
+    CALM_PACE a second it names the ``--seconds`` that brings the pace under it."""
+    import re
+    from dataclasses import replace
+
+    from pipeline.render import RenderConfig, novel_path
+    from pipeline.render.plan import CALM_PACE, pace_line, plan_jobs, scene_points
+    from pipeline.ws_files import read_views
+
+    cams = load_cameras(hws.cameras_json)
+    pts = scene_points(hws, cams)
+    # the fixture's tour is short: 6 frames in a twentieth of a second make it fast
+    cfg = RenderConfig(path="interpolate", fill="hybrid", seconds=0.05, fps=120.0, scale=0.25)
+    line = pace_line(cfg, cams, novel_path(cfg, cams, "cpu", pts)[0], pts)
+    m = re.search(r"about ([\d.]+)% of the frame's width a frame, (\d+)% a second at 120 fps; "
+                  r"for a calmer video: --seconds (\d+)", line)
+    assert m and int(m.group(2)) > 100 * CALM_PACE, line
+    calm = replace(cfg, seconds=int(m.group(3)))
+    line = pace_line(calm, cams, novel_path(calm, cams, "cpu", pts)[0], pts)
+    assert "a second at 120 fps" in line and "calmer" not in line
+    fixed = replace(cfg, frames=6)  # a frame count given: the video's rate is not known
+    assert "a second" not in pace_line(fixed, cams, novel_path(fixed, cams, "cpu", pts)[0], pts)
+    plan_jobs(replace(cfg, n_sources=4), hws, cams, read_views(hws), "cpu")
+    assert "render interpolate: the scene moves about" in capsys.readouterr().err
+
+
 def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
     """``--key-occlusion`` and ``--key-power`` only shape the key blend: asked where there is
     none (the de-flared photos, or ``--key-blend 0``) the render says so in one line; with
