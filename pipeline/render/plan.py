@@ -75,11 +75,10 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
     base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
     base = resize_camera(base, cfg, device)
     if cfg.path == "interpolate":
-        fov = (base.width / 2 / base.K[0][0], base.height / 2 / base.K[1][1])
-        if points is None or not len(points):
-            points = paths.bounds_points(c2ws, near, far, fov)
+        fov = path_fov(base)
         poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
-                                       up=paths.world_up(c2ws), points=points, fov=fov)
+                                       up=paths.world_up(c2ws),
+                                       points=pace_points(cams, points, fov), fov=fov)
     else:
         poses = paths.spiral_path(c2ws, near, far, n)
     return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)
@@ -105,6 +104,24 @@ def scene_points(ws: Workspace, cams: Cameras) -> np.ndarray | None:
     return xyz.astype(np.float64) if len(xyz) else None
 
 
+def pace_points(cams: Cameras, points: np.ndarray | None, fov: tuple[float, float]
+                ) -> np.ndarray:
+    """The points the interpolate path is paced on: ``points`` (:func:`scene_points`), or
+    without them ``gnfr.paths.bounds_points`` of the photos' bounds."""
+    from gnfr import paths
+
+    if points is not None and len(points):
+        return points
+    return paths.bounds_points(np.stack([f.c2w for f in cams.frames]),
+                               [f.near for f in cams.frames], [f.far for f in cams.frames],
+                               fov)
+
+
+def path_fov(pc) -> tuple[float, float]:
+    """(tan of the half-width, tan of the half-height angle) of a path camera's view."""
+    return pc.width / 2 / pc.K[0][0], pc.height / 2 / pc.K[1][1]
+
+
 CALM_PACE = 0.35
 """Share of the frame's width a second above which ``pace_line`` suggests a longer video
 (a rule of thumb: a pan that crosses the frame in under three seconds judders at low frame
@@ -118,15 +135,11 @@ def pace_line(cfg: RenderConfig, cams: Cameras, path_cams: list,
     the ``--seconds`` that keeps it under CALM_PACE a second when it is over."""
     from gnfr import paths
 
-    pc = path_cams[0]
-    fov = (pc.width / 2 / pc.K[0][0], pc.height / 2 / pc.K[1][1])
-    if points is None or not len(points):
-        points = paths.bounds_points(np.stack([f.c2w for f in cams.frames]),
-                                     [f.near for f in cams.frames],
-                                     [f.far for f in cams.frames], fov)
+    fov = path_fov(path_cams[0])
     poses = np.stack([p.c2w for p in path_cams])
     turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
-    step = float(np.median(paths.image_shift(poses, points, fov, turn))) / (2 * fov[0])
+    shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn)
+    step = float(np.median(shifts)) / (2 * fov[0])
     line = f"render interpolate: the scene moves about {step:.1%} of the frame's width a frame"
     if cfg.frames:  # the frame rate is the video's (export), not known here
         return line
