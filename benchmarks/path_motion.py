@@ -58,7 +58,9 @@ def step_motion(K: np.ndarray, size: tuple[int, int], poses: np.ndarray,
                 pts: np.ndarray) -> np.ndarray:
     """[F - 1] median displacement, as a share of the width, of the points ``pts`` that
     consecutive cameras ``poses`` [F, 4, 4] (intrinsics ``K``, ``size`` = (W, H)) both see;
-    0 where they share none."""
+    0 where they share none. Measured in the frame's own pixels through its ``K`` (principal
+    point and borders as rendered), apart from the pacer's unit-focal
+    ``gnfr.paths.image_shift``, so the score does not share the pacer's code."""
     W, H = size
 
     def project(c2w):

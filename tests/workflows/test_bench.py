@@ -307,3 +307,35 @@ def test_refine_cross_families_are_development_scenes_and_a_missing_arm_is_one_l
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "is missing" in err[0] and str(tmp_path) in err[0]
     assert not (tmp_path / "o.json").exists()
+
+
+def test_path_motion_scores_a_known_step_and_a_known_flow(tmp_path):
+    """benchmarks/path_motion.py: a sideways step of 0.1 before a wall at depth 2 moves it
+    f * 0.05 pixels (a share of the width); a picture shifted by 4 pixels between two frames
+    has a median flow of 4 pixels; names of workspaces read as the files name them."""
+    import cv2
+    import numpy as np
+
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("path_motion")
+    u = np.linspace(-3, 3, 31)
+    x, y = np.meshgrid(u, u)
+    wall = np.stack([x.ravel(), y.ravel(), np.full(x.size, 2.0)], -1)
+    K = np.array([[100.0, 0, 64], [0, 100.0, 48], [0, 0, 1]])
+    poses = np.tile(np.eye(4), (3, 1, 1))
+    poses[1, 0, 3], poses[2, 0, 3] = 0.1, 0.3
+    steps = m.step_motion(K, (128, 96), poses, wall)
+    assert np.allclose(steps, [100 * 0.05 / 128, 100 * 0.1 / 128])
+    s = m.summary(steps)
+    assert s["max"] == steps.max() and s["max_over_median"] == steps.max() / np.median(steps)
+    rng = np.random.default_rng(0)
+    img = cv2.GaussianBlur(rng.integers(0, 255, (96, 140)).astype(np.uint8), (0, 0), 2)
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i, dx in enumerate((0, 4)):
+        cv2.imwrite(str(frames / f"{i:05d}.png"), img[:, 8 - dx:8 - dx + 128])
+    flow = m.frame_flow(frames)
+    assert flow.shape == (1,) and abs(flow[0] * 128 - 4) < 0.5
+    assert m.scene_name(tmp_path / "lund_synth" / "eval.ws") == "lund_synth"
+    assert m.scene_name(tmp_path / "et_p5_s50_ag12_s22.ws") == "et_p5_s50_ag12_s22"
