@@ -164,8 +164,14 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.provenance import write_result
 
     rec = {"frames": args.frames, "stride": args.stride, "scenes": {}, "flow": {}}
+    from pipeline.errors import UserError
+
     for ws in args.ws:
-        r = arms(ws, args.frames, args.stride, args.paths_out)
+        try:
+            r = arms(ws, args.frames, args.stride, args.paths_out)
+        except UserError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
         rec["scenes"][str(ws)] = r
         print(f"{ws}: {r['points']} points")
         for arm in ("travel", "today"):

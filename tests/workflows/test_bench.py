@@ -339,3 +339,13 @@ def test_path_motion_scores_a_known_step_and_a_known_flow(tmp_path):
     assert flow.shape == (1,) and abs(flow[0] * 128 - 4) < 0.5
     assert m.scene_name(tmp_path / "lund_synth" / "eval.ws") == "lund_synth"
     assert m.scene_name(tmp_path / "et_p5_s50_ag12_s22.ws") == "et_p5_s50_ag12_s22"
+
+
+def test_path_motion_without_a_posed_workspace_is_one_line(tmp_path, capsys):
+    """benchmarks/path_motion.py on a folder that is no posed workspace: one line, exit 2."""
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("path_motion")
+    assert m.main([str(tmp_path / "nothing.ws")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and "nothing.ws" in err
