@@ -166,8 +166,6 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "point_sampler": bool(meta.get("point_sampler", True)),
               "depth_maps": "frames" if frames_maps else "depth",
               "bf16": cfg.bf16}
-    if key == "interpolate":  # the path's frames at an even pace of image motion
-        params["pace"] = "image"
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
@@ -181,6 +179,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["key_blend"] = 0.0
         defaults["novel_agree"] = AGREE
         defaults["pace"] = "travel"  # records before the fifty-second session's pace
+    if key != "interpolate":  # only the interpolate path is paced
+        params.pop("pace")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

@@ -55,6 +55,11 @@ class RenderConfig:
     """Length of an interpolate / spiral path when ``frames`` is not given."""
     fps: float = option(24.0, gt=0)
     """Frame rate used with ``seconds`` to count frames."""
+    pace: str = option("image", choices=("image", "travel"))
+    """How an interpolate path spreads its frames: ``image``, at an even pace of image
+    motion (the depth maps' points; the default since the fifty-second session); ``travel``,
+    at constant travel with turns weighing little (before it: on a street walk its frames'
+    flow was more even; docs/camera_paths.md)."""
     size: tuple[int, int] | None = option(None, ge=1, sep="x", metavar="WIDTHxHEIGHT")
     """Render size (width, height) of novel frames; overrides ``scale``."""
     scale: float | None = option(None, gt=0)

@@ -46,7 +46,8 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
                points: np.ndarray | None = None):
     """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json; the
     interpolate path paced by the image motion of ``points`` (:func:`scene_points`; None:
-    ``gnfr.paths.bounds_points`` of the photos' bounds)."""
+    ``gnfr.paths.bounds_points`` of the photos' bounds), or with ``cfg.pace`` ``travel`` at
+    constant travel."""
     from gnfr import paths
 
     if cfg.path not in NAMED_PATHS:
@@ -76,9 +77,9 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
     base = resize_camera(base, cfg, device)
     if cfg.path == "interpolate":
         fov = path_fov(base)
+        paced = pace_points(cams, points, fov) if cfg.pace == "image" else None
         poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
-                                       up=paths.world_up(c2ws),
-                                       points=pace_points(cams, points, fov), fov=fov)
+                                       up=paths.world_up(c2ws), points=paced, fov=fov)
     else:
         poses = paths.spiral_path(c2ws, near, far, n)
     return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)

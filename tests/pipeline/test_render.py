@@ -933,6 +933,20 @@ def test_the_video_is_paced_on_the_depth_maps_points_and_older_videos_render_aga
     stamps = [f.stat().st_mtime_ns for f in frames]
     run(cfg, hws)
     assert [f.stat().st_mtime_ns for f in frames] != stamps
+    # --pace travel: the path before the pace, under which such an old video is up to date
+    travel = RenderConfig(path="interpolate", fill="hybrid", frames=6, scale=0.25,
+                          pace="travel")
+    assert np.allclose([p.c2w for p in novel_path(travel, cams, "cpu", pts)[0]], by_travel)
+    run(travel, hws)
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["pace"] == "travel"
+    hws.update_manifest("render:interpolate", {**rec, "params": {
+        k: v for k, v in rec["params"].items() if k != "pace"}})
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    run(travel, hws)
+    assert [f.stat().st_mtime_ns for f in frames] == stamps
+    run(RenderConfig(path="inputs", fill="hybrid"), hws)  # only the interpolate path paces
+    assert "pace" not in hws.stage_record("render:inputs")["params"]
 
 
 def test_the_pace_line_says_how_fast_the_video_moves_and_how_to_calm_it(hws, capsys):
