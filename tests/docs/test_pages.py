@@ -1518,3 +1518,17 @@ def test_video_pace_sample_flow_and_cost_are_their_files():
     assert (f"took {secs[2]:.1f} s (49b4096) and {secs[3]:.1f} s (b4f97db)") in perf
     assert (f"{secs[0]:.1f} s (old) against {secs[1]:.1f} s (new), then {secs[4]:.1f} s "
             f"(new) against {secs[5]:.1f} s (old)") in perf
+
+
+def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
+    """The first pace rule's whip-pan (14 degrees a frame, the frames between turning 1-5
+    degrees) is the turn between consecutive cameras of the sample's old path."""
+    import numpy as np
+
+    frames = json.loads((RESULTS / "sample_path_cameras_49b4096.json").read_text())["frames"]
+    R = np.array([np.asarray(f["c2w"])[:3, :3] for f in frames])
+    cos = (np.trace(np.swapaxes(R[:-1], 1, 2) @ R[1:], axis1=1, axis2=2) - 1) / 2
+    turn = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    assert f"whip-pan of {turn.max():.0f} degrees a frame at 12 fps" in hist
+    assert 1 <= np.median(turn) <= 5 and "frames between them turn 1-5 degrees" in hist
