@@ -32,26 +32,18 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def scene_points(ws, cams, stride: int) -> np.ndarray:
-    """[P, 3] world points of every ``stride``-th pixel of each photo's depth map."""
+def scored_points(ws, cams, stride: int) -> np.ndarray:
+    """[P, 3] world points of every ``stride``-th pixel of each photo's depth map
+    (``pipeline.depth.depth_points``), the points a path is scored on; a one-line error
+    without depth maps."""
+    from pipeline.depth import depth_points
     from pipeline.errors import UserError
-    from pipeline.stereo import backproject
-    from pipeline.ws_files import read_depth
 
-    pts = []
-    for f in cams.frames:
-        if not ws.depth_path(f.stem).is_file():
-            continue
-        depth = read_depth(ws, f.stem)[0]
-        K = np.asarray(f.K, float).copy()
-        K[0] *= depth.shape[1] / f.width
-        K[1] *= depth.shape[0] / f.height
-        p = backproject(K, np.asarray(f.c2w, float), depth)[::stride, ::stride]
-        pts.append(p[depth[::stride, ::stride] > 0])
-    if not pts:
+    pts = depth_points(ws, cams, stride=stride, colour=False)[0]
+    if not len(pts):
         raise UserError(f"{ws.depth} holds no depth maps: run `deflare-scene depth "
                         f"{ws.root}` first")
-    return np.concatenate(pts).astype(np.float64)
+    return pts.astype(np.float64)
 
 
 def step_motion(K: np.ndarray, size: tuple[int, int], poses: np.ndarray,
@@ -59,28 +51,21 @@ def step_motion(K: np.ndarray, size: tuple[int, int], poses: np.ndarray,
     """[F - 1] median displacement, as a share of the width, of the points ``pts`` that
     consecutive cameras ``poses`` [F, 4, 4] (intrinsics ``K``, ``size`` = (W, H)) both see;
     0 where they share none. Measured in the frame's own pixels through its ``K`` (principal
-    point and borders as rendered), apart from the pacer's unit-focal
-    ``gnfr.paths.image_shift``, so the score does not share the pacer's code."""
+    point and borders as rendered, ``pipeline.stereo.project_points``), not through the
+    pacer's unit-focal projection (``gnfr.paths.image_shift``); both take the median by
+    ``gnfr.paths.median_shift``."""
+    from gnfr.paths import median_shift
+    from pipeline.stereo import project_points
+
     W, H = size
+    K = np.asarray(K, float)
 
     def project(c2w):
-        w2c = np.linalg.inv(c2w)
-        cam = pts @ w2c[:3, :3].T + w2c[:3, 3]
-        z = cam[:, 2]
-        uv = cam @ np.asarray(K, float).T
-        xy = uv[:, :2] / np.where(np.abs(uv[:, 2:]) < 1e-12, 1e-12, uv[:, 2:])
+        xy, z = project_points(pts, K, c2w)
         seen = (z > 1e-6) & (xy[:, 0] >= 0) & (xy[:, 0] < W) & (xy[:, 1] >= 0) & (xy[:, 1] < H)
         return xy, seen
 
-    out = np.zeros(len(poses) - 1)
-    prev = project(poses[0])
-    for i in range(1, len(poses)):
-        cur = project(poses[i])
-        both = prev[1] & cur[1]
-        if both.any():
-            out[i - 1] = float(np.median(np.linalg.norm(cur[0][both] - prev[0][both], axis=1)))
-        prev = cur
-    return out / W
+    return median_shift((project(p) for p in poses), np.zeros(len(poses) - 1)) / W
 
 
 def summary(motion: np.ndarray) -> dict:
@@ -97,15 +82,14 @@ def arms(ws_dir: Path, frames: int, stride: int, paths_out: Path | None = None) 
     from gnfr import paths
     from pipeline.cameras import load_cameras
     from pipeline.render.config import RenderConfig
-    from pipeline.render.plan import novel_path
-    from pipeline.render.plan import scene_points as pace_points
+    from pipeline.render.plan import novel_path, scene_points
     from pipeline.workspace import Workspace
 
     ws = Workspace(ws_dir)
     cams = load_cameras(ws.cameras_json)
-    pts = scene_points(ws, cams, stride)
+    pts = scored_points(ws, cams, stride)
     today = novel_path(RenderConfig(path="interpolate", frames=frames, fill="hybrid"), cams,
-                       "cpu", pace_points(ws, cams))[0]
+                       "cpu", scene_points(ws, cams))[0]
     K, size = today[0].K, (today[0].width, today[0].height)
     c2ws = np.stack([f.c2w for f in cams.frames])
     poses = {"today": np.stack([p.c2w for p in today]),

@@ -309,7 +309,6 @@ def image_shift(c2ws: np.ndarray, points: np.ndarray, fov: tuple[float, float],
     front of them within ``fov`` = (tan of the half-width, tan of the half-height angle);
     ``fallback`` [F - 1] (e.g. the angle turned) where they share no point."""
     tx, ty = fov
-    out = np.asarray(fallback, np.float64).copy()
 
     def view(c2w):
         R, t = c2w[:3, :3], c2w[:3, 3]
@@ -319,12 +318,20 @@ def image_shift(c2ws: np.ndarray, points: np.ndarray, fov: tuple[float, float],
         seen = (z > 1e-9) & (np.abs(xy[:, 0]) <= tx) & (np.abs(xy[:, 1]) <= ty)
         return xy, seen
 
-    prev = view(c2ws[0])
-    for i in range(1, len(c2ws)):
-        cur = view(c2ws[i])
+    return median_shift((view(c) for c in c2ws), fallback)
+
+
+def median_shift(views, fallback: np.ndarray) -> np.ndarray:
+    """[F - 1] the median shift between consecutive ``views`` (an iterable of F (xy [P, 2],
+    seen [P] bool) projections of the same points) of the points both see; ``fallback``
+    [F - 1] where they share none. Consumes ``views`` one at a time."""
+    out = np.asarray(fallback, np.float64).copy()
+    views = iter(views)
+    prev = next(views)
+    for i, cur in enumerate(views):
         both = prev[1] & cur[1]
         if both.any():
-            out[i - 1] = float(np.median(np.linalg.norm(cur[0][both] - prev[0][both], axis=1)))
+            out[i] = float(np.median(np.linalg.norm(cur[0][both] - prev[0][both], axis=1)))
         prev = cur
     return out
 
