@@ -179,8 +179,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["key_blend"] = 0.0
         defaults["novel_agree"] = AGREE
         defaults["pace"] = "travel"  # records before the fifty-second session's pace
+        defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
+    if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
+        params.pop("source_fade")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again
@@ -203,7 +206,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "images already done")
     if todo:
         setup = RenderSetup(ws, ckpt, cfg, params, device,
-                            sorted({s for j in todo for s in j.sources}),
+                            sorted({s for j in todo for s in j.all_sources}),
                             meta.get("exposure_gains") or None)
         workers = frame_workers(cfg, device, len(todo))
         if workers > 1:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from pipeline.progress import make_progress
@@ -30,47 +32,64 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
     """Render and write every job against the shared source cache, with progress bars (none
     when ``quiet``: a worker process, ``pipeline.render.workers``).
     ``gains``: the exposure the model was trained at (``pipeline.exposure``): its colours
-    are taken back to each frame's (:func:`exposure_back`)."""
-    import torch
-
-    from gnfr.renderer import render_rays
-
+    are taken back to each frame's (:func:`exposure_back`). A job with ``fades`` renders
+    once per source set and writes their weighted mean."""
     with make_progress(quiet=quiet) as prog:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
         for job in jobs:
-            rays_o, rays_d, compose, guided, want_depth = prepare_job(job, cfg, ws, photos,
-                                                                      params)
-            prog.reset(t_rays, total=max(len(rays_o), 1))
-            rgb, depth = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
-            if len(rays_o):
-                ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
-                n = len(rays_o)
-                near, far = torch.full((n,), job.near), torch.full((n,), job.far)
-                chunk = cfg.chunk or default_chunk(src.images.device.type)
-                parts = split_guided(n, guided, params.get("depth_samples", 0))
-                rgb, depth = np.zeros((n, 3), np.float32), np.zeros(n, np.float32)
-                offset = 0
-                for idx, lo, hi, ns in parts:
-                    if len(idx) == 0:
-                        continue
-                    out = render_rays(model, src, ids, rays_o[idx], rays_d[idx],
-                                      near[idx] if lo is None else lo,
-                                      far[idx] if hi is None else hi, ns or params["samples"],
-                                      chunk=chunk, point_sampler=params["point_sampler"],
-                                      progress=lambda k, o=offset: prog.update(
-                                          t_rays, completed=o + k), with_depth=want_depth,
-                                      pad=cfg.compile, cpu_bf16=cfg.bf16)
-                    rgb[idx.numpy()] = out["rgb"].numpy()
-                    if want_depth:
-                        depth[idx.numpy()] = out["depth"].numpy()
-                    offset += len(idx)
-            if gains and len(rgb):
-                from pipeline.exposure import apply_gain
-
-                rgb = apply_gain(rgb, exposure_back(job, gains))
-            write_frame(job.out, compose(rgb, depth) if want_depth else compose(rgb), job.exif)
+            image = render_image(model, src, index, job, params, cfg, ws, photos, gains,
+                                 prog, t_rays)
+            if job.fades:  # other frames' sources, cross-faded in (RenderConfig.source_fade)
+                acc = image.astype(np.float64) * (1.0 - sum(f.weight for f in job.fades))
+                for f in job.fades:
+                    other = replace(job, sources=list(f.sources), fill_first=f.fill_first,
+                                    fades=())
+                    acc += f.weight * render_image(model, src, index, other, params, cfg, ws,
+                                                   photos, gains, prog, t_rays)
+                image = np.clip(np.rint(acc), 0, np.iinfo(image.dtype).max).astype(image.dtype)
+            write_frame(job.out, image, job.exif)
             prog.advance(t_frames)
+
+
+def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
+                 cfg: RenderConfig, ws: Workspace, photos: dict | None, gains: dict | None,
+                 prog, t_rays) -> np.ndarray:
+    """One job's image (uint8 or uint16), GN-FR's rays rendered against the source cache
+    with ``prog``'s ``t_rays`` bar following them (:func:`render_jobs`)."""
+    import torch
+
+    from gnfr.renderer import render_rays
+
+    rays_o, rays_d, compose, guided, want_depth = prepare_job(job, cfg, ws, photos, params)
+    prog.reset(t_rays, total=max(len(rays_o), 1))
+    rgb, depth = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
+    if len(rays_o):
+        ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
+        n = len(rays_o)
+        near, far = torch.full((n,), job.near), torch.full((n,), job.far)
+        chunk = cfg.chunk or default_chunk(src.images.device.type)
+        parts = split_guided(n, guided, params.get("depth_samples", 0))
+        rgb, depth = np.zeros((n, 3), np.float32), np.zeros(n, np.float32)
+        offset = 0
+        for idx, lo, hi, ns in parts:
+            if len(idx) == 0:
+                continue
+            out = render_rays(model, src, ids, rays_o[idx], rays_d[idx],
+                              near[idx] if lo is None else lo,
+                              far[idx] if hi is None else hi, ns or params["samples"],
+                              chunk=chunk, point_sampler=params["point_sampler"],
+                              progress=lambda k, o=offset: prog.update(t_rays, completed=o + k),
+                              with_depth=want_depth, pad=cfg.compile, cpu_bf16=cfg.bf16)
+            rgb[idx.numpy()] = out["rgb"].numpy()
+            if want_depth:
+                depth[idx.numpy()] = out["depth"].numpy()
+            offset += len(idx)
+    if gains and len(rgb):
+        from pipeline.exposure import apply_gain
+
+        rgb = apply_gain(rgb, exposure_back(job, gains))
+    return compose(rgb, depth) if want_depth else compose(rgb)
 
 
 def exposure_back(job: FrameJob, gains: dict) -> np.ndarray:

@@ -24,7 +24,9 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
-    stems = sorted({s for j in jobs for s in j.sources[:cfg.photo_sources + cfg.photo_fallback]})
+    k = cfg.photo_sources + cfg.photo_fallback
+    stems = sorted({s for j in jobs for srcs in [j.sources, *(f.sources for f in j.fades)]
+                    for s in srcs[:k]} | {s for j in jobs for f in j.fades for s in f.fill_first})
     views = load_views(ws, cams, stems, with_depth=True, frames=frames)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         params = ws.stage_record("depth").get("params", {})
@@ -55,16 +57,15 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
                      novel: bool = False, prior_depth: np.ndarray | None = None,
                      prior_only: bool = False) -> HybridFill:
     """The hybrid fill's photo share (:class:`HybridFill`) for one camera: the nearest
-    ``photo_sources`` of the job's sources warped by depth (pipeline/photo_fill.py; where
-    they do not agree, with ``photo_fallback`` more of them, the next nearest), their
-    gains matched to ``reference`` = (image, valid) when given (an input view's own clean
-    pixels). ``novel``: a novel frame, where the options for the small holes of the agreed
-    region apply: ``cfg.close_holes`` (filled from the photos around them,
+    ``photo_sources`` of the job's sources (its ``fill_first`` first when set) warped by depth
+    (pipeline/photo_fill.py; where they do not agree, with ``photo_fallback`` more of them, the
+    next nearest), their gains matched to ``reference`` = (image, valid) when given (an input
+    view's own clean pixels). ``novel``: a novel frame, where the options for the small holes of
+    the agreed region apply: ``cfg.close_holes`` (filled from the photos around them,
     :func:`pipeline.photo_fill.close_small_holes`), then ``cfg.sharp_holes`` (a hard edge
     instead of eroding and feathering the photos around them,
-    :func:`pipeline.photo_fill.sharp_hole_weight`). ``prior_depth``: the camera's depth
-    where the photos' depth maps do not reach, or everywhere with ``prior_only``
-    (``photo_fill``'s)."""
+    :func:`pipeline.photo_fill.sharp_hole_weight`). ``prior_depth``: the camera's depth where
+    the photos' depth maps do not reach, or everywhere with ``prior_only`` (``photo_fill``'s)."""
     from pipeline.photo_fill import (
         close_small_holes,
         lean_to_nearest,
@@ -81,6 +82,9 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     c = c2w[:3, 3]
     near = sorted((s for s in job.sources if s in photos),
                   key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
+    if job.fill_first is not None:  # another frame's first photos (a cross-fade), nearest first
+        near = [s for s in near if s in job.fill_first] + [s for s in near
+                                                           if s not in job.fill_first]
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
     if not srcs:
         z = np.zeros(size[::-1], np.float32)

@@ -93,7 +93,8 @@ def clear_frames(out_dir: Path) -> None:
 
 def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
     """``out_dir/cameras.json`` (``PATH_CAMERAS_FILE``): the novel jobs' cameras in the JSON
-    path format (docs/camera_paths.md), each frame with its sources and near / far."""
+    path format (docs/camera_paths.md), each frame with its sources and near / far (and the
+    other frames' sources cross-faded into it, ``fades``, with their weights)."""
     from gnfr.paths import PathCamera, path_to_json
 
     cams = [PathCamera(j.out.stem, j.camera.K, j.camera.c2w, j.camera.width, j.camera.height)
@@ -101,6 +102,9 @@ def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
     data = path_to_json(cams)
     for f, j in zip(data["frames"], jobs, strict=True):
         f["sources"], f["near"], f["far"] = j.sources, j.near, j.far
+        if j.fades:
+            f["fades"] = [{"sources": list(x.sources), "weight": round(x.weight, 6)}
+                          for x in j.fades]
     atomic_write_json(out_dir / PATH_CAMERAS_FILE, data)
 
 

@@ -27,6 +27,19 @@ class FullRes:
     """A JPEG whose Exif segment the written JPEG keeps (orientation reset)."""
 
 
+@dataclass(frozen=True)
+class SourceSet:
+    """Another frame's sources, rendered at a job's camera and cross-faded into its frame
+    (``RenderConfig.source_fade``)."""
+
+    sources: tuple[str, ...]
+    """GN-FR's sources, as that frame chose them."""
+    fill_first: tuple[str, ...]
+    """The photos that frame's fill took first (its sources nearest its camera)."""
+    weight: float
+    """This set's share of the job's frame."""
+
+
 @dataclass
 class FrameJob:
     """One image to render: where it goes, which camera, which sources, depth range.
@@ -41,6 +54,20 @@ class FrameJob:
     far: float
     camera: Frame | PathCamera
     full_res: FullRes | None = None
+    fill_first: tuple[str, ...] | None = None
+    """The photos the hybrid fill takes first, whatever their distance (another frame's, in a
+    cross-fade); None: the sources nearest the camera."""
+    fades: tuple[SourceSet, ...] = ()
+    """Other frames' sources cross-faded into this frame (``RenderConfig.source_fade``); the
+    job's own sources take the weight they leave."""
+
+    @property
+    def all_sources(self) -> list[str]:
+        """Every view the job renders with, its fades' included, in first-seen order."""
+        seen = dict.fromkeys(self.sources)
+        for f in self.fades:
+            seen.update(dict.fromkeys(f.sources))
+        return list(seen)
 
     @property
     def is_input(self) -> bool:

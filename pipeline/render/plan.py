@@ -11,7 +11,7 @@ from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError
 from pipeline.progress import info
 from pipeline.render.config import NAMED_PATHS, NOVEL_CPU_FILL, RenderConfig
-from pipeline.render.jobs import FrameJob
+from pipeline.render.jobs import FrameJob, SourceSet
 from pipeline.render.sources import input_sources, novel_sources
 from pipeline.workspace import Workspace, read_json
 from pipeline.ws_files import ViewsFile
@@ -38,7 +38,71 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
         name = pc.name if key not in NAMED_PATHS else f"{i:05d}"
         jobs.append(FrameJob(out_dir / f"{name}.png", novel_sources(pc.c2w[:3, 3], cams, views,
                                                                     cfg), near, far, pc))
+    if cfg.source_fade:
+        jobs = fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources)
     return key, out_dir, jobs
+
+
+FADE_STEP = 1.5
+"""Consecutive frames of a path farther apart than this many times the photos' spacing (the
+median distance from a photo's camera to its nearest other) are not cross-faded together
+(``fade_sources``): a cut in a JSON path, or cameras that are not one shot (held-out views,
+every second view or sparser: two spacings apart and more). A paced interpolate path of the
+default length steps up to about one spacing where it crosses far scenery (0.4 to 1.0 on
+the development builds of the fifty-second session)."""
+
+
+def fill_first(job: FrameJob, cams: Cameras, k: int) -> tuple[str, ...]:
+    """The ``k`` of a job's sources nearest its camera: the photos its fill takes first
+    (``pipeline.render.fill.fill_from_photos`` sorts them the same way)."""
+    by = cams.by_stem()
+    c = np.asarray(job.camera.c2w, float)[:3, 3]
+    near = sorted((s for s in job.sources if s in by),
+                  key=lambda s: float(np.linalg.norm(np.asarray(by[s].c2w)[:3, 3] - c)))
+    return tuple(near[:k])
+
+
+def photo_spacing(cams: Cameras) -> float:
+    """The median distance from a photo's camera to the nearest other one (0: fewer than
+    two photos)."""
+    c = cams.centers()
+    if len(c) < 2:
+        return 0.0
+    d = np.linalg.norm(c[:, None] - c[None], axis=-1)
+    np.fill_diagonal(d, np.inf)
+    return float(np.median(d.min(axis=1)))
+
+
+def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int) -> list[FrameJob]:
+    """``jobs`` with each frame's ``fades`` (``RenderConfig.source_fade``): a box of
+    ``radius`` frames either side (shorter at the path's ends and at steps over
+    ``FADE_STEP`` of the photos' spacing), in which each frame's choice (its sources and
+    the ``k`` its fill takes first) counts once; the frame's own choice keeps its count's
+    share, every other choice in the box is rendered at the frame's camera with the share of
+    its count. A frame whose box holds only its own choice renders as before."""
+    if radius <= 0 or len(jobs) < 2:
+        return jobs
+    firsts = [fill_first(j, cams, k) for j in jobs]
+    keys = [(frozenset(j.sources), frozenset(f)) for j, f in zip(jobs, firsts, strict=True)]
+    centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
+    joined = np.linalg.norm(np.diff(centres, axis=0), axis=1) < FADE_STEP * photo_spacing(cams)
+    out = []
+    for j, job in enumerate(jobs):
+        lo = j
+        while lo > 0 and j - lo < radius and joined[lo - 1]:
+            lo -= 1
+        hi = j
+        while hi < len(jobs) - 1 and hi - j < radius and joined[hi]:
+            hi += 1
+        counts: dict = {}
+        for i in range(lo, hi + 1):
+            if keys[i] != keys[j]:
+                counts.setdefault(keys[i], [i, 0])[1] += 1
+        n = hi - lo + 1
+        fades = tuple(SourceSet(tuple(jobs[i].sources), firsts[i], c / n)
+                      for i, c in counts.values())
+        out.append(replace(job, fades=fades) if fades else job)
+    return out
 
 
 # --------------------------------------------------------------------------- cameras

@@ -1233,3 +1233,106 @@ def test_a_worker_error_is_raised_in_the_stage(hws, tmp_path):
                         None)
     with pytest.raises(UserError, match="broken.safetensors"):
         render_in_workers(setup, jobs, 2)
+
+
+def _frame_job(tmp_path, name, x, sources):
+    from gnfr.paths import PathCamera
+    from pipeline.render import FrameJob
+
+    c2w = np.eye(4)
+    c2w[0, 3] = x
+    K = np.array([[50.0, 0, 16], [0, 50.0, 12], [0, 0, 1]])
+    return FrameJob(tmp_path / f"{name}.png", list(sources), 1.0, 5.0,
+                    PathCamera(name, K, c2w, 32, 24))
+
+
+def _line_cameras(xs):
+    from pipeline.cameras import Cameras, Frame
+
+    K = np.array([[50.0, 0, 16], [0, 50.0, 12], [0, 0, 1]])
+    frames = []
+    for i, x in enumerate(xs):
+        c2w = np.eye(4)
+        c2w[0, 3] = x
+        frames.append(Frame(f"p{i}", f"p{i}", K, 32, 24, c2w, 1.0, 5.0))
+    return Cameras(frames)
+
+
+def test_fade_sources_spreads_a_change_of_sources_over_the_frames_around_it(tmp_path):
+    """``plan.fade_sources``: frames 0-5 with sources {p0, p1} then frames 6-9 with {p1, p2}:
+    at radius 1 frames 5 and 6 each take a third of the other's choice, at radius 2 frames
+    4-7 take a fifth or two; the rest render as before. A step longer than FADE_STEP of the
+    photos' spacing (a cut) is never faded across; the fill's first photos are the frame's
+    ``k`` photos nearest the frame that chose them."""
+    from pipeline.render.plan import FADE_STEP, fade_sources, fill_first, photo_spacing
+
+    cams = _line_cameras([0.0, 1.0, 2.0])
+    assert photo_spacing(cams) == pytest.approx(1.0)
+    jobs = [_frame_job(tmp_path, f"{i:05d}", 0.2 * i, ["p0", "p1"] if i < 6 else ["p1", "p2"])
+            for i in range(10)]
+    faded = fade_sources(jobs, cams, 1, k=2)
+    shares = {i: [(f.sources, round(f.weight, 4)) for f in j.fades] for i, j in enumerate(faded)
+              if j.fades}
+    assert shares == {5: [(("p1", "p2"), 0.3333)], 6: [(("p0", "p1"), 0.3333)]}
+    assert faded[5].fades[0].fill_first == fill_first(jobs[6], cams, 2) == ("p1", "p2")
+    assert faded[6].fades[0].fill_first == ("p1", "p0")  # frame 5 sits on p1's camera
+    assert faded[5].all_sources == ["p0", "p1", "p2"]
+    # the fill's first photo alone (k=1) also changes where the nearest photo does (x=0.5)
+    near = {i for i, j in enumerate(fade_sources(jobs, cams, 1, k=1)) if j.fades}
+    assert near == {2, 3, 5, 6, 7, 8}
+    wide = fade_sources(jobs, cams, 2, k=2)
+    shares = {i: [round(f.weight, 4) for f in j.fades] for i, j in enumerate(wide) if j.fades}
+    assert shares == {4: [0.2], 5: [0.4], 6: [0.4], 7: [0.2]}
+    # a cut: frame 6 far along the line, beyond FADE_STEP spacings from frame 5
+    cut = [_frame_job(tmp_path, f"c{i}", 0.2 * i + (FADE_STEP + 0.5) * (i >= 6), j.sources)
+           for i, j in enumerate(jobs)]
+    assert not any(j.fades for j in fade_sources(cut, cams, 2, k=2))
+    assert fade_sources(jobs, cams, 0, k=1) == jobs
+
+
+def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch):
+    """``engine.render_jobs``: a job with fades renders its camera once per source set (the
+    fade's sources and fill's first photos passed on) and writes the weighted mean."""
+    from pipeline.render import RenderConfig, engine
+    from pipeline.render.jobs import SourceSet
+
+    seen, written = [], {}
+
+    def fake_render(model, src, index, job, *a, **k):
+        seen.append((tuple(job.sources), job.fill_first, job.fades))
+        return np.full((2, 2, 3), 30 if job.sources == ["p0", "p1"] else 90, np.uint8)
+
+    monkeypatch.setattr(engine, "render_image", fake_render)
+    monkeypatch.setattr(engine, "write_frame",
+                        lambda out, img, exif=None: written.__setitem__(out.name, img))
+    plain = _frame_job(tmp_path, "a", 0.0, ["p0", "p1"])
+    fade = SourceSet(("p1", "p2"), ("p1",), 1 / 3)
+    faded = _frame_job(tmp_path, "b", 0.0, ["p0", "p1"])
+    faded.fades = (fade,)
+    engine.render_jobs(None, None, {}, [plain, faded], {}, RenderConfig(), None, quiet=True)
+    assert (written["a.png"] == 30).all() and (written["b.png"] == 50).all()
+    assert seen == [(("p0", "p1"), None, ()), (("p0", "p1"), None, (fade,)),
+                    (("p1", "p2"), ("p1",), ())]
+
+
+def test_source_fade_renders_only_the_frames_near_a_change(hws):
+    """``--source-fade 1`` on the plane's tour: the frames with no change of sources in
+    reach come out as without it, to the bit; the frames beside a change differ; the path's
+    cameras.json names the fades; the render records the option for paths only."""
+    from pipeline.render import RenderConfig, run
+
+    out = hws.renders / "interpolate"
+    cfg = RenderConfig(path="interpolate", fill="hybrid", frames=12, scale=0.25, n_sources=2,
+                       workers=1)
+    run(cfg, hws)
+    before = {p.name: cv2.imread(str(p)) for p in sorted(out.glob("*.png"))}
+    run(RenderConfig(**{**cfg.__dict__, "source_fade": 1}), hws)
+    frames = json.loads((out / "cameras.json").read_text())["frames"]
+    faded = {f"{f['name']}.png" for f in frames if f.get("fades")}
+    assert faded and len(faded) < len(frames)
+    for name, img in before.items():
+        now = cv2.imread(str(out / name))
+        assert (now == img).all() == (name not in faded), name
+    assert hws.stage_record("render:interpolate")["params"]["source_fade"] == 1
+    run(RenderConfig(path="inputs", fill="hybrid", source_fade=1), hws)
+    assert "source_fade" not in hws.stage_record("render:inputs")["params"]

@@ -349,3 +349,58 @@ def test_path_motion_without_a_posed_workspace_is_one_line(tmp_path, capsys):
     assert m.main([str(tmp_path / "nothing.ws")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err and "nothing.ws" in err
+
+
+def _moving_frames(folder, shifts, gain_at=None, gain=1.0):
+    """PNG frames of one blurred noise picture shifted sideways by ``shifts`` pixels; the frame
+    ``gain_at`` brightened by ``gain`` (a pop); each with a little noise of its own."""
+    import cv2
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    img = cv2.GaussianBlur(rng.integers(0, 255, (96, 160, 3)).astype(np.uint8), (0, 0), 2)
+    folder.mkdir()
+    for i, dx in enumerate(shifts):
+        f = img[:, 16 - dx:16 - dx + 128].astype(np.float32)
+        if i == gain_at:
+            f = f * gain
+        f += rng.normal(0, 2, f.shape)
+        cv2.imwrite(str(folder / f"{i:05d}.png"), np.clip(f, 0, 255).astype(np.uint8))
+
+
+def test_video_flicker_finds_the_frame_that_pops(tmp_path):
+    """benchmarks/video_flicker.py: steady motion warps away (small error on most of the
+    frame); a frame brightened by 30 % makes both its steps the largest, the spread
+    follows, and a cameras.json's sources mark the steps where they change."""
+    import json
+
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("video_flicker")
+    _moving_frames(tmp_path / "f", [0, 2, 4, 6, 8, 10], gain_at=3, gain=1.3)
+    cams = {"frames": [{"sources": s} for s in
+                       (["a", "b"], ["a", "b"], ["a", "b"], ["a", "c"], ["a", "c"], ["a", "c"])]}
+    (tmp_path / "f" / "cameras.json").write_text(json.dumps(cams))
+    r = m.path_flicker(tmp_path / "f")
+    err = [s["error"] for s in r["steps"]]
+    assert r["frames"] == 6 and len(err) == 5
+    assert min(s["compared"] for s in r["steps"]) > 0.5
+    steady = [err[0], err[1], err[4]]
+    assert max(steady) < 0.01 and min(err[2], err[3]) > 5 * max(steady)
+    assert r["max"] == max(err) and r["spread"] == round(r["p90"] / r["median"], 4)
+    assert [s["sources_changed"] for s in r["steps"]] == [False, False, True, False, False]
+    assert r["changed_steps"] == 1 and r["changed_mean"] == err[2]
+    assert r["sharpness"] > 0
+
+
+def test_video_flicker_bad_input_is_one_line(tmp_path, capsys):
+    """benchmarks/video_flicker.py on a missing folder or one with a single frame: one line,
+    exit 2."""
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("video_flicker")
+    _moving_frames(tmp_path / "one", [0])
+    for folder in (tmp_path / "nothing", tmp_path / "one"):
+        assert m.main([str(folder)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("error:") and "\n" not in err and folder.name in err
