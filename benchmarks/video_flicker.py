@@ -125,14 +125,78 @@ def path_flicker(folder: Path) -> dict:
     return out
 
 
+RULE = {"largest": -0.15, "largest_builds": 4, "mean": 0.02, "sharpness": -0.02,
+        "renders": 1.5}
+"""The fifty-third session's rule for ``render --source-fade`` (docs/history/fill.md,
+"Changes of a frame's sources cross-faded"): the largest step's error down 15 % on the mean
+and on four builds, the mean error up at most 2 %, the sharpness down at most 2 %, at most
+1.5 images rendered per frame, each on the mean over the builds."""
+
+
+def renders_per_frame(folder: Path) -> float:
+    """Images rendered per frame of a path: 1 + its fades (the path's cameras.json)."""
+    frames = json.loads((Path(folder) / "cameras.json").read_text())["frames"]
+    return float(np.mean([1 + len(f.get("fades", [])) for f in frames]))
+
+
+def same_unfaded(base: Path, cand: Path) -> tuple[int, int]:
+    """(frames the candidate renders without a fade, how many are the baseline's to the
+    bit)."""
+    import cv2
+
+    frames = json.loads((Path(cand) / "cameras.json").read_text())["frames"]
+    plain = [f["name"] for f in frames if not f.get("fades")]
+    same = sum(np.array_equal(cv2.imread(str(Path(base) / f"{n}.png")),
+                              cv2.imread(str(Path(cand) / f"{n}.png"))) for n in plain)
+    return len(plain), int(same)
+
+
+def judge(pairs: list[tuple[Path, Path]]) -> dict:
+    """``RULE`` on (baseline, candidate) rendered paths of the same builds."""
+    rows = {}
+    for base, cand in pairs:
+        b, c = path_flicker(base), path_flicker(cand)
+        plain, same = same_unfaded(base, cand)
+        rows[str(cand)] = {
+            "baseline": str(base), "largest": [b["max"], c["max"]], "mean": [b["mean"], c["mean"]],
+            "spread": [b["spread"], c["spread"]], "sharpness": [b["sharpness"], c["sharpness"]],
+            "renders_per_frame": [renders_per_frame(base) if (Path(base) / "cameras.json")
+                                  .is_file() else 1.0, renders_per_frame(cand)],
+            "unfaded_frames": plain, "unfaded_identical": same}
+    rel = {k: float(np.mean([r[k][1] / r[k][0] - 1 for r in rows.values()]))
+           for k in ("largest", "mean", "sharpness")}
+    down = sum(r["largest"][1] < r["largest"][0] for r in rows.values())
+    per_frame = float(np.mean([r["renders_per_frame"][1] for r in rows.values()]))
+    checks = {"a": rel["largest"] <= RULE["largest"] and down >= RULE["largest_builds"],
+              "b": rel["mean"] <= RULE["mean"], "c": rel["sharpness"] >= RULE["sharpness"],
+              "d": per_frame <= RULE["renders"]}
+    return {"builds": rows, "relative": {k: round(v, 4) for k, v in rel.items()},
+            "largest_down_on": down, "renders_per_frame": round(per_frame, 4),
+            "checks": checks, "passes": all(checks.values()),
+            "identical": all(r["unfaded_identical"] == r["unfaded_frames"]
+                             for r in rows.values())}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("paths", nargs="+", type=Path, help="rendered path folders (PNG frames)")
+    ap.add_argument("--judge", action="store_true",
+                    help="the paths are pairs BASELINE CANDIDATE: score RULE on them")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")
     a = ap.parse_args(argv)
+    if a.judge and len(a.paths) % 2:
+        print("error: --judge takes pairs of folders: BASELINE CANDIDATE ...", file=sys.stderr)
+        return 2
     try:
+        if a.judge:
+            from pipeline.provenance import write_result
+
+            res = judge(list(zip(a.paths[::2], a.paths[1::2], strict=True)))
+            print(json.dumps({k: v for k, v in res.items() if k != "builds"}))
+            write_result(a.out, {"rule": RULE, **res})
+            return 0
         res = {str(p): path_flicker(p) for p in a.paths}
-    except SystemExit as e:
+    except (SystemExit, OSError, KeyError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     for p, r in res.items():

@@ -404,3 +404,41 @@ def test_video_flicker_bad_input_is_one_line(tmp_path, capsys):
         assert m.main([str(folder)]) == 2
         err = capsys.readouterr().err.strip()
         assert err.startswith("error:") and "\n" not in err and folder.name in err
+
+
+def test_video_flicker_judges_a_fade_against_its_baseline(tmp_path, capsys):
+    """``--judge BASELINE CANDIDATE``: a baseline that pops (one frame 30 % brighter) against
+    a candidate with the pop spread over three frames: its largest step falls, its renders
+    per frame come from the fades in cameras.json (here too many: it fails), and the frames
+    it renders without a fade are checked to the bit against the baseline's."""
+    import json
+    import shutil
+
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("video_flicker")
+    _moving_frames(tmp_path / "base", [0, 2, 4, 6, 8, 10], gain_at=3, gain=1.3)
+    cand = tmp_path / "cand"
+    shutil.copytree(tmp_path / "base", cand)
+    import cv2
+    import numpy as np
+
+    for i in (2, 3, 4):  # the same frames faded: a third of the brightening each
+        f = cv2.imread(str(cand / f"{i:05d}.png")).astype(np.float32)
+        f = f / 1.3 * 1.1 if i == 3 else f * 1.1
+        cv2.imwrite(str(cand / f"{i:05d}.png"), np.clip(f, 0, 255).astype(np.uint8))
+    names = [f"{i:05d}" for i in range(6)]
+    fades = {"00002": 1, "00003": 2, "00004": 1}
+    cams = {"frames": [{"name": n, "sources": ["a"], **({"fades": [{"sources": ["b"],
+            "weight": 0.3}] * fades[n]} if n in fades else {})} for n in names]}
+    (cand / "cameras.json").write_text(json.dumps(cams))
+    res = m.judge([(tmp_path / "base", cand)])
+    row = res["builds"][str(cand)]
+    assert row["largest"][1] < row["largest"][0] and res["largest_down_on"] == 1
+    assert row["renders_per_frame"] == [1.0, (6 + 4) / 6]
+    assert row["unfaded_frames"] == 3 and row["unfaded_identical"] == 3 and res["identical"]
+    assert res["relative"]["largest"] <= m.RULE["largest"]  # but on one build, not four:
+    assert not res["checks"]["a"]  # and 10 images for 6 frames, more than 1.5 a frame:
+    assert not res["checks"]["d"] and not res["passes"]
+    assert m.main(["--judge", str(tmp_path / "base")]) == 2
+    assert "pairs" in capsys.readouterr().err
