@@ -1316,14 +1316,15 @@ def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch
 
 
 def test_source_fade_renders_only_the_frames_near_a_change(hws):
-    """``--source-fade 1`` on the plane's tour: the frames with no change of sources in
-    reach come out as without it, to the bit; the frames beside a change differ; the path's
-    cameras.json names the fades; the render records the option for paths only."""
+    """``--source-fade 1`` (the default) on the plane's tour against 0: the frames with no
+    change of sources in reach come out as without it, to the bit; the frames beside a change
+    differ; the path's cameras.json names the fades; the render records the option for
+    paths only."""
     from pipeline.render import RenderConfig, run
 
     out = hws.renders / "interpolate"
     cfg = RenderConfig(path="interpolate", fill="hybrid", frames=12, scale=0.25, n_sources=2,
-                       workers=1)
+                       workers=1, source_fade=0)
     run(cfg, hws)
     before = {p.name: cv2.imread(str(p)) for p in sorted(out.glob("*.png"))}
     run(RenderConfig(**{**cfg.__dict__, "source_fade": 1}), hws)

@@ -41,7 +41,9 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
                variant_ws, force=cfg.force)
     out = {"inputs": variant_ws.deflared, "workspace": variant_ws.root}
     if path_json is not None:
-        render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, **common),
+        # held-out cameras are scored one by one: no video, nothing to cross-fade
+        render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, source_fade=0,
+                                **common),
                    variant_ws, force=cfg.force)
         out["heldout"] = variant_ws.render_dir(str(path_json))
     record = variant_ws.stage_record("finetune")
