@@ -1532,3 +1532,55 @@ def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
     hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
     assert f"whip-pan of {turn.max():.0f} degrees a frame at 12 fps" in hist
     assert 1 <= np.median(turn) <= 5 and "frames between them turn 1-5 degrees" in hist
+
+
+def test_source_fade_rule_is_its_files():
+    """docs/history/fill.md's table of the cross-fade's rule, its means and verdicts, and the
+    numbers the README, docs/options.md and the option's docstring quote are the judge
+    files' (fade_judge_fade{1,2}_s53.json), and the verdicts follow the rule."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+    one = json.loads((RESULTS / "fade_judge_fade1_s53.json").read_text())
+    two = json.loads((RESULTS / "fade_judge_fade2_s53.json").read_text())
+    for cand, r in one["builds"].items():
+        short = Path(cand).name.split("_s50_")[0]
+        cells = " | ".join(f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in
+                           ("largest", "mean", "sharpness"))
+        assert f"| {short} | {cells} | {r['renders_per_frame'][1]:.2f} |" in hist, short
+        assert r["unfaded_identical"] == r["unfaded_frames"]
+    rel1, rel2 = one["relative"], two["relative"]
+    assert one["passes"] and not two["passes"] and not two["checks"]["c"]
+    assert (f"(a) largest step {100 * rel1['largest']:.1f} %, lower on five builds" in hist
+            and one["largest_down_on"] == 5)
+    assert (f"(b) mean {100 * rel1['mean']:.1f} %; (c) sharpness "
+            f"{100 * rel1['sharpness']:.2f} %") in hist
+    assert f"(d) {one['renders_per_frame']:.2f} images a frame" in hist
+    assert f"largest step {100 * rel2['largest']:.1f} %" in hist
+    assert f"sharpness {100 * rel2['sharpness']:.1f} %" in hist
+    for page in (options, readme):
+        assert f"{-100 * rel2['largest']:.1f} %" in page
+        assert f"{-100 * rel1['largest']:.1f} %" in page
+        assert f"{-100 * rel2['sharpness']:.1f} %" in page
+    assert f"{-100 * rel1['sharpness']:.1f} %" in options
+    assert f"-{-100 * rel1['largest']:.0f} % on the mean of six" in config
+    assert f"{one['renders_per_frame']:.2f} images a frame" in config
+
+
+def test_source_fade_on_the_sample_is_its_file():
+    """The sample's video with and without the cross-fade (README, docs/history/fill.md) is
+    fade_sample_s53.json's."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    rec = json.loads((RESULTS / "fade_sample_s53.json").read_text())
+    (r,) = rec["builds"].values()
+    rel = rec["relative"]
+    assert r["unfaded_identical"] == r["unfaded_frames"] == 42
+    assert (f"the largest step {r['largest'][0]:.4f} -> {r['largest'][1]:.4f} "
+            f"({100 * rel['largest']:.1f} %), the steps' mean {r['mean'][0]:.4f} -> "
+            f"{r['mean'][1]:.4f} (+{100 * rel['mean']:.1f} %), sharpness "
+            f"{100 * rel['sharpness']:.1f} %") in hist
+    assert f"{r['renders_per_frame'][1]:.3f} images a frame" in hist
+    assert (f"largest jump between frames {-100 * rel['largest']:.1f} % lower, the steps' "
+            f"mean {100 * rel['mean']:.1f} % higher") in readme
