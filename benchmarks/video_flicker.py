@@ -132,6 +132,12 @@ RULE = {"largest": -0.15, "largest_builds": 4, "mean": 0.02, "sharpness": -0.02,
 and on four builds, the mean error up at most 2 %, the sharpness down at most 2 %, at most
 1.5 images rendered per frame, each on the mean over the builds."""
 
+HOLD_RULE = {"mean": -0.01, "largest": 0.02, "sharpness": -0.005}
+"""The same session's rule for ``render --source-hold`` against the fade alone
+(docs/history/fill.md, "A frame's sources held along the path"): the steps' mean error down
+1 %, the largest step up at most 2 %, the sharpness down at most 0.5 %, and no more images
+rendered per frame, each on the mean over the builds."""
+
 
 def renders_per_frame(folder: Path) -> float:
     """Images rendered per frame of a path: 1 + its fades (the path's cameras.json)."""
@@ -151,8 +157,9 @@ def same_unfaded(base: Path, cand: Path) -> tuple[int, int]:
     return len(plain), int(same)
 
 
-def judge(pairs: list[tuple[Path, Path]]) -> dict:
-    """``RULE`` on (baseline, candidate) rendered paths of the same builds."""
+def judge(pairs: list[tuple[Path, Path]], rule: str = "fade") -> dict:
+    """``RULE`` (``rule`` fade) or ``HOLD_RULE`` (hold) on (baseline, candidate) rendered
+    paths of the same builds."""
     rows = {}
     for base, cand in pairs:
         b, c = path_flicker(base), path_flicker(cand)
@@ -167,11 +174,19 @@ def judge(pairs: list[tuple[Path, Path]]) -> dict:
            for k in ("largest", "mean", "sharpness")}
     down = sum(r["largest"][1] < r["largest"][0] for r in rows.values())
     per_frame = float(np.mean([r["renders_per_frame"][1] for r in rows.values()]))
-    checks = {"a": rel["largest"] <= RULE["largest"] and down >= RULE["largest_builds"],
-              "b": rel["mean"] <= RULE["mean"], "c": rel["sharpness"] >= RULE["sharpness"],
-              "d": per_frame <= RULE["renders"]}
-    return {"builds": rows, "relative": {k: round(v, 4) for k, v in rel.items()},
+    before = float(np.mean([r["renders_per_frame"][0] for r in rows.values()]))
+    if rule == "hold":
+        checks = {"a": rel["mean"] <= HOLD_RULE["mean"],
+                  "b": rel["largest"] <= HOLD_RULE["largest"],
+                  "c": rel["sharpness"] >= HOLD_RULE["sharpness"], "d": per_frame <= before}
+    else:
+        checks = {"a": rel["largest"] <= RULE["largest"] and down >= RULE["largest_builds"],
+                  "b": rel["mean"] <= RULE["mean"], "c": rel["sharpness"] >= RULE["sharpness"],
+                  "d": per_frame <= RULE["renders"]}
+    return {"builds": rows, "rule_name": rule,
+            "relative": {k: round(v, 4) for k, v in rel.items()},
             "largest_down_on": down, "renders_per_frame": round(per_frame, 4),
+            "baseline_renders_per_frame": round(before, 4),
             "checks": checks, "passes": all(checks.values()),
             "identical": all(r["unfaded_identical"] == r["unfaded_frames"]
                              for r in rows.values())}
@@ -182,6 +197,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("paths", nargs="+", type=Path, help="rendered path folders (PNG frames)")
     ap.add_argument("--judge", action="store_true",
                     help="the paths are pairs BASELINE CANDIDATE: score RULE on them")
+    ap.add_argument("--rule", choices=("fade", "hold"), default="fade",
+                    help="with --judge: RULE (fade) or HOLD_RULE (hold)")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")
     a = ap.parse_args(argv)
     if a.judge and len(a.paths) % 2:
@@ -191,9 +208,9 @@ def main(argv: list[str] | None = None) -> int:
         if a.judge:
             from pipeline.provenance import write_result
 
-            res = judge(list(zip(a.paths[::2], a.paths[1::2], strict=True)))
+            res = judge(list(zip(a.paths[::2], a.paths[1::2], strict=True)), a.rule)
             print(json.dumps({k: v for k, v in res.items() if k != "builds"}))
-            write_result(a.out, {"rule": RULE, **res})
+            write_result(a.out, {"rule": HOLD_RULE if a.rule == "hold" else RULE, **res})
             return 0
         res = {str(p): path_flicker(p) for p in a.paths}
     except (SystemExit, OSError, KeyError, ValueError) as e:

@@ -180,10 +180,12 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["novel_agree"] = AGREE
         defaults["pace"] = "travel"  # records before the fifty-second session's pace
         defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
+        defaults["source_hold"] = 0
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
+        params.pop("source_hold")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

@@ -72,6 +72,13 @@ class RenderConfig:
     the sharpness 3.1 % (docs/history/fill.md, "Changes of a frame's sources cross-faded").
     Frames farther apart than ``FADE_STEP`` of the photos' spacing are not faded together (a
     JSON path's cut, held-out cameras; ``plan.fade_sources``)."""
+    source_hold: int = option(0, ge=0, le=12)
+    """Novel paths: a frame keeps the frame before's choice of sources (GN-FR's and the
+    photos its fill takes first) while every one of them stays among the views it would
+    choose with this many more sources (and its fill's first photos among that many more of
+    the nearest), and the photo nearest the frame is among both; otherwise it chooses anew.
+    Fewer changes of sources, so fewer to cross-fade (``source_fade``), at the price of a
+    farther view now and then. 0 = off: every frame chooses its own (``plan.hold_sources``)."""
     size: tuple[int, int] | None = option(None, ge=1, sep="x", metavar="WIDTHxHEIGHT")
     """Render size (width, height) of novel frames; overrides ``scale``."""
     scale: float | None = option(None, gt=0)

@@ -38,6 +38,8 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
         name = pc.name if key not in NAMED_PATHS else f"{i:05d}"
         jobs.append(FrameJob(out_dir / f"{name}.png", novel_sources(pc.c2w[:3, 3], cams, views,
                                                                     cfg), near, far, pc))
+    if cfg.source_hold:
+        jobs = hold_sources(jobs, cams, views, cfg, cfg.source_hold)
     if cfg.source_fade:
         jobs = fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources)
     return key, out_dir, jobs
@@ -54,12 +56,48 @@ the development builds of the fifty-second session)."""
 
 def fill_first(job: FrameJob, cams: Cameras, k: int) -> tuple[str, ...]:
     """The ``k`` of a job's sources nearest its camera: the photos its fill takes first
-    (``pipeline.render.fill.fill_from_photos`` sorts them the same way)."""
+    (``pipeline.render.fill.fill_from_photos`` sorts them the same way), or the job's own
+    ``fill_first`` when it holds one."""
+    if job.fill_first is not None:
+        return tuple(job.fill_first)
     by = cams.by_stem()
     c = np.asarray(job.camera.c2w, float)[:3, 3]
     near = sorted((s for s in job.sources if s in by),
                   key=lambda s: float(np.linalg.norm(np.asarray(by[s].c2w)[:3, 3] - c)))
     return tuple(near[:k])
+
+
+def hold_sources(jobs: list[FrameJob], cams: Cameras, views: ViewsFile, cfg: RenderConfig,
+                 margin: int) -> list[FrameJob]:
+    """``jobs`` along a path with each frame holding the frame before's choice of sources
+    (``RenderConfig.source_hold``): GN-FR's sources and the ``cfg.photo_sources`` photos the
+    fill takes first are kept while (a) every source is among those the frame would choose
+    with ``margin`` more (``novel_sources``), (b) the fill's first photos are among the
+    ``photo_sources + margin`` of the sources nearest the frame, and (c) the input view
+    nearest the frame is one of the sources and of the fill's first photos (the key blend
+    leans to it). A frame that chooses anew holds its own choice from there."""
+    if margin <= 0 or not jobs:
+        return jobs
+    k = cfg.photo_sources
+    wider = replace(cfg, n_sources=int(cfg.n_sources or 10) + margin)
+    by = cams.by_stem()
+    held: tuple[list[str], tuple[str, ...]] | None = None
+    out = []
+    for job in jobs:
+        c = np.asarray(job.camera.c2w, float)[:3, 3]
+        if held is not None:
+            sources, first = held
+            allowed = set(novel_sources(c, cams, views, wider))
+            nearest = min((s for s in by if s in views),
+                          key=lambda s: float(np.linalg.norm(by[s].center - c)))
+            near_k = fill_first(replace(job, sources=sources, fill_first=None), cams, k + margin)
+            if (set(sources) <= allowed and set(first) <= set(near_k)
+                    and nearest in first):
+                out.append(replace(job, sources=list(sources), fill_first=tuple(first)))
+                continue
+        held = (job.sources, fill_first(job, cams, k))
+        out.append(job)
+    return out
 
 
 def photo_spacing(cams: Cameras) -> float:

@@ -1337,3 +1337,38 @@ def test_source_fade_renders_only_the_frames_near_a_change(hws):
     assert hws.stage_record("render:interpolate")["params"]["source_fade"] == 1
     run(RenderConfig(path="inputs", fill="hybrid", source_fade=1), hws)
     assert "source_fade" not in hws.stage_record("render:inputs")["params"]
+
+
+def test_hold_sources_keeps_a_choice_while_it_stays_near(tmp_path):
+    """``plan.hold_sources``: photos on a line, frames walking along it with the two nearest
+    as sources. Held by one, the choice changes less often; every frame's sources are still
+    among the three it would choose, the photo nearest it is among its sources and first in
+    its fill, and 0 leaves the jobs as they are."""
+    from pipeline.render import RenderConfig, novel_sources
+    from pipeline.render.plan import fill_first, hold_sources
+    from pipeline.ws_files import ViewsFile
+
+    cams = _line_cameras([0.0, 1.0, 2.0, 3.0, 4.0])
+    views = ViewsFile.from_json({"max_flare": 0.1, "views": {
+        f"p{i}": {"flare_fraction": 0.0, "target": True} for i in range(5)}})
+    cfg = RenderConfig(n_sources=2, photo_sources=1)
+    jobs = []
+    for i in range(41):
+        job = _frame_job(tmp_path, f"{i:05d}", 0.1 * i + 0.03, [])
+        job.sources = novel_sources(job.camera.c2w[:3, 3], cams, views, cfg)
+        jobs.append(job)
+
+    def changes(js):
+        keys = [(frozenset(j.sources), fill_first(j, cams, 1)) for j in js]
+        return sum(a != b for a, b in zip(keys, keys[1:], strict=False))
+
+    held = hold_sources(jobs, cams, views, cfg, 1)
+    assert changes(held) < changes(jobs)
+    wider = RenderConfig(n_sources=3, photo_sources=1)
+    for job in held:
+        c = job.camera.c2w[:3, 3]
+        nearest = min(cams.stems, key=lambda s: abs(cams.by_stem()[s].center[0] - c[0]))
+        assert set(job.sources) <= set(novel_sources(c, cams, views, wider))
+        assert nearest in job.sources and fill_first(job, cams, 1) == (nearest,)
+    assert any(j.fill_first is not None for j in held)
+    assert hold_sources(jobs, cams, views, cfg, 0) == jobs
