@@ -1584,3 +1584,66 @@ def test_source_fade_on_the_sample_is_its_file():
     assert f"{r['renders_per_frame'][1]:.3f} images a frame" in hist
     assert (f"largest jump between frames {-100 * rel['largest']:.1f} % lower, the steps' "
             f"mean {100 * rel['mean']:.1f} % higher") in readme
+
+
+def test_source_hold_rule_is_its_files():
+    """docs/history/fill.md's table of the hold's rule, its means and verdicts, and the
+    numbers docs/options.md and the option's docstring quote are the judge files'
+    (hold_judge_hold{1,2}_s53.json); both fail (c), as the history says."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+    one = json.loads((RESULTS / "hold_judge_hold1_s53.json").read_text())
+    two = json.loads((RESULTS / "hold_judge_hold2_s53.json").read_text())
+    for cand, r in one["builds"].items():
+        short = Path(cand).name.split("_s50_")[0]
+        cells = " | ".join(f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in
+                           ("largest", "mean", "sharpness"))
+        rpf = r["renders_per_frame"]
+        assert f"| {short} | {cells} | {rpf[0]:.2f} -> {rpf[1]:.2f} |" in hist, short
+    r1, r2 = one["relative"], two["relative"]
+    assert not one["passes"] and not one["checks"]["c"] and one["checks"]["a"]
+    assert not two["passes"] and not two["checks"]["a"] and not two["checks"]["c"]
+    assert (f"(a) the mean {100 * r1['mean']:.2f} %, (b) the largest step "
+            f"{100 * r1['largest']:.2f} %, (c) sharpness {100 * r1['sharpness']:.2f} %, (d) "
+            f"{one['renders_per_frame']:.2f} images a frame against "
+            f"{one['baseline_renders_per_frame']:.2f}") in hist
+    assert (f"mean {100 * r2['mean']:.2f} %, largest step +{100 * r2['largest']:.2f} %, "
+            f"sharpness {100 * r2['sharpness']:.2f} %, {two['renders_per_frame']:.2f} images "
+            "a frame") in hist
+    for page in (options, config):
+        assert (f"{one['renders_per_frame']:.2f} images a frame instead of "
+                f"{one['baseline_renders_per_frame']:.2f}") in page
+        assert f"-{-100 * r1['mean']:.1f} % on six" in page
+        assert f"{-100 * r1['sharpness']:.2f} % less sharp" in page
+
+
+def test_the_cross_fades_cost_is_its_files():
+    """docs/performance.md, "The cross-fade's cost": the one-shots' stage times and scores
+    (sample_oneshot_cpu_s53_{head,c9a6309}.json), the four renders in turn
+    (fade_sample_times_s53.txt) and the head video's share of faded frames."""
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    head = json.loads((RESULTS / "sample_oneshot_cpu_s53_head.json").read_text())
+    base = json.loads((RESULTS / "sample_oneshot_cpu_s53_c9a6309.json").read_text())
+    assert head["code"]["commit"].startswith("25c4eb2")
+    assert base["code"]["commit"].startswith("c9a6309")
+    st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
+          for r in (head, base)]
+    assert (f"the 48 frames {st[0][0]:.1f} s against {st[1][0]:.1f} s, the fine-tune "
+            f"{st[0][1]:.1f} s against {st[1][1]:.1f} s") in perf
+    assert head["mean"] == base["mean"]
+    m = head["mean"]
+    assert f"({m['psnr_flare']:.2f} / {m['psnr']:.2f} dB)" in perf
+    rows = [ln.split() for ln in (RESULTS / "fade_sample_times_s53.txt").read_text()
+            .splitlines() if ln and not ln.startswith("#")]
+    secs = {r[0]: float(r[-2]) for r in rows}
+    assert [r[1] for r in rows] == ["source_fade=0", "source_fade=1", "source_fade=1",
+                                    "source_fade=0"]
+    off, on = (secs["f0a"] + secs["f0b"]) / 2, (secs["f1a"] + secs["f1b"]) / 2
+    assert (f"{secs['f0a']:.1f} and {secs['f0b']:.1f} s without the fade, "
+            f"{secs['f1a']:.1f} and {secs['f1b']:.1f} s with it, {off:.1f} against "
+            f"{on:.1f} s on the mean (+{100 * (on / off - 1):.0f} %") in perf
+    sample = json.loads((RESULTS / "fade_sample_s53.json").read_text())
+    (r,) = sample["builds"].values()
+    faded = 48 - r["unfaded_frames"]
+    assert f"on the sample {faded} of 48 frames, {r['renders_per_frame'][1]:.3f} images" in perf
