@@ -55,8 +55,9 @@ class FrameJob:
     camera: Frame | PathCamera
     full_res: FullRes | None = None
     fill_first: tuple[str, ...] | None = None
-    """The photos the hybrid fill takes first, whatever their distance (another frame's, in a
-    cross-fade); None: the sources nearest the camera."""
+    """The photos the hybrid fill takes first, whatever their distance (another frame's: in a
+    cross-fade, or held, ``RenderConfig.source_hold``); None: the sources nearest the
+    camera."""
     fades: tuple[SourceSet, ...] = ()
     """Other frames' sources cross-faded into this frame (``RenderConfig.source_fade``); the
     job's own sources take the weight they leave."""

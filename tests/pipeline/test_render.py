@@ -1372,3 +1372,19 @@ def test_hold_sources_keeps_a_choice_while_it_stays_near(tmp_path):
         assert nearest in job.sources and fill_first(job, cams, 1) == (nearest,)
     assert any(j.fill_first is not None for j in held)
     assert hold_sources(jobs, cams, views, cfg, 0) == jobs
+
+
+def test_photo_views_load_the_photos_a_held_or_faded_fill_takes_first(hws, tmp_path):
+    """``photo_views`` loads a job's own ``fill_first`` and its fades' too, even where they
+    lie past the first ``photo_sources`` of the job's sources."""
+    from pipeline.render import RenderConfig, photo_views
+    from pipeline.render.jobs import SourceSet
+
+    stems = load_cameras(hws.cameras_json).stems
+    cfg = RenderConfig(photo_sources=1)
+    held = _frame_job(tmp_path, "a", 0.0, stems[:3])
+    held.fill_first = (stems[2],)
+    faded = _frame_job(tmp_path, "b", 0.0, stems[:1])
+    faded.fades = (SourceSet(tuple(stems[3:5]), (stems[4],), 0.5),)
+    got = photo_views(hws, load_cameras(hws.cameras_json), [held, faded], cfg)
+    assert set(got) == {stems[0], stems[2], stems[3], stems[4]}
