@@ -1647,3 +1647,16 @@ def test_the_cross_fades_cost_is_its_files():
     (r,) = sample["builds"].values()
     faded = 48 - r["unfaded_frames"]
     assert f"on the sample {faded} of 48 frames, {r['renders_per_frame'][1]:.3f} images" in perf
+
+
+def test_the_street_walks_pace_with_the_fade_is_its_file():
+    """docs/history/fill.md, "The street walk's pace with the fade": the flow's spread of
+    both lund builds, travel -> image pace, is path_motion_lund_fade_s53.json's, and the
+    image pace is the less even on both."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    rows = _flow_rows("path_motion_lund_fade_s53.json")
+    assert len(rows) == 2
+    for build, r in rows.items():
+        travel, image = r["travelfade"][0], r["fade1"][0]
+        assert f"{build.split('_s50_')[0]} {travel:.3f} -> {image:.3f}" in hist
+        assert image > travel
