@@ -1501,23 +1501,38 @@ def test_video_pace_sample_flow_and_cost_are_their_files():
     assert f"step {old['max']:.4f} -> {new['max']:.4f} of the width" in hist
     assert f"{old['max_over_median']:.2f} -> {new['max_over_median']:.2f}" in hist
     assert f"optical flow {old['max']:.3f} and {new['max']:.3f}" in readme
-    head = json.loads((RESULTS / "sample_oneshot_cpu_s52_head.json").read_text())
-    base = json.loads((RESULTS / "sample_oneshot_cpu_s52_49b4096.json").read_text())
-    assert head["code"]["commit"].startswith("b4f97db")
-    assert base["code"]["commit"].startswith("49b4096")
-    st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
-          for r in (head, base)]
-    assert (f"the 48 frames {st[0][0]:.1f} s against {st[1][0]:.1f} s, the fine-tune "
-            f"{st[0][1]:.1f} s against {st[1][1]:.1f} s") in perf
-    assert head["mean"] == base["mean"]  # the de-flared photos to the last digit
-    m = head["mean"]
-    assert f"({m['psnr_flare']:.2f} / {m['psnr']:.2f} dB)" in perf
-    times = [ln.split() for ln in (RESULTS / "path_pace_render_times_s52.txt").read_text()
-             .splitlines() if ln and not ln.startswith("#")]
+    _oneshot_pair(perf, ("sample_oneshot_cpu_s52_head.json", "b4f97db"),
+                  ("sample_oneshot_cpu_s52_49b4096.json", "49b4096"))
+    times = _text_rows("path_pace_render_times_s52.txt")
     secs = {i: float(t[-2]) for i, t in enumerate(times)}
     assert (f"took {secs[2]:.1f} s (49b4096) and {secs[3]:.1f} s (b4f97db)") in perf
     assert (f"{secs[0]:.1f} s (old) against {secs[1]:.1f} s (new), then {secs[4]:.1f} s "
             f"(new) against {secs[5]:.1f} s (old)") in perf
+
+
+def _text_rows(name: str) -> list[list[str]]:
+    """The words of each line of a text result file, its comments (#) and blank lines left."""
+    return [ln.split() for ln in (RESULTS / name).read_text().splitlines()
+            if ln and not ln.startswith("#")]
+
+
+def _oneshot_pair(perf: str, head: tuple[str, str], base: tuple[str, str]) -> None:
+    """Two one-shot score files (name, commit) that docs/performance.md (``perf``, its
+    words joined by single spaces) compares: each from its commit, their frames' and
+    fine-tune's seconds quoted, their de-flared photos the same to the last digit and
+    their scores quoted."""
+    recs = []
+    for name, commit in (head, base):
+        rec = json.loads((RESULTS / name).read_text())
+        assert rec["code"]["commit"].startswith(commit), name
+        recs.append(rec)
+    st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
+          for r in recs]
+    assert (f"the 48 frames {st[0][0]:.1f} s against {st[1][0]:.1f} s, the fine-tune "
+            f"{st[0][1]:.1f} s against {st[1][1]:.1f} s") in perf
+    assert recs[0]["mean"] == recs[1]["mean"]  # the de-flared photos to the last digit
+    m = recs[0]["mean"]
+    assert f"({m['psnr_flare']:.2f} / {m['psnr']:.2f} dB)" in perf
 
 
 def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
@@ -1534,6 +1549,16 @@ def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
     assert 1 <= np.median(turn) <= 5 and "frames between them turn 1-5 degrees" in hist
 
 
+def _judge_rows(name: str) -> tuple[dict, dict]:
+    """(the judge file ``name`` of benchmarks/video_flicker.py --judge, {build's short name:
+    its table cells "largest | mean | sharpness", each "before -> after"})."""
+    rec = json.loads((RESULTS / name).read_text())
+    cells = {Path(cand).name.split("_s50_")[0]: " | ".join(
+        f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in ("largest", "mean", "sharpness"))
+        for cand, r in rec["builds"].items()}
+    return rec, cells
+
+
 def test_source_fade_rule_is_its_files():
     """docs/history/fill.md's table of the cross-fade's rule, its means and verdicts, and the
     numbers the README, docs/options.md and the option's docstring quote are the judge
@@ -1542,13 +1567,10 @@ def test_source_fade_rule_is_its_files():
     readme = " ".join((REPO / "README.md").read_text().split())
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
     config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
-    one = json.loads((RESULTS / "fade_judge_fade1_s53.json").read_text())
+    one, cells = _judge_rows("fade_judge_fade1_s53.json")
     two = json.loads((RESULTS / "fade_judge_fade2_s53.json").read_text())
-    for cand, r in one["builds"].items():
-        short = Path(cand).name.split("_s50_")[0]
-        cells = " | ".join(f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in
-                           ("largest", "mean", "sharpness"))
-        assert f"| {short} | {cells} | {r['renders_per_frame'][1]:.2f} |" in hist, short
+    for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
+        assert f"| {short} | {row} | {r['renders_per_frame'][1]:.2f} |" in hist, short
         assert r["unfaded_identical"] == r["unfaded_frames"]
     rel1, rel2 = one["relative"], two["relative"]
     assert one["passes"] and not two["passes"] and not two["checks"]["c"]
@@ -1593,14 +1615,11 @@ def test_source_hold_rule_is_its_files():
     hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
     config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
-    one = json.loads((RESULTS / "hold_judge_hold1_s53.json").read_text())
+    one, cells = _judge_rows("hold_judge_hold1_s53.json")
     two = json.loads((RESULTS / "hold_judge_hold2_s53.json").read_text())
-    for cand, r in one["builds"].items():
-        short = Path(cand).name.split("_s50_")[0]
-        cells = " | ".join(f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in
-                           ("largest", "mean", "sharpness"))
+    for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
         rpf = r["renders_per_frame"]
-        assert f"| {short} | {cells} | {rpf[0]:.2f} -> {rpf[1]:.2f} |" in hist, short
+        assert f"| {short} | {row} | {rpf[0]:.2f} -> {rpf[1]:.2f} |" in hist, short
     r1, r2 = one["relative"], two["relative"]
     assert not one["passes"] and not one["checks"]["c"] and one["checks"]["a"]
     assert not two["passes"] and not two["checks"]["a"] and not two["checks"]["c"]
@@ -1623,19 +1642,9 @@ def test_the_cross_fades_cost_is_its_files():
     (sample_oneshot_cpu_s53_{head,c9a6309}.json), the four renders in turn
     (fade_sample_times_s53.txt) and the head video's share of faded frames."""
     perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    head = json.loads((RESULTS / "sample_oneshot_cpu_s53_head.json").read_text())
-    base = json.loads((RESULTS / "sample_oneshot_cpu_s53_c9a6309.json").read_text())
-    assert head["code"]["commit"].startswith("25c4eb2")
-    assert base["code"]["commit"].startswith("c9a6309")
-    st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
-          for r in (head, base)]
-    assert (f"the 48 frames {st[0][0]:.1f} s against {st[1][0]:.1f} s, the fine-tune "
-            f"{st[0][1]:.1f} s against {st[1][1]:.1f} s") in perf
-    assert head["mean"] == base["mean"]
-    m = head["mean"]
-    assert f"({m['psnr_flare']:.2f} / {m['psnr']:.2f} dB)" in perf
-    rows = [ln.split() for ln in (RESULTS / "fade_sample_times_s53.txt").read_text()
-            .splitlines() if ln and not ln.startswith("#")]
+    _oneshot_pair(perf, ("sample_oneshot_cpu_s53_head.json", "25c4eb2"),
+                  ("sample_oneshot_cpu_s53_c9a6309.json", "c9a6309"))
+    rows = _text_rows("fade_sample_times_s53.txt")
     secs = {r[0]: float(r[-2]) for r in rows}
     assert [r[1] for r in rows] == ["source_fade=0", "source_fade=1", "source_fade=1",
                                     "source_fade=0"]
