@@ -1669,3 +1669,21 @@ def test_the_street_walks_pace_with_the_fade_is_its_file():
         travel, image = r["travelfade"][0], r["fade1"][0]
         assert f"{build.split('_s50_')[0]} {travel:.3f} -> {image:.3f}" in hist
         assert image > travel
+
+
+def test_source_fade_on_kermit_is_its_file():
+    """The test scene kermit with and without the cross-fade (docs/history/fill.md, the
+    README) is fade_kermit_s53.json's."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    rec = json.loads((RESULTS / "fade_kermit_s53.json").read_text())
+    (r,) = rec["builds"].values()
+    rel = rec["relative"]
+    assert r["unfaded_identical"] == r["unfaded_frames"] == 48 - 15
+    assert (f"the largest step {r['largest'][0]:.4f} -> {r['largest'][1]:.4f} "
+            f"(+{100 * rel['largest']:.1f} %), the steps' mean {r['mean'][0]:.4f} -> "
+            f"{r['mean'][1]:.4f} ({100 * rel['mean']:.1f} %), sharpness "
+            f"{100 * rel['sharpness']:.1f} %") in hist
+    assert f"({r['renders_per_frame'][1]:.3f} images a frame)" in hist
+    assert (f"kermit the largest jump {100 * rel['largest']:.1f} % higher, the mean "
+            f"{-100 * rel['mean']:.1f} % lower") in readme
