@@ -24,12 +24,8 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
-    k = cfg.photo_sources + cfg.photo_fallback
-    stems = sorted({s for j in jobs for srcs in [j.sources, *(f.sources for f in j.fades)]
-                    for s in srcs[:k]}
-                   | {s for j in jobs for first in [j.fill_first or (),
-                                                     *(f.fill_first for f in j.fades)]
-                      for s in first})
+    stems = sorted(set().union(*(j.photo_stems(cfg.photo_sources + cfg.photo_fallback)
+                                 for j in jobs)))
     views = load_views(ws, cams, stems, with_depth=True, frames=frames)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         params = ws.stage_record("depth").get("params", {})
@@ -83,11 +79,7 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
                          "(pipeline.render.plan.resolve_fill)")
     K, c2w = np.asarray(K, float), np.asarray(c2w, float)
     c = c2w[:3, 3]
-    near = sorted((s for s in job.sources if s in photos),
-                  key=lambda s: float(np.linalg.norm(photos[s].c2w[:3, 3] - c)))
-    if job.fill_first is not None:  # another frame's first photos (faded in or held)
-        near = [s for s in near if s in job.fill_first] + [s for s in near
-                                                           if s not in job.fill_first]
+    near = job.fill_order(c, lambda s: photos[s].c2w[:3, 3], photos)
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
     if not srcs:
         z = np.zeros(size[::-1], np.float32)

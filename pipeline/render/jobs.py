@@ -70,6 +70,27 @@ class FrameJob:
             seen.update(dict.fromkeys(f.sources))
         return list(seen)
 
+    def fill_order(self, centre: np.ndarray, centre_of: Callable[[str], np.ndarray],
+                   among) -> list[str]:
+        """The job's sources that are in ``among``, nearest ``centre`` (its camera's) first
+        (``centre_of``: a stem's camera centre), its ``fill_first`` before the rest when set:
+        the order in which the hybrid fill takes its photos."""
+        c = np.asarray(centre, float)
+        near = sorted((s for s in self.sources if s in among),
+                      key=lambda s: float(np.linalg.norm(np.asarray(centre_of(s)) - c)))
+        if self.fill_first is None:
+            return near
+        return ([s for s in near if s in self.fill_first]
+                + [s for s in near if s not in self.fill_first])
+
+    def photo_stems(self, k: int) -> set[str]:
+        """The photos the job's fill can warp: the first ``k`` of its sources and of each
+        fade's, and every ``fill_first``."""
+        stems = set(self.sources[:k]) | set(self.fill_first or ())
+        for f in self.fades:
+            stems |= set(f.sources[:k]) | set(f.fill_first)
+        return stems
+
     @property
     def is_input(self) -> bool:
         """An input view (its photo blended with the render), not a novel frame."""

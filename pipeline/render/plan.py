@@ -61,10 +61,8 @@ def fill_first(job: FrameJob, cams: Cameras, k: int) -> tuple[str, ...]:
     if job.fill_first is not None:
         return tuple(job.fill_first)
     by = cams.by_stem()
-    c = np.asarray(job.camera.c2w, float)[:3, 3]
-    near = sorted((s for s in job.sources if s in by),
-                  key=lambda s: float(np.linalg.norm(np.asarray(by[s].c2w)[:3, 3] - c)))
-    return tuple(near[:k])
+    return tuple(job.fill_order(np.asarray(job.camera.c2w, float)[:3, 3],
+                                lambda s: by[s].center, by)[:k])
 
 
 def hold_sources(jobs: list[FrameJob], cams: Cameras, views: ViewsFile, cfg: RenderConfig,
