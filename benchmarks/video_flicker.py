@@ -14,9 +14,11 @@ depth or camera, so it does not share the renderer's geometry.
 
 Per path: the steps' errors, their mean, median, 90th percentile and largest, the spread
 (90th percentile over median), and the frames' sharpness (mean Sobel gradient magnitude of
-the grey frames, 0..1 units per pixel), which a cross-fade of two renders can lower. With the
-path's ``cameras.json`` (the render writes it) each step also says whether the frames'
-sources changed there (``sources_changed``). Bad input: one line on stderr, exit 2.
+the grey frames, 0..1 units per pixel), which a cross-fade of two renders can lower, and
+their brightness (mean colour, 0..1; a darker video has smaller errors and gradients). With
+the path's ``cameras.json`` (the render writes it) each step also says whether the frames'
+sources changed there (``sources_changed``). ``--flow farneback`` warps by Farneback's flow
+instead of DIS (a second, independent estimate). Bad input: one line on stderr, exit 2.
 """
 
 from __future__ import annotations
@@ -32,16 +34,35 @@ CONSISTENT = (0.01, 0.5)
 """Forward-backward check: |f + b|^2 < 0.01 (|f|^2 + |b|^2) + 0.5 (pixels^2)."""
 
 
-def warp_error(a: np.ndarray, b: np.ndarray, dis=None) -> tuple[float, float]:
-    """(mean absolute colour difference 0..1, share of pixels compared) between frame ``a``
-    and frame ``b`` warped back onto it by DIS flow (uint8 BGR or RGB [H, W, 3] frames of one
-    size). No pixel passing the check: (nan, 0)."""
+FLOWS = ("dis", "farneback")
+"""The optical flows the warping error can take: OpenCV's DIS (medium preset; the default)
+or Farneback's polynomial expansion (a second, independent estimate: a render whose frames
+were joined by DIS flow, ``render --fade-blend``, is judged by both)."""
+
+
+def flow_calc(kind: str = "dis"):
+    """A function (grey a, grey b) -> flow from a to b, of one of ``FLOWS``."""
     import cv2
 
-    if dis is None:
-        dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    if kind == "farneback":
+        return lambda ga, gb: cv2.calcOpticalFlowFarneback(ga, gb, None, 0.5, 4, 15, 3, 5,
+                                                            1.2, 0)
+    if kind != "dis":
+        raise ValueError(f"flow {kind!r}: use one of {', '.join(FLOWS)}")
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    return lambda ga, gb: dis.calc(ga, gb, None)
+
+
+def warp_error(a: np.ndarray, b: np.ndarray, flow=None) -> tuple[float, float]:
+    """(mean absolute colour difference 0..1, share of pixels compared) between frame ``a``
+    and frame ``b`` warped back onto it by optical flow (``flow``: a :func:`flow_calc`
+    function, DIS by default; uint8 BGR or RGB [H, W, 3] frames of one size). No pixel
+    passing the check: (nan, 0)."""
+    import cv2
+
+    flow = flow or flow_calc()
     ga, gb = (cv2.cvtColor(x, cv2.COLOR_BGR2GRAY) for x in (a, b))
-    fw, bw = dis.calc(ga, gb, None), dis.calc(gb, ga, None)
+    fw, bw = flow(ga, gb), flow(gb, ga)
     H, W = ga.shape
     gx, gy = np.meshgrid(np.arange(W, dtype=np.float32), np.arange(H, dtype=np.float32))
     mx, my = gx + fw[..., 0], gy + fw[..., 1]
@@ -65,6 +86,30 @@ def sharpness(img: np.ndarray) -> float:
     return float(np.sqrt(gx ** 2 + gy ** 2).mean())
 
 
+def exposure_matched(cand: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """``cand`` (uint8 frame) at ``base``'s exposure: times the per-channel gain in linear
+    light that fits it to ``base`` by least squares. A frame that differs from another by
+    a gain alone comes out as it, so its sharpness is the other's; what is clipped stays."""
+    from pipeline.exposure import lin_to_srgb, srgb_to_lin
+
+    c = srgb_to_lin(cand.astype(np.float32) / 255.0)
+    b = srgb_to_lin(base.astype(np.float32) / 255.0)
+    g = (c * b).sum((0, 1)) / np.maximum((c * c).sum((0, 1)), 1e-9)
+    return np.clip(np.rint(lin_to_srgb(c * g) * 255.0), 0, 255).astype(np.uint8)
+
+
+def matched_sharpness(base: Path, cand: Path) -> tuple[float, float]:
+    """(the baseline frames' mean sharpness, the candidate's at the baseline's exposure,
+    frame by frame: :func:`exposure_matched`): the detail a candidate keeps, whatever
+    exposure it renders at."""
+    import cv2
+
+    pairs = list(zip(frames_of(base), frames_of(cand), strict=True))
+    b = [sharpness(cv2.imread(str(x))) for x, _ in pairs]
+    c = [sharpness(exposure_matched(cv2.imread(str(y)), cv2.imread(str(x)))) for x, y in pairs]
+    return float(np.mean(b)), float(np.mean(c))
+
+
 def frames_of(folder: Path) -> list[Path]:
     """A rendered path's PNG frames in order; SystemExit (exit 2) when it has fewer than two
     or they differ in size."""
@@ -78,19 +123,20 @@ def frames_of(folder: Path) -> list[Path]:
     return files
 
 
-def path_flicker(folder: Path) -> dict:
-    """The steps' warping errors and the frames' sharpness of one rendered path."""
+def path_flicker(folder: Path, flow: str = "dis") -> dict:
+    """The steps' warping errors (by ``flow``, one of ``FLOWS``) and the frames' sharpness
+    of one rendered path."""
     import cv2
 
     files = frames_of(folder)
-    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    calc = flow_calc(flow)
     sources = None
     cams = Path(folder) / "cameras.json"
     if cams.is_file():
         frames = json.loads(cams.read_text()).get("frames", [])
         if len(frames) == len(files) and all("sources" in f for f in frames):
             sources = [set(f["sources"]) for f in frames]
-    imgs, steps, sharp = [], [], []
+    imgs, steps, sharp, bright = [], [], [], []
     for f in files:
         img = cv2.imread(str(f), cv2.IMREAD_COLOR)
         if img is None:
@@ -99,8 +145,9 @@ def path_flicker(folder: Path) -> dict:
             raise SystemExit(f"{f}: not the size of the frame before it (one path per folder)")
         imgs.append(img)
         sharp.append(sharpness(img))
+        bright.append(float(img.mean()) / 255.0)
         if len(imgs) == 2:
-            e, cover = warp_error(imgs[0], imgs[1], dis)
+            e, cover = warp_error(imgs[0], imgs[1], calc)
             step = {"error": round(e, 6), "compared": round(cover, 4)}
             if sources is not None:
                 t = len(steps)
@@ -114,7 +161,8 @@ def path_flicker(folder: Path) -> dict:
            "mean": round(float(np.nanmean(err)), 6), "median": round(med, 6),
            "p90": round(p90, 6), "max": round(float(np.nanmax(err)), 6),
            "spread": round(p90 / med, 4) if med > 0 else None,
-           "sharpness": round(float(np.mean(sharp)), 6)}
+           "sharpness": round(float(np.mean(sharp)), 6),
+           "brightness": round(float(np.mean(bright)), 6)}
     if sources is not None:
         ch = np.array([s["sources_changed"] for s in steps])
         out["changed_steps"] = int(ch.sum())
@@ -139,43 +187,72 @@ HOLD_RULE = {"mean": -0.01, "largest": 0.02, "sharpness": -0.005}
 rendered per frame, each on the mean over the builds."""
 
 
+EXPOSURE_RULE = {"mean": -0.02, "largest": 0.02, "brightness": -0.02}
+"""The fifty-fourth session's rule for ``render --path-exposure`` against the frames'
+sources' median exposure (docs/history/fill.md, "The video's exposure along the path"): the
+steps' mean error down 2 % by DIS and by Farneback flow alike, the largest step up at most
+2 %, the brightness down at most 2 % (a darker video has smaller errors), each on the mean
+over the builds; the frames' sharpness at the baseline's exposure
+(:func:`matched_sharpness`) is reported beside it. The rule's fourth part, the left-out
+views' fidelity, is ``benchmarks/novel_loo.py``'s."""
+
+
+RULES = {"fade": RULE, "hold": HOLD_RULE, "exposure": EXPOSURE_RULE}
+
+
 def renders_per_frame(folder: Path) -> float:
-    """Images rendered per frame of a path: 1 + its fades (the path's cameras.json)."""
+    """Images rendered per frame of a path: 1 + its fades (the path's cameras.json; 1
+    without one)."""
+    if not (Path(folder) / "cameras.json").is_file():
+        return 1.0
     frames = json.loads((Path(folder) / "cameras.json").read_text())["frames"]
     return float(np.mean([1 + len(f.get("fades", [])) for f in frames]))
 
 
 def same_unfaded(base: Path, cand: Path) -> tuple[int, int]:
     """(frames the candidate renders without a fade, how many are the baseline's to the
-    bit)."""
+    bit); every frame without a cameras.json."""
     import cv2
 
-    frames = json.loads((Path(cand) / "cameras.json").read_text())["frames"]
-    plain = [f["name"] for f in frames if not f.get("fades")]
+    if (Path(cand) / "cameras.json").is_file():
+        frames = json.loads((Path(cand) / "cameras.json").read_text())["frames"]
+        plain = [f["name"] for f in frames if not f.get("fades")]
+    else:
+        plain = [f.stem for f in frames_of(cand)]
     same = sum(np.array_equal(cv2.imread(str(Path(base) / f"{n}.png")),
                               cv2.imread(str(Path(cand) / f"{n}.png"))) for n in plain)
     return len(plain), int(same)
 
 
-def judge(pairs: list[tuple[Path, Path]], rule: str = "fade") -> dict:
-    """``RULE`` (``rule`` fade) or ``HOLD_RULE`` (hold) on (baseline, candidate) rendered
-    paths of the same builds."""
+def judge(pairs: list[tuple[Path, Path]], rule: str = "fade", flow: str = "dis") -> dict:
+    """One of ``RULES`` (``rule``) on (baseline, candidate) rendered paths of the same builds,
+    the warping error by ``flow`` (one of ``FLOWS``; the exposure rule reads Farneback's
+    too)."""
     rows = {}
     for base, cand in pairs:
-        b, c = path_flicker(base), path_flicker(cand)
+        b, c = path_flicker(base, flow), path_flicker(cand, flow)
         plain, same = same_unfaded(base, cand)
         rows[str(cand)] = {
             "baseline": str(base), "largest": [b["max"], c["max"]], "mean": [b["mean"], c["mean"]],
             "spread": [b["spread"], c["spread"]], "sharpness": [b["sharpness"], c["sharpness"]],
-            "renders_per_frame": [renders_per_frame(base) if (Path(base) / "cameras.json")
-                                  .is_file() else 1.0, renders_per_frame(cand)],
+            "brightness": [b["brightness"], c["brightness"]],
+            "renders_per_frame": [renders_per_frame(base), renders_per_frame(cand)],
             "unfaded_frames": plain, "unfaded_identical": same}
-    rel = {k: float(np.mean([r[k][1] / r[k][0] - 1 for r in rows.values()]))
-           for k in ("largest", "mean", "sharpness")}
+        if rule == "exposure":  # the mean error by the second flow, the detail at one exposure
+            rows[str(cand)]["mean_farneback"] = [path_flicker(x, "farneback")["mean"]
+                                                 for x in (base, cand)]
+            rows[str(cand)]["matched_sharpness"] = list(matched_sharpness(base, cand))
+    keys = ("largest", "mean", "sharpness", "brightness")
+    keys += ("mean_farneback", "matched_sharpness") if rule == "exposure" else ()
+    rel = {k: float(np.mean([r[k][1] / r[k][0] - 1 for r in rows.values()])) for k in keys}
     down = sum(r["largest"][1] < r["largest"][0] for r in rows.values())
     per_frame = float(np.mean([r["renders_per_frame"][1] for r in rows.values()]))
     before = float(np.mean([r["renders_per_frame"][0] for r in rows.values()]))
-    if rule == "hold":
+    if rule == "exposure":
+        checks = {"a": max(rel["mean"], rel["mean_farneback"]) <= EXPOSURE_RULE["mean"],
+                  "b": rel["largest"] <= EXPOSURE_RULE["largest"],
+                  "c": rel["brightness"] >= EXPOSURE_RULE["brightness"]}
+    elif rule == "hold":
         checks = {"a": rel["mean"] <= HOLD_RULE["mean"],
                   "b": rel["largest"] <= HOLD_RULE["largest"],
                   "c": rel["sharpness"] >= HOLD_RULE["sharpness"], "d": per_frame <= before}
@@ -183,7 +260,7 @@ def judge(pairs: list[tuple[Path, Path]], rule: str = "fade") -> dict:
         checks = {"a": rel["largest"] <= RULE["largest"] and down >= RULE["largest_builds"],
                   "b": rel["mean"] <= RULE["mean"], "c": rel["sharpness"] >= RULE["sharpness"],
                   "d": per_frame <= RULE["renders"]}
-    return {"builds": rows, "rule_name": rule,
+    return {"builds": rows, "rule_name": rule, "flow": flow,
             "relative": {k: round(v, 4) for k, v in rel.items()},
             "largest_down_on": down, "renders_per_frame": round(per_frame, 4),
             "baseline_renders_per_frame": round(before, 4),
@@ -197,8 +274,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("paths", nargs="+", type=Path, help="rendered path folders (PNG frames)")
     ap.add_argument("--judge", action="store_true",
                     help="the paths are pairs BASELINE CANDIDATE: score RULE on them")
-    ap.add_argument("--rule", choices=("fade", "hold"), default="fade",
-                    help="with --judge: RULE (fade) or HOLD_RULE (hold)")
+    ap.add_argument("--rule", choices=tuple(RULES), default="fade",
+                    help="with --judge: RULE (fade), HOLD_RULE (hold) or EXPOSURE_RULE "
+                         "(exposure)")
+    ap.add_argument("--flow", choices=FLOWS, default="dis",
+                    help="the optical flow that warps each frame onto the one before")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")
     a = ap.parse_args(argv)
     if a.judge and len(a.paths) % 2:
@@ -208,11 +288,11 @@ def main(argv: list[str] | None = None) -> int:
         if a.judge:
             from pipeline.provenance import write_result
 
-            res = judge(list(zip(a.paths[::2], a.paths[1::2], strict=True)), a.rule)
+            res = judge(list(zip(a.paths[::2], a.paths[1::2], strict=True)), a.rule, a.flow)
             print(json.dumps({k: v for k, v in res.items() if k != "builds"}))
-            write_result(a.out, {"rule": HOLD_RULE if a.rule == "hold" else RULE, **res})
+            write_result(a.out, {"rule": RULES[a.rule], **res})
             return 0
-        res = {str(p): path_flicker(p) for p in a.paths}
+        res = {str(p): path_flicker(p, a.flow) for p in a.paths}
     except (SystemExit, OSError, KeyError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -361,6 +361,41 @@ def inverse(gain) -> np.ndarray:
     return np.concatenate([g[:3] ** (-1.0 / g[3]), [1.0 / g[3]], g[4:]])
 
 
+def mean_gain(gains: list, weights) -> np.ndarray:
+    """The weighted mean of gains (or curves, camera transforms; one kind) in the terms they
+    act in: the log gains averaged, a curve's slope averaged, a camera transform's shared
+    curve kept."""
+    G = np.asarray(gains, np.float64)
+    w = np.asarray(weights, np.float64)
+    w = w / w.sum()
+    out = G[0].copy()
+    out[:3] = np.exp(w @ np.log(G[:, :3]))
+    if G.shape[1] >= 4:
+        out[3] = w @ G[:, 3]
+    return out
+
+
+def path_gain(centre: np.ndarray, centres: np.ndarray, gains: list, sigma: float
+              ) -> np.ndarray:
+    """The ``gains`` of cameras at ``centres`` [N, 3] averaged by :func:`mean_gain` with a
+    Gaussian weight of their distance from ``centre`` (``sigma``, scene units): a gain that
+    glides as the camera moves (``render --path-exposure``: the path's frames' own)."""
+    d = np.linalg.norm(np.asarray(centres, np.float64) - np.asarray(centre, np.float64),
+                       axis=1)
+    e = 0.5 * (d / max(sigma, 1e-12)) ** 2
+    return mean_gain(gains, np.exp(-(e - e.min())))  # the nearest photo's weight is 1
+
+
+def between(srgb: np.ndarray, from_gain, to_gain) -> np.ndarray:
+    """sRGB colours of a view whose gain to the common exposure is ``from_gain`` brought to
+    the exposure whose gain is ``to_gain`` (:func:`apply_gain` of the one, then of the
+    other's :func:`inverse`; one product for two plain gains)."""
+    a, b = np.asarray(from_gain, np.float64), np.asarray(to_gain, np.float64)
+    if len(a) == 3 and len(b) == 3:
+        return apply_gain(srgb, a / b)
+    return apply_gain(apply_gain(srgb, a), inverse(b))
+
+
 def gains_json(gains: dict[str, np.ndarray]) -> dict[str, list[float]]:
     return {s: [round(float(x), 5) for x in g] for s, g in sorted(gains.items())}
 

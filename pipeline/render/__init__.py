@@ -68,6 +68,7 @@ from pipeline.render.jobs import FrameJob, FullRes, Prepared
 from pipeline.render.novel import prepare_hybrid_novel, prepare_novel
 from pipeline.render.plan import (
     depth_samples,
+    exposure_along_path,
     novel_depth_range,
     novel_path,
     novel_scale,
@@ -123,6 +124,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    if key != "inputs":  # the video's exposure glides along the path (path_exposure)
+        jobs = exposure_along_path(jobs, cams, meta.get("exposure_gains"), cfg.path_exposure)
     if key == "inputs" and cfg.blend == "mask":  # before the stage clears WS/deflared
         require_masks(ws, [job.camera.stem for job in jobs])
     # novel frames warp the photos through the depth stage's maps for them where it wrote
@@ -181,11 +184,15 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["pace"] = "travel"  # records before the fifty-second session's pace
         defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
         defaults["source_hold"] = 0
+        defaults["path_exposure"] = 0.0
+        defaults["fade_blend"] = "mix"  # and before the fifty-fourth's blends
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
         params.pop("source_hold")
+        params.pop("fade_blend")
+        params.pop("path_exposure")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

@@ -8,6 +8,7 @@ import numpy as np
 
 from pipeline.progress import make_progress
 from pipeline.render.config import RenderConfig
+from pipeline.render.fade_blend import blend_renders
 from pipeline.render.frames import write_frame
 from pipeline.render.full_res import prepare_full_res
 from pipeline.render.inputs import prepare_input
@@ -33,7 +34,8 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
     when ``quiet``: a worker process, ``pipeline.render.workers``).
     ``gains``: the exposure the model was trained at (``pipeline.exposure``): its colours
     are taken back to each frame's (:func:`exposure_back`). A job with ``fades`` renders
-    once per source set and writes their weighted mean."""
+    once per source set and writes them joined by ``cfg.fade_blend``
+    (``pipeline.render.fade_blend``)."""
     with make_progress(quiet=quiet) as prog:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
@@ -41,13 +43,12 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
             image = render_image(model, src, index, job, params, cfg, ws, photos, gains,
                                  prog, t_rays)
             if job.fades:  # other frames' sources, cross-faded in (RenderConfig.source_fade)
-                acc = image.astype(np.float64) * (1.0 - sum(f.weight for f in job.fades))
-                for f in job.fades:
-                    other = replace(job, sources=list(f.sources), fill_first=f.fill_first,
-                                    fades=())
-                    acc += f.weight * render_image(model, src, index, other, params, cfg, ws,
-                                                   photos, gains, prog, t_rays)
-                image = np.clip(np.rint(acc), 0, np.iinfo(image.dtype).max).astype(image.dtype)
+                others = [(render_image(model, src, index,
+                                        replace(job, sources=list(f.sources),
+                                                fill_first=f.fill_first, fades=()),
+                                        params, cfg, ws, photos, gains, prog, t_rays), f.weight)
+                          for f in job.fades]
+                image = blend_renders(image, others, cfg.fade_blend)
             write_frame(job.out, image, job.exif)
             prog.advance(t_frames)
 
@@ -94,12 +95,14 @@ def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
 
 def exposure_back(job: FrameJob, gains: dict) -> np.ndarray:
     """The gain (or curve, ``pipeline.exposure``) from the model's common exposure to a
-    frame's: an input view's own undone, a novel frame's sources' median undone (where its
-    photo fill is)."""
+    frame's: an input view's own undone; a novel frame's exposure along the path
+    (``FrameJob.exposure``) undone where its job holds one, else its sources' median."""
     from pipeline.exposure import inverse
 
     if job.is_input and job.camera.stem in gains:
         return inverse(gains[job.camera.stem])
+    if job.exposure is not None:  # the exposure along the path (RenderConfig.path_exposure)
+        return inverse(job.exposure)
     near = [np.asarray(gains[s], np.float64) for s in job.sources if s in gains]
     return inverse(np.median(near, axis=0)) if near else np.ones(3)
 

@@ -80,6 +80,8 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     K, c2w = np.asarray(K, float), np.asarray(c2w, float)
     c = c2w[:3, 3]
     near = job.fill_order(c, lambda s: photos[s].c2w[:3, 3], photos)
+    if job.exposure is not None and job.photo_gains:  # the photos at the frame's exposure
+        photos = at_frame_exposure(photos, near[:cfg.photo_sources + cfg.photo_fallback], job)
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
     if not srcs:
         z = np.zeros(size[::-1], np.float32)
@@ -115,6 +117,21 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf, cfg.key_occlusion),
                                          share)
     return HybridFill(colour, weight, real, pf.warped)
+
+
+def at_frame_exposure(photos: dict, stems: list[str], job: FrameJob) -> dict:
+    """``photos`` ({stem: PosedView}) with the images of ``stems`` brought from each photo's
+    exposure to the frame's (``FrameJob.exposure``, by the model's gains
+    ``job.photo_gains``; a photo without a gain is left as it is). The fill then matches
+    what is left of their differences to their median, as without
+    (``pipeline.stereo.match_gains``)."""
+    from dataclasses import replace
+
+    from pipeline.exposure import between
+
+    return {**photos, **{s: replace(photos[s], image=between(photos[s].image,
+                                                             job.photo_gains[s], job.exposure))
+                         for s in stems if s in job.photo_gains}}
 
 
 def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0) -> float:

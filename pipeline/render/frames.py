@@ -94,7 +94,8 @@ def clear_frames(out_dir: Path) -> None:
 def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
     """``out_dir/cameras.json`` (``PATH_CAMERAS_FILE``): the novel jobs' cameras in the JSON
     path format (docs/camera_paths.md), each frame with its sources and near / far (and the
-    other frames' sources cross-faded into it, ``fades``, with their weights)."""
+    other frames' sources cross-faded into it, ``fades``, with their weights; its gain to the
+    model's common exposure, ``exposure``, where the exposure glides along the path)."""
     from gnfr.paths import PathCamera, path_to_json
 
     cams = [PathCamera(j.out.stem, j.camera.K, j.camera.c2w, j.camera.width, j.camera.height)
@@ -105,6 +106,8 @@ def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
         if j.fades:
             f["fades"] = [{"sources": list(x.sources), "weight": round(x.weight, 6)}
                           for x in j.fades]
+        if j.exposure is not None:
+            f["exposure"] = list(j.exposure)
     atomic_write_json(out_dir / PATH_CAMERAS_FILE, data)
 
 

@@ -61,6 +61,14 @@ class FrameJob:
     fades: tuple[SourceSet, ...] = ()
     """Other frames' sources cross-faded into this frame (``RenderConfig.source_fade``); the
     job's own sources take the weight they leave."""
+    exposure: tuple[float, ...] | None = None
+    """The frame's gain to the model's common exposure (``RenderConfig.path_exposure``):
+    GN-FR's colours are taken back by its inverse and the photos of the fill brought to it
+    by ``photo_gains``; None: the median of the sources' gains, the fill's photos matched to
+    their own median (``engine.exposure_back``)."""
+    photo_gains: dict | None = None
+    """{stem: gain to the common exposure} of the photos (the model's, shared by the
+    path's jobs), with ``exposure``."""
 
     @property
     def all_sources(self) -> list[str]:

@@ -109,6 +109,34 @@ def photo_spacing(cams: Cameras) -> float:
     return float(np.median(d.min(axis=1)))
 
 
+def exposure_along_path(jobs: list[FrameJob], cams: Cameras, gains: dict | None,
+                        reach: float) -> list[FrameJob]:
+    """``jobs`` (a novel path's) with each frame's ``exposure``
+    (``RenderConfig.path_exposure``): the frames' own exposures (each the median of its
+    sources' gains, as ``engine.exposure_back`` takes it without) averaged over the path's
+    frames by a Gaussian of the distance between their cameras, of ``reach`` photo spacings
+    (``pipeline.exposure.path_gain``); the photos' gains beside it for the fill. As they are
+    when ``reach`` is 0, the model has no gains, or the photos stand at one point."""
+    from pipeline.exposure import path_gain
+
+    sigma = reach * photo_spacing(cams)
+    if reach <= 0 or not gains or sigma <= 0:
+        return jobs
+    photo = {s: np.asarray(g, np.float64) for s, g in gains.items()}
+    own = [np.median([photo[s] for s in j.sources if s in photo], axis=0)
+           if any(s in photo for s in j.sources) else None for j in jobs]
+    kept = [i for i, g in enumerate(own) if g is not None]
+    if not kept:
+        return jobs
+    centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
+    out = []
+    for job, c in zip(jobs, centres, strict=True):
+        g = path_gain(c, centres[kept], [own[i] for i in kept], sigma)
+        out.append(replace(job, exposure=tuple(round(float(x), 6) for x in g),
+                           photo_gains=photo))
+    return out
+
+
 def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int) -> list[FrameJob]:
     """``jobs`` with each frame's ``fades`` (``RenderConfig.source_fade``): a box of
     ``radius`` frames either side (shorter at the path's ends and at steps over

@@ -257,3 +257,115 @@ def test_corrected_level_is_what_apply_gain_does_in_log_terms():
         if len(t) == 5:
             want = ex.from_radiance(want, t[4])
         np.testing.assert_allclose(got, want, atol=1e-4)
+
+
+def test_path_gain_glides_between_the_photos_gains():
+    """Photos on a line at x = 0, 1, 2 with gains 0.5, 1, 2: a camera on a photo with a small
+    reach takes that photo's gain, with a wide one the gains' geometric mean; along the line
+    the gain rises steadily, without a jump. Curves average their slopes."""
+    centres = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    gains = [[0.5] * 3, [1.0] * 3, [2.0] * 3]
+    np.testing.assert_allclose(ex.path_gain([0, 0, 0], centres, gains, 0.05), [0.5] * 3)
+    np.testing.assert_allclose(ex.path_gain([0, 0, 0], centres, gains, 1e4), [1.0] * 3,
+                               rtol=1e-6)
+    xs = np.linspace(0, 2, 81)
+    g = np.array([ex.path_gain([x, 0, 0], centres, gains, 0.7)[0] for x in xs])
+    assert np.all(np.diff(g) > 0) and np.abs(np.diff(np.log2(g))).max() < 0.05
+    assert ex.path_gain([50.0, 0, 0], centres, gains, 0.7)[0] == pytest.approx(2.0)  # far
+    curves = [[1.0, 1.0, 1.0, 0.8], [4.0, 4.0, 4.0, 1.2]]
+    np.testing.assert_allclose(ex.mean_gain(curves, [1, 1]), [2.0, 2.0, 2.0, 1.0])
+
+
+def test_between_takes_a_photo_to_a_frames_exposure():
+    """``between``: a photo's colours at its gain brought to another exposure: for plain
+    gains one product, for curves the one applied and the other undone; to its own gain,
+    unchanged."""
+    srgb = np.array([[0.2, 0.4, 0.6]], np.float32)
+    np.testing.assert_allclose(ex.between(srgb, [2.0] * 3, [0.5] * 3),
+                               ex.apply_gain(srgb, [4.0] * 3), atol=1e-6)
+    curve, gain = [1.5, 1.5, 1.5, 0.9], [0.8, 1.0, 1.2]
+    np.testing.assert_allclose(ex.between(srgb, curve, gain),
+                               ex.apply_gain(ex.apply_gain(srgb, curve), ex.inverse(gain)),
+                               atol=1e-6)
+    np.testing.assert_allclose(ex.between(srgb, curve, curve), srgb, atol=1e-5)
+
+
+def test_the_fill_at_a_frames_exposure_does_not_follow_its_photos(tmp_path):
+    """Four photos of a plane a stop apart in exposure, the model's gains known. A novel
+    frame's photo fill from the two darkest and from the two brightest: matched to their own
+    median (no ``exposure``) the two fills differ by about a stop; brought to the frame's
+    exposure (``FrameJob.exposure``, common here) both are the plane at that exposure."""
+    from pipeline.render.config import RenderConfig
+    from pipeline.render.fill import fill_from_photos
+    from pipeline.render.jobs import FrameJob
+    from pipeline.render.plan import resolve_fill
+
+    rng = np.random.default_rng(5)
+    centers = [[x, 0.0, -3.0] for x in (-0.3, -0.1, 0.0, 0.1, 0.3)]
+    images, c2ws, depths = plane_views(rng, centers, K, (W, H))
+    ev = {"v0": -0.5, "v1": -0.5, "v3": 0.5, "v4": 0.5}  # v2 is the novel camera
+    truth = 0.1 + 0.6 * images[2]
+    photos, gains = {}, {}
+    for i, s in enumerate(("v0", "v1", "v2", "v3", "v4")):
+        if s in ev:
+            shown = ex.lin_to_srgb(ex.srgb_to_lin(0.1 + 0.6 * images[i]) * 2.0 ** ev[s])
+            photos[s] = PosedView(shown.astype(np.float32), K.copy(), c2ws[i], None,
+                                  depths[i].astype(np.float32))
+            gains[s] = np.full(3, 2.0 ** -ev[s])
+    cfg = resolve_fill(RenderConfig(key_blend=0.0, photo_fallback=0), "cpu", True)
+
+    def fill(stems, exposure):
+        job = FrameJob(None, stems, 2.0, 5.0, None, exposure=exposure,
+                       photo_gains=gains if exposure else None)
+        f = fill_from_photos(K, c2ws[2], (W, H), job, photos, cfg, novel=True)
+        ok = f.weight >= 1
+        assert ok.mean() > 0.5
+        return float(np.mean(ex.srgb_to_lin(f.colour[ok]) / ex.srgb_to_lin(truth[ok])))
+
+    dark, bright = fill(["v0", "v1"], None), fill(["v3", "v4"], None)
+    assert bright / dark == pytest.approx(2.0, rel=0.1)  # a stop apart
+    for stems in (["v0", "v1"], ["v3", "v4"]):
+        assert fill(stems, (1.0, 1.0, 1.0)) == pytest.approx(1.0, rel=0.03)
+    assert fill(["v0", "v1"], (0.5, 0.5, 0.5)) == pytest.approx(2.0, rel=0.06)
+
+
+def test_exposure_along_the_path_smooths_the_frames_own(tmp_path):
+    """``plan.exposure_along_path``: frames whose sources' median gain jumps from 0.5 to 2
+    half way along the path get that median averaged over the frames near them (``path_gain``
+    at ``reach`` photo spacings): the exposure rises over several frames, without a jump,
+    and far from the change it stays near each frame's own; the photos' gains go with it
+    for the fill. Unchanged at reach 0 or without gains; ``exposure_back`` then undoes the
+    frame's gain."""
+    from pipeline.render.engine import exposure_back
+    from pipeline.render.jobs import FrameJob
+    from pipeline.render.plan import exposure_along_path, photo_spacing
+
+    frames = [Frame(s, s, K, W, H, _at([x, 0.0, 0.0]), 1.0, 6.0)
+              for s, x in (("a", 0.0), ("b", 1.0), ("c", 2.0), ("d", 3.0))]
+    cams = Cameras(frames)
+    gains = {"a": [0.5] * 3, "b": [0.5] * 3, "c": [2.0] * 3, "d": [2.0] * 3}
+    xs = np.linspace(0.0, 3.0, 31)
+
+    def pc(x):
+        return type("PC", (), {"c2w": _at([x, 0.0, 0.0])})
+
+    jobs = [FrameJob(None, ["a", "b"] if x < 1.5 else ["c", "d"], 1.0, 6.0, pc(x)) for x in xs]
+    assert exposure_along_path(jobs, cams, gains, 0.0) == jobs
+    assert exposure_along_path(jobs, cams, None, 1.0) == jobs
+    assert photo_spacing(cams) == pytest.approx(1.0)
+    got = exposure_along_path(jobs, cams, gains, 0.3)
+    ev = np.log2([j.exposure[0] for j in got])
+    own = np.log2([0.5 if x < 1.5 else 2.0 for x in xs])
+    assert np.all(np.diff(ev) > 0) and np.abs(np.diff(ev)).max() < 0.5  # a 2-stop jump spread
+    assert np.abs(ev - own)[(xs < 0.5) | (xs > 2.5)].max() < 0.05
+    assert all(set(j.photo_gains) == set(gains) for j in got)
+    for job in got:
+        np.testing.assert_allclose(exposure_back(job, gains), 1.0 / np.asarray(job.exposure))
+    without = [FrameJob(None, ["x"], 1.0, 6.0, pc(0.0))]  # no source with a gain
+    assert exposure_along_path(without, cams, gains, 1.0) == without
+
+
+def _at(centre) -> np.ndarray:
+    c2w = np.eye(4)
+    c2w[:3, 3] = centre
+    return c2w

@@ -1318,8 +1318,9 @@ def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch
 def test_source_fade_renders_only_the_frames_near_a_change(hws):
     """``--source-fade 1`` (the default) on the plane's tour against 0: the frames with no
     change of sources in reach come out as without it, to the bit; the frames beside a change
-    differ; the path's cameras.json names the fades; the render records the option for
-    paths only."""
+    differ; the path's cameras.json names the fades; the render records the option and its
+    ``fade_blend`` for paths only (a record from before the blend reads as ``mix``), and
+    another blend changes only the faded frames."""
     from pipeline.render import RenderConfig, run
 
     out = hws.renders / "interpolate"
@@ -1335,8 +1336,52 @@ def test_source_fade_renders_only_the_frames_near_a_change(hws):
         now = cv2.imread(str(out / name))
         assert (now == img).all() == (name not in faded), name
     assert hws.stage_record("render:interpolate")["params"]["source_fade"] == 1
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["fade_blend"] == "mix"
+    hws.update_manifest("render:interpolate", {**rec, "params": {  # a record from before
+        k: v for k, v in rec["params"].items() if k != "fade_blend"}})  # the option
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    run(RenderConfig(**{**cfg.__dict__, "source_fade": 1}), hws)  # is up to date at mix
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == stamps
+    mixed = {name: cv2.imread(str(out / name)) for name in before}
+    run(RenderConfig(**{**cfg.__dict__, "source_fade": 1, "fade_blend": "morph"}), hws)
+    assert hws.stage_record("render:interpolate")["params"]["fade_blend"] == "morph"
+    for name, img in mixed.items():  # the blend touches the faded frames only
+        if name not in faded:
+            assert (cv2.imread(str(out / name)) == img).all(), name
     run(RenderConfig(path="inputs", fill="hybrid", source_fade=1), hws)
-    assert "source_fade" not in hws.stage_record("render:inputs")["params"]
+    params = hws.stage_record("render:inputs")["params"]
+    assert "source_fade" not in params and "fade_blend" not in params
+
+
+def test_path_exposure_glides_and_is_recorded(hws, monkeypatch):
+    """``--path-exposure``: with a model whose views' gains differ by two stops, each novel
+    frame's gain (cameras.json's ``exposure``) is its sources' median smoothed along the
+    path, the frames render at it (other pixels than at 0) and the render records the option
+    for paths only; at 0 no frame holds an exposure."""
+    import pipeline.render as render_pkg
+    from pipeline.render import RenderConfig, run
+
+    stems = sorted(p.stem for p in hws.images.glob("*.png"))
+    gains = {s: [2.0 ** (i / (len(stems) - 1) * 2 - 1)] * 3 for i, s in enumerate(stems)}
+    meta = render_pkg.train_meta
+    monkeypatch.setattr(render_pkg, "train_meta", lambda ckpt: {**meta(ckpt),
+                                                                "exposure_gains": gains})
+    out = hws.renders / "interpolate"
+    cfg = RenderConfig(path="interpolate", fill="hybrid", frames=8, scale=0.25, n_sources=2,
+                       workers=1, source_fade=0)
+    run(cfg, hws)
+    frames = json.loads((out / "cameras.json").read_text())["frames"]
+    assert not any("exposure" in f for f in frames)
+    before = {p.name: cv2.imread(str(p)) for p in sorted(out.glob("*.png"))}
+    run(RenderConfig(**{**cfg.__dict__, "path_exposure": 1.0}), hws)
+    assert hws.stage_record("render:interpolate")["params"]["path_exposure"] == 1.0
+    frames = json.loads((out / "cameras.json").read_text())["frames"]
+    ev = np.log2([f["exposure"][0] for f in frames])
+    assert np.ptp(ev) > 0.1 and np.all(np.abs(ev) < 1.0)
+    assert any(not (cv2.imread(str(out / n)) == img).all() for n, img in before.items())
+    run(RenderConfig(path="inputs", fill="hybrid", path_exposure=1.0), hws)
+    assert "path_exposure" not in hws.stage_record("render:inputs")["params"]
 
 
 def test_hold_sources_keeps_a_choice_while_it_stays_near(tmp_path):

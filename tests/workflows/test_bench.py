@@ -368,10 +368,12 @@ def _moving_frames(folder, shifts, gain_at=None, gain=1.0):
         cv2.imwrite(str(folder / f"{i:05d}.png"), np.clip(f, 0, 255).astype(np.uint8))
 
 
-def test_video_flicker_finds_the_frame_that_pops(tmp_path):
+@pytest.mark.parametrize("flow", ["dis", "farneback"])
+def test_video_flicker_finds_the_frame_that_pops(tmp_path, flow):
     """benchmarks/video_flicker.py: steady motion warps away (small error on most of the
     frame); a frame brightened by 30 % makes both its steps the largest, the spread
-    follows, and a cameras.json's sources mark the steps where they change."""
+    follows, and a cameras.json's sources mark the steps where they change; by either
+    flow."""
     import json
 
     from tests.conftest import load_benchmark
@@ -381,7 +383,7 @@ def test_video_flicker_finds_the_frame_that_pops(tmp_path):
     cams = {"frames": [{"sources": s} for s in
                        (["a", "b"], ["a", "b"], ["a", "b"], ["a", "c"], ["a", "c"], ["a", "c"])]}
     (tmp_path / "f" / "cameras.json").write_text(json.dumps(cams))
-    r = m.path_flicker(tmp_path / "f")
+    r = m.path_flicker(tmp_path / "f", flow)
     err = [s["error"] for s in r["steps"]]
     assert r["frames"] == 6 and len(err) == 5
     assert min(s["compared"] for s in r["steps"]) > 0.5
@@ -391,6 +393,39 @@ def test_video_flicker_finds_the_frame_that_pops(tmp_path):
     assert [s["sources_changed"] for s in r["steps"]] == [False, False, True, False, False]
     assert r["changed_steps"] == 1 and r["changed_mean"] == err[2]
     assert r["sharpness"] > 0
+
+
+def test_video_flicker_exposure_rule_sees_a_darker_video(tmp_path):
+    """``--rule exposure``: a baseline that pops (one frame 30 % brighter, the next 30 %
+    darker) against a candidate without the pops passes on the errors by both flows; the
+    same candidate made two thirds of a stop darker everywhere fails on its brightness (a
+    darker video has smaller errors); its sharpness at the baseline's exposure, reported,
+    is the undarkened one's (a gain keeps it)."""
+    import shutil
+
+    import cv2
+    import numpy as np
+
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("video_flicker")
+    _moving_frames(tmp_path / "base", [0, 2, 4, 6, 8, 10], gain_at=3, gain=1.3)
+    f = tmp_path / "base" / "00004.png"
+    cv2.imwrite(str(f), (cv2.imread(str(f)).astype(np.float32) * 0.7).astype(np.uint8))
+    _moving_frames(tmp_path / "calm", [0, 2, 4, 6, 8, 10])
+    shutil.copytree(tmp_path / "calm", tmp_path / "dark")
+    from pipeline.exposure import apply_gain
+
+    for f in (tmp_path / "dark").glob("*.png"):  # two thirds of a stop darker, in linear light
+        cv2.imwrite(str(f), apply_gain(cv2.imread(str(f)), [0.63] * 3))
+    calm = m.judge([(tmp_path / "base", tmp_path / "calm")], "exposure")
+    assert calm["relative"]["mean"] < -0.1 and calm["relative"]["mean_farneback"] < -0.1
+    assert calm["checks"]["a"] and calm["checks"]["b"] and calm["passes"]
+    dark = m.judge([(tmp_path / "base", tmp_path / "dark")], "exposure")
+    assert dark["relative"]["brightness"] < -0.15 and not dark["checks"]["c"]
+    assert dark["checks"]["a"] and not dark["passes"]
+    assert dark["relative"]["sharpness"] < -0.1  # plain sharpness falls with the exposure
+    assert abs(dark["relative"]["matched_sharpness"] - calm["relative"]["matched_sharpness"]) < 0.01
 
 
 def test_video_flicker_bad_input_is_one_line(tmp_path, capsys):
