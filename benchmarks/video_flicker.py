@@ -36,8 +36,8 @@ CONSISTENT = (0.01, 0.5)
 
 FLOWS = ("dis", "farneback")
 """The optical flows the warping error can take: OpenCV's DIS (medium preset; the default)
-or Farneback's polynomial expansion (a second, independent estimate: a render whose frames
-were joined by DIS flow, ``render --fade-blend``, is judged by both)."""
+or Farneback's polynomial expansion (a second, independent estimate, so a rule does not
+rest on one flow's errors)."""
 
 
 def flow_calc(kind: str = "dis"):

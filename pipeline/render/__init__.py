@@ -185,13 +185,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
         defaults["source_hold"] = 0
         defaults["path_exposure"] = 0.0
-        defaults["fade_blend"] = "mix"  # and before the fifty-fourth's blends
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
         params.pop("source_hold")
-        params.pop("fade_blend")
         params.pop("path_exposure")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel

@@ -72,13 +72,6 @@ class RenderConfig:
     the sharpness 3.1 % (docs/history/fill.md, "Changes of a frame's sources cross-faded").
     Frames farther apart than ``FADE_STEP`` of the photos' spacing are not faded together (a
     JSON path's cut, held-out cameras; ``plan.fade_sources``)."""
-    fade_blend: str = option("mix", choices=("mix", "align", "morph"))
-    """How ``source_fade`` joins a frame's renders with the sources of the frames beside it:
-    ``mix``, their weighted mean pixel by pixel (a double image where the renders disagree
-    on where an edge is); ``align``, the others warped onto the frame's own render by the
-    optical flow between them first; ``morph``, all warped to the geometry in between, so
-    edges move across the fade's frames instead of dissolving (``pipeline.render.
-    fade_blend``)."""
     path_exposure: float = option(0.0, ge=0)
     """Novel frames of a model fine-tuned with its views' exposures evened out (the
     default): each frame's exposure (the median of its sources', as at 0) is averaged with

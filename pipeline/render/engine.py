@@ -8,7 +8,6 @@ import numpy as np
 
 from pipeline.progress import make_progress
 from pipeline.render.config import RenderConfig
-from pipeline.render.fade_blend import blend_renders
 from pipeline.render.frames import write_frame
 from pipeline.render.full_res import prepare_full_res
 from pipeline.render.inputs import prepare_input
@@ -34,8 +33,7 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
     when ``quiet``: a worker process, ``pipeline.render.workers``).
     ``gains``: the exposure the model was trained at (``pipeline.exposure``): its colours
     are taken back to each frame's (:func:`exposure_back`). A job with ``fades`` renders
-    once per source set and writes them joined by ``cfg.fade_blend``
-    (``pipeline.render.fade_blend``)."""
+    once per source set and writes their weighted mean."""
     with make_progress(quiet=quiet) as prog:
         t_frames = prog.add_task("frames", total=len(jobs))
         t_rays = prog.add_task("rays", total=1)
@@ -43,12 +41,13 @@ def render_jobs(model, src, index: dict[str, int], jobs: list[FrameJob], params:
             image = render_image(model, src, index, job, params, cfg, ws, photos, gains,
                                  prog, t_rays)
             if job.fades:  # other frames' sources, cross-faded in (RenderConfig.source_fade)
-                others = [(render_image(model, src, index,
-                                        replace(job, sources=list(f.sources),
-                                                fill_first=f.fill_first, fades=()),
-                                        params, cfg, ws, photos, gains, prog, t_rays), f.weight)
-                          for f in job.fades]
-                image = blend_renders(image, others, cfg.fade_blend)
+                acc = image.astype(np.float64) * (1.0 - sum(f.weight for f in job.fades))
+                for f in job.fades:
+                    other = replace(job, sources=list(f.sources), fill_first=f.fill_first,
+                                    fades=())
+                    acc += f.weight * render_image(model, src, index, other, params, cfg, ws,
+                                                   photos, gains, prog, t_rays)
+                image = np.clip(np.rint(acc), 0, np.iinfo(image.dtype).max).astype(image.dtype)
             write_frame(job.out, image, job.exif)
             prog.advance(t_frames)
 

@@ -1318,9 +1318,8 @@ def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch
 def test_source_fade_renders_only_the_frames_near_a_change(hws):
     """``--source-fade 1`` (the default) on the plane's tour against 0: the frames with no
     change of sources in reach come out as without it, to the bit; the frames beside a change
-    differ; the path's cameras.json names the fades; the render records the option and its
-    ``fade_blend`` for paths only (a record from before the blend reads as ``mix``), and
-    another blend changes only the faded frames."""
+    differ; the path's cameras.json names the fades; the render records the option for
+    paths only."""
     from pipeline.render import RenderConfig, run
 
     out = hws.renders / "interpolate"
@@ -1336,22 +1335,8 @@ def test_source_fade_renders_only_the_frames_near_a_change(hws):
         now = cv2.imread(str(out / name))
         assert (now == img).all() == (name not in faded), name
     assert hws.stage_record("render:interpolate")["params"]["source_fade"] == 1
-    rec = hws.stage_record("render:interpolate")
-    assert rec["params"]["fade_blend"] == "mix"
-    hws.update_manifest("render:interpolate", {**rec, "params": {  # a record from before
-        k: v for k, v in rec["params"].items() if k != "fade_blend"}})  # the option
-    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")}
-    run(RenderConfig(**{**cfg.__dict__, "source_fade": 1}), hws)  # is up to date at mix
-    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == stamps
-    mixed = {name: cv2.imread(str(out / name)) for name in before}
-    run(RenderConfig(**{**cfg.__dict__, "source_fade": 1, "fade_blend": "morph"}), hws)
-    assert hws.stage_record("render:interpolate")["params"]["fade_blend"] == "morph"
-    for name, img in mixed.items():  # the blend touches the faded frames only
-        if name not in faded:
-            assert (cv2.imread(str(out / name)) == img).all(), name
     run(RenderConfig(path="inputs", fill="hybrid", source_fade=1), hws)
-    params = hws.stage_record("render:inputs")["params"]
-    assert "source_fade" not in params and "fade_blend" not in params
+    assert "source_fade" not in hws.stage_record("render:inputs")["params"]
 
 
 def test_path_exposure_glides_and_is_recorded(hws, monkeypatch):
