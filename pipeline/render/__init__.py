@@ -125,7 +125,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
     if key != "inputs":  # the video's exposure glides along the path (path_exposure)
-        jobs = exposure_along_path(jobs, cams, meta.get("exposure_gains"), cfg.path_exposure)
+        jobs = exposure_along_path(jobs, cams, meta.get("exposure_gains"), cfg.path_exposure,
+                                   cfg.photo_sources)
     if key == "inputs" and cfg.blend == "mask":  # before the stage clears WS/deflared
         require_masks(ws, [job.camera.stem for job in jobs])
     # novel frames warp the photos through the depth stage's maps for them where it wrote

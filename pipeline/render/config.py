@@ -74,13 +74,15 @@ class RenderConfig:
     JSON path's cut, held-out cameras; ``plan.fade_sources``)."""
     path_exposure: float = option(0.0, ge=0)
     """Novel frames of a model fine-tuned with its views' exposures evened out (the
-    default): each frame's exposure (the median of its sources', as at 0) is averaged with
-    the other frames' by a Gaussian of the distance between their cameras, of this many
-    photo spacings (the median distance between neighbouring photos), and its photo fill is
-    brought to it by the photos' own gains, so the video's exposure glides instead of
-    jumping where a frame's sources change (a phone's auto exposure can differ by 1.6 EV
-    between the photos of one walk). 0: each frame at its sources' median exposure, its fill
-    at its photos' median, as before the fifty-fourth session (``plan.exposure_along_path``)."""
+    default): each frame's exposure (the median of the photos its fill takes first, the
+    level of its photo fill at 0) is averaged with the other frames' by a Gaussian of the
+    distance between their cameras, of this many photo spacings (the median distance
+    between neighbouring photos); GN-FR's colours and the fill's photos (each by its own
+    gain) are brought to it, so the video's exposure glides instead of jumping where a
+    frame's sources change (a phone's auto exposure can differ by 1.6 EV between the photos
+    of one walk), and GN-FR's share of a frame is at its photos' exposure. 0: GN-FR at its
+    sources' median exposure, its fill at its photos' median, as before the fifty-fourth
+    session (``plan.exposure_along_path``)."""
     source_hold: int = option(0, ge=0, le=12)
     """Novel paths: a frame keeps the frame before's choice of sources (GN-FR's and the
     photos its fill takes first) while every one of them stays among the views it would

@@ -110,11 +110,12 @@ def photo_spacing(cams: Cameras) -> float:
 
 
 def exposure_along_path(jobs: list[FrameJob], cams: Cameras, gains: dict | None,
-                        reach: float) -> list[FrameJob]:
+                        reach: float, k: int) -> list[FrameJob]:
     """``jobs`` (a novel path's) with each frame's ``exposure``
-    (``RenderConfig.path_exposure``): the frames' own exposures (each the median of its
-    sources' gains, as ``engine.exposure_back`` takes it without) averaged over the path's
-    frames by a Gaussian of the distance between their cameras, of ``reach`` photo spacings
+    (``RenderConfig.path_exposure``): the frames' own exposures, each the median gain of the
+    ``k`` photos its fill takes first (the level its photo fill has without: ``stereo.
+    match_gains`` brings them to their median), averaged over the path's frames by a
+    Gaussian of the distance between their cameras, of ``reach`` photo spacings
     (``pipeline.exposure.path_gain``); the photos' gains beside it for the fill. As they are
     when ``reach`` is 0, the model has no gains, or the photos stand at one point."""
     from pipeline.exposure import path_gain
@@ -123,12 +124,19 @@ def exposure_along_path(jobs: list[FrameJob], cams: Cameras, gains: dict | None,
     if reach <= 0 or not gains or sigma <= 0:
         return jobs
     photo = {s: np.asarray(g, np.float64) for s, g in gains.items()}
-    own = [np.median([photo[s] for s in j.sources if s in photo], axis=0)
-           if any(s in photo for s in j.sources) else None for j in jobs]
+    by = cams.by_stem()
+
+    def centre_of(s: str) -> np.ndarray:
+        return np.asarray(by[s].c2w, float)[:3, 3]
+
+    centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
+    own = []
+    for job, c in zip(jobs, centres, strict=True):
+        first = job.fill_order(c, centre_of, photo.keys() & by.keys())[:k]
+        own.append(np.median([photo[s] for s in first], axis=0) if first else None)
     kept = [i for i, g in enumerate(own) if g is not None]
     if not kept:
         return jobs
-    centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
     out = []
     for job, c in zip(jobs, centres, strict=True):
         g = path_gain(c, centres[kept], [own[i] for i in kept], sigma)

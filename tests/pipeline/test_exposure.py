@@ -330,11 +330,12 @@ def test_the_fill_at_a_frames_exposure_does_not_follow_its_photos(tmp_path):
 
 
 def test_exposure_along_the_path_smooths_the_frames_own(tmp_path):
-    """``plan.exposure_along_path``: frames whose sources' median gain jumps from 0.5 to 2
-    half way along the path get that median averaged over the frames near them (``path_gain``
-    at ``reach`` photo spacings): the exposure rises over several frames, without a jump,
-    and far from the change it stays near each frame's own; the photos' gains go with it
-    for the fill. Unchanged at reach 0 or without gains; ``exposure_back`` then undoes the
+    """``plan.exposure_along_path``: frames whose fill's first photos' median gain jumps
+    from 0.5 to 2 half way along the path get that median averaged over the frames near them
+    (``path_gain`` at ``reach`` photo spacings): the exposure rises over several frames,
+    without a jump, and far from the change it stays near each frame's own; the photos'
+    gains go with it for the fill. A frame's own is its nearest photos', not all its
+    sources'. Unchanged at reach 0 or without gains; ``exposure_back`` then undoes the
     frame's gain."""
     from pipeline.render.engine import exposure_back
     from pipeline.render.jobs import FrameJob
@@ -350,10 +351,10 @@ def test_exposure_along_the_path_smooths_the_frames_own(tmp_path):
         return type("PC", (), {"c2w": _at([x, 0.0, 0.0])})
 
     jobs = [FrameJob(None, ["a", "b"] if x < 1.5 else ["c", "d"], 1.0, 6.0, pc(x)) for x in xs]
-    assert exposure_along_path(jobs, cams, gains, 0.0) == jobs
-    assert exposure_along_path(jobs, cams, None, 1.0) == jobs
+    assert exposure_along_path(jobs, cams, gains, 0.0, 2) == jobs
+    assert exposure_along_path(jobs, cams, None, 1.0, 2) == jobs
     assert photo_spacing(cams) == pytest.approx(1.0)
-    got = exposure_along_path(jobs, cams, gains, 0.3)
+    got = exposure_along_path(jobs, cams, gains, 0.3, 2)
     ev = np.log2([j.exposure[0] for j in got])
     own = np.log2([0.5 if x < 1.5 else 2.0 for x in xs])
     assert np.all(np.diff(ev) > 0) and np.abs(np.diff(ev)).max() < 0.5  # a 2-stop jump spread
@@ -361,8 +362,13 @@ def test_exposure_along_the_path_smooths_the_frames_own(tmp_path):
     assert all(set(j.photo_gains) == set(gains) for j in got)
     for job in got:
         np.testing.assert_allclose(exposure_back(job, gains), 1.0 / np.asarray(job.exposure))
+    wide = [FrameJob(None, ["a", "b", "c", "d"], 1.0, 6.0, pc(0.0))]  # a, b nearest
+    np.testing.assert_allclose(exposure_along_path(wide, cams, gains, 1.0, 2)[0].exposure,
+                               [0.5] * 3)
+    np.testing.assert_allclose(exposure_along_path(wide, cams, gains, 1.0, 4)[0].exposure,
+                               [1.25] * 3)
     without = [FrameJob(None, ["x"], 1.0, 6.0, pc(0.0))]  # no source with a gain
-    assert exposure_along_path(without, cams, gains, 1.0) == without
+    assert exposure_along_path(without, cams, gains, 1.0, 2) == without
 
 
 def _at(centre) -> np.ndarray:

@@ -477,3 +477,28 @@ def test_video_flicker_judges_a_fade_against_its_baseline(tmp_path, capsys):
     assert not res["checks"]["d"] and not res["passes"]
     assert m.main(["--judge", str(tmp_path / "base")]) == 2
     assert "pairs" in capsys.readouterr().err
+
+
+def test_loo_pairs_tabulates_differences_and_refuses_other_views(tmp_path, capsys):
+    """benchmarks/loo_pairs.py: each pair's PSNR / SSIM differences and their mean, each
+    pair weighing the same; a pair over other views, or an odd number of files, is one line,
+    exit 2."""
+    import json
+
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("loo_pairs")
+
+    def rec(name, psnr, ssim, views=("a", "b")):
+        (tmp_path / name).write_text(json.dumps({"psnr": psnr, "ssim": ssim,
+                                                 "views": list(views)}))
+        return tmp_path / name
+
+    pairs = [(rec("b1", 20.0, 0.60), rec("c1", 20.5, 0.61)),
+             (rec("b2", 16.0, 0.40, ("x",)), rec("c2", 15.9, 0.43, ("x",)))]
+    res = m.pairs_table(pairs)
+    assert res["pairs"][str(tmp_path / "c1")]["d_psnr"] == 0.5
+    assert res["mean"]["psnr"] == 0.2 and res["mean"]["ssim"] == 0.02
+    assert m.main([str(tmp_path / "b1"), str(rec("c3", 20.0, 0.6, ("z",)))]) == 2
+    assert "not the views" in capsys.readouterr().err
+    assert m.main([str(tmp_path / "b1")]) == 2
