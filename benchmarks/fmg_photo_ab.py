@@ -171,14 +171,16 @@ def render_steps(synth: Path, ws: Path, render_args: list[str],
     size (with ``novel_args`` too), and with ``keys`` the photos' own cameras as a novel
     path at half size (``keys_path_json``; with ``novel_args``); all with ``render_args``.
     The cameras are scored one by one, not watched: ``--source-fade 0`` (the photos' own
-    cameras lie within a fade's reach of each other)."""
+    cameras lie within a fade's reach of each other) and ``--path-exposure 0`` (each at its
+    sources' exposure, as these renders always were)."""
     held = synth / "eval.ws" / "eval" / "heldout_cameras.json"
     steps = [["render", str(ws), "--path", "inputs", *render_args],
              ["render", str(ws), "--path", str(held), "--scale", "0.5", "--source-fade", "0",
-              *novel_args, *render_args]]
+              "--path-exposure", "0", *novel_args, *render_args]]
     if keys:
         steps.append(["render", str(ws), "--path", str(keys_path_json(synth, ws)), "--scale",
-                      "0.5", "--source-fade", "0", *novel_args, *render_args])
+                      "0.5", "--source-fade", "0", "--path-exposure", "0", *novel_args,
+                      *render_args])
     return steps
 
 

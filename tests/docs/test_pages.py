@@ -1687,3 +1687,100 @@ def test_source_fade_on_kermit_is_its_file():
     assert f"({r['renders_per_frame'][1]:.3f} images a frame)" in hist
     assert (f"kermit the largest jump {100 * rel['largest']:.1f} % higher, the mean "
             f"{-100 * rel['mean']:.1f} % lower") in readme
+
+
+def test_fade_blends_exploration_is_its_files():
+    """docs/history/fill.md, "The cross-fade's renders aligned before they are mixed": each
+    build's row (steps' mean, largest step, sharpness by DIS, relative to the plain mean) is
+    fade_blend_parts_BUILD_s54.json's, and neither blend moves the mean by 1 %."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+
+    def pct(x: float) -> str:
+        return f"{100 * x:+.2f} %".replace("+0.00", "0.00").replace("-0.00", "0.00")
+
+    for build in ("sceaux_p4", "et_p5", "lund_k4"):
+        rec = json.loads((RESULTS / f"fade_blend_parts_{build}_s54.json").read_text())["blends"]
+        cells = [" / ".join(pct(rec[b]["dis"][f"{k}_rel"]) for k in ("mean", "max", "sharpness"))
+                 for b in ("align", "morph", "nofade")]
+        assert f"| {build} | {' | '.join(cells)} |" in hist, build
+        for b in ("align", "morph"):
+            assert all(abs(rec[b][fl]["mean_rel"]) < 0.01 for fl in ("dis", "farneback"))
+
+
+def _loo_pairs(name: str) -> dict:
+    """{build's short name: (PSNR before, after, SSIM before, after)} of a loo_pairs file."""
+    rec = json.loads((RESULTS / name).read_text())
+    return rec, {Path(c).name.split("_s50_")[0]: (*r["psnr"], *r["ssim"])
+                 for c, r in rec["pairs"].items()}
+
+
+def test_path_exposure_first_rule_is_its_file():
+    """docs/history/fill.md's left-out table of the path exposure's first rule and its mean
+    are exposure_loo_pe1_s54.json's; it fails (d), every build's PSNR down."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    rec, rows = _loo_pairs("exposure_loo_pe1_s54.json")
+    for short, (p0, p1, s0, s1) in rows.items():
+        assert f"| {short} | {p0:.3f} -> {p1:.3f} | {s0:.4f} -> {s1:.4f} |" in hist, short
+        assert p1 < p0 and s1 > s0
+    m = rec["mean"]
+    assert m["psnr"] < -0.05
+    assert (f"PSNR {m['psnr']:.3f} dB on the mean (every build down), SSIM "
+            f"+{m['ssim']:.4f} (every build up)") in hist
+
+
+def test_path_exposure_rule_is_its_files():
+    """docs/history/fill.md's tables of the path exposure's second rule (the videos and the
+    left-out views), its means and the numbers the README, docs/options.md and the option's
+    docstring quote are exposure_judge_pe1n_s54.json's and exposure_loo_pe1n_s54.json's;
+    the verdict follows the rule, and the option's default is 1."""
+    from pipeline.render.config import RenderConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+    judge = json.loads((RESULTS / "exposure_judge_pe1n_s54.json").read_text())
+    for cand, r in judge["builds"].items():
+        short = Path(cand).name.split("_s50_")[0]
+        cells = [f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in ("largest", "mean", "mean_farneback")]
+        cells += [f"{r['brightness'][0]:.3f} -> {r['brightness'][1]:.3f}",
+                  f"{r['matched_sharpness'][0]:.4f} -> {r['matched_sharpness'][1]:.4f}"]
+        assert f"| {short} | {' | '.join(cells)} |" in hist, short
+    rel = judge["relative"]
+    assert judge["passes"] and judge["rule"]["mean"] == -0.02
+    assert (f"(a) the steps' mean error {100 * rel['mean']:.2f} % by DIS and "
+            f"{100 * rel['mean_farneback']:.2f} % by Farneback; (b) the largest step "
+            f"{100 * rel['largest']:.2f} % (lower on {judge['largest_down_on']} builds); (c) the "
+            f"brightness {100 * rel['brightness']:.2f} %") in hist
+    loo, rows = _loo_pairs("exposure_loo_pe1n_s54.json")
+    for short, (p0, p1, s0, s1) in rows.items():
+        assert f"| {short} | {p0:.3f} -> {p1:.3f} | {s0:.4f} -> {s1:.4f} |" in hist, short
+        assert p1 >= p0 and s1 >= s0
+    m = loo["mean"]
+    assert m["psnr"] >= -0.05 and m["ssim"] >= -0.002  # (d)
+    assert f"(d) PSNR +{m['psnr']:.3f} dB, SSIM +{m['ssim']:.4f} on the mean, no build down" in hist
+    for page in (readme, options, config):
+        assert f"{100 * rel['mean']:.1f} %" in page and f"{100 * rel['largest']:.1f} %" in page
+        assert f"+{m['psnr']:.2f} dB" in page
+    assert (f"{100 * rel['mean_farneback']:.1f} % by a second flow" in options
+            and f"+{m['ssim']:.4f} SSIM" in options)
+    assert RenderConfig().path_exposure == 1.0
+
+
+def test_path_exposure_pilot_and_spread_are_their_files():
+    """The exposure spread of the six builds and the pilot on a seventh that
+    docs/history/fill.md quotes are exposure_spread_dev_s54.json's and
+    exposure_pilot_lund_s23_s54.json's."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    builds = json.loads((RESULTS / "exposure_spread_dev_s54.json").read_text())["builds"]
+    ev = [b["spread_ev"] for b in builds.values()]
+    assert f"differ in exposure by {min(ev):.2f} to {max(ev):.2f} EV" in hist
+    lo = min(b["gain_min"] for b in builds.values())
+    hi = max(b["gain_max"] for b in builds.values())
+    assert f"the model's gains from {lo:.2f} to {hi:.2f}" in hist
+    rel = json.loads((RESULTS / "exposure_pilot_lund_s23_s54.json").read_text())["relative"]
+    assert (f"the steps' mean error {100 * rel['mean']:.1f} % by DIS, "
+            f"{100 * rel['mean_farneback']:.1f} % by Farneback, the largest step "
+            f"{100 * rel['largest']:.1f} %, the brightness {100 * rel['brightness']:.1f} %") in hist
+    assert (f"mean Sobel gradient fell {-100 * rel['sharpness']:.1f} % "
+            f"({-100 * rel['matched_sharpness']:.1f} % at the baseline's exposure)") in hist

@@ -241,7 +241,8 @@ def run_clean(cfg: LlffEvalConfig, root: Path, posed: Workspace, train: list[str
         if not fill_path.exists() or read_json(fill_path) != read_json(path_json):
             atomic_write_json(fill_path, read_json(path_json))
         render.run(RenderConfig(path=str(fill_path), scale=1.0, fill=fill, device=cfg.device,
-                                samples=cfg.samples, source_fade=0),  # cameras, no video
+                                samples=cfg.samples, source_fade=0,  # cameras, no video
+                                path_exposure=0.0),
                    variant_ws, force=cfg.force)
         renders = variant_ws.render_dir(str(fill_path))
         methods[f"gnfr_{fill}"] = {

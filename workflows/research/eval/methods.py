@@ -41,9 +41,10 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
                variant_ws, force=cfg.force)
     out = {"inputs": variant_ws.deflared, "workspace": variant_ws.root}
     if path_json is not None:
-        # held-out cameras are scored one by one: no video, nothing to cross-fade
+        # held-out cameras are scored one by one: no video, nothing to cross-fade, and each
+        # at its sources' exposure as the eval always rendered them (path_exposure 0)
         render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, source_fade=0,
-                                **common),
+                                path_exposure=0.0, **common),
                    variant_ws, force=cfg.force)
         out["heldout"] = variant_ws.render_dir(str(path_json))
     record = variant_ws.stage_record("finetune")
