@@ -1784,3 +1784,34 @@ def test_path_exposure_pilot_and_spread_are_their_files():
             f"{100 * rel['largest']:.1f} %, the brightness {100 * rel['brightness']:.1f} %") in hist
     assert (f"mean Sobel gradient fell {-100 * rel['sharpness']:.1f} % "
             f"({-100 * rel['matched_sharpness']:.1f} % at the baseline's exposure)") in hist
+
+
+def test_path_exposure_on_the_test_scenes_is_its_files():
+    """The test scenes' videos and left-out views with and without the path exposure
+    (docs/history/fill.md, the README) and their exposure spread are exposure_kermit_s54,
+    exposure_sample_s54, exposure_loo_test_s54 and exposure_spread_test_s54's."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    for name, label in (("kermit", "kermit"), ("sample", "the sample")):
+        rec = json.loads((RESULTS / f"exposure_{name}_s54.json").read_text())
+        (r,) = rec["builds"].values()
+        rel = rec["relative"]
+        assert (f"{label} the largest step {r['largest'][0]:.4f} -> {r['largest'][1]:.4f} "
+                f"({100 * rel['largest']:+.1f} %), the steps' mean {r['mean'][0]:.4f} -> "
+                f"{r['mean'][1]:.4f} ({100 * rel['mean']:+.1f} %), brightness "
+                f"{100 * rel['brightness']:+.1f} %") in hist, name
+        assert abs(rel["mean"]) < 0.01
+    k = json.loads((RESULTS / "exposure_kermit_s54.json").read_text())["relative"]
+    s = json.loads((RESULTS / "exposure_sample_s54.json").read_text())["relative"]
+    assert (f"kermit's largest jump {100 * k['largest']:.1f} %, the sample's "
+            f"{100 * s['largest']:.1f} %") in readme
+    loo = json.loads((RESULTS / "exposure_loo_test_s54.json").read_text())["pairs"]
+    (lk, lc) = loo.values()
+    assert (f"kermit PSNR {lk['psnr'][0]:.3f} -> {lk['psnr'][1]:.3f}, SSIM {lk['ssim'][0]:.4f} "
+            f"-> {lk['ssim'][1]:.4f}; cyprus PSNR {lc['psnr'][0]:.3f} -> {lc['psnr'][1]:.3f}, "
+            f"SSIM {lc['ssim'][0]:.4f} -> {lc['ssim'][1]:.4f}") in hist
+    spread = json.loads((RESULTS / "exposure_spread_test_s54.json").read_text())["builds"]
+    ev = f"{spread['kermit']['spread_ev']:.2f} and {spread['sample']['spread_ev']:.2f} EV"
+    assert ev in readme
+    assert (f"span {spread['kermit']['spread_ev']:.2f} EV on kermit and "
+            f"{spread['sample']['spread_ev']:.2f} EV on the sample") in hist
