@@ -1815,3 +1815,22 @@ def test_path_exposure_on_the_test_scenes_is_its_files():
     assert ev in readme
     assert (f"span {spread['kermit']['spread_ev']:.2f} EV on kermit and "
             f"{spread['sample']['spread_ev']:.2f} EV on the sample") in hist
+
+
+def test_the_path_exposures_cost_is_its_file():
+    """docs/performance.md, "The exposure along the path's cost", is
+    exposure_sample_times_s54.txt's: the four renders in turn and the conversion per
+    photo, and the conversion's bound over the sample's images."""
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    rows = _text_rows("exposure_sample_times_s54.txt")
+    secs = {r[0]: float(r[-2]) for r in rows if r[0] != "between"}
+    ms = float(rows[-1][-2])
+    assert [r[1] for r in rows[:4]] == ["path_exposure=0", "path_exposure=1",
+                                        "path_exposure=1", "path_exposure=0"]
+    assert f"{ms:.2f} ms at the sample's size" in perf
+    images = 54  # 48 frames, 1.125 images a frame (fade_sample_s53.json)
+    assert f"at most about {6 * images * ms / 1000:.1f} s over the sample's {images} images" in perf
+    assert (f"{secs['p0a']:.2f} and {secs['p0b']:.2f} s without, {secs['p1a']:.2f} and "
+            f"{secs['p1b']:.2f} s with it") in perf
+    spread = max(secs.values()) - min(secs.values())
+    assert f"the spread between runs ({spread:.0f} s)" in perf
