@@ -21,7 +21,8 @@ by default SYNTH/eval.ws/eval/heldout_cameras.json) with:
 and scored against the synth's clean held-out views as `eval` scores them. Every render
 passes ``--sources-equal-below`` (``--equal-below``, default 0: how the twenty-third and
 twenty-fourth sessions' runs rendered), so ``own`` reproduces those runs whatever the
-render's default.
+render's default, and ``--path-exposure 0`` (each camera at its sources' exposure, as
+`eval` renders its held-out cameras).
 """
 
 from __future__ import annotations
@@ -106,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
                              work / f"{model}_{variant}.ws")
                 line = 1.0 if variant == "nearest" else a.equal_below  # 1: every view clean
                 subprocess.run(cli + ["render", str(ws), "--path", str(cams), "--scale", "0.5",
-                                      "--sources-equal-below", str(line)],
+                                      "--sources-equal-below", str(line),
+                                      "--path-exposure", "0"],
                                check=True, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
                 held = score_views(scene, ws / "renders" / "heldout_cameras", scene.heldout,
                                    with_region=False)

@@ -1340,10 +1340,10 @@ def test_source_fade_renders_only_the_frames_near_a_change(hws):
 
 
 def test_path_exposure_glides_and_is_recorded(hws, monkeypatch):
-    """``--path-exposure``: with a model whose views' gains differ by two stops, each novel
-    frame's gain (cameras.json's ``exposure``) is its sources' median smoothed along the
-    path, the frames render at it (other pixels than at 0) and the render records the option
-    for paths only; at 0 no frame holds an exposure."""
+    """``--path-exposure`` (1 by default): with a model whose views' gains differ by two
+    stops, each novel frame's gain (cameras.json's ``exposure``) is its nearest photos'
+    median smoothed along the path, the frames render at it (other pixels than at 0) and the
+    render records the option for paths only; at 0 no frame holds an exposure."""
     import pipeline.render as render_pkg
     from pipeline.render import RenderConfig, run
 
@@ -1354,12 +1354,12 @@ def test_path_exposure_glides_and_is_recorded(hws, monkeypatch):
                                                                 "exposure_gains": gains})
     out = hws.renders / "interpolate"
     cfg = RenderConfig(path="interpolate", fill="hybrid", frames=8, scale=0.25, n_sources=2,
-                       workers=1, source_fade=0)
+                       workers=1, source_fade=0, path_exposure=0.0)
     run(cfg, hws)
     frames = json.loads((out / "cameras.json").read_text())["frames"]
     assert not any("exposure" in f for f in frames)
     before = {p.name: cv2.imread(str(p)) for p in sorted(out.glob("*.png"))}
-    run(RenderConfig(**{**cfg.__dict__, "path_exposure": 1.0}), hws)
+    run(RenderConfig(**{**cfg.__dict__, "path_exposure": RenderConfig().path_exposure}), hws)
     assert hws.stage_record("render:interpolate")["params"]["path_exposure"] == 1.0
     frames = json.loads((out / "cameras.json").read_text())["frames"]
     ev = np.log2([f["exposure"][0] for f in frames])
