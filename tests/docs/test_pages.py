@@ -1834,3 +1834,17 @@ def test_the_path_exposures_cost_is_its_file():
             f"{secs['p1b']:.2f} s with it") in perf
     spread = max(secs.values()) - min(secs.values())
     assert f"the spread between runs ({spread:.0f} s)" in perf
+
+
+def test_source_fade_on_a_close_object_is_its_file():
+    """docs/history/fill.md, "The cross-fade on a close object": tumbler's video with and
+    without the fade is fade_tumbler_s54.json's, its largest step untouched."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    rec = json.loads((RESULTS / "fade_tumbler_s54.json").read_text())
+    (r,) = rec["builds"].values()
+    rel = rec["relative"]
+    assert r["unfaded_identical"] == r["unfaded_frames"] and r["largest"][0] == r["largest"][1]
+    assert (f"{48 - r['unfaded_frames']} of 48 frames faded ({r['renders_per_frame'][1]:.3f} "
+            f"images a frame), the steps' mean {r['mean'][0]:.4f} -> {r['mean'][1]:.4f} "
+            f"({100 * rel['mean']:.1f} %), sharpness {100 * rel['sharpness']:.1f} %") in hist
+    assert f"the largest step {r['largest'][0]:.4f} -> {r['largest'][1]:.4f}: untouched" in hist
