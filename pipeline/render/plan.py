@@ -124,15 +124,10 @@ def exposure_along_path(jobs: list[FrameJob], cams: Cameras, gains: dict | None,
     if reach <= 0 or not gains or sigma <= 0:
         return jobs
     photo = {s: np.asarray(g, np.float64) for s, g in gains.items()}
-    by = cams.by_stem()
-
-    def centre_of(s: str) -> np.ndarray:
-        return np.asarray(by[s].c2w, float)[:3, 3]
-
     centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
     own = []
-    for job, c in zip(jobs, centres, strict=True):
-        first = job.fill_order(c, centre_of, photo.keys() & by.keys())[:k]
+    for job in jobs:
+        first = [s for s in fill_first(job, cams, k) if s in photo]
         own.append(np.median([photo[s] for s in first], axis=0) if first else None)
     kept = [i for i, g in enumerate(own) if g is not None]
     if not kept:
