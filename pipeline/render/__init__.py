@@ -185,11 +185,13 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["pace"] = "travel"  # records before the fifty-second session's pace
         defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
         defaults["source_hold"] = 0
+        defaults["fade_cut"] = 0.0  # and before the fifty-fifth's cut by the path's steps
         defaults["path_exposure"] = 0.0
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
+        params.pop("fade_cut")
         params.pop("source_hold")
         params.pop("path_exposure")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no

@@ -72,6 +72,13 @@ class RenderConfig:
     the sharpness 3.1 % (docs/history/fill.md, "Changes of a frame's sources cross-faded").
     Frames farther apart than ``FADE_STEP`` of the photos' spacing are not faded together (a
     JSON path's cut, held-out cameras; ``plan.fade_sources``)."""
+    fade_cut: float = option(0.0, ge=0)
+    """Novel paths: a step between two frames is a cut, not faded across
+    (``source_fade``), only where it is longer than ``FADE_STEP`` photo spacings and also
+    longer than this many times the path's median step (a step much longer than the path's
+    usual one). 0: the photos' spacing alone decides, as before the fifty-fifth session; on a
+    densely photographed object a short path steps more than ``FADE_STEP`` spacings at every
+    frame, and its changes of sources then went unfaded (``plan.fade_sources``)."""
     path_exposure: float = option(1.0, ge=0)
     """Novel frames of a model fine-tuned with its views' exposures evened out (the
     default): each frame's exposure (the median of the photos its fill takes first, the

@@ -41,7 +41,7 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
     if cfg.source_hold:
         jobs = hold_sources(jobs, cams, views, cfg, cfg.source_hold)
     if cfg.source_fade:
-        jobs = fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources)
+        jobs = fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources, cfg.fade_cut)
     return key, out_dir, jobs
 
 
@@ -140,10 +140,12 @@ def exposure_along_path(jobs: list[FrameJob], cams: Cameras, gains: dict | None,
     return out
 
 
-def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int) -> list[FrameJob]:
+def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int,
+                 cut: float = 0.0) -> list[FrameJob]:
     """``jobs`` with each frame's ``fades`` (``RenderConfig.source_fade``): a box of
-    ``radius`` frames either side (shorter at the path's ends and at steps over
-    ``FADE_STEP`` of the photos' spacing), in which each frame's choice (its sources and
+    ``radius`` frames either side (shorter at the path's ends and at cuts: steps over
+    ``FADE_STEP`` of the photos' spacing and, with ``cut`` (``RenderConfig.fade_cut``) over
+    0, over ``cut`` times the path's median step too), in which each frame's choice (its sources and
     the ``k`` its fill takes first) counts once; the frame's own choice keeps its count's
     share, every other choice in the box is rendered at the frame's camera with the share of
     its count. A frame whose box holds only its own choice renders as before."""
@@ -152,7 +154,11 @@ def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int) -> li
     firsts = [fill_first(j, cams, k) for j in jobs]
     keys = [(frozenset(j.sources), frozenset(f)) for j, f in zip(jobs, firsts, strict=True)]
     centres = np.stack([np.asarray(j.camera.c2w, float)[:3, 3] for j in jobs])
-    joined = np.linalg.norm(np.diff(centres, axis=0), axis=1) < FADE_STEP * photo_spacing(cams)
+    steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
+    limit = FADE_STEP * photo_spacing(cams)
+    if cut > 0:
+        limit = max(limit, cut * float(np.median(steps)))
+    joined = steps < limit
     out = []
     for j, job in enumerate(jobs):
         lo = j

@@ -1290,6 +1290,29 @@ def test_fade_sources_spreads_a_change_of_sources_over_the_frames_around_it(tmp_
     assert fade_sources(jobs, cams, 0, k=1) == jobs
 
 
+def test_fade_cut_follows_the_paths_own_steps(tmp_path):
+    """``fade_sources(..., cut=C)`` (``RenderConfig.fade_cut``): a path that steps two photo
+    spacings at every frame (a densely photographed object, a short path) is faded across
+    its changes of sources when C times its median step is longer than the step; a step
+    much longer than the path's usual one stays a cut; with C=0 the photos' spacing alone
+    decides (every step over ``FADE_STEP`` spacings is a cut)."""
+    from pipeline.render.plan import FADE_STEP, fade_sources
+
+    cams = _line_cameras([float(x) for x in range(20)])
+    assert 2.0 > FADE_STEP
+    srcs = [["p0", "p1"], ["p1", "p2"], ["p2", "p3"], ["p3", "p4"]]
+    xs = [0.0, 2.0, 4.0, 6.0]
+    jobs = [_frame_job(tmp_path, f"{i:05d}", x, s) for i, (x, s) in enumerate(zip(xs, srcs))]
+    assert not any(j.fades for j in fade_sources(jobs, cams, 1, k=2))
+    assert not any(j.fades for j in fade_sources(jobs, cams, 1, k=2, cut=0.9))
+    faded = fade_sources(jobs, cams, 1, k=2, cut=3.0)
+    assert [len(j.fades) for j in faded] == [1, 2, 2, 1]
+    # frame 3 jumps 12 spacings (six median steps): a cut at C=3, joined at C=7
+    far = [*jobs[:3], _frame_job(tmp_path, "00003", 16.0, ["p15", "p16"])]
+    assert [len(j.fades) for j in fade_sources(far, cams, 1, k=2, cut=3.0)] == [1, 2, 1, 0]
+    assert [len(j.fades) for j in fade_sources(far, cams, 1, k=2, cut=7.0)] == [1, 2, 2, 1]
+
+
 def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch):
     """``engine.render_jobs``: a job with fades renders its camera once per source set (the
     fade's sources and fill's first photos passed on) and writes the weighted mean."""
