@@ -197,7 +197,14 @@ over the builds; the frames' sharpness at the baseline's exposure
 views' fidelity, is ``benchmarks/novel_loo.py``'s."""
 
 
-RULES = {"fade": RULE, "hold": HOLD_RULE, "exposure": EXPOSURE_RULE}
+CUT_RULE = {"mean": -0.02, "mean_paths": 3, "largest": 0.02, "sharpness": -0.02,
+            "renders_ratio": 1.7}
+"""The fifty-fifth session's rule for ``render --fade-cut`` against the photos' spacing
+alone (docs/history/fill.md, "The cross-fade's cut by the path's own steps"): the steps'
+mean error down 2 % on the mean and down on three paths of four, the largest step up at
+most 2 %, the sharpness down at most 2 %, at most 1.7 times the baseline's images a frame."""
+
+RULES = {"fade": RULE, "hold": HOLD_RULE, "exposure": EXPOSURE_RULE, "cut": CUT_RULE}
 
 
 def renders_per_frame(folder: Path) -> float:
@@ -252,6 +259,12 @@ def judge(pairs: list[tuple[Path, Path]], rule: str = "fade", flow: str = "dis")
         checks = {"a": max(rel["mean"], rel["mean_farneback"]) <= EXPOSURE_RULE["mean"],
                   "b": rel["largest"] <= EXPOSURE_RULE["largest"],
                   "c": rel["brightness"] >= EXPOSURE_RULE["brightness"]}
+    elif rule == "cut":
+        fell = sum(r["mean"][1] < r["mean"][0] for r in rows.values())
+        checks = {"a": rel["mean"] <= CUT_RULE["mean"] and fell >= CUT_RULE["mean_paths"],
+                  "b": rel["largest"] <= CUT_RULE["largest"],
+                  "c": rel["sharpness"] >= CUT_RULE["sharpness"],
+                  "d": per_frame <= CUT_RULE["renders_ratio"] * before}
     elif rule == "hold":
         checks = {"a": rel["mean"] <= HOLD_RULE["mean"],
                   "b": rel["largest"] <= HOLD_RULE["largest"],
@@ -275,8 +288,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--judge", action="store_true",
                     help="the paths are pairs BASELINE CANDIDATE: score RULE on them")
     ap.add_argument("--rule", choices=tuple(RULES), default="fade",
-                    help="with --judge: RULE (fade), HOLD_RULE (hold) or EXPOSURE_RULE "
-                         "(exposure)")
+                    help="with --judge: RULE (fade), HOLD_RULE (hold), EXPOSURE_RULE "
+                         "(exposure) or CUT_RULE (cut)")
     ap.add_argument("--flow", choices=FLOWS, default="dis",
                     help="the optical flow that warps each frame onto the one before")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")

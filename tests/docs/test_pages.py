@@ -1834,6 +1834,59 @@ def test_the_path_exposures_cost_is_its_file():
     assert f"the spread between runs ({spread:.0f} s)" in perf
 
 
+def test_fade_cut_rule_is_its_files():
+    """docs/history/fill.md, "The cross-fade's cut by the path's own steps": the table and
+    the rule's four parts are fade_cut_judge_s55.json's, the frames planned alike identical
+    (fade_cut_plans_s55.json), and the option stays off by default because (c) failed."""
+    from pipeline.render import RenderConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    rec = json.loads((RESULTS / "fade_cut_judge_s55.json").read_text())
+    plans = json.loads((RESULTS / "fade_cut_plans_s55.json").read_text())["paths"]
+    assert rec["rule_name"] == "cut" and rec["identical"]
+    rendered = [plans[k] for k in ("tumbler12", "maryrose12", "tumbler24", "maryrose24")]
+    assert all(p["alike_but_different"] == [] for p in rendered)
+    names = {"tumbler12": "tumbler, 48 frames", "maryrose12": "maryrose, 48 frames",
+             "tumbler24": "tumbler, 96 frames", "maryrose24": "maryrose, 96 frames"}
+    for cand, r in rec["builds"].items():
+        key = Path(cand).name.removesuffix("_cut3")
+        lg, mn, sh, ipf = r["largest"], r["mean"], r["sharpness"], r["renders_per_frame"]
+        sf = ".5f" if sh[0] < 0.01 else ".4f"
+        assert (f"| {names[key]} | {lg[0]:.4f} -> {lg[1]:.4f} | {mn[0]:.4f} -> {mn[1]:.4f} | "
+                f"{sh[0]:{sf}} -> {sh[1]:{sf}} | {ipf[0]:.2f} -> {ipf[1]:.2f} |") in hist
+        assert (round(ipf[0], 4), round(ipf[1], 4)) == (plans[key]["images_per_frame_cut0"],
+                                                         plans[key]["images_per_frame_cut3"])
+    rel, checks = rec["relative"], rec["checks"]
+    assert checks == {"a": True, "b": True, "c": False, "d": True} and not rec["passes"]
+    assert (f"(a) the steps' mean error {100 * rel['mean']:.2f} %, down on all four paths"
+            in hist and all(r["mean"][1] < r["mean"][0] for r in rec["builds"].values()))
+    assert f"(b) the largest step {100 * rel['largest']:.1f} %" in hist
+    assert f"(c) the sharpness {100 * rel['sharpness']:.2f} %" in hist
+    ratio = rec["renders_per_frame"] / rec["baseline_renders_per_frame"]
+    assert (f"(d) {rec['renders_per_frame']:.2f} images a frame against "
+            f"{rec['baseline_renders_per_frame']:.2f}, {ratio:.2f} times") in hist
+    assert RenderConfig().fade_cut == 0.0
+    times = dict(line.split(" ", 1) for line in
+                 (RESULTS / "fade_cut_times_s55.txt").read_text().splitlines()[1:])
+    for key, label in names.items():
+        t0, t3 = (round(float(times[f"{key}_cut{c}"].removesuffix(" s"))) for c in (0, 3))
+        assert f"| {t0} s -> {t3} s |" in hist, label
+    t12, t24 = plans["tumbler12"], plans["tumbler24"]
+    assert (f"steps {t12['step_spacings_median']:.2f} spacings at its median, "
+            f"{t12['step_spacings_max']:.2f} at most") in hist
+    assert (f"({t12['faded_frames_cut0']} of 48 frames faded; {t12['faded_frames_cut3']} when "
+            "none of its steps is a cut)") in hist
+    assert (f"steps {t24['step_spacings_median']:.2f} at its median and "
+            f"{t24['step_spacings_max']:.2f} at most") in hist
+    assert (f"tumbler {t24['faded_frames_cut0']} of 96 frames, maryrose "
+            f"{plans['maryrose24']['faded_frames_cut0']})") in hist
+    builds = [p for k, p in plans.items() if "_s50_" in k]
+    assert len(builds) == 6 and all(p["planned_alike"] == p["frames"] for p in builds)
+    meds = sorted(p["step_spacings_median"] for p in builds)
+    assert f"{meds[0]:.2f} to {meds[-1]:.2f} spacings at their median" in hist
+    assert max(p["step_spacings_max"] for p in builds) < 1.0
+
+
 def test_source_fade_on_a_close_object_is_its_file():
     """docs/history/fill.md, "The cross-fade on a close object": tumbler's video with and
     without the fade is fade_tumbler_s54.json's, its largest step untouched."""

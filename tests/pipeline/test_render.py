@@ -1299,10 +1299,11 @@ def test_fade_cut_follows_the_paths_own_steps(tmp_path):
     from pipeline.render.plan import FADE_STEP, fade_sources
 
     cams = _line_cameras([float(x) for x in range(20)])
-    assert 2.0 > FADE_STEP
+    assert FADE_STEP < 2.0
     srcs = [["p0", "p1"], ["p1", "p2"], ["p2", "p3"], ["p3", "p4"]]
     xs = [0.0, 2.0, 4.0, 6.0]
-    jobs = [_frame_job(tmp_path, f"{i:05d}", x, s) for i, (x, s) in enumerate(zip(xs, srcs))]
+    jobs = [_frame_job(tmp_path, f"{i:05d}", x, s)
+            for i, (x, s) in enumerate(zip(xs, srcs, strict=True))]
     assert not any(j.fades for j in fade_sources(jobs, cams, 1, k=2))
     assert not any(j.fades for j in fade_sources(jobs, cams, 1, k=2, cut=0.9))
     faded = fade_sources(jobs, cams, 1, k=2, cut=3.0)

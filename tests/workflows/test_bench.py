@@ -477,6 +477,12 @@ def test_video_flicker_judges_a_fade_against_its_baseline(tmp_path, capsys):
     assert not res["checks"]["d"] and not res["passes"]
     assert m.main(["--judge", str(tmp_path / "base")]) == 2
     assert "pairs" in capsys.readouterr().err
+    # the cut rule (fade_cut) weighs images against the baseline's own: with 1.67 a frame
+    # against 1.0 it passes (d), its mean error fell on one path of the three asked
+    cut = m.judge([(tmp_path / "base", cand)], "cut")
+    assert m.CUT_RULE["renders_ratio"] == 1.7 and cut["checks"]["d"]
+    fell = row["mean"][1] < row["mean"][0]
+    assert not cut["checks"]["a"] and fell == (cut["relative"]["mean"] < 0)
 
 
 def test_loo_pairs_tabulates_differences_and_refuses_other_views(tmp_path, capsys):
