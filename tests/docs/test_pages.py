@@ -1887,6 +1887,43 @@ def test_fade_cut_rule_is_its_files():
     assert max(p["step_spacings_max"] for p in builds) < 1.0
 
 
+def test_fade_on_dense_objects_is_its_files():
+    """docs/history/fill.md, "What the cross-fade costs on a densely photographed object":
+    the table is dense_fade_{tumbler24,maryrose24}_s55.json's and the two times files', and
+    the README's troubleshooting row quotes maryrose's numbers."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    times = {}
+    for f in ("dense_fade_times_s55.txt", "fade_cut_times_s55.txt"):
+        lines = (RESULTS / f).read_text().splitlines()[1:]
+        times.update(line.removesuffix(" s").split(" ") for line in lines)
+    for scene in ("tumbler", "maryrose"):
+        rec = json.loads((RESULTS / f"dense_fade_{scene}24_s55.json").read_text())
+        (r,) = rec["builds"].values()
+        assert r["unfaded_identical"] == r["unfaded_frames"] and Path(r["baseline"]).name == (
+            f"{scene}24_fade0")
+        lg, mn, sh, ipf = r["largest"], r["mean"], r["sharpness"], r["renders_per_frame"]
+        sf = ".5f" if sh[0] < 0.01 else ".4f"
+        t0, t1 = (round(float(times[f"{scene}24_{a}"])) for a in ("fade0", "cut0"))
+        assert (f"| {scene}, 96 frames | {lg[0]:.4f} -> {lg[1]:.4f} | {mn[0]:.4f} -> "
+                f"{mn[1]:.4f} | {sh[0]:{sf}} -> {sh[1]:{sf}} | {ipf[0]:.2f} -> {ipf[1]:.2f} | "
+                f"{t0} s -> {t1} s |") in hist
+        rel = rec["relative"]
+        if scene == "tumbler":
+            assert lg[0] == lg[1]
+            assert (f"({100 * rel['mean']:.1f} % on the steps' mean, {100 * rel['sharpness']:.1f}"
+                    " % sharpness)") in hist
+        else:
+            ratio = float(times["maryrose24_cut0"]) / float(times["maryrose24_fade0"])
+            phrase = (f"falls {-100 * rel['largest']:.0f} % but its frames lose "
+                      f"{-100 * rel['sharpness']:.1f} % of their sharpness and take {ratio:.1f} "
+                      "times as long")
+            assert phrase in hist
+            assert (f"{ipf[1]:.1f} images a frame, the frames {-100 * rel['sharpness']:.1f} % "
+                    f"less sharp for a largest jump {-100 * rel['largest']:.0f} % lower; "
+                    f"`--set render.source_fade=0` renders it {ratio:.1f} times faster") in readme
+
+
 def test_source_fade_on_a_close_object_is_its_file():
     """docs/history/fill.md, "The cross-fade on a close object": tumbler's video with and
     without the fade is fade_tumbler_s54.json's, its largest step untouched."""
