@@ -186,12 +186,14 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
         defaults["source_hold"] = 0
         defaults["fade_cut"] = 0.0  # and before the fifty-fifth's cut by the path's steps
+        defaults["fade_limit"] = 0.0  # and its step-back on a dense path
         defaults["path_exposure"] = 0.0
     if key != "interpolate":  # only the interpolate path is paced
         params.pop("pace")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
         params.pop("fade_cut")
+        params.pop("fade_limit")
         params.pop("source_hold")
         params.pop("path_exposure")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no

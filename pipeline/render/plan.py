@@ -41,8 +41,25 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
     if cfg.source_hold:
         jobs = hold_sources(jobs, cams, views, cfg, cfg.source_hold)
     if cfg.source_fade:
-        jobs = fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources, cfg.fade_cut)
+        jobs = fade_or_not(fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources,
+                                        cfg.fade_cut), cfg.fade_limit)
     return key, out_dir, jobs
+
+
+def fade_or_not(jobs: list[FrameJob], limit: float) -> list[FrameJob]:
+    """``jobs`` as faded (``fade_sources``), or with no fades where they would render more
+    than ``limit`` images a frame over the path (``RenderConfig.fade_limit``; 0: always as
+    faded), with one line saying so."""
+    if limit <= 0 or not jobs:
+        return jobs
+    per_frame = float(np.mean([1 + len(j.fades) for j in jobs]))
+    if per_frame <= limit:
+        return jobs
+    info(f"render: the frames' sources change at {sum(bool(j.fades) for j in jobs)} of "
+         f"{len(jobs)} frames (a densely photographed scene): rendered without the "
+         f"cross-fade, which would take {per_frame:.2f} images a frame and soften them "
+         f"(--set render.fade_limit=0 fades anyway)")
+    return [replace(j, fades=()) for j in jobs]
 
 
 FADE_STEP = 1.5

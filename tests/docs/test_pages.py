@@ -1920,8 +1920,48 @@ def test_fade_on_dense_objects_is_its_files():
                       "times as long")
             assert phrase in hist
             assert (f"{ipf[1]:.1f} images a frame, the frames {-100 * rel['sharpness']:.1f} % "
-                    f"less sharp for a largest jump {-100 * rel['largest']:.0f} % lower; "
-                    f"`--set render.source_fade=0` renders it {ratio:.1f} times faster") in readme
+                    f"less sharp for a largest jump {-100 * rel['largest']:.0f} % lower, "
+                    f"{ratio:.1f} times the time)") in readme
+
+
+def test_fade_limit_rule_is_its_files():
+    """docs/history/fill.md, "The cross-fade stepping back on a dense path": the fade judged
+    against none on the two spiral paths is fade_limit_judge_s55.json's, the plans'
+    images a frame are fade_limit_plans_s55.json's (the development and test videos under
+    the limit, so unchanged), and the step-back is the default."""
+    from pipeline.render import RenderConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    rec = json.loads((RESULTS / "fade_limit_judge_s55.json").read_text())
+    plans = json.loads((RESULTS / "fade_limit_plans_s55.json").read_text())["paths"]
+    times = dict(line.removesuffix(" s").split(" ") for line in
+                 (RESULTS / "fade_limit_times_s55.txt").read_text().splitlines()[1:])
+    assert rec["rule_name"] == "fade" and rec["identical"] and not rec["passes"]
+    assert not (rec["checks"]["a"] and rec["checks"]["c"])
+    for cand, r in rec["builds"].items():
+        scene = Path(cand).name.removesuffix("sp_fade1")
+        assert Path(r["baseline"]).name == f"{scene}sp_fade0"
+        lg, mn, sh, ipf = r["largest"], r["mean"], r["sharpness"], r["renders_per_frame"]
+        assert round(ipf[1], 4) == plans[f"{scene}_spiral"]["images_per_frame"] > 1.5
+        sf = ".5f" if sh[0] < 0.01 else ".4f"
+        t0, t1 = (round(float(times[f"{scene}sp_fade{f}"])) for f in (0, 1))
+        assert (f"| {scene}, spiral | {lg[0]:.4f} -> {lg[1]:.4f} | {mn[0]:.4f} -> {mn[1]:.4f} | "
+                f"{sh[0]:{sf}} -> {sh[1]:{sf}} | {ipf[0]:.2f} -> {ipf[1]:.2f} | {t0} s -> "
+                f"{t1} s |") in hist
+    rel = rec["relative"]
+    assert (f"the largest step {100 * rel['largest']:+.1f} % on the mean, down on "
+            f"{rec['largest_down_on']} of the two paths") in hist
+    assert (f"the steps' mean {100 * rel['mean']:+.1f} %, the sharpness "
+            f"{100 * rel['sharpness']:+.1f} %") in hist
+    others = {k: p for k, p in plans.items() if not k.endswith("_spiral")}
+    assert len(others) == 8 and all(p["images_per_frame"] <= 1.5 for p in others.values())
+    dev = sorted(p["images_per_frame"] for k, p in others.items() if "_s50_" in k)
+    assert f"{dev[0]:.2f} to {dev[-1]:.2f} images a frame" in hist
+    assert (f"the sample {others['sample']['images_per_frame']:.2f}, kermit "
+            f"{others['kermit']['images_per_frame']:.2f}") in hist
+    assert RenderConfig().fade_limit == 1.5
+    assert "2.6 images a frame, the largest jump -21 %, the frames 4.8 % less sharp" in options
 
 
 def test_source_fade_on_a_close_object_is_its_file():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -1290,6 +1291,25 @@ def test_fade_sources_spreads_a_change_of_sources_over_the_frames_around_it(tmp_
     assert fade_sources(jobs, cams, 0, k=1) == jobs
 
 
+def test_fade_steps_back_on_a_dense_path(tmp_path, capsys):
+    """``plan.fade_or_not`` (``RenderConfig.fade_limit``): a path whose fades would render
+    more than the limit's images a frame renders without them, saying so in one line; at
+    or under the limit, or with the limit 0, the fades stay."""
+    from pipeline.render.jobs import SourceSet
+    from pipeline.render.plan import fade_or_not
+
+    one = SourceSet(("p1", "p2"), ("p1",), 1 / 3)
+    jobs = [_frame_job(tmp_path, f"{i:05d}", 0.2 * i, ["p0", "p1"]) for i in range(4)]
+    jobs = [replace(j, fades=(one,) * n) for j, n in zip(jobs, (1, 2, 2, 1), strict=True)]
+    assert fade_or_not(jobs, 3.0) == jobs and fade_or_not(jobs, 0.0) == jobs
+    plain = fade_or_not(jobs, 1.5)  # 2.5 images a frame
+    assert all(j.fades == () for j in plain) and [j.sources for j in plain] == [
+        j.sources for j in jobs]
+    out = capsys.readouterr()
+    line = (out.out + out.err).strip()
+    assert "\n" not in line and "2.50 images a frame" in line and "fade_limit=0" in line
+
+
 def test_fade_cut_follows_the_paths_own_steps(tmp_path):
     """``fade_sources(..., cut=C)`` (``RenderConfig.fade_cut``): a path that steps two photo
     spacings at every frame (a densely photographed object, a short path) is faded across
@@ -1340,15 +1360,15 @@ def test_a_faded_frame_is_the_weighted_mean_of_its_renders(tmp_path, monkeypatch
 
 
 def test_source_fade_renders_only_the_frames_near_a_change(hws):
-    """``--source-fade 1`` (the default) on the plane's tour against 0: the frames with no
-    change of sources in reach come out as without it, to the bit; the frames beside a change
-    differ; the path's cameras.json names the fades; the render records the option for
-    paths only."""
+    """``--source-fade 1`` (the default; ``fade_limit`` 0, never stepping back) on the plane's
+    tour against 0: the frames with no change of sources in reach come out as without it, to
+    the bit; the frames beside a change differ; the path's cameras.json names the fades; the
+    render records the options for paths only."""
     from pipeline.render import RenderConfig, run
 
     out = hws.renders / "interpolate"
     cfg = RenderConfig(path="interpolate", fill="hybrid", frames=12, scale=0.25, n_sources=2,
-                       workers=1, source_fade=0)
+                       workers=1, source_fade=0, fade_limit=0)  # 1.67 images a frame here
     run(cfg, hws)
     before = {p.name: cv2.imread(str(p)) for p in sorted(out.glob("*.png"))}
     run(RenderConfig(**{**cfg.__dict__, "source_fade": 1}), hws)
@@ -1360,7 +1380,8 @@ def test_source_fade_renders_only_the_frames_near_a_change(hws):
         assert (now == img).all() == (name not in faded), name
     assert hws.stage_record("render:interpolate")["params"]["source_fade"] == 1
     run(RenderConfig(path="inputs", fill="hybrid", source_fade=1), hws)
-    assert "source_fade" not in hws.stage_record("render:inputs")["params"]
+    params = hws.stage_record("render:inputs")["params"]
+    assert "source_fade" not in params and "fade_limit" not in params
 
 
 def test_path_exposure_glides_and_is_recorded(hws, monkeypatch):
