@@ -55,8 +55,8 @@ def fade_or_not(jobs: list[FrameJob], limit: float) -> list[FrameJob]:
     per_frame = float(np.mean([1 + len(j.fades) for j in jobs]))
     if per_frame <= limit:
         return jobs
-    info(f"render: the frames' sources change at {sum(bool(j.fades) for j in jobs)} of "
-         f"{len(jobs)} frames (a densely photographed scene): rendered without the "
+    info(f"render: {sum(bool(j.fades) for j in jobs)} of {len(jobs)} frames stand beside a "
+         f"change of sources (a densely photographed scene): rendered without the "
          f"cross-fade, which would take {per_frame:.2f} images a frame and soften them "
          f"(--set render.fade_limit=0 fades anyway)")
     return [replace(j, fades=()) for j in jobs]
