@@ -71,7 +71,8 @@ class RenderConfig:
     development builds, the frames 1.7 % less sharp; 2 took the largest step down 23 % but
     the sharpness 3.1 % (docs/history/fill.md, "Changes of a frame's sources cross-faded").
     Frames farther apart than ``FADE_STEP`` of the photos' spacing are not faded together (a
-    JSON path's cut, held-out cameras; ``plan.fade_sources``)."""
+    JSON path's cut, held-out cameras; ``plan.fade_sources``), and a path whose fades would
+    render more than ``fade_limit`` images a frame renders without them."""
     fade_limit: float = option(1.5, ge=0)
     """Novel paths: where the cross-fade (``source_fade``) would render more than this many
     images a frame over the path (its sources change at most frames: a densely photographed

@@ -162,10 +162,10 @@ def fade_sources(jobs: list[FrameJob], cams: Cameras, radius: int, k: int,
     """``jobs`` with each frame's ``fades`` (``RenderConfig.source_fade``): a box of
     ``radius`` frames either side (shorter at the path's ends and at cuts: steps over
     ``FADE_STEP`` of the photos' spacing and, with ``cut`` (``RenderConfig.fade_cut``) over
-    0, over ``cut`` times the path's median step too), in which each frame's choice (its sources and
-    the ``k`` its fill takes first) counts once; the frame's own choice keeps its count's
-    share, every other choice in the box is rendered at the frame's camera with the share of
-    its count. A frame whose box holds only its own choice renders as before."""
+    0, over ``cut`` times the path's median step too), in which each frame's choice (its
+    sources and the ``k`` its fill takes first) counts once; the frame's own choice keeps its
+    count's share, every other choice in the box is rendered at the frame's camera with the
+    share of its count. A frame whose box holds only its own choice renders as before."""
     if radius <= 0 or len(jobs) < 2:
         return jobs
     firsts = [fill_first(j, cams, k) for j in jobs]

@@ -1516,6 +1516,11 @@ def _text_rows(name: str) -> list[list[str]]:
             if ln and not ln.startswith("#")]
 
 
+def _seconds(*names: str) -> dict[str, float]:
+    """``NAME SECONDS s`` lines of text result files (``/usr/bin/time``'s), by name."""
+    return {row[0]: float(row[1]) for name in names for row in _text_rows(name)}
+
+
 def _oneshot_pair(perf: str, head: tuple[str, str], base: tuple[str, str]) -> None:
     """Two one-shot score files (name, commit) that docs/performance.md (``perf``, its
     words joined by single spaces) compares: each from its commit, their frames' and
@@ -1866,10 +1871,9 @@ def test_fade_cut_rule_is_its_files():
     assert (f"(d) {rec['renders_per_frame']:.2f} images a frame against "
             f"{rec['baseline_renders_per_frame']:.2f}, {ratio:.2f} times") in hist
     assert RenderConfig().fade_cut == 0.0
-    times = dict(line.split(" ", 1) for line in
-                 (RESULTS / "fade_cut_times_s55.txt").read_text().splitlines()[1:])
+    times = _seconds("fade_cut_times_s55.txt")
     for key, label in names.items():
-        t0, t3 = (round(float(times[f"{key}_cut{c}"].removesuffix(" s"))) for c in (0, 3))
+        t0, t3 = (round(times[f"{key}_cut{c}"]) for c in (0, 3))
         assert f"| {t0} s -> {t3} s |" in hist, label
     t12, t24 = plans["tumbler12"], plans["tumbler24"]
     assert (f"steps {t12['step_spacings_median']:.2f} spacings at its median, "
@@ -1893,10 +1897,7 @@ def test_fade_on_dense_objects_is_its_files():
     the README's troubleshooting row quotes maryrose's numbers."""
     hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
     readme = " ".join((REPO / "README.md").read_text().split())
-    times = {}
-    for f in ("dense_fade_times_s55.txt", "fade_cut_times_s55.txt"):
-        lines = (RESULTS / f).read_text().splitlines()[1:]
-        times.update(line.removesuffix(" s").split(" ") for line in lines)
+    times = _seconds("dense_fade_times_s55.txt", "fade_cut_times_s55.txt")
     for scene in ("tumbler", "maryrose"):
         rec = json.loads((RESULTS / f"dense_fade_{scene}24_s55.json").read_text())
         (r,) = rec["builds"].values()
@@ -1904,7 +1905,7 @@ def test_fade_on_dense_objects_is_its_files():
             f"{scene}24_fade0")
         lg, mn, sh, ipf = r["largest"], r["mean"], r["sharpness"], r["renders_per_frame"]
         sf = ".5f" if sh[0] < 0.01 else ".4f"
-        t0, t1 = (round(float(times[f"{scene}24_{a}"])) for a in ("fade0", "cut0"))
+        t0, t1 = (round(times[f"{scene}24_{a}"]) for a in ("fade0", "cut0"))
         assert (f"| {scene}, 96 frames | {lg[0]:.4f} -> {lg[1]:.4f} | {mn[0]:.4f} -> "
                 f"{mn[1]:.4f} | {sh[0]:{sf}} -> {sh[1]:{sf}} | {ipf[0]:.2f} -> {ipf[1]:.2f} | "
                 f"{t0} s -> {t1} s |") in hist
@@ -1914,7 +1915,7 @@ def test_fade_on_dense_objects_is_its_files():
             assert (f"({100 * rel['mean']:.1f} % on the steps' mean, {100 * rel['sharpness']:.1f}"
                     " % sharpness)") in hist
         else:
-            ratio = float(times["maryrose24_cut0"]) / float(times["maryrose24_fade0"])
+            ratio = times["maryrose24_cut0"] / times["maryrose24_fade0"]
             phrase = (f"falls {-100 * rel['largest']:.0f} % but its frames lose "
                       f"{-100 * rel['sharpness']:.1f} % of their sharpness and take {ratio:.1f} "
                       "times as long")
@@ -1935,8 +1936,7 @@ def test_fade_limit_rule_is_its_files():
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
     rec = json.loads((RESULTS / "fade_limit_judge_s55.json").read_text())
     plans = json.loads((RESULTS / "fade_limit_plans_s55.json").read_text())["paths"]
-    times = dict(line.removesuffix(" s").split(" ") for line in
-                 (RESULTS / "fade_limit_times_s55.txt").read_text().splitlines()[1:])
+    times = _seconds("fade_limit_times_s55.txt")
     assert rec["rule_name"] == "fade" and rec["identical"] and not rec["passes"]
     assert not (rec["checks"]["a"] and rec["checks"]["c"])
     for cand, r in rec["builds"].items():
@@ -1945,7 +1945,7 @@ def test_fade_limit_rule_is_its_files():
         lg, mn, sh, ipf = r["largest"], r["mean"], r["sharpness"], r["renders_per_frame"]
         assert round(ipf[1], 4) == plans[f"{scene}_spiral"]["images_per_frame"] > 1.5
         sf = ".5f" if sh[0] < 0.01 else ".4f"
-        t0, t1 = (round(float(times[f"{scene}sp_fade{f}"])) for f in (0, 1))
+        t0, t1 = (round(times[f"{scene}sp_fade{f}"]) for f in (0, 1))
         assert (f"| {scene}, spiral | {lg[0]:.4f} -> {lg[1]:.4f} | {mn[0]:.4f} -> {mn[1]:.4f} | "
                 f"{sh[0]:{sf}} -> {sh[1]:{sf}} | {ipf[0]:.2f} -> {ipf[1]:.2f} | {t0} s -> "
                 f"{t1} s |") in hist
