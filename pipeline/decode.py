@@ -288,8 +288,13 @@ def decode_image(path: Path, max_size: int) -> np.ndarray:
     """JPEG/PNG/TIFF/... -> [H, W, 3] uint8 BGR, EXIF orientation applied, resized."""
     import cv2
 
+    if path.stat().st_size == 0:
+        raise DecodeError("empty file (0 bytes)")
     if path.suffix.lower() in JPEG_EXTS and jpeg_truncated(path):
         raise DecodeError("truncated JPEG (no end-of-image marker)")
+    # OpenCV's own warnings (a TIFF's extra samples, ...) are not the user's to read: the
+    # stage names a file it cannot use in its own line
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
     img = cv2.imread(str(path), cv2.IMREAD_COLOR | cv2.IMREAD_ANYDEPTH)
     if img is None or img.size == 0:
         raise DecodeError("not a readable image (corrupt or unsupported)")

@@ -171,3 +171,33 @@ def test_without_copies_compares_whole_files_of_one_size(tmp_path, capsys):
     assert kept == ["a", "b", "e1", "e2"]
     err = capsys.readouterr().err
     assert err.count("same file") == 1 and "c.dng is the same file as a.dng" in err
+
+
+def test_unusual_formats_decode_to_the_same_pixels(tmp_path, capsys):
+    """16-bit RGBA PNG, a TIFF with an extra channel, a float TIFF, greyscale JPEG and WebP
+    decode to the picture they hold; an empty file is named as empty in one line, and
+    OpenCV's own warnings (the TIFF's extra samples) stay out of the user's terminal."""
+    rng = np.random.default_rng(0)
+    img = cv2.resize(rng.integers(0, 256, (12, 16, 3), dtype=np.uint8), (160, 120),
+                     interpolation=cv2.INTER_CUBIC)
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    alpha = np.full(img.shape[:2], 255, np.uint8)
+    cv2.imwrite(str(photos / "rgba16.png"), np.dstack([img, alpha]).astype(np.uint16) * 257)
+    cv2.imwrite(str(photos / "four.tiff"), np.dstack([img, alpha // 2]))
+    cv2.imwrite(str(photos / "float.tiff"), img.astype(np.float32) / 255)
+    cv2.imwrite(str(photos / "lossless.webp"), img, [cv2.IMWRITE_WEBP_QUALITY, 101])
+    cv2.imwrite(str(photos / "grey.jpg"), cv2.cvtColor(img, cv2.COLOR_BGR2GRAY),
+                [cv2.IMWRITE_JPEG_QUALITY, 100])
+    (photos / "empty.jpg").write_bytes(b"")
+    assert main(["decode", str(photos), "--out", str(tmp_path / "ws")]) == 0
+    dec = tmp_path / "ws" / "decoded"
+    for stem in ("rgba16", "four", "float", "lossless"):
+        assert np.abs(cv2.imread(str(dec / f"{stem}.png")).astype(int) - img).max() <= 1, stem
+    grey = cv2.imread(str(dec / "grey.png")).astype(int)
+    assert np.abs(grey - cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)[..., None]).mean() < 2
+    assert not (dec / "empty.png").exists()
+    err = capsys.readouterr().err
+    assert [ln for ln in err.splitlines() if "empty.jpg" in ln] == [
+        "warning: skipping empty.jpg: empty file (0 bytes); replace or remove the file"]
+    assert "WARN" not in err and "TIFF" not in err
