@@ -7,16 +7,20 @@ For each workspace (posed, with WS/depth), the scene's points (every ``--stride`
 of each photo's depth map) are projected into consecutive frames of the ``interpolate``
 path the render stage plans (``pipeline.render.plan.novel_path``), and a step's motion is
 the median displacement of the points both frames see, as a share of the frame's width.
-Per workspace and arm: the largest step, the 95th percentile, the median, and the largest
-over the median (1: an even pace).
+Per workspace and arm: the largest step, the 95th percentile, the median, the total (the
+sum of the steps: how much the path moves) and the largest over the median (1: an even
+pace).
 
 Arms: ``today`` is the path the render stage plans (paced on the image motion of the
 depth maps' points); ``travel`` times the same spline as before the fifty-second session
 (an arc of travel plus 0.1 x the keys' spread per radian turned: ``interpolate_path``
-without points). ``--paths-out DIR`` writes both as JSON camera paths, to render with
-``deflare-scene render WS --path DIR/<scene>_<arm>.json``; ``--flow FOLDER ...`` then
+without points); ``view`` is ``today`` with the photos toured by travel and turn together
+(``render --tour view``, the fifty-sixth session's rule). ``--paths-out DIR`` writes
+each as a JSON camera path, to render with ``deflare-scene render WS --path
+DIR/<scene>_<arm>.json``; ``--flow FOLDER ...`` then
 scores the rendered frames by their optical flow, a check that needs no depth. The rules
-that judged the pace: docs/history/fill.md, "The video's pace: turns timed like travel".
+that judged the pace and the tour: docs/history/fill.md, "The video's pace: turns timed like
+travel" and "The interpolate path's tour by travel and turn".
 """
 
 from __future__ import annotations
@@ -72,6 +76,7 @@ def summary(motion: np.ndarray) -> dict:
     """The pace of one path: largest step, 95th percentile, median, largest / median."""
     med = float(np.median(motion))
     return {"max": float(motion.max()), "p95": float(np.percentile(motion, 95)),
+            "total": float(motion.sum()),
             "median": med, "max_over_median": float(motion.max() / med) if med > 0 else None,
             "steps": [round(float(m), 5) for m in motion]}
 
@@ -92,7 +97,10 @@ def arms(ws_dir: Path, frames: int, stride: int, paths_out: Path | None = None) 
                        "cpu", scene_points(ws, cams))[0]
     K, size = today[0].K, (today[0].width, today[0].height)
     c2ws = np.stack([f.c2w for f in cams.frames])
+    view = novel_path(RenderConfig(path="interpolate", frames=frames, fill="hybrid",
+                                   tour="view"), cams, "cpu", scene_points(ws, cams))[0]
     poses = {"today": np.stack([p.c2w for p in today]),
+             "view": np.stack([p.c2w for p in view]),
              "travel": paths.interpolate_path(c2ws, frames, closed=paths.is_surrounding(c2ws),
                                               up=paths.world_up(c2ws))}
     if paths_out is not None:
@@ -158,10 +166,11 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         rec["scenes"][str(ws)] = r
         print(f"{ws}: {r['points']} points")
-        for arm in ("travel", "today"):
+        for arm in ("travel", "today", "view"):
             s = r[arm]
-            print(f"  {arm:7s} max {s['max']:.4f}  p95 {s['p95']:.4f}  median "
-                  f"{s['median']:.4f}  max/median {s['max_over_median']:.2f}")
+            print(f"  {arm:7s} total {s['total']:.3f}  max {s['max']:.4f}  p95 "
+                  f"{s['p95']:.4f}  median {s['median']:.4f}  max/median "
+                  f"{s['max_over_median']:.2f}")
     for folder in args.flow:
         s = summary(frame_flow(folder))
         rec["flow"][str(folder)] = s

@@ -133,17 +133,26 @@ def upright(c2ws: np.ndarray, up: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- tour ordering
-def order_tour(centers: np.ndarray, start: int | None = None) -> np.ndarray:
+def order_tour(centers: np.ndarray, start: int | None = None,
+               rotations: np.ndarray | None = None, depth: float | None = None) -> np.ndarray:
     """Order camera centres [N, 3] into a short open tour; returns indices [N].
 
     Nearest-neighbour from an end of the capture (the centre farthest from the mean unless
     ``start`` is given), then 2-opt segment reversals until no reversal shortens the tour.
+    The length of a step is its travel; with ``rotations`` [N, 3, 3] (the cameras' own, e.g.
+    rolled upright) and the scene's typical ``depth`` it is the image motion the step makes
+    (:func:`tour_lengths`), so the tour does not pair two cameras at one spot looking apart,
+    and a capture that turns on the spot is toured by its turns.
     """
     c = np.asarray(centers, np.float64)
     n = len(c)
     if n <= 2:
         return np.arange(n)
     d = np.linalg.norm(c[:, None] - c[None], axis=-1)
+    if rotations is not None:
+        if depth is None:
+            raise ValueError("a tour with rotations needs the scene's depth")
+        d = tour_lengths(d, rotations, depth)
     cur = int(np.argmax(np.linalg.norm(c - c.mean(0), axis=1))) if start is None else start
     order, left = [cur], set(range(n)) - {cur}
     while left:
@@ -165,6 +174,17 @@ def order_tour(centers: np.ndarray, start: int | None = None) -> np.ndarray:
                     order[i + 1: j + 1] = order[i + 1: j + 1][::-1].copy()
                     improved = True
     return order
+
+
+def tour_lengths(dist: np.ndarray, rotations: np.ndarray, depth: float) -> np.ndarray:
+    """[N, N] step lengths of :func:`order_tour` with turns: the travel ``dist`` [N, N] over
+    the scene's typical ``depth`` plus the angle in radians between ``rotations``
+    [N, 3, 3], each about the image motion it makes (a step sideways by the depth moves
+    the scene by as much as a turn of one radian)."""
+    R = np.asarray(rotations, np.float64)
+    cos = (np.einsum("iab,jab->ij", R, R) - 1.0) / 2.0  # trace(Ri^T Rj) = 1 + 2 cos
+    return np.asarray(dist, np.float64) / max(float(depth), 1e-9) + np.arccos(
+        np.clip(cos, -1.0, 1.0))
 
 
 # --------------------------------------------------------------------------- interpolation
@@ -261,10 +281,13 @@ class PoseSpline:
 def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
                      order: bool = True, up: np.ndarray | None = None,
                      points: np.ndarray | None = None,
-                     fov: tuple[float, float] = (1.0, 0.75)) -> np.ndarray:
+                     fov: tuple[float, float] = (1.0, 0.75),
+                     tour: str = "position", depth: float | None = None) -> np.ndarray:
     """A smooth path [n_frames, 4, 4] through key poses c2ws [N, 4, 4] at an even pace.
 
-    ``order`` first sorts the keys into a short tour (:func:`order_tour`); the path starts
+    ``order`` first sorts the keys into a short tour (:func:`order_tour`; ``tour``
+    ``view``: by travel over the scene's ``depth`` plus turn, ``position``: by travel;
+    without ``depth`` a tenth of the keys' spread, as the arc below); the path starts
     at the first key of the tour and (open path) ends at its last. With ``up`` the keys are
     first rolled upright (:func:`upright`), so portrait or upside-down photos do not make
     the video spin.
@@ -284,7 +307,12 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
     if len(c2ws) == 1:
         return np.repeat(c2ws, n_frames, axis=0)
     if order:
-        c2ws = c2ws[order_tour(c2ws[:, :3, 3])]
+        if tour not in ("position", "view"):
+            raise ValueError(f"tour must be position or view, not {tour!r}")
+        rots = c2ws[:, :3, :3] if tour == "view" else None
+        if depth is None:
+            depth = 0.1 * (np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0)
+        c2ws = c2ws[order_tour(c2ws[:, :3, 3], rotations=rots, depth=depth)]
     spline = PoseSpline.fit(c2ws, closed)
     dense_t = np.linspace(spline.knots[0], spline.knots[-1], 64 * len(c2ws) + 1)
     dense = spline(dense_t)

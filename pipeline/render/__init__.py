@@ -188,8 +188,10 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["fade_cut"] = 0.0  # and before the fifty-fifth's cut by the path's steps
         defaults["fade_limit"] = 0.0  # and its step-back on a dense path
         defaults["path_exposure"] = 0.0
-    if key != "interpolate":  # only the interpolate path is paced
+        defaults["tour"] = "position"  # records before the fifty-sixth session's tour
+    if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
+        params.pop("tour")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
         params.pop("fade_cut")

@@ -60,6 +60,13 @@ class RenderConfig:
     motion (the depth maps' points; the default since the fifty-second session); ``travel``,
     at constant travel with turns weighing little (before it: on a street walk its frames'
     flow was more even; docs/camera_paths.md)."""
+    tour: str = option("position", choices=("position", "view"))
+    """How an interpolate path orders the photos it passes: ``position``, the shortest tour
+    by camera position; ``view``, by position and viewing direction together (a step's
+    travel over the scene's typical depth plus its turn in radians: the image motion it
+    makes), so two
+    photos taken from one spot looking apart are not neighbours on the tour
+    (docs/camera_paths.md)."""
     source_fade: int = option(1, ge=0, le=12)
     """Novel paths: where a frame's sources (GN-FR's, or the photos its fill takes first)
     differ from the next frame's, the change is cross-faded over this many frames either

@@ -233,7 +233,9 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
         fov = path_fov(base)
         paced = pace_points(cams, points, fov) if cfg.pace == "image" else None
         poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
-                                       up=paths.world_up(c2ws), points=paced, fov=fov)
+                                       up=paths.world_up(c2ws), points=paced, fov=fov,
+                                       tour=cfg.tour,
+                                       depth=float(np.median(np.sqrt(near * far))))
     else:
         poses = paths.spiral_path(c2ws, near, far, n)
     return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)

@@ -24,6 +24,7 @@ from gnfr.paths import (
     quat_from_matrix,
     rotation_angle,
     spiral_path,
+    tour_lengths,
 )
 from pipeline.camera_models import MODELS, CameraModel, warp_maps
 
@@ -71,6 +72,49 @@ def test_order_tour_follows_the_ring():
     steps = np.linalg.norm(np.diff(P[order, :3, 3], axis=0), axis=1)
     neighbour = 2 * np.sin(np.pi / 10)  # chord between neighbours on the unit ring
     assert steps.max() < 1.3 * neighbour  # a tour around the ring, no jumps across it
+
+
+def test_tour_by_view_keeps_cameras_at_one_spot_looking_apart_apart():
+    """Six spots along a line, at each a camera looking ahead and one looking back (a walk
+    out and back). By position the tour zig-zags between the two at each spot (turning 180
+    degrees five times or more); by position and turn it walks out one way and back the
+    other, turning once."""
+    ahead = [turned(0.0, at=(x, 0.0, 0.0)) for x in range(6)]
+    back = [turned(180.0, at=(x + 0.01, 0.0, 0.0)) for x in range(6)]
+    keys = np.stack(ahead + back)
+    R = keys[:, :3, :3]
+
+    def turns(order):
+        a = rotation_angle(R[order[:-1]], R[order[1:]])
+        return int((a > np.pi / 2).sum())
+
+    by_position = order_tour(keys[:, :3, 3])
+    by_view = order_tour(keys[:, :3, 3], rotations=R, depth=2.0)
+    assert sorted(by_view) == list(range(12))
+    assert turns(by_position) >= 5
+    assert turns(by_view) == 1
+    for depth in (2.0, None):  # None: a tenth of the keys' spread
+        P = interpolate_path(keys, 60, tour="view", depth=depth)
+        assert rotation_angle(P[:-1, :3, :3], P[1:, :3, :3]).sum() < 1.2 * np.pi
+    with pytest.raises(ValueError, match="tour must be"):
+        interpolate_path(keys, 10, tour="angle")
+    with pytest.raises(ValueError, match="needs the scene's depth"):
+        order_tour(keys[:, :3, 3], rotations=R)
+
+
+def test_tour_lengths_weigh_travel_by_depth_and_turns_in_radians():
+    """A step is its travel over the depth plus its turn in radians; cameras at one spot
+    (no travel) are toured by their turns alone: a shuffled pan comes out in order."""
+    yaw = np.array([0, 50, 10, 40, 20, 30, 60], float)
+    keys = np.stack([turned(a) for a in yaw])
+    order = order_tour(keys[:, :3, 3], rotations=keys[:, :3, :3], depth=1.0)
+    assert list(yaw[order]) in (sorted(yaw), sorted(yaw)[::-1])
+    moved = keys.copy()
+    moved[:, 0, 3] = np.arange(7) * 2.0
+    d = np.linalg.norm(moved[:, None, :3, 3] - moved[None, :, :3, 3], axis=-1)
+    L = tour_lengths(d, moved[:, :3, :3], depth=4.0)
+    assert L[0, 2] == pytest.approx(4.0 / 4.0 + np.radians(10))
+    assert L[3, 3] == pytest.approx(0.0, abs=1e-6)
 
 
 @pytest.mark.parametrize(("make", "closed"), [(ring, False), (ring, True),
