@@ -2012,3 +2012,9 @@ def test_tour_by_view_rule_is_its_file():
     fall = 1 - maryrose["view"]["total"] / maryrose["today"]["total"]
     assert f"on maryrose the video moves {100 * fall:.0f} % less" in options
     assert RenderConfig().tour == "position"
+    test = json.loads((RESULTS / "tour_view_test_s56.json").read_text())["scenes"]
+    names = {"cyprus.deflare": "the sample", "kermit_ws": "kermit", "fern_ws": "fern"}
+    for ws, r in test.items():
+        t, v = r["today"]["total"], r["view"]["total"]
+        assert (f"{names[Path(ws).name]} {t:.3f} -> {v:.3f} ({100 * (v / t - 1):+.1f} %)"
+                in hist)
