@@ -310,7 +310,7 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
         if tour not in ("position", "view"):
             raise ValueError(f"tour must be position or view, not {tour!r}")
         rots = c2ws[:, :3, :3] if tour == "view" else None
-        if depth is None:
+        if rots is not None and depth is None:
             depth = 0.1 * (np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0)
         c2ws = c2ws[order_tour(c2ws[:, :3, 3], rotations=rots, depth=depth)]
     spline = PoseSpline.fit(c2ws, closed)

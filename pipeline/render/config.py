@@ -64,9 +64,8 @@ class RenderConfig:
     """How an interpolate path orders the photos it passes: ``position``, the shortest tour
     by camera position; ``view``, by position and viewing direction together (a step's
     travel over the scene's typical depth plus its turn in radians: the image motion it
-    makes), so two
-    photos taken from one spot looking apart are not neighbours on the tour
-    (docs/camera_paths.md)."""
+    makes), so two photos taken from one spot looking apart are not neighbours on the tour
+    (an opt-in: its rule failed on a small toy capture; docs/camera_paths.md)."""
     source_fade: int = option(1, ge=0, le=12)
     """Novel paths: where a frame's sources (GN-FR's, or the photos its fill takes first)
     differ from the next frame's, the change is cross-faded over this many frames either
