@@ -2018,3 +2018,17 @@ def test_tour_by_view_rule_is_its_file():
         t, v = r["today"]["total"], r["view"]["total"]
         assert (f"{names[Path(ws).name]} {t:.3f} -> {v:.3f} ({100 * (v / t - 1):+.1f} %)"
                 in hist)
+
+
+def test_sample_fill_network_against_hybrid_is_its_files():
+    """docs/history/fill.md, "The de-flared photos' fill with the FMG's masks": the sample's
+    de-flared photos, hybrid and network alone, are sample_fill_{hybrid,network}_s56.json's
+    (the network ahead in the flare region on every photo)."""
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    h, n = (json.loads((RESULTS / f"sample_fill_{arm}_s56.json").read_text())
+            for arm in ("hybrid", "network"))
+    gains = [n["views"][k]["psnr_flare"] - h["views"][k]["psnr_flare"] for k in h["views"]]
+    assert len(gains) == 8 and min(gains) > 0
+    assert f"on all eight photos, by {min(gains):.1f} to {max(gains):.1f} dB" in hist
+    assert (f"(mean {n['mean']['psnr_flare']:.2f} against {h['mean']['psnr_flare']:.2f} dB; "
+            f"whole photo {n['mean']['psnr']:.2f} against {h['mean']['psnr']:.2f})") in hist
