@@ -2032,3 +2032,27 @@ def test_sample_fill_network_against_hybrid_is_its_files():
     assert f"on all eight photos, by {min(gains):.1f} to {max(gains):.1f} dB" in hist
     assert (f"(mean {n['mean']['psnr_flare']:.2f} against {h['mean']['psnr_flare']:.2f} dB; "
             f"whole photo {n['mean']['psnr']:.2f} against {h['mean']['psnr']:.2f})") in hist
+
+
+def test_fill_with_fmg_masks_rule_is_its_files():
+    """docs/history/fill.md, "The de-flared photos' fill with the FMG's masks": the two
+    development scenes' rows are fill_fmg_dev_{sceaux,et}_s56.json's, the rule's mean
+    margin is read from them (under +0.2 dB: the hybrid stays) and the default fill is the
+    hybrid."""
+    from pipeline.render import RenderConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    margins = []
+    for short, name in (("sceaux", "sceaux_castle"), ("et", "et")):
+        rows = json.loads((RESULTS / f"fill_fmg_dev_{short}_s56.json").read_text())["rows"]
+        cells = []
+        for arm in ("network", "hybrid_guided_support2"):
+            r = rows[arm]
+            cells.append(f"{r['psnr_flare']:.3f} / {r['psnr']:.3f} / {r['ssim']:.4f} / "
+                         f"{r['render_s']:.0f} s")
+        assert f"| {name} | {cells[0]} | {cells[1]} |" in hist
+        margins.append(rows["network"]["psnr_flare"] - rows["hybrid_guided_support2"]["psnr_flare"])
+    mean = sum(margins) / 2
+    assert mean < 0.2
+    assert f"The network alone is {-mean:.3f} dB behind in the flare region on the mean" in hist
+    assert RenderConfig().fill == "hybrid"
