@@ -204,7 +204,10 @@ def list_photos(photos: Path, video_frames: int = DecodeConfig.video_frames) -> 
     chosen = without_copies(chosen)
     views = sum(video_frames if p.video else 1 for p in chosen)
     if views < MIN_IMAGES:
-        raise UserError(f"photo folder {photos} has only {views} photo(s): at least "
+        inner = [(d, n) for d, n in photo_subfolders(photos) if n >= MIN_IMAGES]
+        hint = (f" (its subfolder {inner[0][0].name} holds {inner[0][1]}: pass "
+                f"{inner[0][0]} if those are the scene)" if inner else "")
+        raise UserError(f"photo folder {photos} has only {views} photo(s){hint}: at least "
                         f"{MIN_IMAGES} overlapping photos of the scene are needed")
     return chosen
 

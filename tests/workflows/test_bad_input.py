@@ -124,6 +124,12 @@ def test_photos_in_subfolders_are_pointed_at(tmp_path, capsys):
     hollow = tmp_path / "hollow"
     (hollow / "sub").mkdir(parents=True)
     _fails(capsys, ["decode", str(hollow)], "has no photos")
+    # a stray photo beside the subfolders: too few of its own, and the line names the
+    # subfolder that has enough
+    _photos(tmp_path / "stray", 1)
+    _photos(tmp_path / "stray" / "100CANON", 4)
+    _fails(capsys, ["decode", str(tmp_path / "stray")], "has only 1 photo(s)",
+           f"its subfolder 100CANON holds 4: pass {tmp_path / 'stray' / '100CANON'}")
 
 
 def test_too_few_images(tmp_path, capsys):
