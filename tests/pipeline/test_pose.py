@@ -190,9 +190,12 @@ def _lund_walk(tmp_path: Path, n: int, size: int) -> Path:
 
 def test_lund_forward_walk_poses(tmp_path):
     """Ten photos walking down a street (lund, 768 px): COLMAP's default initial-pair
-    constraints leave 2 images; the relaxed retry registers them all."""
+    constraints leave 2 images; the relaxed retry registers them all. One thread and a
+    fixed seed: with two threads COLMAP's default pass registered all ten in one CI run of
+    the fifty-sixth session (and fewer than five in the others), so the premise was a
+    coin toss; one thread makes the solve repeat."""
     out = _lund_walk(tmp_path, 10, 768)
-    assert main(["pose", str(out), "--threads", "2"]) == 0
+    assert main(["pose", str(out), "--threads", "1", "--seed", "0"]) == 0
     report = json.loads((Workspace.open(out).colmap / "report.json").read_text())
     default, relaxed, *rest = report["mapping"]["passes"]
     assert default["init"] == "default" and default["registered"] < 5
