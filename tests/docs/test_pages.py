@@ -2056,3 +2056,18 @@ def test_fill_with_fmg_masks_rule_is_its_files():
     assert mean < 0.2
     assert f"The network alone is {-mean:.3f} dB behind in the flare region on the mean" in hist
     assert RenderConfig().fill == "hybrid"
+
+
+def test_slower_machine_oneshot_is_its_file():
+    """docs/performance.md, "A slower machine": the fresh clone's stage times and scores are
+    sample_oneshot_cpu_s56_head.json's, and the README's range reaches its wall time."""
+    r = json.loads((RESULTS / "sample_oneshot_cpu_s56_head.json").read_text())
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
+    st = r["stages"]
+    assert (f"the fine-tune {st['finetune']['seconds']:.1f} s" in perf
+            and f"the 48 frames {st['render:interpolate']['seconds']:.1f} s" in perf)
+    m = r["mean"]
+    assert f"scored {m['psnr_flare']:.2f} / {m['psnr']:.2f} dB (flare region / whole)" in perf
+    assert r["code"]["commit"].startswith("ec3446a")
+    assert "taken 6-23 minutes wall" in readme and "22:32 on the slower machine" in readme
