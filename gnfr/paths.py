@@ -182,9 +182,8 @@ def tour_lengths(dist: np.ndarray, rotations: np.ndarray, depth: float) -> np.nd
     [N, 3, 3], each about the image motion it makes (a step sideways by the depth moves
     the scene by as much as a turn of one radian)."""
     R = np.asarray(rotations, np.float64)
-    cos = (np.einsum("iab,jab->ij", R, R) - 1.0) / 2.0  # trace(Ri^T Rj) = 1 + 2 cos
-    return np.asarray(dist, np.float64) / max(float(depth), 1e-9) + np.arccos(
-        np.clip(cos, -1.0, 1.0))
+    return (np.asarray(dist, np.float64) / max(float(depth), 1e-9)
+            + rotation_angle(R[:, None], R[None]))
 
 
 # --------------------------------------------------------------------------- interpolation
@@ -306,12 +305,13 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
         raise ValueError("n_frames must be >= 1")
     if len(c2ws) == 1:
         return np.repeat(c2ws, n_frames, axis=0)
+    span = np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0  # the keys' spread
     if order:
         if tour not in ("position", "view"):
             raise ValueError(f"tour must be position or view, not {tour!r}")
         rots = c2ws[:, :3, :3] if tour == "view" else None
         if rots is not None and depth is None:
-            depth = 0.1 * (np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0)
+            depth = 0.1 * span
         c2ws = c2ws[order_tour(c2ws[:, :3, 3], rotations=rots, depth=depth)]
     spline = PoseSpline.fit(c2ws, closed)
     dense_t = np.linspace(spline.knots[0], spline.knots[-1], 64 * len(c2ws) + 1)
@@ -321,7 +321,6 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
         step = image_shift(dense, np.asarray(points, np.float64), fov, fallback=da)
     else:
         dp = np.linalg.norm(np.diff(dense[:, :3, 3], axis=0), axis=1)
-        span = np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0
         step = dp + 0.1 * span * da
     arc = np.concatenate([[0.0], np.cumsum(step)])
     s = np.linspace(0.0, arc[-1], n_frames + (1 if closed else 0))[: n_frames]
