@@ -10,9 +10,11 @@ Only the render changes; the model is the variant's.
         # copied into DIR first so the arm's own renders stay as they were
 
 Settings: network (GN-FR everywhere), hybrid without depth-guided samples, hybrid with
-guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2), and the
-default hybrid and the network fill without the flare layer (``--flare-layer 0``: the
-region replaced by the fill). ``--settings a,b`` runs only those.
+guided samples where >= 1 / >= 2 photos agree on the depth (the default is 2), the
+default without guided samples where the ring check turns the photos down
+(``hybrid_band_checked``), the default hybrid and the network fill without the flare
+layer (``--flare-layer 0``: the region replaced by the fill). ``--settings a,b`` runs only
+those.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ SETTINGS = {
     "hybrid_unguided": {"fill": "hybrid", "depth_samples": 0},
     "hybrid_guided_support1": {"fill": "hybrid", "depth_support": 1},
     "hybrid_guided_support2": {"fill": "hybrid", "depth_support": 2},
+    "hybrid_band_checked": {"fill": "hybrid", "band_rejected": False},
     "hybrid_no_flare_layer": {"fill": "hybrid", "flare_layer": 0.0},
     "network_no_flare_layer": {"fill": "network", "flare_layer": 0.0},
     "hybrid_beyond_4": {"fill": "hybrid", "beyond_planes": 4},

@@ -192,6 +192,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
         params.pop("tour")
+    if key != "inputs":  # the ring check is the de-flared photos' alone
+        params.pop("band_rejected")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
         params.pop("source_fade")
         params.pop("fade_cut")

@@ -308,6 +308,12 @@ class RenderConfig:
     depth_support: int = option(2, ge=1)
     """hybrid: photos that must agree on a pixel before its ray is sampled around their
     depth (docs/depth.md: 2 was the best worst case on the development scenes)."""
+    band_rejected: bool = option(True, flag="--band-rejected/--no-band-rejected")
+    """hybrid, de-flared photos: the rays of a flare region whose photo fill failed the ring
+    check (``pipeline.render.inputs.check_on_ring``: on the clean pixels around the region
+    the warped photos show another surface) are still sampled in the band around the
+    photos' depth there; off: along the whole ray, as the network fill samples them
+    (docs/history/fill.md, "The band where the ring check turns the photos down")."""
 
     def equal_below(self, novel: bool) -> float:
         """``sources_equal_below`` as it applies: the option when given, else

@@ -31,14 +31,15 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
     size = (photo.shape[1], photo.shape[0])
     alpha, ring = input_blend(frame, cfg, ws, size, size)
     region = alpha > 0.5 / 255
-    wgt = colour = depth = None
+    wgt = colour = depth = rejected = None
     if photos is not None and region.any():
         colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w,
                                                  (frame.width, frame.height), job, photos,
                                                  cfg, own_clean_pixels(ws, frame))
         colour, wgt, depth = to_decoded(frame, size, colour, wgt, depth)
         if ring is not None:
-            wgt = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0, region, ring)
+            wgt, rejected = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0,
+                                          region, ring)
     # the network renders where the photos do not cover, and on the ring (its colour match)
     net = region if wgt is None else region & ((wgt < 1) | (ring if ring is not None
                                                             else False))
@@ -48,7 +49,10 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
         import torch
 
         d = depth[rows, cols]
-        guided = (torch.from_numpy(d), torch.from_numpy((d > frame.near) & (d < frame.far)))
+        known = (d > frame.near) & (d < frame.far)
+        if rejected is not None and not cfg.band_rejected:  # that depth shows another surface
+            known &= ~rejected[rows, cols]
+        guided = (torch.from_numpy(d), torch.from_numpy(known))
 
     def compose(rgb):
         out = photo.astype(np.float32) / 255.0
@@ -90,15 +94,17 @@ on a flare region's ring at which the photo fill of that region is trusted."""
 
 
 def check_on_ring(colour: np.ndarray, wgt: np.ndarray, photo: np.ndarray, region: np.ndarray,
-                  ring: np.ndarray, min_pixels: int = 20) -> np.ndarray:
-    """The photo-fill weight with each connected flare region zeroed where the fill, on the
-    region's ring (clean photo pixels just outside the mask), differs from the photo by more
-    than RING_TOLERANCE on average: the warped photos there show another surface (a depth
-    no photo confirms, or a surface the neighbours do not see), so the network fills it."""
+                  ring: np.ndarray, min_pixels: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """(weight, rejected): the photo-fill weight with each connected flare region zeroed
+    where the fill, on the region's ring (clean photo pixels just outside the mask), differs
+    from the photo by more than RING_TOLERANCE on average: the warped photos there show
+    another surface (a depth no photo confirms, or a surface the neighbours do not see), so
+    the network fills it; ``rejected`` [H, W] bool marks those regions."""
     import cv2
 
     n, labels = cv2.connectedComponents(region.astype(np.uint8), connectivity=8)
     wgt = wgt.copy()
+    rejected = np.zeros(region.shape, bool)
     err = np.abs(colour - photo).mean(-1)
     check = ring & (wgt >= 1)
     for k in range(1, n):
@@ -106,7 +112,8 @@ def check_on_ring(colour: np.ndarray, wgt: np.ndarray, photo: np.ndarray, region
         on = check & sel
         if on.sum() >= min_pixels and float(err[on].mean()) > RING_TOLERANCE:
             wgt[sel] = 0.0
-    return wgt
+            rejected |= sel
+    return wgt, rejected
 
 
 def to_decoded(frame: Frame, size: tuple[int, int], colour: np.ndarray, wgt: np.ndarray,

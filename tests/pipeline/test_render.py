@@ -624,6 +624,47 @@ def test_depth_guided_samples_stay_in_their_band_and_equal_uniform_on_the_whole_
                           sample_depths(near, far, 24, jitter=False), rtol=1e-6)
 
 
+def test_ring_check_turns_down_only_the_region_whose_ring_disagrees():
+    from pipeline.render.inputs import RING_TOLERANCE, check_on_ring
+
+    photo = np.full((40, 80, 3), 0.5, np.float32)
+    region = np.zeros((40, 80), bool)  # two flare regions, each with its ring (the blend's
+    region[8:22, 8:22] = region[8:22, 48:62] = True  # outer band, where the photo is clean)
+    inner = np.zeros_like(region)
+    inner[10:20, 10:20] = inner[10:20, 50:60] = True
+    ring = region & ~inner
+    colour = photo.copy()
+    colour[:, 40:] += 2 * RING_TOLERANCE  # the right region's photos show another surface
+    wgt, rejected = check_on_ring(colour, np.ones((40, 80), np.float32), photo, region, ring)
+    assert rejected[8:22, 48:62].all() and rejected.sum() == 14 * 14
+    assert (wgt[rejected] == 0).all() and (wgt[~rejected] == 1).all()
+
+
+@pytest.mark.parametrize("band", [True, False])
+def test_band_rejected_decides_the_band_where_the_ring_check_turns_the_photos_down(
+        hws, monkeypatch, band):
+    """Every region turned down (a tolerance below any error): with the band kept its rays
+    sample around the photos' depth as before; without it none does, and the record says
+    which."""
+    import pipeline.render.engine as engine
+    import pipeline.render.inputs as inputs
+    from pipeline.render import RenderConfig, run
+
+    seen = []
+
+    def spy(n, guided, depth_samples):
+        seen.append(0 if guided is None else int(guided[1].sum()))
+        return split(n, guided, depth_samples)
+
+    split = engine.split_guided
+    monkeypatch.setattr(engine, "split_guided", spy)
+    monkeypatch.setattr(inputs, "RING_TOLERANCE", -1.0)
+    run(RenderConfig(path="inputs", fill="hybrid", band_rejected=band), hws, force=True)
+    assert len(seen) == 1  # the one flared photo renders rays
+    assert (seen[0] > 0) == band, seen
+    assert hws.stage_record("render:inputs")["params"]["band_rejected"] is band
+
+
 def test_full_res_colour_samples_sources_at_full_size(rws):
     """--full-res-colour: the encoder sees the sources at source_scale, colours come from
     WS/images at full size; the default follows the checkpoint (trained without it)."""
