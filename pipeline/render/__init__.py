@@ -142,6 +142,9 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if key == "inputs" and cfg.novel_agree is not None:
         warn("render: --novel-agree is for the video's frames; the de-flared photos keep "
              "the photo fill's own tolerance")
+    if key != "inputs" and not cfg.band_rejected:
+        warn("render: --no-band-rejected is for the de-flared photos (--path inputs); the "
+             "video's frames have no ring check")
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
     shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
                                (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]

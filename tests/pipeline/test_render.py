@@ -665,6 +665,15 @@ def test_band_rejected_decides_the_band_where_the_ring_check_turns_the_photos_do
     assert hws.stage_record("render:inputs")["params"]["band_rejected"] is band
 
 
+def test_band_rejected_on_a_video_says_it_is_for_the_photos(hws, capsys):
+    from pipeline.render import RenderConfig, run
+
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25,
+                     band_rejected=False), hws)
+    assert "--no-band-rejected is for the de-flared photos" in capsys.readouterr().err
+    assert "band_rejected" not in hws.stage_record("render:interpolate")["params"]
+
+
 def test_full_res_colour_samples_sources_at_full_size(rws):
     """--full-res-colour: the encoder sees the sources at source_scale, colours come from
     WS/images at full size; the default follows the checkpoint (trained without it)."""
