@@ -2071,3 +2071,61 @@ def test_slower_machine_oneshot_is_its_file():
     assert f"scored {m['psnr_flare']:.2f} / {m['psnr']:.2f} dB (flare region / whole)" in perf
     assert r["code"]["commit"].startswith("ec3446a")
     assert "taken 6-23 minutes wall" in readme and "22:32 on the slower machine" in readme
+
+
+BAND_DRAWS = (("sceaux_s0", "sceaux_castle, seed 0"), ("et_s3", "et, seed 3"),
+              ("sceaux_s7", "sceaux_castle, seed 7"), ("et_s7", "et, seed 7"),
+              ("lund_s0", "lund, seed 0"))
+
+
+def test_band_rejected_rule_is_its_files():
+    """docs/history/fill.md, "Where the sample's gap comes from": each draw's row is read
+    from band_checked_dev_<draw>_s57.json, the mean fails the rule's +0.10 dB (the option
+    stays off by default), the rays turned down and the sample's parts and scores are
+    fill_parts_*_s57.json's and sample_fill_band_checked_s57.json's."""
+    from pipeline.render import RenderConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    d_flare, d_whole, d_ssim, t_base, t_cand = [], [], [], 0.0, 0.0
+    for short, name in BAND_DRAWS:
+        rows = json.loads((RESULTS / f"band_checked_dev_{short}_s57.json").read_text())["rows"]
+        b, c = rows["hybrid_guided_support2"], rows["hybrid_band_checked"]
+        assert b["settings"] == {"fill": "hybrid", "depth_support": 2}
+        assert c["settings"] == {"fill": "hybrid", "band_rejected": False}
+        d = (c["psnr_flare"] - b["psnr_flare"], c["psnr"] - b["psnr"], c["ssim"] - b["ssim"])
+        assert (f"| {name} | {d[0]:+.3f} | {d[1]:+.3f} | {d[2]:+.4f} | "
+                f"{b['render_s']:.1f}, {c['render_s']:.1f} |") in hist
+        d_flare.append(d[0])
+        d_whole.append(d[1])
+        d_ssim.append(d[2])
+        t_base += b["render_s"]
+        t_cand += c["render_s"]
+    mean = sum(d_flare) / len(d_flare)
+    assert mean < 0.10 and RenderConfig().band_rejected is True
+    assert (f"| mean | **{mean:+.3f}** | {sum(d_whole) / 5:+.3f} | {sum(d_ssim) / 5:+.4f} | "
+            f"x{t_cand / t_base:.2f} |") in hist
+    # the s56 rows reproduced
+    for short, file in (("sceaux_s0", "sceaux"), ("et_s3", "et")):
+        now = json.loads((RESULTS / f"band_checked_dev_{short}_s57.json").read_text())
+        old = json.loads((RESULTS / f"fill_fmg_dev_{file}_s56.json").read_text())
+        a, o = now["rows"]["hybrid_guided_support2"], old["rows"]["hybrid_guided_support2"]
+        assert (a["psnr_flare"], a["psnr"]) == (o["psnr_flare"], o["psnr"])
+    shares = [json.loads((RESULTS / f"fill_parts_dev_{s}_s57.json").read_text())["rays"]
+              ["rejected_share"] for s, _ in BAND_DRAWS]
+    assert (f"turns down {100 * min(shares):.0f} to {100 * max(shares):.0f} % of the band's "
+            "network rays") in hist
+    parts = json.loads((RESULTS / "fill_parts_sample_s57.json").read_text())
+    p = parts["pooled"]
+    assert f"the sample: {100 * parts['rays']['rejected_share']:.0f} %" in hist
+    assert (f"the photos' part {p['photos_hybrid']:.3f} dB against the network alone's "
+            f"{p['photos_network']:.3f}") in hist
+    assert (f"the network's part **{p['network_hybrid']:.3f} dB against "
+            f"{p['network_network']:.3f}**") in hist
+    assert f"the network's part reads {p['network_whole_ray']:.3f} dB" in hist
+    assert abs(p["network_whole_ray"] - p["network_network"]) < 0.01
+    s = json.loads((RESULTS / "sample_fill_band_checked_s57.json").read_text())["mean"]
+    h = json.loads((RESULTS / "sample_fill_hybrid_s56.json").read_text())["mean"]
+    n = json.loads((RESULTS / "sample_fill_network_s56.json").read_text())["mean"]
+    assert (f"**{s['psnr_flare']:.2f} / {s['psnr']:.2f} dB** in the flare region and the whole "
+            f"photo, against {h['psnr_flare']:.2f} / {h['psnr']:.2f} at today's defaults (the "
+            f"network alone: {n['psnr_flare']:.2f} / {n['psnr']:.2f})") in hist
