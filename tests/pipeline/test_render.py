@@ -674,6 +674,36 @@ def test_band_rejected_on_a_video_says_it_is_for_the_photos(hws, capsys):
     assert "band_rejected" not in hws.stage_record("render:interpolate")["params"]
 
 
+def test_fill_parts_splits_the_true_flare_by_who_fills_it(hws, tmp_path, monkeypatch):
+    """benchmarks/fill_parts.py on the plane: the fake flare square (its truth the decoded
+    photo, its true mask the square) is filled by the photos and scores high there; with
+    every region turned down by the ring check the network fills it all and each of its
+    band's rays lies in a turned-down region."""
+    import pipeline.render.inputs as inputs
+    from pipeline.render import RenderConfig, run
+    from tests.conftest import load_benchmark
+
+    run(RenderConfig(path="inputs", fill="hybrid"), hws)
+    truth = tmp_path / "truth"
+    (truth / "masks_gt").mkdir(parents=True)
+    (truth / "clean").symlink_to(hws.decoded)
+    img = cv2.imread(str(hws.decoded / f"{HYBRID_FLARED}.png"))
+    gt = np.zeros(img.shape[:2], np.uint8)
+    gt[HYBRID_BOX] = 255
+    cv2.imwrite(str(truth / "masks_gt" / f"{HYBRID_FLARED}.png"), gt)
+    fp = load_benchmark("fill_parts")
+    rec = fp.fill_parts(hws.root, truth, {"hybrid": hws.deflared})
+    row = rec["views"][HYBRID_FLARED]
+    assert list(rec["views"]) == [HYBRID_FLARED]
+    assert abs(sum(row[f"share_{p}"] for p in fp.PARTS) - 1) < 1e-3
+    assert row["share_photos"] > 0.5 and row["photos_hybrid"] > 25
+    monkeypatch.setattr(inputs, "RING_TOLERANCE", -1.0)
+    down = fp.fill_parts(hws.root, truth, {"hybrid": hws.deflared})
+    assert down["views"][HYBRID_FLARED]["share_photos"] == 0
+    assert down["rays"]["guided"] > 0
+    assert down["rays"]["guided_rejected"] == down["rays"]["guided"]
+
+
 def test_full_res_colour_samples_sources_at_full_size(rws):
     """--full-res-colour: the encoder sees the sources at source_scale, colours come from
     WS/images at full size; the default follows the checkpoint (trained without it)."""
