@@ -313,7 +313,7 @@ class RenderConfig:
     check (``pipeline.render.inputs.check_on_ring``: on the clean pixels around the region
     the warped photos show another surface) are still sampled in the band around the
     photos' depth there; off: along the whole ray, as the network fill samples them
-    (docs/history/fill.md, "The band where the ring check turns the photos down")."""
+    (docs/history/fill.md, "Where the sample's gap comes from")."""
 
     def equal_below(self, novel: bool) -> float:
         """``sources_equal_below`` as it applies: the option when given, else
