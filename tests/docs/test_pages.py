@@ -2162,7 +2162,8 @@ def test_band_on_strong_flare_rule_is_its_files():
     readme = " ".join((REPO / "README.md").read_text().split())
     assert (f"+{flare:.3f} dB on three drawn as strong as the sample, whose whole photos lost "
             f"{-whole:.3f} dB; {t_cand / t_base:.2f} times the render time") in options
-    assert f"+{flare:.3f} dB on three as strongly flared as the sample (whole photo {whole:.3f} dB)" in depth
+    assert (f"+{flare:.3f} dB on three as strongly flared as the sample (whole photo "
+            f"{whole:.3f} dB)") in depth
     assert f"+0.003 to +{flare:.3f} dB, whole photos up to {whole:.3f} dB" in readme
     first = [json.loads((RESULTS / f"band_checked_dev_{s}_s57.json").read_text())["rows"]
              for s, _ in BAND_DRAWS]
