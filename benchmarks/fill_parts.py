@@ -50,6 +50,9 @@ def fill_parts(ws_path: Path, truth: Path, renders: dict[str, Path]) -> dict:
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_cameras, read_decoded, read_mask_file, read_views
 
+    if not (ws_path / "cameras.json").is_file():
+        raise UserError(f"{ws_path}: not a posed workspace (no cameras.json); pass the "
+                        "workspace whose de-flared photos are scored")
     ws = Workspace(ws_path)
     for name, folder in renders.items():
         if not folder.is_dir():
