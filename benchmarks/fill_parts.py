@@ -39,13 +39,8 @@ def fill_parts(ws_path: Path, truth: Path, renders: dict[str, Path]) -> dict:
     from pipeline.errors import UserError
     from pipeline.images import read_image
     from pipeline.render.config import INPUTS_MIN_BLOB, RenderConfig
-    from pipeline.render.fill import fill_from_photos, photo_views
-    from pipeline.render.inputs import (
-        check_on_ring,
-        input_blend,
-        own_clean_pixels,
-        to_decoded,
-    )
+    from pipeline.render.fill import photo_views
+    from pipeline.render.inputs import input_blend, input_photo_fill, network_pixels
     from pipeline.render.plan import plan_jobs, resolve_fill
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_cameras, read_decoded, read_mask_file, read_views
@@ -77,15 +72,8 @@ def fill_parts(ws_path: Path, truth: Path, renders: dict[str, Path]) -> dict:
         region = alpha > 0.5 / 255
         if not region.any() or not (truth / "masks_gt" / f"{s}.png").is_file():
             continue
-        colour, wgt, depth, _ = fill_from_photos(fr.K, fr.c2w, (fr.width, fr.height), job,
-                                                 photos, cfg, own_clean_pixels(ws, fr))
-        colour, wgt, depth = to_decoded(fr, size, colour, wgt, depth)
-        rejected = np.zeros(region.shape, bool)
-        if ring is not None:
-            wgt, rejected = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0,
-                                          region, ring)
-        net = region & ((wgt < 1) | (ring if ring is not None else False))
-        guided = net & (depth > fr.near) & (depth < fr.far)
+        _, wgt, depth, rejected = input_photo_fill(job, cfg, ws, photos, photo, region, ring)
+        guided = network_pixels(region, wgt, ring) & (depth > fr.near) & (depth < fr.far)
         rays["guided"] += int(guided.sum())
         rays["guided_rejected"] += int((guided & rejected).sum())
         m = read_mask_file(truth / "masks_gt" / f"{s}.png", size=size)
@@ -134,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     write_result(a.out, {"ws": str(a.ws), "truth": str(a.truth),
                          "renders": {k: str(v) for k, v in renders.items()}, **rec})
     return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

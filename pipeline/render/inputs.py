@@ -33,16 +33,9 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
     region = alpha > 0.5 / 255
     wgt = colour = depth = rejected = None
     if photos is not None and region.any():
-        colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w,
-                                                 (frame.width, frame.height), job, photos,
-                                                 cfg, own_clean_pixels(ws, frame))
-        colour, wgt, depth = to_decoded(frame, size, colour, wgt, depth)
-        if ring is not None:
-            wgt, rejected = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0,
-                                          region, ring)
-    # the network renders where the photos do not cover, and on the ring (its colour match)
-    net = region if wgt is None else region & ((wgt < 1) | (ring if ring is not None
-                                                            else False))
+        colour, wgt, depth, rejected = input_photo_fill(job, cfg, ws, photos, photo, region,
+                                                        ring)
+    net = region if wgt is None else network_pixels(region, wgt, ring)
     rays_o, rays_d, rows, cols = input_rays(frame, net.astype(np.float32), *size)
     guided = None
     if depth is not None:
@@ -50,7 +43,7 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
 
         d = depth[rows, cols]
         known = (d > frame.near) & (d < frame.far)
-        if rejected is not None and not cfg.band_rejected:  # that depth shows another surface
+        if not cfg.band_rejected:  # that depth shows another surface
             known &= ~rejected[rows, cols]
         guided = (torch.from_numpy(d), torch.from_numpy(known))
 
@@ -71,6 +64,30 @@ def prepare_input(job: FrameJob, cfg: RenderConfig, ws: Workspace,
         return to_u8(apply_flare_layer(out, filled, alpha, cfg))
 
     return Prepared(rays_o, rays_d, compose, guided)
+
+
+def input_photo_fill(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: dict,
+                     photo: np.ndarray, region: np.ndarray, ring: np.ndarray | None):
+    """(colour, weight, depth, rejected) of an input view's hybrid fill at the size of its
+    decoded ``photo`` (uint8): the photos warped by depth (``fill_from_photos``, gains matched
+    to the view's own clean pixels), brought to WS/decoded geometry, the ring check applied
+    where there is a ``ring`` (``rejected``: the regions it turned down)."""
+    frame = job.camera
+    colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w, (frame.width, frame.height),
+                                             job, photos, cfg, own_clean_pixels(ws, frame))
+    colour, wgt, depth = to_decoded(frame, (photo.shape[1], photo.shape[0]), colour, wgt,
+                                    depth)
+    rejected = np.zeros(region.shape, bool)
+    if ring is not None:
+        wgt, rejected = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0, region,
+                                      ring)
+    return colour, wgt, depth, rejected
+
+
+def network_pixels(region: np.ndarray, wgt: np.ndarray, ring: np.ndarray | None) -> np.ndarray:
+    """[H, W] bool: the pixels of the flare ``region`` GN-FR renders in the hybrid fill: where
+    the photos do not fully cover, and on the ring (its colour match)."""
+    return region & ((wgt < 1) | (ring if ring is not None else False))
 
 
 def own_clean_pixels(ws: Workspace, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
