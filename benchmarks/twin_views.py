@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -56,6 +55,11 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8) -> l
 
     if not 0.5 < keep < 1:
         raise UserError(f"--keep {keep}: give a share of the width between 0.5 and 1")
+    if every < 1:
+        raise UserError(f"--every {every}: give 1 (every view twinned) or more")
+    if not (ws_path / "cameras.json").is_file():
+        raise UserError(f"{ws_path}: not a posed workspace (no cameras.json); pass a workspace "
+                        "after `deflare-scene pose`")
     ws = Workspace(ws_path)
     ws.require("pose")
     if out.exists():
@@ -75,8 +79,6 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8) -> l
     manifest["stages"] = {k: v for k, v in manifest["stages"].items() if k in ("decode", "pose")}
     manifest["twins"] = {"from": str(ws.root), "every": every, "keep": keep}
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2))
-    if (ws.root / "decoded").is_dir():  # the synth reads WS/images; decoded for reference
-        shutil.copytree(ws.root / "decoded", out / "decoded_original")
     return [f.stem for f in frames]
 
 
