@@ -50,12 +50,6 @@ class DepthConfig:
 
     neighbours: int = option(4, ge=1)
     """Nearest views (camera centres) each view is matched against."""
-    min_parallax: float = option(0.0, ge=0, lt=1)
-    """A neighbour must move a point by at least this share of the view's long side between
-    the view's near and far depth (focal length x baseline x (1/near - 1/far)); nearer views
-    that move it less (photos taken from one spot, turned apart) are passed over for farther
-    ones, and taken last only when too few others are left (0: the nearest, whatever their
-    parallax; docs/history/fill.md, "Photos from one spot")."""
     planes: int = option(48, ge=3)
     """Depth hypotheses per view, uniform in inverse depth between its near and far."""
     window: int = option(7, ge=3, odd=True)
@@ -107,24 +101,13 @@ class DepthConfig:
         return replace(self, sgm=tuple(self.frames_sgm))
 
 
-def nearest_views(cams: Cameras, n: int, min_parallax: float = 0.0) -> dict[str, list[str]]:
-    """Per stem, the ``n`` other views with the nearest camera centres; with
-    ``min_parallax`` (:attr:`DepthConfig.min_parallax`) the views that move a point
-    less than that share of the view's long side between its near and far depth come after
-    all the others."""
+def nearest_views(cams: Cameras, n: int) -> dict[str, list[str]]:
+    """Per stem, the ``n`` other views with the nearest camera centres."""
     c = cams.centers()
     d = np.linalg.norm(c[:, None] - c[None], axis=-1)
     stems = cams.stems
-    out = {}
-    for i, f in enumerate(cams.frames):
-        order = [j for j in np.argsort(d[i], kind="stable") if j != i]
-        if min_parallax > 0:
-            # pixels of parallax per unit of baseline, in shares of the long side
-            reach = float(f.K[0][0]) * (1.0 / f.near - 1.0 / f.far) / max(f.width, f.height)
-            order = ([j for j in order if d[i, j] * reach >= min_parallax]
-                     + [j for j in order if d[i, j] * reach < min_parallax])
-        out[stems[i]] = [stems[j] for j in order[:n]]
-    return out
+    return {s: [stems[j] for j in np.argsort(d[i], kind="stable") if j != i][:n]
+            for i, s in enumerate(stems)}
 
 
 def load_views(ws: Workspace, cams: Cameras, stems: list[str],
@@ -262,7 +245,7 @@ def run(config: DepthConfig, ws: Workspace, force: bool = False) -> list[Path]:
         shutil.rmtree(frames_raw, ignore_errors=True)
     if frames_cfg is not None:
         frames_raw.mkdir(exist_ok=True)
-    near = nearest_views(cams, config.neighbours, config.min_parallax)
+    near = nearest_views(cams, config.neighbours)
     views = load_views(ws, cams, cams.stems)
     taken: list[str] = []
     # each view swept here leaves both winners of its one cost volume; the views whose

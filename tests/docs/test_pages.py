@@ -2172,3 +2172,55 @@ def test_band_on_strong_flare_rule_is_its_files():
     assert f"the sample +{gain:.2f} dB in the flare region" in options
     assert f"the sample +{gain:.2f} dB in the flare region" in readme
     assert f"the sample +{gain:.2f} dB (history" in depth
+
+
+TWIN_DRAWS = (("sceaux", "sceaux_castle, seed 3"), ("et", "et, seed 10"), ("lund", "lund, seed 3"))
+
+
+def test_photos_from_one_spot_rule_is_its_files():
+    """docs/history/fill.md, "Photos from one spot": the rule's table is twin_default_X_s58.json
+    and twin_depth_X_s58.json (candidate minus default), its mean fails the rule and the option
+    is gone from the depth stage; the coverage, the hybrid against the network alone, the
+    parts and the spacing figures are their files'."""
+    from pipeline.depth import DepthConfig
+
+    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    deltas = []
+    for short, name in TWIN_DRAWS:
+        b = json.loads((RESULTS / f"twin_default_{short}_s58.json").read_text())["rows"][
+            "hybrid_guided_support2"]
+        c = json.loads((RESULTS / f"twin_depth_{short}_s58.json").read_text())["rows"][
+            "hybrid_guided_support2"]
+        n = json.loads((RESULTS / f"twin_network_{short}_s58.json").read_text())["rows"]["network"]
+        d = (c["psnr_flare"] - b["psnr_flare"], c["psnr"] - b["psnr"], c["ssim"] - b["ssim"])
+        assert f"| {name} | {d[0]:+.3f} | {d[1]:+.3f} | {d[2]:+.4f} |" in hist
+        deltas.append(d)
+        parts = json.loads((RESULTS / f"twin_fill_parts_{short}_s58.json").read_text())
+        p = parts["pooled"]
+        assert (f"| {name} | {p['photos_hybrid']:.3f} / {p['photos_network']:.3f} | "
+                f"{p['network_hybrid']:.3f} / {p['network_network']:.3f} | "
+                f"{100 * parts['rays']['rejected_share']:.1f} % |") in hist
+        assert f"{name.split(',')[0]} {b['psnr_flare'] - n['psnr_flare']:+.3f}" in hist
+    flare, whole, ssim = (sum(d[i] for d in deltas) / 3 for i in range(3))
+    assert flare < 0.15 and not hasattr(DepthConfig(), "min_parallax")
+    assert f"| mean | **{flare:+.3f}** | **{whole:+.3f}** | {ssim:+.4f} |" in hist
+    cov = json.loads((RESULTS / "twin_depth_coverage_s58.json").read_text())["draws"]
+    for arm in ("default", "min_parallax_0.03"):  # "51 %, 45 % and 38 %"
+        pct = [f"{100 * cov[s][arm]['coverage']:.0f} %" for s, _ in TWIN_DRAWS]
+        assert f"{pct[0]}, {pct[1]} and {pct[2]}" in hist
+    sp = json.loads((RESULTS / "twin_spacing_s58.json").read_text())["workspaces"]
+    sample = sp["/work/s56/sample/cyprus.deflare"]
+    assert (f"{sample['nearest_distance'][0]} apart at the least and "
+            f"{sample['nearest_distance'][1]} at the median") in hist
+    assert f"median distance to the others is {sample['median_distance']}" in hist
+    assert (f"move a point by {sample['nearest_parallax_px'][0]} px at the least and "
+            f"{sample['nearest_parallax_px'][1]} px at the median of its {sample['width']}") in hist
+    dev = [sp[f"/work/dev/{s}_ws"] for s in ("sceaux", "et", "lund")]
+    assert (f"{min(d['nearest_distance'][0] for d in dev)}-"
+            f"{max(d['nearest_distance'][0] for d in dev)} apart at the least") in hist
+    assert f"by {dev[0]['nearest_parallax_px'][0]} px (sceaux_castle) to " \
+           f"{dev[2]['nearest_parallax_px'][0]} px (lund)" in hist
+    flagged = {k.split("/")[-1]: v["views_with_a_neighbour_under_0.03"] for k, v in sp.items()}
+    assert (f"maryrose {flagged['maryrose_ws']} of 69 and tumbler (a dense capture) "
+            f"{flagged['tumbler_ws']} of 40") in hist
+    assert flagged["cyprus.deflare"] == 6 and "on the sample six of eight" in hist

@@ -703,33 +703,6 @@ def test_novel_agree_loosens_the_agreement_of_novel_frames_only():
     assert weight(replace(base, novel_agree=0.3), False) == weight(base, False)
 
 
-def _frames_at(centres, near=1.0, far=4.0, width=200):
-    from pipeline.cameras import Cameras, Frame
-
-    K = np.array([[float(width), 0, width / 2], [0, float(width), 75.0], [0, 0, 1]])
-    return Cameras([Frame(f"v{i}.png", f"v{i}", K, width, 150, look_at(c, (0, 0, 5)), near, far)
-                    for i, c in enumerate(centres)])
-
-
-def test_nearest_views_pass_over_a_photo_from_one_spot():
-    """depth --min-parallax: a view from (nearly) the same spot, which moves no point between
-    near and far, comes after the views that do; without the option the nearest come first;
-    with too few others it is still taken, last; a capture without such a view is unchanged."""
-    from pipeline.depth import nearest_views
-
-    # v1 is v0's twin (1 mm apart); v2..v4 are 0.2-0.4 apart: focal 200 px x 0.75 (1/near -
-    # 1/far) x 0.2 = 30 px = 0.15 of the long side, the twin 0.00075
-    cams = _frames_at([(0, 0, 0), (0.001, 0, 0), (0.2, 0, 0), (0.3, 0, 0), (0.4, 0, 0)])
-    assert nearest_views(cams, 2)["v0"] == ["v1", "v2"]
-    assert nearest_views(cams, 2, 0.03)["v0"] == ["v2", "v3"]
-    assert nearest_views(cams, 4, 0.03)["v0"] == ["v2", "v3", "v4", "v1"]
-    assert nearest_views(cams, 2, 0.03)["v2"] == nearest_views(cams, 2)["v2"] == ["v3", "v1"]
-    # the threshold is a share of the long side: 0.1 apart moves 0.075 of it, 0.2 apart 0.15
-    assert nearest_views(cams, 2, 0.1)["v2"] == ["v1", "v0"]
-    spread = _frames_at([(0, 0, 0), (0.2, 0, 0), (0.4, 0, 0), (0.6, 0.1, 0)])
-    assert nearest_views(spread, 3, 0.03) == nearest_views(spread, 3)
-
-
 def test_twin_views_make_two_exact_crops_of_one_camera(tmp_path):
     """benchmarks/twin_views.py: every second view becomes two views from its camera (the left
     and right crops, principal point shifted), the others keep their middle crop; a world
@@ -764,3 +737,9 @@ def test_twin_views_make_two_exact_crops_of_one_camera(tmp_path):
                           read_view_image(ws, "plane01")[:, 20:140])
     with pytest.raises(Exception, match="exists"):
         tv.make_twins(ws.root, tmp_path / "twin.ws")
+    # --spacing: the twins stand 0 apart and move no point; the arc's views do
+    arc, twin = tv.spacing(ws.root), tv.spacing(new.root)
+    assert arc["views"] == 3 and arc["views_with_a_neighbour_under_0.03"] == 0
+    assert arc["nearest_parallax_px"][0] > 0.03 * 160
+    assert twin["views"] == 5 and twin["views_with_a_neighbour_under_0.03"] == 4
+    assert twin["nearest_distance"][0] == 0 and twin["nearest_parallax_px"][0] == 0
