@@ -1,6 +1,6 @@
 """A posed workspace whose photos come in pairs taken from one spot, like the sample's.
 
-    python benchmarks/twin_views.py WS --out NEW_WS [--every 2] [--keep 0.8]
+    python benchmarks/twin_views.py WS --out NEW_WS [--every 2] [--keep 0.8] [--turn DEG]
     python benchmarks/twin_views.py --spacing WS [WS ...] [--out JSON]
 
 The shipped sample (cyprus) holds three pairs of photos taken from one spot, turned apart
@@ -13,6 +13,11 @@ have one size). Each is an exact pinhole photo of a camera at the same centre
 and orientation, its principal point shifted: no parallax between the two, as between
 photos turned apart on one spot. ``deflare-scene synth NEW_WS`` (or
 ``benchmarks/synth_like_sample.py``) then flares it like any development scene.
+
+``--turn DEG``: the two views of a twin are turned apart instead, about the camera's own
+vertical axis by -DEG/2 and +DEG/2 (the photo resampled through the rotation's homography,
+bilinear), and every view is cropped to the middle rectangle both turned views fill (the
+others unturned): photos from one spot looking apart, as the sample's.
 
 ``--spacing`` reports how a posed capture is spaced instead (:func:`spacing`): how close each
 view's nearest neighbour stands, against the views' usual distance, and how far it moves a
@@ -51,7 +56,63 @@ def crops(frame, keep: float, twin: bool):
     return out
 
 
-def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8) -> list[str]:
+def yaw(deg: float) -> np.ndarray:
+    """[3, 3] rotation about the camera's own y axis (down) by ``deg`` degrees."""
+    t = np.radians(deg)
+    return np.array([[np.cos(t), 0, np.sin(t)], [0, 1, 0], [-np.sin(t), 0, np.cos(t)]])
+
+
+def turned_crop(frame, turn: float) -> tuple[int, int]:
+    """(width, height) of the middle rectangle that the photo of ``frame`` fills when turned
+    by -turn/2 and +turn/2 about its vertical axis (the homography K R^T K^-1 of each)."""
+    K = np.asarray(frame.K, float)
+    W, H = frame.width, frame.height
+    ys, xs = np.mgrid[0:H, 0:W]
+    pix = np.stack([xs.ravel() + 0.5, ys.ravel() + 0.5, np.ones(xs.size)])
+    ok = np.ones(xs.size, bool)
+    for sgn in (-1, 1):  # new pixel -> photo pixel: K R K^-1
+        src = K @ yaw(sgn * turn / 2) @ np.linalg.inv(K) @ pix
+        u, v = src[0] / src[2], src[1] / src[2]
+        ok &= (src[2] > 0) & (u >= 1) & (u <= W - 1) & (v >= 1) & (v <= H - 1)
+    ok = ok.reshape(H, W)
+    cx, cy = W // 2, H // 2
+    for k in range(min(cx, cy)):  # shrink a box of the photo's aspect until it is all filled
+        w, h = W - 2 * int(round(k * W / H)), H - 2 * k
+        x0, y0 = cx - w // 2, cy - h // 2
+        if w > 0 and ok[y0:y0 + h, x0:x0 + w].all():
+            return w, h
+    raise ValueError(f"a turn of {turn} degrees leaves nothing of {frame.stem}")
+
+
+def turned_views(frame, img: np.ndarray, turn: float, twin: bool, size: tuple[int, int]):
+    """[(Frame, image)]: ``frame`` turned by -turn/2 and +turn/2 (stems STEMa, STEMb) with
+    ``twin``, else as it is, each cropped to the middle ``size`` = (w, h)."""
+    import cv2
+
+    K = np.asarray(frame.K, float)
+    w, h = size
+    x0, y0 = frame.width // 2 - w // 2, frame.height // 2 - h // 2
+    out = []
+    for tag, deg in ((("a", -turn / 2), ("b", turn / 2)) if twin else (("", 0.0),)):
+        R = yaw(deg)
+        Hm = K @ R.T @ np.linalg.inv(K)  # photo pixel -> turned pixel
+        im = img if deg == 0 else cv2.warpPerspective(img, Hm, (frame.width, frame.height),
+                                                      flags=cv2.INTER_LINEAR)
+        Kc = K.copy()
+        Kc[0, 2] -= x0
+        Kc[1, 2] -= y0
+        c2w = np.asarray(frame.c2w, float).copy()
+        c2w[:3, :3] = c2w[:3, :3] @ R
+        colmap = {"model": "PINHOLE", "width": w, "height": h,
+                  "params": [Kc[0, 0], Kc[1, 1], Kc[0, 2], Kc[1, 2]]}
+        out.append((replace(frame, stem=f"{frame.stem}{tag}", name=f"{frame.stem}{tag}.png",
+                            K=Kc, width=w, height=h, c2w=c2w, colmap_camera=colmap),
+                    np.ascontiguousarray(im[y0:y0 + h, x0:x0 + w])))
+    return out
+
+
+def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
+               turn: float = 0.0) -> list[str]:
     """Write the twin workspace (module docstring); returns its stems."""
     from pipeline.cameras import Cameras
     from pipeline.errors import UserError
@@ -73,16 +134,23 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8) -> l
     new = Workspace(out)
     new.images.mkdir(parents=True)
     frames = []
+    if not 0 <= turn < 90:
+        raise UserError(f"--turn {turn}: give degrees from 0 to under 90")
+    box = turned_crop(cams.frames[0], turn) if turn > 0 else None
     for i, f in enumerate(cams.frames):
         img = read_view_image(ws, f.stem, bgr=True)
-        parts = crops(f, keep, twin=i % every == 0)
-        for fr, cols in parts:
-            atomic_imwrite(new.image_path(fr.stem), np.ascontiguousarray(img[:, cols]))
+        if box is not None:
+            parts = turned_views(f, img, turn, i % every == 0, box)
+        else:
+            parts = [(fr, np.ascontiguousarray(img[:, cols]))
+                     for fr, cols in crops(f, keep, twin=i % every == 0)]
+        for fr, im in parts:
+            atomic_imwrite(new.image_path(fr.stem), im)
             frames.append(fr)
     write_cameras(new, Cameras(frames, cams.colmap_to_world))
     manifest = json.loads((ws.root / "manifest.json").read_text())
     manifest["stages"] = {k: v for k, v in manifest["stages"].items() if k in ("decode", "pose")}
-    manifest["twins"] = {"from": str(ws.root), "every": every, "keep": keep}
+    manifest["twins"] = {"from": str(ws.root), "every": every, "keep": keep, "turn": turn}
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2))
     return [f.stem for f in frames]
 
@@ -91,7 +159,8 @@ def spacing(ws_path: Path, low: float = 0.03, n: int = 4) -> dict:
     """How the posed views of ``ws_path`` are spaced: the nearest neighbour's distance
     (smallest, median), the median over the views of their median distance to the others,
     the nearest neighbour's parallax (focal length x distance x (1/near - 1/far), pixels of
-    the view's image: smallest, median) and the views with a neighbour among their ``n``
+    the view's image: smallest, median), the angle between each view and its nearest
+    neighbour (degrees: smallest, median, largest) and the views with a neighbour among their ``n``
     nearest whose parallax is under ``low`` of the long side (a photo from about the same
     spot)."""
     from pipeline.errors import UserError
@@ -104,18 +173,22 @@ def spacing(ws_path: Path, low: float = 0.03, n: int = 4) -> dict:
     c = cams.centers()
     d = np.linalg.norm(c[:, None] - c[None], axis=-1)
     np.fill_diagonal(d, np.inf)
-    nn, par, med, flagged = [], [], [], 0
+    nn, par, med, turn, flagged = [], [], [], [], 0
     for i, f in enumerate(cams.frames):
         reach = float(f.K[0][0]) * (1.0 / f.near - 1.0 / f.far)
         order = np.argsort(d[i])[:-1]
         nn.append(float(d[i, order[0]]))
         par.append(nn[-1] * reach)
+        R = np.asarray(f.c2w, float)[:3, :3].T @ np.asarray(cams.frames[order[0]].c2w)[:3, :3]
+        turn.append(float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)))))
         med.append(float(np.median(d[i, order])))
         flagged += int(any(d[i, j] * reach < low * max(f.width, f.height) for j in order[:n]))
     return {"views": len(nn), "width": cams.frames[0].width,
             "nearest_distance": [round(min(nn), 4), round(float(np.median(nn)), 4)],
             "median_distance": round(float(np.median(med)), 4),
             "nearest_parallax_px": [round(min(par), 1), round(float(np.median(par)), 1)],
+            "nearest_turn_deg": [round(min(turn), 1), round(float(np.median(turn)), 1),
+                                 round(max(turn), 1)],
             f"views_with_a_neighbour_under_{low}": flagged}
 
 
@@ -128,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="report how each WS is spaced instead of writing a workspace")
     ap.add_argument("--every", type=int, default=2)
     ap.add_argument("--keep", type=float, default=0.8)
+    ap.add_argument("--turn", type=float, default=0.0,
+                    help="degrees the two views of a twin look apart (0: crops, not turned)")
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
 
@@ -142,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if len(a.ws) != 1:
             raise UserError("give one workspace to copy (several only with --spacing)")
-        stems = make_twins(a.ws[0], a.out, a.every, a.keep)
+        stems = make_twins(a.ws[0], a.out, a.every, a.keep, a.turn)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -2224,3 +2224,13 @@ def test_photos_from_one_spot_rule_is_its_files():
     assert (f"maryrose {flagged['maryrose_ws']} of 69 and tumbler (a dense capture) "
             f"{flagged['tumbler_ws']} of 40") in hist
     assert flagged["cyprus.deflare"] == 6 and "on the sample six of eight" in hist
+    assert (f"look {sample['nearest_turn_deg'][0]} degrees apart at the least and "
+            f"{sample['nearest_turn_deg'][1]} at the median") in hist
+    tour = json.loads((RESULTS / "tour_view_turned_s58.json").read_text())["scenes"]
+    for short, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
+        t = tour[f"/work/s58/{short}_turn"]
+        a, b = t["today"]["total"], t["view"]["total"]
+        assert f"{name} {a:.3f} -> {b:.3f}" in hist
+        if a != b:
+            assert f"{name} {a:.3f} -> {b:.3f} ({100 * (b / a - 1):+.1f} %)" in hist
+        assert sp[f"/work/s58/{short}_turn"]["nearest_turn_deg"][1] == 15.0
