@@ -1,23 +1,24 @@
 """A posed workspace whose photos come in pairs taken from one spot, like the sample's.
 
     python benchmarks/twin_views.py WS --out NEW_WS [--every 2] [--keep 0.8] [--turn DEG]
-    python benchmarks/twin_views.py --spacing WS [WS ...] [--out JSON]
+    python benchmarks/twin_views.py --spacing WS [WS ...] --out JSON
 
 The shipped sample (cyprus) holds three pairs of photos taken from one spot, turned apart
-(their camera centres 1-3 % of the scene's camera spacing apart; docs/history/fill.md,
+(their camera centres a few hundredths of the views' usual distance apart; docs/history/fill.md,
 "Photos from one spot"); no development scene has such a pair. This writes a copy of the
 posed workspace WS (its ``cameras.json``, ``WS/images`` and the decode and pose records)
 where every ``--every``-th view is replaced by two views from its camera: the left and the
 right ``--keep`` of its width (the other views keep their middle ``--keep``, so that all
 have one size). Each is an exact pinhole photo of a camera at the same centre
 and orientation, its principal point shifted: no parallax between the two, as between
-photos turned apart on one spot. ``deflare-scene synth NEW_WS`` (or
+photos taken from one spot. ``deflare-scene synth NEW_WS`` (or
 ``benchmarks/synth_like_sample.py``) then flares it like any development scene.
 
 ``--turn DEG``: the two views of a twin are turned apart instead, about the camera's own
 vertical axis by -DEG/2 and +DEG/2 (the photo resampled through the rotation's homography,
 bilinear), and every view is cropped to the middle rectangle both turned views fill (the
-others unturned): photos from one spot looking apart, as the sample's.
+others unturned; ``--keep`` is then unused): photos from one spot looking apart, as the
+sample's.
 
 ``--spacing`` reports how a posed capture is spaced instead (:func:`spacing`): how close each
 view's nearest neighbour stands, against the views' usual distance, and how far it moves a
