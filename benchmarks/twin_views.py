@@ -124,6 +124,8 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
         raise UserError(f"--keep {keep}: give a share of the width between 0.5 and 1")
     if every < 1:
         raise UserError(f"--every {every}: give 1 (every view twinned) or more")
+    if not 0 <= turn < 90:
+        raise UserError(f"--turn {turn}: give degrees from 0 to under 90")
     if not (ws_path / "cameras.json").is_file():
         raise UserError(f"{ws_path}: not a posed workspace (no cameras.json); pass a workspace "
                         "after `deflare-scene pose`")
@@ -135,8 +137,6 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
     new = Workspace(out)
     new.images.mkdir(parents=True)
     frames = []
-    if not 0 <= turn < 90:
-        raise UserError(f"--turn {turn}: give degrees from 0 to under 90")
     box = turned_crop(cams.frames[0], turn) if turn > 0 else None
     for i, f in enumerate(cams.frames):
         img = read_view_image(ws, f.stem, bgr=True)
