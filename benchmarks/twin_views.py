@@ -134,10 +134,16 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
     if out.exists():
         raise UserError(f"{out} exists; give a new folder")
     cams = read_cameras(ws)
+    box = None
+    if turn > 0:  # one size for all: the smallest box any camera's turned pair fills
+        try:
+            sizes = {turned_crop(f, turn) for f in cams.frames}
+        except ValueError as e:
+            raise UserError(f"--turn {turn}: {e}; give a smaller turn") from None
+        box = (min(w for w, _ in sizes), min(h for _, h in sizes))
     new = Workspace(out)
     new.images.mkdir(parents=True)
     frames = []
-    box = turned_crop(cams.frames[0], turn) if turn > 0 else None
     for i, f in enumerate(cams.frames):
         img = read_view_image(ws, f.stem, bgr=True)
         if box is not None:
