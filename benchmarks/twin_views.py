@@ -39,22 +39,32 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def crops(frame, keep: float, twin: bool):
-    """[(Frame, column slice)]: with ``twin`` the left and the right ``keep`` of
-    ``frame``'s width (stems STEMa, STEMb), else its middle ``keep`` (its own stem), so that
-    every view of the workspace keeps one size."""
+def view_frame(frame, tag: str, box: tuple[int, int, int, int], R: np.ndarray | None = None):
+    """``frame`` as the camera of the ``box`` = (x0, y0, w, h) of its photo (its principal
+    point shifted), turned by the rotation ``R`` in its own axes when given; stem STEM+tag."""
+    from pipeline.camera_models import CameraModel
+
+    x0, y0, w, h = box
+    K = np.asarray(frame.K, float).copy()
+    K[0, 2] -= x0
+    K[1, 2] -= y0
+    c2w = np.asarray(frame.c2w, float).copy()
+    if R is not None:
+        c2w[:3, :3] = c2w[:3, :3] @ R
+    return replace(frame, stem=f"{frame.stem}{tag}", name=f"{frame.stem}{tag}.png", K=K,
+                   width=w, height=h, c2w=c2w,
+                   colmap_camera=CameraModel.pinhole(K, w, h).to_colmap())
+
+
+def crops(frame, img: np.ndarray, keep: float, twin: bool):
+    """[(Frame, image)]: with ``twin`` the left and the right ``keep`` of ``frame``'s width
+    (stems STEMa, STEMb), else its middle ``keep`` (its own stem), so that every view of the
+    workspace keeps one size."""
     w = int(round(keep * frame.width))
     shift = frame.width - w
-    out = []
-    for tag, x0 in ((("a", 0), ("b", shift)) if twin else (("", shift // 2),)):
-        K = np.asarray(frame.K, float).copy()
-        K[0, 2] -= x0
-        colmap = {"model": "PINHOLE", "width": w, "height": frame.height,
-                  "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]}
-        out.append((replace(frame, stem=f"{frame.stem}{tag}", name=f"{frame.stem}{tag}.png",
-                            K=K, width=w,
-                            colmap_camera=colmap), slice(x0, x0 + w)))
-    return out
+    return [(view_frame(frame, tag, (x0, 0, w, frame.height)),
+             np.ascontiguousarray(img[:, x0:x0 + w]))
+            for tag, x0 in ((("a", 0), ("b", shift)) if twin else (("", shift // 2),))]
 
 
 def yaw(deg: float) -> np.ndarray:
@@ -99,15 +109,7 @@ def turned_views(frame, img: np.ndarray, turn: float, twin: bool, size: tuple[in
         Hm = K @ R.T @ np.linalg.inv(K)  # photo pixel -> turned pixel
         im = img if deg == 0 else cv2.warpPerspective(img, Hm, (frame.width, frame.height),
                                                       flags=cv2.INTER_LINEAR)
-        Kc = K.copy()
-        Kc[0, 2] -= x0
-        Kc[1, 2] -= y0
-        c2w = np.asarray(frame.c2w, float).copy()
-        c2w[:3, :3] = c2w[:3, :3] @ R
-        colmap = {"model": "PINHOLE", "width": w, "height": h,
-                  "params": [Kc[0, 0], Kc[1, 1], Kc[0, 2], Kc[1, 2]]}
-        out.append((replace(frame, stem=f"{frame.stem}{tag}", name=f"{frame.stem}{tag}.png",
-                            K=Kc, width=w, height=h, c2w=c2w, colmap_camera=colmap),
+        out.append((view_frame(frame, tag, (x0, y0, w, h), R),
                     np.ascontiguousarray(im[y0:y0 + h, x0:x0 + w])))
     return out
 
@@ -146,11 +148,8 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
     frames = []
     for i, f in enumerate(cams.frames):
         img = read_view_image(ws, f.stem, bgr=True)
-        if box is not None:
-            parts = turned_views(f, img, turn, i % every == 0, box)
-        else:
-            parts = [(fr, np.ascontiguousarray(img[:, cols]))
-                     for fr, cols in crops(f, keep, twin=i % every == 0)]
+        parts = (turned_views(f, img, turn, i % every == 0, box) if box is not None
+                 else crops(f, img, keep, i % every == 0))
         for fr, im in parts:
             atomic_imwrite(new.image_path(fr.stem), im)
             frames.append(fr)
@@ -170,6 +169,7 @@ def spacing(ws_path: Path, low: float = 0.03, n: int = 4) -> dict:
     neighbour (degrees: smallest, median, largest) and the views with a neighbour among their ``n``
     nearest whose parallax is under ``low`` of the long side (a photo from about the same
     spot)."""
+    from gnfr.paths import rotation_angle
     from pipeline.errors import UserError
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_cameras
@@ -183,11 +183,11 @@ def spacing(ws_path: Path, low: float = 0.03, n: int = 4) -> dict:
     nn, par, med, turn, flagged = [], [], [], [], 0
     for i, f in enumerate(cams.frames):
         reach = float(f.K[0][0]) * (1.0 / f.near - 1.0 / f.far)
-        order = np.argsort(d[i])[:-1]
+        order = np.argsort(d[i])[:-1]  # the view itself (inf) sorts last
         nn.append(float(d[i, order[0]]))
         par.append(nn[-1] * reach)
-        R = np.asarray(f.c2w, float)[:3, :3].T @ np.asarray(cams.frames[order[0]].c2w)[:3, :3]
-        turn.append(float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)))))
+        turn.append(float(np.degrees(rotation_angle(
+            np.asarray(f.c2w)[:3, :3], np.asarray(cams.frames[order[0]].c2w)[:3, :3]))))
         med.append(float(np.median(d[i, order])))
         flagged += int(any(d[i, j] * reach < low * max(f.width, f.height) for j in order[:n]))
     return {"views": len(nn), "width": cams.frames[0].width,
