@@ -610,18 +610,33 @@ def test_fill_blend_table_is_the_simulation_file():
         assert f"| {cells} | {d['mean'][arm]['psnr']:+.3f} / " in hist, arm
 
 
+FMG_KINDS = ("starburst", "ghosts", "streaks", "glare", "scatter")
+FMG_PARTS = ("1. daylight composites, mean over kinds",
+             "2. one-kind scenes, three builds pooled",
+             "3. the card's composites (30 % night), mean",
+             "4. every-kind development scenes, mean of three",
+             "5. clean lund, marked (mean / max)")
+
+
+def fmg_kind_mean(name: str) -> float:
+    d = json.loads((RESULTS / name).read_text())["kinds"]
+    return sum(d[k]["weights"]["IoU_flare"] for k in FMG_KINDS) / len(FMG_KINDS)
+
+
+def fmg_rule_cells(day: str, mixed: str, judged: float, scenes: list[float], clean: str):
+    """One column of a candidate table in docs/history/fmg.md, as the page writes it."""
+    lund = json.loads((RESULTS / clean).read_text())["scenes"]["scenes/lund/images"]
+    return (f"{fmg_kind_mean(day):.3f}", f"{judged:.4f}", f"{fmg_kind_mean(mixed):.3f}",
+            f"{sum(scenes) / len(scenes):.3f}",
+            f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %")
+
+
 def test_fmg_d_candidates_table_is_their_files():
     """docs/history/fmg.md's table of candidates D and D2 (thirty-second session) is their
     committed files: daylight and mixed composites, the one-kind builds judged beside M's
     rows of the same build, the every-kind scenes and clean lund."""
     mk = load_benchmark("mask_kind_scenes")
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
-    kinds = ("starburst", "ghosts", "streaks", "glare", "scatter")
-
-    def kind_mean(name):
-        d = json.loads((RESULTS / name).read_text())["kinds"]
-        return sum(d[k]["weights"]["IoU_flare"] for k in kinds) / len(kinds)
-
     cells = {}
     for c in ("D", "D2"):
         builds = [mk.build_rows(f"{RESULTS / base}+{RESULTS / f'mask_dev_kinds_{c}_s{s}.json'}")
@@ -632,20 +647,47 @@ def test_fmg_d_candidates_table_is_their_files():
         assert res["mean"] == saved["mean"]
         scenes = [r["flare_iou"] for r in json.loads(
             (RESULTS / f"mask_dev_scenes_{c}.json").read_text())["rows"] if r["rays"]]
-        clean = json.loads((RESULTS / f"fmg_dev_clean_{c}_rays.json").read_text())[
-            "scenes"]["scenes/lund/images"]
-        cells[c] = (f"{kind_mean(f'fmg_dev_per_kind_{c}_day_rays.json'):.3f}",
-                    f"{res['mean'][f'fmg_{c}.safetensors@1']:.4f}",
-                    f"{kind_mean(f'fmg_dev_per_kind_{c}_rays.json'):.3f}",
-                    f"{sum(scenes) / len(scenes):.3f}",
-                    f"{100 * clean['mean']:.2f} % / {100 * clean['max']:.2f} %")
+        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays.json",
+                                  f"fmg_dev_per_kind_{c}_rays.json",
+                                  res["mean"][f"fmg_{c}.safetensors@1"], scenes,
+                                  f"fmg_dev_clean_{c}_rays.json")
         assert res["mean"]["fmg.safetensors@1"] == pytest.approx(0.3248, abs=5e-5)
-    for i, part in enumerate(("1. daylight composites, mean over kinds",
-                              "2. one-kind scenes, three builds pooled",
-                              "3. the card's composites (30 % night), mean",
-                              "4. every-kind development scenes, mean of three",
-                              "5. clean lund, marked (mean / max)")):
+    for i, part in enumerate(FMG_PARTS):
         assert f"| {part} | " in hist and f" | {cells['D'][i]} | {cells['D2'][i]} | " in hist, part
+
+
+def test_fmg_r_candidates_table_is_their_files():
+    """docs/history/fmg.md's table of candidates R8 and R13 (fifty-ninth session) is their
+    committed files, M scored again beside them on the same builds; both fail part 1."""
+    mk = load_benchmark("mask_kind_scenes")
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_R_s{s}.json")) for s in (31, 32, 33)]
+    rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
+    base = "fmg.safetensors@1"
+    pooled = {}
+    for c in ("R8", "R13"):
+        res = mk.judge(builds, base, f"fmg_{c}.safetensors@1")
+        saved = json.loads((RESULTS / f"mask_kinds_judge_{c}_s59.json").read_text())
+        assert res["mean"] == saved["mean"]
+        pooled[c], pooled["M"] = res["mean"][f"fmg_{c}.safetensors@1"], res["mean"][base]
+    cells = {}
+    for c in ("M", "R8", "R13"):
+        name = "/fmg.safetensors" if c == "M" else f"/fmg_{c}.safetensors"
+        scenes = [r["flare_iou"] for r in rows if r["rays"] and r["weights"].endswith(name)]
+        assert len(scenes) == 3
+        s = "_s59" if c == "M" else ""   # M scored again this session, beside its older files
+        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays{s}.json",
+                                  f"fmg_dev_per_kind_{c}_rays{s}.json", pooled[c], scenes,
+                                  f"fmg_dev_clean_{c}_rays{s}.json")
+    for i, part in enumerate(FMG_PARTS):
+        row = f"| {part} | {cells['M'][i]} | {cells['R8'][i]} | {cells['R13'][i]} | "
+        assert row in hist, row
+    m_day, m_mixed = (fmg_kind_mean(f"fmg_dev_per_kind_M_{n}_s59.json")
+                      for n in ("day_rays", "rays"))
+    assert m_day == pytest.approx(fmg_kind_mean("fmg_dev_per_kind_M_day_rays.json"), abs=5e-4)
+    for c in ("R8", "R13"):   # part 1 fails: the mean short of M's + 0.02
+        assert fmg_kind_mean(f"fmg_dev_per_kind_{c}_day_rays.json") < m_day + 0.02
+        assert fmg_kind_mean(f"fmg_dev_per_kind_{c}_rays.json") < m_mixed - 0.01
 
 
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
