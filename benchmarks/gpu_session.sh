@@ -68,6 +68,9 @@
 # fmg_candidate_L (J + 10 000 steps, best validation) and a paper prior that lost 1.29 dB on
 # et (not kept). The twenty-fourth session (no GPU) trained L 200-600 more steps at 2e-4 on the
 # CPU: every mask score rose (fmg.md, candidates B and M), so FMG_LR=2e-4 from L stays the plan.
+# The fifty-ninth session (an H200, FMG alone: FMG_WORKERS=14 FMG_LR=2e-4 with the daylight mix
+# above, `short 535` then `train 200`) ran 13 700 FMG steps in 668 s, about 20.5 steps/s with
+# the loaders the limit; candidates R8/R13 failed their rule (fmg.md, "Next": other data).
 # On a fresh machine the packs' scenes come from the recipe in gnfr.md
 # ("Exact commands": workflows.research.pretrain_scenes, then decode + pose of et,
 # sceaux_castle, sacre_coeur, lund; about 5 minutes) plus maryrose and tumbler as they are.
