@@ -664,12 +664,12 @@ def test_fmg_r_candidates_table_is_their_files():
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_R_s{s}.json")) for s in (31, 32, 33)]
     rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
     base = "fmg.safetensors@1"
-    pooled = {}
-    for c in ("R8", "R13"):
-        res = mk.judge(builds, base, f"fmg_{c}.safetensors@1")
+    judged = {c: mk.judge(builds, base, f"fmg_{c}.safetensors@1") for c in ("R8", "R13")}
+    pooled = {"M": judged["R8"]["mean"][base]}
+    for c, res in judged.items():
         saved = json.loads((RESULTS / f"mask_kinds_judge_{c}_s59.json").read_text())
         assert res["mean"] == saved["mean"]
-        pooled[c], pooled["M"] = res["mean"][f"fmg_{c}.safetensors@1"], res["mean"][base]
+        pooled[c] = res["mean"][f"fmg_{c}.safetensors@1"]
     cells = {}
     for c in ("M", "R8", "R13"):
         name = "/fmg.safetensors" if c == "M" else f"/fmg_{c}.safetensors"

@@ -2226,14 +2226,15 @@ def test_photos_from_one_spot_rule_is_its_files():
     assert flagged["cyprus.deflare"] == 6 and "on the sample six of eight" in hist
     assert (f"look {sample['nearest_turn_deg'][0]} degrees apart at the least and "
             f"{sample['nearest_turn_deg'][1]} at the median") in hist
-    for short, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
+    scenes = [(short, draw.split(",")[0]) for short, draw in TWIN_DRAWS]
+    for short, name in scenes:
         rows = json.loads((RESULTS / f"strong_network_{short}_s58.json").read_text())["rows"]
         h, n = rows["hybrid_guided_support2"], rows["network"]
         old = json.loads((RESULTS / f"band_checked_strong_{short}_s57.json").read_text())
         assert h["psnr_flare"] == old["rows"]["hybrid_guided_support2"]["psnr_flare"]
         assert f"{name} {h['psnr_flare'] - n['psnr_flare']:+.3f}" in hist
     tour = json.loads((RESULTS / "tour_view_turned_s58.json").read_text())["scenes"]
-    for short, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
+    for short, name in scenes:
         t = tour[f"/work/s58/{short}_turn"]
         a, b = t["today"]["total"], t["view"]["total"]
         assert f"{name} {a:.3f} -> {b:.3f}" in hist

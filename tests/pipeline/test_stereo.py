@@ -741,6 +741,8 @@ def test_twin_views_make_two_exact_crops_of_one_camera(tmp_path):
     # (the homography from the cameras, K_t R_t^T R K^-1, maps the photo onto the crop)
     import cv2
 
+    from gnfr.paths import rotation_angle
+
     tv.make_twins(ws.root, tmp_path / "turn.ws", every=2, turn=10)
     turned = Workspace(tmp_path / "turn.ws")
     tc = load_cameras(turned.cameras_json).by_stem()
@@ -749,14 +751,15 @@ def test_twin_views_make_two_exact_crops_of_one_camera(tmp_path):
         f = tc[s]
         Rt = np.asarray(f.c2w)[:3, :3].T @ np.asarray(o.c2w)[:3, :3]
         assert np.allclose(f.c2w[:3, 3], o.c2w[:3, 3])
-        assert np.isclose(np.degrees(np.arccos((np.trace(Rt) - 1) / 2)), 5.0)
+        assert np.isclose(np.degrees(rotation_angle(np.asarray(o.c2w)[:3, :3],
+                                                    np.asarray(f.c2w)[:3, :3])), 5.0)
         H = np.asarray(f.K) @ Rt @ np.linalg.inv(np.asarray(o.K))
         want = cv2.warpPerspective(img, H, (f.width, f.height), flags=cv2.INTER_LINEAR)
         got = read_view_image(turned, s)
         assert got.shape == want.shape and f.width < 160
         assert np.abs(got.astype(int) - want.astype(int))[2:-2, 2:-2].mean() < 1.0
     a, b = (np.asarray(tc[s].c2w)[:3, :3] for s in ("plane00a", "plane00b"))
-    assert np.isclose(np.degrees(np.arccos((np.trace(a.T @ b) - 1) / 2)), 10.0)
+    assert np.isclose(np.degrees(rotation_angle(a, b)), 10.0)
     # --spacing: the twins stand 0 apart and move no point; the arc's views do
     arc, twin = tv.spacing(ws.root), tv.spacing(new.root)
     assert arc["views"] == 3 and arc["views_with_a_neighbour_under_0.03"] == 0
