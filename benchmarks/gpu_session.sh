@@ -50,7 +50,9 @@
 #           found the thin kinds at flare IoU 0.17-0.29 on daylight, composites and photos
 #           alike; FMG_NIGHT=F sets the `short`/`train` run's --night-prob (default 0.35),
 #           FMG_KINDS=K=P,... its --kind-probs and FMG_CANVAS=C its --flare-canvas (the
-#           thirty-second session's CPU candidates D/D2: docs/history/fmg.md).
+#           thirty-second session's CPU candidates D/D2: docs/history/fmg.md), FMG_FRAMES=P
+#           its --frame-prob (windows of whole photos with flare drawn as `synth` draws it;
+#           sixtieth session).
 #           The thirty-fifth session ran all six for 1 250 steps each (`loko 555 20000`);
 #           LOKO_KINDS="ghosts streaks" trains only those beside the control, for more steps.
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
@@ -107,7 +109,7 @@ start_fmg() {
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
     --device $DEV --iters 20000 --batch ${FMG_BATCH:-16} --size 256 --widths 64,128,256,512 \
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 \
-    --night-prob ${FMG_NIGHT:-0.35} --flare-canvas ${FMG_CANVAS:-1} \
+    --night-prob ${FMG_NIGHT:-0.35} --flare-canvas ${FMG_CANVAS:-1} --frame-prob ${FMG_FRAMES:-0} \
     --kind-probs ${FMG_KINDS:-starburst=0.7,ghosts=0.7,streaks=0.7} --dice 0.5 "${init[@]}" \
     --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} \
     >> $FM.log 2>&1 < /dev/null &

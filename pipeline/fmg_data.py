@@ -102,6 +102,12 @@ class CompositeConfig:
     mask stage meets flare drawn across a whole photo at its working size (512 px), about
     twice the pixels of flare drawn for a 256 px composite; 2 draws it at that scale
     (docs/history/fmg.md, "Thirty-first session")."""
+    frame_prob: float = 0.0
+    """Probability that a training composite is cut from its photo as the mask stage meets
+    it (:func:`frame_window`): a ``size`` window at the photo's own scale (``preload_side``,
+    the mask stage's working size), its flare drawn for the whole photo with the optical
+    centre at the photo's centre and no affine, as ``deflare-scene synth`` draws it. 0: every
+    composite is a resized crop with its flare moved by the random affine."""
 
 
 # --------------------------------------------------------------------------- backgrounds
@@ -536,17 +542,62 @@ def draw_flare(flare_cfg: fl.FlareConfig, comp: CompositeConfig, size: int,
     return window_layers(layers, x0, y0, size)
 
 
+def frame_window(bg: np.ndarray, size: int, rng: np.random.Generator
+                 ) -> tuple[int, int] | None:
+    """The top-left corner (x0, y0) of a random ``size`` window of the photo ``bg`` at its
+    own scale, or None when the photo is smaller than the window."""
+    h, w = bg.shape[:2]
+    if min(h, w) < size:
+        return None
+    return int(rng.integers(0, w - size + 1)), int(rng.integers(0, h - size + 1))
+
+
+def frame_crop(bg: np.ndarray, window: tuple[int, int], size: int,
+               rng: np.random.Generator) -> np.ndarray:
+    """The window of ``bg`` (RGB uint8) as float32 sRGB [0, 1], not resized, randomly
+    flipped (the flare is drawn after, so its geometry keeps the photo's)."""
+    x0, y0 = window
+    crop = bg[y0:y0 + size, x0:x0 + size]
+    if rng.random() < 0.5:
+        crop = crop[:, ::-1]
+    return np.ascontiguousarray(crop, np.float32) / 255.0
+
+
+def draw_frame_flare(flare_cfg: fl.FlareConfig, frame_hw: tuple[int, int],
+                     window: tuple[int, int], size: int,
+                     rng: np.random.Generator) -> fl.FlareLayers:
+    """A fresh lens at a light inside ``window`` (10-90 % of its side, as
+    :func:`draw_flare` keeps it), rendered for the whole ``frame_hw`` photo with the optical
+    centre at the photo's centre (ghosts and streaks laid out as ``synth`` lays them out on a
+    photo), then the window's ``size`` square kept."""
+    x0, y0 = window
+    lens = fl.sample_lens(flare_cfg, rng)
+    light = (x0 + size * float(rng.uniform(0.1, 0.9)), y0 + size * float(rng.uniform(0.1, 0.9)))
+    k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
+    return window_layers(fl.render_flare(lens, light, frame_hw, rng, k), x0, y0, size)
+
+
 def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeConfig,
-                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+                    rng: np.random.Generator, window: tuple[int, int] | None = None,
+                    frame_hw: tuple[int, int] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool).
 
     A fresh lens at a random light position (:func:`draw_flare`), its layers moved by one
-    random affine. The mask is kept where the flare is visible against this background.
+    random affine; or, given the ``window`` ``img`` was cut from a ``frame_hw`` photo
+    (``CompositeConfig.frame_prob``), the lens drawn for that photo
+    (:func:`draw_frame_flare`) with no affine. The mask is kept where the flare is visible
+    against this background.
     """
     S = img.shape[0]
-    layers = draw_flare(flare_cfg, comp, S, rng)
-    m = random_affine(comp, layers.light_xy, rng)
-    layers = warp_layers(layers, m, S)
+    if window is None:
+        layers = draw_flare(flare_cfg, comp, S, rng)
+        m = random_affine(comp, layers.light_xy, rng)
+        layers = warp_layers(layers, m, S)
+    else:
+        if frame_hw is None:
+            raise ValueError("composite_flare: a window needs the photo's frame_hw")
+        layers = draw_frame_flare(flare_cfg, frame_hw, window, S, rng)
     label = layers.mask
     gain = float(rng.uniform(*flare_cfg.gain))
     noise = float(rng.uniform(*flare_cfg.noise))
@@ -574,7 +625,11 @@ class CompositeSource:
         c = self.comp
         extras = train if extras is None else extras
         bg = self.backgrounds[int(rng.integers(len(self.backgrounds)))]
-        img = random_crop(bg, c.size, c.crop_scale, rng)
+        window = None  # no draw at frame_prob 0: the composites of earlier runs stay as they were
+        if train and c.frame_prob > 0 and rng.random() < c.frame_prob:
+            window = frame_window(bg, c.size, rng)
+        img = (random_crop(bg, c.size, c.crop_scale, rng) if window is None
+               else frame_crop(bg, window, c.size, rng))
         if extras and rng.random() < c.night_prob:
             img = darken_night(img, c, rng)
         if train:
@@ -586,7 +641,7 @@ class CompositeSource:
                 img = add_hard_negatives(img, rng, pool=c.negatives)
             if not flared:
                 return img, np.zeros(img.shape[:2], bool)
-        return composite_flare(img, self.flare_cfg, c, rng)
+        return composite_flare(img, self.flare_cfg, c, rng, window, bg.shape[:2])
 
     def batch(self, n: int, rng: np.random.Generator, train: bool = True,
               extras: bool | None = None):

@@ -75,6 +75,11 @@ class FMGTrainConfig:
     """Draw each composite's flare for a frame this many times its side and keep a window of
     it around the light (``CompositeConfig.flare_canvas``; 2: flare at the scale the mask
     stage meets it on a 512 px photo). Validation composites are drawn the same way."""
+    frame_prob: float = option(0.0, ge=0, le=1)
+    """Probability that a training composite is a window of its photo at the photo's own
+    scale with the flare drawn for the whole photo, as the mask stage meets flare
+    (``CompositeConfig.frame_prob``; no random affine). Validation composites stay as they
+    are, so runs with and without it score on the same set."""
     without: tuple[str, ...] = option(
         (), choices=("starburst", "ghosts", "streaks", "glare", "scatter"))
     """Kinds of flare to leave out of training (comma-separated, of
@@ -113,7 +118,7 @@ class FMGTrainConfig:
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
              negatives: tuple[str, ...] | None = None,
              kind_probs: dict[str, float] | None = None, flare_prob: float = 0.8,
-             flare_canvas: float = 1.0):
+             flare_canvas: float = 1.0, frame_prob: float = 0.0):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -124,7 +129,7 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
     parts = split_backgrounds(data)
     comp = CompositeConfig(size=size, night_prob=night_prob, flare_prob=flare_prob,
-                           flare_canvas=flare_canvas)
+                           flare_canvas=flare_canvas, frame_prob=frame_prob)
     if negatives is not None:
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
@@ -376,7 +381,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without), tuple(cfg.negatives),
-                                          kind_probs, cfg.flare_prob, cfg.flare_canvas)
+                                          kind_probs, cfg.flare_prob, cfg.flare_canvas,
+                                          cfg.frame_prob)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
