@@ -234,6 +234,69 @@ def test_flare_canvas_draws_a_window_of_a_larger_frame():
     assert w.light_xy == (2 * light[0] - 10, 2 * light[1] - 20)
 
 
+def test_frame_composites_draw_flare_for_the_whole_photo():
+    """frame_prob: a window of the photo at its own scale, the lens rendered for the whole
+    photo about the photo's centre (ghosts on the line through it, as synth lays them out),
+    the light inside the window; no draw and no change at frame_prob 0."""
+    from pipeline import flare as fl
+    from pipeline.fmg_data import (
+        CompositeConfig,
+        CompositeSource,
+        draw_frame_flare,
+        fixed_set,
+        frame_crop,
+        frame_window,
+    )
+
+    S, hw = 64, (96, 160)
+    assert frame_window(np.zeros((48, 160, 3), np.uint8), S, np.random.default_rng(0)) is None
+    for seed in range(20):
+        x0, y0 = frame_window(np.zeros((*hw, 3), np.uint8), S, np.random.default_rng(seed))
+        assert 0 <= x0 <= hw[1] - S and 0 <= y0 <= hw[0] - S
+    cfg = fl.FlareConfig(kinds=("starburst", "ghosts"), light_outside_prob=0.0)
+    win = (60, 16)  # holds the photo's centre, (79.5, 47.5), off the window's own
+    got = draw_frame_flare(cfg, hw, win, S, np.random.default_rng(7))
+    rng = np.random.default_rng(7)  # the same draw by hand: the whole photo, then the window
+    lens = fl.sample_lens(cfg, rng)
+    light = (win[0] + S * float(rng.uniform(0.1, 0.9)), win[1] + S * float(rng.uniform(0.1, 0.9)))
+    k = float(np.exp(rng.uniform(*np.log(cfg.intensity))))
+    whole = fl.render_flare(lens, light, hw, rng, k)
+    assert got.mask.shape == (S, S) and got.mask.any()
+    assert np.array_equal(got.mask, whole.mask[16:16 + S, 60:60 + S])
+    assert np.allclose(got.flare, whole.flare[16:16 + S, 60:60 + S])
+    lx, ly = got.light_xy
+    assert 0.1 * S <= lx <= 0.9 * S and 0.1 * S <= ly <= 0.9 * S
+    # about the window's own centre the ghosts would fall elsewhere: the photo's centre counts
+    own = fl.render_flare(lens, (lx, ly), (S, S), None, k)
+    assert not np.array_equal(own.mask, got.mask)
+
+    bgs = [np.random.default_rng(i).integers(0, 255, (*hw, 3), dtype=np.uint8) for i in range(3)]
+    flat = dict(jitter=0.0, distractor_prob=0.0, negative_prob=0.0, clean_negative_prob=0.0,
+                flare_prob=1.0)
+    framed = CompositeSource(bgs, cfg, CompositeConfig(size=S, frame_prob=1.0, **flat))
+    for seed in range(4):
+        img, mask = framed.sample(np.random.default_rng(seed))
+        assert img.shape == (S, S, 3) and mask.shape == (S, S) and mask.any()
+    # the window is the photo's own pixels, not resized (mirrored or not)
+    flips = set()
+    for seed in range(8):
+        crop = frame_crop(bgs[0], (30, 20), S, np.random.default_rng(seed))
+        ref = bgs[0][20:20 + S, 30:30 + S] / 255.0
+        flips.add(bool(np.allclose(crop, ref[:, ::-1])))
+        assert crop.dtype == np.float32
+        assert np.allclose(crop, ref) or np.allclose(crop, ref[:, ::-1])
+    assert flips == {True, False}
+    plain = CompositeSource(bgs, cfg, CompositeConfig(size=S, **flat))
+    a = plain.sample(np.random.default_rng(11))
+    b = CompositeSource(bgs, cfg, CompositeConfig(size=S, frame_prob=0.0, **flat)).sample(
+        np.random.default_rng(11))
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert not np.array_equal(a[1], framed.sample(np.random.default_rng(11))[1])
+    # validation composites (train=False) never use frames: one set for every run
+    va, vb = fixed_set(plain, 3, 5), fixed_set(framed, 3, 5)
+    assert torch.equal(va[0], vb[0]) and torch.equal(va[1], vb[1])
+
+
 def test_night_backgrounds_and_hard_negatives():
     from pipeline import flare as fl
     from pipeline.fmg_data import (
