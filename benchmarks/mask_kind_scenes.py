@@ -4,7 +4,8 @@
         # DIR/<scene>_<kind>: `deflare-scene synth DEV/<scene>_ws --kinds KIND --heldout 2`
     python benchmarks/mask_dev_scenes.py DIR/*/ --weights A --weights B [--scales ...] --out J
     python benchmarks/mask_kind_scenes.py judge J[+J2] [J ...] --base SETTING --candidate SETTING \
-        [--out K]   # one argument per build; A+B: that build's rows from two scoring calls
+        [--mean-gain G] [--scene lund] [--out K]
+        # one argument per build; A+B: that build's rows from two scoring calls
     python benchmarks/mask_kind_scenes.py summary J [J ...] --setting SETTING [--out K]
 
 `fmg eval --per-kind` scores each kind on 256 px composites whose flare is drawn for a 256 px
@@ -76,20 +77,23 @@ def setting(row: dict) -> str:
             f"{'+views' if row.get('ghost_views') else ''}")
 
 
-def kind_scores(rows: list[dict], kind: str, name: str) -> dict[str, float]:
+def kind_scores(rows: list[dict], kind: str, name: str, scene: str | None = None
+                ) -> dict[str, float]:
     """{scene: flare IoU} of setting ``name`` (rays on) on the scenes of ``kind`` whose truth
-    has flare pixels."""
+    has flare pixels (with ``scene``, only that workspace's: ``<scene>_<kind>``)."""
     return {r["scene"]: r["flare_iou"] for r in rows if r["rays"] and setting(r) == name
-            and r["scene"].endswith("_" + kind) and r["truth_share"] > 0}
+            and r["scene"].endswith("_" + kind) and r["truth_share"] > 0
+            and (scene is None or r["scene"] == f"{scene}_{kind}")}
 
 
-def judge(files: list[list[dict]], base: str, candidate: str, target: str | None = None
-          ) -> dict:
+def judge(files: list[list[dict]], base: str, candidate: str, target: str | None = None,
+          mean_gain: float = MEAN_GAIN, scene: str | None = None) -> dict:
     """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
     has flare pixels, pooled over the builds (``files``: each build's rows, both settings
-    scored on the same scenes); the means over kinds and the rule's verdict: the mean's
-    gain and worst kind (MEAN_GAIN, KIND_LOSS), or for a change aimed at the kind
-    ``target``, its gain, the other kinds and the mean (TARGET_GAIN, TARGET_KIND_LOSS)."""
+    scored on the same scenes; ``scene``: one workspace's scenes only); the means over
+    kinds and the rule's verdict: the mean's gain (``mean_gain``, a rule's own, default
+    MEAN_GAIN) and worst kind (KIND_LOSS), or for a change aimed at the kind ``target``,
+    its gain, the other kinds and the mean (TARGET_GAIN, TARGET_KIND_LOSS)."""
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
 
@@ -101,7 +105,7 @@ def judge(files: list[list[dict]], base: str, candidate: str, target: str | None
                                 f"{', '.join(found)}")
     kinds = {}
     for kind in KINDS:
-        per = {name: [kind_scores(rows, kind, name) for rows in files]
+        per = {name: [kind_scores(rows, kind, name, scene) for rows in files]
                for name in (base, candidate)}
         scenes = [(i, s) for i, f in enumerate(per[base]) for s in sorted(f)]
         lacking = [(i, s) for i, s in scenes if s not in per[candidate][i]]
@@ -114,12 +118,12 @@ def judge(files: list[list[dict]], base: str, candidate: str, target: str | None
                            **{n: sum(v[i][s] for i, s in scenes) / len(scenes)
                               for n, v in per.items()}}
     if not kinds:
-        raise UserError("no scene named <scene>_<kind> with true flare in the files: score the "
-                        "scenes that `build` writes")
+        raise UserError(f"no scene named {scene or '<scene>'}_<kind> with true flare in the "
+                        "files: score the scenes that `build` writes")
     mean = {n: sum(k[n] for k in kinds.values()) / len(kinds) for n in (base, candidate)}
     worst = min(k[candidate] - k[base] for k in kinds.values())
-    passes = mean[candidate] - mean[base] >= MEAN_GAIN and worst >= -KIND_LOSS
-    rule = {"mean_gain": MEAN_GAIN, "kind_loss": KIND_LOSS}
+    passes = mean[candidate] - mean[base] >= mean_gain and worst >= -KIND_LOSS
+    rule = {"mean_gain": mean_gain, "kind_loss": KIND_LOSS, "scene": scene}
     if target is not None:
         if target not in kinds:
             raise UserError(f"--target {target}: no scored scene of that kind; the files have "
@@ -206,6 +210,10 @@ def main(argv: list[str] | None = None) -> int:
     j.add_argument("--candidate", required=True)
     j.add_argument("--target", default=None, metavar="KIND",
                    help="judge a change aimed at one kind (its gain, the others, the mean)")
+    j.add_argument("--mean-gain", type=float, default=MEAN_GAIN,
+                   help=f"the gain of the mean over kinds a rule asks (default {MEAN_GAIN})")
+    j.add_argument("--scene", default=None,
+                   help="judge one workspace's scenes only (sceaux, et or lund)")
     j.add_argument("--out", type=Path)
     s = sub.add_parser("summary")
     s.add_argument("scores", type=Path, nargs="+")
@@ -219,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if a.cmd == "judge":
             res = judge([build_rows(str(f)) for f in a.scores], a.base, a.candidate,
-                        a.target)
+                        a.target, a.mean_gain, a.scene)
             print_judgement(res)
         else:
             res = summary([read_rows(f) for f in a.scores], a.setting)

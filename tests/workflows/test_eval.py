@@ -833,6 +833,31 @@ def test_mask_kind_scenes_judge_with_a_target_kind():
         mk.judge([rows(0.34, 0.50)], base, cand, target="streaks")
 
 
+def test_mask_kind_scenes_judge_a_rules_gain_and_one_workspace():
+    """`judge --mean-gain G` asks a rule's own gain of the mean; `--scene lund` judges that
+    workspace's scenes alone (a name that matches none is a one-line error)."""
+    from pipeline.errors import UserError
+
+    mk = load_benchmark("mask_kind_scenes")
+
+    def row(weights, scene, iou):
+        return {"weights": weights, "scales": [1.0], "rays": True, "scene": scene,
+                "flare_iou": iou, "truth_share": 0.02}
+
+    rows = [row("a.safetensors", "et_ghosts", 0.30), row("b.safetensors", "et_ghosts", 0.35),
+            row("a.safetensors", "lund_ghosts", 0.40), row("b.safetensors", "lund_ghosts", 0.39)]
+    a, b = "a.safetensors@1", "b.safetensors@1"
+    both = mk.judge([rows], a, b)
+    assert both["mean_gain"] == pytest.approx(0.02) and both["passes"] is True
+    assert mk.judge([rows], a, b, mean_gain=0.03)["passes"] is False
+    assert mk.judge([rows], a, b, mean_gain=0.03)["rule"]["mean_gain"] == 0.03
+    lund = mk.judge([rows], a, b, scene="lund")
+    assert lund["kinds"]["ghosts"]["scenes"] == ["lund_ghosts"]
+    assert lund["mean_gain"] == pytest.approx(-0.01) and lund["rule"]["scene"] == "lund"
+    with pytest.raises(UserError, match="no scene named sceaux_<kind>"):
+        mk.judge([rows], a, b, scene="sceaux")
+
+
 def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_path):
     """benchmarks/mask_views_scenes.py --posed: the mask stage runs with each setting in a
     shared copy under WORK (the base and the other photos' check), one row per setting with
