@@ -858,6 +858,31 @@ def test_mask_kind_scenes_judge_a_rules_gain_and_one_workspace():
         mk.judge([rows], a, b, scene="sceaux")
 
 
+def test_mask_faint_leaves_the_faint_flare_out_of_the_score():
+    """benchmarks/mask_faint.py: against the strict flare, marks on the faint flare (true at
+    1x only) are neither hits nor false marks, a miss there costs nothing, and marks beyond
+    the true flare still count; one kind's scenes are averaged as mask_kind_scenes pools them."""
+    mf = load_benchmark("mask_faint")
+    truth = np.zeros((1, 10), bool)
+    truth[0, :6] = True
+    strict = np.zeros_like(truth)
+    strict[0, :2] = True                      # the bright part: 2 pixels
+    marks = np.zeros_like(truth)
+    marks[0, [0, 3, 8]] = True                # a bright hit, a faint mark, a false mark
+    c = mf.faint_scores(marks, truth, strict)
+    assert c == {"inter": 1, "union": 3, "strict": 2, "hit": 1}  # 0, 1 and 8; 3 left out
+    one = mf.faint_scores(marks, truth, truth)  # at 1x: the usual flare IoU
+    assert one["inter"] == 2 and one["union"] == 7
+    assert mf.pooled([c, one])["flare_iou"] == pytest.approx(3 / 10)
+    assert mf.pooled([c])["recall"] == pytest.approx(0.5)
+    empty = mf.faint_scores(np.zeros_like(truth), truth, np.zeros_like(truth))
+    assert mf.pooled([empty]) == {"flare_iou": None, "recall": None, "strict_pixels": 0}
+    k = mf.kind_scores([[c], [one], [empty]])
+    assert k["scenes"] == 2 and k["mean_scene_iou"] == pytest.approx((1 / 3 + 2 / 7) / 2)
+    assert mf.kind_of("lund_streaks") == "streaks" and mf.kind_of("lund_synth") is None
+    assert mf.kind_of("streaks") is None
+
+
 def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_path):
     """benchmarks/mask_views_scenes.py --posed: the mask stage runs with each setting in a
     shared copy under WORK (the base and the other photos' check), one row per setting with
