@@ -59,8 +59,9 @@ def kind_scores(scenes: list[list[dict]]) -> dict:
 
 def scene_counts(model, cut: float, synth: Path, scales: list[float],
                  work_size: int = 512) -> dict[float, list[dict]]:
-    """{K: [per-view counts]} of the mask stage's masks (rays on) on the flared views of one
-    synth folder."""
+    """{K: [per-view counts]} of the mask stage's masks (rays on) on the training views of one
+    synth folder (those without flare too: their marks are false marks, as in
+    ``mask_dev_scenes.py``, so K = 1 is its flare IoU)."""
     from pipeline.images import read_image
     from pipeline.mask import flare_marks
     from workflows.research.eval.scene import load_synth, photo_path, truth_mask, truth_mask_at
@@ -69,8 +70,6 @@ def scene_counts(model, cut: float, synth: Path, scales: list[float],
     out: dict[float, list[dict]] = {k: [] for k in scales}
     for stem in scene.train:
         truth = truth_mask(scene, stem)
-        if not truth.any():
-            continue
         marks = flare_marks(model, read_image(photo_path(scene.root, stem), bgr=True), cut,
                             work_size, True)
         for k in scales:
