@@ -690,6 +690,32 @@ def test_fmg_r_candidates_table_is_their_files():
         assert fmg_kind_mean(f"fmg_dev_per_kind_{c}_rays.json") < m_mixed - 0.01
 
 
+def test_fmg_faint_table_is_its_file():
+    """docs/history/fmg.md's table of what the masks miss by brightness (sixtieth session) is
+    mask_faint.py's file; its 1x column is M's pooled mean of the fifty-ninth session's judge,
+    and the card quotes the same recalls."""
+    data = json.loads((RESULTS / "mask_faint_M_s60.json").read_text())
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
+    kinds = data["kinds"]
+    assert data["scales"] == [1.0, 2.0, 4.0] and len(data["rows"]) == 45
+    for kind in ("starburst", "ghosts", "streaks", "glare", "scatter"):
+        k = kinds[kind]
+        assert all(k[x]["scenes"] == 9 for x in ("x1", "x2", "x4"))
+        iou = " / ".join(f"{k[x]['mean_scene_iou']:.3f}" for x in ("x1", "x2", "x4"))
+        rec = " / ".join(f"{k[x]['recall']:.3f}" for x in ("x1", "x2", "x4"))
+        false = k["x1"]["recall"] / k["x1"]["flare_iou"] - 1
+        row = f"| {kind} | {iou} | {rec} | {false:.2f} |"
+        assert row in hist, row
+    judged = json.loads((RESULTS / "mask_kinds_judge_R8_s59.json").read_text())
+    mean = sum(k["x1"]["mean_scene_iou"] for k in kinds.values()) / len(kinds)
+    assert mean == pytest.approx(judged["mean"]["fmg.safetensors@1"], abs=1e-12)
+    assert "0.3258" in hist and f"{mean:.4f}" == "0.3258"
+    for kind, words in (("streaks", "0.50"), ("ghosts", "0.52")):
+        assert f"{kinds[kind]['x4']['recall']:.2f}" == words and words in card
+    assert f"{round(100 * kinds['starburst']['x4']['recall'])} % of the starbursts'" in card
+
+
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
     """G3's two verdicts in docs/history/fmg.md ("Thirty-fourth session") are
     mask_kind_scenes.py's judgements of the committed scores (the first, kind-blind rule
