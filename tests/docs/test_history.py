@@ -690,6 +690,51 @@ def test_fmg_r_candidates_table_is_their_files():
         assert fmg_kind_mean(f"fmg_dev_per_kind_{c}_rays.json") < m_mixed - 0.01
 
 
+def test_fmg_w_candidate_table_is_its_files():
+    """docs/history/fmg.md's table of candidate W (sixtieth session) is its committed files
+    beside M's fifty-ninth-session column; part 1 fails (mean and streaks), part 2 falls short
+    of its +0.02 while the lund guard holds; the frames' cost is the benchmark's file."""
+    mk = load_benchmark("mask_kind_scenes")
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    flat = " ".join(hist.split())
+    builds = [mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
+                            f"{RESULTS / f'mask_dev_kinds_W_s{s}.json'}") for s in (31, 32, 33)]
+    base, cand = "fmg.safetensors@1", "fmg_W.safetensors@1"
+    res = mk.judge(builds, base, cand, mean_gain=0.02)
+    lund = mk.judge(builds, base, cand, mean_gain=0.0, scene="lund")
+    for got, name in ((res, "mask_kinds_judge_W_s60.json"),
+                      (lund, "mask_kinds_judge_W_lund_s60.json")):
+        assert got["mean"] == json.loads((RESULTS / name).read_text())["mean"]
+    assert res["passes"] is False and 0.01 < res["mean_gain"] < 0.02
+    assert lund["mean"][cand] >= lund["mean"][base]
+    assert f"{lund['mean'][base]:.4f} to {lund['mean'][cand]:.4f}" in flat
+    scenes = [r["flare_iou"] for r in json.loads(
+        (RESULTS / "mask_dev_scenes_W.json").read_text())["rows"] if r["rays"]]
+    cells = fmg_rule_cells("fmg_dev_per_kind_W_day_rays.json", "fmg_dev_per_kind_W_rays.json",
+                           res["mean"][cand], scenes, "fmg_dev_clean_W_rays.json")
+    m_cells = fmg_rule_cells("fmg_dev_per_kind_M_day_rays_s59.json",
+                             "fmg_dev_per_kind_M_rays_s59.json", res["mean"][base],
+                             [r["flare_iou"] for r in json.loads(
+                                 (RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
+                              if r["rays"] and r["weights"].endswith("/fmg.safetensors")],
+                             "fmg_dev_clean_M_rays_s59.json")
+    for i, part in enumerate(FMG_PARTS):
+        row = f"| {part} | {m_cells[i]} | {cells[i]} | "
+        assert row in hist, row
+    day = json.loads((RESULTS / "fmg_dev_per_kind_W_day_rays.json").read_text())["kinds"]
+    m_day = json.loads((RESULTS / "fmg_dev_per_kind_M_day_rays_s59.json").read_text())["kinds"]
+    w_mean = fmg_kind_mean("fmg_dev_per_kind_W_day_rays.json")
+    assert w_mean < fmg_kind_mean("fmg_dev_per_kind_M_day_rays_s59.json") - 0.01  # part 1
+    streaks = day["streaks"]["weights"]["IoU_flare"] - m_day["streaks"]["weights"]["IoU_flare"]
+    assert streaks < -0.03 and "streaks 0.065" in flat and f"{-streaks:.3f}" == "0.065"
+    cost = json.loads((RESULTS / "fmg_composite_cost_s60.json").read_text())["settings"]
+    for name, words in (("frame_prob 1", "29.5 ms a composite at P = 1"),
+                        ("frame_prob 0.5", "25.6 ms at P = 0.5"),
+                        ("composites", "against 21.0 ms"), ("flare_canvas 2", "37.5 ms at")):
+        assert f"{cost[name]['ms_per_composite']:.1f}" in words and words in flat, name
+    assert f"{round(100 * cost['frame_prob 1']['marked_share'])} % of the window" in flat
+
+
 def test_fmg_faint_table_is_its_file():
     """docs/history/fmg.md's table of what the masks miss by brightness (sixtieth session) is
     mask_faint.py's file; its 1x column is M's pooled mean of the fifty-ninth session's judge,
