@@ -52,7 +52,8 @@
 #           FMG_KINDS=K=P,... its --kind-probs and FMG_CANVAS=C its --flare-canvas (the
 #           thirty-second session's CPU candidates D/D2: docs/history/fmg.md), FMG_FRAMES=P
 #           its --frame-prob (windows of whole photos with flare drawn as `synth` draws it;
-#           sixtieth session).
+#           the sixtieth session's CPU candidate W: photo parts up, composites and streaks
+#           down; next here: FMG_FRAMES=0.5 FMG_KINDS=starburst=0.7,ghosts=0.7,streaks=0.85).
 #           The thirty-fifth session ran all six for 1 250 steps each (`loko 555 20000`);
 #           LOKO_KINDS="ghosts streaks" trains only those beside the control, for more steps.
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
