@@ -7,7 +7,10 @@ based synthesizer (``pipeline/flare/``): a fresh lens, light position and intens
 composite, drawn from every kind of flare (``training_flare``: all of ``flare.KINDS``, or all
 but the kinds left out for a leave-one-kind-out model). The warped mask is then also cut
 where the flare is not visible against the new background (the synthesizer's relative
-threshold), and the light core is never flare.
+threshold), and the light core is never flare. With ``CompositeConfig.frame_prob`` a training
+composite is instead a window of its photo at the photo's own scale, its flare rendered for the
+whole photo about the photo's centre with no affine, as ``deflare-scene synth`` draws flare and
+the mask stage meets it (:func:`frame_window`, :func:`draw_frame_flare`).
 
 Backgrounds are every image under ``<data>/backgrounds`` and ``<data>/scenes`` (found
 recursively), downscaled once into memory, in three parts (``split_backgrounds``): training;
