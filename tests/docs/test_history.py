@@ -759,6 +759,19 @@ def test_fmg_faint_table_is_its_file():
     for kind, words in (("streaks", "0.50"), ("ghosts", "0.52")):
         assert f"{kinds[kind]['x4']['recall']:.2f}" == words and words in card
     assert f"{round(100 * kinds['starburst']['x4']['recall'])} % of the starbursts'" in card
+    # candidate W beside M (after W's decision): fewer false marks on every kind
+    w = json.loads((RESULTS / "mask_faint_W_s60.json").read_text())["kinds"]
+    flat = " ".join(hist.split())
+
+    def false(k):
+        return k["x1"]["recall"] / k["x1"]["flare_iou"] - 1
+
+    for kind in ("starburst", "ghosts", "streaks", "glare", "scatter"):
+        assert false(w[kind]) < false(kinds[kind])
+        assert f"{kind} {false(kinds[kind]):.2f} to {false(w[kind]):.2f}" in flat, kind
+    for kind in ("streaks", "ghosts", "starburst"):
+        words = f"{kind} {kinds[kind]['x4']['recall']:.3f} to {w[kind]['x4']['recall']:.3f}"
+        assert words in flat, words
 
 
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
