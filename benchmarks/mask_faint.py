@@ -1,5 +1,7 @@
-"""How much of what the masks miss is faint flare: flare IoU against the true flare at
-stricter thresholds, the fainter flare between them left out of the score.
+"""How much of what the masks miss is faint flare: scores against stricter true flare.
+
+Flare IoU and recall against the true flare at stricter thresholds, the fainter flare between
+them left out of the score.
 
     python benchmarks/mask_faint.py SYNTH [SYNTH ...] --weights W [--scale 2 --scale 4] \
         [--out docs/results/mask_faint.json]
