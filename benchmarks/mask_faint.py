@@ -10,7 +10,7 @@ The true masks of `deflare-scene synth` (``masks_gt``) mark every pixel where th
 linear luminance is above the mask rule's thresholds (0.012, and 10 % of the smoothed
 background's luminance: ``pipeline.flare.common.MASK_THRESHOLD``, ``MASK_RELATIVE``). A spike a
 few grey levels above a sunlit facade counts as much as the light's glow. For each ``--scale``
-K this reads the true flare at K times both thresholds (``truth_mask_at``, the flare read back
+K this reads the true flare at K times both thresholds (``truth_masks_at``, the flare read back
 as flared minus clean in linear light) and scores the mask stage's masks (`mask --rays`, the
 file's own cut) against it with the flare that is true at 1x but not at K left out: neither
 a hit nor a miss nor a false mark (``faint_scores``). K = 1 is the usual flare IoU. Per scene
@@ -66,7 +66,7 @@ def scene_counts(model, cut: float, synth: Path, scales: list[float],
     ``mask_dev_scenes.py``, so K = 1 is its flare IoU)."""
     from pipeline.images import read_image
     from pipeline.mask import flare_marks
-    from workflows.research.eval.scene import load_synth, photo_path, truth_mask, truth_mask_at
+    from workflows.research.eval.scene import load_synth, photo_path, truth_mask, truth_masks_at
 
     scene = load_synth(synth)
     out: dict[float, list[dict]] = {k: [] for k in scales}
@@ -74,8 +74,9 @@ def scene_counts(model, cut: float, synth: Path, scales: list[float],
         truth = truth_mask(scene, stem)
         marks = flare_marks(model, read_image(photo_path(scene.root, stem), bgr=True), cut,
                             work_size, True)
+        stricter = truth_masks_at(scene, stem, [k for k in scales if k != 1])
         for k in scales:
-            strict = truth if k == 1 else truth & truth_mask_at(scene, stem, k)
+            strict = truth if k == 1 else truth & stricter[k]
             out[k].append(faint_scores(marks, truth, strict))
     return out
 

@@ -536,7 +536,7 @@ def draw_flare(flare_cfg: fl.FlareConfig, comp: CompositeConfig, size: int,
     lens = fl.sample_lens(flare_cfg, rng)
     big = max(size, round(size * comp.flare_canvas))
     light = fl.sample_light_xy(flare_cfg, (big, big), rng)
-    k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
+    k = fl.sample_intensity(flare_cfg, rng)
     layers = fl.render_flare(lens, light, (big, big), rng, k)
     if big == size:
         return layers
@@ -576,7 +576,7 @@ def draw_frame_flare(flare_cfg: fl.FlareConfig, frame_hw: tuple[int, int],
     x0, y0 = window
     lens = fl.sample_lens(flare_cfg, rng)
     light = (x0 + size * float(rng.uniform(0.1, 0.9)), y0 + size * float(rng.uniform(0.1, 0.9)))
-    k = float(np.exp(rng.uniform(*np.log(flare_cfg.intensity))))
+    k = fl.sample_intensity(flare_cfg, rng)
     return window_layers(fl.render_flare(lens, light, frame_hw, rng, k), x0, y0, size)
 
 

@@ -44,6 +44,7 @@ from pipeline.flare import (
     apply_flare,
     psf_bank,
     render_flare,
+    sample_intensity,
     sample_lens,
 )
 from pipeline.options import option, validate
@@ -236,7 +237,7 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     rng = np.random.default_rng([cfg.seed, 0])
     lens = sample_lens(cfg.flare, rng)
     light = np.asarray(cfg.light, float) if cfg.light is not None else choose_light(cams, rng)
-    base = float(np.exp(rng.uniform(*np.log(cfg.flare.intensity))))
+    base = sample_intensity(cfg.flare, rng)
     if "scatter" in lens.kinds:
         psf_bank(cfg.flare, progress=True)
     views = {}

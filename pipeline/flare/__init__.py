@@ -115,6 +115,7 @@ from pipeline.flare.compose import (  # noqa: F401
     mask_threshold,
     render_flare,
     render_kind,
+    sample_intensity,
     sample_light_xy,
     synthesize,
 )

@@ -188,6 +188,11 @@ def sample_light_xy(cfg: FlareConfig, size_hw: tuple[int, int],
     return float(rng.uniform(0, W)), float(rng.uniform(0, H))
 
 
+def sample_intensity(cfg: FlareConfig, rng: np.random.Generator) -> float:
+    """A flare intensity, log-uniform in ``cfg.intensity`` (one draw of ``rng``)."""
+    return _loguniform(rng, cfg.intensity)
+
+
 def synthesize(image_srgb: np.ndarray, cfg: FlareConfig, rng: np.random.Generator,
                light_xy: tuple[float, float] | None = None
                ) -> tuple[np.ndarray, FlareLayers]:
@@ -201,7 +206,7 @@ def synthesize(image_srgb: np.ndarray, cfg: FlareConfig, rng: np.random.Generato
     lens = sample_lens(cfg, rng)
     if light_xy is None:
         light_xy = sample_light_xy(cfg, (H, W), rng)
-    k = _loguniform(rng, cfg.intensity)
+    k = sample_intensity(cfg, rng)
     gain = _uniform(rng, cfg.gain)
     noise = _uniform(rng, cfg.noise)
     layers = render_flare(lens, light_xy, (H, W), rng, k, linear)

@@ -631,6 +631,23 @@ def fmg_rule_cells(day: str, mixed: str, judged: float, scenes: list[float], cle
             f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %")
 
 
+def fmg_m_s59_cells(pooled: float):
+    """M's column of the fifty-ninth and sixtieth sessions' tables: M scored again on this
+    machine's builds (``pooled``: its judged one-kind mean)."""
+    rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
+    scenes = [r["flare_iou"] for r in rows
+              if r["rays"] and r["weights"].endswith("/fmg.safetensors")]
+    assert len(scenes) == 3
+    return fmg_rule_cells("fmg_dev_per_kind_M_day_rays_s59.json",
+                          "fmg_dev_per_kind_M_rays_s59.json", pooled, scenes,
+                          "fmg_dev_clean_M_rays_s59.json")
+
+
+def fmg_false_per_true(kind: dict) -> float:
+    """mask_faint.py's marks outside the true flare per true pixel at 1x (recall / IoU - 1)."""
+    return kind["x1"]["recall"] / kind["x1"]["flare_iou"] - 1
+
+
 def test_fmg_d_candidates_table_is_their_files():
     """docs/history/fmg.md's table of candidates D and D2 (thirty-second session) is their
     committed files: daylight and mixed composites, the one-kind builds judged beside M's
@@ -670,15 +687,14 @@ def test_fmg_r_candidates_table_is_their_files():
         saved = json.loads((RESULTS / f"mask_kinds_judge_{c}_s59.json").read_text())
         assert res["mean"] == saved["mean"]
         pooled[c] = res["mean"][f"fmg_{c}.safetensors@1"]
-    cells = {}
-    for c in ("M", "R8", "R13"):
-        name = "/fmg.safetensors" if c == "M" else f"/fmg_{c}.safetensors"
-        scenes = [r["flare_iou"] for r in rows if r["rays"] and r["weights"].endswith(name)]
+    cells = {"M": fmg_m_s59_cells(pooled["M"])}  # M scored again, beside its older files
+    for c in ("R8", "R13"):
+        scenes = [r["flare_iou"] for r in rows
+                  if r["rays"] and r["weights"].endswith(f"/fmg_{c}.safetensors")]
         assert len(scenes) == 3
-        s = "_s59" if c == "M" else ""   # M scored again this session, beside its older files
-        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays{s}.json",
-                                  f"fmg_dev_per_kind_{c}_rays{s}.json", pooled[c], scenes,
-                                  f"fmg_dev_clean_{c}_rays{s}.json")
+        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays.json",
+                                  f"fmg_dev_per_kind_{c}_rays.json", pooled[c], scenes,
+                                  f"fmg_dev_clean_{c}_rays.json")
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {cells['M'][i]} | {cells['R8'][i]} | {cells['R13'][i]} | "
         assert row in hist, row
@@ -712,12 +728,7 @@ def test_fmg_w_candidate_table_is_its_files():
         (RESULTS / "mask_dev_scenes_W.json").read_text())["rows"] if r["rays"]]
     cells = fmg_rule_cells("fmg_dev_per_kind_W_day_rays.json", "fmg_dev_per_kind_W_rays.json",
                            res["mean"][cand], scenes, "fmg_dev_clean_W_rays.json")
-    m_cells = fmg_rule_cells("fmg_dev_per_kind_M_day_rays_s59.json",
-                             "fmg_dev_per_kind_M_rays_s59.json", res["mean"][base],
-                             [r["flare_iou"] for r in json.loads(
-                                 (RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
-                              if r["rays"] and r["weights"].endswith("/fmg.safetensors")],
-                             "fmg_dev_clean_M_rays_s59.json")
+    m_cells = fmg_m_s59_cells(res["mean"][base])
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {m_cells[i]} | {cells[i]} | "
         assert row in hist, row
@@ -744,13 +755,12 @@ def test_fmg_faint_table_is_its_file():
     card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
     kinds = data["kinds"]
     assert data["scales"] == [1.0, 2.0, 4.0] and len(data["rows"]) == 45
-    for kind in ("starburst", "ghosts", "streaks", "glare", "scatter"):
+    for kind in FMG_KINDS:
         k = kinds[kind]
         assert all(k[x]["scenes"] == 9 for x in ("x1", "x2", "x4"))
         iou = " / ".join(f"{k[x]['mean_scene_iou']:.3f}" for x in ("x1", "x2", "x4"))
         rec = " / ".join(f"{k[x]['recall']:.3f}" for x in ("x1", "x2", "x4"))
-        false = k["x1"]["recall"] / k["x1"]["flare_iou"] - 1
-        row = f"| {kind} | {iou} | {rec} | {false:.2f} |"
+        row = f"| {kind} | {iou} | {rec} | {fmg_false_per_true(k):.2f} |"
         assert row in hist, row
     judged = json.loads((RESULTS / "mask_kinds_judge_R8_s59.json").read_text())
     mean = sum(k["x1"]["mean_scene_iou"] for k in kinds.values()) / len(kinds)
@@ -762,13 +772,10 @@ def test_fmg_faint_table_is_its_file():
     # candidate W beside M (after W's decision): fewer false marks on every kind
     w = json.loads((RESULTS / "mask_faint_W_s60.json").read_text())["kinds"]
     flat = " ".join(hist.split())
-
-    def false(k):
-        return k["x1"]["recall"] / k["x1"]["flare_iou"] - 1
-
-    for kind in ("starburst", "ghosts", "streaks", "glare", "scatter"):
-        assert false(w[kind]) < false(kinds[kind])
-        assert f"{kind} {false(kinds[kind]):.2f} to {false(w[kind]):.2f}" in flat, kind
+    for kind in FMG_KINDS:
+        m_false, w_false = fmg_false_per_true(kinds[kind]), fmg_false_per_true(w[kind])
+        assert w_false < m_false
+        assert f"{kind} {m_false:.2f} to {w_false:.2f}" in flat, kind
     for kind in ("streaks", "ghosts", "starburst"):
         words = f"{kind} {kinds[kind]['x4']['recall']:.3f} to {w[kind]['x4']['recall']:.3f}"
         assert words in flat, words

@@ -91,6 +91,11 @@ def truth_mask_at(scene: SynthScene, stem: str, scale: float) -> np.ndarray:
     flare read back from the 8-bit photos as flared minus clean in linear light, so a pixel
     or two at the edges differ), above 1 the flare's faint outer part is left unmarked. The
     light's core is in both images, so it is never flare here either."""
+    return truth_masks_at(scene, stem, (scale,))[scale]
+
+
+def truth_masks_at(scene: SynthScene, stem: str, scales) -> dict[float, np.ndarray]:
+    """{scale: :func:`truth_mask_at`} for several scales, the view's two images read once."""
     from pipeline.colour import srgb_to_linear
     from pipeline.flare import FlareConfig, luminance, mask_threshold
     from pipeline.images import read_image_float
@@ -101,11 +106,14 @@ def truth_mask_at(scene: SynthScene, stem: str, scale: float) -> np.ndarray:
                         "is needed")
     lin = [srgb_to_linear(read_image_float(f))
            for f in (p, scene.root / "clean" / f"{stem}.png")]
-    flare = np.clip(lin[0] - lin[1], 0, None)
+    flare = luminance(np.clip(lin[0] - lin[1], 0, None))
     base = FlareConfig()
-    cfg = FlareConfig(mask_abs_threshold=base.mask_abs_threshold * scale,
-                      mask_rel_threshold=base.mask_rel_threshold * scale)
-    return luminance(flare) > mask_threshold(cfg, flare.shape[:2], lin[1])
+    out = {}
+    for scale in scales:
+        cfg = FlareConfig(mask_abs_threshold=base.mask_abs_threshold * scale,
+                          mask_rel_threshold=base.mask_rel_threshold * scale)
+        out[scale] = flare > mask_threshold(cfg, flare.shape[:2], lin[1])
+    return out
 
 
 def flared_views(scene: SynthScene) -> list[str]:
