@@ -40,8 +40,8 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
                 max_size: int | None = None, fill_holes: bool = False, confirm=None,
-                scales: tuple[float, ...] = (1.0,), ghosts=None, cache: dict | None = None
-                ) -> dict:
+                scales: tuple[float, ...] = (1.0,), ghosts=None, cache: dict | None = None,
+                ray_cfg=None) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
@@ -50,7 +50,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     with ``scales`` the network run as `mask --scales` runs it; with ``ghosts`` (a
     GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them. ``cache``
     (a dict kept per ``model``) holds each photo's probabilities and lights between calls, so
-    that scoring the same photos with and without rays or ghost lines runs the network once."""
+    that scoring the same photos with and without rays or ghost lines runs the network once;
+    ``ray_cfg``: the rays' rule (a ``pipeline.flare_rays.RayConfig``; default the stage's)."""
     import cv2
 
     from pipeline.decode import resize_area, target_size
@@ -71,7 +72,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
             if cache is None:
                 m = flare_marks(model, img, cut, work_size, rays, confirm=confirm,
-                                scales=scales, ghosts=ghosts)
+                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg)
             else:
                 key = (str(photo), max_size, work_size)
                 if (key, scales) not in cache:
@@ -80,7 +81,7 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                     cache[key] = lights_at_work_size(img, work_size)
                 m = flare_marks(model, img, cut, work_size, rays, probs=cache[key, scales],
                                 confirm=confirm, scales=scales, ghosts=ghosts,
-                                found=cache.get(key))
+                                found=cache.get(key), ray_cfg=ray_cfg)
             if fill_holes:
                 m |= enclosed_holes(m)
             yield photo.stem, m, gt
@@ -127,8 +128,17 @@ def main(argv: list[str] | None = None) -> int:
                     help="as `mask --scales` (repeat to score each setting; default 1)")
     ap.add_argument("--ghost-lines", action="store_true",
                     help="also score each setting with `mask --ghost-lines`")
+    ap.add_argument("--ray-rule", action="append", default=None, metavar="MIN,OPP",
+                    help="score the rays with this rule, as `mask --ray-min MIN --ray-opposite "
+                         "OPP` (repeat to score each; default the stage's)")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    try:
+        rules = [(int(x.split(",")[0]), float(x.split(",")[1])) for x in a.ray_rule or []]
+    except (ValueError, IndexError):
+        ap.error("--ray-rule: give MIN,OPP, e.g. 3,8")
+    if any(m < 1 or not 0 <= o <= 90 for m, o in rules):
+        ap.error("--ray-rule: MIN at least 1, OPP from 0 to 90 degrees")
     try:
         settings = [tuple(float(s) for s in x.split(",")) for x in a.scales or ["1"]]
     except ValueError:
@@ -142,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
                   "`deflare-scene synth`", file=sys.stderr)
             return 2
     from pipeline.flare_ghosts import GhostConfig
+    from pipeline.flare_rays import RayConfig
     from pipeline.mask import MaskConfig, load_fmg_weights, resolve_threshold
     from pipeline.provenance import sha256, write_result
 
@@ -155,19 +166,24 @@ def main(argv: list[str] | None = None) -> int:
         cache = {}  # each photo's probabilities under this model, and its lights
         cut = resolve_threshold(MaskConfig(), w)
         ghost_settings = (False, True) if a.ghost_lines else (False,)
-        for rays, scales, ghost, scene in itertools.product((False, True), settings,
-                                                             ghost_settings, a.scenes):
+        ray_settings = [(False, None)] + [(True, r) for r in rules or [None]]
+        for (rays, rule), scales, ghost, scene in itertools.product(ray_settings, settings,
+                                                                    ghost_settings, a.scenes):
+            ray_cfg = None if rule is None else RayConfig(min_rays=rule[0], opposite=rule[1])
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
+                 "ray_rule": None if rule is None else list(rule),
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
                  "confirm_keep": a.confirm_keep, "scales": list(scales), "ghost_lines": ghost,
                  **score_scene(model, cut, scene, rays, max_size=a.max_size,
                                fill_holes=a.fill_holes, confirm=confirm, scales=scales,
-                               ghosts=GhostConfig() if ghost else None, cache=cache)}
+                               ghosts=GhostConfig() if ghost else None, cache=cache,
+                               ray_cfg=ray_cfg)}
             rows.append(r)
             print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
                   f"{' +ghost-lines' if ghost else ''} "
-                  f"{'rays' if rays else 'fmg '} {scene.name}: flare IoU "
+                  f"{'rays' if rays else 'fmg '}{'' if rule is None else f' {rule[0]},{rule[1]:g}'}"
+                  f" {scene.name}: flare IoU "
                   f"{r['flare_iou']:.3f}, marked outside the flare "
                   f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "
                   f"{100 * r['marked_far']:.2f}; truth {100 * r['truth_share']:.2f} %); "

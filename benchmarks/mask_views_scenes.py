@@ -36,9 +36,10 @@ other photos confirm (its default since)."""
 
 
 def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
-                    posed: bool = False) -> list[dict]:
-    """One row per setting of SETTINGS for the synth folder ``synth`` posed in ``work`` (or,
-    ``posed``, the posed workspace ``synth`` of clean photos, shared into ``work``)."""
+                    posed: bool = False, settings: dict | None = None) -> list[dict]:
+    """One row per setting of ``settings`` (default SETTINGS) for the synth folder ``synth``
+    posed in ``work`` (or, ``posed``, the posed workspace ``synth`` of clean photos, shared
+    into ``work``)."""
     from benchmarks.mask_dev_scenes import mask_scores
     from pipeline import mask
     from pipeline.provenance import sha256
@@ -59,7 +60,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
     stems = read_cameras(ws).stems
     cut = mask.resolve_threshold(mask.MaskConfig(), weights)
     rows = []
-    for name, over in SETTINGS.items():
+    for name, over in (settings or SETTINGS).items():
         config = mask.MaskConfig(weights=weights, **over)
         mask.run(config, ws)
         marks = {s: read_mask(ws, s) for s in stems}
@@ -72,7 +73,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
         rows.append({"weights": str(weights), "sha256": sha256(weights), "cut": cut,
                      "rays": True, "scene": synth.name, "folder": folder, "setting": name,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
-                     "ghost_views": config.ghost_views,
+                     "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
                      **mask_scores((s, marks[s], truth[s]) for s in stems)})
     return rows
@@ -89,10 +90,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--clean", action="store_true",
                     help="score the scenes' clean photos (every mark but the core is false)")
     ap.add_argument("--weights", type=Path, default=None)
+    ap.add_argument("--ray-opposite", type=float, default=None, metavar="DEG",
+                    help="also score the default setting with `mask --ray-opposite DEG` "
+                         "(setting ghost_views_opp; `candidate_added`: its mean share over "
+                         "ghost_views')")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     if not a.scenes and not a.posed:
         ap.error("give synth folders, --posed workspaces, or both")
+    if a.ray_opposite is not None and not 0 <= a.ray_opposite <= 90:
+        ap.error("--ray-opposite: degrees from 0 to 90")
+    settings = dict(SETTINGS)
+    if a.ray_opposite is not None:
+        settings["ghost_views_opp"] = {**SETTINGS["ghost_views"], "ray_opposite": a.ray_opposite}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -105,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     try:
         for scene, posed in [(s, False) for s in a.scenes] + [(w, True) for w in a.posed]:
-            got = score_workspace(scene.resolve(), a.work, weights, a.clean, posed)
+            got = score_workspace(scene.resolve(), a.work, weights, a.clean, posed, settings)
             rows += got
             print(f"{scene.name} ({got[0]['folder']}): " + "; ".join(
                 f"{r['setting']} flare IoU {r['flare_iou']:.3f}, marked "
@@ -113,10 +123,13 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    out = {"weights": str(weights), "clean": a.clean, "settings": SETTINGS, "rows": rows}
-    by = {name: [r for r in rows if r["setting"] == name] for name in SETTINGS}
+    out = {"weights": str(weights), "clean": a.clean, "settings": settings, "rows": rows}
+    by = {name: [r for r in rows if r["setting"] == name] for name in settings}
     out["mean_marked"] = {n: float(np.mean([r["marked"] for r in v])) for n, v in by.items()}
     out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
+    if "ghost_views_opp" in settings:
+        out["candidate_added"] = (out["mean_marked"]["ghost_views_opp"]
+                                  - out["mean_marked"]["ghost_views"])
     out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
                               for n, rs in by.items()}
     print(f"mean over {len(a.scenes) + len(a.posed)} scenes: marked " + ", ".join(

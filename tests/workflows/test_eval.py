@@ -420,7 +420,8 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     cv2.imwrite(str(tmp_path / "masks_gt" / "v.png"), np.where(r < 40, 255, 0).astype(np.uint8))
     seen = []
 
-    def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,), ghosts=None):
+    def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,), ghosts=None,
+                   ray_cfg=None):
         seen.append(img.shape[:2])
         h, w = img.shape[:2]
         y, x = np.mgrid[:h, :w]
@@ -767,6 +768,50 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     assert "is not a fine-tuned workspace" in err[-1] and not (tmp_path / "x.json").exists()
 
 
+def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_count(
+        tmp_path, monkeypatch):
+    """benchmarks/mask_dev_scenes.py --ray-rule: a lone streak through a light (two rays
+    leaving it in opposite directions) is marked under the rule 3,8 and not under the stage's
+    3,0; the rows name their rule, and mask_kind_scenes tells the settings apart."""
+    from pipeline import mask as M
+    from pipeline.colour import linear_to_srgb
+
+    bench = load_benchmark("mask_dev_scenes")
+    mk = load_benchmark("mask_kind_scenes")
+    for d in ("photos", "masks_gt"):
+        (tmp_path / "s_streaks" / d).mkdir(parents=True)
+    h, w = 256, 384
+    yy, xx = np.mgrid[:h, :w].astype(np.float32)
+    rng = np.random.default_rng(0)
+    lin = np.full((h, w), 0.05, np.float32) + rng.normal(0, 0.002, (h, w)).astype(np.float32)
+    add = 0.6 * np.exp(-np.abs(xx - 192) / 60) * np.exp(-0.5 * ((yy - 128) / 1.2) ** 2)
+    lin += add
+    lin[np.hypot(yy - 128, xx - 192) < 5] = 1.0  # the light
+    img = (linear_to_srgb(np.clip(lin, 0, 1))[..., None].repeat(3, -1) * 255).round()
+    cv2.imwrite(str(tmp_path / "s_streaks" / "photos" / "a.png"), img.astype(np.uint8))
+    cv2.imwrite(str(tmp_path / "s_streaks" / "masks_gt" / "a.png"),
+                np.where(add > 0.012, 255, 0).astype(np.uint8))
+    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
+                        [np.zeros(images[0].shape[:2], np.float32)])
+    monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
+    import pipeline.provenance as prov
+
+    monkeypatch.setattr(prov, "sha256", lambda path: "x")
+    out = tmp_path / "rows.json"
+    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
+                       "--ray-rule", "3,0", "--ray-rule", "3,8", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    by = {(r["rays"], None if r["ray_rule"] is None else tuple(r["ray_rule"])): r for r in rows}
+    assert set(by) == {(False, None), (True, (3, 0.0)), (True, (3, 8.0))}
+    assert by[True, (3, 0.0)]["flare_iou"] == 0.0  # one streak, two rays: not enough
+    assert by[True, (3, 8.0)]["flare_iou"] > 0.3  # opposite rays count
+    assert {mk.setting(r) for r in rows if r["rays"]} == {
+        "w.safetensors@1+rays3,0", "w.safetensors@1+rays3,8"}
+    with pytest.raises(SystemExit):
+        bench.main([str(tmp_path / "s_streaks"), "--weights", "w", "--ray-rule", "3"])
+
+
 def test_mask_kind_scenes_judge_pools_builds(tmp_path):
     """benchmarks/mask_kind_scenes.py judge: several builds' files pooled per (file, scene),
     so the same scene name in two builds counts twice; a file lacking a setting is a
@@ -908,6 +953,12 @@ def test_mask_views_scenes_scores_a_posed_workspace_without_writing_into_it(tmp_
         assert r["marked"] == pytest.approx(r["marked_outside"])
     assert rows[1]["ghost_views"] and rows[1]["marked"] >= rows[0]["marked"]
     assert (tmp_path / "work" / "ws_posed.ws" / "masks_ghosts").is_dir()
+    # --ray-opposite: a third setting, the default's with the rule for streaks through a light
+    opp = {"ghost_views_opp": {**bench.SETTINGS["ghost_views"], "ray_opposite": 8.0}}
+    [row] = bench.score_workspace(ws.root, tmp_path / "work", weights, clean=False, posed=True,
+                                  settings=opp)
+    assert row["setting"] == "ghost_views_opp" and row["ray_opposite"] == 8.0
+    assert rows[1]["ray_opposite"] is None and digest_paths([ws.root]) == before
 
 
 def test_pose_passes_errors_and_kept_pass():
