@@ -781,6 +781,44 @@ def test_fmg_faint_table_is_its_file():
         assert words in flat, words
 
 
+def test_fmg_opposite_rays_table_is_its_files():
+    """docs/history/fmg.md's table for the lone-streak rule (sixty-first session) is the
+    committed files' numbers: the judge's per-kind means (its verdict a fail, its base M's
+    pooled mean), the every-kind scenes and the mask stage on the clean photos."""
+    mk = load_benchmark("mask_kind_scenes")
+    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    base, cand = "fmg.safetensors@1+rays3,0", "fmg.safetensors@1+rays3,8"
+    files = [json.loads((RESULTS / f"mask_dev_kinds_opp_s{b}.json").read_text())["rows"]
+             for b in (31, 32, 33)]
+    judged = mk.judge(files, base, cand, target="streaks")
+    saved = json.loads((RESULTS / "mask_kinds_judge_opp8_s61.json").read_text())
+    assert judged["passes"] is False is saved["passes"]
+    assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
+    k = judged["kinds"]
+    assert (f"| 1. one-kind scenes, streaks | {k['streaks'][base]:.3f} | "
+            f"{k['streaks'][cand]:.3f} | +0.03 |") in flat
+    others = ("starburst", "ghosts", "glare", "scatter")
+    row = (f"| 1. ... starburst / ghosts / glare / scatter | "
+           f"{' / '.join(f'{k[n][base]:.3f}' for n in others)} | "
+           f"{' / '.join(f'{k[n][cand]:.3f}' for n in others)} | none -0.01 |")
+    assert row in flat, row
+    assert (f"| 1. ... mean over kinds | {judged['mean'][base]:.4f} | "
+            f"{judged['mean'][cand]:.4f} | not lower |") in flat
+    assert f"{judged['mean'][base]:.4f}" == "0.3258"
+    rows = json.loads((RESULTS / "mask_dev_scenes_opp.json").read_text())["rows"]
+    by = {(r["scene"], tuple(r["ray_rule"])): r for r in rows if r["rays"]}
+    scenes = ("sceaux_synth", "et_synth", "lund_synth")
+    for rule in ((3, 0.0), (3, 8.0)):
+        iou = " / ".join(f"{by[s, rule]['flare_iou']:.3f}" for s in scenes)
+        out = " / ".join(f"{100 * by[s, rule]['marked_outside']:.2f}" for s in scenes)
+        assert iou in flat and f"{out} %" in flat, (iou, out)
+    views = json.loads((RESULTS / "mask_views_clean_dev_opp.json").read_text())["rows"]
+    vb = {(r["scene"], r["setting"]): r["marked"] for r in views}
+    for setting in ("ghost_views", "ghost_views_opp"):
+        cells = " / ".join(f"{100 * vb[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
+        assert f"{cells} %" in flat, cells
+
+
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
     """G3's two verdicts in docs/history/fmg.md ("Thirty-fourth session") are
     mask_kind_scenes.py's judgements of the committed scores (the first, kind-blind rule
