@@ -9,6 +9,10 @@ Use development scenes to choose.
 
     python benchmarks/mask_dev_scenes.py SYNTH [SYNTH ...] --weights A.safetensors \
         --weights B.safetensors --out docs/results/mask_dev_scenes.json
+
+``--ray-rule MIN,OPP`` (repeatable) scores the rays under rules of their own, as `mask
+--ray-min MIN --ray-opposite OPP` (e.g. ``--ray-rule 3,0 --ray-rule 3,8``: the stage's rule
+and one that also keeps a lone streak through a light), the network run once for all.
 """
 
 from __future__ import annotations
@@ -134,8 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     try:
-        rules = [(int(x.split(",")[0]), float(x.split(",")[1])) for x in a.ray_rule or []]
-    except (ValueError, IndexError):
+        rules = [(int(m), float(o)) for m, o in (x.split(",") for x in a.ray_rule or [])]
+    except ValueError:
         ap.error("--ray-rule: give MIN,OPP, e.g. 3,8")
     if any(m < 1 or not 0 <= o <= 90 for m, o in rules):
         ap.error("--ray-rule: MIN at least 1, OPP from 0 to 90 degrees")

@@ -808,8 +808,10 @@ def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_co
     assert by[True, (3, 8.0)]["flare_iou"] > 0.3  # opposite rays count
     assert {mk.setting(r) for r in rows if r["rays"]} == {
         "w.safetensors@1+rays3,0", "w.safetensors@1+rays3,8"}
-    with pytest.raises(SystemExit):
-        bench.main([str(tmp_path / "s_streaks"), "--weights", "w", "--ray-rule", "3"])
+    for bad in ("3", "3,8,1", "0,8", "3,120"):  # argparse's one-line error, exit 2
+        with pytest.raises(SystemExit) as e:
+            bench.main([str(tmp_path / "s_streaks"), "--weights", "w", "--ray-rule", bad])
+        assert e.value.code == 2
 
 
 def test_mask_kind_scenes_judge_pools_builds(tmp_path):
