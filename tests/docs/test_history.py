@@ -817,6 +817,13 @@ def test_fmg_opposite_rays_table_is_its_files():
     for setting in ("ghost_views", "ghost_views_opp"):
         cells = " / ".join(f"{100 * vb[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
         assert f"{cells} %" in flat, cells
+    # the card and the goals page quote the streaks and sceaux_castle's clean photos
+    quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
+             f"{100 * vb['sceaux_ws', 'ghost_views']:.3f} % to "
+             f"{100 * vb['sceaux_ws', 'ghost_views_opp']:.3f} % marked")
+    for page in (REPO / "gnfr" / "weights" / "fmg.md", REPO / "docs" / "goals.md"):
+        text = " ".join(page.read_text().split())
+        assert all(q in text for q in quote), page
 
 
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
