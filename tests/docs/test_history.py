@@ -746,6 +746,72 @@ def test_fmg_w_candidate_table_is_its_files():
     assert f"{round(100 * cost['frame_prob 1']['marked_share'])} % of the window" in flat
 
 
+def test_fmg_x_candidate_table_is_its_files():
+    """docs/history/fmg.md's table of candidate X (sixty-first session) is its committed files
+    beside M's and W's columns; parts 1 (mean and streaks), 2 (short of +0.02) and 3 (glare)
+    fail, the lund guard holds, and the streaks fall less far than W's."""
+    mk = load_benchmark("mask_kind_scenes")
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    flat = " ".join(hist.split())
+    base = "fmg.safetensors@1"
+
+    def judged(letter, **kw):
+        builds = [mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
+                                f"{RESULTS / f'mask_dev_kinds_{letter}_s{s}.json'}")
+                  for s in (31, 32, 33)]
+        return mk.judge(builds, base, f"fmg_{letter}.safetensors@1", **kw)
+
+    res, lund, w = judged("X", mean_gain=0.02), judged("X", mean_gain=0.0, scene="lund"), \
+        judged("W", mean_gain=0.02)
+    cand = "fmg_X.safetensors@1"
+    for got, name in ((res, "mask_kinds_judge_X_s61.json"),
+                      (lund, "mask_kinds_judge_X_lund_s61.json")):
+        assert got["mean"] == json.loads((RESULTS / name).read_text())["mean"]
+    assert res["passes"] is False and 0.01 < res["mean_gain"] < 0.02
+    assert lund["mean"][cand] >= lund["mean"][base]
+    assert f"{lund['mean'][base]:.4f} to {lund['mean'][cand]:.4f}" in flat
+
+    def column(letter, pooled):
+        scenes = [r["flare_iou"] for r in json.loads(
+            (RESULTS / f"mask_dev_scenes_{letter}.json").read_text())["rows"] if r["rays"]]
+        return fmg_rule_cells(f"fmg_dev_per_kind_{letter}_day_rays.json",
+                              f"fmg_dev_per_kind_{letter}_rays.json", pooled, scenes,
+                              f"fmg_dev_clean_{letter}_rays.json")
+
+    cols = (fmg_m_s59_cells(res["mean"][base]), column("W", w["mean"]["fmg_W.safetensors@1"]),
+            column("X", res["mean"][cand]))
+    for i, part in enumerate(FMG_PARTS):
+        row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
+        assert row in hist, row
+
+    def iou(name, kind):
+        return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
+
+    day = {k: [iou(f, k) for f in ("fmg_dev_per_kind_M_day_rays_s59.json",
+                                  "fmg_dev_per_kind_W_day_rays.json",
+                                  "fmg_dev_per_kind_X_day_rays.json")] for k in FMG_KINDS}
+    row = "| 1. ... starburst / ghosts / streaks / glare / scatter | " + " | ".join(
+        " / ".join(f"{day[k][i]:.3f}" for k in FMG_KINDS) for i in range(3)) + " | |"
+    assert row in hist, row
+    m_s, w_s, x_s = day["streaks"]
+    x_streaks, w_streaks = x_s - m_s, w_s - m_s
+    assert x_streaks < -0.03 and w_streaks < x_streaks  # fails, by less than W
+    assert f"-{-x_streaks:.3f} against -{-w_streaks:.3f}" in flat
+    scenes = [res["kinds"]["streaks"][base], w["kinds"]["streaks"]["fmg_W.safetensors@1"],
+              res["kinds"]["streaks"][cand]]
+    assert "| 2. ... streaks | " + " | ".join(f"{v:.3f}" for v in scenes) + " | |" in hist
+    glare = [iou(f, "glare") for f in ("fmg_dev_per_kind_M_rays_s59.json",
+                                       "fmg_dev_per_kind_W_rays.json",
+                                       "fmg_dev_per_kind_X_rays.json")]
+    assert glare[2] - glare[0] < -0.03 and f"glare (-{glare[0] - glare[2]:.3f}" in flat
+    assert "| 3. ... glare | " + " | ".join(f"{v:.3f}" for v in glare) + " | |" in hist
+    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
+    assert f"-{-x_streaks:.3f} against -{-w_streaks:.3f}" in card
+    assert (f"-{scenes[0] - scenes[2]:.3f} against -{scenes[0] - scenes[1]:.3f}), the photo "
+            f"parts alike (one-kind scenes +{res['mean_gain']:.3f}, clean lund "
+            f"{cols[2][4].split(' / ')[0]})") in card
+
+
 def test_fmg_faint_table_is_its_file():
     """docs/history/fmg.md's table of what the masks miss by brightness (sixtieth session) is
     mask_faint.py's file; its 1x column is M's pooled mean of the fifty-ninth session's judge,
