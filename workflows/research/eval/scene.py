@@ -95,7 +95,9 @@ def truth_mask_at(scene: SynthScene, stem: str, scale: float) -> np.ndarray:
 
 
 def truth_masks_at(scene: SynthScene, stem: str, scales) -> dict[float, np.ndarray]:
-    """{scale: :func:`truth_mask_at`} for several scales, the view's two images read once."""
+    """{scale: :func:`truth_mask_at`} for several scales, the view's two images read and the
+    background smoothed once: the rule's threshold ``max(abs, rel x background)`` with both
+    thresholds times ``scale`` is ``scale`` times the rule's own."""
     from pipeline.colour import srgb_to_linear
     from pipeline.flare import FlareConfig, luminance, mask_threshold
     from pipeline.images import read_image_float
@@ -107,13 +109,8 @@ def truth_masks_at(scene: SynthScene, stem: str, scales) -> dict[float, np.ndarr
     lin = [srgb_to_linear(read_image_float(f))
            for f in (p, scene.root / "clean" / f"{stem}.png")]
     flare = luminance(np.clip(lin[0] - lin[1], 0, None))
-    base = FlareConfig()
-    out = {}
-    for scale in scales:
-        cfg = FlareConfig(mask_abs_threshold=base.mask_abs_threshold * scale,
-                          mask_rel_threshold=base.mask_rel_threshold * scale)
-        out[scale] = flare > mask_threshold(cfg, flare.shape[:2], lin[1])
-    return out
+    thr = mask_threshold(FlareConfig(), flare.shape[:2], lin[1])
+    return {scale: flare > np.float32(scale) * thr for scale in scales}
 
 
 def flared_views(scene: SynthScene) -> list[str]:
