@@ -12,7 +12,9 @@ Use development scenes to choose.
 
 ``--ray-rule MIN,OPP`` (repeatable) scores the rays under rules of their own, as `mask
 --ray-min MIN --ray-opposite OPP` (e.g. ``--ray-rule 3,0 --ray-rule 3,8``: the stage's rule
-and one that also keeps a lone streak through a light), the network run once for all.
+and one that also keeps a lone streak through a light), the network run once for all;
+``--streak-lines`` scores each ray setting again with the streak lines (`mask
+--streak-lines`).
 """
 
 from __future__ import annotations
@@ -135,6 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ray-rule", action="append", default=None, metavar="MIN,OPP",
                     help="score the rays with this rule, as `mask --ray-min MIN --ray-opposite "
                          "OPP` (repeat to score each; default the stage's)")
+    ap.add_argument("--streak-lines", action="store_true",
+                    help="also score each ray setting with `mask --streak-lines`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     try:
@@ -170,12 +174,14 @@ def main(argv: list[str] | None = None) -> int:
         cache = {}  # each photo's probabilities under this model, and its lights
         cut = resolve_threshold(MaskConfig(), w)
         ghost_settings = (False, True) if a.ghost_lines else (False,)
-        ray_settings = [(False, None)] + [(True, r) for r in rules or [None]]
-        for (rays, rule), scales, ghost, scene in itertools.product(ray_settings, settings,
-                                                                    ghost_settings, a.scenes):
-            ray_cfg = None if rule is None else RayConfig(min_rays=rule[0], opposite=rule[1])
+        ray_settings = ([(False, None, False)] + [(True, r, False) for r in rules or [None]]
+                        + [(True, r, True) for r in (rules or [None]) if a.streak_lines])
+        for (rays, rule, lines), scales, ghost, scene in itertools.product(
+                ray_settings, settings, ghost_settings, a.scenes):
+            ray_cfg = RayConfig(**({} if rule is None else
+                                   {"min_rays": rule[0], "opposite": rule[1]}), lines=lines)
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
-                 "ray_rule": None if rule is None else list(rule),
+                 "ray_rule": None if rule is None else list(rule), "streak_lines": lines,
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
                  "confirm_keep": a.confirm_keep, "scales": list(scales), "ghost_lines": ghost,
@@ -187,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
                   f"{' +ghost-lines' if ghost else ''} "
                   f"{'rays' if rays else 'fmg '}{'' if rule is None else f' {rule[0]},{rule[1]:g}'}"
+                  f"{' +streak-lines' if lines else ''}"
                   f" {scene.name}: flare IoU "
                   f"{r['flare_iou']:.3f}, marked outside the flare "
                   f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "

@@ -74,6 +74,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "rays": True, "scene": synth.name, "folder": folder, "setting": name,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
+                     "streak_lines": config.streak_lines,
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
                      **mask_scores((s, marks[s], truth[s]) for s in stems)})
     return rows
@@ -94,8 +95,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="also score the default setting with `mask --ray-opposite DEG` "
                          "(setting ghost_views_opp; `candidate_added`: its mean share over "
                          "ghost_views')")
+    ap.add_argument("--streak-lines", action="store_true",
+                    help="also score the default setting with `mask --streak-lines` "
+                         "(setting ghost_views_lines; `candidate_added`: its mean share "
+                         "over ghost_views')")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    if a.streak_lines and a.ray_opposite is not None:
+        ap.error("give one candidate: --ray-opposite or --streak-lines")
     if not a.scenes and not a.posed:
         ap.error("give synth folders, --posed workspaces, or both")
     if a.ray_opposite is not None and not 0 <= a.ray_opposite <= 90:
@@ -103,6 +110,8 @@ def main(argv: list[str] | None = None) -> int:
     settings = dict(SETTINGS)
     if a.ray_opposite is not None:
         settings["ghost_views_opp"] = {**SETTINGS["ghost_views"], "ray_opposite": a.ray_opposite}
+    if a.streak_lines:
+        settings["ghost_views_lines"] = {**SETTINGS["ghost_views"], "streak_lines": True}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -127,9 +136,10 @@ def main(argv: list[str] | None = None) -> int:
     by = {name: [r for r in rows if r["setting"] == name] for name in settings}
     out["mean_marked"] = {n: float(np.mean([r["marked"] for r in v])) for n, v in by.items()}
     out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
-    if "ghost_views_opp" in settings:
-        out["candidate_added"] = (out["mean_marked"]["ghost_views_opp"]
-                                  - out["mean_marked"]["ghost_views"])
+    for cand in ("ghost_views_opp", "ghost_views_lines"):
+        if cand in settings:
+            out["candidate_added"] = (out["mean_marked"][cand]
+                                      - out["mean_marked"]["ghost_views"])
     out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
                               for n, rs in by.items()}
     print(f"mean over {len(a.scenes) + len(a.posed)} scenes: marked " + ", ".join(

@@ -115,6 +115,9 @@ class RayConfig:
     opposite: float = option(0.0, ge=0, le=90)
     """With ``min_rays`` > 2: two rays also suffice when they leave the light in opposite
     directions within this many degrees (a streak runs through the light); 0: off."""
+    lines: bool = False
+    """Also mark streak lines through each light (``pipeline.flare_lines``): thin straight
+    streaks, one each way, that the rays' polar runs lose (`mask --streak-lines`)."""
 
 
 def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
@@ -298,4 +301,8 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None,
         back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
                              flags | cv2.WARP_INVERSE_MAP)
         out |= back > 0.5
+    if cfg.lines:
+        from pipeline.flare_lines import line_mask
+
+        out |= line_mask(img, lights, saturated=cfg.saturated)
     return out

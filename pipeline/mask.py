@@ -89,6 +89,10 @@ class MaskConfig:
     ray_opposite: float | None = option(None, ge=0, le=90)
     """Degrees within which two rays leaving a light in opposite directions (a streak
     through it) also count as enough (default: the rule's, 0 = off)."""
+    streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
+    """With the rays: also mark thin straight streaks through a light, one each way
+    (``pipeline.flare_lines``; an anamorphic lens's streak), which the rays' polar runs
+    lose. Default (unset): the ray rule's (off)."""
     ghost_lines: bool | None = option(None, flag="--ghost-lines/--no-ghost-lines")
     """Also mark the FMG's weak regions (probability above 0.25, under the cut) on the line
     through a saturated light and the image centre, where a lens's ghosts lie
@@ -156,6 +160,9 @@ class MaskConfig:
             raise UserError("--ghost-views lets the other photos judge an FMG's weak marks: "
                             "it has no use with --masks (your masks are kept as given); leave "
                             "one out")
+        if self.streak_lines and (not self.rays or self.masks_dir is not None):
+            raise UserError("--streak-lines adds streaks to the FMG's flare rays: it has no "
+                            "use with --no-rays or --masks; leave one out")
         lines = self.masks_dir is None if self.ghost_lines is None else self.ghost_lines
         ghost_config(replace(self, ghost_lines=lines))  # --ghost-chain without the lines
         if self.confirm_weights is not None and not self.confirm:
@@ -360,10 +367,12 @@ def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.nd
 
 def ray_config(config: MaskConfig):
     """The flare-ray rule of the mask stage (or of any config with ``ray_min`` and
-    ``ray_opposite``, e.g. `fmg eval`'s): RayConfig's defaults with those where given."""
+    ``ray_opposite``, and maybe ``streak_lines``, e.g. `fmg eval`'s): RayConfig's defaults
+    with those where given."""
     from pipeline.flare_rays import RayConfig
 
-    over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite))
+    over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite),
+                              ("lines", getattr(config, "streak_lines", None)))
             if v is not None}
     return RayConfig(**over)
 

@@ -1230,3 +1230,60 @@ def test_reach_rule_asks_the_held_out_views_and_holds_the_rest():
     assert m.photo_rule(cand(-0.06), base, "reach-guard")["decision"] == "fails (a)"
     assert m.photo_rule(cand(0.0, x={"held": 16.79}), base,
                         "reach-guard")["decision"] == "fails (a)"
+
+
+def test_mask_dev_scenes_streak_lines_rows_mark_a_streak_the_rays_miss(tmp_path, monkeypatch):
+    """benchmarks/mask_dev_scenes.py --streak-lines: each ray setting scored again with the
+    streak lines; a thin streak through a light (two rays, under the rule's three) is marked
+    only there, and mask_kind_scenes names the rows ``+lines``."""
+    from pipeline import mask as M
+    from tests.pipeline.test_flare_lines import _background, _photo, _streak
+
+    bench = load_benchmark("mask_dev_scenes")
+    mk = load_benchmark("mask_kind_scenes")
+    for d in ("photos", "masks_gt"):
+        (tmp_path / "s_streaks" / d).mkdir(parents=True)
+    streak = _streak(1.0)
+    img = (_photo(_background() + streak)[..., ::-1] * 255).round().astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "s_streaks" / "photos" / "a.png"), img)
+    cv2.imwrite(str(tmp_path / "s_streaks" / "masks_gt" / "a.png"),
+                np.where(streak > 0.012, 255, 0).astype(np.uint8))
+    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
+                        [np.zeros(images[0].shape[:2], np.float32)])
+    monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
+    import pipeline.provenance as prov
+
+    monkeypatch.setattr(prov, "sha256", lambda path: "x")
+    out = tmp_path / "rows.json"
+    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
+                       "--streak-lines", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    by = {(r["rays"], r["streak_lines"]): r for r in rows}
+    assert set(by) == {(False, False), (True, False), (True, True)}
+    assert by[True, False]["flare_iou"] == 0.0
+    assert by[True, True]["flare_iou"] > 0.4
+    assert {mk.setting(r) for r in rows if r["rays"]} == {"w.safetensors@1",
+                                                          "w.safetensors@1+lines"}
+
+
+def test_streak_lines_need_the_rays():
+    """mask --streak-lines with --no-rays or --masks, and fmg eval's without --rays: one
+    line each, before anything runs."""
+    from pipeline.errors import UserError
+    from pipeline.mask import MaskConfig, ray_config
+    from pipeline.options import validate
+    from workflows.research.fmg_eval import check_ray_rule
+
+    assert ray_config(MaskConfig(streak_lines=True)).lines
+    assert not ray_config(MaskConfig()).lines
+    for bad in (MaskConfig(streak_lines=True, rays=False),
+                MaskConfig(streak_lines=True, masks_dir=Path("m"))):
+        with pytest.raises(UserError, match="--streak-lines"):
+            validate(bad)
+
+    class Cfg:
+        rays, ray_min, ray_opposite, streak_lines = False, None, None, True
+
+    with pytest.raises(UserError, match="--streak-lines"):
+        check_ray_rule(Cfg())

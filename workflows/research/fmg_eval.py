@@ -81,6 +81,8 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
+    """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
     ghost_lines: bool = False
     """With ``per_kind`` or ``clean``: add the ghost-line regions to every model's mask (as
     `mask --ghost-lines`)."""
@@ -139,6 +141,8 @@ class FMGOverlayConfig:
     """With ``rays``: the ray rule's fewest rays per light (as `mask --ray-min`)."""
     ray_opposite: float | None = option(None, ge=0, le=90)
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
+    streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
+    """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
     ghost_lines: bool = False
     """Add the ghost-line regions to each model's mask (as `mask --ghost-lines`)."""
     ghost_chain: int | None = option(None, ge=1)
@@ -172,10 +176,12 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
 
 
 def check_ray_rule(cfg) -> None:
-    """A one-line UserError when ``ray_min`` or ``ray_opposite`` is given without ``rays``
-    (they would silently change nothing)."""
-    if not cfg.rays and (cfg.ray_min is not None or cfg.ray_opposite is not None):
-        raise UserError("--ray-min and --ray-opposite set the flare rays' rule: add --rays")
+    """A one-line UserError when ``ray_min``, ``ray_opposite`` or ``streak_lines`` is given
+    without ``rays`` (they would silently change nothing)."""
+    if not cfg.rays and (cfg.ray_min is not None or cfg.ray_opposite is not None
+                         or cfg.streak_lines is not None):
+        raise UserError("--ray-min, --ray-opposite and --streak-lines set the flare rays' "
+                        "rule: add --rays")
 
 
 # --------------------------------------------------------------------------- scoring a batch

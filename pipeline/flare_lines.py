@@ -1,0 +1,201 @@
+"""Streak lines: thin straight streaks that cross a saturated light, found line by line.
+
+An anamorphic lens draws one thin, nearly straight streak through each light, often across
+the whole frame, barely fading. The flare rays (``pipeline.flare_rays``) look for it in a
+polar image about the light, where a line that misses the light's centre by a pixel wanders
+across rows, and their ``fade`` test drops a streak that does not fade; the FMG marks none
+of it (docs/history/fmg.md, "Sixty-first session"). This looks for it as a line instead.
+
+For each light (``pipeline.flare_rays.find_lights``), every line that passes within
+``offsets`` pixels of its centre, at every ``step`` degrees, is sampled pixel by pixel in
+linear luminance, each half out from the light on its own. A sample is *on* where it is
+brighter than both samples ``flank`` pixels away across the line by ``abs_threshold`` and
+``rel_threshold`` of the brighter flank (a ridge, as the rays' test). Saturated samples
+count neither way. A half's run starts ``slack`` beyond the light (its glow hides the ridge
+there) and ends at the farthest sample up to which at least ``density`` of the samples are
+on: gaps, where the streak crosses something as bright, are fine while the share holds. A
+line is a streak when each half's run holds ``density`` x ``min_length`` of the diagonal in
+on samples, or reaches the frame's edge, and the weaker half's mean ridge excess near the
+light is at least ``symmetry`` of the stronger's (the streak adds the same light both
+ways). A light keeps its ``max_lines`` streaks with the most on samples that are
+``separation`` degrees apart. A streak's marks are its on samples and, across each, the
+pixels up to ``half_width`` away brighter than the background beyond them (``half_width``
++ ``flank`` away) by the same thresholds.
+
+Developed on the one-kind streak scenes of seed 31 (one anamorphic lens) and the clean
+development photos (docs/history/fmg.md, "Sixty-second session").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.colour import srgb_to_linear
+from pipeline.options import option
+
+
+@dataclass
+class LineConfig:
+    """The streak-line rule (see the module docstring). Lengths are in pixels at the
+    working size (512 px long side), or fractions of the image diagonal where so said."""
+
+    step: float = option(0.25, gt=0, le=5)
+    """Angle between two lines tried through a light (degrees)."""
+    offsets: float = option(1.5, ge=0, le=5)
+    """Farthest a line may pass from the light's centre (pixels; tried every 0.5)."""
+    flank: float = option(4.0, gt=0)
+    """Distance across the line of the two samples a ridge must be brighter than."""
+    abs_threshold: float = option(0.012, gt=0)
+    """Linear luminance a ridge must exceed its brighter flank by."""
+    rel_threshold: float = option(0.1, ge=0)
+    """... and this fraction of that flank."""
+    density: float = option(0.6, gt=0, le=1)
+    """Share of on samples that keeps a run going."""
+    min_length: float = option(0.1, gt=0)
+    """Shortest run each way from the light (fraction of the diagonal) unless it meets the
+    frame's edge."""
+    slack: float = option(0.03, ge=0)
+    """Stretch beyond the light (fraction of the diagonal) where a run may begin: the
+    light's glow hides the streak's ridge next to it."""
+    edge: float = option(3.0, ge=0)
+    """A run that stops this close (pixels) to where the line leaves the frame reaches it."""
+    max_lines: int = option(2, ge=1)
+    """Most streaks kept per light."""
+    separation: float = option(3.0, gt=0)
+    """Fewest degrees between two streaks kept through one light."""
+    half_width: int = option(3, ge=0)
+    symmetry: float = option(0.3, ge=0, le=1)
+    """The weaker half's mean ridge excess near the light (over ``min_length``) at least
+    this share of the stronger's: a streak adds the same light both ways."""
+    """Farthest (pixels) across a streak its marks may spread."""
+
+
+def _sample(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear samples of ``img`` at float coordinates; NaN outside the image."""
+    flat = x.ndim == 1
+    x, y = (x[None], y[None]) if flat else (x, y)
+    out = cv2.remap(img, np.asarray(x, np.float32), np.asarray(y, np.float32),
+                    cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
+    return out[0] if flat else out
+
+
+def _ridge_on(lum: np.ndarray, x: np.ndarray, y: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+              shift: float, cfg: LineConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(on, inside): the ridge test at the samples ``shift`` pixels across the lines (unit
+    normals ``nx``, ``ny``) from (``x``, ``y``), and whether those samples are in the frame."""
+    cx, cy = x + shift * nx, y + shift * ny
+    c = _sample(lum, cx, cy)
+    a = _sample(lum, cx + cfg.flank * nx, cy + cfg.flank * ny)
+    b = _sample(lum, cx - cfg.flank * nx, cy - cfg.flank * ny)
+    inside = np.isfinite(c)
+    side = np.fmax(a, b)  # a flank outside the frame does not count
+    side = np.where(np.isfinite(side), side, np.inf)
+    thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * side)
+    return inside & (c - side > thresh), inside, c - side
+
+
+def _prefix_run(on: np.ndarray, valid: np.ndarray, begin: int,
+                density: float) -> tuple[np.ndarray, np.ndarray]:
+    """(stop, count) per row: the farthest column ``stop`` such that at least ``density``
+    of the ``valid`` samples from ``begin`` up to it are ``on``, and how many are on there
+    (0 and ``begin`` where none is)."""
+    o = on[:, begin:].astype(np.float32)
+    if o.shape[1] == 0:
+        return np.full(on.shape[0], begin), np.zeros(on.shape[0])
+    n_on = np.cumsum(o, 1)
+    n_valid = np.maximum(np.cumsum(valid[:, begin:], 1), 1)
+    good = (n_on >= density * n_valid) & (n_on > 0)
+    cols = np.arange(o.shape[1])[None]
+    last = np.where(good, cols, -1).max(1)
+    count = np.where(last >= 0, np.take_along_axis(n_on, np.maximum(last, 0)[:, None], 1)[:, 0],
+                     0)
+    return begin + last + 1, count
+
+
+def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
+              cfg: LineConfig | None = None, saturated: float = 0.98) -> np.ndarray:
+    """[H, W] bool: the streak lines through ``lights`` ((x, y, radius) at ``img``'s size)
+    of sRGB ``img`` [H, W, 3] float 0..1 (see the module docstring)."""
+    cfg = cfg or LineConfig()
+    h, w = img.shape[:2]
+    out = np.zeros((h, w), bool)
+    if not lights:
+        return out
+    lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32)
+           @ np.array([0.2126, 0.7152, 0.0722], np.float32)).astype(np.float32)
+    sat = (img.max(-1) >= saturated).astype(np.float32)
+    diag = float(np.hypot(h, w))
+    slack = int(round(cfg.slack * diag))
+    min_len = cfg.min_length * diag
+    theta = np.deg2rad(np.arange(0.0, 180.0, cfg.step))
+    ux, uy = np.cos(theta).astype(np.float32), np.sin(theta).astype(np.float32)
+    nx, ny = -uy, ux
+    n_off = int(round(cfg.offsets / 0.5))
+    offs = np.arange(-n_off, n_off + 1, dtype=np.float32) * np.float32(0.5)
+    # rows: the two halves of each line, out from the light (+u, then -u)
+    dx, dy = np.concatenate([ux, -ux])[:, None], np.concatenate([uy, -uy])[:, None]
+    nxx, nyy = np.concatenate([nx, nx])[:, None], np.concatenate([ny, ny])[:, None]
+    for x0, y0, rad in lights:
+        reach = int(np.ceil(max(np.hypot(cx - x0, cy - y0) for cx in (0, w) for cy in (0, h))))
+        t = np.arange(reach, dtype=np.float32)
+        start = int(np.ceil(rad)) + 1
+        best: list[tuple[float, int, int]] = []  # (length, angle index, offset index)
+        found: dict[tuple[int, int], tuple] = {}
+        for k, o in enumerate(offs):
+            px = np.float32(x0) + o * nxx + t[None] * dx
+            py = np.float32(y0) + o * nyy + t[None] * dy
+            on, inside, excess = _ridge_on(lum, px, py, nxx, nyy, 0.0, cfg)
+            linked = _sample(sat, px, py) > 0.5
+            on &= ~linked
+            begin = min(start + slack, reach)
+            stop, count = _prefix_run(on, inside & ~linked, begin, cfg.density)
+            end = np.where(inside, np.arange(reach)[None], -1).max(1) + 1  # leaves the frame
+            ok = (count >= cfg.density * min_len) | ((stop >= end - cfg.edge) & (count >= 3))
+            n = len(theta)
+            both = ok[:n] & ok[n:]
+            if cfg.symmetry > 0 and both.any():
+                # the streak adds the same light both ways: compare the ridges' excess over
+                # the stretch both halves have, from ``begin``
+                common = np.minimum(np.minimum(stop[:n], stop[n:]), begin + int(min_len))
+                cols = np.arange(reach)[None]
+                e = np.where(np.isfinite(excess), np.clip(excess, 0, None), 0.0)
+                span = (cols >= begin) & (cols < np.concatenate([common, common])[:, None])
+                mean = (e * span).sum(1) / np.maximum(span.sum(1), 1)
+                lo, hi = np.minimum(mean[:n], mean[n:]), np.maximum(mean[:n], mean[n:])
+                both &= lo >= cfg.symmetry * hi
+            for i in np.flatnonzero(both):
+                best.append((float(count[i] + count[n + i]), int(i), k))
+                found[(int(i), k)] = (px[[i, n + i]], py[[i, n + i]], on[[i, n + i]],
+                                      stop[[i, n + i]])
+        best.sort(reverse=True)
+        kept: list[int] = []
+        for _, i, k in best:
+            if any(min(abs(i - j), len(theta) - abs(i - j)) * cfg.step < cfg.separation
+                   for j in kept):
+                continue
+            kept.append(i)
+            lx, ly, lon, lstop = found[(i, k)]
+            for r in range(2):
+                m = np.flatnonzero(lon[r, :lstop[r]])
+                xs, ys = lx[r, m], ly[r, m]
+                if len(xs) == 0:
+                    continue
+                # across: brighter than the background beyond the marks' reach
+                far = cfg.half_width + cfg.flank
+                bg = np.fmax(_sample(lum, xs + far * nx[i], ys + far * ny[i]),
+                             _sample(lum, xs - far * nx[i], ys - far * ny[i]))
+                bg = np.where(np.isfinite(bg), bg, np.inf)
+                thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * bg)
+                for d in range(-cfg.half_width, cfg.half_width + 1):
+                    sx, sy = xs + d * nx[i], ys + d * ny[i]
+                    sel = (_sample(lum, sx, sy) - bg > thresh) | (d == 0)
+                    xi = np.round(sx[sel]).astype(int)
+                    yi = np.round(sy[sel]).astype(int)
+                    good = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
+                    out[yi[good], xi[good]] = True
+            if len(kept) == cfg.max_lines:
+                break
+    return out
