@@ -6,7 +6,10 @@
 Each photo is read as the mask stage reads a decoded view (BGR) and passed through
 ``pipeline.mask.fmg_probs`` alone, one view per call, after one warm-up view: the network's
 share of the mask stage (the flare rays and file writing are the same for every file). The
-thread count is the process's (set OMP_NUM_THREADS to compare like with like).
+thread count is the process's (set OMP_NUM_THREADS to compare like with like). ``--rays``
+also times the flare rays per view (``pipeline.mask.ray_marks``, the lights found each
+time), with the stage's rule and with the streak lines (`mask --streak-lines`): rows with
+``rays`` set instead of weights.
 """
 
 from __future__ import annotations
@@ -26,12 +29,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--weights", type=Path, action="append", required=True)
     ap.add_argument("--work-size", type=int, default=512)
     ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--rays", action="store_true",
+                    help="also time the flare rays, without and with the streak lines")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     import torch
 
+    from pipeline.flare_rays import RayConfig
     from pipeline.images import list_photos, read_image
-    from pipeline.mask import fmg_probs, load_fmg_weights
+    from pipeline.mask import fmg_probs, load_fmg_weights, ray_marks
     from pipeline.provenance import sha256, write_result
 
     paths = list_photos(a.photos)
@@ -59,6 +65,23 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{w.name}: {params / 1e6:.2f} M parameters, {row['median_s_per_view']:.3f} s per "
               f"{row['view_size'][0]}x{row['view_size'][1]} view (median of {len(times)}, "
               f"{row['threads']} thread(s))", flush=True)
+    for lines in ((False, True) if a.rays else ()):
+        cfg = RayConfig(lines=lines)
+        times = []
+        for _ in range(a.repeat):
+            for im in images:
+                t0 = time.perf_counter()
+                ray_marks(im, a.work_size, cfg)
+                times.append(time.perf_counter() - t0)
+        times.sort()
+        row = {"rays": "streak_lines" if lines else "default", "views": len(images),
+               "view_size": list(images[0].shape[1::-1]), "work_size": a.work_size,
+               "threads": torch.get_num_threads(),
+               "median_s_per_view": round(times[len(times) // 2], 4),
+               "mean_s_per_view": round(sum(times) / len(times), 4)}
+        rows.append(row)
+        print(f"rays ({row['rays']}): {row['median_s_per_view']:.3f} s per view (median of "
+              f"{len(times)}, mean {row['mean_s_per_view']:.3f})", flush=True)
     write_result(a.out, {"photos": str(a.photos), "rows": rows})
     return 0
 

@@ -1287,3 +1287,21 @@ def test_streak_lines_need_the_rays():
 
     with pytest.raises(UserError, match="--streak-lines"):
         check_ray_rule(Cfg())
+
+
+def test_mask_time_rays_rows_time_the_rays_with_and_without_the_streak_lines(tmp_path):
+    """benchmarks/mask_time.py --rays: one row per weight file, then one for the rays at
+    the stage's rule and one with the streak lines, each with a time per view."""
+    from tests.pipeline.test_flare_lines import _background, _photo, _streak
+
+    bench = load_benchmark("mask_time")
+    (tmp_path / "p").mkdir()
+    img = (_photo(_background() + _streak(1.0))[..., ::-1] * 255).round().astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "p" / "a.png"), img)
+    w = Path(__file__).resolve().parents[2] / "gnfr" / "weights" / "fmg_small.safetensors"
+    out = tmp_path / "t.json"
+    assert bench.main([str(tmp_path / "p"), "--weights", str(w), "--repeat", "1", "--rays",
+                       "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [r.get("rays") for r in rows] == [None, "default", "streak_lines"]
+    assert all(r["median_s_per_view"] > 0 and r["views"] == 1 for r in rows)
