@@ -17,7 +17,8 @@ on: gaps, where the streak crosses something as bright, are fine while the share
 line is a streak when each half's run holds ``density`` x ``min_length`` of the diagonal in
 on samples, or reaches the frame's edge, and the weaker half's mean ridge excess near the
 light is at least ``symmetry`` of the stronger's (the streak adds the same light both
-ways). A light keeps its ``max_lines`` streaks with the most on samples that are
+ways), and neither half's ridge samples more than ``bright`` near white (a lit scene edge
+is bright itself, a streak's ridge mostly is not). A light keeps its ``max_lines`` streaks with the most on samples that are
 ``separation`` degrees apart. A streak's marks are its on samples and, across each, the
 pixels up to ``half_width`` away brighter than the background beyond them (``half_width``
 + ``flank`` away) by the same thresholds.
@@ -66,6 +67,11 @@ class LineConfig:
     """Most streaks kept per light."""
     separation: float = option(3.0, gt=0)
     """Fewest degrees between two streaks kept through one light."""
+    bright: float = option(0.5, ge=0, le=1)
+    """Largest share of either half's ridge samples that may be near white (sRGB at least
+    ``bright_level`` in some channel); 1: no limit."""
+    bright_level: float = option(0.9, gt=0, le=1)
+    """The sRGB level of ``bright``."""
     half_width: int = option(3, ge=0)
     symmetry: float = option(0.3, ge=0, le=1)
     """The weaker half's mean ridge excess near the light (over ``min_length``) at least
@@ -127,6 +133,7 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
     lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32)
            @ np.array([0.2126, 0.7152, 0.0722], np.float32)).astype(np.float32)
     sat = (img.max(-1) >= saturated).astype(np.float32)
+    near_white = (img.max(-1) >= cfg.bright_level).astype(np.float32)
     diag = float(np.hypot(h, w))
     slack = int(round(cfg.slack * diag))
     min_len = cfg.min_length * diag
@@ -166,6 +173,15 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
                 mean = (e * span).sum(1) / np.maximum(span.sum(1), 1)
                 lo, hi = np.minimum(mean[:n], mean[n:]), np.maximum(mean[:n], mean[n:])
                 both &= lo >= cfg.symmetry * hi
+            if cfg.bright < 1 and both.any():
+                # a lit scene edge is bright itself; a streak's ridge mostly is not
+                sel = np.flatnonzero(both)
+                rows = np.concatenate([sel, sel + n])
+                cols = np.arange(reach)[None]
+                run = on[rows] & (cols >= begin) & (cols < stop[rows][:, None])
+                lit = _sample(near_white, px[rows], py[rows]) > 0.5
+                share = (run & lit).sum(1) / np.maximum(run.sum(1), 1)
+                both[sel] &= np.maximum(share[:len(sel)], share[len(sel):]) <= cfg.bright
             for i in np.flatnonzero(both):
                 best.append((float(count[i] + count[n + i]), int(i), k))
                 found[(int(i), k)] = (px[[i, n + i]], py[[i, n + i]], on[[i, n + i]],
