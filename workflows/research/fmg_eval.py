@@ -652,11 +652,13 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
                                + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
-            cv2.putText(tile,
-                        f"{weights_label(Path(w))}{' + rays' if rays else ''}"
-                        f"{' + ghost lines' if ghosts is not None else ''}: "
-                        f"{100 * marked.mean():.1f} %",
-                        (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
+            label = (f"{weights_label(Path(w))}{' + rays' if rays else ''}"
+                     f"{' + streak lines' if rays and getattr(ray_cfg, 'lines', 0) else ''}"
+                     f"{' + ghost lines' if ghosts is not None else ''}: "
+                     f"{100 * marked.mean():.1f} %")
+            size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
+                label, cv2.FONT_HERSHEY_SIMPLEX, 0.7, 2)[0][0])  # the label fits the tile
+            cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, size, (255, 255, 255), 2)
             tiles.append(tile)
         rows.append(np.hstack(tiles))
     atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
