@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.conftest import load_benchmark
@@ -1327,3 +1328,61 @@ def test_novel_fill_rule_table_is_the_judge_of_the_committed_scores():
             mine = json.loads((RESULTS / f"novel_s45_base_{sc}_s{s}.json").read_text())
             run = json.loads((RESULTS / f"fmg_s45_base_fair_{sc}_s{s}.json").read_text())
             assert mine["heldout"]["psnr"] == pytest.approx(run["heldout"]["psnr"], abs=0.01)
+
+
+def test_streak_lines_candidates_are_their_files():
+    """docs/history/fmg.md's verdicts on the streak lines (sixty-second session): A's two
+    failing margins on sceaux_castle, and B's table (the judge of three builds, the
+    every-kind scenes, the clean photos, the daylight composites), are the committed files'
+    numbers; the card and the goals page quote B's streaks and clean sceaux_castle."""
+    mk = load_benchmark("mask_kind_scenes")
+    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+
+    def scenes(name):
+        return {(r["scene"], r["streak_lines"]): r
+                for r in json.loads((RESULTS / name).read_text())["rows"] if r["rays"]}
+
+    def clean(name):
+        return {(r["scene"], r["setting"]): r["marked"]
+                for r in json.loads((RESULTS / name).read_text())["rows"]}
+
+    a, av = scenes("mask_dev_scenes_lines.json"), clean("mask_views_clean_dev_lines.json")
+    s0, s1 = a["sceaux_synth", False], a["sceaux_synth", True]
+    assert (f"rose from {100 * s0['marked_outside']:.2f} % to {100 * s1['marked_outside']:.2f} "
+            f"% (+{100 * (s1['marked_outside'] - s0['marked_outside']):.3f} points") in flat
+    assert f"flare IoU {s0['flare_iou']:.3f} to {s1['flare_iou']:.3f}" in flat
+    c0, c1 = av["sceaux_ws", "ghost_views"], av["sceaux_ws", "ghost_views_lines"]
+    assert f"from {100 * c0:.3f} % to {100 * c1:.3f} % (+{100 * (c1 - c0):.3f})" in flat
+    # B
+    base, cand = "fmg.safetensors@1", "fmg.safetensors@1+lines"
+    files = [json.loads((RESULTS / f"mask_dev_kinds_linesB_s{s}.json").read_text())["rows"]
+             for s in (46, 47, 48)]
+    judged = mk.judge(files, base, cand, target="streaks")
+    saved = json.loads((RESULTS / "mask_kinds_judge_linesB_s62.json").read_text())
+    assert judged["passes"] is False is saved["passes"]
+    assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
+    k = judged["kinds"]
+    assert (f"| 1. three builds, streaks | {k['streaks'][base]:.3f} | "
+            f"{k['streaks'][cand]:.3f} | +0.03 |") in flat
+    assert (f"| 1. ... mean over kinds | {judged['mean'][base]:.4f} | "
+            f"{judged['mean'][cand]:.4f} | not lower |") in flat
+    b, bv = scenes("mask_dev_scenes_linesB.json"), clean("mask_views_clean_dev_linesB.json")
+    names = ("sceaux_synth", "et_synth", "lund_synth")
+    for lines in (False, True):
+        iou = " / ".join(f"{b[s, lines]['flare_iou']:.3f}" for s in names)
+        out = " / ".join(f"{100 * b[s, lines]['marked_outside']:.2f}" for s in names)
+        assert f"{iou}; {out} %" in flat, (iou, out)
+    for setting in ("ghost_views", "ghost_views_lines"):
+        cells = " / ".join(f"{100 * bv[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
+        assert f"{cells} %" in flat, cells
+    comp = [{n: v["weights"]["IoU_flare"] for n, v in json.loads(
+        (RESULTS / f).read_text())["kinds"].items()}
+        for f in ("fmg_dev_per_kind_M_day_rays_s62.json", "fmg_dev_per_kind_M_day_rays_linesB.json")]
+    for c in comp:
+        assert f"{np.mean(list(c.values())):.4f} (streaks {c['streaks']:.3f})" in flat
+    quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
+             f"{100 * bv['sceaux_ws', 'ghost_views']:.3f} % to "
+             f"{100 * bv['sceaux_ws', 'ghost_views_lines']:.3f} %")
+    for page in (REPO / "gnfr" / "weights" / "fmg.md", REPO / "docs" / "goals.md"):
+        text = " ".join(page.read_text().split())
+        assert all(q in text for q in quote), page
