@@ -18,13 +18,15 @@ line is a streak when each half's run holds ``density`` x ``min_length`` of the 
 on samples, or reaches the frame's edge, and the weaker half's mean ridge excess near the
 light is at least ``symmetry`` of the stronger's (the streak adds the same light both
 ways), and neither half's ridge samples more than ``bright`` near white (a lit scene edge
-is bright itself, a streak's ridge mostly is not). A light keeps its ``max_lines`` streaks with the most on samples that are
-``separation`` degrees apart. A streak's marks are its on samples and, across each, the
-pixels up to ``half_width`` away brighter than the background beyond them (``half_width``
-+ ``flank`` away) by the same thresholds.
+is bright itself, a streak's ridge mostly is not). A light keeps its ``max_lines`` streaks
+with the most on samples that are ``separation`` degrees apart. A streak's marks are its
+on samples and, across each, the pixels up to ``half_width`` away brighter than the
+background beyond them (``half_width`` + ``flank`` away) by the same thresholds.
 
-Developed on the one-kind streak scenes of seed 31 (one anamorphic lens) and the clean
-development photos (docs/history/fmg.md, "Sixty-second session").
+Shaped on the one-kind streak scenes of seed 31 (one anamorphic lens) and the clean
+development photos; judged as the mask stage's default and not made it (it finds bright
+long streaks, not faint short ones; docs/history/fmg.md, "Sixty-second session: streak
+lines through a light"): `mask --streak-lines`.
 """
 
 from __future__ import annotations

@@ -1376,10 +1376,14 @@ def test_streak_lines_candidates_are_their_files():
         cells = " / ".join(f"{100 * bv[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
         assert f"{cells} %" in flat, cells
     comp = [{n: v["weights"]["IoU_flare"] for n, v in json.loads(
-        (RESULTS / f).read_text())["kinds"].items()}
-        for f in ("fmg_dev_per_kind_M_day_rays_s62.json", "fmg_dev_per_kind_M_day_rays_linesB.json")]
+        (RESULTS / f"fmg_dev_per_kind_M_day_rays_{f}.json").read_text())["kinds"].items()}
+        for f in ("s62", "linesB")]
     for c in comp:
         assert f"{np.mean(list(c.values())):.4f} (streaks {c['streaks']:.3f})" in flat
+    s31 = scenes("mask_dev_kinds_linesB_s31_streaks.json")
+    cells = [" / ".join(f"{s31[f'{n}_streaks', lines]['flare_iou']:.3f}"
+                        for n in ("et", "lund", "sceaux")) for lines in (False, True)]
+    assert f"goes from {cells[0]} to {cells[1]} with them" in flat, cells
     quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
              f"{100 * bv['sceaux_ws', 'ghost_views']:.3f} % to "
              f"{100 * bv['sceaux_ws', 'ghost_views_lines']:.3f} %")
