@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from pipeline.colour import srgb_to_linear
+from pipeline.flare_rays import LUMA
 from pipeline.options import option
 
 
@@ -56,7 +57,8 @@ class LineConfig:
     rel_threshold: float = option(0.1, ge=0)
     """... and this fraction of that flank."""
     density: float = option(0.6, gt=0, le=1)
-    """Share of on samples that keeps a run going."""
+    """Share of a half's samples, from where its run may begin, that must be on up to where
+    the run ends."""
     min_length: float = option(0.1, gt=0)
     """Shortest run each way from the light (fraction of the diagonal) unless it meets the
     frame's edge."""
@@ -74,10 +76,10 @@ class LineConfig:
     ``bright_level`` in some channel); 1: no limit."""
     bright_level: float = option(0.9, gt=0, le=1)
     """The sRGB level of ``bright``."""
-    half_width: int = option(3, ge=0)
     symmetry: float = option(0.3, ge=0, le=1)
     """The weaker half's mean ridge excess near the light (over ``min_length``) at least
     this share of the stronger's: a streak adds the same light both ways."""
+    half_width: int = option(3, ge=0)
     """Farthest (pixels) across a streak its marks may spread."""
 
 
@@ -91,9 +93,10 @@ def _sample(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _ridge_on(lum: np.ndarray, x: np.ndarray, y: np.ndarray, nx: np.ndarray, ny: np.ndarray,
-              shift: float, cfg: LineConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(on, inside): the ridge test at the samples ``shift`` pixels across the lines (unit
-    normals ``nx``, ``ny``) from (``x``, ``y``), and whether those samples are in the frame."""
+              shift: float, cfg: LineConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(on, inside, excess): the ridge test at the samples ``shift`` pixels across the lines
+    (unit normals ``nx``, ``ny``) from (``x``, ``y``), whether those samples are in the
+    frame, and how much brighter they are than the brighter flank."""
     cx, cy = x + shift * nx, y + shift * ny
     c = _sample(lum, cx, cy)
     a = _sample(lum, cx + cfg.flank * nx, cy + cfg.flank * ny)
@@ -132,8 +135,7 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
     out = np.zeros((h, w), bool)
     if not lights:
         return out
-    lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32)
-           @ np.array([0.2126, 0.7152, 0.0722], np.float32)).astype(np.float32)
+    lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32) @ LUMA).astype(np.float32)
     sat = (img.max(-1) >= saturated).astype(np.float32)
     near_white = (img.max(-1) >= cfg.bright_level).astype(np.float32)
     diag = float(np.hypot(h, w))
@@ -151,7 +153,7 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
         reach = int(np.ceil(max(np.hypot(cx - x0, cy - y0) for cx in (0, w) for cy in (0, h))))
         t = np.arange(reach, dtype=np.float32)
         start = int(np.ceil(rad)) + 1
-        best: list[tuple[float, int, int]] = []  # (length, angle index, offset index)
+        best: list[tuple[float, int, int]] = []  # (on samples, angle index, offset index)
         found: dict[tuple[int, int], tuple] = {}
         for k, o in enumerate(offs):
             px = np.float32(x0) + o * nxx + t[None] * dx
