@@ -842,22 +842,39 @@ def test_fmg_faint_table_is_its_file():
         assert words in flat, words
 
 
+def card_and_goals_quote(quotes) -> None:
+    """Each of ``quotes`` is on the FMG card and on docs/goals.md (line breaks as spaces)."""
+    for page in (REPO / "gnfr" / "weights" / "fmg.md", REPO / "docs" / "goals.md"):
+        text = " ".join(page.read_text().split())
+        assert all(q in text for q in quotes), (page, quotes)
+
+
+def failed_streaks_judgement(names: list[str], base: str, cand: str, saved_name: str,
+                             label: str, flat: str) -> dict:
+    """A change aimed at streaks judged again from its one-kind files (``mask_kind_scenes.py
+    judge --target streaks``): equal to its saved judgement, a fail, and the page's row
+    ``| 1. LABEL, streaks | base | candidate | +0.03 |`` its numbers."""
+    mk = load_benchmark("mask_kind_scenes")
+    files = [json.loads((RESULTS / n).read_text())["rows"] for n in names]
+    judged = mk.judge(files, base, cand, target="streaks")
+    saved = json.loads((RESULTS / saved_name).read_text())
+    assert judged["passes"] is False is saved["passes"]
+    assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
+    k = judged["kinds"]["streaks"]
+    assert f"| 1. {label}, streaks | {k[base]:.3f} | {k[cand]:.3f} | +0.03 |" in flat
+    return judged
+
+
 def test_fmg_opposite_rays_table_is_its_files():
     """docs/history/fmg.md's table for the lone-streak rule (sixty-first session) is the
     committed files' numbers: the judge's per-kind means (its verdict a fail, its base M's
     pooled mean), the every-kind scenes and the mask stage on the clean photos."""
-    mk = load_benchmark("mask_kind_scenes")
     flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
     base, cand = "fmg.safetensors@1+rays3,0", "fmg.safetensors@1+rays3,8"
-    files = [json.loads((RESULTS / f"mask_dev_kinds_opp_s{b}.json").read_text())["rows"]
-             for b in (31, 32, 33)]
-    judged = mk.judge(files, base, cand, target="streaks")
-    saved = json.loads((RESULTS / "mask_kinds_judge_opp8_s61.json").read_text())
-    assert judged["passes"] is False is saved["passes"]
-    assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
+    judged = failed_streaks_judgement([f"mask_dev_kinds_opp_s{b}.json" for b in (31, 32, 33)],
+                                      base, cand, "mask_kinds_judge_opp8_s61.json",
+                                      "one-kind scenes", flat)
     k = judged["kinds"]
-    assert (f"| 1. one-kind scenes, streaks | {k['streaks'][base]:.3f} | "
-            f"{k['streaks'][cand]:.3f} | +0.03 |") in flat
     others = ("starburst", "ghosts", "glare", "scatter")
     row = (f"| 1. ... starburst / ghosts / glare / scatter | "
            f"{' / '.join(f'{k[n][base]:.3f}' for n in others)} | "
@@ -882,9 +899,7 @@ def test_fmg_opposite_rays_table_is_its_files():
     quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
              f"{100 * vb['sceaux_ws', 'ghost_views']:.3f} % to "
              f"{100 * vb['sceaux_ws', 'ghost_views_opp']:.3f} % marked")
-    for page in (REPO / "gnfr" / "weights" / "fmg.md", REPO / "docs" / "goals.md"):
-        text = " ".join(page.read_text().split())
-        assert all(q in text for q in quote), page
+    card_and_goals_quote(quote)
 
 
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
@@ -1335,7 +1350,6 @@ def test_streak_lines_candidates_are_their_files():
     failing margins on sceaux_castle, and B's table (the judge of three builds, the
     every-kind scenes, the clean photos, the daylight composites), are the committed files'
     numbers; the card and the goals page quote B's streaks and clean sceaux_castle."""
-    mk = load_benchmark("mask_kind_scenes")
     flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
 
     def scenes(name):
@@ -1355,15 +1369,10 @@ def test_streak_lines_candidates_are_their_files():
     assert f"from {100 * c0:.3f} % to {100 * c1:.3f} % (+{100 * (c1 - c0):.3f})" in flat
     # B
     base, cand = "fmg.safetensors@1", "fmg.safetensors@1+lines"
-    files = [json.loads((RESULTS / f"mask_dev_kinds_linesB_s{s}.json").read_text())["rows"]
-             for s in (46, 47, 48)]
-    judged = mk.judge(files, base, cand, target="streaks")
-    saved = json.loads((RESULTS / "mask_kinds_judge_linesB_s62.json").read_text())
-    assert judged["passes"] is False is saved["passes"]
-    assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
+    judged = failed_streaks_judgement([f"mask_dev_kinds_linesB_s{s}.json" for s in (46, 47, 48)],
+                                      base, cand, "mask_kinds_judge_linesB_s62.json",
+                                      "three builds", flat)
     k = judged["kinds"]
-    assert (f"| 1. three builds, streaks | {k['streaks'][base]:.3f} | "
-            f"{k['streaks'][cand]:.3f} | +0.03 |") in flat
     assert (f"| 1. ... mean over kinds | {judged['mean'][base]:.4f} | "
             f"{judged['mean'][cand]:.4f} | not lower |") in flat
     b, bv = scenes("mask_dev_scenes_linesB.json"), clean("mask_views_clean_dev_linesB.json")
@@ -1387,6 +1396,4 @@ def test_streak_lines_candidates_are_their_files():
     quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
              f"{100 * bv['sceaux_ws', 'ghost_views']:.3f} % to "
              f"{100 * bv['sceaux_ws', 'ghost_views_lines']:.3f} %")
-    for page in (REPO / "gnfr" / "weights" / "fmg.md", REPO / "docs" / "goals.md"):
-        text = " ".join(page.read_text().split())
-        assert all(q in text for q in quote), page
+    card_and_goals_quote(quote)

@@ -768,18 +768,36 @@ def test_mask_cross_render_swaps_masks_on_copies(scene, tmp_path, capsys):
     assert "is not a fine-tuned workspace" in err[-1] and not (tmp_path / "x.json").exists()
 
 
+def _no_network(monkeypatch) -> None:
+    """The mask stage's network replaced by one that marks nothing (cut 0.5, no file
+    read), so that a benchmark scores the rays alone."""
+    import pipeline.provenance as prov
+    from pipeline import mask as M
+
+    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
+                        [np.zeros(images[0].shape[:2], np.float32)])
+    monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
+    monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
+    monkeypatch.setattr(prov, "sha256", lambda path: "x")
+
+
+def _one_photo_scene(folder: Path, img_bgr: np.ndarray, truth: np.ndarray) -> None:
+    """A synth-like folder of one photo ``a.png`` and its true mask."""
+    for d in ("photos", "masks_gt"):
+        (folder / d).mkdir(parents=True)
+    cv2.imwrite(str(folder / "photos" / "a.png"), img_bgr)
+    cv2.imwrite(str(folder / "masks_gt" / "a.png"), np.where(truth, 255, 0).astype(np.uint8))
+
+
 def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_count(
         tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py --ray-rule: a lone streak through a light (two rays
     leaving it in opposite directions) is marked under the rule 3,8 and not under the stage's
     3,0; the rows name their rule, and mask_kind_scenes tells the settings apart."""
-    from pipeline import mask as M
     from pipeline.colour import linear_to_srgb
 
     bench = load_benchmark("mask_dev_scenes")
     mk = load_benchmark("mask_kind_scenes")
-    for d in ("photos", "masks_gt"):
-        (tmp_path / "s_streaks" / d).mkdir(parents=True)
     h, w = 256, 384
     yy, xx = np.mgrid[:h, :w].astype(np.float32)
     rng = np.random.default_rng(0)
@@ -788,16 +806,8 @@ def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_co
     lin += add
     lin[np.hypot(yy - 128, xx - 192) < 5] = 1.0  # the light
     img = (linear_to_srgb(np.clip(lin, 0, 1))[..., None].repeat(3, -1) * 255).round()
-    cv2.imwrite(str(tmp_path / "s_streaks" / "photos" / "a.png"), img.astype(np.uint8))
-    cv2.imwrite(str(tmp_path / "s_streaks" / "masks_gt" / "a.png"),
-                np.where(add > 0.012, 255, 0).astype(np.uint8))
-    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
-                        [np.zeros(images[0].shape[:2], np.float32)])
-    monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
-    monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
-    import pipeline.provenance as prov
-
-    monkeypatch.setattr(prov, "sha256", lambda path: "x")
+    _one_photo_scene(tmp_path / "s_streaks", img.astype(np.uint8), add > 0.012)
+    _no_network(monkeypatch)
     out = tmp_path / "rows.json"
     assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
                        "--ray-rule", "3,0", "--ray-rule", "3,8", "--out", str(out)]) == 0
@@ -1236,25 +1246,14 @@ def test_mask_dev_scenes_streak_lines_rows_mark_a_streak_the_rays_miss(tmp_path,
     """benchmarks/mask_dev_scenes.py --streak-lines: each ray setting scored again with the
     streak lines; a thin streak through a light (two rays, under the rule's three) is marked
     only there, and mask_kind_scenes names the rows ``+lines``."""
-    from pipeline import mask as M
     from tests.pipeline.test_flare_lines import _background, _photo, _streak
 
     bench = load_benchmark("mask_dev_scenes")
     mk = load_benchmark("mask_kind_scenes")
-    for d in ("photos", "masks_gt"):
-        (tmp_path / "s_streaks" / d).mkdir(parents=True)
     streak = _streak(1.0)
     img = (_photo(_background() + streak)[..., ::-1] * 255).round().astype(np.uint8)
-    cv2.imwrite(str(tmp_path / "s_streaks" / "photos" / "a.png"), img)
-    cv2.imwrite(str(tmp_path / "s_streaks" / "masks_gt" / "a.png"),
-                np.where(streak > 0.012, 255, 0).astype(np.uint8))
-    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
-                        [np.zeros(images[0].shape[:2], np.float32)])
-    monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
-    monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
-    import pipeline.provenance as prov
-
-    monkeypatch.setattr(prov, "sha256", lambda path: "x")
+    _one_photo_scene(tmp_path / "s_streaks", img, streak > 0.012)
+    _no_network(monkeypatch)
     out = tmp_path / "rows.json"
     assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
                        "--streak-lines", "--out", str(out)]) == 0
