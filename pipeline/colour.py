@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
+"""Rec. 709 luminance weights of linear RGB (the flare rays, streak lines and synthesizer)."""
 SRGB_LINEAR_CUT = 0.0031308
 """Linear values at or below this are encoded by the linear segment (x 12.92)."""
 SRGB_ENCODED_CUT = 0.04045

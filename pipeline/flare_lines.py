@@ -36,8 +36,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.colour import srgb_to_linear
-from pipeline.flare_rays import LUMA
+from pipeline.colour import LUMA, srgb_to_linear
 from pipeline.options import option
 
 

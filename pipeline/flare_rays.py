@@ -48,11 +48,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.colour import srgb_to_linear
+from pipeline.colour import LUMA, srgb_to_linear
 from pipeline.options import option
-
-LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
-"""Rec. 709 luminance weights (linear RGB)."""
 
 
 @dataclass

@@ -12,8 +12,9 @@ import colorsys
 import cv2
 import numpy as np
 
+from pipeline.colour import LUMA
+
 LAMBDA0 = 550.0  # nm, reference wavelength of the PSF grid
-LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)  # linear-light luminance weights
 KINDS: tuple[str, ...] = ("starburst", "ghosts", "streaks", "glare", "scatter")
 """The kinds of flare a lens can combine (``FlareConfig.kinds``); see the package docstring
 (pipeline/flare/__init__.py)."""

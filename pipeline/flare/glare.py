@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.flare.common import LUMA, VEIL_CAP, _loguniform, _uniform, hsv_rgb
+from pipeline.colour import LUMA
+from pipeline.flare.common import VEIL_CAP, _loguniform, _uniform, hsv_rgb
 
 
 @dataclass
