@@ -112,17 +112,38 @@ def _prefix_run(on: np.ndarray, valid: np.ndarray, begin: int,
     """(stop, count) per row: the farthest column ``stop`` such that at least ``density``
     of the ``valid`` samples from ``begin`` up to it are ``on``, and how many are on there
     (0 and ``begin`` where none is)."""
-    o = on[:, begin:].astype(np.float32)
+    o = on[:, begin:]
     if o.shape[1] == 0:
         return np.full(on.shape[0], begin), np.zeros(on.shape[0])
-    n_on = np.cumsum(o, 1)
-    n_valid = np.maximum(np.cumsum(valid[:, begin:], 1), 1)
+    n_on = np.cumsum(o, 1, dtype=np.int32)  # counts: exact
+    n_valid = np.maximum(np.cumsum(valid[:, begin:], 1, dtype=np.int32), 1)
     good = (n_on >= density * n_valid) & (n_on > 0)
-    cols = np.arange(o.shape[1])[None]
+    cols = np.arange(o.shape[1], dtype=np.int32)[None]
     last = np.where(good, cols, -1).max(1)
     count = np.where(last >= 0, np.take_along_axis(n_on, np.maximum(last, 0)[:, None], 1)[:, 0],
                      0)
     return begin + last + 1, count
+
+
+def _in_frame(x: np.ndarray, y: np.ndarray, dx: np.ndarray, dy: np.ndarray, w: int, h: int,
+              reach: int) -> np.ndarray:
+    """[N] int: per ray from (``x``, ``y``) along (``dx``, ``dy``), how many unit steps from
+    the start can still sample the image (a pixel past where it leaves [-1, W] x [-1, H]),
+    at most ``reach``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.where(dx > 0, (w - x) / dx, np.where(dx < 0, (-1 - x) / dx, np.inf))
+        ty = np.where(dy > 0, (h - y) / dy, np.where(dy < 0, (-1 - y) / dy, np.inf))
+    steps = np.floor(np.minimum(tx, ty)) + 2
+    return np.clip(np.nan_to_num(steps, posinf=reach), 0, reach).astype(int)
+
+
+def _by_length(lengths: np.ndarray, groups: int = 6):
+    """(rows, length) groups of about equal size, rows sorted by ``lengths``, each group's
+    length its longest; groups of length 0 are left out."""
+    order = np.argsort(lengths, kind="stable")
+    for rows in np.array_split(order, groups):
+        if len(rows) and lengths[rows].max() > 0:
+            yield rows, int(lengths[rows].max())
 
 
 def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
@@ -157,12 +178,23 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
         for k, o in enumerate(offs):
             px = np.float32(x0) + o * nxx + t[None] * dx
             py = np.float32(y0) + o * nyy + t[None] * dy
-            on, inside, excess = _ridge_on(lum, px, py, nxx, nyy, 0.0, cfg)
-            linked = _sample(sat, px, py) > 0.5
+            on = np.zeros(px.shape, bool)
+            inside = np.zeros(px.shape, bool)
+            excess = np.full(px.shape, np.nan, np.float32)
+            linked = np.zeros(px.shape, bool)
+            # sampled only as far as each half-line can be in the frame (beyond, a sample is
+            # outside: neither on nor inside)
+            for rows, length in _by_length(_in_frame(px[:, 0], py[:, 0], dx[:, 0], dy[:, 0],
+                                                     w, h, reach)):
+                cut = (rows, slice(0, length))
+                on[cut], inside[cut], excess[cut] = _ridge_on(
+                    lum, px[cut], py[cut], nxx[rows], nyy[rows], 0.0, cfg)
+                linked[cut] = _sample(sat, px[cut], py[cut]) > 0.5
             on &= ~linked
             begin = min(start + slack, reach)
             stop, count = _prefix_run(on, inside & ~linked, begin, cfg.density)
-            end = np.where(inside, np.arange(reach)[None], -1).max(1) + 1  # leaves the frame
+            # where each half leaves the frame
+            end = np.where(inside, np.arange(reach, dtype=np.int32)[None], -1).max(1) + 1
             ok = (count >= cfg.density * min_len) | ((stop >= end - cfg.edge) & (count >= 3))
             n = len(theta)
             both = ok[:n] & ok[n:]

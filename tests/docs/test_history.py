@@ -1389,6 +1389,10 @@ def test_streak_lines_candidates_are_their_files():
         for f in ("s62", "linesB")]
     for c in comp:
         assert f"{np.mean(list(c.values())):.4f} (streaks {c['streaks']:.3f})" in flat
+    fast = json.loads((RESULTS / "mask_time_cpu_lines_fast_s62.json").read_text())["rows"]
+    t = {r.get("rays", "network"): r["median_s_per_view"] for r in fast}
+    assert (f"the rays took {t['default']:.3f} s per view and {t['streak_lines']:.3f} s with "
+            f"the lines, the network {t['network']:.3f} s") in flat
     s31 = scenes("mask_dev_kinds_linesB_s31_streaks.json")
     cells = [" / ".join(f"{s31[f'{n}_streaks', lines]['flare_iou']:.3f}"
                         for n in ("et", "lund", "sceaux")) for lines in (False, True)]

@@ -96,3 +96,23 @@ def test_ray_mask_adds_the_lines_only_when_asked():
     img = _photo(_background() + _streak(2.0))
     assert not ray_mask(img, RayConfig()).any()
     assert ray_mask(img, RayConfig(lines=True)).sum() > 200
+
+
+def test_each_half_line_is_sampled_as_far_as_it_can_be_in_the_frame():
+    """_in_frame: from any start, every step at which the ray still samples the image is
+    within its length (so sampling only that far changes nothing), and at most two steps
+    more."""
+    from pipeline.flare_lines import _in_frame
+
+    rng = np.random.default_rng(3)
+    h, w, reach = 40, 60, 200
+    x, y = rng.uniform(-2, w + 1, 500), rng.uniform(-2, h + 1, 500)
+    a = rng.uniform(0, 2 * np.pi, 500)
+    a[:8] = np.arange(8) * np.pi / 4  # along the axes and the diagonals
+    dx, dy = np.cos(a), np.sin(a)
+    length = _in_frame(x, y, dx, dy, w, h, reach)
+    t = np.arange(reach)[None]
+    px, py = x[:, None] + t * dx[:, None], y[:, None] + t * dy[:, None]
+    samples = (px > -1) & (px < w) & (py > -1) & (py < h)
+    last = np.where(samples, t, -1).max(1) + 1
+    assert (last <= length).all() and (length <= np.minimum(last + 2, reach)).all()
