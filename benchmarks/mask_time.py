@@ -35,53 +35,55 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     import torch
 
+    from pipeline.errors import UserError
     from pipeline.flare_rays import RayConfig
     from pipeline.images import list_photos, read_image
     from pipeline.mask import fmg_probs, load_fmg_weights, ray_marks
     from pipeline.provenance import sha256, write_result
 
-    paths = list_photos(a.photos)
-    if not paths:
-        raise SystemExit(f"{a.photos}: no photos in this folder")
-    images = [read_image(p, bgr=True) for p in paths]
+    paths = list_photos(a.photos) if a.photos.is_dir() else []
+    try:
+        if not paths:
+            what = "no photos in this folder" if a.photos.is_dir() else "no such folder"
+            raise UserError(f"{a.photos}: {what}; pass a folder of photos (e.g. a "
+                            "workspace's decoded/)")
+        images = [read_image(p, bgr=True) for p in paths]
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+    def per_view(run) -> dict:
+        """``run`` timed on each image, ``repeat`` times over: the row's sizes and times."""
+        times = []
+        for _ in range(a.repeat):
+            for im in images:
+                t0 = time.perf_counter()
+                run(im)
+                times.append(time.perf_counter() - t0)
+        times.sort()
+        return {"views": len(images), "view_size": list(images[0].shape[1::-1]),
+                "work_size": a.work_size, "threads": torch.get_num_threads(),
+                "median_s_per_view": round(times[len(times) // 2], 4),
+                "mean_s_per_view": round(sum(times) / len(times), 4)}
+
     rows = []
     for w in a.weights:
         model = load_fmg_weights(w)
         params = sum(p.numel() for p in model.parameters())
         fmg_probs(model, images[:1], a.work_size)  # warm-up
-        times = []
-        for _ in range(a.repeat):
-            for im in images:
-                t0 = time.perf_counter()
-                fmg_probs(model, [im], a.work_size)
-                times.append(time.perf_counter() - t0)
-        times.sort()
         row = {"weights": str(w), "sha256": sha256(w), "parameters": params,
-               "views": len(images), "view_size": list(images[0].shape[1::-1]),
-               "work_size": a.work_size, "threads": torch.get_num_threads(),
-               "median_s_per_view": round(times[len(times) // 2], 4),
-               "mean_s_per_view": round(sum(times) / len(times), 4)}
+               **per_view(lambda im, m=model: fmg_probs(m, [im], a.work_size))}
         rows.append(row)
         print(f"{w.name}: {params / 1e6:.2f} M parameters, {row['median_s_per_view']:.3f} s per "
-              f"{row['view_size'][0]}x{row['view_size'][1]} view (median of {len(times)}, "
-              f"{row['threads']} thread(s))", flush=True)
+              f"{row['view_size'][0]}x{row['view_size'][1]} view (median of "
+              f"{a.repeat * len(images)}, {row['threads']} thread(s))", flush=True)
     for lines in ((False, True) if a.rays else ()):
         cfg = RayConfig(lines=lines)
-        times = []
-        for _ in range(a.repeat):
-            for im in images:
-                t0 = time.perf_counter()
-                ray_marks(im, a.work_size, cfg)
-                times.append(time.perf_counter() - t0)
-        times.sort()
-        row = {"rays": "streak_lines" if lines else "default", "views": len(images),
-               "view_size": list(images[0].shape[1::-1]), "work_size": a.work_size,
-               "threads": torch.get_num_threads(),
-               "median_s_per_view": round(times[len(times) // 2], 4),
-               "mean_s_per_view": round(sum(times) / len(times), 4)}
+        row = {"rays": "streak_lines" if lines else "default",
+               **per_view(lambda im, c=cfg: ray_marks(im, a.work_size, c))}
         rows.append(row)
         print(f"rays ({row['rays']}): {row['median_s_per_view']:.3f} s per view (median of "
-              f"{len(times)}, mean {row['mean_s_per_view']:.3f})", flush=True)
+              f"{a.repeat * len(images)}, mean {row['mean_s_per_view']:.3f})", flush=True)
     write_result(a.out, {"photos": str(a.photos), "rows": rows})
     return 0
 

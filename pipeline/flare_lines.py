@@ -146,6 +146,53 @@ def _by_length(lengths: np.ndarray, groups: int = 6):
             yield rows, int(lengths[rows].max())
 
 
+def _halves_alike(excess: np.ndarray, stop: np.ndarray, begin: int, length: int,
+                  symmetry: float) -> np.ndarray:
+    """[M] bool, for M lines given as 2M rows (first halves, then second): whether the weaker
+    half's mean ridge excess, over the stretch from ``begin`` both halves' runs have (at
+    most ``length``), is at least ``symmetry`` of the stronger's. A streak adds the same
+    light both ways."""
+    m = len(stop) // 2
+    common = np.minimum(np.minimum(stop[:m], stop[m:]), begin + length)
+    cols = np.arange(excess.shape[1])[None]
+    e = np.where(np.isfinite(excess), np.clip(excess, 0, None), 0.0)
+    span = (cols >= begin) & (cols < np.concatenate([common, common])[:, None])
+    mean = (e * span).sum(1) / np.maximum(span.sum(1), 1)
+    return np.minimum(mean[:m], mean[m:]) >= symmetry * np.maximum(mean[:m], mean[m:])
+
+
+def _halves_not_white(on: np.ndarray, stop: np.ndarray, begin: int, white: np.ndarray,
+                      bright: float) -> np.ndarray:
+    """[M] bool, for M lines given as 2M rows: whether neither half's run (its on samples
+    from ``begin`` to ``stop``) has more than ``bright`` of them ``white``. A lit scene edge
+    is bright itself; a streak's ridge mostly is not."""
+    m = len(stop) // 2
+    cols = np.arange(on.shape[1])[None]
+    run = on & (cols >= begin) & (cols < stop[:, None])
+    share = (run & white).sum(1) / np.maximum(run.sum(1), 1)
+    return np.maximum(share[:m], share[m:]) <= bright
+
+
+def _mark_across(out: np.ndarray, lum: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+                 nx: float, ny: float, cfg: LineConfig) -> None:
+    """Mark in ``out`` the on samples (``xs``, ``ys``) of one half-line (unit normal
+    ``nx``, ``ny``) and, up to ``half_width`` across, the pixels brighter than the
+    background beyond the marks' reach by the thresholds."""
+    h, w = out.shape
+    far = cfg.half_width + cfg.flank
+    bg = np.fmax(_sample(lum, xs + far * nx, ys + far * ny),
+                 _sample(lum, xs - far * nx, ys - far * ny))
+    bg = np.where(np.isfinite(bg), bg, np.inf)
+    thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * bg)
+    for d in range(-cfg.half_width, cfg.half_width + 1):
+        sx, sy = xs + d * nx, ys + d * ny
+        sel = (_sample(lum, sx, sy) - bg > thresh) | (d == 0)
+        xi = np.round(sx[sel]).astype(int)
+        yi = np.round(sy[sel]).astype(int)
+        good = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
+        out[yi[good], xi[good]] = True
+
+
 def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
               cfg: LineConfig | None = None, saturated: float = 0.98) -> np.ndarray:
     """[H, W] bool: the streak lines through ``lights`` ((x, y, radius) at ``img``'s size)
@@ -169,6 +216,7 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
     # rows: the two halves of each line, out from the light (+u, then -u)
     dx, dy = np.concatenate([ux, -ux])[:, None], np.concatenate([uy, -uy])[:, None]
     nxx, nyy = np.concatenate([nx, nx])[:, None], np.concatenate([ny, ny])[:, None]
+    n = len(theta)
     for x0, y0, rad in lights:
         reach = int(np.ceil(max(np.hypot(cx - x0, cy - y0) for cx in (0, w) for cy in (0, h))))
         t = np.arange(reach, dtype=np.float32)
@@ -196,35 +244,26 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
             # where each half leaves the frame
             end = np.where(inside, np.arange(reach, dtype=np.int32)[None], -1).max(1) + 1
             ok = (count >= cfg.density * min_len) | ((stop >= end - cfg.edge) & (count >= 3))
-            n = len(theta)
-            both = ok[:n] & ok[n:]
-            if cfg.symmetry > 0 and both.any():
-                # the streak adds the same light both ways: compare the ridges' excess over
-                # the stretch both halves have, from ``begin``
-                common = np.minimum(np.minimum(stop[:n], stop[n:]), begin + int(min_len))
-                cols = np.arange(reach)[None]
-                e = np.where(np.isfinite(excess), np.clip(excess, 0, None), 0.0)
-                span = (cols >= begin) & (cols < np.concatenate([common, common])[:, None])
-                mean = (e * span).sum(1) / np.maximum(span.sum(1), 1)
-                lo, hi = np.minimum(mean[:n], mean[n:]), np.maximum(mean[:n], mean[n:])
-                both &= lo >= cfg.symmetry * hi
-            if cfg.bright < 1 and both.any():
-                # a lit scene edge is bright itself; a streak's ridge mostly is not
-                sel = np.flatnonzero(both)
+            sel = np.flatnonzero(ok[:n] & ok[n:])  # lines whose two halves hold
+            if len(sel):
                 rows = np.concatenate([sel, sel + n])
-                cols = np.arange(reach)[None]
-                run = on[rows] & (cols >= begin) & (cols < stop[rows][:, None])
-                lit = _sample(near_white, px[rows], py[rows]) > 0.5
-                share = (run & lit).sum(1) / np.maximum(run.sum(1), 1)
-                both[sel] &= np.maximum(share[:len(sel)], share[len(sel):]) <= cfg.bright
-            for i in np.flatnonzero(both):
+                keep = np.ones(len(sel), bool)
+                if cfg.symmetry > 0:
+                    keep &= _halves_alike(excess[rows], stop[rows], begin, int(min_len),
+                                          cfg.symmetry)
+                if cfg.bright < 1:
+                    keep &= _halves_not_white(on[rows], stop[rows], begin,
+                                              _sample(near_white, px[rows], py[rows]) > 0.5,
+                                              cfg.bright)
+                sel = sel[keep]
+            for i in sel:
                 best.append((float(count[i] + count[n + i]), int(i), k))
                 found[(int(i), k)] = (px[[i, n + i]], py[[i, n + i]], on[[i, n + i]],
                                       stop[[i, n + i]])
         best.sort(reverse=True)
         kept: list[int] = []
         for _, i, k in best:
-            if any(min(abs(i - j), len(theta) - abs(i - j)) * cfg.step < cfg.separation
+            if any(min(abs(i - j), n - abs(i - j)) * cfg.step < cfg.separation
                    for j in kept):
                 continue
             kept.append(i)
@@ -234,19 +273,7 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
                 xs, ys = lx[r, m], ly[r, m]
                 if len(xs) == 0:
                     continue
-                # across: brighter than the background beyond the marks' reach
-                far = cfg.half_width + cfg.flank
-                bg = np.fmax(_sample(lum, xs + far * nx[i], ys + far * ny[i]),
-                             _sample(lum, xs - far * nx[i], ys - far * ny[i]))
-                bg = np.where(np.isfinite(bg), bg, np.inf)
-                thresh = np.maximum(cfg.abs_threshold, cfg.rel_threshold * bg)
-                for d in range(-cfg.half_width, cfg.half_width + 1):
-                    sx, sy = xs + d * nx[i], ys + d * ny[i]
-                    sel = (_sample(lum, sx, sy) - bg > thresh) | (d == 0)
-                    xi = np.round(sx[sel]).astype(int)
-                    yi = np.round(sy[sel]).astype(int)
-                    good = (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
-                    out[yi[good], xi[good]] = True
+                _mark_across(out, lum, xs, ys, nx[i], ny[i], cfg)
             if len(kept) == cfg.max_lines:
                 break
     return out

@@ -366,13 +366,13 @@ def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.nd
 
 
 def ray_config(config: MaskConfig):
-    """The flare-ray rule of the mask stage (or of any config with ``ray_min`` and
-    ``ray_opposite``, and maybe ``streak_lines``, e.g. `fmg eval`'s): RayConfig's defaults
-    with those where given."""
+    """The flare-ray rule of the mask stage (or of any config with ``ray_min``,
+    ``ray_opposite`` and ``streak_lines``, e.g. `fmg eval`'s): RayConfig's defaults with
+    those where given."""
     from pipeline.flare_rays import RayConfig
 
     over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite),
-                              ("lines", getattr(config, "streak_lines", None)))
+                              ("lines", config.streak_lines))
             if v is not None}
     return RayConfig(**over)
 

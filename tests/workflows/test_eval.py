@@ -1304,3 +1304,17 @@ def test_mask_time_rays_rows_time_the_rays_with_and_without_the_streak_lines(tmp
     rows = json.loads(out.read_text())["rows"]
     assert [r.get("rays") for r in rows] == [None, "default", "streak_lines"]
     assert all(r["median_s_per_view"] > 0 and r["views"] == 1 for r in rows)
+
+
+def test_mask_time_bad_folders_are_one_line_errors(tmp_path, capsys):
+    """benchmarks/mask_time.py given a missing folder, an empty one or an unreadable photo:
+    one `error:` line naming it, exit 2."""
+    bench = load_benchmark("mask_time")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "x.jpg").write_text("junk")
+    for folder, says in (("missing", "no such folder"), ("empty", "no photos"),
+                         ("bad", "x.jpg is not a readable image")):
+        assert bench.main([str(tmp_path / folder), "--weights", "w.safetensors"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: ") and says in err[0], err

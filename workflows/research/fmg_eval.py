@@ -636,6 +636,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
+    streaks = rays and ray_cfg is not None and ray_cfg.lines  # said in each tile's label
     rows, fracs = [], {}
     for photo in photos:
         img = read_image(photo, bgr=True)
@@ -653,7 +654,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             label = (f"{weights_label(Path(w))}{' + rays' if rays else ''}"
-                     f"{' + streak lines' if rays and getattr(ray_cfg, 'lines', 0) else ''}"
+                     f"{' + streak lines' if streaks else ''}"
                      f"{' + ghost lines' if ghosts is not None else ''}: "
                      f"{100 * marked.mean():.1f} %")
             size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
