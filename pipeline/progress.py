@@ -25,7 +25,10 @@ T = TypeVar("T")
 
 class _Progress(Progress):
     """rich Progress that, when stderr is not a terminal (logs, CI, nohup), prints a plain
-    line per task at most every ``PLAIN_EVERY_S`` seconds and when the task completes."""
+    line per task at most every ``PLAIN_EVERY_S`` seconds and when the task completes. Its
+    estimate of the time left is taken at the rate of the work done since the task was added,
+    so a resumed run (a task added with ``completed`` > 0) is not credited with the steps of
+    the run before it."""
 
     PLAIN_EVERY_S = 30.0
 
@@ -33,6 +36,12 @@ class _Progress(Progress):
         super().__init__(*args, **kwargs)
         self._plain = plain
         self._last: dict = {}
+        self._start: dict = {}  # task id -> completed when added
+
+    def add_task(self, *args, **kwargs):
+        task_id = super().add_task(*args, **kwargs)
+        self._start[task_id] = self._tasks[task_id].completed
+        return task_id
 
     def update(self, task_id, **kwargs) -> None:
         super().update(task_id, **kwargs)
@@ -54,8 +63,9 @@ class _Progress(Progress):
             extra = " ".join(f"{k}={v}" for k, v in task.fields.items() if v not in (None, ""))
             elapsed = task.elapsed or 0.0
             left = ""
-            if not done and task.total is not None and task.completed > 0:
-                left = ", " + time_left(elapsed * (task.total - task.completed) / task.completed)
+            since = task.completed - self._start.get(task_id, 0)
+            if not done and task.total is not None and since > 0:
+                left = ", " + time_left(elapsed * (task.total - task.completed) / since)
             console.print(f"{task.description}: {task.completed:g}{total} "
                           f"({elapsed:.0f} s{left}) {extra}".rstrip())
             self._last[task_id] = now
