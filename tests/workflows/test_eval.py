@@ -1318,3 +1318,61 @@ def test_mask_time_bad_folders_are_one_line_errors(tmp_path, capsys):
         assert bench.main([str(tmp_path / folder), "--weights", "w.safetensors"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: ") and says in err[0], err
+
+
+def test_mask_fusion_features_of_a_clean_posed_workspace(tmp_path):
+    """benchmarks/mask_fusion.py features --posed: every view's features in their order, the
+    truth empty, the stage's own mask kept; nothing written into the given workspace."""
+    from pipeline.workspace import digest_paths
+
+    bench = load_benchmark("mask_fusion")
+    ws = make_temple_workspace(tmp_path / "ws", n_views=3, scale=0.5)
+    before = digest_paths([ws.root])
+    bench.features([], [ws.root], tmp_path / "work")
+    assert digest_paths([ws.root]) == before
+    files = sorted((tmp_path / "work" / "feats" / "ws_posed").glob("*.npz"))
+    assert len(files) == 3
+    d = np.load(files[0])
+    h, w = d["truth"].shape
+    assert d["feats"].shape == (len(bench.FEATURES), h, w) and not d["truth"].any()
+    assert np.array_equal(d["feats"][bench.FEATURES.index("stage_mask")] > 0, d["base"])
+
+
+def test_mask_fusion_folds_hold_one_workspace_out(tmp_path, monkeypatch):
+    """benchmarks/mask_fusion.py folds: fitted on two workspaces' scenes, scored on the
+    third's, with and without the other photos' features; a fusion that can read the flare
+    off its features finds it on the held-out scenes, and the clean workspace's share is
+    reported."""
+    bench = load_benchmark("mask_fusion")
+    monkeypatch.setattr(bench, "STEPS", 300)
+    monkeypatch.setattr(bench, "NEGATIVES", 200)
+    rng = np.random.default_rng(0)
+    feats = tmp_path / "feats"
+
+    def view(folder, i, flared=True):
+        truth = np.zeros((24, 24), bool)
+        if flared:
+            truth[rng.integers(0, 12):, rng.integers(0, 12):][:8, :8] = True
+        x = rng.normal(0, 1, (len(bench.FEATURES), 24, 24))
+        x[0] = np.where(truth, 4.0, -4.0) + rng.normal(0, 0.5, truth.shape)  # the logit
+        base = x[0] > 3.5                                                    # a stricter stage
+        x[bench.FEATURES.index("stage_mask")] = base
+        (feats / folder).mkdir(parents=True, exist_ok=True)
+        np.savez(feats / folder / f"{i}.npz", feats=x.astype(np.float16), truth=truth, base=base)
+
+    for scene in ("aa", "bb", "cc"):
+        for kind in ("ghosts", "streaks"):
+            for i in range(2):
+                view(f"b1_{scene}_{kind}", i)
+        view(f"{scene}_ws_posed", 0, flared=False)
+    rows = bench.folds(tmp_path, [0])
+    assert [(r["held_out"], r["without"]) for r in rows] == [
+        (s, w) for s in ("aa", "bb", "cc") for w in ([], list(bench.CROSS_VIEW))]
+    for r in rows:
+        assert set(r["stage"]) == set(r["fusion"]) == {"ghosts", "streaks"}
+        assert r["fusion_mean"] > 0.95 and r["fusion_mean"] > r["stage_mean"]
+        assert r["clean_fusion"] < 0.01 and r["cut"] in bench.CUTS
+    assert bench.scene_of("b1_lund_streaks") == "lund"
+    assert bench.kind_means({"b_x_ghosts": 0.2, "c_x_ghosts": 0.4, "b_x_glare": None}) == {
+        "ghosts": pytest.approx(0.3)}
+    assert bench.pooled_iou([(np.zeros((2, 2), bool), np.zeros((2, 2), bool))]) is None
