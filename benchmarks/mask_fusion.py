@@ -14,7 +14,7 @@ pixel and by how much the view is brighter than their consensus (``pipeline.cros
 the luminance, the saturation, the distance to the nearest light, and the stage's own mask;
 the true mask beside them. ``--posed WS``: a clean posed workspace (every mark false).
 
-``folds`` fits a per-pixel network (``FusionNet``: two hidden layers of 32, binary
+``folds`` fits a per-pixel network (``fit``: two hidden layers of 32, binary
 cross-entropy, the true flare and a sample of the rest re-weighted to the view's counts) on
 the scenes of two development workspaces and scores the third (leave one scene out: the
 builds' folders are named ``<build>_<scene>_<kind>``), with the cut that does best on the
@@ -35,6 +35,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 FEATURES = ("logit", "p_max5", "p_blur7", "rays", "ghost_candidate", "judged", "excess",
             "log_luminance", "saturation", "light_distance", "stage_mask", "p_blur20")
@@ -129,22 +130,27 @@ def features(synths: list[Path], posed: list[Path], work: Path) -> None:
         print(f"features: {synth}", flush=True)
 
 
-def load_views(folder: Path, drop: tuple[str, ...]) -> list[dict]:
-    """The views of one feature folder, features as float32 with those of ``drop`` zeroed."""
+def load_views(folder: Path) -> list[dict]:
+    """The views of one feature folder, features as float32 (the logit held to +-9)."""
     views = []
     for f in sorted(folder.glob("*.npz")):
         d = dict(np.load(f))
         x = d["feats"].astype(np.float32)
         x[0] = np.clip(x[0], -9, 9)
-        for name in drop:
-            x[FEATURES.index(name)] = 0
         views.append({"x": x, "truth": d["truth"], "base": d["base"]})
     return views
 
 
-def training_pixels(scenes: list[list[dict]], rng) -> tuple[np.ndarray, ...]:
+def kept(drop: tuple[str, ...]) -> np.ndarray:
+    """[F] float32: 0 for the features of ``drop`` (left out of a fit), 1 for the others."""
+    return np.array([name not in drop for name in FEATURES], np.float32)
+
+
+def training_pixels(scenes: list[list[dict]], rng, keep: np.ndarray
+                    ) -> tuple[np.ndarray, ...]:
     """(X [N, F], y [N], weight [N]): every flare pixel of every view and ``NEGATIVES`` others,
-    each weighted by how many of the view's non-flare pixels it stands for."""
+    each weighted by how many of the view's non-flare pixels it stands for; features times
+    ``keep`` (``kept``)."""
     xs, ys, ws = [], [], []
     for views in scenes:
         for v in views:
@@ -153,15 +159,16 @@ def training_pixels(scenes: list[list[dict]], rng) -> tuple[np.ndarray, ...]:
             pos, neg = np.nonzero(t)[0], np.nonzero(~t)[0]
             k = min(NEGATIVES, len(neg))
             idx = np.concatenate([pos, rng.choice(neg, k, replace=False)])
-            xs.append(x[:, idx].T)
+            xs.append(x[:, idx].T * keep)
             ys.append(t[idx])
             ws.append(np.concatenate([np.ones(len(pos)), np.full(k, len(neg) / max(k, 1))]))
     return (np.concatenate(xs), np.concatenate(ys).astype(np.float32),
             np.concatenate(ws).astype(np.float32))
 
 
-def fit(x: np.ndarray, y: np.ndarray, w: np.ndarray, seed: int):
-    """A ``FusionNet`` fitted to the pixels (``STEPS`` Adam steps)."""
+def fit(x: np.ndarray, y: np.ndarray, w: np.ndarray, seed: int, keep: np.ndarray):
+    """The prediction function of a per-pixel network fitted to the pixels (``STEPS`` Adam
+    steps); it reads a view's features times ``keep`` as the fit did."""
     import torch
 
     torch.manual_seed(seed)
@@ -181,7 +188,7 @@ def fit(x: np.ndarray, y: np.ndarray, w: np.ndarray, seed: int):
         opt.step()
 
     def predict(v: dict) -> np.ndarray:
-        x = v["x"].reshape(len(FEATURES), -1).T
+        x = v["x"].reshape(len(FEATURES), -1).T * keep
         with torch.no_grad():
             z = net(torch.from_numpy((x - mu) / sd))[:, 0]
         return torch.sigmoid(z).numpy().reshape(v["truth"].shape)
@@ -197,11 +204,14 @@ def pooled_iou(pairs) -> float | None:
 
 
 def kind_means(rows: dict[str, float | None]) -> dict[str, float]:
-    """{kind: mean IoU over its scenes} of {<build>_<scene>_<kind>: IoU}, None left out."""
+    """{kind: mean IoU over its scenes} of {<build>_<scene>_<kind>: IoU}, None left out (the
+    kind read as ``mask_faint.py`` reads it)."""
+    from mask_faint import kind_of
+
     out: dict[str, list[float]] = {}
     for name, v in rows.items():
         if v is not None:
-            out.setdefault(name.rsplit("_", 1)[1], []).append(v)
+            out.setdefault(kind_of(name), []).append(v)
     return {k: float(np.mean(v)) for k, v in sorted(out.items())}
 
 
@@ -210,12 +220,15 @@ def scene_of(name: str) -> str:
     return name.rsplit("_", 2)[1]
 
 
-def one_fold(folders: list[Path], held: str, drop: tuple[str, ...], seed: int,
-             clean: Path | None) -> dict:
-    """Fit on the scenes of the other workspaces, score the ``held`` workspace's."""
-    train = [load_views(f, drop) for f in folders if scene_of(f.name) != held]
-    test = {f.name: load_views(f, drop) for f in folders if scene_of(f.name) == held}
-    predict = fit(*training_pixels(train, np.random.default_rng(seed)), seed)
+def one_fold(data: dict[str, list[dict]], held: str, drop: tuple[str, ...], seed: int,
+             clean: list[dict] | None) -> dict:
+    """Fit on the scenes of ``data`` ({folder name: views}) of the other workspaces without
+    the features of ``drop``, score the ``held`` workspace's, and the share marked of its
+    ``clean`` views."""
+    keep = kept(drop)
+    train = [views for name, views in data.items() if scene_of(name) != held]
+    test = {name: views for name, views in data.items() if scene_of(name) == held}
+    predict = fit(*training_pixels(train, np.random.default_rng(seed), keep), seed, keep)
     preds = [[predict(v) for v in views] for views in train]
 
     def train_mean(cut: float) -> float:
@@ -235,22 +248,31 @@ def one_fold(folders: list[Path], held: str, drop: tuple[str, ...], seed: int,
     row["stage_mean"] = float(np.mean(list(row["stage"].values())))
     row["fusion_mean"] = float(np.mean(list(row["fusion"].values())))
     if clean is not None:
-        views = load_views(clean, drop)
-        row["clean_stage"] = float(np.mean([v["base"].mean() for v in views]))
-        row["clean_fusion"] = float(np.mean([(predict(v) > cut).mean() for v in views]))
+        row["clean_stage"] = float(np.mean([v["base"].mean() for v in clean]))
+        row["clean_fusion"] = float(np.mean([(predict(v) > cut).mean() for v in clean]))
     return row
 
 
-def folds(work: Path, seeds: list[int]) -> list[dict]:
-    """``folds``: every held-out workspace, with and without ``CROSS_VIEW``, every seed."""
+def scene_folders(work: Path) -> list[Path]:
+    """The feature folders of synth scenes under WORK/feats (the clean ones left out)."""
     feats = work / "feats"
-    folders = sorted(f for f in feats.iterdir() if f.is_dir() and not f.name.endswith("_posed"))
+    if not feats.is_dir():
+        return []
+    return sorted(f for f in feats.iterdir() if f.is_dir() and not f.name.endswith("_posed"))
+
+
+def folds(work: Path, seeds: list[int]) -> list[dict]:
+    """``folds``: every held-out workspace, with and without ``CROSS_VIEW``, every seed; each
+    folder read once."""
+    folders = scene_folders(work)
+    data = {f.name: load_views(f) for f in folders}
     rows = []
     for held in sorted({scene_of(f.name) for f in folders}):
-        clean = feats / f"{held}_ws_posed"
+        clean = work / "feats" / f"{held}_ws_posed"
+        clean_views = load_views(clean) if clean.is_dir() else None
         for drop in ((), CROSS_VIEW):
             for seed in seeds:
-                r = one_fold(folders, held, drop, seed, clean if clean.is_dir() else None)
+                r = one_fold(data, held, drop, seed, clean_views)
                 print(f"{held} without {drop or '-'} seed {seed}: stage {r['stage_mean']:.3f} "
                       f"fusion {r['fusion_mean']:.3f}", flush=True)
                 rows.append(r)
@@ -285,9 +307,9 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         features([s.resolve() for s in a.synth], [w.resolve() for w in a.posed], a.work)
         return 0
-    if not (a.work / "feats").is_dir():
-        print(f"error: {a.work}: no feats/ folder: run `mask_fusion.py features ... --work "
-              f"{a.work}` first", file=sys.stderr)
+    if not scene_folders(a.work):
+        print(f"error: {a.work}: no scene features under feats/: run `mask_fusion.py features "
+              f"SYNTH ... --work {a.work}` first", file=sys.stderr)
         return 2
     from pipeline.provenance import write_result
 
