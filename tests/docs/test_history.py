@@ -1401,3 +1401,50 @@ def test_streak_lines_candidates_are_their_files():
              f"{100 * bv['sceaux_ws', 'ghost_views']:.3f} % to "
              f"{100 * bv['sceaux_ws', 'ghost_views_lines']:.3f} %")
     card_and_goals_quote(quote)
+
+
+def test_learned_fusion_table_is_its_file():
+    """docs/history/fmg.md's table of the learned fusion held out by workspace (sixty-third
+    session's script, run in the sixty-fifth) is the committed file's numbers, and so are the
+    differences its text and the card quote."""
+    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
+    rows = json.loads((RESULTS / "mask_fusion_folds_s63.json").read_text())["rows"]
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    by = {}
+    for held, name in names.items():
+        mine = [r for r in rows if r["held_out"] == held]
+        full = sorted((r for r in mine if not r["without"]), key=lambda r: r["fit_seed"])
+        bare = sorted((r for r in mine if r["without"]), key=lambda r: r["fit_seed"])
+        assert [r["fit_seed"] for r in full] == [0, 1] == [r["fit_seed"] for r in bare]
+        assert len({r["stage_mean"] for r in mine}) == 1  # the stage does not depend on the fit
+        s = mine[0]
+
+        def pair(rs, f):
+            return " / ".join(f(r) for r in rs)
+
+        cells = [name, f"{s['stage_mean']:.3f}",
+                 pair(full, lambda r: f"{r['fusion_mean']:.3f}"),
+                 pair(bare, lambda r: f"{r['fusion_mean']:.3f}"),
+                 f"{s['stage']['ghosts']:.3f}",
+                 pair(full, lambda r: f"{r['fusion']['ghosts']:.3f}"),
+                 f"{100 * s['clean_stage']:.2f} %",
+                 pair(full, lambda r: f"{100 * r['clean_fusion']:.2f}") + " %"]
+        row = "| " + " | ".join(cells) + " |"
+        assert row in flat, row
+        by[held] = (s["stage_mean"], [r["fusion_mean"] for r in full],
+                    [r["fusion_mean"] for r in bare])
+    st, full, _ = by["et"]
+    lo, hi = sorted(st - f for f in full)
+    assert f"{lo:.2f}-{hi:.2f} lower on et" in flat
+    assert f"et {min(full):.2f}-{max(full):.2f} against {st:.2f} flare IoU" in card
+    st, full, bare = by["lund"]
+    gain = sorted(f - st for f in full)
+    assert f"{gain[0]:.3f}-{gain[1]:.3f} higher on lund" in flat
+    assert f"lund +{gain[0]:.3f} to +{gain[1]:.3f}" in card
+    lift = sorted(f - b for f, b in zip(full, bare, strict=True))
+    assert f"{lift[0]:.3f}-{lift[1]:.3f} higher with them" in flat
+    for held in ("sceaux", "et"):
+        st, full, bare = by[held]
+        assert max(abs(f - b) for f, b in zip(full, bare, strict=True)) <= 0.010 + 5e-4
+        assert all(abs(f - st) < 0.01 for f in full) or held == "et"
