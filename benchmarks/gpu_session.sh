@@ -39,7 +39,9 @@
 #   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
 #           scratch and from the file (resumes: run it again if a call ends first)
-#   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps)
+#   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps);
+#           sends back its model (fp16 parts, fern_run.part_*): carried in the next session's
+#           call as .carry/fern_run, the fine-tune goes on from there (ITERS the total)
 #   loko    the full-width leave-one-kind-out table (issue 10 item 2): six FMG runs from
 #           scratch on the GPU at once (without each kind, and with all), ITERS steps each or
 #           until END - 200 s (then their last checkpoints), each calibrated, scored by `fmg
@@ -179,10 +181,21 @@ fern)
   init=gnfr/weights/gnfr_paper.safetensors
   [ -f $PT/gnfr.safetensors ] && export_pt && cp ${PT}16.safetensors /root/fern_init.safetensors \
     && init=/root/fern_init.safetensors
+  # across sessions: the fern fine-tune an earlier session sent back (fern_run.part_*, put in
+  # .carry/fern_run) goes on at its step count and rate (finetune's continuation of a model
+  # carried without its optimizer state); ITERS is then the total, e.g. 50000
+  if ls .carry/fern_run/fern_run.part_* > /dev/null 2>&1; then
+    cat .carry/fern_run/fern_run.part_* > /root/fern_run.safetensors; init=/root/fern_run.safetensors
+  fi
   train_on
   timeout $(( $(left) - 50 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
     --iters $ITERS --device cuda 2>&1 | tail -15
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
+  FR=/root/fern/clean.ws/variants/gnfr/model   # its last checkpoint, fp16, for the next session
+  [ -f $FR/gnfr.safetensors ] && python3 -c "from pathlib import Path; \
+from workflows.research.pretrain import export_fp16; \
+export_fp16(Path('$FR/gnfr.safetensors'), Path('/root/fern_run16.safetensors'))" \
+    && split -b 15000000 /root/fern_run16.safetensors $OUT/fern_run.part_ && cp $FR/metrics.jsonl $OUT/fern_metrics.jsonl
   until_end_then_export
   exit 0 ;;
 loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one without each

@@ -134,7 +134,10 @@ class FinetuneConfig:
     fine-tunes again; ``--bf16`` / ``--no-bf16`` pin it)."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
     """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
-    a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick)."""
+    a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick). A copy
+    of this scene's own fine-tune that stopped short (``WS/model/gnfr.safetensors`` carried
+    to another machine without ``train_state.pt``; same preset and settings) goes on at its
+    step count and learning rate, with a fresh optimizer state (``continuation``)."""
     seed: int = option(0, ge=0)
     """Seed of initialisation and sampling."""
 
@@ -390,6 +393,65 @@ def run_provenance(cfg: TrainConfig, preset: str, device: torch.device, init: di
             "started": time.strftime("%Y-%m-%dT%H:%M:%S")}
 
 
+def scene_record(scene: Scene) -> dict:
+    """What a fine-tune learns from, in short (``fit`` records it; ``continuation``
+    compares it): the views' names and size, each view's focal length, camera centre, mean
+    colour (0-255) and masked fraction."""
+    imgs = scene.images.double()
+    masks = scene.masks.double().mean((1, 2, 3)) if scene.masks is not None \
+        else torch.zeros(len(scene.stems), dtype=torch.float64)
+    return {"stems": list(scene.stems), "size": list(scene.images.shape[-2:]),
+            "focal": [round(float(f), 4) for f in scene.K[:, 0, 0]],
+            "centre": [[round(float(x), 6) for x in c] for c in scene.c2w[:, :3, 3]],
+            "mean": [[round(float(x), 3) for x in m] for m in imgs.mean((2, 3))],
+            "masked": [round(float(m), 6) for m in masks]}
+
+
+SAME_SCENE = {"focal": 1e-3, "centre": 1e-4, "mean": 0.5, "masked": 1e-3}
+"""How far two ``scene_record`` numbers may differ and still be one scene (relative for the
+focal lengths, in the scene's units for the centres, in 0-255 levels for the colours): the
+same photos decoded by another OpenCV or posed by LLFF's numbers on another processor."""
+
+
+def same_scene(a: dict | None, b: dict) -> bool:
+    """Whether two ``scene_record``s are one scene (``SAME_SCENE``)."""
+    import numpy as np
+
+    if not a or a.get("stems") != b["stems"] or a.get("size") != b["size"]:
+        return False
+    try:
+        fa, fb = np.asarray(a["focal"], float), np.asarray(b["focal"], float)
+        return bool(np.all(np.abs(fa - fb) <= SAME_SCENE["focal"] * np.abs(fb)) and all(
+            np.all(np.abs(np.asarray(a[k], float) - np.asarray(b[k], float)) <= SAME_SCENE[k])
+            for k in ("centre", "mean", "masked")))
+    except (KeyError, ValueError):  # an older or hand-made record
+        return False
+
+
+def _settings(train: dict) -> dict:
+    """TrainConfig numbers as the metadata's JSON holds them, less the step count."""
+    import json
+
+    return {k: v for k, v in json.loads(json.dumps(train)).items() if k != "iters"}
+
+
+def continuation(path: Path | None, cfg: TrainConfig, preset: str, scene: dict
+                 ) -> dict | None:
+    """The provenance of ``path`` when it is a fine-tune of this same scene (``same_scene``
+    on ``scene``, a ``scene_record``), preset and settings (every TrainConfig number but
+    ``iters``) that stopped short: a model folder's weights carried without their
+    ``train_state.pt`` (another machine, a GPU lent for one session). ``fit`` goes on from
+    its step count and learning-rate schedule, with a fresh optimizer state (Adam's moments
+    are not in the weights). None for anything else (pretrained weights, another scene's
+    model): those start at step 0."""
+    prov = None if path is None or not Path(path).is_file() else checkpoint_provenance(path)
+    if not prov or prov.get("preset") != preset or not same_scene(prov.get("scene"), scene):
+        return None
+    if _settings(prov.get("train", {})) != _settings(asdict(cfg)):
+        return None
+    return prov if int(prov.get("steps_done", 0)) > 0 else None
+
+
 def checkpoint_provenance(path: Path) -> dict | None:
     """The ``provenance`` metadata of a checkpoint written by ``fit`` (None when absent:
     a checkpoint of an older version or of pretraining)."""
@@ -415,7 +477,9 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     model, how = init_model(cfg, device, init)
     trainer = Trainer(model, cfg, gen=gen)
     unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
-    prov = run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init)))
+    record = scene_record(scene)
+    prov = {**run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init))),
+            "scene": record}
     if gains:  # the exposure the model was trained at: render reads its sources so
         from pipeline.exposure import gains_json
 
@@ -431,6 +495,22 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                 k: prov[k] for k in ("device_name", "code")}}]
             prov["processes"] = prev.get("processes", 1)  # the start's; each resume's below
         info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
+    elif (prev := continuation(init_path(cfg, init), cfg, preset, record)) is not None:
+        step = int(prev["steps_done"])
+        if step >= cfg.iters:
+            from pipeline.errors import UserError
+
+            raise UserError(f"--init {init} is this scene's fine-tune, trained to step {step}: "
+                            f"give --iters above {step} to train it further")
+        trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
+        gen.manual_seed(cfg.seed + step)  # new draws, not the first run's again
+        prov["init"], prov["started"] = prev.get("init", prov["init"]), prev.get("started")
+        prov["resumed"] = [*prev.get("resumed", []), {
+            "at_step": step, "optimizer": "fresh", "from": str(init),
+            **{k: prov[k] for k in ("device_name", "code")}}]
+        prov["processes"] = prev.get("processes", 1)
+        info(f"finetune: continuing {init} at step {step} of {cfg.iters} (this scene's own "
+             "fine-tune; its optimizer state is not in the weights: Adam starts afresh)")
     else:
         info(f"finetune: starting {how}")
     scenes = [scene, mirrored(scene)] if cfg.mirror else [scene]

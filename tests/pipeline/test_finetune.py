@@ -613,3 +613,69 @@ def test_cpu_bf16_rule(monkeypatch):
                     assert gr.cpu_bf16(None, "cpu") is want, (env, auto, native)
                     assert gr.cpu_bf16(True, "cpu") is True
     assert isinstance(gr.native_bf16(), bool)
+
+
+def test_a_fine_tune_carried_without_its_state_continues_its_steps(tmp_path):
+    """`--init` naming this scene's own fine-tune that stopped short (weights only, as carried
+    from another machine) goes on at its step count with a fresh optimizer; the same file on
+    another scene, or with other settings, starts at step 0; asking for no more steps than it
+    has is an error."""
+    from pipeline.errors import UserError
+    from pipeline.finetune import checkpoint_provenance
+
+    ws = masked_workspace(tmp_path / "ws")
+    scene = load_workspace(ws.root)
+    cfg = replace(TINY, iters=10)
+    cpu = torch.device("cpu")
+    fit(scene, replace(cfg, iters=5), cpu, tmp_path / "first", resume=False, init="scratch")
+    carried = tmp_path / "carried.safetensors"
+    carried.write_bytes((tmp_path / "first" / "gnfr.safetensors").read_bytes())
+
+    stats = fit(scene, cfg, cpu, tmp_path / "go_on", resume=True, init=str(carried))
+    assert stats["steps"] == 10
+    st = torch.load(tmp_path / "go_on" / "train_state.pt", weights_only=True)
+    assert st["step"] == 10
+    assert all(int(s["step"]) == 5 for s in st["optimizer"]["state"].values())  # Adam afresh
+    assert [m["step"] for m in _metrics(tmp_path / "go_on" / "metrics.jsonl")] == [10]
+    prov = checkpoint_provenance(tmp_path / "go_on" / "gnfr.safetensors")
+    first = checkpoint_provenance(carried)
+    assert prov["resumed"][-1]["at_step"] == 5 and prov["resumed"][-1]["optimizer"] == "fresh"
+    assert prov["init"] == first["init"] and prov["started"] == first["started"]
+    assert prov["scene"] == first["scene"] and stats["train_seconds"] >= first["train_seconds"]
+
+    with pytest.raises(UserError, match="give --iters above 5"):
+        fit(scene, replace(cfg, iters=5), cpu, tmp_path / "no_more", resume=False,
+            init=str(carried))
+
+    other = load_workspace(make_temple_workspace(tmp_path / "other", n_views=5,
+                                                 scale=0.2).root)
+    for sc, c, name in ((other, cfg, "other_scene"), (scene, replace(cfg, rays=48), "rays")):
+        fit(sc, c, cpu, tmp_path / name, resume=False, init=str(carried))
+        st = torch.load(tmp_path / name / "train_state.pt", weights_only=True)
+        assert all(int(s["step"]) == 10 for s in st["optimizer"]["state"].values()), name
+        assert "resumed" not in checkpoint_provenance(tmp_path / name / "gnfr.safetensors")
+
+
+def test_same_scene_allows_decoding_noise_not_other_photos(tmp_path):
+    """A scene record matches itself with colours a fraction of a level apart (another
+    decoder) and cameras equal to rounding; not with a view renamed, exposure changed by a
+    level or more, a camera moved or a mask redrawn."""
+    from pipeline.finetune import SAME_SCENE, same_scene, scene_record
+
+    scene = load_workspace(masked_workspace(tmp_path / "ws").root)
+    rec = scene_record(scene)
+    assert same_scene(rec, rec) and not same_scene(None, rec) and not same_scene({}, rec)
+
+    def changed(key, f):
+        other = json.loads(json.dumps(rec))
+        other[key] = f(other[key])
+        return other
+
+    assert same_scene(changed("mean", lambda m: [[x + 0.3 for x in v] for v in m]), rec)
+    assert not same_scene(changed("mean", lambda m: [[x + 1.5 for x in v] for v in m]), rec)
+    assert not same_scene(changed("stems", lambda s: [*s[:-1], "other"]), rec)
+    assert not same_scene(changed("centre", lambda c: [[c[0][0] + 10 * SAME_SCENE["centre"],
+                                                        *c[0][1:]], *c[1:]]), rec)
+    assert not same_scene(changed("masked", lambda m: [m[0] + 0.01, *m[1:]]), rec)
+    assert not same_scene(changed("focal", lambda f: [f[0] * 1.01, *f[1:]]), rec)
+    assert rec["masked"][-1] > 0.1 and len(rec["mean"]) == len(scene.stems) == 5
