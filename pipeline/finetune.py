@@ -439,17 +439,19 @@ def continuation(path: Path | None, cfg: TrainConfig, preset: str, scene: dict
                  ) -> dict | None:
     """The provenance of ``path`` when it is a fine-tune of this same scene (``same_scene``
     on ``scene``, a ``scene_record``), preset and settings (every TrainConfig number but
-    ``iters``) that stopped short: a model folder's weights carried without their
-    ``train_state.pt`` (another machine, a GPU lent for one session). ``fit`` goes on from
-    its step count and learning-rate schedule, with a fresh optimizer state (Adam's moments
-    are not in the weights). None for anything else (pretrained weights, another scene's
-    model): those start at step 0."""
+    ``iters``) that stopped short of the steps it was asked for: a model folder's weights
+    carried without their ``train_state.pt`` (another machine, a GPU lent for one session).
+    ``fit`` goes on from its step count and learning-rate schedule, with a fresh optimizer
+    state (Adam's moments are not in the weights). None for anything else (pretrained
+    weights, another scene's model, a fine-tune that finished: ``--init`` with it starts a
+    new run from its weights at step 0, as before)."""
     prov = None if path is None or not Path(path).is_file() else checkpoint_provenance(path)
     if not prov or prov.get("preset") != preset or not same_scene(prov.get("scene"), scene):
         return None
     if _settings(prov.get("train", {})) != _settings(asdict(cfg)):
         return None
-    return prov if int(prov.get("steps_done", 0)) > 0 else None
+    done = int(prov.get("steps_done", 0))
+    return prov if 0 < done < int(prov["train"].get("iters", 0)) else None
 
 
 def checkpoint_provenance(path: Path) -> dict | None:

@@ -615,11 +615,12 @@ def test_cpu_bf16_rule(monkeypatch):
     assert isinstance(gr.native_bf16(), bool)
 
 
-def test_a_fine_tune_carried_without_its_state_continues_its_steps(tmp_path):
+def test_a_fine_tune_carried_without_its_state_continues_its_steps(tmp_path, monkeypatch):
     """`--init` naming this scene's own fine-tune that stopped short (weights only, as carried
     from another machine) goes on at its step count with a fresh optimizer; the same file on
-    another scene, or with other settings, starts at step 0; asking for no more steps than it
-    has is an error."""
+    another scene, or with other settings, and a fine-tune that finished, start at step 0;
+    asking for no more steps than it has is an error."""
+    from gnfr.fit import Trainer
     from pipeline.errors import UserError
     from pipeline.finetune import checkpoint_provenance
 
@@ -627,7 +628,17 @@ def test_a_fine_tune_carried_without_its_state_continues_its_steps(tmp_path):
     scene = load_workspace(ws.root)
     cfg = replace(TINY, iters=10)
     cpu = torch.device("cpu")
-    fit(scene, replace(cfg, iters=5), cpu, tmp_path / "first", resume=False, init="scratch")
+    train_one = Trainer.train_one
+
+    def stop_at_5(self, *a, **k):  # an interrupt after the step-5 checkpoint
+        if self.step == 5:
+            raise KeyboardInterrupt
+        return train_one(self, *a, **k)
+
+    with monkeypatch.context() as m:
+        m.setattr(Trainer, "train_one", stop_at_5)
+        with pytest.raises(KeyboardInterrupt):
+            fit(scene, cfg, cpu, tmp_path / "first", resume=False, init="scratch")
     carried = tmp_path / "carried.safetensors"
     carried.write_bytes((tmp_path / "first" / "gnfr.safetensors").read_bytes())
 
@@ -649,8 +660,14 @@ def test_a_fine_tune_carried_without_its_state_continues_its_steps(tmp_path):
 
     other = load_workspace(make_temple_workspace(tmp_path / "other", n_views=5,
                                                  scale=0.2).root)
-    for sc, c, name in ((other, cfg, "other_scene"), (scene, replace(cfg, rays=48), "rays")):
-        fit(sc, c, cpu, tmp_path / name, resume=False, init=str(carried))
+    fit(scene, replace(cfg, iters=5), cpu, tmp_path / "done", resume=False, init="scratch")
+    finished = tmp_path / "finished.safetensors"
+    finished.write_bytes((tmp_path / "done" / "gnfr.safetensors").read_bytes())
+    assert checkpoint_provenance(finished)["steps_done"] == 5
+    for sc, c, name, start in ((other, cfg, "other_scene", carried),
+                               (scene, replace(cfg, rays=48), "rays", carried),
+                               (scene, cfg, "after_a_finished_run", finished)):
+        fit(sc, c, cpu, tmp_path / name, resume=False, init=str(start))
         st = torch.load(tmp_path / name / "train_state.pt", weights_only=True)
         assert all(int(s["step"]) == 10 for s in st["optimizer"]["state"].values()), name
         assert "resumed" not in checkpoint_provenance(tmp_path / name / "gnfr.safetensors")
