@@ -188,7 +188,8 @@ class Trainer:
         past ``self.step`` are dropped first; every ``log_every`` steps and at the last a
         line ``record(step, window, it_s)`` is appended (``window``: each step's result
         since the last line with its input's ``fields``); every ``ckpt_every`` steps and at
-        the last the weights are saved with ``meta(step, seconds)`` and the state with
+        the last (and ``cfg.ckpt_seconds`` after the last save) the weights are saved with
+        ``meta(step, seconds)`` and the state with
         ``state(step, seconds)``'s extra keys. ``report(step, it_s, line or None)`` follows
         every step (progress display). ``split``: a started ``gnfr.ray_split.RaySplit``
         whose processes take a share of each step's rays. Returns steps, it_per_s and
@@ -200,6 +201,7 @@ class Trainer:
             out.mkdir(parents=True, exist_ok=True)
             trim_metrics(out / METRICS_FILE, self.step)
         seconds0, t0, done0, window = self.seconds, time.time(), self.step, []
+        saved = t0  # when the last checkpoint was written (``cfg.ckpt_seconds``)
         with contextlib.ExitStack() as files:
             metrics = files.enter_context(open(out / METRICS_FILE, "a")) if write else None
             while self.step < cfg.iters:
@@ -217,10 +219,12 @@ class Trainer:
                         metrics.write(json.dumps(line) + "\n")
                         metrics.flush()
                     window = []
-                if write and (step % cfg.ckpt_every == 0 or step == cfg.iters):
+                due = cfg.ckpt_seconds > 0 and time.time() - saved >= cfg.ckpt_seconds
+                if write and (step % cfg.ckpt_every == 0 or step == cfg.iters or due):
                     self.seconds = seconds0 + time.time() - t0
                     self.save(out, meta(step, self.seconds),
                               None if state is None else state(step, self.seconds))
+                    saved = time.time()
                 if report is not None:
                     report(step, speed, line)
         elapsed = time.time() - t0

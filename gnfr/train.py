@@ -92,6 +92,12 @@ class TrainConfig:
     """Steps between metrics.jsonl lines."""
     ckpt_every: int = 1000
     """Steps between checkpoints."""
+    ckpt_seconds: float = 120.0
+    """Also a checkpoint once this many seconds have passed since the last (0: by steps
+    only), so that a run stopped by a time limit (a lent GPU's call, a batch scheduler)
+    keeps at most this much of its work unsaved: `paper` saves every 5 000 steps, 10
+    minutes of an H100. Bookkeeping, like ``log_every``: not part of what a continuation
+    must match (``pipeline.finetune.continuation``)."""
 
 
 PAPER = TrainConfig()

@@ -397,13 +397,13 @@ def scene_record(scene: Scene) -> dict:
     """What a fine-tune learns from, in short (``fit`` records it; ``continuation``
     compares it): the views' names and size, each view's focal length, camera centre, mean
     colour (0-255) and masked fraction."""
-    imgs = scene.images.double()
-    masks = scene.masks.double().mean((1, 2, 3)) if scene.masks is not None \
-        else torch.zeros(len(scene.stems), dtype=torch.float64)
+    means = [img.double().mean((1, 2)) for img in scene.images]  # a view at a time
+    masks = [0.0] * len(scene.stems) if scene.masks is None else \
+        [float(m.double().mean()) for m in scene.masks]
     return {"stems": list(scene.stems), "size": list(scene.images.shape[-2:]),
             "focal": [round(float(f), 4) for f in scene.K[:, 0, 0]],
             "centre": [[round(float(x), 6) for x in c] for c in scene.c2w[:, :3, 3]],
-            "mean": [[round(float(x), 3) for x in m] for m in imgs.mean((2, 3))],
+            "mean": [[round(float(x), 3) for x in m] for m in means],
             "masked": [round(float(m), 6) for m in masks]}
 
 
@@ -428,11 +428,16 @@ def same_scene(a: dict | None, b: dict) -> bool:
         return False
 
 
+BOOKKEEPING = ("iters", "log_every", "ckpt_every", "ckpt_seconds")
+"""TrainConfig fields a continuation need not match: how long and how often to write, not
+what is learnt."""
+
+
 def _settings(train: dict) -> dict:
-    """TrainConfig numbers as the metadata's JSON holds them, less the step count."""
+    """TrainConfig numbers as the metadata's JSON holds them, less ``BOOKKEEPING``."""
     import json
 
-    return {k: v for k, v in json.loads(json.dumps(train)).items() if k != "iters"}
+    return {k: v for k, v in json.loads(json.dumps(train)).items() if k not in BOOKKEEPING}
 
 
 def continuation(path: Path | None, cfg: TrainConfig, preset: str, scene: dict
@@ -506,7 +511,8 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                             f"give --iters above {step} to train it further")
         trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
         gen.manual_seed(cfg.seed + step)  # new draws, not the first run's again
-        prov["init"], prov["started"] = prev.get("init", prov["init"]), prev.get("started")
+        prov["init"], prov["started"] = (prev.get("init", prov["init"]),
+                                          prev.get("started", prov["started"]))
         prov["resumed"] = [*prev.get("resumed", []), {
             "at_step": step, "optimizer": "fresh", "from": str(init),
             **{k: prov[k] for k in ("device_name", "code")}}]

@@ -146,6 +146,21 @@ def test_interrupted_run_resumes_step_count_optimizer_and_rng(scene, tmp_path):
     assert fresh.step == 6 and not all(torch.equal(a[k], c[k]) for k in a)
 
 
+def test_a_checkpoint_also_after_ckpt_seconds(scene, tmp_path):
+    """Besides every ``ckpt_every`` steps, a checkpoint once ``ckpt_seconds`` have passed
+    since the last: a run stopped by a time limit keeps its work; 0 turns it off."""
+    for seconds, saved in ((1e-6, 3), (0.0, None), (1e9, None)):
+        out = tmp_path / f"s{seconds}"
+        tr = new_trainer(replace(CFG, ckpt_every=100, ckpt_seconds=seconds))
+        with pytest.raises(KeyboardInterrupt):
+            run(tr, scene, out, stop_at=3)                          # steps 1..3 ran
+        if saved is None:
+            assert not (out / STATE_FILE).exists(), seconds
+        else:
+            assert torch.load(out / STATE_FILE, weights_only=True)["step"] == saved
+            assert read_metadata(out / MODEL_FILE)[1]["step"] == saved
+
+
 def test_checkpoint_file_names_and_contents(scene, tmp_path):
     assert checkpoint_files(tmp_path) == (tmp_path / "gnfr.safetensors",
                                           tmp_path / "train_state.pt")
