@@ -468,6 +468,18 @@ def checkpoint_provenance(path: Path) -> dict | None:
         return None
 
 
+def _goes_on(prov: dict, prev: dict, step: int, **how) -> None:
+    """``prov`` of a run that goes on from ``prev``'s (its checkpoint's provenance): the
+    start it began from (not what ``--init`` resolves to now), and this resumption listed
+    after the earlier ones (``how``: what else to say of it) with the device and code; the
+    start's process count (each resumption's is added by ``fit``)."""
+    prov["init"] = prev.get("init", prov["init"])
+    prov["started"] = prev.get("started", prov["started"])
+    prov["resumed"] = [*prev.get("resumed", []), {
+        "at_step": step, **how, **{k: prov[k] for k in ("device_name", "code")}}]
+    prov["processes"] = prev.get("processes", 1)
+
+
 # --------------------------------------------------------------------------- training
 def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume: bool = True,
         init: str = "auto", preset: str = "custom", gains: dict | None = None,
@@ -493,14 +505,9 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
         prov["exposure_gains"] = gains_json(gains)
     if resume and has_checkpoint(out):
         unseen = trainer.restore(out)["unseen"]
-        # the start is what the interrupted run began from, not what init resolves to now
         prev = checkpoint_provenance(checkpoint_files(out)[0])
         if prev is not None:
-            prov["init"] = prev.get("init", prov["init"])
-            prov["started"] = prev.get("started", prov["started"])
-            prov["resumed"] = [*prev.get("resumed", []), {"at_step": trainer.step, **{
-                k: prov[k] for k in ("device_name", "code")}}]
-            prov["processes"] = prev.get("processes", 1)  # the start's; each resume's below
+            _goes_on(prov, prev, trainer.step)
         info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
     elif (prev := continuation(init_path(cfg, init), cfg, preset, record)) is not None:
         step = int(prev["steps_done"])
@@ -511,12 +518,7 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                             f"give --iters above {step} to train it further")
         trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
         gen.manual_seed(cfg.seed + step)  # new draws, not the first run's again
-        prov["init"], prov["started"] = (prev.get("init", prov["init"]),
-                                          prev.get("started", prov["started"]))
-        prov["resumed"] = [*prev.get("resumed", []), {
-            "at_step": step, "optimizer": "fresh", "from": str(init),
-            **{k: prov[k] for k in ("device_name", "code")}}]
-        prov["processes"] = prev.get("processes", 1)
+        _goes_on(prov, prev, step, optimizer="fresh", **{"from": str(init)})
         info(f"finetune: continuing {init} at step {step} of {cfg.iters} (this scene's own "
              "fine-tune; its optimizer state is not in the weights: Adam starts afresh)")
     else:
