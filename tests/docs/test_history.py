@@ -1475,3 +1475,54 @@ def test_continuation_table_is_its_files():
     assert abs(held) < 0.2 and abs(flare) < 0.2  # the rule the text says was met
     assert f"Held-out views {held:+.2f} dB, the flare region {flare:+.2f} dB" in flat
     assert f"held-out {held:+.2f} dB, flare region {flare:+.2f} dB" in card
+
+
+def exposure_diagnosis_rows() -> list[str]:
+    """The rows of docs/history/gnfr.md's lund exposure diagnosis (sixty-sixth session), each
+    built from the committed round-trip file and the arms' score files."""
+    rt = json.loads((RESULTS / "exposure_roundtrip_lund_s66.json").read_text())
+    arms = {n: json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())["inputs"]
+            for n in ("gains", "curves", "truth", "gains_nocm")}
+    split = rt["deflared"]
+    rows = []
+    for v, g in split["gains"]["views"].items():
+        slope = rt["models"]["view-curves"][v]["transform"][3]
+        gain = rt["models"]["gain"][v]
+        delta = arms["curves"]["views"][v]["psnr_flare"] - arms["gains"]["views"][v]["psnr_flare"]
+        for n, a in arms.items():  # the split's region is the scorer's
+            assert split[n]["views"][v]["psnr_region"] == pytest.approx(
+                a["views"][v]["psnr_flare"], abs=2e-3)
+        names = ("gains", "curves", "truth", "gains_nocm")
+        psnr = " / ".join([f"{split[n]['views'][v]['psnr_region']:.2f}" for n in names]
+                          + [f"{g['psnr_perfect_fill']:.2f}"])
+        offset = " / ".join([f"{255 * np.mean(split[n]['views'][v]['bias_region']):+.1f}"
+                             for n in names] + [f"{255 * np.mean(g['bias_perfect_fill']):+.1f}"])
+        rows.append(f"| {v} | {slope:.2f} | {gain['transform'][1]:.2f} | "
+                    f"{100 * gain['clipped']:.1f} % | {100 * g['share_reached']:.0f} % | "
+                    f"{delta:+.2f} | {psnr} | {offset} | {rt['flare_outside'][v]:.1f} |")
+    return rows
+
+
+def test_lund_exposure_diagnosis_table_is_its_files():
+    """docs/history/gnfr.md's per-view table of lund's exposure diagnosis (sixty-sixth
+    session) is the round-trip benchmark's file and the arms' scores; the means the text
+    quotes are theirs."""
+    flat = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    for row in exposure_diagnosis_rows():
+        assert row in flat, row
+    for n in ("gains", "curves", "truth", "gains_nocm"):
+        a = json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())
+        words = (f"{n}: flare region {a['inputs']['psnr_flare']:.2f} dB, whole photo "
+                 f"{a['inputs']['psnr']:.2f} dB, held-out views {a['heldout']['psnr']:.2f} dB")
+        assert words in flat, words
+    perfect = np.mean([r["psnr_perfect_fill"] for r in json.loads(
+        (RESULTS / "exposure_roundtrip_lund_s66.json").read_text())["deflared"]["gains"]
+        ["views"].values()])
+    assert f"a perfect fill would score {perfect:.2f} dB" in flat
+    g, c, t = (json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())
+               for n in ("gains", "curves", "truth"))
+    assert (f"the curves lose {g['inputs']['psnr_flare'] - c['inputs']['psnr_flare']:.2f} dB "
+            f"in the flare region") in flat
+    assert f"{g['inputs']['psnr'] - c['inputs']['psnr']:.2f} dB on the whole photo" in flat
+    assert f"gain {c['heldout']['psnr'] - g['heldout']['psnr']:.2f} dB on the held-out" in flat
+    assert f"(the flare region +{t['inputs']['psnr_flare'] - g['inputs']['psnr_flare']:.2f} dB)" in flat

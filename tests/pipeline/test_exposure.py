@@ -375,3 +375,78 @@ def _at(centre) -> np.ndarray:
     c2w = np.eye(4)
     c2w[:3, 3] = centre
     return c2w
+
+
+def test_the_round_trip_benchmark_counts_what_a_transform_clips():
+    """benchmarks/exposure_roundtrip.py: a gain that lifts a bright pixel past white clips it
+    (counted, and it does not come back), one that darkens comes back within a level; a
+    curve with a slope over 1 clips highlights the same gain at mid grey leaves."""
+    from tests.conftest import load_benchmark
+
+    rt = load_benchmark("exposure_roundtrip")
+    img = np.full((4, 4, 3), 100, np.uint8)
+    img[0] = 230  # a bright row: a quarter of the pixels
+    region = np.zeros((4, 4), bool)
+    region[:2] = True  # half of the region bright
+    up = rt.view_row(img, region, [2.0, 2.0, 2.0])
+    assert up["clipped"] == 0.25 and up["clipped_flare"] == 0.5
+    back, clipped = rt.round_trip(img, [2.0, 2.0, 2.0])
+    assert clipped[0].all() and not clipped[1:].any() and (back[0] < 230).all()
+    assert np.abs(back[1:].astype(int) - 100).max() <= 1
+    down = rt.view_row(img, region, [0.5, 0.5, 0.5])
+    assert down["clipped"] == 0.0 and down["psnr"] > 40 > up["psnr"]
+    flat, steep = (rt.view_row(img, region, [1.0, 1.0, 1.0, s]) for s in (1.0, 1.33))
+    assert flat["clipped"] == 0.0 and steep["clipped"] == 0.25
+
+
+def test_the_round_trip_benchmark_splits_the_flare_region_by_what_the_photos_reach(tmp_path):
+    """benchmarks/exposure_roundtrip.py --deflared: on four views of a plane with exact depth,
+    a de-flared region 20 levels too bright scores as that offset (all of its error a mean
+    offset), reached by the neighbours when they are unflared there and drawn when their
+    masks cover it."""
+    import cv2
+
+    from pipeline.cameras import load_cameras
+    from pipeline.ws_files import read_view_image, write_depth, write_mask
+    from tests.conftest import load_benchmark
+
+    rt = load_benchmark("exposure_roundtrip")
+    ws = make_plane_workspace(tmp_path / "ws", n_views=4)
+    cams = load_cameras(ws.cameras_json)
+    ang = np.linspace(-0.25, 0.25, 4)  # make_plane_workspace's cameras, for their depths
+    centers = [[3.0 * np.sin(a), 0.1 * np.cos(3 * a), -3.0 * np.cos(a)] for a in ang]
+    Kw = np.array([[1.0 * W, 0, W / 2], [0, 1.0 * W, H / 2], [0, 0, 1]])
+    _, _, depths = plane_views(np.random.default_rng(0), centers, Kw, (W, H))
+    synth = tmp_path / "synth"
+    for d in ("clean", "masks_gt"):
+        (synth / d).mkdir(parents=True)
+    ws.deflared.mkdir()
+    region = np.zeros((H, W), bool)
+    region[45:75, 65:95] = True
+    scale = cams.colmap_to_world[0, 0]
+    for f, d in zip(cams.frames, depths, strict=True):
+        img = read_view_image(ws, f.stem)
+        write_depth(ws.depth_path(f.stem), d * scale, np.ones_like(d))
+        cv2.imwrite(str(synth / "masks_gt" / f"{f.stem}.png"), region.astype(np.uint8) * 255)
+        out = img.astype(np.int16)
+        out[region] = np.minimum(out[region], 235) + 20  # 20 levels brighter, none clipped
+        img[region] = np.minimum(img[region], 235)
+        cv2.imwrite(str(synth / "clean" / f"{f.stem}.png"), img[..., ::-1])
+        cv2.imwrite(str(ws.deflared / f"{f.stem}.png"),
+                    np.clip(out, 0, 255).astype(np.uint8)[..., ::-1])
+    rows = {}
+    for name, marked in (("open", np.zeros_like(region)), ("masked", region)):
+        for f in cams.frames:
+            write_mask(ws, f.stem, marked)
+        rows[name] = rt.split_rows(synth, ws, 3)
+    open_rows, masked_rows = rows["open"], rows["masked"]
+    for r in open_rows.values():
+        assert r["share_reached"] > 0.9
+        assert r["psnr_reached"] == pytest.approx(-20 * np.log10(20 / 255), abs=0.05)
+        assert r["bias_share_reached"] > 0.99
+        np.testing.assert_allclose(r["bias_reached"], [20 / 255] * 3, atol=2e-3)
+    assert all(r["share_reached"] < 0.3 and r["bias_share_drawn"] > 0.99
+               for r in masked_rows.values())
+    for r in masked_rows.values():  # the truth as the fill: nearly the truth comes out
+        assert r["psnr_perfect_fill"] > 30 > r["psnr_region"]
+        assert np.abs(r["bias_perfect_fill"]).max() < 2 / 255
