@@ -29,8 +29,12 @@ flare region, the pixels the de-flared photo's fill takes from its neighbours.
 as ``benchmarks/score_workspace.py`` does) inside the true flare region in two parts: the
 pixels two or more of the view's ``--neighbours`` nearest photos reach unflared (their
 warps by ARM_WS's depth hold and ARM_WS's masks leave them: where the fill may take the
-photos; whether they agree there is not checked) and the rest, which the network draws.
-Nothing is written into WS or ARM_WS.
+photos; whether they agree there is not checked) and the rest, where the fill under the
+flare layer is the network's. For each part it says how much of the error is a mean offset
+(a cast or a wrong brightness), and for the whole region what the render would have made
+with a perfect fill (the clean photo as the fill, the arm's blend region and flare layer at
+the render's defaults). The file also holds, per view, the light the synthetic flare adds
+outside its true mask (``flare_outside``). Nothing is written into WS or ARM_WS.
 """
 
 from __future__ import annotations
@@ -140,12 +144,14 @@ def split_rows(synth: Path, arm, neighbours: int) -> dict:
         srcs = [b for b in near.get(t, []) if b in views]
         w = warp_sources(vt.K, vt.c2w, vt.depth, [views[b] for b in srcs])
         reached = w.ok.sum(0) >= 2
-        e = (_read_rgb(f).astype(np.float64) - _read_rgb(synth / "clean" / f"{t}.png")) / 255.0
+        truth = _read_rgb(synth / "clean" / f"{t}.png")
+        clean = truth.astype(np.float32) / 255.0
+        e = (_read_rgb(f).astype(np.float64) - truth) / 255.0
         d = (e ** 2).mean(-1)
         row = {"pixels": int(region.sum()),
                "share_reached": round(float(reached[region].mean()), 4), "sq": {}}
-        clean = _read_rgb(synth / "clean" / f"{t}.png").astype(np.float32) / 255.0
-        for name, err in (("region", e), ("perfect_fill", perfect_fill(arm, by[t], clean) - clean)):
+        ideal = perfect_fill(arm, by[t], clean) - clean
+        for name, err in (("region", e), ("perfect_fill", ideal)):
             row[f"psnr_{name}"] = round(float(-10 * np.log10((err[region] ** 2).mean())), 3)
             row[f"bias_{name}"] = [round(float(b), 4) for b in err[region].mean(0)]
         for name, m in (("reached", region & reached), ("drawn", region & ~reached)):
@@ -243,6 +249,8 @@ def main(argv: list[str] | None = None) -> int:
     out["flare_outside"] = faint_flare(a.synth)
     for spec in a.deflared:
         name, _, path = spec.partition("=")
+        if not name or not Path(path, "deflared").is_dir():
+            ap.error(f"--deflared {spec}: give NAME=ARM_WS, ARM_WS a workspace with deflared/")
         rows = split_rows(a.synth, Workspace(Path(path)), a.neighbours)
         out.setdefault("deflared", {})[name] = {"workspace": path, "views": rows}
         print(name, " ".join(f"{s}:{r.get('psnr_reached', float('nan')):.2f}/"
