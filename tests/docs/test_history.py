@@ -1527,3 +1527,62 @@ def test_lund_exposure_diagnosis_table_is_its_files():
     assert f"gain {c['heldout']['psnr'] - g['heldout']['psnr']:.2f} dB on the held-out" in flat
     gain = t["inputs"]["psnr_flare"] - g["inputs"]["psnr_flare"]
     assert f"(the flare region +{gain:.2f} dB)" in flat
+
+
+def test_fmg_y_candidate_table_is_its_files():
+    """docs/history/fmg.md's table of candidate Y (sixty-sixth session: X's recipe run 600
+    steps) is its committed files beside M's and X's columns; each part's verdict and the
+    answer to the question Y was run for are what its rule makes of those numbers."""
+    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    mk = load_benchmark("mask_kind_scenes")
+    base, cand = "fmg.safetensors@1", "fmg_Y.safetensors@1"
+    builds = [mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
+                            f"{RESULTS / f'mask_dev_kinds_Y_s{s}.json'}") for s in (31, 32, 33)]
+    res = mk.judge(builds, base, cand, mean_gain=0.02)
+    lund = mk.judge(builds, base, cand, mean_gain=0.0, scene="lund")
+    for got, name in ((res, "mask_kinds_judge_Y_s66.json"),
+                      (lund, "mask_kinds_judge_Y_lund_s66.json")):
+        assert got["mean"] == json.loads((RESULTS / name).read_text())["mean"]
+    x = mk.judge([mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
+                                f"{RESULTS / f'mask_dev_kinds_X_s{s}.json'}")
+                  for s in (31, 32, 33)], base, "fmg_X.safetensors@1", mean_gain=0.02)
+
+    def column(letter, pooled):
+        scenes = [r["flare_iou"] for r in json.loads(
+            (RESULTS / f"mask_dev_scenes_{letter}.json").read_text())["rows"] if r["rays"]]
+        return fmg_rule_cells(f"fmg_dev_per_kind_{letter}_day_rays.json",
+                              f"fmg_dev_per_kind_{letter}_rays.json", pooled, scenes,
+                              f"fmg_dev_clean_{letter}_rays.json")
+
+    cols = (fmg_m_s59_cells(res["mean"][base]), column("X", x["mean"]["fmg_X.safetensors@1"]),
+            column("Y", res["mean"][cand]))
+    for i, part in enumerate(FMG_PARTS):
+        row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
+        assert row in flat, row
+
+    def iou(name, kind):
+        return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
+
+    day = {k: [iou(f"fmg_dev_per_kind_{c}_day_rays{s}.json", k)
+               for c, s in (("M", "_s59"), ("X", ""), ("Y", ""))] for k in FMG_KINDS}
+    row = "| 1. ... starburst / ghosts / streaks / glare / scatter | " + " | ".join(
+        " / ".join(f"{day[k][i]:.3f}" for k in FMG_KINDS) for i in range(3)) + " | |"
+    assert row in flat, row
+    m_mean, x_mean, y_mean = (fmg_kind_mean(f"fmg_dev_per_kind_{c}_day_rays{s}.json")
+                              for c, s in (("M", "_s59"), ("X", ""), ("Y", "")))
+    m_s, x_s, y_s = day["streaks"]
+    part1 = y_mean >= m_mean - 0.01 and all(day[k][2] >= day[k][0] - 0.03 for k in FMG_KINDS)
+    if part1:
+        answer = "the composites come back with steps"
+    elif y_s >= (x_s + m_s) / 2 and y_mean > x_mean:
+        answer = "they move back"
+    else:
+        answer = "half as many steps again did not move them"
+    assert f"**The question Y was run for: {answer}.**" in flat
+    assert not part1 and "Part 1 fails by a hair on the mean" in flat
+    assert f"(+{res['mean_gain']:.4f}; per kind" in flat and not res["passes"]
+    assert f"{lund['mean'][base]:.4f} to {lund['mean'][cand]:.4f}" in flat
+    log = [json.loads(x) for x in (RESULTS / "fmg_train_cpu_s66_Y.jsonl").read_text().split("\n")
+           if x.strip()]
+    assert log[-1]["step"] == 600 and f"{log[-1]['s'] / 60:.0f} minutes of one CPU" in flat
+    assert f"flare IoU {log[-1]['val_IoU_flare']:.3f} on its 32" in flat
