@@ -644,6 +644,21 @@ def fmg_m_s59_cells(pooled: float):
                           "fmg_dev_clean_M_rays_s59.json")
 
 
+def fmg_candidate_column(letter: str, pooled: float):
+    """A whole-photo candidate's column (W, X, Y) of its rule's table: its committed files,
+    ``pooled`` its judged one-kind mean."""
+    scenes = [r["flare_iou"] for r in json.loads(
+        (RESULTS / f"mask_dev_scenes_{letter}.json").read_text())["rows"] if r["rays"]]
+    return fmg_rule_cells(f"fmg_dev_per_kind_{letter}_day_rays.json",
+                          f"fmg_dev_per_kind_{letter}_rays.json", pooled, scenes,
+                          f"fmg_dev_clean_{letter}_rays.json")
+
+
+def fmg_iou(name: str, kind: str) -> float:
+    """The flare IoU of one kind in a per-kind ``fmg eval`` result file."""
+    return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
+
+
 def fmg_false_per_true(kind: dict) -> float:
     """mask_faint.py's marks outside the true flare per true pixel at 1x (recall / IoU - 1)."""
     return kind["x1"]["recall"] / kind["x1"]["flare_iou"] - 1
@@ -766,23 +781,14 @@ def test_fmg_x_candidate_table_is_its_files():
     base, cand = "fmg.safetensors@1", "fmg_X.safetensors@1"
     res, w = fmg_judge_candidate("X", 61, flat), fmg_judge_candidate("W", 60, flat)
 
-    def column(letter, pooled):
-        scenes = [r["flare_iou"] for r in json.loads(
-            (RESULTS / f"mask_dev_scenes_{letter}.json").read_text())["rows"] if r["rays"]]
-        return fmg_rule_cells(f"fmg_dev_per_kind_{letter}_day_rays.json",
-                              f"fmg_dev_per_kind_{letter}_rays.json", pooled, scenes,
-                              f"fmg_dev_clean_{letter}_rays.json")
-
-    cols = (fmg_m_s59_cells(res["mean"][base]), column("W", w["mean"]["fmg_W.safetensors@1"]),
-            column("X", res["mean"][cand]))
+    cols = (fmg_m_s59_cells(res["mean"][base]),
+            fmg_candidate_column("W", w["mean"]["fmg_W.safetensors@1"]),
+            fmg_candidate_column("X", res["mean"][cand]))
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
         assert row in hist, row
 
-    def iou(name, kind):
-        return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
-
-    day = {k: [iou(f, k) for f in ("fmg_dev_per_kind_M_day_rays_s59.json",
+    day = {k: [fmg_iou(f, k) for f in ("fmg_dev_per_kind_M_day_rays_s59.json",
                                   "fmg_dev_per_kind_W_day_rays.json",
                                   "fmg_dev_per_kind_X_day_rays.json")] for k in FMG_KINDS}
     row = "| 1. ... starburst / ghosts / streaks / glare / scatter | " + " | ".join(
@@ -795,7 +801,7 @@ def test_fmg_x_candidate_table_is_its_files():
     scenes = [res["kinds"]["streaks"][base], w["kinds"]["streaks"]["fmg_W.safetensors@1"],
               res["kinds"]["streaks"][cand]]
     assert "| 2. ... streaks | " + " | ".join(f"{v:.3f}" for v in scenes) + " | |" in hist
-    glare = [iou(f, "glare") for f in ("fmg_dev_per_kind_M_rays_s59.json",
+    glare = [fmg_iou(f, "glare") for f in ("fmg_dev_per_kind_M_rays_s59.json",
                                        "fmg_dev_per_kind_W_rays.json",
                                        "fmg_dev_per_kind_X_rays.json")]
     assert glare[2] - glare[0] < -0.03 and f"glare (-{glare[0] - glare[2]:.3f}" in flat
@@ -1547,23 +1553,14 @@ def test_fmg_y_candidate_table_is_its_files():
                                 f"{RESULTS / f'mask_dev_kinds_X_s{s}.json'}")
                   for s in (31, 32, 33)], base, "fmg_X.safetensors@1", mean_gain=0.02)
 
-    def column(letter, pooled):
-        scenes = [r["flare_iou"] for r in json.loads(
-            (RESULTS / f"mask_dev_scenes_{letter}.json").read_text())["rows"] if r["rays"]]
-        return fmg_rule_cells(f"fmg_dev_per_kind_{letter}_day_rays.json",
-                              f"fmg_dev_per_kind_{letter}_rays.json", pooled, scenes,
-                              f"fmg_dev_clean_{letter}_rays.json")
-
-    cols = (fmg_m_s59_cells(res["mean"][base]), column("X", x["mean"]["fmg_X.safetensors@1"]),
-            column("Y", res["mean"][cand]))
+    cols = (fmg_m_s59_cells(res["mean"][base]),
+            fmg_candidate_column("X", x["mean"]["fmg_X.safetensors@1"]),
+            fmg_candidate_column("Y", res["mean"][cand]))
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
         assert row in flat, row
 
-    def iou(name, kind):
-        return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
-
-    day = {k: [iou(f"fmg_dev_per_kind_{c}_day_rays{s}.json", k)
+    day = {k: [fmg_iou(f"fmg_dev_per_kind_{c}_day_rays{s}.json", k)
                for c, s in (("M", "_s59"), ("X", ""), ("Y", ""))] for k in FMG_KINDS}
     row = "| 1. ... starburst / ghosts / streaks / glare / scatter | " + " | ".join(
         " / ".join(f"{day[k][i]:.3f}" for k in FMG_KINDS) for i in range(3)) + " | |"
