@@ -654,6 +654,16 @@ def fmg_candidate_column(letter: str, pooled: float):
                           f"fmg_dev_clean_{letter}_rays.json")
 
 
+def assert_m_and_two_columns(page: str, m_pooled: float, *cands: tuple[str, float]):
+    """Every part's row of a whole-photo candidates' table (M, then two candidates given as
+    (letter, judged one-kind mean)) is on ``page``; returns the three columns."""
+    cols = (fmg_m_s59_cells(m_pooled), *(fmg_candidate_column(c, v) for c, v in cands))
+    for i, part in enumerate(FMG_PARTS):
+        row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
+        assert row in page, row
+    return cols
+
+
 def fmg_iou(name: str, kind: str) -> float:
     """The flare IoU of one kind in a per-kind ``fmg eval`` result file."""
     return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
@@ -781,12 +791,9 @@ def test_fmg_x_candidate_table_is_its_files():
     base, cand = "fmg.safetensors@1", "fmg_X.safetensors@1"
     res, w = fmg_judge_candidate("X", 61, flat), fmg_judge_candidate("W", 60, flat)
 
-    cols = (fmg_m_s59_cells(res["mean"][base]),
-            fmg_candidate_column("W", w["mean"]["fmg_W.safetensors@1"]),
-            fmg_candidate_column("X", res["mean"][cand]))
-    for i, part in enumerate(FMG_PARTS):
-        row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
-        assert row in hist, row
+    cols = assert_m_and_two_columns(hist, res["mean"][base],
+                                    ("W", w["mean"]["fmg_W.safetensors@1"]),
+                                    ("X", res["mean"][cand]))
 
     day = {k: [fmg_iou(f, k) for f in ("fmg_dev_per_kind_M_day_rays_s59.json",
                                   "fmg_dev_per_kind_W_day_rays.json",
@@ -1553,12 +1560,8 @@ def test_fmg_y_candidate_table_is_its_files():
                                 f"{RESULTS / f'mask_dev_kinds_X_s{s}.json'}")
                   for s in (31, 32, 33)], base, "fmg_X.safetensors@1", mean_gain=0.02)
 
-    cols = (fmg_m_s59_cells(res["mean"][base]),
-            fmg_candidate_column("X", x["mean"]["fmg_X.safetensors@1"]),
-            fmg_candidate_column("Y", res["mean"][cand]))
-    for i, part in enumerate(FMG_PARTS):
-        row = f"| {part} | {cols[0][i]} | {cols[1][i]} | {cols[2][i]} | "
-        assert row in flat, row
+    assert_m_and_two_columns(flat, res["mean"][base],
+                             ("X", x["mean"]["fmg_X.safetensors@1"]), ("Y", res["mean"][cand]))
 
     day = {k: [fmg_iou(f"fmg_dev_per_kind_{c}_day_rays{s}.json", k)
                for c, s in (("M", "_s59"), ("X", ""), ("Y", ""))] for k in FMG_KINDS}
