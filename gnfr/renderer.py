@@ -197,19 +197,22 @@ def sample_rows(maps: torch.Tensor, rows: torch.Tensor, xy: torch.Tensor,
 def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                  rays_d: torch.Tensor, t: torch.Tensor, point_sampler: bool = True,
                  reference: bool = False, w2c: torch.Tensor | None = None,
-                 with_depth: bool = True, cpu_bf16: bool = False) -> dict:
+                 with_depth: bool = True, cpu_bf16: bool = False,
+                 flare_fallback: str = "valid") -> dict:
     """One differentiable pass for rays at given depths (training and rendering share it).
 
     rays_o, rays_d: [R, 3]; t: [R, S] z-depths; src_ids: [Vs]. ``reference=True`` is the
     plain fp32 path (no autocast, no fused attention); ``cpu_bf16`` runs the model under bf16
-    autocast on the CPU too (CUDA always does). Returns rgb [R, 3], depth [R] (None
-    without ``with_depth``: the explicit attention it needs is then skipped) and
+    autocast on the CPU too (CUDA always does); ``flare_fallback``: what a point on flare in
+    every view attends (``gnfr.transformer.FLARE_FALLBACKS``). Returns rgb [R, 3], depth [R]
+    (None without ``with_depth``: the explicit attention it needs is then skipped) and
     all_flared [R] (fraction of the ray's samples that were on flare in every source view
-    they were valid in and so fell back to validity-only attention).
+    they were valid in and so fell back to ``flare_fallback``'s views).
     """
     points = rays_o[:, None] + t[..., None] * rays_d[:, None]  # [R, S, 3]
     rgb_feat, valid, flared = gather(src, src_ids, points, w2c)
-    attend, all_flared = attention_mask(valid, flared if point_sampler else None)
+    attend, all_flared = attention_mask(valid, flared if point_sampler else None,
+                                        rgb_feat[..., :3], flare_fallback)
     rel_dir = relative_directions(points, rays_o, src.c2w[src_ids, :3, 3])
     with autocast(rays_o.device, enabled=not reference, cpu=cpu_bf16):
         rgb, depth = model(points, F.normalize(rays_d, dim=-1), rgb_feat, rel_dir, attend, t,
@@ -220,8 +223,10 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
 def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
                 rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
                 chunk: int = 1024, point_sampler: bool = True, progress=None,
-                with_depth: bool = True, pad: bool = False, cpu_bf16: bool = False) -> dict:
-    """Render rays deterministically in chunks (``cpu_bf16``: see ``forward_rays``).
+                with_depth: bool = True, pad: bool = False, cpu_bf16: bool = False,
+                flare_fallback: str = "valid") -> dict:
+    """Render rays deterministically in chunks (``cpu_bf16``, ``flare_fallback``: see
+    ``forward_rays``).
 
     src_ids: [Vs] long (which cached views to use); rays_o, rays_d: [R, 3] (``rays_d`` with
     camera-z 1, see gnfr.geometry.pixel_rays); near, far: [R] z-depths. ``progress``: an
@@ -251,7 +256,8 @@ def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: to
                                     for x in (o, d, lo, hi))
                 t = sample_depths(lo, hi, n_samples, jitter=False)
                 out = forward_rays(model, src, src_ids, o, d, t, point_sampler, w2c=w2c,
-                                   with_depth=with_depth, cpu_bf16=cpu_bf16)
+                                   with_depth=with_depth, cpu_bf16=cpu_bf16,
+                                   flare_fallback=flare_fallback)
                 for k in outs:  # kept on the device: one copy to the host at the end
                     outs[k].append(out[k][:n].float())
                 if progress is not None:

@@ -73,6 +73,9 @@ class TrainConfig:
     """Encode every source once with a frozen encoder and reuse the features every step."""
     point_sampler: bool = True
     """GN-FR Point Sampler (off: GNT attention)."""
+    flare_fallback: str = "valid"
+    """What a point on flare in every source that sees it attends
+    (``gnfr.transformer.FLARE_FALLBACKS``: every such view, or the darker half of them)."""
     view_sampler: bool = True
     """GN-FR View Sampler (off: nearest N sources, flared views may be targets)."""
     mask_loss: bool = True
@@ -400,7 +403,7 @@ def compute_loss(model: GNFR, batch: Batch, src: SourceViews, ids: torch.Tensor,
     dev = src.images.device
     out = forward_rays(model, src, ids, batch.rays_o.to(dev), batch.rays_d.to(dev),
                        batch.t.to(dev), cfg.point_sampler, cfg.reference,
-                       cpu_bf16=cfg.cpu_bf16)
+                       cpu_bf16=cfg.cpu_bf16, flare_fallback=cfg.flare_fallback)
     flare = None if batch.flare is None else batch.flare.to(dev)
     weight = None if batch.weight is None else batch.weight.to(dev)
     den_loss = den_psnr = None

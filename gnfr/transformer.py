@@ -9,7 +9,8 @@ Point Sampler (GN-FR). ``attend`` [R, S, V] is True where a view may be attended
 projects inside the view, in front of it and (with the Point Sampler) not on flare. Views
 that may not be attended get -inf logits *before* the softmax, so their weight is exactly
 zero and the remaining weights of each point sum to one. Rule for a point attended by no
-view (see ``attention_mask``): it falls back to validity-only attention (flare ignored); a
+view (see ``attention_mask``): it falls back to validity-only attention (flare ignored), or
+with the ``darkest`` fallback to the darker half of the views that see it; a
 point valid in no view at all attends every view uniformly as in GNT (its colour then comes
 from the ray transformer's context). The same mask decides which views enter the max-pooled
 initial query.
@@ -23,16 +24,27 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+FLARE_FALLBACKS = ("valid", "darkest")
+"""What a point on flare in every view that sees it attends: ``valid``, every view that sees
+it (GN-FR's Point Sampler with the validity fallback); ``darkest``, the darker half of them
+(at least one) by the mean of the colour sampled there. Flare adds light, so of views that
+all show flare at a point, the darkest carry the least of it (their exposures matched)."""
 
-def attention_mask(valid: torch.Tensor,
-                   flared: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+
+def attention_mask(valid: torch.Tensor, flared: torch.Tensor | None,
+                   rgb: torch.Tensor | None = None,
+                   fallback: str = "valid") -> tuple[torch.Tensor, torch.Tensor]:
     """Which views each point attends, with the documented fallbacks.
 
-    valid: [R, S, V] bool (inside image, in front); flared: [R, S, V] bool or None.
+    valid: [R, S, V] bool (inside image, in front); flared: [R, S, V] bool or None; rgb:
+    [R, S, V, 3] the colours sampled there (needed by ``fallback="darkest"``).
     Returns attend [R, S, V] bool and all_flared [R, S] bool (the point was valid in some
-    view but on flare in every valid one, so it fell back to validity-only attention).
-    Points valid nowhere get an all-True row (uniform attention, GNT behaviour).
+    view but on flare in every valid one, so it fell back to ``fallback``'s views,
+    ``FLARE_FALLBACKS``). Points valid nowhere get an all-True row (uniform attention, GNT
+    behaviour).
     """
+    if fallback not in FLARE_FALLBACKS:
+        raise ValueError(f"flare fallback {fallback!r}: expected one of {FLARE_FALLBACKS}")
     if flared is None:
         attend = valid
         all_flared = torch.zeros(valid.shape[:2], dtype=torch.bool, device=valid.device)
@@ -40,9 +52,21 @@ def attention_mask(valid: torch.Tensor,
         clean = valid & ~flared
         any_valid = valid.any(-1, keepdim=True)
         all_flared = any_valid[..., 0] & ~clean.any(-1)
-        attend = torch.where(all_flared[..., None], valid, clean)
+        seen = valid if fallback == "valid" else darker_half(valid, rgb)
+        attend = torch.where(all_flared[..., None], seen, clean)
     attend = attend | ~attend.any(-1, keepdim=True)
     return attend, all_flared
+
+
+def darker_half(valid: torch.Tensor, rgb: torch.Tensor | None) -> torch.Tensor:
+    """[R, S, V] bool: of each point's valid views, the ceil(n / 2) darkest by the mean of
+    ``rgb`` [R, S, V, 3] there (ties broken by view order); no valid view, none."""
+    if rgb is None:
+        raise ValueError("the 'darkest' flare fallback needs the sampled colours")
+    lum = rgb.float().mean(-1).masked_fill(~valid, float("inf"))
+    rank = lum.argsort(dim=-1, stable=True).argsort(dim=-1)  # 0 = darkest valid view
+    keep = (valid.sum(-1, keepdim=True) + 1) // 2
+    return valid & (rank < keep)
 
 
 def masked_max(x: torch.Tensor, attend: torch.Tensor) -> torch.Tensor:

@@ -28,6 +28,7 @@ from gnfr.model import GNFR
 from gnfr.ray_split import HelperDied
 from gnfr.renderer import cpu_bf16, emulated_bf16
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
+from gnfr.transformer import FLARE_FALLBACKS
 from pipeline.errors import shell_path
 from pipeline.exposure import MODELS
 from pipeline.options import option, resolve_device, validate
@@ -70,6 +71,10 @@ class FinetuneConfig:
     stage's record (the checkpoint's provenance says it). CUDA trains in one process."""
     point_sampler: bool = True
     """GN-FR Point Sampler (False: ablation)."""
+    flare_fallback: str = option("valid", choices=FLARE_FALLBACKS)
+    """What a point on flare in every source that sees it attends: valid (every such view,
+    the flare's light with them; GN-FR's rule) | darkest (the darker half of them: flare adds
+    light, so they carry the least of it). Recorded in the model; render uses the same."""
     view_sampler: bool = True
     """GN-FR View Sampler (False: ablation)."""
     mask_loss: bool = True
@@ -229,7 +234,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   reference=config.reference, seed=config.seed,
                   random_sources=bool(config.random_sources), mirror=config.mirror,
                   full_res_colour=config.full_res_colour, edge_rays=config.edge_rays,
-                  cpu_bf16=cpu_bf16(config.bf16, device))
+                  cpu_bf16=cpu_bf16(config.bf16, device),
+                  flare_fallback=config.flare_fallback)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:

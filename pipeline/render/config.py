@@ -6,6 +6,9 @@ from dataclasses import dataclass
 
 from pipeline.options import option
 
+FLARE_FALLBACKS = ("valid", "darkest")
+"""``gnfr.transformer.FLARE_FALLBACKS`` without importing torch (a test keeps them equal)."""
+
 NAMED_PATHS = ("inputs", "interpolate", "spiral")
 FILLS = ("hybrid", "network")
 
@@ -212,6 +215,9 @@ class RenderConfig:
     more) (`python benchmarks/render_bf16.py`, docs/performance.md, "bf16 on the CPU")."""
     checkpoint: str | None = None
     """Model weights (default: the latest checkpoint in WS/model/)."""
+    flare_fallback: str | None = option(None, choices=FLARE_FALLBACKS)
+    """What a point on flare in every source that sees it attends: valid | darkest
+    (``gnfr.transformer.FLARE_FALLBACKS``). Default: the model's, as it was fine-tuned."""
     fill: str = option("hybrid", choices=FILLS)
     """``hybrid``: where WS/depth exists (`deflare-scene depth`), pixels are taken from the
     nearest photos warped by depth wherever ``min_support`` of them agree (flare masks and

@@ -80,7 +80,8 @@ def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
                               far[idx] if hi is None else hi, ns or params["samples"],
                               chunk=chunk, point_sampler=params["point_sampler"],
                               progress=lambda k, o=offset: prog.update(t_rays, completed=o + k),
-                              with_depth=want_depth, pad=cfg.compile, cpu_bf16=cfg.bf16)
+                              with_depth=want_depth, pad=cfg.compile, cpu_bf16=cfg.bf16,
+                              flare_fallback=params.get("flare_fallback", "valid"))
             rgb[idx.numpy()] = out["rgb"].numpy()
             if want_depth:
                 depth[idx.numpy()] = out["depth"].numpy()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 
 from gnfr.geometry import image_pixels, pixel_rays
@@ -55,6 +56,38 @@ def test_all_flared_point_falls_back_to_validity_and_is_counted():
     assert attend[1, 0].tolist() == [True, True, True]  # valid nowhere: uniform (GNT)
     w = _weights(attend)
     assert torch.all(w[0, 0, 2] == 0) and torch.allclose(w.sum(2), torch.ones(2, 1, 8))
+
+
+def test_darkest_fallback_keeps_the_darker_half_of_the_views_that_see_an_all_flared_point():
+    # point 0: on flare in its 3 valid views (view 3 does not see it): the darker 2 of them
+    # are attended; point 1 has a clean view and attends it alone, whatever the colours;
+    # point 2: flared in its one valid view, which is kept; point 3 is valid nowhere
+    valid = torch.tensor([[True, True, True, False], [True, True, False, False],
+                          [False, True, False, False], [False] * 4])[:, None]
+    flared = torch.tensor([[True, True, True, False], [True, False, True, True],
+                           [True, True, True, True], [True] * 4])[:, None]
+    lum = torch.tensor([[0.9, 0.2, 0.5, 0.0], [0.1, 0.8, 0.0, 0.0],
+                        [0.0, 0.7, 0.0, 0.0], [0.3, 0.2, 0.1, 0.0]])
+    rgb = lum[:, None, :, None].expand(4, 1, 4, 3)
+    attend, all_flared = attention_mask(valid, flared, rgb, fallback="darkest")
+    assert attend[:, 0].tolist() == [[False, True, True, False], [False, True, False, False],
+                                     [False, True, False, False], [True] * 4]
+    assert all_flared[:, 0].tolist() == [True, False, True, False]
+    # the validity fallback keeps all three; clean points are the same under both rules
+    plain, _ = attention_mask(valid, flared)
+    assert plain[0, 0].tolist() == [True, True, True, False]
+    assert torch.equal(plain[1:3], attend[1:3])
+    with pytest.raises(ValueError, match="colours"):
+        attention_mask(valid, flared, None, fallback="darkest")
+    with pytest.raises(ValueError, match="fallback"):
+        attention_mask(valid, flared, rgb, fallback="brightest")
+
+
+def test_render_config_flare_fallbacks_are_the_model_s():
+    from gnfr.transformer import FLARE_FALLBACKS
+    from pipeline.render.config import FLARE_FALLBACKS as RENDER_FALLBACKS
+
+    assert RENDER_FALLBACKS == FLARE_FALLBACKS
 
 
 def test_vector_attention_output_ignores_flagged_views():

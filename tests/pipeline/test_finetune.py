@@ -392,6 +392,34 @@ def test_finetune_full_res_colour_trains_on_full_size_colours_and_records_it(tmp
     assert read_metadata(ws.model_file)[1]["full_res_colour"] is False
 
 
+def test_finetune_flare_fallback_trains_with_it_and_records_it(tmp_path, monkeypatch):
+    """--flare-fallback darkest: every training step's rays fall back to the darker half of
+    the views on an all-flared point, and the model and the stage's parameters record it
+    (render then uses it); the default ``valid`` leaves the model's metadata as before."""
+    import gnfr.train
+    from gnfr.checkpoint import read_metadata
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
+    seen = []
+    real = gnfr.train.forward_rays
+
+    def spy(*a, **k):
+        seen.append(k.get("flare_fallback"))
+        return real(*a, **k)
+
+    monkeypatch.setattr(gnfr.train, "forward_rays", spy)
+    ws = masked_workspace(tmp_path / "ws")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1,
+                       flare_fallback="darkest"), ws)
+    assert seen and set(seen) == {"darkest"}
+    assert read_metadata(ws.model_file)[1]["flare_fallback"] == "darkest"
+    assert ws.stage_record("finetune")["params"]["train"]["flare_fallback"] == "darkest"
+    seen.clear()
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1), ws)
+    assert seen and set(seen) == {"valid"}
+    assert "flare_fallback" not in read_metadata(ws.model_file)[1]
+
+
 def test_finetune_trains_on_one_cpu_thread_unless_told(tmp_path, monkeypatch):
     """On the CPU the fine-tune runs on CPU_THREADS (1) torch threads, or ``threads`` when
     given, and torch's own count is back after it; on CUDA it is left alone. The count is a

@@ -1543,3 +1543,54 @@ def test_photo_views_load_the_photos_a_held_or_faded_fill_takes_first(hws, tmp_p
     faded.fades = (SourceSet(tuple(stems[3:5]), (stems[4],), 0.5),)
     got = photo_views(hws, load_cameras(hws.cameras_json), [held, faded], cfg)
     assert set(got) == {stems[0], stems[2], stems[3], stems[4]}
+
+
+def test_flare_fallback_is_the_model_s_unless_render_is_told_and_is_recorded(tmp_path,
+                                                                           monkeypatch):
+    """The de-flared photos' rays fall back to the model's recorded ``flare_fallback``
+    (``valid`` for a model without one), ``--flare-fallback`` overrides it and is in the
+    stage's parameters (a change renders again), and a record made before the setting
+    existed is up to date at ``valid``."""
+    import gnfr.renderer as gr
+    import pipeline.render as R
+    from gnfr.checkpoint import load_weights, read_metadata, save_model
+
+    seen = []
+    real = gr.attention_mask
+
+    def spy(valid, flared, rgb=None, fallback="valid"):
+        seen.append(fallback)
+        return real(valid, flared, rgb, fallback)
+
+    monkeypatch.setattr(gr, "attention_mask", spy)
+    ws = make_render_ws(tmp_path / "ws")
+    R.run(R.RenderConfig(path="inputs", fill="network"), ws)
+    assert seen and set(seen) == {"valid"}
+    assert ws.stage_record("render:inputs")["params"]["flare_fallback"] == "valid"
+    seen.clear()
+    R.run(R.RenderConfig(path="inputs", fill="network", flare_fallback="darkest"), ws)
+    assert seen and set(seen) == {"darkest"}
+    rec = ws.stage_record("render:inputs")
+    assert rec["params"]["flare_fallback"] == "darkest"
+    seen.clear()
+    R.run(R.RenderConfig(path="inputs", fill="network", flare_fallback="valid"), ws)
+    rec = ws.stage_record("render:inputs")
+    del rec["params"]["flare_fallback"]  # made before the setting existed
+    ws.update_manifest("render:inputs", rec)
+    seen.clear()
+    R.run(R.RenderConfig(path="inputs", fill="network"), ws)
+    assert not seen  # up to date
+    model, meta = GNFR_of(ws, load_weights, read_metadata)
+    save_model(ws.model_file, model, {**meta, "flare_fallback": "darkest"})
+    R.run(R.RenderConfig(path="inputs", fill="network"), ws)  # a new model: rendered again
+    assert seen and set(seen) == {"darkest"}
+
+
+def GNFR_of(ws, load_weights, read_metadata):
+    """The tiny model at WS/model/gnfr.safetensors and its metadata."""
+    from gnfr.model import GNFR
+
+    cfg, meta = read_metadata(ws.model_file)
+    model = GNFR(cfg)
+    load_weights(model, ws.model_file)
+    return model, meta
