@@ -1,13 +1,13 @@
 """How much of a flare region can the Point Sampler fill from clean source pixels?
 
-    python benchmarks/flare_coverage.py WS SCENE [--samples 24] [--rays 2000]
+    python benchmarks/flare_coverage.py WS SCENE [--samples 24] [--rays 2000] [--sources 6]
 
 WS is a workspace that ran mask and select (e.g. an eval variant, EVAL/variants/gnfr);
 SCENE the synth folder with ``masks_gt``. For rays through the true flare region of every
 flared input view, points are placed as the renderer does (uniform in inverse depth between
 the view's near and far) and projected into the sources `render --path inputs` would use;
 it prints, per view, the fraction of points that land on flare (WS/masks) in every source
-that sees them: there the Point Sampler has nothing clean to attend to and falls back to
+that sees them (``--sources``: how many sources, the render's ``--n-sources``, default 6): there the Point Sampler has nothing clean to attend to and falls back to
 validity-only attention. Geometry only, no network.
 """
 
@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 
-def coverage(ws: Path, scene: Path, samples: int = 24, rays: int = 2000) -> dict[str, float]:
+def coverage(ws: Path, scene: Path, samples: int = 24, rays: int = 2000,
+             sources: int = 6) -> dict[str, float]:
     from pipeline.render import RenderConfig, input_sources
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_cameras, read_mask, read_mask_file, read_views
@@ -27,7 +28,7 @@ def coverage(ws: Path, scene: Path, samples: int = 24, rays: int = 2000) -> dict
     w = Workspace(ws)
     cams = read_cameras(w).by_stem()
     views = read_views(w).to_json()["views"]  # the JSON form render.input_sources takes
-    cfg = RenderConfig(n_sources=6, pool=20)
+    cfg = RenderConfig(n_sources=sources, pool=20)
     masks = {s: read_mask(w, s, (f.width, f.height)) for s, f in cams.items()}
     out = {}
     for s in views:
@@ -69,11 +70,12 @@ def main() -> None:
     ap.add_argument("scene", type=Path)
     ap.add_argument("--samples", type=int, default=24)
     ap.add_argument("--rays", type=int, default=2000)
+    ap.add_argument("--sources", type=int, default=6)
     a = ap.parse_args()
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
-    res = coverage(a.workspace, a.scene, a.samples, a.rays)
+    res = coverage(a.workspace, a.scene, a.samples, a.rays, a.sources)
     for s, v in res.items():
         print(f"{s}: {100 * v:.1f} % of flare-region points on flare in every source")
     print(f"mean over {len(res)} views: {100 * float(np.mean(list(res.values()))):.1f} %")

@@ -16,10 +16,11 @@ session").
         # photos' own cameras rendered as novel frames too and scored (``keys_path_json``)
     python benchmarks/fmg_photo_ab.py rerender SYNTH --from-arm BASE --arm NAME --seed S \
         --work DIR [--depth-args "--sgm 0.1,1"] [--render-args=--bf16] \
-        [--novel-args "--sources-equal-below 1"] [--keys]
+        [--novel-args "--sources-equal-below 1"] [--inputs-args "--n-sources 12"] [--keys]
         # BASE's workspace copied, the depth stage rerun with the options (if any), the
         # de-flared photos and held-out cameras rendered again with BASE's model (with the
-        # render options; --novel-args: the held-out cameras' render only); scored as ``run``
+        # render options; --novel-args: the held-out cameras' render only; --inputs-args:
+        # the de-flared photos' only); scored as ``run``
     python benchmarks/fmg_photo_ab.py judge DIR --candidate NAME --baseline NAME \
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
         [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed|keys|keys-guard]
@@ -166,15 +167,17 @@ def run_arm(synth: Path, arm: str, weights: Path, seed: int, work: Path,
 
 
 def render_steps(synth: Path, ws: Path, render_args: list[str],
-                 novel_args: list[str] | tuple = (), keys: bool = False) -> list[list[str]]:
-    """An arm's renders: the de-flared photos, then the eval's held-out cameras at half
-    size (with ``novel_args`` too), and with ``keys`` the photos' own cameras as a novel
-    path at half size (``keys_path_json``; with ``novel_args``); all with ``render_args``.
+                 novel_args: list[str] | tuple = (), keys: bool = False,
+                 inputs_args: list[str] | tuple = ()) -> list[list[str]]:
+    """An arm's renders: the de-flared photos (with ``inputs_args`` too), then the eval's
+    held-out cameras at half size (with ``novel_args`` too), and with ``keys`` the photos'
+    own cameras as a novel path at half size (``keys_path_json``; with ``novel_args``); all
+    with ``render_args``.
     The cameras are scored one by one, not watched: ``--source-fade 0`` (the photos' own
     cameras lie within a fade's reach of each other) and ``--path-exposure 0`` (each at its
     sources' exposure, as these renders always were)."""
     held = synth / "eval.ws" / "eval" / "heldout_cameras.json"
-    steps = [["render", str(ws), "--path", "inputs", *render_args],
+    steps = [["render", str(ws), "--path", "inputs", *inputs_args, *render_args],
              ["render", str(ws), "--path", str(held), "--scale", "0.5", "--source-fade", "0",
               "--path-exposure", "0", *novel_args, *render_args]]
     if keys:
@@ -237,11 +240,13 @@ def _run_and_score(synth: Path, ws: Path, steps: list[list[str]], out: Path,
 
 def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                  depth_args: list[str], render_args: list[str] | None = None,
-                 novel_args: list[str] | None = None, keys: bool = False) -> Path:
+                 novel_args: list[str] | None = None, keys: bool = False,
+                 inputs_args: list[str] | None = None) -> Path:
     """A copy of ``base_arm``'s workspace (``run``'s) with the depth stage rerun with
     ``depth_args`` (when given) and the de-flared photos and held-out cameras rendered again
-    by the same model (not fine-tuned again), with ``render_args`` (and ``novel_args`` for
-    the held-out cameras alone); scored as ``run`` scores. Returns the result file."""
+    by the same model (not fine-tuned again), with ``render_args`` (``novel_args`` for the
+    held-out cameras alone, ``inputs_args`` for the de-flared photos alone); scored as
+    ``run`` scores. Returns the result file."""
     from pipeline.errors import UserError
 
     scene = scene_short(synth)
@@ -252,7 +257,8 @@ def rerender_arm(synth: Path, base_arm: str, arm: str, seed: int, work: Path,
                         f"--seed {seed} --work {work} ...)")
     ws = _copy_once(base, work / f"{scene}_{arm}_s{seed}.ws", "deflared", "renders")
     steps = [["depth", str(ws), "--force", *depth_args]] if depth_args else []
-    steps += render_steps(synth, ws, render_args or [], novel_args or [], keys)
+    steps += render_steps(synth, ws, render_args or [], novel_args or [], keys,
+                          inputs_args or [])
     return _run_and_score(synth, ws, steps, work / result_name(arm, scene, seed), keys)
 
 
@@ -425,6 +431,9 @@ def main(argv: list[str] | None = None) -> int:
     rr.add_argument("--novel-args", default="",
                     help='options of the held-out cameras\' render alone, e.g. '
                          '"--sources-equal-below 1"')
+    rr.add_argument("--inputs-args", default="",
+                    help='options of the de-flared photos\' render alone, e.g. '
+                         '"--n-sources 12"')
     rr.add_argument("--keys", action="store_true",
                     help="also render the photos' own cameras as novel frames and score them")
     j = sub.add_parser("judge")
@@ -468,7 +477,8 @@ def main(argv: list[str] | None = None) -> int:
                 else:
                     out = rerender_arm(a.synth, a.from_arm, a.arm, a.seed, a.work,
                                        shlex.split(a.depth_args), shlex.split(a.render_args),
-                                       shlex.split(a.novel_args), a.keys)
+                                       shlex.split(a.novel_args), a.keys,
+                                       shlex.split(a.inputs_args))
             except subprocess.CalledProcessError as e:
                 step = f"deflare-scene {e.cmd[3]}" if e.cmd[1] == "-m" else Path(e.cmd[1]).name
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "

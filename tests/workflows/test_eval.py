@@ -613,7 +613,8 @@ def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch
     """``run --render-args`` and ``rerender --render-args`` give the options to both renders
     (the de-flared photos and the held-out cameras); ``rerender`` without depth options
     keeps the base arm's depth maps (no depth step); ``rerender --novel-args`` gives its
-    options to the held-out cameras' render alone."""
+    options to the held-out cameras' render alone, ``--inputs-args`` to the de-flared
+    photos' alone."""
     m = _photo_ab()
     steps = {}
     monkeypatch.setattr(m, "_run_and_score",
@@ -633,6 +634,9 @@ def test_photo_ab_arms_pass_render_options_to_both_renders(tmp_path, monkeypatch
     m.rerender_arm(synth, "c", "n", 3, tmp_path, [], [], ["--sources-equal-below", "1"])
     photos, held = steps["sceaux_n_s3.ws"]
     assert "--sources-equal-below" not in photos and held[-2:] == ["--sources-equal-below", "1"]
+    m.rerender_arm(synth, "c", "i", 3, tmp_path, [], [], [], inputs_args=["--n-sources", "12"])
+    photos, held = steps["sceaux_i_s3.ws"]
+    assert photos[-2:] == ["--n-sources", "12"] and "--n-sources" not in held
     # --keys: a third render, the photos' own cameras as a novel path, with the novel options
     (synth / "cameras_gt.json").write_text("{}")
     monkeypatch.setattr(m, "keys_path_json", lambda s, ws: ws / "eval" / "input_cameras.json")
