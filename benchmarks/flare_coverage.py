@@ -1,14 +1,16 @@
 """How much of a flare region can the Point Sampler fill from clean source pixels?
 
     python benchmarks/flare_coverage.py WS SCENE [--samples 24] [--rays 2000] [--sources 6]
+        [--out RESULT.json]
 
 WS is a workspace that ran mask and select (e.g. an eval variant, EVAL/variants/gnfr);
 SCENE the synth folder with ``masks_gt``. For rays through the true flare region of every
 flared input view, points are placed as the renderer does (uniform in inverse depth between
 the view's near and far) and projected into the sources `render --path inputs` would use;
 it prints, per view, the fraction of points that land on flare (WS/masks) in every source
-that sees them (``--sources``: how many sources, the render's ``--n-sources``, default 6): there the Point Sampler has nothing clean to attend to and falls back to
-validity-only attention. Geometry only, no network.
+that sees them (``--sources``: how many, the render's ``--n-sources``; default 6, the `quick`
+model's count): there the Point Sampler has nothing clean to attend to and falls back
+(``finetune --flare-fallback``). Geometry only, no network; ``--out`` writes the fractions.
 """
 
 from __future__ import annotations
@@ -71,6 +73,7 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=24)
     ap.add_argument("--rays", type=int, default=2000)
     ap.add_argument("--sources", type=int, default=6)
+    ap.add_argument("--out", type=Path, default=None, help="also write the fractions here")
     a = ap.parse_args()
     from workflows.threads import apply_thread_policy
 
@@ -78,7 +81,15 @@ def main() -> None:
     res = coverage(a.workspace, a.scene, a.samples, a.rays, a.sources)
     for s, v in res.items():
         print(f"{s}: {100 * v:.1f} % of flare-region points on flare in every source")
-    print(f"mean over {len(res)} views: {100 * float(np.mean(list(res.values()))):.1f} %")
+    mean = float(np.mean(list(res.values())))
+    print(f"mean over {len(res)} views: {100 * mean:.1f} %")
+    if a.out is not None:
+        from pipeline.provenance import write_result
+
+        write_result(a.out, {"workspace": str(a.workspace), "scene": str(a.scene),
+                             "sources": a.sources, "samples": a.samples, "rays": a.rays,
+                             "views": {s: round(v, 4) for s, v in res.items()},
+                             "mean": round(mean, 4)})
 
 
 if __name__ == "__main__":

@@ -117,7 +117,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     device = resolve_device(cfg.device)
     ckpt = find_checkpoint(ws, cfg.checkpoint)
     meta = train_meta(ckpt)
-    cfg = replace(cfg, n_sources=int(cfg.n_sources or meta.get("eval_views") or 10))
+    cfg = replace(cfg, n_sources=cfg.source_count(meta.get("eval_views")))
     use_photos = cfg.fill == "hybrid" and ws.depth.is_dir()
     if cfg.fill == "hybrid" and not use_photos:
         warn(f"render: no {ws.depth} (run `deflare-scene depth {shell_path(ws.root)}`): GN-FR "

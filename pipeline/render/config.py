@@ -26,6 +26,14 @@ where a mask's misses bring flare in, so the least flared sources serve them bes
 twenty-sixth session); 0 before."""
 
 
+INPUTS_SOURCES = 12
+"""The de-flared photos' source count when ``n_sources`` is not given (or the model's own
+count when it is larger; every other view when fewer): on lund, the one development scene
+with more than 12 photos, 42 % of the points along the rays through the flare fall on flare
+in every one of 6 sources and 27 % with 12, and the photos' flare region rose 0.18-0.23 dB
+(docs/history/gnfr.md, "Sixty-seventh session"). Novel frames keep the model's count."""
+
+
 NOVEL_NEAREST_SOURCE = True
 """``RenderConfig.nearest_source`` of novel frames when not given: whether the input view
 nearest a novel camera is always one of its sources, however flared. On since the
@@ -180,7 +188,8 @@ class RenderConfig:
     blend it into the original (into WS/deflared_full/)."""
     n_sources: int | None = option(None, ge=1)
     """Source views per frame, the least flared of the nearest ``pool`` (default: the
-    checkpoint's eval_views, else 10)."""
+    checkpoint's eval_views, else 10; for the de-flared photos at least ``INPUTS_SOURCES``,
+    12)."""
     pool: int = option(20, ge=1)
     """Nearest views from which the ``n_sources`` least-flared are kept."""
     sources_equal_below: float | None = option(None, ge=0, le=1)
@@ -329,6 +338,15 @@ class RenderConfig:
         if self.sources_equal_below is not None:
             return float(self.sources_equal_below)
         return NOVEL_SOURCES_EQUAL_BELOW if novel else 0.0
+
+    def source_count(self, eval_views: int | None) -> int:
+        """``n_sources`` as it applies: the option when given, else the model's
+        ``eval_views`` (10 without one), at least ``INPUTS_SOURCES`` for the de-flared
+        photos (``path`` inputs)."""
+        if self.n_sources:
+            return int(self.n_sources)
+        n = int(eval_views or 10)
+        return max(n, INPUTS_SOURCES) if self.path == "inputs" else n
 
     def keeps_nearest(self) -> bool:
         """``nearest_source`` as it applies to a novel frame: the option when given, else

@@ -1594,3 +1594,25 @@ def GNFR_of(ws, load_weights, read_metadata):
     model = GNFR(cfg)
     load_weights(model, ws.model_file)
     return model, meta
+
+
+def test_de_flared_photos_default_to_more_sources_than_novel_frames(tmp_path):
+    """Without --n-sources the de-flared photos take at least ``INPUTS_SOURCES`` sources
+    (the model's count when larger), novel frames the model's ``eval_views`` (10 without
+    one); --n-sources sets both. The photos' render records the count it used."""
+    import pipeline.render as R
+    from pipeline.render.config import INPUTS_SOURCES
+
+    assert INPUTS_SOURCES == 12
+    cfg = R.RenderConfig()
+    assert cfg.path == "inputs" and cfg.source_count(6) == 12 and cfg.source_count(16) == 16
+    assert cfg.source_count(None) == 12
+    novel = R.RenderConfig(path="interpolate")
+    assert novel.source_count(6) == 6 and novel.source_count(None) == 10
+    assert R.RenderConfig(n_sources=4).source_count(6) == 4
+    assert R.RenderConfig(path="spiral", n_sources=4).source_count(6) == 4
+    ws = make_render_ws(tmp_path / "ws")  # its model's eval_views: 3; 4 other views
+    R.run(R.RenderConfig(fill="network"), ws)
+    assert ws.stage_record("render:inputs")["params"]["n_sources"] == 12
+    R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), ws)
+    assert ws.stage_record("render:interpolate")["params"]["n_sources"] == 3
