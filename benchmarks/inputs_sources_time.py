@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -32,32 +31,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    try:
-        counts = [int(x) for x in a.sources.split(",")]
-    except ValueError:
-        raise SystemExit(f"--sources {a.sources!r}: give counts such as 6,12") from None
-    if a.repeats < 1 or not counts or min(counts) < 1:
-        raise SystemExit("--sources and --repeats: give at least 1")
+    from benchmarks.render_speed import parse_counts
+
+    counts = parse_counts(a.sources, "--sources")
+    if a.repeats < 1:
+        raise SystemExit("--repeats: give at least 1")
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy(1)  # one thread, as each of the render's processes runs
     import cv2
 
     from pipeline import render
-    from pipeline.errors import UserError
     from pipeline.provenance import write_result
     from pipeline.ws_files import read_cameras
-    from workflows.research.bench import check_workspace
-    from workflows.research.eval.workspaces import shared_workspace
+    from workflows.research.bench import scratch_workspace
 
     cv2.setNumThreads(1)
-    try:
-        base, ckpt = check_workspace(a.workspace)
-    except UserError as e:
-        raise SystemExit(str(e)) from None
     best = {n: math.inf for n in counts}
-    with tempfile.TemporaryDirectory(prefix="deflare-sources-") as tmp:
-        ws = shared_workspace(base, Path(tmp) / "ws")
+    with scratch_workspace(a.workspace, "deflare-sources-") as (base, ckpt, ws):
         photos = len(read_cameras(ws).stems)
         for rep in range(a.repeats):
             for n in counts:

@@ -20,7 +20,6 @@ import argparse
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -48,20 +47,13 @@ def main(argv: list[str] | None = None) -> int:
     from benchmarks.render_speed import frame_diff, frame_pixels
     from gnfr.renderer import native_bf16
     from pipeline import render
-    from pipeline.errors import UserError
     from pipeline.provenance import write_result
-    from workflows.research.bench import check_workspace
-    from workflows.research.eval.workspaces import shared_workspace
+    from workflows.research.bench import scratch_workspace
 
     cv2.setNumThreads(1)
-    try:
-        base, ckpt = check_workspace(a.workspace)
-    except UserError as e:
-        raise SystemExit(str(e)) from None
     best = {"fp32": math.inf, "bf16": math.inf}
     frames = {}
-    with tempfile.TemporaryDirectory(prefix="deflare-bf16-") as tmp:
-        ws = shared_workspace(base, Path(tmp) / "ws")
+    with scratch_workspace(a.workspace, "deflare-bf16-") as (base, ckpt, ws):
         for rep in range(a.repeats):
             for mode in ("fp32", "bf16"):
                 rc = render.RenderConfig(path="interpolate", frames=a.frames, device="cpu",

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -80,20 +79,13 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     from pipeline import render
-    from pipeline.errors import UserError
     from pipeline.provenance import write_result
-    from workflows.research.bench import check_workspace
-    from workflows.research.eval.workspaces import shared_workspace
+    from workflows.research.bench import scratch_workspace
 
-    try:
-        base, ckpt = check_workspace(a.workspace)
-    except UserError as e:
-        raise SystemExit(str(e)) from None
     best = {p: math.inf for p in pairs}
     passes: dict[tuple, list[float]] = {p: [] for p in pairs}
     diffs: dict[tuple, tuple[int, int]] = {}
-    with tempfile.TemporaryDirectory(prefix="deflare-speed-") as tmp:
-        ws = shared_workspace(base, Path(tmp) / "ws")
+    with scratch_workspace(a.workspace, "deflare-speed-") as (base, ckpt, ws):
         first = None
         for rep in range(a.repeats):
             for c, w in pairs:

@@ -1195,6 +1195,32 @@ def test_render_speed_compares_frames_and_names_bad_settings(tmp_path):
     assert rs.frame_diff(rs.frame_pixels(a), rs.frame_pixels(b)) == (-1, -1)
 
 
+def test_benchmarks_render_in_a_scratch_copy_and_name_what_a_workspace_lacks(tmp_path):
+    """``scratch_workspace`` (the render benchmarks' copy): a workspace without depth maps is
+    a one-line error naming the depth stage; with them the benchmark gets the workspace, its
+    model and a scratch workspace elsewhere that shares its stages and is gone after, the
+    workspace untouched. inputs_sources_time.py names a bad ``--sources``."""
+    from tests.pipeline.test_render import make_render_ws
+    from workflows.research.bench import scratch_workspace
+
+    ws = make_render_ws(tmp_path / "ws")
+    with pytest.raises(SystemExit, match="depth"), scratch_workspace(ws.root, "t-"):
+        pass
+    ws.depth.mkdir()
+    before = sorted(p.relative_to(ws.root) for p in ws.root.rglob("*"))
+    with scratch_workspace(ws.root, "t-") as (base, ckpt, scratch):
+        assert base.root == ws.root and ckpt == ws.model_file
+        assert scratch.root != ws.root and scratch.stage_record("pose")
+        assert sorted(p.name for p in scratch.images.iterdir()) == \
+            sorted(p.name for p in ws.images.iterdir())
+        kept = scratch.root
+    assert not kept.exists()
+    assert sorted(p.relative_to(ws.root) for p in ws.root.rglob("*")) == before
+    bench = load_benchmark("inputs_sources_time")
+    with pytest.raises(SystemExit, match="--sources"):
+        bench.main(["--workspace", str(ws.root), "--sources", "0,6"])
+
+
 def test_keys_rule_asks_the_frames_at_the_photos_and_holds_the_held_out_views():
     """``--rule keys``: +0.25 dB at the photos' cameras everywhere passes; a mean gain with
     one scene -0.06 fails (a); their flare region -0.11 on the mean fails (b); held-out -0.21

@@ -430,6 +430,25 @@ def check_workspace(path: Path) -> tuple:
     return ws, ckpt
 
 
+@contextlib.contextmanager
+def scratch_workspace(path: Path, prefix: str):
+    """For a benchmark's ``--workspace``: yields (workspace, checkpoint, scratch), scratch a
+    workspace in a temporary folder sharing the workspace's stages (hard links), which the
+    benchmark renders into and which is removed after; what the workspace lacks is its
+    one-line error as ``SystemExit``. The workspace itself is not written to."""
+    import tempfile
+
+    from pipeline.errors import UserError
+    from workflows.research.eval.workspaces import shared_workspace
+
+    try:
+        base, ckpt = check_workspace(path)
+    except UserError as e:
+        raise SystemExit(str(e)) from None
+    with tempfile.TemporaryDirectory(prefix=prefix) as tmp:
+        yield base, ckpt, shared_workspace(base, Path(tmp) / "ws")
+
+
 def bench_fill(cfg: BenchConfig, device: str, checked: tuple | None = None) -> dict:
     """Seconds per novel frame of the workspace's interpolate path at each of
     ``fill_widths``: the render stage with ``--fill network`` and with ``--fill hybrid``,
