@@ -1664,3 +1664,11 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     assert (f"lund's 13 de-flared photos at 504 px render in {t['seconds']['12']:.1f} s against "
             f"{t['seconds']['6']:.1f} s") in history
     assert f"render in about {t['seconds']['12'] / t['seconds']['6']:.1f}x the time" in options
+    start, head = (json.loads((RESULTS / f"sample_oneshot_cpu_s67_{n}.json").read_text())
+                   for n in ("start", "head"))
+    assert start["mean"]["psnr_input"] == head["mean"]["psnr_input"]  # the same photos
+    assert (f"the de-flared photos {head['mean']['psnr']:.2f} dB against "
+            f"{start['mean']['psnr']:.2f} over the whole photo, "
+            f"{head['mean']['psnr_flare']:.2f} against {start['mean']['psnr_flare']:.2f} in the "
+            f"flare region; their render {head['stages']['render:inputs']['seconds']:.1f} s "
+            f"against {start['stages']['render:inputs']['seconds']:.1f} s") in history
