@@ -1672,3 +1672,20 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
             f"{head['mean']['psnr_flare']:.2f} against {start['mean']['psnr_flare']:.2f} in the "
             f"flare region; their render {head['stages']['render:inputs']['seconds']:.1f} s "
             f"against {start['stages']['render:inputs']['seconds']:.1f} s") in history
+    def lund_means(arm):
+        runs = [json.loads((RESULTS / f"fmg_s67_{arm}_fair_lund_s{s}.json").read_text())
+                for s in (2, 3)]
+        return {k: np.mean([r[part][m] for r in runs]) for k, part, m in (
+            ("flare", "inputs", "psnr_flare"), ("whole", "inputs", "psnr"),
+            ("held", "heldout", "psnr"), ("held_ssim", "heldout", "ssim"))}
+
+    v12, in12, base = lund_means("v12"), lund_means("in12"), lund_means("base")
+    assert (f"flare region {v12['flare']:.2f} dB against {in12['flare']:.2f} with the same 12 "
+            f"sources at render, the whole photo {v12['whole']:.2f} against "
+            f"{in12['whole']:.2f}, the held-out views {v12['held']:.2f} dB against "
+            f"{base['held']:.2f} (SSIM {v12['held_ssim']:.4f} against "
+            f"{base['held_ssim']:.4f})") in history
+    rr12 = json.loads((RESULTS / "fmg_s67_base_rr12_fair_lund_s2.json").read_text())
+    base2 = json.loads((RESULTS / "fmg_s67_base_fair_lund_s2.json").read_text())
+    assert f"cost lund's held-out views " \
+           f"{base2['heldout']['psnr'] - rr12['heldout']['psnr']:.2f} dB" in history
