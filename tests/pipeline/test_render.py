@@ -1553,7 +1553,7 @@ def test_flare_fallback_is_the_model_s_unless_render_is_told_and_is_recorded(tmp
     existed is up to date at ``valid``."""
     import gnfr.renderer as gr
     import pipeline.render as R
-    from gnfr.checkpoint import load_weights, read_metadata, save_model
+    from gnfr.checkpoint import save_model
 
     seen = []
     real = gr.attention_mask
@@ -1580,19 +1580,20 @@ def test_flare_fallback_is_the_model_s_unless_render_is_told_and_is_recorded(tmp
     seen.clear()
     R.run(R.RenderConfig(path="inputs", fill="network"), ws)
     assert not seen  # up to date
-    model, meta = GNFR_of(ws, load_weights, read_metadata)
+    model, meta = _model_and_meta(ws.model_file)
     save_model(ws.model_file, model, {**meta, "flare_fallback": "darkest"})
     R.run(R.RenderConfig(path="inputs", fill="network"), ws)  # a new model: rendered again
     assert seen and set(seen) == {"darkest"}
 
 
-def GNFR_of(ws, load_weights, read_metadata):
-    """The tiny model at WS/model/gnfr.safetensors and its metadata."""
+def _model_and_meta(path):
+    """The GN-FR model saved at ``path`` and its metadata."""
+    from gnfr.checkpoint import load_weights, read_metadata
     from gnfr.model import GNFR
 
-    cfg, meta = read_metadata(ws.model_file)
+    cfg, meta = read_metadata(path)
     model = GNFR(cfg)
-    load_weights(model, ws.model_file)
+    load_weights(model, path)
     return model, meta
 
 
@@ -1614,5 +1615,7 @@ def test_de_flared_photos_default_to_more_sources_than_novel_frames(tmp_path):
     ws = make_render_ws(tmp_path / "ws")  # its model's eval_views: 3; 4 other views
     R.run(R.RenderConfig(fill="network"), ws)
     assert ws.stage_record("render:inputs")["params"]["n_sources"] == 12
+    views = json.loads(ws.views_json.read_text())["views"]
+    assert len(R.input_sources(FLARED, views, R.RenderConfig(n_sources=12))) == 4  # all
     R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), ws)
     assert ws.stage_record("render:interpolate")["params"]["n_sources"] == 3
