@@ -30,7 +30,9 @@ as ``benchmarks/score_workspace.py`` does) inside the true flare region in two p
 pixels two or more of the view's ``--neighbours`` nearest photos reach unflared (their
 warps by ARM_WS's depth hold and ARM_WS's masks leave them: where the fill may take the
 photos; whether they agree there is not checked) and the rest, where the fill under the
-flare layer is the network's. For each part it says how much of the error is a mean offset
+flare layer is the network's; and split again by the arm's blend region (``input_blend`` at
+the render's defaults): the pixels it leaves as photographed ("left": the mask missed them)
+and the rest ("blended"). For each part it says how much of the error is a mean offset
 (a cast or a wrong brightness), and for the whole region what the render would have made
 with a perfect fill (the clean photo as the fill, the arm's blend region and flare layer at
 the render's defaults). The file also holds, per view, the light the synthetic flare adds
@@ -121,7 +123,9 @@ def transfer_rows(synth: Path, ws, gains: dict, neighbours: int) -> dict:
 def split_rows(synth: Path, arm, neighbours: int) -> dict:
     """{stem: {"psnr_reached", "psnr_drawn", "share_reached", "pixels", ...}} of an arm's
     de-flared photos inside the true flare region, split by whether two or more unflared
-    neighbours reach a pixel (module docstring); per part also the mean signed error per
+    neighbours reach a pixel and by whether the render's blend region leaves it as
+    photographed ("left", "blended", "share_left"; module docstring); per part also the
+    mean signed error per
     channel ("bias_*", sRGB 0..1: a cast or a wrong brightness) and the share of the squared
     error it explains ("bias_share_*"); pooled squared errors in "sq" for means."""
     from pipeline.depth import load_views, nearest_views
@@ -148,13 +152,17 @@ def split_rows(synth: Path, arm, neighbours: int) -> dict:
         clean = truth.astype(np.float32) / 255.0
         e = (_read_rgb(f).astype(np.float64) - truth) / 255.0
         d = (e ** 2).mean(-1)
+        filled, alpha = perfect_fill(arm, by[t], clean)
+        ideal = filled - clean
+        left = alpha <= 0.5 / 255  # outside the render's blend region: the photo as it was
         row = {"pixels": int(region.sum()),
-               "share_reached": round(float(reached[region].mean()), 4), "sq": {}}
-        ideal = perfect_fill(arm, by[t], clean) - clean
+               "share_reached": round(float(reached[region].mean()), 4),
+               "share_left": round(float(left[region].mean()), 4), "sq": {}}
         for name, err in (("region", e), ("perfect_fill", ideal)):
             row[f"psnr_{name}"] = round(float(-10 * np.log10((err[region] ** 2).mean())), 3)
             row[f"bias_{name}"] = [round(float(b), 4) for b in err[region].mean(0)]
-        for name, m in (("reached", region & reached), ("drawn", region & ~reached)):
+        for name, m in (("reached", region & reached), ("drawn", region & ~reached),
+                        ("left", region & left), ("blended", region & ~left)):
             n = int(m.sum())
             row["sq"][name] = [float(d[m].sum()), n]
             if n:
@@ -166,10 +174,11 @@ def split_rows(synth: Path, arm, neighbours: int) -> dict:
     return out
 
 
-def perfect_fill(ws, frame, clean: np.ndarray) -> np.ndarray:
+def perfect_fill(ws, frame, clean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The de-flared photo [H, W, 3] (float sRGB 0..1) the render stage would make of a view
     of ``ws`` if its fill were the truth: the view's blend region and flare layer at the
-    render's defaults (``pipeline.render.inputs``), ``clean`` in place of the fill."""
+    render's defaults (``pipeline.render.inputs``), ``clean`` in place of the fill; and the
+    blend's alpha [H, W] (0: the photo kept as it was)."""
     from pipeline.render.config import RenderConfig
     from pipeline.render.flare_layer import apply_flare_layer
     from pipeline.render.inputs import input_blend
@@ -182,7 +191,7 @@ def perfect_fill(ws, frame, clean: np.ndarray) -> np.ndarray:
     out = photo.astype(np.float32) / 255.0
     a = alpha[..., None]
     filled = np.where((alpha > 0.5 / 255)[..., None], out * (1 - a) + clean * a, out)
-    return apply_flare_layer(out, filled, alpha, cfg)
+    return apply_flare_layer(out, filled, alpha, cfg), alpha
 
 
 def faint_flare(synth: Path) -> dict:

@@ -1689,3 +1689,17 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     base2 = json.loads((RESULTS / "fmg_s67_base_fair_lund_s2.json").read_text())
     assert f"cost lund's held-out views " \
            f"{base2['heldout']['psnr'] - rr12['heldout']['psnr']:.2f} dB" in history
+    def levels(arm, part):
+        return {v: 255 * np.mean(r[f"bias_{part}"]) for v, r in rt[arm]["views"].items()
+                if f"bias_{part}" in r}
+
+    shares = [100 * r["share_left"] for r in rt["base"]["views"].values()]
+    assert f"the mask misses {round(min(shares))}-{round(max(shares))} % of each true region" \
+        in history
+    left = levels("base", "left")
+    assert left == levels("in12", "left")  # the same masks leave the same pixels
+    assert f"with {min(left.values()):.1f}-{max(left.values()):.1f} levels of flare" in history
+    b6, b12 = levels("base", "blended"), levels("in12", "blended")
+    assert (f"the offset is {min(b6.values()):.1f}-{max(b6.values()):.1f} levels with 6 "
+            f"sources and {min(b12.values()):.1f}-{max(b12.values()):.1f} with 12 (view 05: "
+            f"{b6['05']:.1f} to {b12['05']:.1f})") in history

@@ -403,7 +403,7 @@ def test_the_round_trip_benchmark_splits_the_flare_region_by_what_the_photos_rea
     """benchmarks/exposure_roundtrip.py --deflared: on four views of a plane with exact depth,
     a de-flared region 20 levels too bright scores as that offset (all of its error a mean
     offset), reached by the neighbours when they are unflared there and drawn when their
-    masks cover it."""
+    masks cover it; left as photographed where no mask marks it, blended where one does."""
     import cv2
 
     from pipeline.cameras import load_cameras
@@ -447,6 +447,11 @@ def test_the_round_trip_benchmark_splits_the_flare_region_by_what_the_photos_rea
         np.testing.assert_allclose(r["bias_reached"], [20 / 255] * 3, atol=2e-3)
     assert all(r["share_reached"] < 0.3 and r["bias_share_drawn"] > 0.99
                for r in masked_rows.values())
+    for r in open_rows.values():  # no mask: the render leaves the whole region as it was
+        assert r["share_left"] == 1.0 and "psnr_blended" not in r
+        np.testing.assert_allclose(r["bias_left"], [20 / 255] * 3, atol=2e-3)
     for r in masked_rows.values():  # the truth as the fill: nearly the truth comes out
+        assert r["share_left"] == 0.0 and "psnr_left" not in r
+        np.testing.assert_allclose(r["bias_blended"], [20 / 255] * 3, atol=2e-3)
         assert r["psnr_perfect_fill"] > 30 > r["psnr_region"]
         assert np.abs(r["bias_perfect_fill"]).max() < 2 / 255
