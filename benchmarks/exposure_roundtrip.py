@@ -125,9 +125,9 @@ def split_rows(synth: Path, arm, neighbours: int) -> dict:
     de-flared photos inside the true flare region, split by whether two or more unflared
     neighbours reach a pixel and by whether the render's blend region leaves it as
     photographed ("left", "blended", "share_left"; module docstring); per part also the
-    mean signed error per
-    channel ("bias_*", sRGB 0..1: a cast or a wrong brightness) and the share of the squared
-    error it explains ("bias_share_*"); pooled squared errors in "sq" for means."""
+    mean signed error per channel ("bias_*", sRGB 0..1: a cast or a wrong brightness) and
+    the share of the squared error it explains ("bias_share_*"); pooled squared errors in
+    "sq" for means."""
     from pipeline.depth import load_views, nearest_views
     from pipeline.stereo import warp_sources
     from pipeline.ws_files import read_cameras

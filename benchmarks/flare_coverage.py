@@ -78,7 +78,12 @@ def main() -> None:
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
-    res = coverage(a.workspace, a.scene, a.samples, a.rays, a.sources)
+    from pipeline.errors import UserError
+
+    try:
+        res = coverage(a.workspace, a.scene, a.samples, a.rays, a.sources)
+    except UserError as e:
+        raise SystemExit(str(e)) from None
     for s, v in res.items():
         print(f"{s}: {100 * v:.1f} % of flare-region points on flare in every source")
     mean = float(np.mean(list(res.values())))
