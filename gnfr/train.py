@@ -51,6 +51,11 @@ class TrainConfig:
     (``mirrored``: every view flipped left-right, its camera reflected), twice the views of
     one scene for the same number of steps. Pretraining adds mirrored scenes instead
     (``pretrain --mirror``)."""
+    source_flare: float = 0.0
+    """Fine-tuning: the share of steps (drawn at random) whose sources are read from a flared
+    twin of the scene (``pipeline.source_flare``: one more synthetic flare, masked, on every
+    view) while the target stays as photographed: the masking loss then trains points that
+    every source shows on flare. Pretraining ignores it (0: never, as before)."""
     eval_views: int = 10
     """Source views at render / evaluation time (nearest least-flared)."""
     lr_encoder: float = 5e-4

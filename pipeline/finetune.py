@@ -114,6 +114,11 @@ class FinetuneConfig:
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
     second copy of the scene, so a few photos give the model twice the views to learn from.
     Off by default (docs/history/gnfr.md, "Twentieth session")."""
+    source_flare: float = option(0.0, ge=0, le=1)
+    """Share of the training steps whose sources carry one more synthetic flare, drawn as
+    ``synth`` draws it from a light placed in the scene and masked exactly, while the target
+    stays as photographed (``pipeline.source_flare``): what every source shows on flare is
+    then trained against a view that shows it clean. 0 (off) by default."""
     exposure_match: bool = True
     """Train on every view brought to the views' common exposure (one gain per view and
     channel from the depth maps, ``pipeline.exposure``; without the depth stage the views
@@ -235,7 +240,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   random_sources=bool(config.random_sources), mirror=config.mirror,
                   full_res_colour=config.full_res_colour, edge_rays=config.edge_rays,
                   cpu_bf16=cpu_bf16(config.bf16, device),
-                  flare_fallback=config.flare_fallback)
+                  flare_fallback=config.flare_fallback, source_flare=config.source_flare)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
     if config.lr_scale is not None:
@@ -531,13 +536,27 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
         info(f"finetune: starting {how}")
     scenes = [scene, mirrored(scene)] if cfg.mirror else [scene]
     banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
+    twins = []
+    if cfg.source_flare > 0:
+        from pipeline.source_flare import TWINS, flared_twins
+
+        info(f"finetune: drawing {TWINS} flared twins of the scene's sources "
+             f"(--source-flare {cfg.source_flare:g})")
+        twins = [prepare_sources(model, t, cfg, device)
+                 for t in flared_twins(scene, cfg.seed, TWINS)]
 
     def draw(gen: torch.Generator) -> StepInput:
-        """A batch of the scene, or (``cfg.mirror``) of it or its mirror image at random."""
+        """A batch of the scene, or (``cfg.mirror``) of it or its mirror image at random;
+        with ``cfg.source_flare`` its sources are, that often, a flared twin's."""
         k = int(torch.randint(len(scenes), (1,), generator=gen)) if len(scenes) > 1 else 0
-        return StepInput(sample_batch(scenes[k], cfg, gen), *banks[k])
+        batch = sample_batch(scenes[k], cfg, gen)
+        if twins and k == 0 and float(torch.rand((), generator=gen)) < cfg.source_flare:
+            return StepInput(batch, *twins[int(torch.randint(len(twins), (1,), generator=gen))])
+        return StepInput(batch, *banks[k])
 
     def count_unseen(inp: StepInput, r: dict) -> None:
+        if any(inp.bank is b for b, _ in twins):  # unseen.json counts the photos' own flare
+            return
         unseen[inp.batch.target] += torch.tensor([r["all_flared"], 1.0], dtype=torch.float64)
 
     def meta(step: int, seconds: float) -> dict:
@@ -552,7 +571,8 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             from gnfr.ray_split import NoSharedMemory, RaySplit
 
             try:
-                split = stack.enter_context(RaySplit(model, banks, cfg, workers, threads))
+                split = stack.enter_context(RaySplit(model, banks + twins, cfg, workers,
+                                                     threads))
             except NoSharedMemory as e:
                 warn(f"finetune: {e}: training in one process (more shared memory, e.g. "
                      "Docker's `--shm-size 2g`, lets the processes share each step)")
