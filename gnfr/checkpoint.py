@@ -74,10 +74,11 @@ def read_metadata(path: str | os.PathLike) -> tuple[GNFRConfig, dict]:
 
 
 def load_weights(model: GNFR, path: str | os.PathLike) -> dict:
-    """Load weights into ``model``; CheckpointError when the architecture differs.
-    Returns the extra metadata."""
+    """Load weights into ``model``; CheckpointError when the architecture differs (a file
+    without the flare flag loads into a model with it, the flag's input weights at zero:
+    ``GNFRConfig.grown_from``). Returns the extra metadata."""
     cfg, meta = read_metadata(path)
-    if cfg.architecture() != model.config.architecture():
+    if not model.config.grown_from(cfg):
         a, b = dataclasses.asdict(cfg.architecture()), dataclasses.asdict(
             model.config.architecture())
         diff = ", ".join(f"{k} {a[k]} in the file, {b[k]} in the model" for k in a
@@ -87,6 +88,9 @@ def load_weights(model: GNFR, path: str | os.PathLike) -> dict:
 
     state = load_file(str(path))
     own = model.state_dict()
+    key = "rgbfeat_fc.0.weight"
+    if own[key].shape[1] == state[key].shape[1] + 1:  # grown: the flag's column starts at 0
+        state[key] = torch.cat([state[key], state[key].new_zeros(state[key].shape[0], 1)], 1)
     model.load_state_dict({k: v.to(own[k].dtype) for k, v in state.items()})
     return meta
 

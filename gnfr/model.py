@@ -43,11 +43,25 @@ class GNFRConfig:
     dec_norm: bool = False
     """InstanceNorm after the encoder decoder's skip-merging convolutions, as in GNT
     (``ResUNet``). A file without this key was trained without it."""
+    flare_flag: bool = False
+    """Each source's sampled colour and features carry one more input, 1 where the point is
+    on flare in that source (the Point Sampler's mask): a point on flare in every source,
+    which falls back to attending them, is then known to the network as such (not in
+    GNT or GN-FR; ``finetune --flare-flag``). Weights without it load into a model with it
+    as the same function (``grown_from``: the flag's input weights start at zero). A file
+    without this key was trained without it."""
 
     def architecture(self) -> GNFRConfig:
         """This config with what holds no weights (``dropout``) at its default: two configs
         with equal architectures load each other's weights."""
         return dataclasses.replace(self, dropout=0.0)
+
+    def grown_from(self, other: GNFRConfig) -> bool:
+        """Whether weights of architecture ``other`` load into this one: the same
+        architecture, or the same but for the flare flag, which ``other`` lacks."""
+        a, b = self.architecture(), other.architecture()
+        return a == b or (a.flare_flag and not b.flare_flag
+                          and a == dataclasses.replace(b, flare_flag=True))
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), sort_keys=True)
@@ -73,7 +87,8 @@ class GNFR(nn.Module):
         c = self.config = config
         D = c.width
         self.encoder = ResUNet(c.enc_widths, c.enc_blocks, c.feat_ch, c.dec_norm)
-        self.rgbfeat_fc = nn.Sequential(nn.Linear(c.feat_ch + 3, D), nn.ReLU(), nn.Linear(D, D))
+        self.rgbfeat_fc = nn.Sequential(nn.Linear(c.feat_ch + 3 + int(c.flare_flag), D),
+                                        nn.ReLU(), nn.Linear(D, D))
         emb = 6 + 6 * (c.n_freqs_pts + c.n_freqs_dirs)
         self.view_blocks = nn.ModuleList(
             [ViewTransformer(D, c.ff_mult, c.dropout) for _ in range(c.depth)])
@@ -94,14 +109,16 @@ class GNFR(nn.Module):
 
     def forward(self, points: torch.Tensor, viewdirs: torch.Tensor, rgb_feat: torch.Tensor,
                 rel_dir: torch.Tensor, attend: torch.Tensor, t: torch.Tensor,
-                fused: bool = True, with_depth: bool = True
+                fused: bool = True, with_depth: bool = True, flared: torch.Tensor | None = None
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """Colour and depth of each ray.
 
         points: [R, S, 3]; viewdirs: [R, 3] unit; rgb_feat: [R, S, V, 3 + C] sampled colour
         and features; rel_dir: [R, S, V, 4]; attend: [R, S, V] bool (Point Sampler mask,
         at least one True per point, see ``gnfr.transformer.attention_mask``);
-        t: [R, S] sample depths. ``fused=False`` uses the plain reference attention.
+        t: [R, S] sample depths; flared: [R, S, V] bool, where each point is on flare in
+        each view (read with ``flare_flag``; None: nowhere). ``fused=False`` uses the plain
+        reference attention.
         Returns rgb [R, 3] and depth [R] (last ray-attention weights times t), or None
         without ``with_depth`` (then the last ray block may use fused attention too).
         """
@@ -109,6 +126,10 @@ class GNFR(nn.Module):
         pe_dirs = positional_encoding(viewdirs, self.config.n_freqs_dirs)  # once per ray
         embed = torch.cat([positional_encoding(points, self.config.n_freqs_pts),
                            pe_dirs[:, None].expand(R, S, -1)], -1)
+        if self.config.flare_flag:
+            flag = (torch.zeros_like(rgb_feat[..., :1]) if flared is None
+                    else flared[..., None].to(rgb_feat.dtype))
+            rgb_feat = torch.cat([rgb_feat, flag], -1)
         feats = self.rgbfeat_fc(rgb_feat)  # [R, S, V, D]
         q = masked_max(feats, attend)  # [R, S, D]
         weights = None

@@ -216,7 +216,7 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
     rel_dir = relative_directions(points, rays_o, src.c2w[src_ids, :3, 3])
     with autocast(rays_o.device, enabled=not reference, cpu=cpu_bf16):
         rgb, depth = model(points, F.normalize(rays_d, dim=-1), rgb_feat, rel_dir, attend, t,
-                           fused=not reference, with_depth=with_depth)
+                           fused=not reference, with_depth=with_depth, flared=flared)
     return {"rgb": rgb, "depth": depth, "all_flared": all_flared.float().mean(-1)}
 
 

@@ -114,6 +114,12 @@ class FinetuneConfig:
     flipped left-right with its camera reflected (``gnfr.train.mirrored``), a consistent
     second copy of the scene, so a few photos give the model twice the views to learn from.
     Off by default (docs/history/gnfr.md, "Twentieth session")."""
+    flare_flag: bool = False
+    """Give the network, with each source's colour and features, a bit saying the point is
+    on flare in that source (``GNFRConfig.flare_flag``), so a point on flare in every
+    source is known to it as such; the shipped weights start it as the model without the
+    flag. A new architecture, recorded in the model (render reads it). Meant with
+    ``--source-flare``, which supervises such points. Off by default."""
     source_flare: float = option(0.0, ge=0, le=1)
     """Share of the training steps whose sources carry one more synthetic flare, drawn as
     ``synth`` draws it from a light placed in the scene and masked exactly, while the target
@@ -211,7 +217,8 @@ def pick_device(name: str) -> torch.device:
 
 
 def shipped_weights(cfg: TrainConfig) -> Path | None:
-    """The first shipped weight file whose architecture matches ``cfg.model`` and whose
+    """The first shipped weight file whose architecture loads into ``cfg.model``
+    (``GNFRConfig.grown_from``: the same, or without the flare flag ``cfg.model`` has) and whose
     metadata marks it for automatic use (``auto_init``; gnfr/weights/gnfr.md says when the
     shipped file earned it)."""
     for p in sorted(WEIGHTS_DIR.glob("gnfr*.safetensors")):
@@ -219,7 +226,7 @@ def shipped_weights(cfg: TrainConfig) -> Path | None:
             cfg_p, meta = read_metadata(p)
         except CheckpointError:
             continue
-        if cfg_p.architecture() == cfg.model.architecture() and meta.get("auto_init") is True:
+        if cfg.model.grown_from(cfg_p) and meta.get("auto_init") is True:
             return p
     return None
 
@@ -243,6 +250,8 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   flare_fallback=config.flare_fallback, source_flare=config.source_flare)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
+    if config.flare_flag:
+        cfg = replace(cfg, model=replace(cfg.model, flare_flag=True))
     if config.lr_scale is not None:
         cfg = replace(cfg, lr_encoder=cfg.lr_encoder * config.lr_scale,
                       lr_transformer=cfg.lr_transformer * config.lr_scale)
@@ -371,13 +380,16 @@ def init_model(cfg: TrainConfig, device: torch.device, init: str) -> tuple[GNFR,
     """A fresh model (seeded), loaded from ``init``; returns it and a line saying which.
     A start file whose encoder's decoder is normalised (``GNFRConfig.dec_norm``, `pretrain
     --dec-norm`) gets a model with the norm, so such a prior fine-tunes (and its pretraining
-    continues) as it was trained; a config that asks for the norm itself keeps it."""
+    continues) as it was trained; a config that asks for the norm itself keeps it. The same
+    for the flare flag (``GNFRConfig.flare_flag``): a start file that has it keeps it."""
     torch.manual_seed(cfg.seed)
     path = init_path(cfg, init)
     model_cfg = cfg.model
-    if path is not None and path.is_file() and not model_cfg.dec_norm:
+    if path is not None and path.is_file():
         with contextlib.suppress(CheckpointError):  # load_weights below says what is wrong
-            model_cfg = replace(model_cfg, dec_norm=read_metadata(path)[0].dec_norm)
+            start = read_metadata(path)[0]
+            model_cfg = replace(model_cfg, dec_norm=model_cfg.dec_norm or start.dec_norm,
+                                flare_flag=model_cfg.flare_flag or start.flare_flag)
     model = GNFR(model_cfg)
     if path is None:
         how = "from scratch (no shipped weights match this architecture)" \

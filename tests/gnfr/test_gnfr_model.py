@@ -239,3 +239,50 @@ def test_dec_norm_normalises_the_merging_convolutions_and_keeps_older_files_load
     assert again.config.dec_norm is True
     x = torch.rand(1, 3, 40, 56)
     assert torch.equal(again.encoder(x), normed.eval().encoder(x))
+
+
+def test_flare_flag_grows_from_weights_without_it_and_reads_the_masks(tmp_path):
+    """``flare_flag``: weights without the flag load into a model with it as the same
+    function (the flag's input weights at zero), whatever the masks; once those weights
+    move, a point's colour depends on whether its sources are on flare there; the flag
+    round-trips through the model's file, and no other architecture change loads."""
+    import dataclasses
+
+    from gnfr.checkpoint import CheckpointError, load_model, load_weights, save_model
+
+    torch.manual_seed(0)
+    plain = GNFR(TINY).eval()
+    flagged_cfg = dataclasses.replace(TINY, flare_flag=True)
+    assert flagged_cfg.grown_from(TINY) and flagged_cfg.grown_from(flagged_cfg)
+    assert not TINY.grown_from(flagged_cfg)
+    assert not flagged_cfg.grown_from(dataclasses.replace(TINY, width=24))
+    old = save_model(tmp_path / "old.safetensors", plain, {})
+    flagged = GNFR(flagged_cfg).eval()
+    load_weights(flagged, old)
+    w = flagged.rgbfeat_fc[0].weight
+    assert w.shape[1] == plain.rgbfeat_fc[0].weight.shape[1] + 1 and bool((w[:, -1] == 0).all())
+
+    imgs, K, c2w, masks = _scene()
+    o, d = pixel_rays(K[0], c2w[0], image_pixels(40, 56)[::23])
+    t = torch.linspace(1.0, 3.0, 12).expand(o.shape[0], 12)
+    ids = torch.arange(1, 4)
+    outs = {}
+    for name, m in (("masks", masks), ("all", torch.ones_like(masks)), ("none", None)):
+        for model in (plain, flagged):
+            src = SourceViews.encode(model, imgs, K, c2w, m, "cpu")
+            outs[name, model is flagged] = forward_rays(model, src, ids, o, d, t)["rgb"]
+        assert torch.allclose(outs[name, True], outs[name, False], atol=1e-6)
+
+    with torch.no_grad():
+        w[:, -1] = 0.5
+    src_all = SourceViews.encode(flagged, imgs, K, c2w, torch.ones_like(masks), "cpu")
+    src_none = SourceViews.encode(flagged, imgs, K, c2w, None, "cpu")
+    a = forward_rays(flagged, src_all, ids, o, d, t)["rgb"].detach()
+    b = forward_rays(flagged, src_none, ids, o, d, t)["rgb"].detach()
+    assert float((a - b).abs().max()) > 1e-3  # the flag now changes every all-flared point
+
+    again = load_model(save_model(tmp_path / "flag.safetensors", flagged, {}))
+    assert again.config.flare_flag is True
+    assert torch.allclose(forward_rays(again, src_all, ids, o, d, t)["rgb"], a, atol=1e-6)
+    with pytest.raises(CheckpointError, match="flare_flag True in the file, False"):
+        load_weights(GNFR(TINY), tmp_path / "flag.safetensors")

@@ -121,3 +121,26 @@ def test_finetune_source_flare_reads_twins_as_sources_and_the_scene_as_targets(
     banks.clear(), read.clear()
     run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1), ws)
     assert list(banks.values()) == [plain] and set(read) == {plain}
+
+
+def test_finetune_flare_flag_grows_the_shipped_start_and_records_the_flag(masked, tmp_path,
+                                                                          monkeypatch):
+    """--flare-flag: ``--init auto`` still starts from the shipped weights (grown by the
+    flag's input), the model's file carries the flag (render rebuilds it from the file),
+    and the stage records it."""
+    import shutil
+
+    import gnfr.train
+    from gnfr.checkpoint import load_model, read_metadata
+    from gnfr.train import QUICK
+    from pipeline.finetune import WEIGHTS_DIR
+
+    ws = type(masked)(tmp_path / "ws")
+    shutil.copytree(masked.root, ws.root)
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(QUICK, iters=2, ckpt_every=100))
+    run(FinetuneConfig(preset="quick", device="cpu", workers=1, flare_flag=True), ws)
+    cfg, meta = read_metadata(ws.model_file)
+    assert cfg.flare_flag is True and cfg == replace(QUICK.model, flare_flag=True)
+    assert meta["provenance"]["init"]["weights"] == str(WEIGHTS_DIR / "gnfr.safetensors")
+    assert load_model(ws.model_file).config.flare_flag is True
+    assert ws.stage_record("finetune")["params"]["train"]["model"]["flare_flag"] is True
