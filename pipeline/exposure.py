@@ -351,6 +351,22 @@ def estimate_gains(ws, neighbours: int = 4, model: str = "gain") -> dict[str, np
     return solve(cams.stems, pair_bins(views, cams, neighbours))
 
 
+def darkest_reference(gains: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The same gains (or curves, camera transforms) to a darker common exposure: each
+    gain's three channel factors divided by the largest of any view, so that no plain gain
+    brightens a view (nothing clips at the common exposure). Ratios between views, and so
+    what the render's inverse takes back to each frame, are unchanged."""
+    if not gains:
+        return {}
+    top = max(float(np.max(np.asarray(g, np.float64)[:3])) for g in gains.values())
+    out = {}
+    for s, g in gains.items():
+        g = np.array(g, np.float64)
+        g[:3] /= top
+        out[s] = g
+    return out
+
+
 def inverse(gain) -> np.ndarray:
     """The gain, curve or camera transform that undoes ``gain``: 1 / g; for a curve [g, s]
     the curve [g ** (-1 / s), 1 / s]; for a camera transform [g, s, c] the transform

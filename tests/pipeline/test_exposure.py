@@ -172,6 +172,17 @@ def test_exposure_match_trains_at_the_gains_and_render_reads_them(tmp_path, monk
     torch.manual_seed(0)
     render.run(render.RenderConfig(path="inputs", device="cpu", fill="network"), ws)
     assert len(list(ws.deflared.glob("*.png"))) == 5
+    # --exposure-reference darkest: the same ratios, every gain at most 1; render reads them
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu",
+                             exposure_match=True, exposure_reference="darkest"), ws)
+    dark = train_meta(ws.model_file)["exposure_gains"]
+    assert max(max(g) for g in dark.values()) == pytest.approx(1.0, abs=1e-4)
+    ratio = {s: np.array(dark[s]) / np.array(gains[s]) for s in gains}
+    for s in gains:
+        np.testing.assert_allclose(ratio[s], ratio[sorted(gains)[0]], rtol=1e-3)
+    assert ws.stage_record("finetune")["params"]["exposure_reference"] == "darkest"
+    render.run(render.RenderConfig(path="inputs", device="cpu", fill="network"), ws)
+    assert len(list(ws.deflared.glob("*.png"))) == 5
 
 
 def test_exposure_back_is_the_view_own_or_the_sources_median():
@@ -455,3 +466,30 @@ def test_the_round_trip_benchmark_splits_the_flare_region_by_what_the_photos_rea
         np.testing.assert_allclose(r["bias_blended"], [20 / 255] * 3, atol=2e-3)
         assert r["psnr_perfect_fill"] > 30 > r["psnr_region"]
         assert np.abs(r["bias_perfect_fill"]).max() < 2 / 255
+
+
+def test_darkest_reference_scales_every_gain_to_at_most_one():
+    """``darkest_reference``: the largest channel factor of any view becomes 1, every ratio
+    between views (and a curve's slope) is kept, nothing is brightened any more."""
+    gains = {"a": np.array([1.76, 1.6, 1.5]), "b": np.array([0.8, 0.9, 1.0]),
+             "c": np.array([1.0, 1.1, 1.2, 0.9])}
+    dark = ex.darkest_reference(gains)
+    assert max(float(np.max(g[:3])) for g in dark.values()) == pytest.approx(1.0)
+    for s in gains:
+        np.testing.assert_allclose(dark[s][:3], gains[s][:3] / 1.76)
+    assert dark["c"][3] == pytest.approx(0.9) and gains["a"][0] == 1.76  # the input kept
+    img = (np.linspace(0, 1, 30, dtype=np.float32).reshape(10, 3))
+    assert float(ex.apply_gain(img, dark["a"]).max()) <= 1.0
+    assert np.all(ex.apply_gain(img, dark["a"]) <= img + 1e-6)
+    assert ex.darkest_reference({}) == {}
+
+
+def test_an_exposure_reference_without_exposure_match_is_one_line(tmp_path):
+    import pipeline.finetune as ft
+    from pipeline.errors import UserError
+
+    ws = make_plane_workspace(tmp_path / "ws", n_views=3)
+    with pytest.raises(UserError, match=r"^--exposure-reference darkest: .*--no-exposure-match"
+                       ) as e:
+        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_reference="darkest"), ws)
+    assert "\n" not in str(e.value)
