@@ -1750,3 +1750,57 @@ def test_source_flare_and_flare_flag_table_is_their_files():
             ) in history
     veil = [v for s, v in rt["flare_outside"].items() if s in drawn["in12"]]
     assert f"adds {min(veil):.1f}-{max(veil):.1f} levels on the mean of each view" in history
+
+
+def test_exposure_reference_table_is_its_files():
+    """docs/history/gnfr.md's sixty-eighth-session table for `--exposure-reference darkest`
+    is its arms' files; the judge file is recomputed from them with the verdict and means
+    the page quotes; the drawn part's offsets are the round trip's file."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    scenes = ("sceaux", "et", "lund")
+
+    def runs(arm, sc):
+        return [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
+                for s in (2, 3)]
+
+    def cell(arm, sc):
+        r = runs(arm, sc)
+        m = [np.mean([x["inputs"]["psnr_flare"] for x in r]),
+             np.mean([x["inputs"]["psnr"] for x in r]), np.mean([x["heldout"]["psnr"] for x in r])]
+        return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
+
+    for sc in scenes:
+        row = f"| {sc} | {cell('s67_in12', sc)} | {cell('s68_dk', sc)} |"
+        assert row in history, row
+    res = json.loads((RESULTS / "exposure_reference_judge_s68.json").read_text())
+    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s68_dk", "s67_in12", list(scenes),
+                                                 [2, 3], rule="flare")
+    assert again["decision"] == res["decision"] == "fails (a)"
+    assert again["mean"] == pytest.approx(res["mean"])
+    assert not any(res["parts"][p] for p in "abc") and res["parts"]["d"]
+    m, ps = res["mean"], res["per_scene"]
+    lund = [r["inputs"]["psnr_flare"] for r in runs("s68_dk", "lund")]
+    base = [r["inputs"]["psnr_flare"] for r in runs("s67_in12", "lund")]
+    assert (f"flare region {m['psnr_flare']:+.3f} dB on the mean, lund "
+            f"{ps['lund']['psnr_flare']:+.3f} (seed 2 {lund[0] - base[0]:+.2f}, seed 3 "
+            f"{lund[1] - base[1]:+.2f}), the whole photo {m['psnr']:+.3f}; the held-out views "
+            f"{m['held']:+.3f} on the mean (sceaux {ps['sceaux']['held']:+.3f}, lund "
+            f"{ps['lund']['held']:+.3f})") in history
+    rt = json.loads((RESULTS / "exposure_roundtrip_dk_lund_s68.json").read_text())["deflared"]
+    means = {k: np.mean([255 * np.mean(r["bias_drawn"]) for r in rt[k]["views"].values()])
+             for k in ("in12", "dk")}
+    assert len(rt["dk"]["views"]) == 11
+    assert (f"{means['dk']:.1f} sRGB levels above the truth on the mean of the 11 views against "
+            f"{means['in12']:.1f} at the views' mean exposure") in history
+
+
+def test_options_quote_the_sixty_eighth_session_judges():
+    """docs/options.md's lines on `--source-flare`, `--flare-flag` and
+    `--exposure-reference` quote the judge files' means."""
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    sf, ff, dk = (json.loads((RESULTS / f"{n}_judge_s68.json").read_text())
+                  for n in ("source_flare", "flare_flag", "exposure_reference"))
+    assert (f"the flare region {sf['mean']['psnr_flare']:+.2f} and "
+            f"{ff['mean']['psnr_flare']:+.2f} dB on the development scenes") in options
+    assert (f"the flare region {dk['mean']['psnr_flare']:+.3f} dB on the development scenes "
+            f"(lund {dk['per_scene']['lund']['psnr_flare']:+.2f})") in options
