@@ -101,6 +101,12 @@ class FinetuneConfig:
     as they are. On by default since the full-width FMG shipped, whose masks leave the core
     unmarked (docs/history/fmg.md, "Twenty-sixth session"); ``--no-holes-as-flare`` for
     masks without holes (the earlier quarter-width file's, ``fmg_small.safetensors``)."""
+    train_grow: float = option(0.0, ge=0, le=0.1)
+    """Grow each flare mask by this fraction of the image's long side for training only (the
+    masking loss and the Point Sampler; ``pipeline.training_scenes.load_workspace``): the
+    faint veil just outside a mask, flare light no mask marks, is then neither learnt as the
+    scene nor read from a source. The 10 % rule's fractions and the render's masks stay as
+    they are. 0 (off) by default."""
     full_res_colour: bool = True
     """Sample the sources' colours (and flare masks) at the full size of WS/images while the
     encoder still sees them at the preset's ``source_scale`` (1/4 in ``quick``; the
@@ -286,7 +292,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     inputs += ws.depth_inputs() if config.exposure_match else []  # the gains come from the depth
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
-              "holes_as_flare": config.holes_as_flare,
+              "holes_as_flare": config.holes_as_flare, "train_grow": config.train_grow,
               "exposure_match": config.exposure_match,
               "exposure_model": config.exposure_model if config.exposure_match else "gain",
               "exposure_reference": (config.exposure_reference if config.exposure_match
@@ -295,7 +301,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     # those runs had (holes_as_flare was off before it existed, whatever its default now)
     stage_run = ws.begin_stage("finetune", params, inputs, force,
                                defaults={"train": asdict(TrainConfig()),
-                                         "holes_as_flare": False, "exposure_match": False,
+                                         "holes_as_flare": False, "train_grow": 0.0,
+                                         "exposure_match": False,
                                          "exposure_model": "gain",
                                          "exposure_reference": "mean"})
     if stage_run.skip:
@@ -312,7 +319,8 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
 
     gains = (exposure_gains(ws, config.exposure_model, config.exposure_reference)
              if config.exposure_match else None)
-    scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains)
+    scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains,
+                           grow=config.train_grow)
     workers, threads = fit_workers(config, device, cfg), fit_threads(config, device)
     with torch_threads(threads):
         stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run),

@@ -84,7 +84,8 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 
 # --------------------------------------------------------------------------- workspace
 def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
-                   holes_as_flare: bool = False, gains: dict | None = None) -> Scene:
+                   holes_as_flare: bool = False, gains: dict | None = None,
+                   grow: float = 0.0) -> Scene:
     """A workspace's posed views (and masks / views.json when present) as a Scene. With
     views.json its flags are the training targets (``ViewsFile.targets``, the rule select
     applied with its --max-flare); without it the training config's max_flare decides.
@@ -92,7 +93,9 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     (``pipeline.ws_files.enclosed_holes``; the views' flare fractions stay select's). Off
     here, so a workspace read as a pretraining scene keeps its masks as they are; the
     fine-tune passes its own ``FinetuneConfig.holes_as_flare`` (on by default). ``gains``:
-    {stem: [3] linear gain} applied to the views (``pipeline.exposure``)."""
+    {stem: [3] linear gain} applied to the views (``pipeline.exposure``). ``grow``: each
+    mask grown by this fraction of the long side (a disc; ``grow_mask``), after the holes;
+    the flare fractions stay select's."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
@@ -119,6 +122,9 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
         warn(f"{ws.masks} is missing: treating every view as flare-free (run `deflare-scene "
              f"mask {shell_path(ws.root)}` for GN-FR's flare handling)")
     flare = ranked = targets = None
+    if masks is not None and grow > 0:  # the fractions (the 10 % rule's) before the growth
+        flare = {s: float(m.mean()) for s, m in zip(names, masks, strict=True)}
+        masks = [grow_mask(m, grow) for m in masks]
     if ws.views_json.exists():
         views = read_views(ws)
         flare, ranked = views.fractions(names), views.ranked(names)
@@ -126,6 +132,18 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     return make_scene(Path(root).name, names, images, np.stack(Ks),
                       np.stack([f.c2w for f in frames]), np.array([f.near for f in frames]),
                       np.array([f.far for f in frames]), masks, flare, ranked, targets)
+
+
+def grow_mask(mask: np.ndarray, share: float) -> np.ndarray:
+    """[H, W] bool ``mask`` grown by a disc of radius round(``share`` x long side) pixels
+    (unchanged when that is 0)."""
+    import cv2
+
+    r = round(share * max(mask.shape))
+    if r < 1 or not mask.any():
+        return mask
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return cv2.dilate(mask.astype(np.uint8), disc) > 0
 
 
 # --------------------------------------------------------------------------- LLFF

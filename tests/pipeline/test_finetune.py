@@ -724,3 +724,37 @@ def test_same_scene_allows_decoding_noise_not_other_photos(tmp_path):
     assert not same_scene(changed("masked", lambda m: [m[0] + 0.01, *m[1:]]), rec)
     assert not same_scene(changed("focal", lambda f: [f[0] * 1.01, *f[1:]]), rec)
     assert rec["masked"][-1] > 0.1 and len(rec["mean"]) == len(scene.stems) == 5
+
+
+def test_train_grow_grows_the_training_masks_only(tmp_path, monkeypatch):
+    """--train-grow: the scene the fine-tune trains on has each mask grown by a disc of that
+    share of the long side (``grow_mask``), the workspace's masks and the views' flare
+    fractions stay as they are, and the stage records it."""
+    import gnfr.train
+    import pipeline.finetune as ft
+    from pipeline import training_scenes
+    from pipeline.training_scenes import grow_mask
+
+    m = np.zeros((40, 60), bool)
+    m[18:22, 28:32] = True
+    g = grow_mask(m, 0.05)  # radius 3 px
+    assert g[m].all() and g.sum() > m.sum()
+    assert g[20, 34] and g[20, 25] and not g[20, 36] and not g[13, 30]
+    assert grow_mask(m, 0.0) is m and not grow_mask(np.zeros_like(m), 0.05).any()
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=2, ckpt_every=100))
+    ws = masked_workspace(tmp_path / "ws")
+    before = {s: read_mask(ws, s).copy() for s in view_stems(ws)}
+    scenes = []
+    real = training_scenes.load_workspace
+    monkeypatch.setattr(training_scenes, "load_workspace",
+                        lambda root, **kw: scenes.append(real(root, **kw)) or scenes[-1])
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", workers=1,
+                       train_grow=0.05), ws)
+    plain = real(ws.root, holes_as_flare=True)
+    grown, = scenes
+    assert bool((grown.masks >= plain.masks).all()) and int(grown.masks.sum()) > int(
+        plain.masks.sum())
+    assert grown.flare == plain.flare
+    assert all(np.array_equal(read_mask(ws, s), before[s]) for s in before)
+    assert ws.stage_record("finetune")["params"]["train_grow"] == 0.05
