@@ -731,7 +731,6 @@ def test_train_grow_grows_the_training_masks_only(tmp_path, monkeypatch):
     share of the long side (``grow_mask``), the workspace's masks and the views' flare
     fractions stay as they are, and the stage records it."""
     import gnfr.train
-    import pipeline.finetune as ft
     from pipeline import training_scenes
     from pipeline.training_scenes import grow_mask
 
