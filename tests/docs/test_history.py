@@ -1588,6 +1588,18 @@ def test_fmg_y_candidate_table_is_its_files():
     assert f"flare IoU {log[-1]['val_IoU_flare']:.3f} on its 32" in flat
 
 
+def _arm_cell(arm: str, scene: str, seeds=(2, 3)) -> str:
+    """A history table's cell for one arm on one scene: the seed means of the de-flared
+    photos' flare region / whole photo, held-out views (dB), from its ``fmg_photo_ab.py``
+    files."""
+    runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{scene}_s{s}.json").read_text())
+            for s in seeds]
+    m = [np.mean([r["inputs"]["psnr_flare"] for r in runs]),
+         np.mean([r["inputs"]["psnr"] for r in runs]),
+         np.mean([r["heldout"]["psnr"] for r in runs])]
+    return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
+
+
 def test_flare_fallback_and_inputs_sources_table_is_its_files():
     """docs/history/gnfr.md's sixty-seventh-session table (seed means of the baseline, the
     `darkest` fallback and 12 sources for the de-flared photos) is the arms' files; both
@@ -1597,16 +1609,9 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
     scenes = ("sceaux", "et", "lund")
 
-    def cell(arm, sc):
-        runs = [json.loads((RESULTS / f"fmg_s67_{arm}_fair_{sc}_s{s}.json").read_text())
-                for s in (2, 3)]
-        m = [np.mean([r["inputs"]["psnr_flare"] for r in runs]),
-             np.mean([r["inputs"]["psnr"] for r in runs]),
-             np.mean([r["heldout"]["psnr"] for r in runs])]
-        return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
-
     for sc in scenes:
-        row = f"| {sc} | " + " | ".join(cell(a, sc) for a in ("base", "dark", "in12")) + " |"
+        row = f"| {sc} | " + " | ".join(_arm_cell(f"s67_{a}", sc)
+                                        for a in ("base", "dark", "in12")) + " |"
         assert row in history, row
     judge = load_benchmark("fmg_photo_ab").judge
     for name, cand, rule, verdict in (("flare_fallback_judge_s67.json", "s67_dark", "flare",
@@ -1713,16 +1718,9 @@ def test_source_flare_and_flare_flag_table_is_their_files():
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
     scenes = ("sceaux", "et", "lund")
 
-    def cell(arm, sc):
-        runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
-                for s in (2, 3)]
-        m = [np.mean([r["inputs"]["psnr_flare"] for r in runs]),
-             np.mean([r["inputs"]["psnr"] for r in runs]),
-             np.mean([r["heldout"]["psnr"] for r in runs])]
-        return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
-
     for sc in scenes:
-        row = f"| {sc} | " + " | ".join(cell(a, sc) for a in ("s67_in12", "s68_sf5", "s68_ff"))
+        row = f"| {sc} | " + " | ".join(_arm_cell(a, sc) for a in ("s67_in12", "s68_sf5",
+                                                                   "s68_ff"))
         assert row + " |" in history, row
     judge = load_benchmark("fmg_photo_ab").judge
     res = {}
@@ -1763,14 +1761,8 @@ def test_exposure_reference_table_is_its_files():
         return [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
                 for s in (2, 3)]
 
-    def cell(arm, sc):
-        r = runs(arm, sc)
-        m = [np.mean([x["inputs"]["psnr_flare"] for x in r]),
-             np.mean([x["inputs"]["psnr"] for x in r]), np.mean([x["heldout"]["psnr"] for x in r])]
-        return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
-
     for sc in scenes:
-        row = f"| {sc} | {cell('s67_in12', sc)} | {cell('s68_dk', sc)} |"
+        row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell('s68_dk', sc)} |"
         assert row in history, row
     res = json.loads((RESULTS / "exposure_reference_judge_s68.json").read_text())
     again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s68_dk", "s67_in12", list(scenes),

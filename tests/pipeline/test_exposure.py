@@ -204,14 +204,17 @@ def test_exposure_back_is_the_view_own_or_the_sources_median():
     np.testing.assert_allclose(back, srgb, atol=1e-5)
 
 
-def test_an_exposure_model_without_exposure_match_is_one_line_naming_both(tmp_path):
+@pytest.mark.parametrize("field,value", [("exposure_model", "camera-curve"),
+                                         ("exposure_reference", "darkest")])
+def test_an_exposure_option_without_exposure_match_is_one_line_naming_both(tmp_path, field,
+                                                                           value):
     import pipeline.finetune as ft
     from pipeline.errors import UserError
 
     ws = make_plane_workspace(tmp_path / "ws", n_views=3)
-    with pytest.raises(UserError, match=r"^--exposure-model camera-curve: .*--no-exposure-match"
-                       ) as e:
-        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_model="camera-curve"), ws)
+    option = "--" + field.replace("_", "-")
+    with pytest.raises(UserError, match=rf"^{option} {value}: .*--no-exposure-match") as e:
+        ft.run(ft.FinetuneConfig(exposure_match=False, **{field: value}), ws)
     assert "\n" not in str(e.value)
 
 
@@ -483,13 +486,3 @@ def test_darkest_reference_scales_every_gain_to_at_most_one():
     assert np.all(ex.apply_gain(img, dark["a"]) <= img + 1e-6)
     assert ex.darkest_reference({}) == {}
 
-
-def test_an_exposure_reference_without_exposure_match_is_one_line(tmp_path):
-    import pipeline.finetune as ft
-    from pipeline.errors import UserError
-
-    ws = make_plane_workspace(tmp_path / "ws", n_views=3)
-    with pytest.raises(UserError, match=r"^--exposure-reference darkest: .*--no-exposure-match"
-                       ) as e:
-        ft.run(ft.FinetuneConfig(exposure_match=False, exposure_reference="darkest"), ws)
-    assert "\n" not in str(e.value)

@@ -11,22 +11,15 @@ import torch
 from pipeline.finetune import FinetuneConfig, run
 from pipeline.source_flare import flared_twin, flared_twins, scene_cameras, twin_seed
 from pipeline.training_scenes import load_workspace
-from pipeline.ws_files import read_view_image, view_stems, write_mask
-from tests.fixtures import make_temple_workspace
-from tests.pipeline.test_finetune import TINY
+from tests.pipeline.test_finetune import TINY, masked_workspace
 
 KINDS = ("starburst", "ghosts", "streaks", "glare")  # no PSF bank to build
 
 
 @pytest.fixture(scope="module")
 def masked(tmp_path_factory):
-    """Five temple views, each with a flare mask in its top-left corner."""
-    ws = make_temple_workspace(tmp_path_factory.mktemp("temple") / "ws", n_views=5, scale=0.3)
-    for i, s in enumerate(view_stems(ws)):
-        m = np.zeros(read_view_image(ws, s).shape[:2], bool)
-        m[: 6 + 4 * i, : 8 + 4 * i] = True
-        write_mask(ws, s, m)
-    return ws
+    """Five temple views with flare masks of growing size (``masked_workspace``)."""
+    return masked_workspace(tmp_path_factory.mktemp("temple") / "ws")
 
 
 def test_scene_cameras_are_the_scene_views(masked):
