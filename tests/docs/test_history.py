@@ -1796,3 +1796,34 @@ def test_options_quote_the_sixty_eighth_session_judges():
             f"{ff['mean']['psnr_flare']:+.2f} dB on the development scenes") in options
     assert (f"the flare region {dk['mean']['psnr_flare']:+.3f} dB on the development scenes "
             f"(lund {dk['per_scene']['lund']['psnr_flare']:+.2f})") in options
+
+
+def test_train_grow_table_is_its_files():
+    """docs/history/gnfr.md's sixty-eighth-session table for `--train-grow 0.02` is its arms'
+    files; the judge file is recomputed from them with the verdict and means the page and
+    docs/options.md quote; the drawn part's offsets are the round trip's file."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    scenes = ("sceaux", "et", "lund")
+    for sc in scenes:
+        row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell('s68_gr', sc)} |"
+        assert row in history, row
+    res = json.loads((RESULTS / "train_grow_judge_s68.json").read_text())
+    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s68_gr", "s67_in12", list(scenes),
+                                                 [2, 3], rule="flare")
+    assert again["decision"] == res["decision"] == "fails (a)"
+    assert again["mean"] == pytest.approx(res["mean"])
+    assert [res["parts"][p] for p in "abcd"] == [False, True, False, True]
+    m, ps = res["mean"], res["per_scene"]
+    assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (lund "
+            f"{ps['lund']['psnr_flare']:+.3f}, et {ps['et']['psnr_flare']:+.3f}), the whole "
+            f"photo {m['psnr']:+.3f}, SSIM {m['ssim']:+.4f}") in history
+    assert (f"the flare region moved {m['psnr_flare']:+.3f} dB on the development scenes and "
+            f"the whole photo {m['psnr']:+.3f}") in options
+    rt = json.loads((RESULTS / "exposure_roundtrip_gr_lund_s68.json").read_text())["deflared"]
+    drawn = {k: {v: 255 * np.mean(r["bias_drawn"]) for v, r in rt[k]["views"].items()}
+             for k in ("in12", "gr")}
+    means = {k: np.mean(list(v.values())) for k, v in drawn.items()}
+    assert (f"{means['gr']:.1f} sRGB levels above the truth on the mean of the 11 views against "
+            f"{means['in12']:.1f} (view 02: {drawn['in12']['02']:.1f} to "
+            f"{drawn['gr']['02']:.1f})") in history
