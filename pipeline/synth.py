@@ -176,8 +176,8 @@ def _check_out(cfg: SynthConfig, ws: Workspace) -> Path:
 
 
 def view_flare(cfg: SynthConfig, lens: Lens, frame: Frame, light: np.ndarray,
-                base_intensity: float, index: int, clean_linear: np.ndarray
-                ) -> tuple[FlareLayers, dict]:
+               base_intensity: float, index: int, clean_linear: np.ndarray
+               ) -> tuple[FlareLayers, dict]:
     """The flare layers of one view and a JSON record of what was drawn."""
     rng = np.random.default_rng([cfg.seed, 1, index])
     has_flare = bool(rng.random() < cfg.flare_prob)
@@ -244,7 +244,7 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for i, frame in enumerate(track(cams.frames, "Imposing flare")):
         img = _read_image(ws, frame)
         layers, views[frame.stem] = view_flare(cfg, lens, frame, light, base, i,
-                                                srgb_to_linear(img / 255.0))
+                                               srgb_to_linear(img / 255.0))
         views[frame.stem]["flare_fraction"] = round(float(layers.mask.mean()), 5)
         names = ["clean", "masks_gt"] + ([] if i in held else ["photos"])
         if resume and all((out / n / f"{frame.stem}.png").exists() for n in names):
