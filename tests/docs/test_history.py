@@ -1750,25 +1750,33 @@ def test_source_flare_and_flare_flag_table_is_their_files():
     assert f"adds {min(veil):.1f}-{max(veil):.1f} levels on the mean of each view" in history
 
 
+def _judged_against_in12(history: str, candidate: str, judge_file: str) -> dict:
+    """A sixty-eighth-session candidate's table rows (baseline ``s67_in12`` and it, every
+    development scene) are in ``history``, and its judge file is what ``fmg_photo_ab.py
+    judge --rule flare`` recomputes from the arms (verdict "fails (a)"); returns the file."""
+    scenes = ("sceaux", "et", "lund")
+    for sc in scenes:
+        row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell(candidate, sc)} |"
+        assert row in history, row
+    res = json.loads((RESULTS / judge_file).read_text())
+    again = load_benchmark("fmg_photo_ab").judge(RESULTS, candidate, "s67_in12", list(scenes),
+                                                 [2, 3], rule="flare")
+    assert again["decision"] == res["decision"] == "fails (a)"
+    assert again["mean"] == pytest.approx(res["mean"])
+    return res
+
+
 def test_exposure_reference_table_is_its_files():
     """docs/history/gnfr.md's sixty-eighth-session table for `--exposure-reference darkest`
     is its arms' files; the judge file is recomputed from them with the verdict and means
     the page quotes; the drawn part's offsets are the round trip's file."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    scenes = ("sceaux", "et", "lund")
 
     def runs(arm, sc):
         return [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
                 for s in (2, 3)]
 
-    for sc in scenes:
-        row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell('s68_dk', sc)} |"
-        assert row in history, row
-    res = json.loads((RESULTS / "exposure_reference_judge_s68.json").read_text())
-    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s68_dk", "s67_in12", list(scenes),
-                                                 [2, 3], rule="flare")
-    assert again["decision"] == res["decision"] == "fails (a)"
-    assert again["mean"] == pytest.approx(res["mean"])
+    res = _judged_against_in12(history, "s68_dk", "exposure_reference_judge_s68.json")
     assert not any(res["parts"][p] for p in "abc") and res["parts"]["d"]
     m, ps = res["mean"], res["per_scene"]
     lund = [r["inputs"]["psnr_flare"] for r in runs("s68_dk", "lund")]
@@ -1804,15 +1812,7 @@ def test_train_grow_table_is_its_files():
     docs/options.md quote; the drawn part's offsets are the round trip's file."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    scenes = ("sceaux", "et", "lund")
-    for sc in scenes:
-        row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell('s68_gr', sc)} |"
-        assert row in history, row
-    res = json.loads((RESULTS / "train_grow_judge_s68.json").read_text())
-    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s68_gr", "s67_in12", list(scenes),
-                                                 [2, 3], rule="flare")
-    assert again["decision"] == res["decision"] == "fails (a)"
-    assert again["mean"] == pytest.approx(res["mean"])
+    res = _judged_against_in12(history, "s68_gr", "train_grow_judge_s68.json")
     assert [res["parts"][p] for p in "abcd"] == [False, True, False, True]
     m, ps = res["mean"], res["per_scene"]
     assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (lund "
