@@ -1827,3 +1827,25 @@ def test_train_grow_table_is_its_files():
     assert (f"{means['gr']:.1f} sRGB levels above the truth on the mean of the 11 views against "
             f"{means['in12']:.1f} (view 02: {drawn['in12']['02']:.1f} to "
             f"{drawn['gr']['02']:.1f})") in history
+
+
+def test_veil_exploration_numbers_are_its_files():
+    """docs/history/gnfr.md's exploration of lund without the veil quotes its arms' files
+    (the flare-region gains over `s67_in12`, their mean) and the round trip's offset."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    base = [json.loads((RESULTS / f"fmg_s67_in12_fair_lund_s{s}.json").read_text())
+            for s in (2, 3)]
+    nv = [json.loads((RESULTS / f"fmg_s68_nv_fair_lundnv_s{s}.json").read_text())
+          for s in (2, 3)]
+    gain = [b["inputs"]["psnr_flare"] - a["inputs"]["psnr_flare"]
+            for a, b in zip(base, nv, strict=True)]
+    mean = np.mean([b["inputs"]["psnr_flare"] for b in nv])
+    assert (f"The flare region gains {gain[0]:+.2f} and {gain[1]:+.2f} dB over `s67_in12` "
+            f"({mean:.2f} dB on the mean") in history
+    assert f"worth about {np.mean(gain):.1f} dB in lund's flare region" in history
+    rt = json.loads((RESULTS / "exposure_roundtrip_nv_lund_s68.json").read_text())
+    assert all(v == 0 for v in rt["flare_outside"].values())  # no veil left outside the masks
+    drawn = [255 * np.mean(r["bias_drawn"]) for r in rt["deflared"]["nv"]["views"].values()]
+    assert len(drawn) == 11
+    assert f"offset falls to {np.mean(drawn):.1f} sRGB levels on the mean of the 11 views" \
+        in history
