@@ -87,10 +87,9 @@ def load_weights(model: GNFR, path: str | os.PathLike) -> dict:
     from safetensors.torch import load_file
 
     state = load_file(str(path))
+    if cfg.architecture() != model.config.architecture():
+        state = model.grown_state(state)
     own = model.state_dict()
-    key = "rgbfeat_fc.0.weight"
-    if own[key].shape[1] == state[key].shape[1] + 1:  # grown: the flag's column starts at 0
-        state[key] = torch.cat([state[key], state[key].new_zeros(state[key].shape[0], 1)], 1)
     model.load_state_dict({k: v.to(own[k].dtype) for k, v in state.items()})
     return meta
 

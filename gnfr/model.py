@@ -100,6 +100,16 @@ class GNFR(nn.Module):
         self.norm = nn.LayerNorm(D)
         self.rgb_fc = nn.Linear(D, 3)
 
+    def grown_state(self, state: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """The weights of a model without the flare flag made to load into this one, which
+        has it (``GNFRConfig.grown_from``): the flag's input column of the first colour and
+        feature layer added at zero, so the model computes what the weights did."""
+        key = "rgbfeat_fc.0.weight"
+        w = state[key]
+        if self.config.flare_flag and w.shape[1] == self.rgbfeat_fc[0].in_features - 1:
+            state = {**state, key: torch.cat([w, w.new_zeros(w.shape[0], 1)], 1)}
+        return state
+
     def encode(self, images: torch.Tensor) -> torch.Tensor:
         """images [V, 3, H, W] in 0..1 -> features [V, C, ceil(H/4), ceil(W/4)]."""
         return self.encoder(images)

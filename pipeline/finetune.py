@@ -29,7 +29,7 @@ from gnfr.ray_split import HelperDied
 from gnfr.renderer import cpu_bf16, emulated_bf16
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from gnfr.transformer import FLARE_FALLBACKS
-from pipeline.errors import shell_path
+from pipeline.errors import UserError, shell_path
 from pipeline.exposure import MODELS
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
@@ -279,8 +279,6 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     for name, value, default in (("--exposure-model", config.exposure_model, "gain"),
                                  ("--exposure-reference", config.exposure_reference, "mean")):
         if value != default and not config.exposure_match:
-            from pipeline.errors import UserError
-
             raise UserError(f"{name} {value}: it says how --exposure-match evens the views "
                             f"out; drop --no-exposure-match (or {name})")
     ws.require("pose")
