@@ -418,7 +418,6 @@ def init_model(cfg: TrainConfig, device: torch.device, init: str) -> tuple[GNFR,
         try:
             load_weights(model, path)
         except CheckpointError as e:
-            from pipeline.errors import UserError
             raise UserError(f"--init {path}: {e}") from None
         how = f"from pretrained weights {path}"
     return model.to(device), how
@@ -555,8 +554,6 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     elif (prev := continuation(init_path(cfg, init), cfg, preset, record)) is not None:
         step = int(prev["steps_done"])
         if step >= cfg.iters:
-            from pipeline.errors import UserError
-
             raise UserError(f"--init {init} is this scene's fine-tune, trained to step {step}: "
                             f"give --iters above {step} to train it further")
         trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
@@ -629,8 +626,6 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                                 state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
                                 after_step=count_unseen, report=report, split=split)
         except HelperDied as e:
-            from pipeline.errors import UserError
-
             raise UserError(f"finetune: {e}; the checkpoint of step {saved_step(out)} is kept: "
                             "rerun to resume, with `--workers 1` (`--set finetune.workers=1` "
                             "in the one-shot command) to train in one process (less memory)"
