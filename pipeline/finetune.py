@@ -328,22 +328,23 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     return stage_run.finish(outs, extra=stats, versions=["torch", "safetensors"])
 
 
-def exposure_gains(ws: Workspace, model: str = "gain", reference: str = "mean") -> dict:
+def exposure_gains(ws: Workspace, model: str = "gain", reference: str = "mean",
+                   command: str = "finetune --exposure-match") -> dict:
     """``finetune --exposure-match``: the views' gains (or curves, by ``model``;
     ``pipeline.exposure``) to the common exposure ``reference`` names
     (``FinetuneConfig.exposure_reference``), said in one line; none, with a warning, when
-    the workspace has no depth maps."""
+    the workspace has no depth maps. ``command``: who asks, for those lines."""
     from pipeline.exposure import darkest_reference, estimate_gains, spread_ev
 
     if not ws.depth.is_dir():
-        warn(f"finetune --exposure-match: no {ws.depth} (run `deflare-scene depth "
+        warn(f"{command}: no {ws.depth} (run `deflare-scene depth "
              f"{shell_path(ws.root)}`): the views are trained at their own exposures")
         return {}
     gains = estimate_gains(ws, model=model)
     if reference == "darkest":
         gains = darkest_reference(gains)
-    info(f"finetune: exposures evened out ({spread_ev(gains):.2f} EV between the darkest and "
-         "the brightest view)")
+    info(f"{command.split()[0]}: {ws.root.name}'s exposures evened out ({spread_ev(gains):.2f} EV "
+         "between the darkest and the brightest view)")
     return gains
 
 

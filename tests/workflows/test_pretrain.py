@@ -519,3 +519,49 @@ def test_pretrain_from_a_file_that_is_not_weights_stops_with_one_line(pretrain_s
     err = capsys.readouterr().err
     assert str(bad) in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
+
+
+def test_exposure_match_evens_out_workspaces_with_depth_maps(tmp_path):
+    """--exposure-match: a workspace with depth maps whose views differ by half a stop each
+    is loaded at its common exposure (the gains ``finetune --exposure-match`` finds, applied
+    to the photos), a workspace without depth maps as it is; the weights name the scenes
+    evened out, and a run without the option names none."""
+    import cv2
+
+    from gnfr.checkpoint import read_metadata
+    from pipeline import depth
+    from pipeline import exposure as ex
+    from pipeline.depth import DepthConfig
+    from pipeline.finetune import exposure_gains
+    from pipeline.ws_files import read_view_image
+    from tests.fixtures import make_plane_workspace
+    from workflows.research.pretrain import PretrainConfig, load_scenes
+
+    scenes = tmp_path / "scenes"
+    ws = make_plane_workspace(scenes / "plane", n_views=5)
+    stems = sorted(p.stem for p in ws.images.glob("*.png"))
+    for i, s in enumerate(stems):  # view i: (i - 2) / 2 EV
+        img = read_view_image(ws, s, as_float=True)
+        out = ex.apply_gain(img, [2.0 ** (0.5 * (i - 2))] * 3)
+        cv2.imwrite(str(ws.image_path(s)), (out[..., ::-1] * 255).round().astype(np.uint8))
+    depth.run(DepthConfig(), ws)
+    make_temple_workspace(scenes / "temple", n_views=5, scale=0.15)  # no depth maps
+    config = PretrainConfig(scenes=[scenes], flare=False, exposure_match=True)
+    evened: list[str] = []
+    loaded = {sc.name: sc for sc in load_scenes(config, evened=evened)}
+    assert evened == ["plane"]
+    plain = {sc.name: sc for sc in load_scenes(PretrainConfig(scenes=[scenes], flare=False))}
+    assert torch.equal(loaded["temple"].images, plain["temple"].images)
+    gains = exposure_gains(ws)
+    for i, s in enumerate(loaded["plane"].stems):
+        want = ex.apply_gain(read_view_image(ws, s), gains[s])
+        assert np.abs(loaded["plane"].images[i].permute(1, 2, 0).numpy().astype(int)
+                      - want.astype(int)).max() <= 1
+    level = [float(v.float().mean()) for v in loaded["plane"].images]
+    raw = [float(v.float().mean()) for v in plain["plane"].images]
+    assert max(raw) - min(raw) > 3 * (max(level) - min(level))  # two stops become little
+    _pretrain_cli(scenes, tmp_path / "e", 2, "--exposure-match")
+    assert read_metadata(tmp_path / "e" / "gnfr.safetensors")[1]["pretrain_exposure_match"] \
+        == ["plane"]
+    _pretrain_cli(scenes, tmp_path / "n", 2)
+    assert "pretrain_exposure_match" not in read_metadata(tmp_path / "n" / "gnfr.safetensors")[1]

@@ -82,6 +82,13 @@ class PretrainConfig:
     layered_share: float = option(0.3, gt=0, lt=1)
     """With ``layered``: the fraction of steps that draw a layered scene (the rest draw a
     real scene, uniformly)."""
+    exposure_match: bool = False
+    """Bring each workspace scene's views to their common exposure before training (one gain
+    per view and channel from its depth maps, ``pipeline.exposure``, as ``finetune
+    --exposure-match`` does on by default), so the prior learns from sources exposed as its
+    targets are. Scenes without depth maps (LLFF, COLMAP, scene packs, workspaces before
+    ``deflare-scene depth``) keep their own exposures, each with a warning. Recorded in the
+    weights' metadata (``pretrain_exposure_match``: the scenes evened out)."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -131,17 +138,43 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
     return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
 
 
-def load_scenes(config: PretrainConfig, folders: list[Path] | None = None) -> list[Scene]:
+def load_evened(folder: Path, max_size: int) -> tuple[Scene, bool]:
+    """``--exposure-match``: a scene with its views at their common exposure when it is a
+    workspace with depth maps (``pipeline.finetune.exposure_gains``), else as it is, with a
+    warning; and whether it was evened out."""
+    from pipeline.finetune import exposure_gains
+    from pipeline.training_scenes import detect_and_load, load_workspace
+    from pipeline.workspace import Workspace
+
+    if scene_layout(folder) == "workspace":
+        gains = exposure_gains(Workspace(folder), command="pretrain --exposure-match")
+        if gains:
+            return load_workspace(folder, gains=gains), True
+    else:
+        warn(f"pretrain --exposure-match: {folder} is not a deflare-scene workspace (no depth "
+             "maps to even its exposures out): its views are trained at their own exposures")
+    return detect_and_load(folder, max_size), False
+
+
+def load_scenes(config: PretrainConfig, folders: list[Path] | None = None,
+                evened: list[str] | None = None) -> list[Scene]:
     """Every training scene of ``config.scenes`` (or the ``folders`` already found in
     them), and its mirror image with ``config.mirror``, each with its own synthetic flare
-    when asked; then ``config.layered`` layered scenes (last in the list)."""
+    when asked; then ``config.layered`` layered scenes (last in the list). With
+    ``config.exposure_match`` each workspace with depth maps at its common exposure, its
+    name appended to ``evened``."""
     from pipeline.progress import track
     from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes, photos = [], []
     for folder in track(folders or find_scenes(config.scenes), "loading scenes"):
-        loaded = detect_and_load(folder, config.max_size)
+        if config.exposure_match:
+            loaded, even = load_evened(folder, config.max_size)
+            if even and evened is not None:
+                evened.append(loaded.name)
+        else:
+            loaded = detect_and_load(folder, config.max_size)
         photos += [v.permute(1, 2, 0).numpy() for v in loaded.images]  # views, not copies
         for scene in (loaded, mirrored(loaded)) if config.mirror else (loaded,):
             if config.flare:
@@ -242,7 +275,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if step and not resume and step >= train_cfg.iters:
         raise UserError(f"--init {config.init} was trained to step {step} with preset "
                         f"{config.preset}: give --iters above {step} to train it further")
-    scenes = load_scenes(config, folders)  # an unreadable scene fails before OUT is made
+    evened: list[str] = []
+    scenes = load_scenes(config, folders, evened)  # an unreadable scene fails before OUT is made
     model, how = init_model(train_cfg, device, config.init)  # so does an --init that misfits
     out.mkdir(parents=True, exist_ok=True)
     trainer = Trainer(model, train_cfg, step=step)
@@ -278,7 +312,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
 
     data_meta = ({"pretrain_mirror": True} if config.mirror else {}) | (  # what the data was
         {"pretrain_layered": config.layered, "pretrain_layered_share": config.layered_share}
-        if config.layered else {})
+        if config.layered else {}) | (
+        {"pretrain_exposure_match": evened} if config.exposure_match else {})
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
