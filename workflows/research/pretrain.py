@@ -29,11 +29,12 @@ from gnfr.checkpoint import CheckpointError
 from gnfr.fit import MODEL_FILE, StepInput, Trainer, has_checkpoint, last_record, render_meta
 from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
 from pipeline.errors import UserError
-from pipeline.finetune import init_model, init_path
+from pipeline.finetune import exposure_gains, init_model, init_path
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, make_progress, warn
 from pipeline.scene_splits import HELDOUT_SCENES
-from pipeline.training_scenes import scene_layout
+from pipeline.training_scenes import detect_and_load, load_workspace, scene_layout
+from pipeline.workspace import Workspace
 
 
 @dataclass
@@ -142,10 +143,6 @@ def load_evened(folder: Path, max_size: int) -> tuple[Scene, bool]:
     """``--exposure-match``: a scene with its views at their common exposure when it is a
     workspace with depth maps (``pipeline.finetune.exposure_gains``), else as it is, with a
     warning; and whether it was evened out."""
-    from pipeline.finetune import exposure_gains
-    from pipeline.training_scenes import detect_and_load, load_workspace
-    from pipeline.workspace import Workspace
-
     if scene_layout(folder) == "workspace":
         gains = exposure_gains(Workspace(folder), command="pretrain --exposure-match")
         if gains:
@@ -164,7 +161,6 @@ def load_scenes(config: PretrainConfig, folders: list[Path] | None = None,
     ``config.exposure_match`` each workspace with depth maps at its common exposure, its
     name appended to ``evened``."""
     from pipeline.progress import track
-    from pipeline.training_scenes import detect_and_load
 
     rng = np.random.default_rng(config.seed)
     scenes, photos = [], []
