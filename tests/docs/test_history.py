@@ -1849,3 +1849,42 @@ def test_veil_exploration_numbers_are_its_files():
     assert len(drawn) == 11
     assert f"offset falls to {np.mean(drawn):.1f} sRGB levels on the mean of the 11 views" \
         in history
+
+
+def test_pretrain_exposure_match_outcome_is_its_files():
+    """docs/history/gnfr.md's outcome of the sixty-ninth session's rule (pretraining at one
+    exposure) is its arms' files: the table's cells, both judge files recomputed from them
+    (`--rule flare` and `--rule novel`, both failing at (a)), the means and per-seed ranges
+    the page quotes; the card quotes the same means."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
+    scenes = ("sceaux", "et", "lund")
+    for sc in scenes:
+        row = f"| {sc} | {_arm_cell('s69_p0', sc)} | {_arm_cell('s69_pe', sc)} |"
+        assert row in history, row
+    judge = load_benchmark("fmg_photo_ab").judge
+    for rule, name in (("flare", "pretrain_exposure_judge_s69.json"),
+                       ("novel", "pretrain_exposure_judge_novel_s69.json")):
+        res = json.loads((RESULTS / name).read_text())
+        again = judge(RESULTS, "s69_pe", "s69_p0", list(scenes), [2, 3], rule=rule)
+        assert res["rule"] == rule and again["decision"] == res["decision"] == "fails (a)"
+        assert again["mean"] == pytest.approx(res["mean"])
+    m, ps = res["mean"], res["per_scene"]
+    assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (the rule asks +0.10), "
+            f"the whole photo {m['psnr']:+.3f}, the held-out views {m['held']:+.3f} (sceaux "
+            f"{ps['sceaux']['held']:+.3f}, lund {ps['lund']['held']:+.3f})") in history
+    assert (f"+{m['psnr_flare']:.3f} dB in the flare region and their novel views "
+            f"{m['held']:+.3f} dB") in card
+
+    def seed_diffs(part: str, key: str) -> list[float]:
+        out = []
+        for sc in scenes:
+            for s in (2, 3):
+                a, b = (json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
+                        for arm in ("s69_p0", "s69_pe"))
+                out.append(b[part][key] - a[part][key])
+        return out
+
+    flare, held = seed_diffs("inputs", "psnr_flare"), seed_diffs("heldout", "psnr")
+    assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
+            f"views {min(held):+.2f} to {max(held):+.2f}") in history
