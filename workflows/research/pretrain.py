@@ -89,7 +89,9 @@ class PretrainConfig:
     --exposure-match`` does on by default), so the prior learns from sources exposed as its
     targets are. Scenes without depth maps (LLFF, COLMAP, scene packs, workspaces before
     ``deflare-scene depth``) keep their own exposures, each with a warning. Recorded in the
-    weights' metadata (``pretrain_exposure_match``: the scenes evened out)."""
+    weights' metadata (``pretrain_exposure_match``: the scenes evened out). Off by default:
+    it did not pass its rule on the development scenes (docs/history/gnfr.md, "Sixty-ninth
+    session")."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
