@@ -1888,3 +1888,17 @@ def test_pretrain_exposure_match_outcome_is_its_files():
     flare, held = seed_diffs("inputs", "psnr_flare"), seed_diffs("heldout", "psnr")
     assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
             f"views {min(held):+.2f} to {max(held):+.2f}") in history
+
+
+def test_pretrain_exposure_match_training_psnr_is_its_logs():
+    """The two priors' training PSNR over their last 8 000 steps, as docs/history/gnfr.md
+    quotes it, is their committed logs' (both runs to step 58 250)."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    psnr = {}
+    for arm in ("P0", "PE"):
+        rows = [json.loads(x) for x in
+                (RESULTS / f"pretrain_exposure_{arm}_s69.jsonl").read_text().splitlines()
+                if x.strip()]
+        assert rows[-1]["step"] == 58250
+        psnr[arm] = np.mean([r["psnr"] for r in rows if r["step"] > 50250])
+    assert f"P0 {psnr['P0']:.2f} dB, PE {psnr['PE']:.2f}" in history
