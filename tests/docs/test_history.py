@@ -1588,12 +1588,17 @@ def test_fmg_y_candidate_table_is_its_files():
     assert f"flare IoU {log[-1]['val_IoU_flare']:.3f} on its 32" in flat
 
 
+def _arm_runs(arm: str, scene: str, seeds=(2, 3)) -> list[dict]:
+    """One arm's ``fmg_photo_ab.py`` result files on one scene, in the order of ``seeds``."""
+    return [json.loads((RESULTS / f"fmg_{arm}_fair_{scene}_s{s}.json").read_text())
+            for s in seeds]
+
+
 def _arm_cell(arm: str, scene: str, seeds=(2, 3)) -> str:
     """A history table's cell for one arm on one scene: the seed means of the de-flared
     photos' flare region / whole photo, held-out views (dB), from its ``fmg_photo_ab.py``
     files."""
-    runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{scene}_s{s}.json").read_text())
-            for s in seeds]
+    runs = _arm_runs(arm, scene, seeds)
     m = [np.mean([r["inputs"]["psnr_flare"] for r in runs]),
          np.mean([r["inputs"]["psnr"] for r in runs]),
          np.mean([r["heldout"]["psnr"] for r in runs])]
@@ -1678,8 +1683,7 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
             f"flare region; their render {head['stages']['render:inputs']['seconds']:.1f} s "
             f"against {start['stages']['render:inputs']['seconds']:.1f} s") in history
     def lund_means(arm):
-        runs = [json.loads((RESULTS / f"fmg_s67_{arm}_fair_lund_s{s}.json").read_text())
-                for s in (2, 3)]
+        runs = _arm_runs(f"s67_{arm}", "lund")
         return {k: np.mean([r[part][m] for r in runs]) for k, part, m in (
             ("flare", "inputs", "psnr_flare"), ("whole", "inputs", "psnr"),
             ("held", "heldout", "psnr"), ("held_ssim", "heldout", "ssim"))}
@@ -1772,15 +1776,11 @@ def test_exposure_reference_table_is_its_files():
     the page quotes; the drawn part's offsets are the round trip's file."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
 
-    def runs(arm, sc):
-        return [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
-                for s in (2, 3)]
-
     res = _judged_against_in12(history, "s68_dk", "exposure_reference_judge_s68.json")
     assert not any(res["parts"][p] for p in "abc") and res["parts"]["d"]
     m, ps = res["mean"], res["per_scene"]
-    lund = [r["inputs"]["psnr_flare"] for r in runs("s68_dk", "lund")]
-    base = [r["inputs"]["psnr_flare"] for r in runs("s67_in12", "lund")]
+    lund = [r["inputs"]["psnr_flare"] for r in _arm_runs("s68_dk", "lund")]
+    base = [r["inputs"]["psnr_flare"] for r in _arm_runs("s67_in12", "lund")]
     assert (f"flare region {m['psnr_flare']:+.3f} dB on the mean, lund "
             f"{ps['lund']['psnr_flare']:+.3f} (seed 2 {lund[0] - base[0]:+.2f}, seed 3 "
             f"{lund[1] - base[1]:+.2f}), the whole photo {m['psnr']:+.3f}; the held-out views "
@@ -1833,10 +1833,7 @@ def test_veil_exploration_numbers_are_its_files():
     """docs/history/gnfr.md's exploration of lund without the veil quotes its arms' files
     (the flare-region gains over `s67_in12`, their mean) and the round trip's offset."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    base = [json.loads((RESULTS / f"fmg_s67_in12_fair_lund_s{s}.json").read_text())
-            for s in (2, 3)]
-    nv = [json.loads((RESULTS / f"fmg_s68_nv_fair_lundnv_s{s}.json").read_text())
-          for s in (2, 3)]
+    base, nv = _arm_runs("s67_in12", "lund"), _arm_runs("s68_nv", "lundnv")
     gain = [b["inputs"]["psnr_flare"] - a["inputs"]["psnr_flare"]
             for a, b in zip(base, nv, strict=True)]
     mean = np.mean([b["inputs"]["psnr_flare"] for b in nv])
@@ -1877,13 +1874,8 @@ def test_pretrain_exposure_match_outcome_is_its_files():
             f"{m['held']:+.3f} dB") in card
 
     def seed_diffs(part: str, key: str) -> list[float]:
-        out = []
-        for sc in scenes:
-            for s in (2, 3):
-                a, b = (json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())
-                        for arm in ("s69_p0", "s69_pe"))
-                out.append(b[part][key] - a[part][key])
-        return out
+        return [b[part][key] - a[part][key] for sc in scenes
+                for a, b in zip(_arm_runs("s69_p0", sc), _arm_runs("s69_pe", sc), strict=True)]
 
     flare, held = seed_diffs("inputs", "psnr_flare"), seed_diffs("heldout", "psnr")
     assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
