@@ -1894,3 +1894,22 @@ def test_pretrain_exposure_match_training_psnr_is_its_logs():
         assert rows[-1]["step"] == 58250
         psnr[arm] = np.mean([r["psnr"] for r in rows if r["step"] > 50250])
     assert f"P0 {psnr['P0']:.2f} dB, PE {psnr['PE']:.2f}" in history
+
+
+def test_veil_estimate_table_is_its_files():
+    """The seventy-first session's table of the veil seen by the neighbours (docs/history/
+    gnfr.md) is its three files' means over the views with more than 0.5 % marked."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    for scene in ("sceaux", "et", "lund"):
+        views = json.loads((RESULTS / f"veil_estimate_{scene}_s71.json").read_text())["views"]
+        rows = [r for r in views.values() if r["mask_share"] > 0.005 and "smooth_0.05" in r]
+        s = [r["smooth_0.05"] for r in rows]
+        far = [r["offset_far"] for r in rows if r["offset_far"] is not None]
+        row = (f"| {scene} | {len(rows)} | {np.mean([r['veil'] for r in rows]):.2f} | "
+               f"{np.mean(far):.2f} | {np.mean([x['psnr_before'] for x in s]):.2f}, "
+               f"{np.mean([x['psnr_after'] for x in s]):.2f} | "
+               f"{np.mean([x['rms_veil'] for x in s]):.4f}, "
+               f"{np.mean([x['rms_error'] for x in s]):.4f} |")
+        assert row in history, row
+        # the finding the text draws: the estimate's error is several times the veil
+        assert np.mean([x["rms_error"] for x in s]) > 2 * np.mean([x["rms_veil"] for x in s])
