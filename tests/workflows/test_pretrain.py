@@ -565,3 +565,42 @@ def test_exposure_match_evens_out_workspaces_with_depth_maps(tmp_path):
         == ["plane"]
     _pretrain_cli(scenes, tmp_path / "n", 2)
     assert "pretrain_exposure_match" not in read_metadata(tmp_path / "n" / "gnfr.safetensors")[1]
+
+
+def test_pretrain_source_flare_reads_flared_twins_and_records_it(pretrain_scenes, tmp_path,
+                                                                 monkeypatch):
+    """--source-flare 1 --flare-flag: every step reads its sources from one of its scene's
+    flared twins (their masks hold the twin's flare), the weights
+    record the share and carry the flag in their config; without the options no twin is
+    drawn, the steps read the scene and the weights have neither."""
+    import json
+
+    import workflows.research.pretrain as pt
+    from gnfr.checkpoint import read_metadata
+    from pipeline.source_flare import TWINS
+
+    banks = []
+    real = pt.source_twins
+
+    def spy(model, scenes, config, train_cfg, device):
+        out = real(model, scenes, config, train_cfg, device)
+        banks.append(out)
+        return out
+
+    monkeypatch.setattr(pt, "source_twins", spy)
+    _pretrain_cli(pretrain_scenes, tmp_path / "t", 3, "--source-flare", "1", "--flare-flag",
+                  "--ckpt-every", "1")
+    assert len(banks[0]) == 1  # one scene
+    twins = banks[0][0]
+    assert len(twins) == TWINS
+    assert all(bank.masks is not None and bool(bank.masks.any()) for bank, _ in twins)
+    lines = [json.loads(x) for x in (tmp_path / "t" / "metrics.jsonl").read_text().splitlines()]
+    assert lines and all("twin" in r for r in lines)
+    cfg, meta = read_metadata(tmp_path / "t" / "gnfr.safetensors")
+    assert meta["pretrain_source_flare"] == 1.0 and cfg.flare_flag
+    _pretrain_cli(pretrain_scenes, tmp_path / "n", 2, "--ckpt-every", "1")
+    assert banks[1] == []
+    lines = [json.loads(x) for x in (tmp_path / "n" / "metrics.jsonl").read_text().splitlines()]
+    assert lines and not any("twin" in r for r in lines)
+    cfg, meta = read_metadata(tmp_path / "n" / "gnfr.safetensors")
+    assert "pretrain_source_flare" not in meta and not cfg.flare_flag

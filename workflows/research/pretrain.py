@@ -92,6 +92,18 @@ class PretrainConfig:
     weights' metadata (``pretrain_exposure_match``: the scenes evened out). Off by default:
     it did not pass its rule on the development scenes (docs/history/gnfr.md, "Sixty-ninth
     session")."""
+    source_flare: float = option(0.0, ge=0, le=1)
+    """The share of steps (drawn at random) whose sources are read from a flared twin of
+    their scene (``pipeline.source_flare``: one more synthetic flare on every view, drawn as
+    ``synth`` draws it, one lens and light per twin, masked; ``TWINS`` per scene, drawn once
+    from the seed) while the target stays as loaded, so points every source shows on flare
+    are supervised across scenes (``finetune --source-flare`` does it for one scene).
+    Recorded in the weights' metadata (``pretrain_source_flare``). 0: never (as before)."""
+    flare_flag: bool = False
+    """Give each source's colour and features one more input, 1 where the point is on flare
+    in that source (``GNFRConfig.flare_flag``; weights without it load with the flag's input
+    at zero), so the prior learns across scenes what the flag means; recorded in the
+    weights' config, and a fine-tune from them keeps it."""
     flare: bool = True
     """Impose synthetic flare (pipeline.flare) with ground-truth masks."""
     flare_prob: float = option(0.5, ge=0, le=1)
@@ -263,6 +275,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
         train_cfg = replace(train_cfg, model=replace(train_cfg.model, dec_norm=True))
     if config.random_sources:
         train_cfg = replace(train_cfg, random_sources=True)
+    if config.flare_flag:
+        train_cfg = replace(train_cfg, model=replace(train_cfg.model, flare_flag=True))
     train_cfg = replace(train_cfg, seed=config.seed)
     folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
@@ -297,21 +311,27 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     banks = [prepare_sources(model, scene, train_cfg, device) for scene in scenes]
 
     real = len(scenes) - config.layered
+    twins = source_twins(model, scenes[:real], config, train_cfg, device)
 
     def draw(gen: torch.Generator) -> StepInput:
         """A random scene (a layered one at ``layered_share`` of the steps when there are
-        any), then a batch of it."""
+        any), then a batch of it; with ``source_flare`` its sources are, that often, one of
+        its flared twins'."""
         if config.layered and float(torch.rand((), generator=gen)) < config.layered_share:
             k = real + int(torch.randint(config.layered, (1,), generator=gen))
         else:
             k = int(torch.randint(real, (1,), generator=gen))
-        return StepInput(sample_batch(scenes[k], train_cfg, gen), *banks[k],
-                         fields={"scene": scenes[k].name})
+        batch = sample_batch(scenes[k], train_cfg, gen)
+        if k < real and twins and float(torch.rand((), generator=gen)) < config.source_flare:
+            j = int(torch.randint(len(twins[k]), (1,), generator=gen))
+            return StepInput(batch, *twins[k][j], fields={"scene": scenes[k].name, "twin": j})
+        return StepInput(batch, *banks[k], fields={"scene": scenes[k].name})
 
     data_meta = ({"pretrain_mirror": True} if config.mirror else {}) | (  # what the data was
         {"pretrain_layered": config.layered, "pretrain_layered_share": config.layered_share}
         if config.layered else {}) | (
-        {"pretrain_exposure_match": evened} if config.exposure_match else {})
+        {"pretrain_exposure_match": evened} if config.exposure_match else {}) | (
+        {"pretrain_source_flare": config.source_flare} if config.source_flare else {})
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
@@ -323,6 +343,21 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     if world > 1:
         torch.distributed.barrier()
     return out / MODEL_FILE
+
+
+def source_twins(model, scenes: list[Scene], config: PretrainConfig, train_cfg: TrainConfig,
+                 device) -> list[list]:
+    """``--source-flare``: for each scene its ``TWINS`` flared twins' sources (bank, cache),
+    drawn once from the run's seed, the scene's index in the list and the twin's; [] when
+    the option is off."""
+    if config.source_flare <= 0:
+        return []
+    from pipeline.progress import track
+    from pipeline.source_flare import TWINS, flared_twins
+
+    return [[prepare_sources(model, t, train_cfg, device)
+             for t in flared_twins(scene, config.seed * 1000 + k, TWINS)]
+            for k, scene in enumerate(track(scenes, f"drawing {TWINS} flared twins a scene"))]
 
 
 def export_fp16(run_weights: Path, dest: Path, extra: dict | None = None) -> Path:
