@@ -1913,3 +1913,46 @@ def test_veil_estimate_table_is_its_files():
         assert row in history, row
         # the finding the text draws: the estimate's error is several times the veil
         assert np.mean([x["rms_error"] for x in s]) > 2 * np.mean([x["rms_veil"] for x in s])
+
+
+def test_more_pretraining_outcome_is_its_files():
+    """docs/history/gnfr.md's seventy-first-session outcome (the sixty-ninth session's
+    control prior P0 against the shipped prior): the table's cells are the arms' files,
+    both judge files are recomputed from them (failing), and the quoted means and per-seed
+    ranges are theirs."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    scenes = ("sceaux", "et", "lund")
+    for sc in scenes:
+        row = f"| {sc} | {_arm_cell('s69_sh', sc)} | {_arm_cell('s69_p0', sc)} |"
+        assert row in history, row
+    judge = load_benchmark("fmg_photo_ab").judge
+    for rule, name, failed in (("flare", "prior_p0_judge_s71.json", "abc"),
+                               ("novel", "prior_p0_judge_novel_s71.json", "ac")):
+        res = json.loads((RESULTS / name).read_text())
+        again = judge(RESULTS, "s69_p0", "s69_sh", list(scenes), [2, 3], rule=rule)
+        assert res["rule"] == rule and again["decision"] == res["decision"] == "fails (a)"
+        assert again["mean"] == pytest.approx(res["mean"])
+        assert {k for k, ok in again["parts"].items() if not ok} == set(failed)
+    res = json.loads((RESULTS / "prior_p0_judge_s71.json").read_text())
+    m, lund = res["mean"], res["per_scene"]["lund"]
+    assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (lund "
+            f"{lund['psnr_flare']:+.3f}), the whole photo {m['psnr']:+.3f}, the held-out views "
+            f"{m['held']:+.3f}") in history
+    flare = [b["inputs"]["psnr_flare"] - a["inputs"]["psnr_flare"] for sc in scenes
+             for a, b in zip(_arm_runs("s69_sh", sc), _arm_runs("s69_p0", sc), strict=True)]
+    held = [b["heldout"]["psnr"] - a["heldout"]["psnr"] for sc in scenes
+            for a, b in zip(_arm_runs("s69_sh", sc), _arm_runs("s69_p0", sc), strict=True)]
+    assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
+            f"views {min(held):+.2f} to {max(held):+.2f}") in history
+    for sc in scenes:  # the shipped prior's arms repeat s67_in12's cells
+        assert _arm_cell("s69_sh", sc) == _arm_cell("s67_in12", sc)
+
+
+def test_card_quotes_the_more_pretraining_outcome():
+    """gnfr/weights/gnfr.md quotes the seventy-first session's judge of P0 against the shipped
+    prior as its file has it."""
+    card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
+    res = json.loads((RESULTS / "prior_p0_judge_s71.json").read_text())
+    m, lund = res["mean"], res["per_scene"]["lund"]
+    assert (f"{-m['psnr_flare']:.3f} dB in the flare region (lund {-lund['psnr_flare']:.3f}) "
+            f"and their novel views {-m['held']:.3f} dB") in card
