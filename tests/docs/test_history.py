@@ -1956,3 +1956,47 @@ def test_card_quotes_the_more_pretraining_outcome():
     m, lund = res["mean"], res["per_scene"]["lund"]
     assert (f"{-m['psnr_flare']:.3f} dB in the flare region (lund {-lund['psnr_flare']:.3f}) "
             f"and their novel views {-m['held']:.3f} dB") in card
+
+
+def test_source_flare_prior_outcome_is_its_files():
+    """docs/history/gnfr.md's outcome of the source-flare pretraining (candidate PS): the
+    table is the three arms' files, the four judge files are recomputed from them (passing
+    `--rule novel` against P0 only), the quoted means are theirs and the training PSNR is
+    the committed log's."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    scenes = ("sceaux", "et", "lund")
+    for sc in scenes:
+        row = (f"| {sc} | {_arm_cell('s69_sh', sc)} | {_arm_cell('s69_p0', sc)} | "
+               f"{_arm_cell('s71_ps', sc)} |")
+        assert row in history, row
+    judge = load_benchmark("fmg_photo_ab").judge
+    want = {("s69_p0", "flare"): ("source_flare_prior_judge_s71.json", "fails (a)"),
+            ("s69_p0", "novel"): ("source_flare_prior_judge_novel_s71.json", "passes"),
+            ("s69_sh", "flare"): ("source_flare_prior_vs_shipped_judge_s71.json", "fails (a)"),
+            ("s69_sh", "novel"): ("source_flare_prior_vs_shipped_judge_novel_s71.json",
+                                  "fails (c)")}
+    res = {}
+    for (base, rule), (name, decision) in want.items():
+        res[base, rule] = json.loads((RESULTS / name).read_text())
+        again = judge(RESULTS, "s71_ps", base, list(scenes), [2, 3], rule=rule)
+        assert again["decision"] == res[base, rule]["decision"] == decision
+        assert again["mean"] == pytest.approx(res[base, rule]["mean"])
+    m, ps = res["s69_p0", "novel"]["mean"], res["s69_p0", "novel"]["per_scene"]
+    assert (f"the held-out views {m['held']:+.3f} dB on the mean, every scene up (sceaux "
+            f"{ps['sceaux']['held']:+.3f}, et {ps['et']['held']:+.3f}, lund "
+            f"{ps['lund']['held']:+.3f}), the flare region {m['psnr_flare']:+.3f} and the whole "
+            f"photo {m['psnr']:+.3f}") in history
+    m, ps = res["s69_sh", "novel"]["mean"], res["s69_sh", "novel"]["per_scene"]
+    assert (f"gain {m['held']:+.3f} dB on the mean (every scene up) but the flare region loses "
+            f"{-m['psnr_flare']:.3f} dB (lund {-ps['lund']['psnr_flare']:.3f})") in history
+    assert all(p["held"] > 0 for p in ps.values())
+    held = [b["heldout"]["psnr"] - a["heldout"]["psnr"] for sc in scenes
+            for a, b in zip(_arm_runs("s69_p0", sc), _arm_runs("s71_ps", sc), strict=True)]
+    assert f"the held-out views move {min(held):+.2f} to {max(held):+.2f} dB" in history
+    rows = [json.loads(x) for x in
+            (RESULTS / "pretrain_source_flare_PS_s71.jsonl").read_text().splitlines() if x.strip()]
+    assert rows[-1]["step"] == 58250
+    late = [r for r in rows if r["step"] > 50250]
+    assert (f"over the last 8 000 steps {np.mean([r['psnr'] for r in late]):.2f} dB against "
+            f"`P0`'s 20.92, the twins' steps "
+            f"{np.mean([r['psnr'] for r in late if 'twin' in r]):.2f}") in history

@@ -98,7 +98,9 @@ class PretrainConfig:
     ``synth`` draws it, one lens and light per twin, masked; ``TWINS`` per scene, drawn once
     from the seed) while the target stays as loaded, so points every source shows on flare
     are supervised across scenes (``finetune --source-flare`` does it for one scene).
-    Recorded in the weights' metadata (``pretrain_source_flare``). 0: never (as before)."""
+    Recorded in the weights' metadata (``pretrain_source_flare``). 0 (the default): never.
+    With ``flare_flag`` it raised the development scenes' novel views but not their
+    de-flared photos, so it is off (docs/history/gnfr.md, "Seventy-first session")."""
     flare_flag: bool = False
     """Give each source's colour and features one more input, 1 where the point is on flare
     in that source (``GNFRConfig.flare_flag``; weights without it load with the flag's input
