@@ -55,7 +55,8 @@ class TrainConfig:
     """Fine-tuning: the share of steps (drawn at random) whose sources are read from a flared
     twin of the scene (``pipeline.source_flare``: one more synthetic flare, masked, on every
     view) while the target stays as photographed: the masking loss then trains points that
-    every source shows on flare. Pretraining ignores it (0: never, as before)."""
+    every source shows on flare. Pretraining has its own share (``pretrain
+    --source-flare``) and ignores this one (0: never, as before)."""
     eval_views: int = 10
     """Source views at render / evaluation time (nearest least-flared)."""
     lr_encoder: float = 5e-4

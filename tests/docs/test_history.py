@@ -1605,6 +1605,22 @@ def _arm_cell(arm: str, scene: str, seeds=(2, 3)) -> str:
     return f"{m[0]:.2f} / {m[1]:.2f}, {m[2]:.2f}"
 
 
+def _assert_arm_rows(history: str, arms: tuple[str, ...],
+                     scenes=("sceaux", "et", "lund")) -> None:
+    """Each scene's row of a history table of seed means, one ``_arm_cell`` per arm, is on
+    the page."""
+    for sc in scenes:
+        row = f"| {sc} | " + " | ".join(_arm_cell(a, sc) for a in arms) + " |"
+        assert row in history, row
+
+
+def _seed_diffs(baseline: str, candidate: str, part: str, key: str,
+                scenes=("sceaux", "et", "lund")) -> list[float]:
+    """Per scene and seed, the candidate arm's ``part``/``key`` minus the baseline's."""
+    return [b[part][key] - a[part][key] for sc in scenes
+            for a, b in zip(_arm_runs(baseline, sc), _arm_runs(candidate, sc), strict=True)]
+
+
 def test_flare_fallback_and_inputs_sources_table_is_its_files():
     """docs/history/gnfr.md's sixty-seventh-session table (seed means of the baseline, the
     `darkest` fallback and 12 sources for the de-flared photos) is the arms' files; both
@@ -1856,9 +1872,7 @@ def test_pretrain_exposure_match_outcome_is_its_files():
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
     card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
     scenes = ("sceaux", "et", "lund")
-    for sc in scenes:
-        row = f"| {sc} | {_arm_cell('s69_p0', sc)} | {_arm_cell('s69_pe', sc)} |"
-        assert row in history, row
+    _assert_arm_rows(history, ('s69_p0', 's69_pe'))
     judge = load_benchmark("fmg_photo_ab").judge
     for rule, name in (("flare", "pretrain_exposure_judge_s69.json"),
                        ("novel", "pretrain_exposure_judge_novel_s69.json")):
@@ -1873,11 +1887,8 @@ def test_pretrain_exposure_match_outcome_is_its_files():
     assert (f"+{m['psnr_flare']:.3f} dB in the flare region and their novel views "
             f"{m['held']:+.3f} dB") in card
 
-    def seed_diffs(part: str, key: str) -> list[float]:
-        return [b[part][key] - a[part][key] for sc in scenes
-                for a, b in zip(_arm_runs("s69_p0", sc), _arm_runs("s69_pe", sc), strict=True)]
-
-    flare, held = seed_diffs("inputs", "psnr_flare"), seed_diffs("heldout", "psnr")
+    flare = _seed_diffs("s69_p0", "s69_pe", "inputs", "psnr_flare")
+    held = _seed_diffs("s69_p0", "s69_pe", "heldout", "psnr")
     assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
             f"views {min(held):+.2f} to {max(held):+.2f}") in history
 
@@ -1922,9 +1933,7 @@ def test_more_pretraining_outcome_is_its_files():
     ranges are theirs."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
     scenes = ("sceaux", "et", "lund")
-    for sc in scenes:
-        row = f"| {sc} | {_arm_cell('s69_sh', sc)} | {_arm_cell('s69_p0', sc)} |"
-        assert row in history, row
+    _assert_arm_rows(history, ('s69_sh', 's69_p0'))
     judge = load_benchmark("fmg_photo_ab").judge
     for rule, name, failed in (("flare", "prior_p0_judge_s71.json", "abc"),
                                ("novel", "prior_p0_judge_novel_s71.json", "ac")):
@@ -1938,10 +1947,8 @@ def test_more_pretraining_outcome_is_its_files():
     assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (lund "
             f"{lund['psnr_flare']:+.3f}), the whole photo {m['psnr']:+.3f}, the held-out views "
             f"{m['held']:+.3f}") in history
-    flare = [b["inputs"]["psnr_flare"] - a["inputs"]["psnr_flare"] for sc in scenes
-             for a, b in zip(_arm_runs("s69_sh", sc), _arm_runs("s69_p0", sc), strict=True)]
-    held = [b["heldout"]["psnr"] - a["heldout"]["psnr"] for sc in scenes
-            for a, b in zip(_arm_runs("s69_sh", sc), _arm_runs("s69_p0", sc), strict=True)]
+    flare = _seed_diffs("s69_sh", "s69_p0", "inputs", "psnr_flare")
+    held = _seed_diffs("s69_sh", "s69_p0", "heldout", "psnr")
     assert (f"the flare region moves {min(flare):+.2f} to {max(flare):+.2f} dB, the held-out "
             f"views {min(held):+.2f} to {max(held):+.2f}") in history
     for sc in scenes:  # the shipped prior's arms repeat s67_in12's cells
@@ -1965,10 +1972,7 @@ def test_source_flare_prior_outcome_is_its_files():
     the committed log's."""
     history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
     scenes = ("sceaux", "et", "lund")
-    for sc in scenes:
-        row = (f"| {sc} | {_arm_cell('s69_sh', sc)} | {_arm_cell('s69_p0', sc)} | "
-               f"{_arm_cell('s71_ps', sc)} |")
-        assert row in history, row
+    _assert_arm_rows(history, ('s69_sh', 's69_p0', 's71_ps'))
     judge = load_benchmark("fmg_photo_ab").judge
     want = {("s69_p0", "flare"): ("source_flare_prior_judge_s71.json", "fails (a)"),
             ("s69_p0", "novel"): ("source_flare_prior_judge_novel_s71.json", "passes"),
@@ -1990,8 +1994,7 @@ def test_source_flare_prior_outcome_is_its_files():
     assert (f"gain {m['held']:+.3f} dB on the mean (every scene up) but the flare region loses "
             f"{-m['psnr_flare']:.3f} dB (lund {-ps['lund']['psnr_flare']:.3f})") in history
     assert all(p["held"] > 0 for p in ps.values())
-    held = [b["heldout"]["psnr"] - a["heldout"]["psnr"] for sc in scenes
-            for a, b in zip(_arm_runs("s69_p0", sc), _arm_runs("s71_ps", sc), strict=True)]
+    held = _seed_diffs("s69_p0", "s71_ps", "heldout", "psnr")
     assert f"the held-out views move {min(held):+.2f} to {max(held):+.2f} dB" in history
     rows = [json.loads(x) for x in
             (RESULTS / "pretrain_source_flare_PS_s71.jsonl").read_text().splitlines() if x.strip()]
