@@ -40,11 +40,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def _psnr(a: np.ndarray, b: np.ndarray) -> float:
-    """PSNR (dB) of sRGB pixel arrays in [0, 1]."""
-    return float(-10 * np.log10(max(float(np.mean((a - b) ** 2)), 1e-12)))
-
-
 def view_row(photo: np.ndarray, clean: np.ndarray, mask: np.ndarray, consensus: np.ndarray,
              reached: np.ndarray, band: float, smooths: list[float]) -> dict:
     """One view's numbers (module docstring): ``photo``, ``clean``, ``consensus`` [H, W, 3]
@@ -53,6 +48,7 @@ def view_row(photo: np.ndarray, clean: np.ndarray, mask: np.ndarray, consensus: 
     import cv2
 
     from pipeline.colour import linear_to_srgb, srgb_to_linear
+    from pipeline.metrics import masked_psnr
     from pipeline.render.flare_layer import lowpass
 
     long_side = max(mask.shape)
@@ -82,8 +78,8 @@ def view_row(photo: np.ndarray, clean: np.ndarray, mask: np.ndarray, consensus: 
         after = linear_to_srgb(np.clip(p - est, 0, 1))
         veil = (p - cl)[near]
         row[f"smooth_{s:g}"] = {
-            "psnr_before": _psnr(photo[near], clean[near]),
-            "psnr_after": _psnr(after[near], clean[near]),
+            "psnr_before": masked_psnr(photo, clean, near),
+            "psnr_after": masked_psnr(after, clean, near),
             "rms_veil": float(np.sqrt(np.mean(veil ** 2))),
             "rms_error": float(np.sqrt(np.mean((est[near] - veil) ** 2)))}
     return row
