@@ -436,7 +436,9 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     photos = Path(photos)
     check_not_workspace(photos)
     chosen = list_photos(photos, cfg.video_frames)
-    ws = Workspace.create(ws_path or default_workspace(photos), photos)
+    ws_path = Path(ws_path or default_workspace(photos))
+    made_here = not ws_path.exists()  # a failed first decode leaves no workspace behind
+    ws = Workspace.create(ws_path, photos)
     stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,
                                 defaults=asdict(DecodeConfig()))
     if stage_run.skip:
@@ -470,6 +472,10 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     if len(done) < MIN_IMAGES:  # before anything of an earlier run is removed
         what = (f"{len(done)} of {len(chosen)} photos" if not frames
                 else f"{len(done)} views (photos and video frames)")
+        if made_here:  # only this run's files are in it
+            import shutil
+
+            shutil.rmtree(ws.root, ignore_errors=True)
         raise UserError(f"only {what} in {photos} could be decoded (skipped: "
                         f"{', '.join(skipped) or 'none'}): at least {MIN_IMAGES} usable photos "
                         "are needed; replace the unreadable files")

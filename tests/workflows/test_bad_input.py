@@ -222,6 +222,21 @@ def test_too_few_usable_after_skipping(tmp_path, capsys):
     _fails(capsys, ["decode", str(d), "--out", str(tmp_path / "ws")],
            "only 2 of 3", "broken.jpg")
     assert digest_paths([d]) == before
+    assert not (tmp_path / "ws").exists()  # the failed first decode left no workspace
+
+
+def test_a_first_run_whose_photos_all_fail_leaves_no_workspace(tmp_path, capsys):
+    """`deflare-scene ./photos` with no readable photo: one line naming them, rc 2, and no
+    empty `photos.deflare/` left beside the folder (a workspace that existed stays: the test
+    above of a rerun)."""
+    d = tmp_path / "photos"
+    d.mkdir()
+    for i in range(3):
+        (d / f"p{i}.jpg").write_bytes(b"\xff\xd8\xff\xe0 not a photo " + bytes([i]))
+    before = digest_paths([d])
+    _fails(capsys, [str(d)], "only 0 of 3", "p0.jpg")
+    assert not (tmp_path / "photos.deflare").exists()
+    assert digest_paths([d]) == before
 
 
 def test_output_inside_photo_folder(tmp_path, capsys):
