@@ -2003,3 +2003,21 @@ def test_source_flare_prior_outcome_is_its_files():
     assert (f"over the last 8 000 steps {np.mean([r['psnr'] for r in late]):.2f} dB against "
             f"`P0`'s 20.92, the twins' steps "
             f"{np.mean([r['psnr'] for r in late if 'twin' in r]):.2f}") in history
+
+
+def test_source_flare_prior4_outcome_is_its_files():
+    """docs/history/gnfr.md's outcome of candidate PS4 (the source-flare supervision for 4 000
+    steps) is its arms' files and both judges recomputed from them."""
+    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    _assert_arm_rows(history, ("s69_sh", "s72_ps4"))
+    judge = load_benchmark("fmg_photo_ab").judge
+    for rule, name in (("flare", "source_flare_prior4_judge_s71.json"),
+                       ("novel", "source_flare_prior4_judge_novel_s71.json")):
+        res = json.loads((RESULTS / name).read_text())
+        again = judge(RESULTS, "s72_ps4", "s69_sh", ["sceaux", "et", "lund"], [2, 3], rule=rule)
+        assert again["decision"] == res["decision"]
+        assert f"`--rule {rule}` {res['decision']}" in history
+        assert again["mean"] == pytest.approx(res["mean"])
+    m = json.loads((RESULTS / "source_flare_prior4_judge_s71.json").read_text())["mean"]
+    assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean, the whole photo "
+            f"{m['psnr']:+.3f}, the held-out views {m['held']:+.3f}") in history
