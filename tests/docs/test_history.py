@@ -2021,3 +2021,25 @@ def test_source_flare_prior4_outcome_is_its_files():
     m = json.loads((RESULTS / "source_flare_prior4_judge_s71.json").read_text())["mean"]
     assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean, the whole photo "
             f"{m['psnr']:+.3f}, the held-out views {m['held']:+.3f}") in history
+
+
+def test_goals_page_quotes_the_pretraining_levers_judged():
+    """docs/goals.md's paragraph on the `quick` prior's pretraining changes quotes each judge's
+    file: the exposure lever's flare region, and P0's, PS's and PS4's flare region and novel
+    views against the shipped file's arms."""
+    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+
+    def mean(name):
+        return json.loads((RESULTS / name).read_text())["mean"]
+
+    expo = mean("pretrain_exposure_judge_s69.json")
+    assert f"flare region {expo['psnr_flare']:+.3f} dB, under the +0.10 asked" in goals
+    p0 = mean("prior_p0_judge_s71.json")
+    assert (f"flare region {p0['psnr_flare']:+.3f} dB and novel views {p0['held']:+.3f} "
+            "(`prior_p0_judge_s71.json`)") in goals
+    ps = mean("source_flare_prior_vs_shipped_judge_s71.json")
+    assert (f"novel views {ps['held']:+.3f} dB and flare region {ps['psnr_flare']:+.3f} "
+            "(`source_flare_prior_vs_shipped_judge_s71.json`)") in goals
+    ps4 = mean("source_flare_prior4_judge_s71.json")
+    assert (f"{ps4['held']:+.3f} and {ps4['psnr_flare']:+.3f} "
+            "(`source_flare_prior4_judge_s71.json`)") in goals
