@@ -47,13 +47,14 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
                 max_size: int | None = None, fill_holes: bool = False, confirm=None,
                 scales: tuple[float, ...] = (1.0,), ghosts=None, cache: dict | None = None,
-                ray_cfg=None) -> dict:
+                ray_cfg=None, pads: tuple[str, ...] = ()) -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
-    with ``scales`` the network run as `mask --scales` runs it; with ``ghosts`` (a
+    with ``scales`` and ``pads`` the network run as `mask --scales` and `--pads` run it;
+    with ``ghosts`` (a
     GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them. ``cache``
     (a dict kept per ``model``) holds each photo's probabilities and lights between calls, so
     that scoring the same photos with and without rays or ghost lines runs the network once;
@@ -78,14 +79,16 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
             if cache is None:
                 m = flare_marks(model, img, cut, work_size, rays, confirm=confirm,
-                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg)
+                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg, pads=pads)
             else:
                 key = (str(photo), max_size, work_size)
-                if (key, scales) not in cache:
-                    cache[key, scales] = fmg_probs(model, [img], work_size, scales)[0]
+                if (key, scales, pads) not in cache:
+                    cache[key, scales, pads] = fmg_probs(model, [img], work_size, scales,
+                                                         pads)[0]
                 if (rays or ghosts is not None) and key not in cache:
                     cache[key] = lights_at_work_size(img, work_size)
-                m = flare_marks(model, img, cut, work_size, rays, probs=cache[key, scales],
+                m = flare_marks(model, img, cut, work_size, rays,
+                                probs=cache[key, scales, pads],
                                 confirm=confirm, scales=scales, ghosts=ghosts,
                                 found=cache.get(key), ray_cfg=ray_cfg)
             if fill_holes:
@@ -132,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="as `mask --confirm-keep`")
     ap.add_argument("--scales", action="append", default=None, metavar="S1,S2",
                     help="as `mask --scales` (repeat to score each setting; default 1)")
+    ap.add_argument("--pads", action="append", default=None, metavar="MODES",
+                    help="as `mask --pads` (e.g. reflect,replicate,constant; none: the plain "
+                         "pass; repeat to score each setting; default none)")
     ap.add_argument("--ghost-lines", action="store_true",
                     help="also score each setting with `mask --ghost-lines`")
     ap.add_argument("--ray-rule", action="append", default=None, metavar="MIN,OPP",
@@ -153,6 +159,10 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--scales: give numbers separated by commas, e.g. 1,0.75")
     if any(s <= 0 or s > 2 for x in settings for s in x):
         ap.error("--scales: each number more than 0 and at most 2")
+    pad_settings = [() if x == "none" else tuple(x.split(",")) for x in a.pads or ["none"]]
+    if any(m not in ("reflect", "replicate", "constant") for x in pad_settings for m in x):
+        ap.error("--pads: give none or paddings of reflect, replicate, constant separated by "
+                 "commas")
     for scene in a.scenes:  # every folder checked before the slow scoring starts
         missing = [d for d in ("photos", "masks_gt") if not (scene / d).is_dir()]
         if missing:
@@ -176,21 +186,23 @@ def main(argv: list[str] | None = None) -> int:
         ghost_settings = (False, True) if a.ghost_lines else (False,)
         ray_settings = ([(False, None, False)] + [(True, r, False) for r in rules or [None]]
                         + [(True, r, True) for r in (rules or [None]) if a.streak_lines])
-        for (rays, rule, lines), scales, ghost, scene in itertools.product(
-                ray_settings, settings, ghost_settings, a.scenes):
+        for (rays, rule, lines), scales, pads, ghost, scene in itertools.product(
+                ray_settings, settings, pad_settings, ghost_settings, a.scenes):
             ray_cfg = RayConfig(**({} if rule is None else
                                    {"min_rays": rule[0], "opposite": rule[1]}), lines=lines)
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                  "ray_rule": None if rule is None else list(rule), "streak_lines": lines,
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
-                 "confirm_keep": a.confirm_keep, "scales": list(scales), "ghost_lines": ghost,
+                 "confirm_keep": a.confirm_keep, "scales": list(scales), "pads": list(pads),
+                 "ghost_lines": ghost,
                  **score_scene(model, cut, scene, rays, max_size=a.max_size,
                                fill_holes=a.fill_holes, confirm=confirm, scales=scales,
                                ghosts=GhostConfig() if ghost else None, cache=cache,
-                               ray_cfg=ray_cfg)}
+                               ray_cfg=ray_cfg, pads=pads)}
             rows.append(r)
             print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
+                  f"{' pads ' + ','.join(pads) if pads else ''}"
                   f"{' +ghost-lines' if ghost else ''} "
                   f"{'rays' if rays else 'fmg '}{'' if rule is None else f' {rule[0]},{rule[1]:g}'}"
                   f"{' +streak-lines' if lines else ''}"

@@ -14,7 +14,7 @@ clean photos likewise (a real scene posed by `pose`; run in WORK/<name>.ws, shar
 photos and cameras, so nothing is written into WS). Use development scenes to choose.
 
     python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS [WS ...]] --work DIR \
-        [--clean] [--weights W] --out J
+        [--clean] [--weights W] [--pads reflect,replicate,constant] --out J
 """
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "rays": True, "scene": synth.name, "folder": folder, "setting": name,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
-                     "streak_lines": config.streak_lines,
+                     "streak_lines": config.streak_lines, "pads": list(config.pads),
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
                      **mask_scores((s, marks[s], truth[s]) for s in stems)})
     return rows
@@ -99,10 +99,17 @@ def main(argv: list[str] | None = None) -> int:
                     help="also score the default setting with `mask --streak-lines` "
                          "(setting ghost_views_lines; `candidate_added`: its mean share "
                          "over ghost_views')")
+    ap.add_argument("--pads", default=None, metavar="MODES",
+                    help="also score the default setting with `mask --pads MODES` (e.g. "
+                         "reflect,replicate,constant; setting ghost_views_pads; "
+                         "`candidate_added`: its mean share over ghost_views')")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    if a.streak_lines and a.ray_opposite is not None:
-        ap.error("give one candidate: --ray-opposite or --streak-lines")
+    if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None)) > 1:
+        ap.error("give one candidate: --ray-opposite, --streak-lines or --pads")
+    pads = tuple(a.pads.split(",")) if a.pads else ()
+    if any(m not in ("reflect", "replicate", "constant") for m in pads):
+        ap.error("--pads: paddings of reflect, replicate, constant separated by commas")
     if not a.scenes and not a.posed:
         ap.error("give synth folders, --posed workspaces, or both")
     if a.ray_opposite is not None and not 0 <= a.ray_opposite <= 90:
@@ -112,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
         settings["ghost_views_opp"] = {**SETTINGS["ghost_views"], "ray_opposite": a.ray_opposite}
     if a.streak_lines:
         settings["ghost_views_lines"] = {**SETTINGS["ghost_views"], "streak_lines": True}
+    if pads:
+        settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -136,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     by = {name: [r for r in rows if r["setting"] == name] for name in settings}
     out["mean_marked"] = {n: float(np.mean([r["marked"] for r in v])) for n, v in by.items()}
     out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
-    for cand in ("ghost_views_opp", "ghost_views_lines"):
+    for cand in ("ghost_views_opp", "ghost_views_lines", "ghost_views_pads"):
         if cand in settings:
             out["candidate_added"] = (out["mean_marked"][cand]
                                       - out["mean_marked"]["ghost_views"])

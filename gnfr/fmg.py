@@ -274,14 +274,42 @@ SCALES = (1.0,)
 the working size alone)."""
 
 
+PAD_MODES = ("reflect", "replicate", "constant")
+"""The paddings ``predict_probs``' ``pads`` may name (``torch.nn.functional.pad``'s modes;
+constant pads with black)."""
+
+PAD_SHARE = 0.03
+"""How far ``predict_probs`` pads each edge for its ``pads``: this share of the long side
+of the network's input (15 pixels at 512)."""
+
+
+def padded_probs(model: PSPNet, x: torch.Tensor, pads: tuple[str, ...] = (),
+                 share: float = PAD_SHARE) -> torch.Tensor:
+    """Sigmoid of ``model`` on x [B, 3, h, w], and with ``pads`` the lowest of that and of
+    the network run on x padded at every edge by ``share`` of its long side in each of
+    those modes (cropped back): a pixel stays flare only if every padding keeps it so
+    (``mask --pads``)."""
+    probs = torch.sigmoid(model(x))
+    n = max(1, round(share * max(x.shape[-2:])))
+    for mode in pads:
+        if mode not in PAD_MODES:
+            raise ValueError(f"padded_probs: unknown padding {mode!r}; known: {PAD_MODES}")
+        out = torch.sigmoid(model(F.pad(x, (n, n, n, n), mode=mode)))
+        probs = torch.minimum(probs, out[..., n:-n, n:-n])
+    return probs
+
+
 @torch.no_grad()
 def predict_probs(model: PSPNet, images: torch.Tensor, long_side: int | None = None,
-                  scales: tuple[float, ...] = SCALES) -> torch.Tensor:
+                  scales: tuple[float, ...] = SCALES,
+                  pads: tuple[str, ...] = ()) -> torch.Tensor:
     """Flare probabilities [B, 1, H, W] of images [B, 3, H, W] (sRGB in [0, 1]).
 
     The network runs at ``long_side`` (default ``model.cfg.work_size``) times each of
     ``scales``; each result is upsampled bilinearly to the input size and the probabilities
-    are averaged over the scales (PSPNet's multi-scale testing; ``mask --scales``).
+    are averaged over the scales (PSPNet's multi-scale testing; ``mask --scales``). With
+    ``pads`` each scale's probabilities are the lowest over the input as it is and padded
+    in each of those modes (``padded_probs``; ``mask --pads``).
     """
     if not scales:
         raise ValueError("predict_probs: no scales given")
@@ -293,7 +321,7 @@ def predict_probs(model: PSPNet, images: torch.Tensor, long_side: int | None = N
         hw = work_shape(h, w, round((long_side or model.cfg.work_size) * s))
         xs = x if hw == (h, w) else F.interpolate(x, size=hw, mode="bilinear",
                                                   align_corners=False, antialias=True)
-        probs = torch.sigmoid(model(xs))
+        probs = padded_probs(model, xs, pads)
         if hw != (h, w):
             probs = F.interpolate(probs, size=(h, w), mode="bilinear", align_corners=False)
         total = probs if total is None else total + probs

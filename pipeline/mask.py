@@ -73,6 +73,12 @@ class MaskConfig:
     before the cut (PSPNet's multi-scale testing; e.g. 1,0.75 runs it at 512 and 384 px,
     about 1.6 times the pixels to run). The flare rays are found at ``work_size`` alone
     (docs/history/fmg.md, "Thirty-first session")."""
+    pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
+    """The network run again on each view padded at every edge (3 % of the long side) in
+    each of these ways (comma-separated: reflect, replicate, constant), a pixel's
+    probability the lowest of the passes: what the network marks on clean photos moves with
+    the padding, flare does not (docs/history/fmg.md, "Seventy-second session"). One more
+    network pass per padding."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -239,16 +245,18 @@ def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
 
 
 def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
-              scales: tuple[float, ...] = (1.0,)) -> list[np.ndarray]:
+              scales: tuple[float, ...] = (1.0,),
+              pads: tuple[str, ...] = ()) -> list[np.ndarray]:
     """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images, the
-    network run at ``work_size`` times each of ``scales`` (averaged)."""
+    network run at ``work_size`` times each of ``scales`` (averaged), with ``pads`` as
+    ``MaskConfig.pads``."""
     import torch
 
     from gnfr.fmg import predict_probs
 
     x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
     t = torch.from_numpy(x).permute(0, 3, 1, 2)                  # [B, 3, H, W]
-    probs = predict_probs(model, t, work_size, scales)           # [B, 1, H, W]
+    probs = predict_probs(model, t, work_size, scales, tuple(pads))  # [B, 1, H, W]
     return list(probs[:, 0].cpu().numpy())
 
 
@@ -310,18 +318,18 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
                 confirm_probs: np.ndarray | None = None,
                 scales: tuple[float, ...] = (1.0,), ghosts=None,
-                found: tuple | None = None) -> np.ndarray:
+                found: tuple | None = None, pads: tuple[str, ...] = ()) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays`` and the ghost-line regions of the probabilities (``ghost_marks``) if
     ``ghosts`` (a ``pipeline.flare_ghosts.GhostConfig``). With ``confirm`` = (second
     model, its cut, keep) the mask of `mask --confirm` (``confirmed_marks``; the second's
     probabilities ``confirm_probs`` if already computed). ``scales``: as
-    ``MaskConfig.scales`` (the rays are found at ``work_size``); ``found``:
-    ``lights_at_work_size`` if already known."""
+    ``MaskConfig.scales`` (the rays are found at ``work_size``), ``pads`` as
+    ``MaskConfig.pads``; ``found``: ``lights_at_work_size`` if already known."""
 
     def network_probs(m, p):
-        p = fmg_probs(m, [image_bgr], work_size, scales)[0] if p is None else p
+        p = fmg_probs(m, [image_bgr], work_size, scales, pads)[0] if p is None else p
         return refine_probs(image_bgr, p) if refine else p
 
     p_main = network_probs(model, probs)
@@ -422,8 +430,9 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            probs = fmg_probs(model, imgs, config.work_size, config.scales)
-            second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales)
+            probs = fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
+            second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales,
+                                config.pads)
                       if confirm is not None else [None] * len(imgs))
             for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
                 found = lights_at_work_size(img, config.work_size) if ghosts else None

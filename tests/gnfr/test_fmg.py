@@ -126,6 +126,32 @@ def test_predict_probs_averages_its_scales():
         predict_probs(model, x, long_side=64, scales=())
 
 
+
+def test_predict_probs_pads_keep_the_lowest_of_its_passes():
+    """`mask --pads`: each padded pass is the network on the input padded at every edge by
+    PAD_SHARE of its long side and cropped back; the result is the lowest of the plain pass
+    and those; no pads is the plain pass; an unknown padding is refused."""
+    from gnfr.fmg import PAD_SHARE, padded_probs
+
+    torch.manual_seed(3)
+    model = build_fmg(tiny_config()).eval()
+    x = torch.rand(2, 3, 48, 64)
+    with torch.no_grad():
+        plain = torch.sigmoid(model(x))
+        n = round(PAD_SHARE * 64)
+        passes = [torch.sigmoid(model(F.pad(x, (n, n, n, n), mode=m)))[..., n:-n, n:-n]
+                  for m in ("reflect", "constant")]
+        got = padded_probs(model, x, ("reflect", "constant"))
+        assert torch.equal(padded_probs(model, x), plain)
+    assert torch.allclose(got, torch.minimum(plain, torch.minimum(*passes)), atol=1e-6)
+    assert (got <= plain + 1e-7).all() and not torch.allclose(got, plain, atol=1e-4)
+    both = predict_probs(model, x, long_side=64, pads=("reflect", "constant"))
+    assert torch.allclose(both, got, atol=1e-6)  # at its own size no resampling
+    assert torch.equal(predict_probs(model, x, long_side=64, pads=()),
+                       predict_probs(model, x, long_side=64))
+    with pytest.raises(ValueError, match="unknown padding"):
+        padded_probs(model, x, ("wrap",))
+
 def test_save_load_roundtrip_fp16(tmp_path):
     torch.manual_seed(2)
     cfg = tiny_config()

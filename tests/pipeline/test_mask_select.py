@@ -120,6 +120,34 @@ def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
     assert not np.array_equal(want, flare_marks(model, img, cut, 512))  # scales matter
 
 
+
+def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, capsys):
+    """`mask --pads reflect,constant` writes the masks of the lowest probability over the
+    plain and padded runs, runs the stage again when the pads change, and an unknown
+    padding is one line naming the option, exit 2."""
+    from pipeline.mask import flare_marks, fmg_probs, load_fmg_weights
+
+    ws = kermit_ws
+    stems, _ = _stems_and_size(ws)
+    model = load_fmg_weights(tiny_weights)
+    img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
+    cut = float(np.median(fmg_probs(model, [img], 512)[0]))  # a cut that marks half
+    args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
+            "--threshold", repr(cut)]
+    assert main(args) == 0
+    before = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
+    assert main([*args, "--pads", "reflect,constant"]) == 0
+    assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns != before  # not skipped
+    want = flare_marks(model, img, cut, 512, pads=("reflect", "constant"))
+    got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
+    assert np.array_equal(got, want)
+    plain = flare_marks(model, img, cut, 512)
+    assert want.sum() < plain.sum() and not (want & ~plain).any()  # only marks removed
+    capsys.readouterr()
+    assert main([*args, "--pads", "wrap"]) == 2
+    err = capsys.readouterr().err
+    assert "--pads" in err and "wrap" in err and "Traceback" not in err
+
 def _stems_and_size(ws) -> tuple[list[str], tuple[int, int]]:
     """The workspace's stems and the (H, W) of its images."""
     stems = sorted(p.stem for p in ws.images.glob("*.png"))
