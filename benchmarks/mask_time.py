@@ -9,7 +9,8 @@ share of the mask stage (the flare rays and file writing are the same for every 
 thread count is the process's (set OMP_NUM_THREADS to compare like with like). ``--rays``
 also times the flare rays per view (``pipeline.mask.ray_marks``, the lights found each
 time), with the stage's rule and with the streak lines (`mask --streak-lines`): rows with
-``rays`` set instead of weights.
+``rays`` set instead of weights. ``--pads MODES`` also times each file as `mask --pads MODES`
+runs it (rows with ``pads`` set).
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("photos", type=Path)
     ap.add_argument("--weights", type=Path, action="append", required=True)
     ap.add_argument("--work-size", type=int, default=512)
+    ap.add_argument("--pads", default=None, metavar="MODES",
+                    help="also time each file with `mask --pads MODES` (e.g. "
+                         "reflect,replicate,constant)")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--rays", action="store_true",
                     help="also time the flare rays, without and with the streak lines")
@@ -67,14 +71,18 @@ def main(argv: list[str] | None = None) -> int:
                 "mean_s_per_view": round(sum(times) / len(times), 4)}
 
     rows = []
-    for w in a.weights:
+    pad_settings = [()] + ([tuple(a.pads.split(","))] if a.pads else [])
+    for w, pads in ((w, pads) for w in a.weights for pads in pad_settings):
         model = load_fmg_weights(w)
         params = sum(p.numel() for p in model.parameters())
-        fmg_probs(model, images[:1], a.work_size)  # warm-up
+        fmg_probs(model, images[:1], a.work_size, pads=pads)  # warm-up
         row = {"weights": str(w), "sha256": sha256(w), "parameters": params,
-               **per_view(lambda im, m=model: fmg_probs(m, [im], a.work_size))}
+               "pads": list(pads),
+               **per_view(lambda im, m=model, p=pads: fmg_probs(m, [im], a.work_size,
+                                                                pads=p))}
         rows.append(row)
-        print(f"{w.name}: {params / 1e6:.2f} M parameters, {row['median_s_per_view']:.3f} s per "
+        print(f"{w.name}{' pads ' + ','.join(pads) if pads else ''}: {params / 1e6:.2f} M "
+              f"parameters, {row['median_s_per_view']:.3f} s per "
               f"{row['view_size'][0]}x{row['view_size'][1]} view (median of "
               f"{a.repeat * len(images)}, {row['threads']} thread(s))", flush=True)
     for lines in ((False, True) if a.rays else ()):

@@ -2043,3 +2043,61 @@ def test_goals_page_quotes_the_pretraining_levers_judged():
     ps4 = mean("source_flare_prior4_judge_s71.json")
     assert (f"{ps4['held']:+.3f} and {ps4['psnr_flare']:+.3f} "
             "(`source_flare_prior4_judge_s71.json`)") in goals
+
+
+def _page(*parts: str) -> str:
+    """A page of the repository with its line breaks as spaces."""
+    return " ".join(REPO.joinpath(*parts).read_text().split())
+
+
+def test_mask_pads_outcome_is_its_files():
+    """`mask --pads` (seventy-second session): the rule's parts recomputed from their files
+    (the one-kind judge, the photo judge), and the numbers docs/history/fmg.md, the FMG
+    card, docs/options.md, docs/goals.md and the README quote are those files'."""
+    history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
+    options, goals, readme = _page("docs", "options.md"), _page("docs", "goals.md"), _page(
+        "README.md")
+    base, cand = "fmg.safetensors@1", "fmg.safetensors@1+pads=reflect,replicate,constant"
+    kinds = load_benchmark("mask_kind_scenes")
+    builds = [json.loads((RESULTS / f"mask_dev_kinds_pads_s{s}.json").read_text())["rows"]
+              for s in (31, 32, 33)]
+    again = kinds.judge(builds, base, cand, mean_gain=-0.01)
+    saved = json.loads((RESULTS / "mask_kinds_judge_pads_s72.json").read_text())
+    assert again["passes"] == saved["passes"] is True
+    assert again["mean"] == pytest.approx(saved["mean"])
+    for name in (base, cand):
+        assert f"{saved['mean'][name]:.4f}" in history and f"{saved['mean'][name]:.4f}" in options
+    photos = load_benchmark("fmg_photo_ab").judge(RESULTS, "s72_pad", "s69_sh",
+                                                  ["sceaux", "et", "lund"], [2, 3], rule="speed")
+    saved = json.loads((RESULTS / "mask_pads_photo_judge_s72.json").read_text())
+    assert photos["decision"] == saved["decision"] == "fails (a)"
+    assert photos["mean"] == pytest.approx(saved["mean"])
+    m = saved["mean"]
+    assert (f"{m['psnr_flare']:+.3f} / {m['psnr']:+.3f} / {m['ssim']:+.3f} / "
+            f"{m['held']:+.3f} dB") in history
+    for page in (options, card, goals, readme):
+        assert f"{-m['psnr_flare']:.3f} dB" in page
+    assert f"the whole photo {m['psnr']:+.3f} dB" in options
+
+    def marked(name):
+        rows = json.loads((RESULTS / name).read_text())["rows"]
+        return {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f} %" for r in rows
+                if r["setting"] == "ghost_views_pads"}, json.loads(
+                    (RESULTS / name).read_text())["mean_marked"]
+
+    dev, dev_mean = marked("mask_views_clean_dev_pads_s72.json")
+    scenes = f"lund {dev['lund']}, sceaux_castle {dev['sceaux_castle']}, et {dev['et']}"
+    assert f"({scenes})" in options and scenes in goals
+    pads, plain = (f"{100 * dev_mean[k]:.3f} %" for k in ("ghost_views_pads", "ghost_views"))
+    assert f"marks {pads} of the pixels instead of {plain}" in options
+    assert f"marks {pads} of the clean development scenes instead of {plain}" in card
+    assert f"{pads} of the pixels marked instead of {plain}" in readme
+    test, _ = marked("mask_views_clean_test_pads_s72.json")
+    for page in (card, goals):
+        assert f"kermit {test['kermit']}, cyprus {test['cyprus']}, fern {test['fern']}" in page
+    rows = json.loads((RESULTS / "mask_time_pads_s72.json").read_text())["rows"]
+    plain, padded = (next(r["median_s_per_view"] for r in rows if bool(r["pads"]) is p)
+                     for p in (False, True))
+    assert f"{padded:.2f} s per view instead of {plain:.2f} s" in options
+    assert f"{padded:.2f} s per view" in history and f"against {plain:.2f} s" in history
+    assert f"about {padded - plain:.1f} s more per view" in readme

@@ -1406,3 +1406,18 @@ def test_mask_fusion_folds_hold_one_workspace_out(tmp_path, monkeypatch):
     assert bench.kind_means({"b_x_ghosts": 0.2, "c_x_ghosts": 0.4, "b_x_glare": None}) == {
         "ghosts": pytest.approx(0.3)}
     assert bench.pooled_iou([(np.zeros((2, 2), bool), np.zeros((2, 2), bool))]) is None
+
+
+def test_fmg_pads_benchmark_combines_its_passes(tmp_path, capsys):
+    """benchmarks/fmg_pads.py: each pass's marks and the mean / median / min of the four
+    maps cut at the same threshold; a folder without its images is one line, exit 2."""
+    bench = load_benchmark("fmg_pads")
+    probs = {"plain": np.array([[0.9, 0.9, 0.2]]), "reflect": np.array([[0.9, 0.4, 0.6]]),
+             "replicate": np.array([[0.8, 0.9, 0.6]]), "constant": np.array([[0.7, 0.9, 0.6]])}
+    marks = bench.combined_marks(probs, 0.5)
+    assert marks["plain"].tolist() == [[True, True, False]]
+    assert marks["min"].tolist() == [[True, False, False]]  # every pass must mark it
+    assert marks["median"].tolist() == [[True, True, True]]
+    assert marks["mean"].tolist() == [[True, True, False]]  # 0.5 is not above the cut
+    assert bench.main(["--clean", str(tmp_path)]) == 2
+    assert "no images/ folder" in capsys.readouterr().err
