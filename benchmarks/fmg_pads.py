@@ -9,7 +9,8 @@ long side at its working size in each of ``gnfr.fmg.PAD_MODES`` (``reflect``: mi
 ``replicate``: the edge repeated, ``constant``: black), each output cropped back. For each
 pass alone and for the four maps combined before the cut (``mean``, ``median``, ``min``: a
 pixel stays flare only if every pass marks it, `mask --pads reflect,replicate,constant`),
-it reports:
+and for ``regions`` (the plain pass's regions kept whole where ``min`` keeps a pixel of
+them), it reports:
 
 - on each SYNTH folder of `deflare-scene synth` (its ``photos/`` and ``masks_gt/``): flare
   IoU pooled over the views;
@@ -66,8 +67,22 @@ def combined_marks(probs: dict[str, np.ndarray], cut: float) -> dict[str, np.nda
     """The marks [H, W] bool of each pass alone and of the four combined (mean, median,
     min: `mask --pads reflect,replicate,constant`)."""
     stack = np.stack(list(probs.values()))
-    return {**{k: v > cut for k, v in probs.items()}, "mean": stack.mean(0) > cut,
-            "median": np.median(stack, 0) > cut, "min": stack.min(0) > cut}
+    marks = {**{k: v > cut for k, v in probs.items()}, "mean": stack.mean(0) > cut,
+             "median": np.median(stack, 0) > cut, "min": stack.min(0) > cut}
+    marks["regions"] = regions_touching(marks["plain"], marks["min"])
+    return marks
+
+
+def regions_touching(marks: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """The 8-connected regions of ``marks`` [H, W] bool that hold a pixel of ``seeds``:
+    the plain pass's regions kept whole where every padding keeps some of them."""
+    import cv2
+
+    n, labels = cv2.connectedComponents(marks.astype(np.uint8), connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[np.unique(labels[seeds & marks])] = True
+    keep[0] = False
+    return keep[labels]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2101,3 +2101,28 @@ def test_mask_pads_outcome_is_its_files():
     assert f"{padded:.2f} s per view instead of {plain:.2f} s" in options
     assert f"{padded:.2f} s per view" in history and f"against {plain:.2f} s" in history
     assert f"about {padded - plain:.1f} s more per view" in readme
+
+
+def test_mask_pads_exploration_is_its_file():
+    """The seventy-second session's exploration (benchmarks/fmg_pads.py): the figures
+    docs/history/fmg.md quotes for the plain pass, the mirrored pass, the consensus and the
+    regions kept whole are its file's."""
+    history = _page("docs", "history", "fmg.md")
+    res = json.loads((RESULTS / "fmg_pads_explore_s72.json").read_text())
+    clean, iou = res["clean_marked"], res["synth_flare_iou"]
+
+    def pct(ws, key):
+        return f"{100 * clean[ws + '.deflare'][key]:.3f}"
+
+    def ious(key):
+        return " / ".join(f"{iou[s + '_synth'][key]:.3f}" for s in ("sceaux", "et", "lund"))
+
+    assert (f"lund {pct('lund', 'plain')} % of the pixels marked as it is, "
+            f"{pct('lund', 'reflect')} % mirrored; sceaux_castle {pct('sceaux_castle', 'plain')} "
+            f"%, {pct('sceaux_castle', 'reflect')} % mirrored") in history
+    assert (f"sceaux_castle {pct('sceaux_castle', 'min')} %, et {pct('et', 'min')} % and lund "
+            f"{pct('lund', 'min')} %") in history
+    assert f"flare IoU {ious('min')} on sceaux / et / lund (from {ious('plain')}" in history
+    assert f"flare IoU is then {ious('regions')} (plain {ious('plain')})" in history
+    assert (" / ".join(pct(w, "regions") for w in ("sceaux_castle", "et", "lund"))
+            + " % of sceaux_castle / et / lund are marked") in history
