@@ -69,20 +69,10 @@ def combined_marks(probs: dict[str, np.ndarray], cut: float) -> dict[str, np.nda
     stack = np.stack(list(probs.values()))
     marks = {**{k: v > cut for k, v in probs.items()}, "mean": stack.mean(0) > cut,
              "median": np.median(stack, 0) > cut, "min": stack.min(0) > cut}
+    from pipeline.mask import regions_touching
+
     marks["regions"] = regions_touching(marks["plain"], marks["min"])
     return marks
-
-
-def regions_touching(marks: np.ndarray, seeds: np.ndarray) -> np.ndarray:
-    """The 8-connected regions of ``marks`` [H, W] bool that hold a pixel of ``seeds``:
-    the plain pass's regions kept whole where every padding keeps some of them."""
-    import cv2
-
-    n, labels = cv2.connectedComponents(marks.astype(np.uint8), connectivity=8)
-    keep = np.zeros(n, bool)
-    keep[np.unique(labels[seeds & marks])] = True
-    keep[0] = False
-    return keep[labels]
 
 
 def main(argv: list[str] | None = None) -> int:

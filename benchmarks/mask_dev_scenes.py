@@ -47,13 +47,14 @@ def near_band(truth: np.ndarray, band: float = BAND) -> np.ndarray:
 def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512,
                 max_size: int | None = None, fill_holes: bool = False, confirm=None,
                 scales: tuple[float, ...] = (1.0,), ghosts=None, cache: dict | None = None,
-                ray_cfg=None, pads: tuple[str, ...] = ()) -> dict:
+                ray_cfg=None, pads: tuple[str, ...] = (), pads_keep: str = "pixels") -> dict:
     """Pooled flare IoU and marked-outside-truth share over the views of one synth folder,
     the latter split into a band around the flare (``marked_near``) and beyond it. With
     ``max_size`` each photo (area) and true mask (nearest) is first shrunk to that long side,
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
-    with ``scales`` and ``pads`` the network run as `mask --scales` and `--pads` run it;
+    with ``scales``, ``pads`` and ``pads_keep`` the network run as `mask --scales`, `--pads`
+    and `--pads-keep` run it;
     with ``ghosts`` (a
     GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them. ``cache``
     (a dict kept per ``model``) holds each photo's probabilities and lights between calls, so
@@ -77,9 +78,13 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 img = resize_area(img, max_size)
                 wh = target_size(gt.shape[1], gt.shape[0], max_size)
                 gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
+            regions = bool(pads) and pads_keep == "regions"
             if cache is None:
+                agreed = (fmg_probs(model, [img], work_size, scales, pads)[0]
+                          if regions else None)
                 m = flare_marks(model, img, cut, work_size, rays, confirm=confirm,
-                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg, pads=pads)
+                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg,
+                                pads=() if regions else pads, consensus=agreed)
             else:
                 key = (str(photo), max_size, work_size)
                 if (key, scales, pads) not in cache:
@@ -87,8 +92,11 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                                                          pads)[0]
                 if (rays or ghosts is not None) and key not in cache:
                     cache[key] = lights_at_work_size(img, work_size)
+                if regions and (key, scales, ()) not in cache:
+                    cache[key, scales, ()] = fmg_probs(model, [img], work_size, scales)[0]
                 m = flare_marks(model, img, cut, work_size, rays,
-                                probs=cache[key, scales, pads],
+                                probs=cache[key, scales, () if regions else pads],
+                                consensus=cache[key, scales, pads] if regions else None,
                                 confirm=confirm, scales=scales, ghosts=ghosts,
                                 found=cache.get(key), ray_cfg=ray_cfg)
             if fill_holes:
@@ -138,6 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pads", action="append", default=None, metavar="MODES",
                     help="as `mask --pads` (e.g. reflect,replicate,constant; none: the plain "
                          "pass; repeat to score each setting; default none)")
+    ap.add_argument("--pads-keep", choices=("pixels", "regions"), default="pixels",
+                    help="as `mask --pads-keep` for every --pads setting")
     ap.add_argument("--ghost-lines", action="store_true",
                     help="also score each setting with `mask --ghost-lines`")
     ap.add_argument("--ray-rule", action="append", default=None, metavar="MIN,OPP",
@@ -195,14 +205,16 @@ def main(argv: list[str] | None = None) -> int:
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
                  "confirm_keep": a.confirm_keep, "scales": list(scales), "pads": list(pads),
+                 "pads_keep": a.pads_keep if pads else None,
                  "ghost_lines": ghost,
                  **score_scene(model, cut, scene, rays, max_size=a.max_size,
                                fill_holes=a.fill_holes, confirm=confirm, scales=scales,
                                ghosts=GhostConfig() if ghost else None, cache=cache,
-                               ray_cfg=ray_cfg, pads=pads)}
+                               ray_cfg=ray_cfg, pads=pads, pads_keep=a.pads_keep)}
             rows.append(r)
             print(f"{w.name} x{','.join(f'{s:g}' for s in scales)}"
                   f"{' pads ' + ','.join(pads) if pads else ''}"
+                  f"{' ' + a.pads_keep if pads and a.pads_keep != 'pixels' else ''}"
                   f"{' +ghost-lines' if ghost else ''} "
                   f"{'rays' if rays else 'fmg '}{'' if rule is None else f' {rule[0]},{rule[1]:g}'}"
                   f"{' +streak-lines' if lines else ''}"

@@ -73,14 +73,15 @@ def setting(row: dict) -> str:
     ``+ghosts`` added for a row scored with `mask --ghost-lines`, ``+views`` with
     `--ghost-views`, ``+raysMIN,OPP`` with a ray rule of its own (mask_dev_scenes.py
     ``--ray-rule``), ``+lines`` with the streak lines (``--streak-lines``), ``+pads=MODES``
-    with `mask --pads` (``--pads``)."""
+    with `mask --pads` (``--pads``), then ``+regions`` with `--pads-keep regions`."""
     scales = ",".join(f"{s:g}" for s in row.get("scales", [1.0]))
     rule = row.get("ray_rule")
     return (f"{Path(row['weights']).name}@{scales}{'+ghosts' if row.get('ghost_lines') else ''}"
             f"{'+views' if row.get('ghost_views') else ''}"
             f"{'' if rule is None else f'+rays{rule[0]},{rule[1]:g}'}"
             f"{'+lines' if row.get('streak_lines') else ''}"
-            f"{'+pads=' + ','.join(row['pads']) if row.get('pads') else ''}")
+            f"{'+pads=' + ','.join(row['pads']) if row.get('pads') else ''}"
+            f"{'+regions' if row.get('pads_keep') == 'regions' else ''}")
 
 
 def kind_scores(rows: list[dict], kind: str, name: str, scene: str | None = None

@@ -75,6 +75,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
                      "streak_lines": config.streak_lines, "pads": list(config.pads),
+                     "pads_keep": config.pads_keep if config.pads else None,
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
                      **mask_scores((s, marks[s], truth[s]) for s in stems)})
     return rows
@@ -103,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="also score the default setting with `mask --pads MODES` (e.g. "
                          "reflect,replicate,constant; setting ghost_views_pads; "
                          "`candidate_added`: its mean share over ghost_views')")
+    ap.add_argument("--pads-keep", choices=("pixels", "regions"), default="pixels",
+                    help="with --pads: as `mask --pads-keep`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None)) > 1:
@@ -120,7 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.streak_lines:
         settings["ghost_views_lines"] = {**SETTINGS["ghost_views"], "streak_lines": True}
     if pads:
-        settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads}
+        settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads,
+                                        "pads_keep": a.pads_keep}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)

@@ -79,6 +79,10 @@ class MaskConfig:
     probability the lowest of the passes: what the network marks on clean photos moves with
     the padding, flare does not (docs/history/fmg.md, "Seventy-second session"). One more
     network pass per padding."""
+    pads_keep: str = option("pixels", choices=("pixels", "regions"))
+    """With ``pads``: what the passes' agreement keeps. pixels: each pixel at its lowest
+    probability over the passes; regions: each region of the plain pass's marks whole
+    where the padded passes agree on some pixel of it (one more network pass)."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -177,6 +181,9 @@ class MaskConfig:
         if self.confirm_keep is not None and not self.confirm:
             raise UserError("--confirm-keep says which regions --confirm keeps: add "
                             "--confirm, or leave --confirm-keep out")
+        if self.pads_keep != "pixels" and not self.pads:
+            raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads "
+                            "reflect,replicate,constant, or leave --pads-keep out")
         for on, flag, what in (
                 (self.confirm, "--confirm", "checks an FMG's marks with a second network"),
                 (self.ghost_lines, "--ghost-lines", "adds to an FMG's marks"),
@@ -318,7 +325,8 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 probs: np.ndarray | None = None, ray_cfg=None, confirm=None,
                 confirm_probs: np.ndarray | None = None,
                 scales: tuple[float, ...] = (1.0,), ghosts=None,
-                found: tuple | None = None, pads: tuple[str, ...] = ()) -> np.ndarray:
+                found: tuple | None = None, pads: tuple[str, ...] = (),
+                consensus: np.ndarray | None = None) -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays`` and the ghost-line regions of the probabilities (``ghost_marks``) if
@@ -326,7 +334,10 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
     model, its cut, keep) the mask of `mask --confirm` (``confirmed_marks``; the second's
     probabilities ``confirm_probs`` if already computed). ``scales``: as
     ``MaskConfig.scales`` (the rays are found at ``work_size``), ``pads`` as
-    ``MaskConfig.pads``; ``found``: ``lights_at_work_size`` if already known."""
+    ``MaskConfig.pads``; ``found``: ``lights_at_work_size`` if already known. With
+    ``consensus`` (the probabilities with ``pads``, `mask --pads-keep regions`) the network's
+    marks are the regions of ``probs`` over the cut that hold a pixel of ``consensus`` over
+    it (``regions_touching``), before the ghost lines and the rays are added."""
 
     def network_probs(m, p):
         p = fmg_probs(m, [image_bgr], work_size, scales, pads)[0] if p is None else p
@@ -334,6 +345,8 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
 
     p_main = network_probs(model, probs)
     marks = p_main > cut
+    if consensus is not None:
+        marks = regions_touching(marks, consensus > cut)
     if ghosts is not None:
         if found is None:  # the rays start from the same lights
             found = lights_at_work_size(image_bgr, work_size)
@@ -344,6 +357,15 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
         return confirmed_marks(marks, network_probs(second, confirm_probs) > second_cut,
                                keep, rayed)
     return marks if rayed is None else marks | rayed
+
+
+def regions_touching(marks: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """The 8-connected regions of ``marks`` [H, W] bool that hold a pixel of ``seeds``."""
+    n, labels = cv2.connectedComponents(marks.astype(np.uint8), connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[np.unique(labels[seeds & marks])] = True
+    keep[0] = False
+    return keep[labels]
 
 
 def confirmed_marks(first: np.ndarray, second: np.ndarray, keep: str,
@@ -430,16 +452,20 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            probs = fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
+            regions = bool(config.pads) and config.pads_keep == "regions"
+            probs = fmg_probs(model, imgs, config.work_size, config.scales,
+                              () if regions else config.pads)
+            agreed = (fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
+                      if regions else [None] * len(imgs))
             second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales,
                                 config.pads)
                       if confirm is not None else [None] * len(imgs))
-            for s, img, p, q in zip(batch, imgs, probs, second, strict=True):
+            for s, img, p, q, c in zip(batch, imgs, probs, second, agreed, strict=True):
                 found = lights_at_work_size(img, config.work_size) if ghosts else None
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
                                 confirm_probs=q, ghosts=None if judged_later else ghosts,
-                                found=found)
+                                found=found, consensus=c)
                 if config.fill_holes:
                     m |= enclosed_holes(m)
                 if judged_later:  # written before the mask: a mask's candidates exist

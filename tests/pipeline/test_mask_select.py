@@ -148,6 +148,36 @@ def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, 
     err = capsys.readouterr().err
     assert "--pads" in err and "wrap" in err and "Traceback" not in err
 
+
+def test_mask_pads_keep_regions_keeps_the_plain_regions_the_pads_agree_on(kermit_ws,
+                                                                          tiny_weights, capsys):
+    """`mask --pads constant --pads-keep regions`: the plain pass's marked regions that hold
+    a pixel the padded runs agree on, whole; --pads-keep without --pads is one line, exit 2."""
+    from pipeline.mask import fmg_probs, load_fmg_weights, regions_touching
+
+    ws = kermit_ws
+    stems, _ = _stems_and_size(ws)
+    model = load_fmg_weights(tiny_weights)
+    img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
+    plain = fmg_probs(model, [img], 512)[0]
+    agreed = fmg_probs(model, [img], 512, pads=("constant",))[0]
+    cut = float(np.quantile(plain, 0.9))  # a cut that marks a tenth
+    args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
+            "--no-ghost-lines", "--threshold", repr(cut), "--pads", "constant"]
+    assert main([*args, "--pads-keep", "regions"]) == 0
+    got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
+    assert np.array_equal(got, regions_touching(plain > cut, agreed > cut))
+    assert ((agreed > cut) & ~got).sum() == 0 and (got & ~(plain > cut)).sum() == 0
+    assert main(args) == 0  # pixels: the lowest probability, a subset of the regions
+    pixels = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
+    assert not (pixels & ~got).any() and got.sum() >= pixels.sum()
+    capsys.readouterr()
+    assert main(["mask", str(ws.root), "--pads-keep", "regions"]) == 2
+    err = capsys.readouterr().err
+    assert "--pads-keep" in err and "add --pads" in err and "Traceback" not in err
+    lone = regions_touching(np.array([[1, 1, 0, 1]], bool), np.array([[0, 1, 0, 0]], bool))
+    assert lone.tolist() == [[True, True, False, False]]  # a region never agreed on goes
+
 def _stems_and_size(ws) -> tuple[list[str], tuple[int, int]]:
     """The workspace's stems and the (H, W) of its images."""
     stems = sorted(p.stem for p in ws.images.glob("*.png"))

@@ -1420,7 +1420,9 @@ def test_fmg_pads_benchmark_combines_its_passes(tmp_path, capsys):
     assert marks["median"].tolist() == [[True, True, True]]
     assert marks["mean"].tolist() == [[True, True, False]]  # 0.5 is not above the cut
     assert marks["regions"].tolist() == [[True, True, False]]  # the min's region, whole
-    lone = bench.regions_touching(np.array([[1, 1, 0, 1]], bool), np.array([[0, 1, 0, 0]], bool))
+    from pipeline.mask import regions_touching
+
+    lone = regions_touching(np.array([[1, 1, 0, 1]], bool), np.array([[0, 1, 0, 0]], bool))
     assert lone.tolist() == [[True, True, False, False]]  # a region the min never kept goes
     assert bench.main(["--clean", str(tmp_path)]) == 2
     assert "no images/ folder" in capsys.readouterr().err
