@@ -384,7 +384,7 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
     r = np.hypot(yy - h / 2, xx - w / 2)
     ring = (r > 10) & (r < 25)
 
-    def fake_probs(model, imgs, work_size, scales=(1.0,)):
+    def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
         return [ring.astype(np.float32) for _ in imgs]
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)
@@ -409,7 +409,7 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
     probs = np.where(strong, 0.9, np.where(weak, 0.4, 0.0)).astype(np.float32)
     seen = []
 
-    def fake_probs(model, imgs, work_size, scales=(1.0,)):
+    def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
         return [probs for _ in imgs]
 
     def fake_ghosts(image_bgr, p, work_size, ghost_cfg=None, found=None):
@@ -488,7 +488,7 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     first = ring | (np.hypot(yy - 8, xx - 8) < 5)                # + a blob in a corner
     second = (ring & (xx > w / 2)) | arm | (np.hypot(yy - h + 8, xx - 8) < 4)
 
-    def fake_probs(model, imgs, work_size, scales=(1.0,)):
+    def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
         return [(first if model == "first" else second).astype(np.float32) for _ in imgs]
 
     monkeypatch.setattr(M, "fmg_probs", fake_probs)

@@ -421,7 +421,7 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     seen = []
 
     def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,), ghosts=None,
-                   ray_cfg=None):
+                   ray_cfg=None, pads=(), consensus=None):
         seen.append(img.shape[:2])
         h, w = img.shape[:2]
         y, x = np.mgrid[:h, :w]
@@ -461,7 +461,7 @@ def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_sc
                     np.where(r < 30, 255, 0).astype(np.uint8))
     calls = []
 
-    def fake_probs(model, images, work_size, scales=(1.0,)):
+    def fake_probs(model, images, work_size, scales=(1.0,), pads=()):
         calls.append(len(images))
         h, w = images[0].shape[:2]
         y, x = np.mgrid[:h, :w]
@@ -778,7 +778,7 @@ def _no_network(monkeypatch) -> None:
     import pipeline.provenance as prov
     from pipeline import mask as M
 
-    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,):
+    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,), pads=():
                         [np.zeros(images[0].shape[:2], np.float32)])
     monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
     monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)
