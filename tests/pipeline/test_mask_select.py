@@ -98,12 +98,12 @@ def test_mask_stage_fmg_outputs(kermit_ws, tiny_weights):
     assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns == mtime
 
 
-def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
-    """`mask --scales 1,0.75` writes the masks of the probabilities averaged over 512 and
-    384 px (what `flare_marks` cuts), and a change of scales makes the stage run again."""
-    from pipeline.mask import flare_marks, fmg_probs, load_fmg_weights
+def _rerun_with(ws, tiny_weights, *extra: str):
+    """Mask the first view of ``ws`` at a cut that marks half of it, then again with the
+    options ``extra``: (model, image, cut, its mask after the second run), the second run
+    checked to have rewritten the mask (a change of those options is not skipped)."""
+    from pipeline.mask import fmg_probs, load_fmg_weights
 
-    ws = kermit_ws
     stems, _ = _stems_and_size(ws)
     model = load_fmg_weights(tiny_weights)
     img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
@@ -112,35 +112,35 @@ def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
             "--threshold", repr(cut)]
     assert main(args) == 0
     before = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
-    assert main([*args, "--scales", "1,0.75"]) == 0
+    assert main([*args, *extra]) == 0
     assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns != before  # not skipped
+    return model, img, cut, cv2.imread(str(ws.masks / f"{stems[0]}.png"),
+                                       cv2.IMREAD_UNCHANGED) > 0
+
+
+def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
+    """`mask --scales 1,0.75` writes the masks of the probabilities averaged over 512 and
+    384 px (what `flare_marks` cuts), and a change of scales makes the stage run again."""
+    from pipeline.mask import flare_marks
+
+    model, img, cut, got = _rerun_with(kermit_ws, tiny_weights, "--scales", "1,0.75")
     want = flare_marks(model, img, cut, 512, scales=(1.0, 0.75))
-    got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
     assert np.array_equal(got, want)
     assert not np.array_equal(want, flare_marks(model, img, cut, 512))  # scales matter
-
 
 
 def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, capsys):
     """`mask --pads reflect,constant` writes the masks of the lowest probability over the
     plain and padded runs, runs the stage again when the pads change, and an unknown
     padding is one line naming the option, exit 2."""
-    from pipeline.mask import flare_marks, fmg_probs, load_fmg_weights
+    from pipeline.mask import flare_marks
 
     ws = kermit_ws
-    stems, _ = _stems_and_size(ws)
-    model = load_fmg_weights(tiny_weights)
-    img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
-    cut = float(np.median(fmg_probs(model, [img], 512)[0]))  # a cut that marks half
+    model, img, cut, got = _rerun_with(ws, tiny_weights, "--pads", "reflect,constant")
+    want = flare_marks(model, img, cut, 512, pads=("reflect", "constant"))
+    assert np.array_equal(got, want)
     args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
             "--threshold", repr(cut)]
-    assert main(args) == 0
-    before = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
-    assert main([*args, "--pads", "reflect,constant"]) == 0
-    assert (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns != before  # not skipped
-    want = flare_marks(model, img, cut, 512, pads=("reflect", "constant"))
-    got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
-    assert np.array_equal(got, want)
     plain = flare_marks(model, img, cut, 512)
     assert want.sum() < plain.sum() and not (want & ~plain).any()  # only marks removed
     capsys.readouterr()
