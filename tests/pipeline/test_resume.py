@@ -65,11 +65,11 @@ def test_mask_killed_part_way_writes_only_the_missing_masks(tmp_path, monkeypatc
             "--no-ghost-lines"]
     real, calls = fmg.predict_probs, []
 
-    def dying(model, images, long_side=None, scales=fmg.SCALES):
+    def dying(model, images, long_side=None, scales=fmg.SCALES, pads=()):
         if len(calls) == 3:
             raise KeyboardInterrupt
         calls.append(images.shape)
-        return real(model, images, long_side, scales)
+        return real(model, images, long_side, scales, pads)
 
     monkeypatch.setattr(fmg, "predict_probs", dying)
     assert main(args) == 130
