@@ -161,7 +161,8 @@ def problem(cfg: Any, f: dataclasses.Field) -> str | None:
     what = allowed(rules, cfg)
     if isinstance(value, tuple):
         count = "" if "..." in str(f.type) else f"{len(value)} "  # tuple[float, ...]: any
-        return f"must be {count}numbers, each {what}"
+        kind = "names" if any(isinstance(x, str) for x in value) else "numbers"
+        return f"must be {count}{kind}, each {what}"
     return f"must be {what}"
 
 
@@ -204,6 +205,8 @@ def coerce(text: str, tp: Any, where: str, form: str | None = None) -> Any:
         args = typing.get_args(tp)
         count = f"{len(args)} "
         if len(args) == 2 and args[1] is Ellipsis:
+            if not text.strip():  # blank: the empty tuple (e.g. `--set mask.pads=`)
+                return ()
             args, count = (args[0],) * len(text.split(",")), ""
         parts = re.split(r"[,x]", text.lower()) if args[0] is int else text.split(",")
         if form:
