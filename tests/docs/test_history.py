@@ -2126,3 +2126,36 @@ def test_mask_pads_exploration_is_its_file():
     assert f"flare IoU is then {ious('regions')} (plain {ious('plain')})" in history
     assert (" / ".join(pct(w, "regions") for w in ("sceaux_castle", "et", "lund"))
             + " % of sceaux_castle / et / lund are marked") in history
+
+
+def test_mask_pads_regions_outcome_is_its_files():
+    """`mask --pads-keep regions` (seventy-second session): both judges recomputed from
+    their files, and the numbers the history, the FMG card and docs/options.md quote."""
+    history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
+    options = _page("docs", "options.md")
+    cand = "fmg.safetensors@1+pads=reflect,replicate,constant+regions"
+    builds = [json.loads((RESULTS / f"mask_dev_kinds_pads_s{s}.json").read_text())["rows"]
+              + json.loads((RESULTS / f"mask_dev_kinds_regions_s{s}.json").read_text())["rows"]
+              for s in (31, 32, 33)]
+    again = load_benchmark("mask_kind_scenes").judge(builds, "fmg.safetensors@1", cand,
+                                                      mean_gain=-0.01)
+    saved = json.loads((RESULTS / "mask_kinds_judge_regions_s72.json").read_text())
+    assert again["passes"] == saved["passes"] is True
+    assert again["mean"] == pytest.approx(saved["mean"])
+    kinds = f"{saved['mean'][cand]:.4f}"
+    assert kinds in history and kinds in card and kinds in options
+    photos = load_benchmark("fmg_photo_ab").judge(RESULTS, "s72_reg", "s69_sh",
+                                                  ["sceaux", "et", "lund"], [2, 3], rule="speed")
+    saved = json.loads((RESULTS / "mask_regions_photo_judge_s72.json").read_text())
+    assert photos["decision"] == saved["decision"] == "fails (a)"
+    m = saved["mean"]
+    assert (f"{m['psnr_flare']:+.3f} / {m['psnr']:+.3f} / {m['ssim']:+.3f} / "
+            f"{m['held']:+.3f} dB") in history
+    for page in (card, options):
+        assert f"{m['psnr_flare']:.3f} dB" in page and f"{m['held']:+.3f} dB" in page
+    clean = json.loads((RESULTS / "mask_views_clean_dev_regions_s72.json").read_text())
+    by = {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f}" for r in clean["rows"]
+          if r["setting"] == "ghost_views_pads"}
+    assert f"{by['lund']} / {by['sceaux_castle']} / {by['et']} %" in history
+    mean = f"{100 * clean['mean_marked']['ghost_views_pads']:.3f} %"
+    assert mean in history and mean in card and mean in options
