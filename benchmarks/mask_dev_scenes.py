@@ -54,9 +54,8 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
     as `decode --max-size` would; with ``fill_holes`` the masks as `mask --fill-holes` writes
     them; with ``confirm`` = (second model, its cut, keep) as `mask --confirm` writes them;
     with ``scales``, ``pads`` and ``pads_keep`` the network run as `mask --scales`, `--pads`
-    and `--pads-keep` run it;
-    with ``ghosts`` (a
-    GhostConfig) the ghost-line regions added as `mask --ghost-lines` adds them. ``cache``
+    and `--pads-keep` run it; with ``ghosts`` (a GhostConfig) the ghost-line regions added
+    as `mask --ghost-lines` adds them. ``cache``
     (a dict kept per ``model``) holds each photo's probabilities and lights between calls, so
     that scoring the same photos with and without rays or ghost lines runs the network once;
     ``ray_cfg``: the rays' rule (a ``pipeline.flare_rays.RayConfig``; default the stage's)."""
