@@ -42,25 +42,19 @@ def pass_probs(model, image_bgr: np.ndarray, work_size: int) -> dict[str, np.nda
     import torch
     import torch.nn.functional as F
 
-    from gnfr.fmg import PAD_MODES, PAD_SHARE, work_shape
+    from gnfr.fmg import PAD_MODES, padded_pass, work_shape
 
     x = torch.from_numpy(np.ascontiguousarray(image_bgr[..., ::-1]).astype(np.float32)
                          / 255.0).permute(2, 0, 1)[None]
     h, w = x.shape[-2:]
-    hw = work_shape(h, w, work_size)
-    xs = F.interpolate(x, size=hw, mode="bilinear", align_corners=False, antialias=True)
-    n = max(1, round(PAD_SHARE * max(hw)))
-    out = {}
+    xs = F.interpolate(x, size=work_shape(h, w, work_size), mode="bilinear",
+                       align_corners=False, antialias=True)
     model.eval()
     with torch.no_grad():
-        for mode in ("plain", *PAD_MODES):
-            if mode == "plain":
-                p = torch.sigmoid(model(xs))
-            else:
-                p = torch.sigmoid(model(F.pad(xs, (n, n, n, n), mode=mode)))[..., n:-n, n:-n]
-            out[mode] = F.interpolate(p, size=(h, w), mode="bilinear",
-                                      align_corners=False)[0, 0].numpy()
-    return out
+        passes = {"plain": torch.sigmoid(model(xs)),
+                  **{mode: padded_pass(model, xs, mode) for mode in PAD_MODES}}
+    return {k: F.interpolate(p, size=(h, w), mode="bilinear", align_corners=False)[0, 0]
+            .numpy() for k, p in passes.items()}
 
 
 def combined_marks(probs: dict[str, np.ndarray], cut: float) -> dict[str, np.ndarray]:

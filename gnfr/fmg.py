@@ -283,19 +283,24 @@ PAD_SHARE = 0.03
 of the network's input (15 pixels at 512)."""
 
 
+def padded_pass(model: PSPNet, x: torch.Tensor, mode: str,
+                share: float = PAD_SHARE) -> torch.Tensor:
+    """Sigmoid of ``model`` on x [B, 3, h, w] padded at every edge by ``share`` of its long
+    side in ``mode`` (one of ``PAD_MODES``), cropped back to [B, 1, h, w]."""
+    if mode not in PAD_MODES:
+        raise ValueError(f"padded_probs: unknown padding {mode!r}; known: {PAD_MODES}")
+    n = max(1, round(share * max(x.shape[-2:])))
+    return torch.sigmoid(model(F.pad(x, (n, n, n, n), mode=mode)))[..., n:-n, n:-n]
+
+
 def padded_probs(model: PSPNet, x: torch.Tensor, pads: tuple[str, ...] = (),
                  share: float = PAD_SHARE) -> torch.Tensor:
     """Sigmoid of ``model`` on x [B, 3, h, w], and with ``pads`` the lowest of that and of
-    the network run on x padded at every edge by ``share`` of its long side in each of
-    those modes (cropped back): a pixel stays flare only if every padding keeps it so
-    (``mask --pads``)."""
+    ``padded_pass`` in each of those modes: a pixel stays flare only if every padding keeps
+    it so (``mask --pads``)."""
     probs = torch.sigmoid(model(x))
-    n = max(1, round(share * max(x.shape[-2:])))
     for mode in pads:
-        if mode not in PAD_MODES:
-            raise ValueError(f"padded_probs: unknown padding {mode!r}; known: {PAD_MODES}")
-        out = torch.sigmoid(model(F.pad(x, (n, n, n, n), mode=mode)))
-        probs = torch.minimum(probs, out[..., n:-n, n:-n])
+        probs = torch.minimum(probs, padded_pass(model, x, mode, share))
     return probs
 
 
