@@ -25,6 +25,8 @@ session").
         [--scenes sceaux,et,lund] [--seeds 0,1] [--baseline-seeds 0,1] \
         [--held-baseline SCENE=ARM] [--rule flare|novel|depth|frames|speed|keys|keys-guard]
         [--out JSON]
+        # an arm may be NAME:2,3+OTHER:4,5: one setting's runs under two names, each with
+        # its own seeds (e.g. the same defaults run again in a later session on new seeds)
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -344,6 +346,19 @@ def photo_rule(candidate: dict[str, dict], baseline: dict[str, dict],
             "decision": f"fails ({failed[0]})" if failed else "passes"}
 
 
+def arm_runs(spec: str, seeds: list[int]) -> list[tuple[str, int]]:
+    """The (arm, seed) runs of an arm as ``judge`` is given it: ``NAME`` is NAME's runs on
+    ``seeds``; ``NAME:2,3+OTHER:4,5`` joins the runs of arms of one setting run under
+    two names (each with its own seeds; ``seeds`` is then not used)."""
+    if ":" not in spec:
+        return [(spec, s) for s in seeds]
+    runs = []
+    for part in spec.split("+"):
+        name, _, text = part.partition(":")
+        runs += [(name, s) for s in _seeds(text, f"arm {part!r}")]
+    return runs
+
+
 def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
           seeds: list[int], held_baseline: dict[str, str] | None = None,
           baseline_seeds: list[int] | None = None, rule: str = "flare") -> dict:
@@ -351,13 +366,14 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
     baseline on that scene (e.g. the shipped arm without the training targets the
     candidate's masks withhold, so novel views are compared like for like).
     ``baseline_seeds``: the baseline arms' seeds when not the candidate's (each arm is
-    averaged over its own seeds)."""
+    averaged over its own seeds). An arm may join the runs of two names
+    (:func:`arm_runs`)."""
     from pipeline.errors import UserError
 
     base_seeds = seeds if baseline_seeds is None else baseline_seeds
 
     def load(arm: str, scene: str, arm_seeds: list[int]) -> dict:
-        files = [work / result_name(arm, scene, s) for s in arm_seeds]
+        files = [work / result_name(name, scene, s) for name, s in arm_runs(arm, arm_seeds)]
         missing = [str(f) for f in files if not f.is_file()]
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "

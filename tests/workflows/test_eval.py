@@ -715,6 +715,33 @@ def test_fmg_photo_ab_judges_the_committed_runs_and_names_a_missing_one(tmp_path
     assert "--baseline-seeds takes seeds" in err and len(err.splitlines()) == 1
 
 
+def test_fmg_photo_ab_joins_one_settings_runs_under_two_names(tmp_path, capsys):
+    """An arm given as NAME:SEEDS+OTHER:SEEDS is averaged over both names' runs (one setting
+    run again under a new name on new seeds); the plain name keeps --seeds; a bad seed in a
+    joined arm is one line naming it, exit 2."""
+    m = _photo_ab()
+    results = Path(__file__).parents[2] / "docs" / "results"
+    assert m.arm_runs("a", [2, 3]) == [("a", 2), ("a", 3)]
+    assert m.arm_runs("a:2,3+b:4", [0]) == [("a", 2), ("a", 3), ("b", 4)]
+    scenes = ["sceaux", "et", "lund"]
+    for scene in scenes:  # the same runs under a second name, in a scratch folder
+        for seed in (0, 1, 2):
+            src = results / m.result_name("s26_Mp", scene, seed)
+            name = m.result_name("s26_Mp" if seed < 2 else "again", scene, seed)
+            (tmp_path / name).write_text(src.read_text())
+        (tmp_path / m.result_name("s23_shipped", scene, 0)).write_text(
+            (results / m.result_name("s23_shipped", scene, 0)).read_text())
+    joined = m.judge(tmp_path, "s26_Mp:0,1+again:2", "s23_shipped", scenes, [0])
+    whole = m.judge(results, "s26_Mp", "s23_shipped", scenes, [0, 1, 2], baseline_seeds=[0])
+    assert joined["per_scene"] == whole["per_scene"]
+    one = m.judge(tmp_path, "s26_Mp:0", "s23_shipped", scenes, [0])
+    assert one["per_scene"] != joined["per_scene"]
+    assert m.main(["judge", str(tmp_path), "--candidate", "s26_Mp:0,x", "--baseline",
+                   "s23_shipped", "--seeds", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "arm 's26_Mp:0,x' takes seeds" in err and len(err.splitlines()) == 1
+
+
 def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     """benchmarks/negatives_overview.py: one row of tiles per kind of hard negative, written
     as a JPEG under its size limit."""
