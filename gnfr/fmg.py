@@ -293,18 +293,51 @@ def padded_pass(model: PSPNet, x: torch.Tensor, mode: str,
     return torch.sigmoid(model(F.pad(x, (n, n, n, n), mode=mode)))[..., n:-n, n:-n]
 
 
+def padded_pair(model: PSPNet, x: torch.Tensor, pads: tuple[str, ...] = (),
+                share: float = PAD_SHARE) -> tuple[torch.Tensor, torch.Tensor]:
+    """(plain, agreed): sigmoid of ``model`` on x [B, 3, h, w], and the lowest of that and
+    of ``padded_pass`` in each mode of ``pads`` (the same tensor when ``pads`` is empty)."""
+    plain = agreed = torch.sigmoid(model(x))
+    for mode in pads:
+        agreed = torch.minimum(agreed, padded_pass(model, x, mode, share))
+    return plain, agreed
+
+
 def padded_probs(model: PSPNet, x: torch.Tensor, pads: tuple[str, ...] = (),
                  share: float = PAD_SHARE) -> torch.Tensor:
     """Sigmoid of ``model`` on x [B, 3, h, w], and with ``pads`` the lowest of that and of
     ``padded_pass`` in each of those modes: a pixel stays flare only if every padding keeps
     it so (``mask --pads``)."""
-    probs = torch.sigmoid(model(x))
-    for mode in pads:
-        probs = torch.minimum(probs, padded_pass(model, x, mode, share))
-    return probs
+    return padded_pair(model, x, pads, share)[1]
 
 
 @torch.no_grad()
+def predict_probs_pair(model: PSPNet, images: torch.Tensor, long_side: int | None = None,
+                       scales: tuple[float, ...] = SCALES, pads: tuple[str, ...] = ()
+                       ) -> tuple[torch.Tensor, torch.Tensor]:
+    """(plain, agreed) flare probabilities [B, 1, H, W] of images [B, 3, H, W]: as
+    ``predict_probs`` without ``pads`` and with them, from one run of the network on each
+    scale's plain input (`mask --pads-keep regions` needs both)."""
+    if not scales:
+        raise ValueError("predict_probs: no scales given")
+    model.eval()
+    h, w = images.shape[-2:]
+    x = images.to(next(model.parameters()).device, torch.float32)
+    maps = (0,) if not pads else (0, 1)  # no pads: the plain map is the agreed one
+    totals = [0.0, 0.0]
+    for k, s in enumerate(scales):
+        hw = work_shape(h, w, round((long_side or model.cfg.work_size) * s))
+        xs = x if hw == (h, w) else F.interpolate(x, size=hw, mode="bilinear",
+                                                  align_corners=False, antialias=True)
+        pair = padded_pair(model, xs, pads)
+        for i in maps:
+            p = pair[i] if hw == (h, w) else F.interpolate(pair[i], size=(h, w),
+                                                           mode="bilinear", align_corners=False)
+            totals[i] = p if k == 0 else totals[i] + p
+    plain = totals[0] / len(scales)
+    return plain, plain if not pads else totals[1] / len(scales)
+
+
 def predict_probs(model: PSPNet, images: torch.Tensor, long_side: int | None = None,
                   scales: tuple[float, ...] = SCALES,
                   pads: tuple[str, ...] = ()) -> torch.Tensor:
@@ -316,21 +349,7 @@ def predict_probs(model: PSPNet, images: torch.Tensor, long_side: int | None = N
     ``pads`` each scale's probabilities are the lowest over the input as it is and padded
     in each of those modes (``padded_probs``; ``mask --pads``).
     """
-    if not scales:
-        raise ValueError("predict_probs: no scales given")
-    model.eval()
-    h, w = images.shape[-2:]
-    x = images.to(next(model.parameters()).device, torch.float32)
-    total = None
-    for s in scales:
-        hw = work_shape(h, w, round((long_side or model.cfg.work_size) * s))
-        xs = x if hw == (h, w) else F.interpolate(x, size=hw, mode="bilinear",
-                                                  align_corners=False, antialias=True)
-        probs = padded_probs(model, xs, pads)
-        if hw != (h, w):
-            probs = F.interpolate(probs, size=(h, w), mode="bilinear", align_corners=False)
-        total = probs if total is None else total + probs
-    return total / len(scales)
+    return predict_probs_pair(model, images, long_side, scales, pads)[1]
 
 
 # --------------------------------------------------------------------------- weights

@@ -82,7 +82,8 @@ class MaskConfig:
     pads_keep: str = option("pixels", choices=("pixels", "regions"))
     """With ``pads``: what the passes' agreement keeps. pixels: each pixel at its lowest
     probability over the passes; regions: each region of the plain pass's marks whole
-    where the padded passes agree on some pixel of it (one more network pass)."""
+    where the padded passes agree on some pixel of it (no more network passes than
+    pixels: the plain pass's probabilities are kept beside the lowest)."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -251,20 +252,37 @@ def refine_probs(image_bgr: np.ndarray, probs: np.ndarray, radius: int = 8,
     return np.clip(out, 0.0, 1.0)
 
 
+def _batch_tensor(images_bgr: list[np.ndarray]):
+    """[B, 3, H, W] float sRGB tensor in [0, 1] of same-size BGR uint8 images."""
+    import torch
+
+    x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
+    return torch.from_numpy(x).permute(0, 3, 1, 2)
+
+
 def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
               scales: tuple[float, ...] = (1.0,),
               pads: tuple[str, ...] = ()) -> list[np.ndarray]:
     """Flare probabilities [H, W] float32 for a batch of same-size BGR uint8 images, the
     network run at ``work_size`` times each of ``scales`` (averaged), with ``pads`` as
     ``MaskConfig.pads``."""
-    import torch
-
     from gnfr.fmg import predict_probs
 
-    x = np.stack([im[..., ::-1] for im in images_bgr]).astype(np.float32) / 255.0
-    t = torch.from_numpy(x).permute(0, 3, 1, 2)                  # [B, 3, H, W]
-    probs = predict_probs(model, t, work_size, scales, tuple(pads))  # [B, 1, H, W]
+    probs = predict_probs(model, _batch_tensor(images_bgr), work_size, scales,
+                          tuple(pads))  # [B, 1, H, W]
     return list(probs[:, 0].cpu().numpy())
+
+
+def fmg_probs_pair(model, images_bgr: list[np.ndarray], work_size: int,
+                   scales: tuple[float, ...], pads: tuple[str, ...]
+                   ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """(plain, agreed): ``fmg_probs`` without ``pads`` and with them, the plain pass run
+    once (`mask --pads-keep regions`)."""
+    from gnfr.fmg import predict_probs_pair
+
+    pair = predict_probs_pair(model, _batch_tensor(images_bgr), work_size, scales,
+                              tuple(pads))
+    return list(pair[0][:, 0].cpu().numpy()), list(pair[1][:, 0].cpu().numpy())
 
 
 def lights_at_work_size(image_bgr: np.ndarray, work_size: int) -> tuple:
@@ -452,11 +470,12 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            regions = bool(config.pads) and config.pads_keep == "regions"
-            probs = fmg_probs(model, imgs, config.work_size, config.scales,
-                              () if regions else config.pads)
-            agreed = (fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
-                      if regions else [None] * len(imgs))
+            if config.pads and config.pads_keep == "regions":
+                probs, agreed = fmg_probs_pair(model, imgs, config.work_size, config.scales,
+                                               config.pads)
+            else:
+                probs = fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
+                agreed = [None] * len(imgs)
             second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales,
                                 config.pads)
                       if confirm is not None else [None] * len(imgs))

@@ -152,6 +152,30 @@ def test_predict_probs_pads_keep_the_lowest_of_its_passes():
     with pytest.raises(ValueError, match="unknown padding"):
         padded_probs(model, x, ("wrap",))
 
+
+def test_predict_probs_pair_is_both_runs_from_one_plain_pass():
+    """`mask --pads-keep regions`' two maps: the plain one is predict_probs without pads,
+    the other with them, at one scale and averaged over two (resampled), the plain pass
+    run once per scale."""
+    from gnfr.fmg import predict_probs_pair
+
+    torch.manual_seed(4)
+    model = build_fmg(tiny_config()).eval()
+    x = torch.rand(1, 3, 60, 80)
+    pads = ("reflect", "replicate")
+    for scales in ((1.0,), (1.0, 0.75)):
+        plain, agreed = predict_probs_pair(model, x, 48, scales, pads)
+        assert torch.equal(plain, predict_probs(model, x, 48, scales))
+        assert torch.equal(agreed, predict_probs(model, x, 48, scales, pads))
+        assert not torch.equal(plain, agreed)
+    calls = []
+    model.register_forward_hook(lambda *a: calls.append(1))
+    predict_probs_pair(model, x, 48, (1.0, 0.75), pads)
+    assert len(calls) == 2 * (1 + len(pads))
+    same = predict_probs_pair(model, x, 48, (1.0,), ())
+    assert same[0] is same[1]  # no pads: one map, resampled once
+
+
 def test_save_load_roundtrip_fp16(tmp_path):
     torch.manual_seed(2)
     cfg = tiny_config()
