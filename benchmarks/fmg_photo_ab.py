@@ -27,6 +27,10 @@ session").
         [--out JSON]
         # an arm may be NAME:2,3+OTHER:4,5: one setting's runs under two names, each with
         # its own seeds (e.g. the same defaults run again in a later session on new seeds)
+    python benchmarks/fmg_photo_ab.py spread DIR --arm NAME [--scenes ...] [--seeds 2,3,4]
+        [--out JSON]
+        # one setting's seed-to-seed spread per scene, and the standard error it gives a
+        # judge's mean difference of two arms of 2 and 4 seeds (no change behind it)
 
 ``judge`` reads both arms' files and applies the photo rule of fmg.md (thresholds below):
 (a) mean flare-region gain >= +0.10 dB, (b) no scene's flare region lower by more than
@@ -394,6 +398,42 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
             "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base, rule)}
 
 
+SPREAD_KEYS = ("psnr", "psnr_flare", "ssim", "held")
+"""What ``spread`` measures of each run: the de-flared photos' whole, flare region and SSIM,
+the held-out views."""
+
+
+def spread(work: Path, arm: str, scenes: list[str], seeds: list[int],
+           per_arm: tuple[int, ...] = (2, 4)) -> dict:
+    """How far one setting's runs move by chance: per scene, each of ``SPREAD_KEYS``' mean
+    and standard deviation over the arm's runs (:func:`arm_runs`; at least two), and for
+    two arms of that spread with ``n`` seeds each (``per_arm``) the standard error of the
+    difference of their scene means' mean, sqrt(sum over scenes of 2 sd^2 / n) / scenes,
+    the runs taken as independent: what ``judge``'s mean difference shows with no change
+    behind it."""
+    from pipeline.errors import UserError
+
+    runs = arm_runs(arm, seeds)
+    if len(runs) < 2:
+        raise UserError(f"spread needs two or more runs of {arm!r}; give more --seeds")
+    per_scene = {}
+    for scene in scenes:
+        files = [work / result_name(name, scene, s) for name, s in runs]
+        missing = [str(f) for f in files if not f.is_file()]
+        if missing:
+            raise UserError(f"{missing[0]}: no such result; run this arm first "
+                            "(python benchmarks/fmg_photo_ab.py run ...)")
+        vals = [arm_means([json.loads(f.read_text())]) for f in files]
+        per_scene[scene] = {k: {"mean": sum(v[k] for v in vals) / len(vals),
+                                "sd": (sum((v[k] - sum(u[k] for u in vals) / len(vals)) ** 2
+                                           for v in vals) / (len(vals) - 1)) ** 0.5}
+                            for k in SPREAD_KEYS}
+    se = {str(n): {k: (sum(2 * d[k]["sd"] ** 2 / n for d in per_scene.values()) ** 0.5
+                       / len(per_scene)) for k in SPREAD_KEYS} for n in per_arm}
+    return {"arm": arm, "runs": [list(r) for r in runs], "per_scene": per_scene,
+            "se_mean_difference": se}
+
+
 def _seeds(text: str, flag: str) -> list[int]:
     """``0,1,2`` -> [0, 1, 2]; anything else is a one-line error."""
     from pipeline.errors import UserError
@@ -471,6 +511,12 @@ def main(argv: list[str] | None = None) -> int:
                         "(--keys arms); reach / reach-guard: the key blend's reach and "
                         "occlusion test (--keys arms)")
     j.add_argument("--out", type=Path, default=None)
+    sp = sub.add_parser("spread")
+    sp.add_argument("work", type=Path)
+    sp.add_argument("--arm", required=True)
+    sp.add_argument("--scenes", default="sceaux,et,lund")
+    sp.add_argument("--seeds", default="0,1")
+    sp.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
 
@@ -500,6 +546,18 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"{step} failed (its message is above); fix that and rerun: "
                                 "finished stages are kept") from None
             print(out)
+            return 0
+        if a.cmd == "spread":
+            res = spread(a.work, a.arm, a.scenes.split(","), _seeds(a.seeds, "--seeds"))
+            for scene, d in res["per_scene"].items():
+                print(f"{scene}: " + " / ".join(f"{k} {v['mean']:.3f} sd {v['sd']:.3f}"
+                                                 for k, v in d.items()))
+            for n, d in res["se_mean_difference"].items():
+                print(f"two arms of {n} seeds, s.e. of the mean difference: "
+                      + " / ".join(f"{k} {v:.3f}" for k, v in d.items()))
+            if a.out:
+                from pipeline.provenance import write_result
+                write_result(a.out, res)
             return 0
         held = dict(x.split("=", 1) for x in a.held_baseline if "=" in x)
         if len(held) != len(a.held_baseline):

@@ -742,6 +742,35 @@ def test_fmg_photo_ab_joins_one_settings_runs_under_two_names(tmp_path, capsys):
     assert "arm 's26_Mp:0,x' takes seeds" in err and len(err.splitlines()) == 1
 
 
+def test_fmg_photo_ab_spread_is_the_seed_to_seed_deviation(tmp_path, capsys):
+    """`spread` on a committed arm of three seeds: each scene's standard deviation of each
+    measure over the runs (n - 1), and the standard error of two such arms' mean
+    difference; one run, or a missing one, is one line, exit 2."""
+    m = _photo_ab()
+    results = Path(__file__).parents[2] / "docs" / "results"
+    scenes = ["sceaux", "et", "lund"]
+    res = m.spread(results, "s29_frc", scenes, [2, 3, 4])
+    sds = {}
+    for scene in scenes:
+        runs = [json.loads((results / m.result_name("s29_frc", scene, s)).read_text())
+                for s in (2, 3, 4)]
+        flare = [r["inputs"]["psnr_flare"] for r in runs]
+        held = [r["heldout"]["psnr"] for r in runs]
+        got = res["per_scene"][scene]
+        assert got["psnr_flare"]["sd"] == pytest.approx(np.std(flare, ddof=1))
+        assert got["held"]["mean"] == pytest.approx(np.mean(held))
+        sds[scene] = np.std(flare, ddof=1)
+    want = np.sqrt(sum(2 * v ** 2 / 4 for v in sds.values())) / 3
+    assert res["se_mean_difference"]["4"]["psnr_flare"] == pytest.approx(want)
+    assert res["se_mean_difference"]["2"]["psnr_flare"] == pytest.approx(want * np.sqrt(2))
+    assert m.main(["spread", str(results), "--arm", "s29_frc", "--seeds", "2"]) == 2
+    assert "two or more runs" in capsys.readouterr().err
+    assert m.main(["spread", str(tmp_path), "--arm", "s29_frc", "--seeds", "2,3"]) == 2
+    err = capsys.readouterr().err
+    assert "fmg_s29_frc_fair_sceaux_s2.json: no such result" in err
+    assert len(err.splitlines()) == 1
+
+
 def test_negatives_overview_has_a_labelled_row_per_hard_negative(tmp_path):
     """benchmarks/negatives_overview.py: one row of tiles per kind of hard negative, written
     as a JPEG under its size limit."""
