@@ -57,6 +57,12 @@ CHECKS = [
       for k, f in (("psnr", "{:.2f}"), ("ssim", "{:.3f}"))],
     *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s31.json", "methods/photos/inputs/psnr_flare",
        "{:.2f}") for s in ("kermit", "cyprus")],
+    # docs/eval.md: how far a seed moves the photo rule's arms (seventy-third session)
+    *[("docs/eval.md", f"photo_spread_{a}_s73.json", f"per_scene/{sc}/{k}/sd", "{:.3f}")
+      for a in ("s29_frc", "s26_Mp") for sc in ("sceaux", "et", "lund")
+      for k in ("psnr_flare", "held")],
+    *[("docs/eval.md", f"photo_spread_{a}_s73.json", f"se_mean_difference/{n}/{k}", "{:.3f}")
+      for a in ("s29_frc", "s26_Mp") for n in ("2", "4") for k in ("psnr_flare", "held")],
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "mask_time_cpu_M.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in (0, 1)],
@@ -2241,3 +2247,20 @@ def test_photos_from_one_spot_rule_is_its_files():
         if a != b:
             assert f"{name} {a:.3f} -> {b:.3f} ({100 * (b / a - 1):+.1f} %)" in hist
         assert sp[f"/work/s58/{short}_turn"]["nearest_turn_deg"][1] == 15.0
+
+
+def test_eval_page_odds_of_a_change_with_no_effect_are_the_spread_files():
+    """docs/eval.md's odds that a change with no effect fails `--rule speed`'s (a) or passes
+    the FMG photo rule's (a) with two seeds an arm follow from the spread files' standard
+    errors (normal approximation)."""
+    from statistics import NormalDist
+
+    page = (REPO / "docs" / "eval.md").read_text()
+    se = [json.loads((RESULTS / f"photo_spread_{a}_s73.json").read_text())
+          ["se_mean_difference"]["2"]["psnr_flare"] for a in ("s29_frc", "s26_Mp")]
+    fails = [NormalDist().cdf(-0.05 / x) for x in se]
+    passes = [1 - NormalDist().cdf(0.10 / x) for x in se]
+    assert min(fails) > 0.25 and max(fails) < 0.40  # "about a third of the time"
+    assert "about a third of the time with two seeds an arm" in page
+    assert round(1 / min(passes)) == 8 and round(1 / max(passes)) == 4
+    assert "about one time in eight to one in four" in page
