@@ -392,8 +392,11 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if scene not in base:
             raise UserError(f"--held-baseline {scene}={arm}: {scene} is not among the scenes")
         base[scene] = {**base[scene], "held": load(arm, scene, base_seeds)["held"]}
-    return {"candidate": candidate, "baseline": baseline, "seeds": seeds, "rule": rule,
-            "baseline_seeds": base_seeds,
+    runs = {"candidate": arm_runs(candidate, seeds), "baseline": arm_runs(baseline, base_seeds)}
+    return {"candidate": candidate, "baseline": baseline,
+            "seeds": [s for _, s in runs["candidate"]], "rule": rule,
+            "baseline_seeds": [s for _, s in runs["baseline"]],
+            "runs": {k: [list(r) for r in v] for k, v in runs.items()},
             "held_baseline": held_baseline or {},
             "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base, rule)}
 

@@ -734,6 +734,8 @@ def test_fmg_photo_ab_joins_one_settings_runs_under_two_names(tmp_path, capsys):
     joined = m.judge(tmp_path, "s26_Mp:0,1+again:2", "s23_shipped", scenes, [0])
     whole = m.judge(results, "s26_Mp", "s23_shipped", scenes, [0, 1, 2], baseline_seeds=[0])
     assert joined["per_scene"] == whole["per_scene"]
+    assert joined["seeds"] == [0, 1, 2] and joined["baseline_seeds"] == [0]
+    assert joined["runs"]["candidate"] == [["s26_Mp", 0], ["s26_Mp", 1], ["again", 2]]
     one = m.judge(tmp_path, "s26_Mp:0", "s23_shipped", scenes, [0])
     assert one["per_scene"] != joined["per_scene"]
     assert m.main(["judge", str(tmp_path), "--candidate", "s26_Mp:0,x", "--baseline",
