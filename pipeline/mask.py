@@ -73,17 +73,18 @@ class MaskConfig:
     before the cut (PSPNet's multi-scale testing; e.g. 1,0.75 runs it at 512 and 384 px,
     about 1.6 times the pixels to run). The flare rays are found at ``work_size`` alone
     (docs/history/fmg.md, "Thirty-first session")."""
-    pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
+    pads: tuple[str, ...] = option(("reflect", "replicate", "constant"),
+                                   choices=("reflect", "replicate", "constant"))
     """The network run again on each view padded at every edge (3 % of the long side) in
-    each of these ways (comma-separated: reflect, replicate, constant), a pixel's
-    probability the lowest of the passes: what the network marks on clean photos moves with
-    the padding, flare does not (docs/history/fmg.md, "Seventy-second session"). One more
-    network pass per padding."""
-    pads_keep: str = option("pixels", choices=("pixels", "regions"))
-    """With ``pads``: what the passes' agreement keeps. pixels: each pixel at its lowest
-    probability over the passes; regions: each region of the plain pass's marks whole
-    where the padded passes agree on some pixel of it (no more network passes than
-    pixels: the plain pass's probabilities are kept beside the lowest)."""
+    each of these ways (comma-separated: reflect, replicate, constant; none: the plain pass
+    alone, the default before the seventy-third session): what the network marks on clean
+    photos moves with the padding, flare does not (docs/history/fmg.md, "Seventy-second
+    session"). One more network pass per padding."""
+    pads_keep: str = option("regions", choices=("pixels", "regions"))
+    """With ``pads``: what the passes' agreement keeps. regions (the default since the
+    seventy-third session): each region of the plain pass's marks whole where the padded
+    passes agree on some pixel of it; pixels: each pixel at its lowest probability over the
+    passes (fewer false marks, more true flare lost). Either way the plain pass runs once."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -182,9 +183,10 @@ class MaskConfig:
         if self.confirm_keep is not None and not self.confirm:
             raise UserError("--confirm-keep says which regions --confirm keeps: add "
                             "--confirm, or leave --confirm-keep out")
-        if self.pads_keep != "pixels" and not self.pads:
-            raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads "
-                            "reflect,replicate,constant, or leave --pads-keep out")
+        if self.pads_keep != "regions" and not self.pads:  # the default says nothing
+            raise UserError("--pads-keep says what the padded runs of --pads keep, and --pads "
+                            "is none: give --pads reflect,replicate,constant, or leave "
+                            "--pads-keep out")
         for on, flag, what in (
                 (self.confirm, "--confirm", "checks an FMG's marks with a second network"),
                 (self.ghost_lines, "--ghost-lines", "adds to an FMG's marks"),

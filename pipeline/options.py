@@ -205,7 +205,7 @@ def coerce(text: str, tp: Any, where: str, form: str | None = None) -> Any:
         args = typing.get_args(tp)
         count = f"{len(args)} "
         if len(args) == 2 and args[1] is Ellipsis:
-            if not text.strip():  # blank: the empty tuple (e.g. `--set mask.pads=`)
+            if text.strip().lower() in ("", "none"):  # the empty tuple (`--pads none`)
                 return ()
             args, count = (args[0],) * len(text.split(",")), ""
         parts = re.split(r"[,x]", text.lower()) if args[0] is int else text.split(",")

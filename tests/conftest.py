@@ -85,3 +85,15 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "gpu" in item.keywords and not has_cuda:
             item.add_marker(skip_gpu)
+
+
+def fake_fmg_probs(monkeypatch, fn) -> None:
+    """Replace the mask stage's network with ``fn(model, images, work_size, scales=(1.0,),
+    pads=())`` -> a list of [H, W] maps: ``pipeline.mask.fmg_probs``, and
+    ``fmg_probs_pair`` (the default `--pads-keep regions` calls it) as ``fn`` without and
+    with the pads."""
+    from pipeline import mask as M
+
+    monkeypatch.setattr(M, "fmg_probs", fn)
+    monkeypatch.setattr(M, "fmg_probs_pair", lambda model, images, work_size, scales, pads: (
+        fn(model, images, work_size, scales, ()), fn(model, images, work_size, scales, pads)))

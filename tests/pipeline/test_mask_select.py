@@ -14,7 +14,7 @@ from gnfr.paths import look_at
 from pipeline.cameras import Cameras, Frame, load_cameras, save_cameras
 from pipeline.errors import UserError
 from pipeline.workspace import Workspace, atomic_imwrite
-from tests.conftest import shared
+from tests.conftest import fake_fmg_probs, shared
 from workflows.cli import main
 
 
@@ -109,7 +109,7 @@ def _rerun_with(ws, tiny_weights, *extra: str):
     img = cv2.imread(str(ws.images / f"{stems[0]}.png"))
     cut = float(np.median(fmg_probs(model, [img], 512)[0]))  # a cut that marks half
     args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
-            "--threshold", repr(cut)]
+            "--threshold", repr(cut), "--pads", "none"]
     assert main(args) == 0
     before = (ws.masks / f"{stems[0]}.png").stat().st_mtime_ns
     assert main([*args, *extra]) == 0
@@ -130,13 +130,14 @@ def test_mask_scales_average_the_networks_runs(kermit_ws, tiny_weights):
 
 
 def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, capsys):
-    """`mask --pads reflect,constant` writes the masks of the lowest probability over the
-    plain and padded runs, runs the stage again when the pads change, and an unknown
-    padding is one line naming the option, exit 2."""
+    """`mask --pads reflect,constant --pads-keep pixels` writes the masks of the lowest
+    probability over the plain and padded runs, runs the stage again when the pads change,
+    and an unknown padding is one line naming the option, exit 2."""
     from pipeline.mask import flare_marks
 
     ws = kermit_ws
-    model, img, cut, got = _rerun_with(ws, tiny_weights, "--pads", "reflect,constant")
+    model, img, cut, got = _rerun_with(ws, tiny_weights, "--pads", "reflect,constant",
+                                       "--pads-keep", "pixels")
     want = flare_marks(model, img, cut, 512, pads=("reflect", "constant"))
     assert np.array_equal(got, want)
     args = ["mask", str(ws.root), "--weights", str(tiny_weights), "--no-rays",
@@ -152,7 +153,8 @@ def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, 
 def test_mask_pads_keep_regions_keeps_the_plain_regions_the_pads_agree_on(kermit_ws,
                                                                           tiny_weights, capsys):
     """`mask --pads constant --pads-keep regions`: the plain pass's marked regions that hold
-    a pixel the padded runs agree on, whole; --pads-keep without --pads is one line, exit 2."""
+    a pixel the padded runs agree on, whole (the default's way, here with one padding);
+    --pads-keep pixels with --pads none is one line, exit 2."""
     from pipeline.mask import fmg_probs, load_fmg_weights, regions_touching
 
     ws = kermit_ws
@@ -168,13 +170,14 @@ def test_mask_pads_keep_regions_keeps_the_plain_regions_the_pads_agree_on(kermit
     got = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
     assert np.array_equal(got, regions_touching(plain > cut, agreed > cut))
     assert ((agreed > cut) & ~got).sum() == 0 and (got & ~(plain > cut)).sum() == 0
-    assert main(args) == 0  # pixels: the lowest probability, a subset of the regions
+    assert main([*args, "--pads-keep", "pixels"]) == 0  # a subset of the regions
     pixels = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
     assert not (pixels & ~got).any() and got.sum() >= pixels.sum()
     capsys.readouterr()
-    assert main(["mask", str(ws.root), "--pads-keep", "regions"]) == 2
+    assert main(["mask", str(ws.root), "--pads", "none", "--pads-keep", "pixels"]) == 2
     err = capsys.readouterr().err
-    assert "--pads-keep" in err and "add --pads" in err and "Traceback" not in err
+    assert "--pads-keep" in err and "--pads is none" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
     lone = regions_touching(np.array([[1, 1, 0, 1]], bool), np.array([[0, 1, 0, 0]], bool))
     assert lone.tolist() == [[True, True, False, False]]  # a region never agreed on goes
 
@@ -387,7 +390,7 @@ def test_fill_holes_marks_what_an_fmg_mask_encloses(kermit_ws, monkeypatch):
     def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
         return [ring.astype(np.float32) for _ in imgs]
 
-    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    fake_fmg_probs(monkeypatch, fake_probs)
     got = {fill: _fmg_mask(ws, stems[0], M.MaskConfig(threshold=0.5, rays=False,
                                                       fill_holes=fill))
            for fill in (False, True)}
@@ -416,7 +419,7 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
         seen.append(ghost_cfg)
         return (p > ghost_cfg.low) & (p <= 0.5)  # stands in for the line rule: the weak disc
 
-    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    fake_fmg_probs(monkeypatch, fake_probs)
     monkeypatch.setattr(M, "ghost_marks", fake_ghosts)
     got = {ghosts: _fmg_mask(ws, stems[0], M.MaskConfig(threshold=0.75, rays=False,
                                                         ghost_lines=ghosts))
@@ -491,7 +494,7 @@ def test_confirm_keeps_the_flare_both_networks_mark(kermit_ws, monkeypatch):
     def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
         return [(first if model == "first" else second).astype(np.float32) for _ in imgs]
 
-    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    fake_fmg_probs(monkeypatch, fake_probs)
     cfg = M.MaskConfig(threshold=0.5, rays=False, confirm=True)
     M.write_fmg_masks("first", cfg, ws, stems[:1], confirm=("second", 0.5, "both"))
     got = cv2.imread(str(ws.mask_path(stems[0])), cv2.IMREAD_UNCHANGED) > 0

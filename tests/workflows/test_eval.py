@@ -15,7 +15,7 @@ import torch
 from pipeline import flare as F
 from pipeline.synth import SynthConfig
 from pipeline.synth import run as synth_run
-from tests.conftest import load_benchmark
+from tests.conftest import fake_fmg_probs, load_benchmark
 from tests.fixtures import make_temple_workspace
 from workflows.cli import main
 from workflows.research.eval.workspaces import link_file, sync_tree
@@ -445,7 +445,6 @@ def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_sc
         tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py's cache: scoring a scene with and without rays and ghost
     lines runs the network once per photo, and every score equals the uncached one."""
-    from pipeline import mask as M
     from pipeline.flare_ghosts import GhostConfig
 
     bench = load_benchmark("mask_dev_scenes")
@@ -467,7 +466,7 @@ def test_mask_dev_scenes_cache_runs_the_network_once_per_photo_and_changes_no_sc
         y, x = np.mgrid[:h, :w]
         return [np.clip(1 - np.hypot(y - h / 2, x - w / 2) / 40, 0, 1).astype(np.float32)]
 
-    monkeypatch.setattr(M, "fmg_probs", fake_probs)
+    fake_fmg_probs(monkeypatch, fake_probs)
     settings = [(rays, ghosts) for rays in (False, True) for ghosts in (None, GhostConfig())]
     plain = [bench.score_scene(None, 0.5, tmp_path, rays, ghosts=g) for rays, g in settings]
     assert len(calls) == 2 * len(settings)  # uncached: once per photo and setting
@@ -836,7 +835,7 @@ def _no_network(monkeypatch) -> None:
     import pipeline.provenance as prov
     from pipeline import mask as M
 
-    monkeypatch.setattr(M, "fmg_probs", lambda model, images, work_size, scales=(1.0,), pads=():
+    fake_fmg_probs(monkeypatch, lambda model, images, work_size, scales=(1.0,), pads=():
                         [np.zeros(images[0].shape[:2], np.float32)])
     monkeypatch.setattr(M, "resolve_threshold", lambda config, weights: 0.5)
     monkeypatch.setattr(M, "load_fmg_weights", lambda path: None)

@@ -289,6 +289,9 @@ def test_values_shown_as_typed_and_parsed_back():
     assert coerce("640x360", tuple[int, int] | None, "--size") == (640, 360)
     assert coerce("none", int | None, "--iters") is None
     assert coerce("off", bool, "--x") is False
+    for nothing in ("", "none", " None "):  # a list of any length may be empty
+        assert coerce(nothing, tuple[str, ...], "--pads") == ()
+    assert coerce("reflect,constant", tuple[str, ...], "--pads") == ("reflect", "constant")
     with pytest.raises(UserError, match="^--rays many: many is not a valid int$"):
         coerce("many", int, "--rays many")
 
