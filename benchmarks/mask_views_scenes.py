@@ -28,11 +28,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-SETTINGS = {"base": {"ghost_lines": False, "ghost_views": False},
-            "ghost_views": {"ghost_lines": True, "ghost_views": True}}
+SETTINGS = {"base": {"ghost_lines": False, "ghost_views": False, "pads": ()},
+            "ghost_views": {"ghost_lines": True, "ghost_views": True, "pads": ()}}
 """The mask settings scored (MaskConfig fields over its defaults): the network and its rays
 (the stage's default up to the thirty-fifth session), and with the ghost-line candidates the
-other photos confirm (its default since)."""
+other photos confirm (its default from then to the seventy-second session; today's default
+adds `--pads reflect,replicate,constant --pads-keep regions`, scored as the ``--pads``
+candidate)."""
 
 
 def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
@@ -101,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
                          "(setting ghost_views_lines; `candidate_added`: its mean share "
                          "over ghost_views')")
     ap.add_argument("--pads", default=None, metavar="MODES",
-                    help="also score the default setting with `mask --pads MODES` (e.g. "
+                    help="also score the ghost_views setting with `mask --pads MODES` (e.g. "
                          "reflect,replicate,constant; setting ghost_views_pads; "
                          "`candidate_added`: its mean share over ghost_views')")
     ap.add_argument("--pads-keep", choices=("pixels", "regions"), default="pixels",
