@@ -2130,7 +2130,9 @@ def test_mask_pads_exploration_is_its_file():
 
 def test_mask_pads_regions_outcome_is_its_files():
     """`mask --pads-keep regions` (seventy-second session): both judges recomputed from
-    their files, and the numbers the history, the FMG card and docs/options.md quote."""
+    their files, and the numbers the history, the FMG card and docs/options.md quote (the
+    two-seed photo part the history alone: the seventy-third session's four seeds replaced
+    it on the other pages)."""
     history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
     options = _page("docs", "options.md")
     cand = "fmg.safetensors@1+pads=reflect,replicate,constant+regions"
@@ -2151,11 +2153,52 @@ def test_mask_pads_regions_outcome_is_its_files():
     m = saved["mean"]
     assert (f"{m['psnr_flare']:+.3f} / {m['psnr']:+.3f} / {m['ssim']:+.3f} / "
             f"{m['held']:+.3f} dB") in history
-    for page in (card, options):
-        assert f"{m['psnr_flare']:.3f} dB" in page and f"{m['held']:+.3f} dB" in page
     clean = json.loads((RESULTS / "mask_views_clean_dev_regions_s72.json").read_text())
     by = {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f}" for r in clean["rows"]
           if r["setting"] == "ghost_views_pads"}
     assert f"{by['lund']} / {by['sceaux_castle']} / {by['et']} %" in history
     mean = f"{100 * clean['mean_marked']['ghost_views_pads']:.3f} %"
     assert mean in history and mean in card and mean in options
+
+
+def test_mask_regions_four_seeds_outcome_is_its_files():
+    """The seventy-third session's rule: the repeated run equals the sixty-ninth session's,
+    the null and the four-seed decision recomputed from the arms' files (joined names), and
+    the numbers the history, the FMG card, docs/options.md and docs/goals.md quote."""
+    history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
+    options, goals = _page("docs", "options.md"), _page("docs", "goals.md")
+    same = [json.loads((RESULTS / f"fmg_{a}_fair_et_s2.json").read_text())
+            for a in ("s69_sh", "s73_re")]
+    assert same[0]["inputs"] == same[1]["inputs"] and same[0]["heldout"] == same[1]["heldout"]
+    ab = load_benchmark("fmg_photo_ab")
+    scenes = ["sceaux", "et", "lund"]
+    null = ab.judge(RESULTS, "s73_sh", "s69_sh", scenes, [4, 5], baseline_seeds=[2, 3],
+                    rule="speed")
+    saved = json.loads((RESULTS / "photo_null_judge_s73.json").read_text())
+    assert null["mean"] == pytest.approx(saved["mean"]) and null["decision"] == "passes"
+    n = saved["mean"]
+    assert f"mean {n['psnr_flare']:+.3f} / {n['psnr']:+.3f} / {n['held']:+.3f} dB" in history
+    dec = ab.judge(RESULTS, "s72_reg:2,3+s73_reg:4,5", "s69_sh:2,3+s73_sh:4,5", scenes, [0],
+                   rule="speed")
+    saved = json.loads((RESULTS / "mask_regions_photo_judge4_s73.json").read_text())
+    for scene in scenes:
+        assert dec["per_scene"][scene] == pytest.approx(saved["per_scene"][scene])
+    assert dec["decision"] == saved["decision"] == "passes"
+    assert saved["seeds"] == saved["baseline_seeds"] == [2, 3, 4, 5]
+    m, sceaux = saved["mean"], saved["per_scene"]["sceaux"]
+    row = " | ".join(f"{saved['per_scene'][s]['psnr_flare']:+.3f}" for s in scenes)
+    assert f"| flare region of the de-flared photos | {row} | {m['psnr_flare']:+.3f} |" in history
+    for page in (history, card, options, goals):
+        assert f"{m['psnr_flare']:.3f} dB" in page and f"{m['held']:+.3f} dB" in page
+    for page in (card, options):
+        assert f"sceaux_castle {sceaux['psnr_flare']:.3f}" in page
+    spread = json.loads((RESULTS / "photo_spread_s69_sh_s73.json").read_text())
+    se = spread["se_mean_difference"]
+    assert f"standard error of {se['2']['psnr_flare']:.3f} dB" in card
+    assert f"{se['4']['psnr_flare']:.3f} for four" in card
+    test = json.loads((RESULTS / "mask_views_clean_test_regions_s73.json").read_text())
+    by = {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f} %" for r in test["rows"]
+          if r["setting"] == "ghost_views_pads"}
+    for page in (card, goals):
+        assert all(f"{s} {by[s]}" in page for s in ("kermit", "cyprus", "fern"))
+    assert f"{100 * test['mean_marked']['ghost_views_pads']:.3f} %" in options

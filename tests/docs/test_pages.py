@@ -59,10 +59,13 @@ CHECKS = [
        "{:.2f}") for s in ("kermit", "cyprus")],
     # docs/eval.md: how far a seed moves the photo rule's arms (seventy-third session)
     *[("docs/eval.md", f"photo_spread_{a}_s73.json", f"per_scene/{sc}/{k}/sd", "{:.3f}")
-      for a in ("s29_frc", "s26_Mp") for sc in ("sceaux", "et", "lund")
+      for a in ("s29_frc", "s26_Mp", "s69_sh") for sc in ("sceaux", "et", "lund")
       for k in ("psnr_flare", "held")],
     *[("docs/eval.md", f"photo_spread_{a}_s73.json", f"se_mean_difference/{n}/{k}", "{:.3f}")
-      for a in ("s29_frc", "s26_Mp") for n in ("2", "4") for k in ("psnr_flare", "held")],
+      for a in ("s29_frc", "s26_Mp", "s69_sh") for n in ("2", "4")
+      for k in ("psnr_flare", "held")],
+    *[("docs/eval.md", "photo_null_judge_s73.json", p, "{:+.3f}")
+      for p in ("mean/psnr_flare", "per_scene/lund/psnr_flare")],
     # the FMG card: the shipped file's numbers
     *[("gnfr/weights/fmg.md", "mask_time_cpu_M.json", f"rows/{i}/median_s_per_view", "{:.3f}")
       for i in (0, 1)],
@@ -2255,7 +2258,7 @@ def test_eval_page_odds_of_a_change_with_no_effect_are_the_spread_files():
     errors (normal approximation)."""
     from statistics import NormalDist
 
-    page = (REPO / "docs" / "eval.md").read_text()
+    page = " ".join((REPO / "docs" / "eval.md").read_text().split())
     se = [json.loads((RESULTS / f"photo_spread_{a}_s73.json").read_text())
           ["se_mean_difference"]["2"]["psnr_flare"] for a in ("s29_frc", "s26_Mp")]
     fails = [NormalDist().cdf(-0.05 / x) for x in se]
