@@ -77,6 +77,11 @@ Baselines: an arm runs the fine-tune's defaults of its code. Since commit a1f051
 full-size colours, so the committed shipped-default arm to compare a new arm with is
 ``s29_frc`` (seeds 2, 3, 4 on sceaux, et, lund); the ``s26_Mp`` files are the quarter-colour
 defaults before it (pass ``--finetune-args=--no-full-res-colour`` to compare with them).
+The latest: ``s69_sh:2,3+s73_sh:4,5`` are the defaults up to the seventy-second session (the
+mask network's plain run alone; ``--mask-args="--pads none"`` to compare with them), and
+``s72_reg:2,3+s73_reg:4,5`` today's defaults (the padded runs' agreement, since the
+seventy-third session). A fine-tune repeats to the digit, but any change moves a run as
+another seed does: ``spread`` measures by how much (docs/eval.md).
 """
 
 from __future__ import annotations
