@@ -63,7 +63,7 @@ def test_mask_killed_part_way_writes_only_the_missing_masks(tmp_path, monkeypatc
     # the network's masks alone (the other photos' judgement rewrites every mask at the end)
     args = ["mask", str(ws.root), "--weights", str(weights), "--batch", "1",
             "--no-ghost-lines"]
-    real, calls = fmg.predict_probs, []
+    real, calls = fmg.predict_probs_pair, []  # what every run of the network goes through
 
     def dying(model, images, long_side=None, scales=fmg.SCALES, pads=()):
         if len(calls) == 3:
@@ -71,7 +71,7 @@ def test_mask_killed_part_way_writes_only_the_missing_masks(tmp_path, monkeypatc
         calls.append(images.shape)
         return real(model, images, long_side, scales, pads)
 
-    monkeypatch.setattr(fmg, "predict_probs", dying)
+    monkeypatch.setattr(fmg, "predict_probs_pair", dying)
     assert main(args) == 130
     done = sorted(ws.masks.glob("*.png"))
     assert len(done) == 3 and not list(ws.masks.glob(".*"))  # no half-written file
@@ -79,7 +79,8 @@ def test_mask_killed_part_way_writes_only_the_missing_masks(tmp_path, monkeypatc
     mtimes = {p.name: p.stat().st_mtime_ns for p in done}
 
     calls.clear()
-    monkeypatch.setattr(fmg, "predict_probs", lambda *a, **k: (calls.append(1), real(*a, **k))[1])
+    monkeypatch.setattr(fmg, "predict_probs_pair",
+                        lambda *a, **k: (calls.append(1), real(*a, **k))[1])
     assert main(args) == 0
     assert len(calls) == 3  # only the three missing views went through the network
     assert {p.name: p.stat().st_mtime_ns for p in done} == mtimes
