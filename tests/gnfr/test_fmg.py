@@ -626,6 +626,21 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     assert main(["fmg", "overlay", str(photo), "--weights", str(allw), "--out", str(jpg),
                  "--work-size", "64", "--ghost-lines"]) == 0
     assert len(ghosts_seen) == 1 and cv2.imread(str(jpg)).shape[1] == 2 * 480
+    # --pads: the regions the padded runs agree on, as the mask stage's default keeps them
+    from pipeline.images import read_image
+    from pipeline.mask import fmg_probs_pair, load_fmg_weights, regions_touching
+    from workflows.research.fmg_eval import real_flare_overview, weights_info
+
+    pads = ("reflect", "constant")
+    got = {p: real_flare_overview((allw,), (photo,), jpg, 64, pads=p)
+           for p in ((), pads)}
+    model, img = load_fmg_weights(allw), read_image(photo, bgr=True)
+    plain, agreed = fmg_probs_pair(model, [img], 64, (1.0,), pads)
+    cut = weights_info(allw)["cut"]
+    want = regions_touching(plain[0] > cut, agreed[0] > cut).mean()
+    key = f"{photo.name} {allw}"
+    assert got[pads][key] == pytest.approx(want) and got[pads][key] <= got[()][key]
+    assert got[()][key] == pytest.approx((plain[0] > cut).mean())
     # weights trained on every kind cannot stand in for a leave-one-kind-out model
     assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
                  "--count", "2", "--size", "64"]) != 0

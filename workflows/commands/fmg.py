@@ -112,7 +112,7 @@ def register(app: typer.Typer) -> None:
             load_fmg_weights(path)
         marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
                                      rays=config.rays, ray_cfg=ray_config(config),
-                                     ghosts=ghost_config(config))
+                                     ghosts=ghost_config(config), pads=config.pads)
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         typer.echo(f"wrote {config.out}")

@@ -147,6 +147,10 @@ class FMGOverlayConfig:
     """Add the ghost-line regions to each model's mask (as `mask --ghost-lines`)."""
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
+    pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
+    """Keep only the regions each network's runs on the photo padded these ways agree on, as
+    the mask stage does by default (`mask --pads reflect,replicate,constant --pads-keep
+    regions`); none: the network's plain run alone."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -627,13 +631,14 @@ def format_clean(res: dict) -> str:
 
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
-                        ray_cfg=None, ghosts=None) -> dict:
+                        ray_cfg=None, ghosts=None, pads: tuple[str, ...] = ()) -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
-    rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given)
+    rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given,
+    with ``pads`` the regions the padded runs agree on, as the mask stage's default keeps)
     outlined and tinted red; returns the fraction of each photo each model marks."""
     import cv2
 
-    from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
+    from pipeline.mask import flare_marks, fmg_probs_pair, load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     streaks = rays and ray_cfg is not None and ray_cfg.lines  # said in each tile's label
@@ -644,7 +649,10 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         ray = ray_marks(img, work_size, ray_cfg) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
-            marked = flare_marks(model, img, cut, work_size, ghosts=ghosts) | ray
+            plain, agreed = (fmg_probs_pair(model, [img], work_size, (1.0,), tuple(pads))
+                             if pads else ([None], [None]))
+            marked = flare_marks(model, img, cut, work_size, probs=plain[0], ghosts=ghosts,
+                                 consensus=agreed[0]) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
@@ -655,7 +663,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             label = (f"{weights_label(Path(w))}{' + rays' if rays else ''}"
                      f"{' + streak lines' if streaks else ''}"
-                     f"{' + ghost lines' if ghosts is not None else ''}: "
+                     f"{' + ghost lines' if ghosts is not None else ''}"
+                     f"{' + pads' if pads else ''}: "
                      f"{100 * marked.mean():.1f} %")
             size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
                 label, cv2.FONT_HERSHEY_SIMPLEX, 0.7, 2)[0][0])  # the label fits the tile
