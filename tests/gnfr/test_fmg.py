@@ -899,3 +899,36 @@ def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monk
             assert r["mean"] == want and r["over_1pct"] == (3 if want else 0)
     assert painted.count(("backlit",)) == 6 and painted.count(("lamp",)) == 6
     assert "| backlit | 3 | 0.00 %" in fmg_eval.format_negatives(res)
+
+
+def test_fmg_eval_clean_with_pads_keeps_the_regions_the_padded_runs_agree_on(tmp_path):
+    """`fmg eval --clean --pads`: each clean photo's marks are the plain run's regions the
+    padded runs agree on (the mask stage's default), a subset of the plain run's; the
+    paddings are recorded."""
+    import cv2
+
+    from pipeline.mask import fmg_probs_pair, regions_touching
+    from workflows.research.fmg_eval import clean_fractions, weights_info
+
+    torch.manual_seed(5)
+    weights = save_fmg(tmp_path / "w.safetensors", build_fmg(tiny_config()))
+    rng = np.random.default_rng(0)
+    (tmp_path / "scenes" / "s").mkdir(parents=True)
+    for i in range(2):
+        img = cv2.GaussianBlur(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8), (9, 9), 3)
+        cv2.imwrite(str(tmp_path / "scenes" / "s" / f"p{i}.png"), img)
+    cut = weights_info(weights)["cut"]
+    pads = ("reflect", "constant")
+    got = {p: clean_fractions(weights, tmp_path, 64, scenes=("scenes/s",), pads=p)
+           for p in ((), pads)}
+    assert got[pads]["pads"] == list(pads) and got[()]["pads"] == []
+    from pipeline.mask import load_fmg_weights
+
+    model = load_fmg_weights(weights)
+    for i in range(2):
+        img = cv2.imread(str(tmp_path / "scenes" / "s" / f"p{i}.png"))
+        plain, agreed = fmg_probs_pair(model, [img], 64, (1.0,), pads)
+        want = regions_touching(plain[0] > cut, agreed[0] > cut).mean()
+        per_view = got[pads]["scenes"]["scenes/s"]["per_view"]
+        assert per_view[f"p{i}.png"] == pytest.approx(want)
+        assert per_view[f"p{i}.png"] <= got[()]["scenes"]["scenes/s"]["per_view"][f"p{i}.png"]

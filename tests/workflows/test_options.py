@@ -155,6 +155,7 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
     (["fmg", "eval", "--flare-canvas", "2"], "error: --flare-canvas needs --per-kind"),
     (["fmg", "eval", "--clean", "--night", "0"], "error: --night needs --per-kind"),
     (["fmg", "eval", "--ghost-lines"], "error: --ghost-lines needs --per-kind or --clean"),
+    (["fmg", "eval", "--per-kind", "--pads", "reflect"], "error: --pads needs --clean"),
     (["fmg", "eval", "--per-kind", "--ghost-chain", "1"],
      "error: --ghost-chain sets the ghost lines' rule: add --ghost-lines"),
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--ghost-chain", "1"],

@@ -55,7 +55,7 @@ def register(app: typer.Typer) -> None:
                                                split=config.split, rays=config.rays,
                                                ray_cfg=rule, confirm=config.confirm,
                                                confirm_keep=keep, scales=config.scales,
-                                               ghosts=ghosts)
+                                               ghosts=ghosts, pads=config.pads)
             typer.echo(fmg_eval.format_clean(metrics))
         elif config.negatives:
             metrics = fmg_eval.negative_fractions(weights, config.data, config.negatives,

@@ -88,6 +88,10 @@ class FMGEvalConfig:
     `mask --ghost-lines`)."""
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
+    pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
+    """With ``clean``: keep only the regions the network's runs on each photo padded these
+    ways agree on, as the mask stage does by default (`mask --pads
+    reflect,replicate,constant --pads-keep regions`); none: the plain run alone."""
     negatives: tuple[str, ...] = option(
         (), choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
                      "reflection"))
@@ -174,6 +178,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--night needs --per-kind")
     if cfg.ghost_lines and not (cfg.per_kind or cfg.clean):
         raise UserError("--ghost-lines needs --per-kind or --clean")
+    if cfg.pads and not cfg.clean:
+        raise UserError("--pads needs --clean")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -529,13 +535,21 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
                     rays: bool = False, ray_cfg=None, confirm: Path | None = None,
                     confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
-                    ghosts=None) -> dict:
+                    ghosts=None, pads: tuple[str, ...] = ()) -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
     `mask --confirm`: as in the mask stage, the networks at ``scales`` of ``work_size`` as
-    `mask --scales`, the ghost-line regions added with ``ghosts`` as `mask --ghost-lines`)
-    on every clean photo of ``scenes`` at full size: mean and max per scene."""
-    from pipeline.mask import flare_marks, load_fmg_weights
+    `mask --scales`, the ghost-line regions added with ``ghosts`` as `mask --ghost-lines`,
+    with ``pads`` the regions the padded runs agree on as the stage's default `--pads-keep
+    regions`) on every clean photo of ``scenes`` at full size: mean and max per scene."""
+    from pipeline.mask import flare_marks, fmg_probs_pair, load_fmg_weights
+
+    def marks(im):
+        plain, agreed = (fmg_probs_pair(model, [im], work_size, scales, tuple(pads))
+                         if pads else ([None], [None]))
+        return flare_marks(model, im, cut, work_size, rays, probs=plain[0], ray_cfg=ray_cfg,
+                           confirm=second, scales=scales, ghosts=ghosts, pads=tuple(pads),
+                           consensus=agreed[0])
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
@@ -543,14 +557,11 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                                             weights_info(Path(confirm))["cut"], confirm_keep))
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
-           "ghost_lines": _ghost_rule(ghosts),
+           "ghost_lines": _ghost_rule(ghosts), "pads": list(pads),
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep}, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
-        marked = {name: float(flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg,
-                                          confirm=second, scales=scales,
-                                          ghosts=ghosts).mean())
-                  for name, im in _photos(Path(data) / scene)}
+        marked = {name: float(marks(im).mean()) for name, im in _photos(Path(data) / scene)}
         fractions = list(marked.values())
         res["scenes"][scene] = {"views": len(fractions), "mean": float(np.mean(fractions)),
                                 "max": float(max(fractions)),
