@@ -80,11 +80,11 @@ class MaskConfig:
     alone, the default before the seventy-third session): what the network marks on clean
     photos moves with the padding, flare does not (docs/history/fmg.md, "Seventy-second
     session"). One more network pass per padding."""
-    pads_keep: str = option("regions", choices=("pixels", "regions"))
-    """With ``pads``: what the passes' agreement keeps. regions (the default since the
-    seventy-third session): each region of the plain pass's marks whole where the padded
-    passes agree on some pixel of it; pixels: each pixel at its lowest probability over the
-    passes (fewer false marks, more true flare lost). Either way the plain pass runs once."""
+    pads_keep: str = option("pixels", choices=("pixels", "regions"))
+    """With ``pads``: what the passes' agreement keeps. pixels (the default since the
+    seventy-third session): each pixel at its lowest probability over the passes; regions:
+    each region of the plain pass's marks whole where the padded passes agree on some pixel
+    of it (more of the marks kept, false ones too). Either way the plain pass runs once."""
     refine: bool = False
     """Refine the probability map with a guided filter on the image before thresholding."""
     rays: bool = True
@@ -183,7 +183,7 @@ class MaskConfig:
         if self.confirm_keep is not None and not self.confirm:
             raise UserError("--confirm-keep says which regions --confirm keeps: add "
                             "--confirm, or leave --confirm-keep out")
-        if self.pads_keep != "regions" and not self.pads:  # the default says nothing
+        if self.pads_keep != "pixels" and not self.pads:  # the default says nothing
             raise UserError("--pads-keep says what the padded runs of --pads keep, and --pads "
                             "is none: give --pads reflect,replicate,constant, or leave "
                             "--pads-keep out")

@@ -153,8 +153,8 @@ def test_mask_pads_write_the_lowest_of_the_padded_runs(kermit_ws, tiny_weights, 
 def test_mask_pads_keep_regions_keeps_the_plain_regions_the_pads_agree_on(kermit_ws,
                                                                           tiny_weights, capsys):
     """`mask --pads constant --pads-keep regions`: the plain pass's marked regions that hold
-    a pixel the padded runs agree on, whole (the default's way, here with one padding);
-    --pads-keep pixels with --pads none is one line, exit 2."""
+    a pixel the padded runs agree on, whole (here with one padding); --pads-keep regions
+    with --pads none is one line, exit 2."""
     from pipeline.mask import fmg_probs, load_fmg_weights, regions_touching
 
     ws = kermit_ws
@@ -174,7 +174,7 @@ def test_mask_pads_keep_regions_keeps_the_plain_regions_the_pads_agree_on(kermit
     pixels = cv2.imread(str(ws.masks / f"{stems[0]}.png"), cv2.IMREAD_UNCHANGED) > 0
     assert not (pixels & ~got).any() and got.sum() >= pixels.sum()
     capsys.readouterr()
-    assert main(["mask", str(ws.root), "--pads", "none", "--pads-keep", "pixels"]) == 2
+    assert main(["mask", str(ws.root), "--pads", "none", "--pads-keep", "regions"]) == 2
     err = capsys.readouterr().err
     assert "--pads-keep" in err and "--pads is none" in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
