@@ -632,15 +632,17 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     from workflows.research.fmg_eval import real_flare_overview, weights_info
 
     pads = ("reflect", "constant")
-    got = {p: real_flare_overview((allw,), (photo,), jpg, 64, pads=p)
-           for p in ((), pads)}
+    got = {(p, k): real_flare_overview((allw,), (photo,), jpg, 64, pads=p, pads_keep=k)
+           for p, k in (((), "pixels"), (pads, "pixels"), (pads, "regions"))}
     model, img = load_fmg_weights(allw), read_image(photo, bgr=True)
     plain, agreed = fmg_probs_pair(model, [img], 64, (1.0,), pads)
     cut = weights_info(allw)["cut"]
-    want = regions_touching(plain[0] > cut, agreed[0] > cut).mean()
     key = f"{photo.name} {allw}"
-    assert got[pads][key] == pytest.approx(want) and got[pads][key] <= got[()][key]
-    assert got[()][key] == pytest.approx((plain[0] > cut).mean())
+    assert got[(), "pixels"][key] == pytest.approx((plain[0] > cut).mean())
+    assert got[pads, "pixels"][key] == pytest.approx((agreed[0] > cut).mean())
+    assert got[pads, "regions"][key] == pytest.approx(
+        regions_touching(plain[0] > cut, agreed[0] > cut).mean())
+    assert got[pads, "pixels"][key] <= got[pads, "regions"][key] <= got[(), "pixels"][key]
     # weights trained on every kind cannot stand in for a leave-one-kind-out model
     assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
                  "--count", "2", "--size", "64"]) != 0
@@ -901,10 +903,10 @@ def test_negative_fractions_counts_marks_on_flare_free_composites(tmp_path, monk
     assert "| backlit | 3 | 0.00 %" in fmg_eval.format_negatives(res)
 
 
-def test_fmg_eval_clean_with_pads_keeps_the_regions_the_padded_runs_agree_on(tmp_path):
-    """`fmg eval --clean --pads`: each clean photo's marks are the plain run's regions the
-    padded runs agree on (the mask stage's default), a subset of the plain run's; the
-    paddings are recorded."""
+def test_fmg_eval_clean_with_pads_keeps_what_the_padded_runs_agree_on(tmp_path):
+    """`fmg eval --clean --pads`: each clean photo's marks are the pixels every padded run
+    marks (the mask stage's default), with --pads-keep regions the plain run's regions they
+    agree on, a subset of the plain run's; the paddings are recorded."""
     import cv2
 
     from pipeline.mask import fmg_probs_pair, regions_touching
@@ -919,9 +921,11 @@ def test_fmg_eval_clean_with_pads_keeps_the_regions_the_padded_runs_agree_on(tmp
         cv2.imwrite(str(tmp_path / "scenes" / "s" / f"p{i}.png"), img)
     cut = weights_info(weights)["cut"]
     pads = ("reflect", "constant")
-    got = {p: clean_fractions(weights, tmp_path, 64, scenes=("scenes/s",), pads=p)
-           for p in ((), pads)}
+    got = {p: clean_fractions(weights, tmp_path, 64, scenes=("scenes/s",), pads=p,
+                              pads_keep="regions") for p in ((), pads)}
     assert got[pads]["pads"] == list(pads) and got[()]["pads"] == []
+    assert got[pads]["pads_keep"] == "regions" and got[()]["pads_keep"] is None
+    pixels = clean_fractions(weights, tmp_path, 64, scenes=("scenes/s",), pads=pads)
     from pipeline.mask import load_fmg_weights
 
     model = load_fmg_weights(weights)
@@ -932,3 +936,5 @@ def test_fmg_eval_clean_with_pads_keeps_the_regions_the_padded_runs_agree_on(tmp
         per_view = got[pads]["scenes"]["scenes/s"]["per_view"]
         assert per_view[f"p{i}.png"] == pytest.approx(want)
         assert per_view[f"p{i}.png"] <= got[()]["scenes"]["scenes/s"]["per_view"][f"p{i}.png"]
+        assert pixels["scenes"]["scenes/s"]["per_view"][f"p{i}.png"] == pytest.approx(
+            (agreed[0] > cut).mean())

@@ -55,7 +55,8 @@ def register(app: typer.Typer) -> None:
                                                split=config.split, rays=config.rays,
                                                ray_cfg=rule, confirm=config.confirm,
                                                confirm_keep=keep, scales=config.scales,
-                                               ghosts=ghosts, pads=config.pads)
+                                               ghosts=ghosts, pads=config.pads,
+                                               pads_keep=config.pads_keep)
             typer.echo(fmg_eval.format_clean(metrics))
         elif config.negatives:
             metrics = fmg_eval.negative_fractions(weights, config.data, config.negatives,
@@ -103,16 +104,20 @@ def register(app: typer.Typer) -> None:
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
+        from pipeline.errors import UserError
         from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
         from workflows.research.fmg_eval import check_ray_rule, real_flare_overview
 
         check_ray_rule(config)
+        if config.pads_keep != "pixels" and not config.pads:
+            raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads")
         weights = config.weights or (DEFAULT_WEIGHTS,)
         for path in weights:
             load_fmg_weights(path)
         marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
                                      rays=config.rays, ray_cfg=ray_config(config),
-                                     ghosts=ghost_config(config), pads=config.pads)
+                                     ghosts=ghost_config(config), pads=config.pads,
+                                     pads_keep=config.pads_keep)
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         typer.echo(f"wrote {config.out}")

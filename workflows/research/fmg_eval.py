@@ -89,9 +89,11 @@ class FMGEvalConfig:
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
     pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
-    """With ``clean``: keep only the regions the network's runs on each photo padded these
-    ways agree on, as the mask stage does by default (`mask --pads
-    reflect,replicate,constant --pads-keep regions`); none: the plain run alone."""
+    """With ``clean``: also run the network on each photo padded these ways and keep what
+    the runs agree on, as the mask stage does by default (`mask --pads
+    reflect,replicate,constant`); none: the plain run alone."""
+    pads_keep: str = option("pixels", choices=("pixels", "regions"))
+    """With ``pads``: what the runs' agreement keeps, as `mask --pads-keep`."""
     negatives: tuple[str, ...] = option(
         (), choices=("lamp", "specular", "sky", "clouds", "wall", "foliage", "backlit", "neon",
                      "reflection"))
@@ -152,9 +154,12 @@ class FMGOverlayConfig:
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
     pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
-    """Keep only the regions each network's runs on the photo padded these ways agree on, as
-    the mask stage does by default (`mask --pads reflect,replicate,constant --pads-keep
-    regions`); none: the network's plain run alone."""
+    """Also run each network on the photo padded these ways and keep what the runs agree on,
+    as the mask stage does by default (`mask --pads reflect,replicate,constant`); none: the
+    network's plain run alone."""
+    pads_keep: str = option("pixels", choices=("pixels", "regions"))
+    """With ``pads``: what the runs' agreement keeps, as `mask --pads-keep` (pixels: each
+    pixel every run marks; regions: the plain run's regions they agree on a pixel of)."""
 
 
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
@@ -180,6 +185,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--ghost-lines needs --per-kind or --clean")
     if cfg.pads and not cfg.clean:
         raise UserError("--pads needs --clean")
+    if cfg.pads_keep != "pixels" and not cfg.pads:
+        raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads")
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -535,21 +542,19 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
                     scenes: tuple[str, ...] | None = None, split: str = "test",
                     rays: bool = False, ray_cfg=None, confirm: Path | None = None,
                     confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
-                    ghosts=None, pads: tuple[str, ...] = ()) -> dict:
+                    ghosts=None, pads: tuple[str, ...] = (),
+                    pads_keep: str = "pixels") -> dict:
     """Fraction of pixels marked (at the weights' cut, network at ``work_size``, flare rays
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
     `mask --confirm`: as in the mask stage, the networks at ``scales`` of ``work_size`` as
     `mask --scales`, the ghost-line regions added with ``ghosts`` as `mask --ghost-lines`,
-    with ``pads`` the regions the padded runs agree on as the stage's default `--pads-keep
-    regions`) on every clean photo of ``scenes`` at full size: mean and max per scene."""
-    from pipeline.mask import flare_marks, fmg_probs_pair, load_fmg_weights
+    with ``pads`` what the padded runs agree on, as ``agreed_marks`` with ``pads_keep``) on
+    every clean photo of ``scenes`` at full size: mean and max per scene."""
+    from pipeline.mask import load_fmg_weights
 
     def marks(im):
-        plain, agreed = (fmg_probs_pair(model, [im], work_size, scales, tuple(pads))
-                         if pads else ([None], [None]))
-        return flare_marks(model, im, cut, work_size, rays, probs=plain[0], ray_cfg=ray_cfg,
-                           confirm=second, scales=scales, ghosts=ghosts, pads=tuple(pads),
-                           consensus=agreed[0])
+        return agreed_marks(model, im, cut, work_size, pads, pads_keep, rays=rays,
+                            ray_cfg=ray_cfg, confirm=second, scales=scales, ghosts=ghosts)
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
@@ -558,6 +563,7 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
     res = {"weights": str(weights), "cut": cut, "work_size": work_size, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
            "ghost_lines": _ghost_rule(ghosts), "pads": list(pads),
+           "pads_keep": pads_keep if pads else None,
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep}, "scenes": {}}
     for scene in scenes or CLEAN_SCENES[split]:
@@ -640,16 +646,35 @@ def format_clean(res: dict) -> str:
     return "\n".join(rows)
 
 
+def agreed_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
+                 pads: tuple[str, ...], keep: str = "pixels", **kw) -> np.ndarray:
+    """``pipeline.mask.flare_marks`` of one image with the mask stage's padded agreement
+    (``pads``, ``keep`` as `mask --pads --pads-keep`; no pads: the plain run); ``kw``:
+    flare_marks' other options (rays, ray_cfg, ghosts, confirm, scales)."""
+    from pipeline.mask import flare_marks, fmg_probs_pair
+
+    if not pads:
+        return flare_marks(model, image_bgr, cut, work_size, **kw)
+    plain, agreed = fmg_probs_pair(model, [image_bgr], work_size, kw.get("scales", (1.0,)),
+                                   tuple(pads))
+    if keep == "regions":
+        return flare_marks(model, image_bgr, cut, work_size, probs=plain[0], pads=tuple(pads),
+                           consensus=agreed[0], **kw)
+    return flare_marks(model, image_bgr, cut, work_size, probs=agreed[0], pads=tuple(pads),
+                       **kw)
+
+
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
-                        ray_cfg=None, ghosts=None, pads: tuple[str, ...] = ()) -> dict:
+                        ray_cfg=None, ghosts=None, pads: tuple[str, ...] = (),
+                        pads_keep: str = "pixels") -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
     rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given,
-    with ``pads`` the regions the padded runs agree on, as the mask stage's default keeps)
-    outlined and tinted red; returns the fraction of each photo each model marks."""
+    with ``pads`` what the padded runs agree on, as ``agreed_marks``) outlined and tinted
+    red; returns the fraction of each photo each model marks."""
     import cv2
 
-    from pipeline.mask import flare_marks, fmg_probs_pair, load_fmg_weights, ray_marks
+    from pipeline.mask import load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     streaks = rays and ray_cfg is not None and ray_cfg.lines  # said in each tile's label
@@ -660,10 +685,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         ray = ray_marks(img, work_size, ray_cfg) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
-            plain, agreed = (fmg_probs_pair(model, [img], work_size, (1.0,), tuple(pads))
-                             if pads else ([None], [None]))
-            marked = flare_marks(model, img, cut, work_size, probs=plain[0], ghosts=ghosts,
-                                 consensus=agreed[0]) | ray
+            marked = agreed_marks(model, img, cut, work_size, pads, pads_keep,
+                                  ghosts=ghosts) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
