@@ -78,10 +78,11 @@ full-size colours, so the committed shipped-default arm to compare a new arm wit
 ``s29_frc`` (seeds 2, 3, 4 on sceaux, et, lund); the ``s26_Mp`` files are the quarter-colour
 defaults before it (pass ``--finetune-args=--no-full-res-colour`` to compare with them).
 The latest: ``s69_sh:2,3+s73_sh:4,5`` are the defaults up to the seventy-second session (the
-mask network's plain run alone; ``--mask-args="--pads none"`` to compare with them), and
-``s72_reg:2,3+s73_reg:4,5`` today's defaults (the padded runs' agreement, since the
-seventy-third session). A fine-tune repeats to the digit, but any change moves a run as
-another seed does: ``spread`` measures by how much (docs/eval.md).
+mask network's plain run alone; ``--mask-args="--pads none"`` to compare with them),
+``s72_pad:2,3+s73_pad:4,5`` today's defaults (the padded runs' agreement pixel by pixel,
+since the seventy-third session) and ``s72_reg:2,3+s73_reg:4,5`` its regions form. A
+fine-tune repeats to the digit, but any change moves a run as another seed does: ``spread``
+measures by how much (docs/eval.md).
 """
 
 from __future__ import annotations

@@ -33,8 +33,7 @@ SETTINGS = {"base": {"ghost_lines": False, "ghost_views": False, "pads": ()},
 """The mask settings scored (MaskConfig fields over its defaults): the network and its rays
 (the stage's default up to the thirty-fifth session), and with the ghost-line candidates the
 other photos confirm (its default from then to the seventy-second session; today's default
-adds `--pads reflect,replicate,constant --pads-keep regions`, scored as the ``--pads``
-candidate)."""
+adds `--pads reflect,replicate,constant`, scored as the ``--pads`` candidate)."""
 
 
 def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,

@@ -548,8 +548,8 @@ def test_goals_page_rows_follow_their_files():
         cells = [" / ".join(f"{m[k]:.3f}" for k in ("IoU_flare", "mIoU", "mAcc"))
                  for m in (without[kind]["without"], shipped[kind]["weights"])]
         assert f"| {kind} | {cells[0]} | {cells[1]} |" in text, kind
-    today = {r["scene"].split(".")[0]: r for name in ("mask_views_clean_dev_regions_s72.json",
-                                                      "mask_views_clean_test_regions_s73.json")
+    today = {r["scene"].split(".")[0]: r for name in ("mask_views_clean_dev_pads_s72.json",
+                                                      "mask_views_clean_test_pads_s72.json")
              for r in load(name)["rows"] if r["setting"] == "ghost_views_pads"}
     for name in ("mask_views_clean_dev_s36.json", "mask_views_clean_test_s36.json"):
         for r in load(name)["rows"]:
