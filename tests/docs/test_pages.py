@@ -865,10 +865,14 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     its head's."""
     readme = " ".join((REPO / "README.md").read_text().split())
     rows = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    pixels = json.loads((RESULTS / "sample_oneshot_cpu_s73_pixels.json").read_text())
+    assert pixels["code"]["commit"].startswith("ae048c4")  # the pixel-wise default
+    assert (f"(the main job above) | {pixels['mean']['psnr_flare']:.2f} / "
+            f"{pixels['mean']['psnr']:.2f} |") in readme
+    assert f"{pixels['mean']['psnr_flare']:.2f} / {pixels['mean']['psnr']:.2f}" in rows
     now = json.loads((RESULTS / "sample_oneshot_cpu_s73_head.json").read_text())
-    assert now["code"]["commit"].startswith("5b30369")
-    assert (f"(the main job above) | {now['mean']['psnr_flare']:.2f} / "
-            f"{now['mean']['psnr']:.2f} |") in readme
+    assert now["code"]["commit"].startswith("5b30369")  # the regions form
+    assert f"{now['mean']['psnr_flare']:.2f} / {now['mean']['psnr']:.2f}" in rows
     for f in ("sample_oneshot_cpu_s73_3938847.json", "sample_oneshot_cpu_s48_head.json"):
         m = json.loads((RESULTS / f).read_text())["mean"]
         assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f}" in readme and f in rows, f
@@ -877,6 +881,8 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     assert old["code"]["commit"].startswith("3938847")  # the plain run's last commit
     assert (f"the mask stage {now['stages']['mask']['seconds']:.1f} s against "
             f"{old['stages']['mask']['seconds']:.1f} s for the 8 views") in perf
+    assert (f"the mask stage {pixels['stages']['mask']['seconds']:.1f} s, peak 0.99 GB, the "
+            f"photos {pixels['mean']['psnr_flare']:.2f} / {pixels['mean']['psnr']:.2f} dB") in perf
     s47 = json.loads((RESULTS / "sample_oneshot_cpu_s47_head.json").read_text())["mean"]
     final = json.loads((RESULTS / "sample_oneshot_cpu_s47_final.json").read_text())
     fp32 = json.loads((RESULTS / "sample_oneshot_cpu_s48_0d97d56.json").read_text())
