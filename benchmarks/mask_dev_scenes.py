@@ -79,11 +79,9 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 gt = cv2.resize(gt.astype(np.uint8), wh, interpolation=cv2.INTER_NEAREST) > 0
             regions = bool(pads) and pads_keep == "regions"
             if cache is None:
-                agreed = (fmg_probs(model, [img], work_size, scales, pads)[0]
-                          if regions else None)
                 m = flare_marks(model, img, cut, work_size, rays, confirm=confirm,
-                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg,
-                                pads=() if regions else pads, consensus=agreed)
+                                scales=scales, ghosts=ghosts, ray_cfg=ray_cfg, pads=pads,
+                                pads_keep=pads_keep)
             else:
                 key = (str(photo), max_size, work_size)
                 if (key, scales, pads) not in cache:

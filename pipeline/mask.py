@@ -275,6 +275,17 @@ def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
     return list(probs[:, 0].cpu().numpy())
 
 
+def network_maps(model, images_bgr: list[np.ndarray], work_size: int,
+                 scales: tuple[float, ...] = (1.0,), pads: tuple[str, ...] = (),
+                 keep: str = "pixels") -> tuple[list[np.ndarray], list]:
+    """(probs, consensus) of each image, what ``flare_marks`` cuts: with ``pads`` and
+    ``keep`` "regions" the plain run and the padded runs' agreement (``fmg_probs_pair``),
+    else ``fmg_probs`` with ``pads`` and no consensus (None each)."""
+    if pads and keep == "regions":
+        return fmg_probs_pair(model, images_bgr, work_size, scales, pads)
+    return fmg_probs(model, images_bgr, work_size, scales, pads), [None] * len(images_bgr)
+
+
 def fmg_probs_pair(model, images_bgr: list[np.ndarray], work_size: int,
                    scales: tuple[float, ...], pads: tuple[str, ...]
                    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -346,7 +357,7 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
                 confirm_probs: np.ndarray | None = None,
                 scales: tuple[float, ...] = (1.0,), ghosts=None,
                 found: tuple | None = None, pads: tuple[str, ...] = (),
-                consensus: np.ndarray | None = None) -> np.ndarray:
+                consensus: np.ndarray | None = None, pads_keep: str = "pixels") -> np.ndarray:
     """[H, W] bool flare mask of one BGR uint8 image: the FMG's probabilities (``probs`` if
     already computed) refined if asked, cut at ``cut``, with the flare rays (``ray_cfg``) if
     ``rays`` and the ghost-line regions of the probabilities (``ghost_marks``) if
@@ -357,12 +368,16 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
     ``MaskConfig.pads``; ``found``: ``lights_at_work_size`` if already known. With
     ``consensus`` (the probabilities with ``pads``, `mask --pads-keep regions`) the network's
     marks are the regions of ``probs`` over the cut that hold a pixel of ``consensus`` over
-    it (``regions_touching``), before the ghost lines and the rays are added."""
+    it (``regions_touching``), before the ghost lines and the rays are added; with neither
+    given, ``pads_keep`` as ``MaskConfig.pads_keep`` (``network_maps``)."""
 
     def network_probs(m, p):
         p = fmg_probs(m, [image_bgr], work_size, scales, pads)[0] if p is None else p
         return refine_probs(image_bgr, p) if refine else p
 
+    if probs is None and consensus is None:
+        maps = network_maps(model, [image_bgr], work_size, scales, pads, pads_keep)
+        probs, consensus = maps[0][0], maps[1][0]
     p_main = network_probs(model, probs)
     marks = p_main > cut
     if consensus is not None:
@@ -472,12 +487,8 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            if config.pads and config.pads_keep == "regions":
-                probs, agreed = fmg_probs_pair(model, imgs, config.work_size, config.scales,
-                                               config.pads)
-            else:
-                probs = fmg_probs(model, imgs, config.work_size, config.scales, config.pads)
-                agreed = [None] * len(imgs)
+            probs, agreed = network_maps(model, imgs, config.work_size, config.scales,
+                                         config.pads, config.pads_keep)
             second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales,
                                 config.pads)
                       if confirm is not None else [None] * len(imgs))

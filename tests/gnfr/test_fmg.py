@@ -151,6 +151,10 @@ def test_predict_probs_pads_keep_the_lowest_of_its_passes():
                        predict_probs(model, x, long_side=64))
     with pytest.raises(ValueError, match="unknown padding"):
         padded_probs(model, x, ("wrap",))
+    from gnfr.fmg import PAD_MODES
+    from pipeline.mask import MaskConfig
+
+    assert MaskConfig().pads == PAD_MODES  # the literal the CLI reads (no torch there)
 
 
 def test_predict_probs_pair_is_both_runs_from_one_plain_pass():

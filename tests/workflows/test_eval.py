@@ -421,7 +421,7 @@ def test_mask_dev_scenes_max_size_and_fill_holes(tmp_path, monkeypatch):
     seen = []
 
     def fake_marks(model, img, cut, work_size, rays, confirm=None, scales=(1.0,), ghosts=None,
-                   ray_cfg=None, pads=(), consensus=None):
+                   ray_cfg=None, pads=(), consensus=None, pads_keep="pixels"):
         seen.append(img.shape[:2])
         h, w = img.shape[:2]
         y, x = np.mgrid[:h, :w]

@@ -104,13 +104,11 @@ def register(app: typer.Typer) -> None:
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
-        from pipeline.errors import UserError
         from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
-        from workflows.research.fmg_eval import check_ray_rule, real_flare_overview
+        from workflows.research.fmg_eval import check_pads, check_ray_rule, real_flare_overview
 
         check_ray_rule(config)
-        if config.pads_keep != "pixels" and not config.pads:
-            raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads")
+        check_pads(config)
         weights = config.weights or (DEFAULT_WEIGHTS,)
         for path in weights:
             load_fmg_weights(path)

@@ -162,6 +162,13 @@ class FMGOverlayConfig:
     pixel every run marks; regions: the plain run's regions they agree on a pixel of)."""
 
 
+def check_pads(cfg) -> None:
+    """A one-line UserError when ``cfg`` (`fmg eval` or `fmg overlay`) sets --pads-keep
+    without --pads."""
+    if cfg.pads_keep != "pixels" and not cfg.pads:
+        raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads")
+
+
 def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
     """``cfg`` when it asks for one score (the composites, ``per_kind``, ``work_sizes``,
     ``clean`` or ``negatives``); else a one-line UserError."""
@@ -185,8 +192,7 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--ghost-lines needs --per-kind or --clean")
     if cfg.pads and not cfg.clean:
         raise UserError("--pads needs --clean")
-    if cfg.pads_keep != "pixels" and not cfg.pads:
-        raise UserError("--pads-keep says what the padded runs of --pads keep: add --pads")
+    check_pads(cfg)
     if sum((cfg.per_kind, bool(cfg.work_sizes), cfg.clean, bool(cfg.negatives))) > 1:
         raise UserError("give one of --per-kind, --work-sizes, --clean, --negatives")
     return cfg
@@ -548,13 +554,13 @@ def clean_fractions(weights: Path, data: Path, work_size: int = 512,
     added with ``rays`` by rule ``ray_cfg``, with ``confirm`` (weights) the second network of
     `mask --confirm`: as in the mask stage, the networks at ``scales`` of ``work_size`` as
     `mask --scales`, the ghost-line regions added with ``ghosts`` as `mask --ghost-lines`,
-    with ``pads`` what the padded runs agree on, as ``agreed_marks`` with ``pads_keep``) on
+    with ``pads`` what the padded runs agree on, as `mask --pads --pads-keep` keeps it) on
     every clean photo of ``scenes`` at full size: mean and max per scene."""
-    from pipeline.mask import load_fmg_weights
+    from pipeline.mask import flare_marks, load_fmg_weights
 
     def marks(im):
-        return agreed_marks(model, im, cut, work_size, pads, pads_keep, rays=rays,
-                            ray_cfg=ray_cfg, confirm=second, scales=scales, ghosts=ghosts)
+        return flare_marks(model, im, cut, work_size, rays, ray_cfg=ray_cfg, confirm=second,
+                           scales=scales, ghosts=ghosts, pads=tuple(pads), pads_keep=pads_keep)
 
     cut = weights_info(Path(weights))["cut"]
     model = load_fmg_weights(Path(weights))
@@ -646,35 +652,17 @@ def format_clean(res: dict) -> str:
     return "\n".join(rows)
 
 
-def agreed_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
-                 pads: tuple[str, ...], keep: str = "pixels", **kw) -> np.ndarray:
-    """``pipeline.mask.flare_marks`` of one image with the mask stage's padded agreement
-    (``pads``, ``keep`` as `mask --pads --pads-keep`; no pads: the plain run); ``kw``:
-    flare_marks' other options (rays, ray_cfg, ghosts, confirm, scales)."""
-    from pipeline.mask import flare_marks, fmg_probs_pair
-
-    if not pads:
-        return flare_marks(model, image_bgr, cut, work_size, **kw)
-    plain, agreed = fmg_probs_pair(model, [image_bgr], work_size, kw.get("scales", (1.0,)),
-                                   tuple(pads))
-    if keep == "regions":
-        return flare_marks(model, image_bgr, cut, work_size, probs=plain[0], pads=tuple(pads),
-                           consensus=agreed[0], **kw)
-    return flare_marks(model, image_bgr, cut, work_size, probs=agreed[0], pads=tuple(pads),
-                       **kw)
-
-
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
                         ray_cfg=None, ghosts=None, pads: tuple[str, ...] = (),
                         pads_keep: str = "pixels") -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
     rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given,
-    with ``pads`` what the padded runs agree on, as ``agreed_marks``) outlined and tinted
-    red; returns the fraction of each photo each model marks."""
+    with ``pads`` what the padded runs agree on, as `mask --pads --pads-keep` keeps it)
+    outlined and tinted red; returns the fraction of each photo each model marks."""
     import cv2
 
-    from pipeline.mask import load_fmg_weights, ray_marks
+    from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     streaks = rays and ray_cfg is not None and ray_cfg.lines  # said in each tile's label
@@ -685,8 +673,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         tiles = [cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)]
         ray = ray_marks(img, work_size, ray_cfg) if rays else False  # the same for every model
         for (cut, model), w in zip(models, weights, strict=True):
-            marked = agreed_marks(model, img, cut, work_size, pads, pads_keep,
-                                  ghosts=ghosts) | ray
+            marked = flare_marks(model, img, cut, work_size, ghosts=ghosts, pads=tuple(pads),
+                                 pads_keep=pads_keep) | ray
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
