@@ -256,6 +256,31 @@ def test_views_json_round_trip_and_select_writes_the_same(tmp_path):
     assert list(entry["sources"][0]) == ["stem", "distance", "flare_fraction"]
 
 
+def test_rule_fraction_decides_the_target_and_round_trips(tmp_path):
+    """A view's ``rule_fraction`` (what `mask --pads` counts with the plain run's marks)
+    decides its target flag where given; flare.json and views.json carry it only then, and
+    read back equal."""
+    ws = tiny_ws(tmp_path)
+    flare = FlareFile("fmg", 0.75, None, {"a": FlareEntry(0.09, "fmg", 0.11),
+                                          "b": FlareEntry(0.02, "fmg")})
+    write_flare(ws, flare)
+    on_disk = json.loads(ws.flare_json.read_text())["views"]
+    assert on_disk["a"] == {"flare_fraction": 0.09, "source": "fmg", "rule_fraction": 0.11}
+    assert on_disk["b"] == {"flare_fraction": 0.02, "source": "fmg"}
+    back = read_flare(ws)
+    assert back == flare and back.views["a"].counted == 0.11 and back.views["b"].counted == 0.02
+    cams = read_cameras(ws)
+    frac = {"a": 0.09, "b": 0.02, "c": 0.05, "d": 0.1}
+    views = make_views(cams.stems, cams.centers(), frac, 0.1, {"a": 0.11, "c": 0.08})
+    assert views.targets() == ["b", "c", "d"]  # a: 9 % marked, 11 % counted
+    assert make_views(cams.stems, cams.centers(), frac, 0.1).targets() == ["a", "b", "c", "d"]
+    write_views(ws, views)
+    entry = json.loads(ws.views_json.read_text())["views"]
+    assert entry["a"]["rule_fraction"] == 0.11 and "rule_fraction" not in entry["b"]
+    assert entry["a"]["sources"][0]["flare_fraction"] in (0.02, 0.05, 0.1)  # marked, not counted
+    assert read_views(ws) == views
+
+
 def test_views_one_filtering_rule(tmp_path):
     ws = tiny_ws(tmp_path)
     cams = read_cameras(ws)
