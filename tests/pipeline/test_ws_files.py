@@ -281,6 +281,39 @@ def test_rule_fraction_decides_the_target_and_round_trips(tmp_path):
     assert read_views(ws) == views
 
 
+def test_target_rule_benchmark_counts_targets_against_the_truth(tmp_path):
+    """benchmarks/target_rule.py: a view whose mask marks 9 % but whose rule counts 11 % is
+    no target; one the truth puts at 12 % but counted at 8 % is a target over the rule by
+    the truth; one counted at 11 % with 5 % true flare is kept out under it."""
+    from tests.conftest import load_benchmark
+
+    tr = load_benchmark("target_rule")
+    ws = tiny_ws(tmp_path)
+    H, W = 12, 16
+    truth = {"a": 0.12, "b": 0.05, "c": 0.0, "d": 0.20}
+    counted = {"a": 0.08, "b": 0.11, "c": 0.0, "d": 0.30}
+    synth = tmp_path / "synth"
+    (synth / "masks_gt").mkdir(parents=True)
+    for s, share in truth.items():
+        m = np.zeros(H * W, np.uint8)
+        m[:round(share * H * W)] = 255
+        atomic_imwrite(synth / "masks_gt" / f"{s}.png", m.reshape(H, W))
+    write_flare(ws, FlareFile("fmg", 0.75, None, {
+        s: FlareEntry(round(0.9 * c, 6), "fmg", c) for s, c in counted.items()}))
+    cams = read_cameras(ws)
+    write_views(ws, make_views(cams.stems, cams.centers(), {s: round(0.9 * c, 6)
+                                                            for s, c in counted.items()},
+                               0.1, counted))
+    got = tr.rule_rows(synth, ws.root)
+    assert [s for s, r in got["views"].items() if r["target"]] == ["a", "c"]
+    assert got["views"]["b"]["counted"] == 0.11 and got["views"]["b"]["marked"] == 0.099
+    assert got["targets_over_truth"] == 1 and got["kept_out_under_truth"] == 1
+    out = tmp_path / "rule.json"
+    assert tr.main([f"{synth}={ws.root}", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["workspaces"][0]["targets"] == 2
+    assert tr.main([f"{tmp_path}={ws.root}"]) == 2  # no masks_gt there: one error line
+
+
 def test_views_one_filtering_rule(tmp_path):
     ws = tiny_ws(tmp_path)
     cams = read_cameras(ws)
