@@ -1,13 +1,13 @@
 """Which views the 10 % target rule lets train, against the truth, on synthetic-flare workspaces.
 
-The select stage flags a view as a training target when the flare it counts is at most
-10 % (`WS/views.json`). This reads, for each workspace given as SYNTH=WS (a `deflare-scene
-synth` folder with `masks_gt/`, and a workspace made from it, e.g. an arm of
+The select stage flags a view as a training target when its mask marks at most 10 % of it
+(`WS/views.json`). This reads, for each workspace given as SYNTH=WS (a `deflare-scene synth`
+folder with `masks_gt/`, and a workspace made from it, e.g. an arm of
 `benchmarks/fmg_photo_ab.py`), per view: the share its mask marks (`flare_fraction`), the
-share the rule counted (`rule_fraction` where the mask stage wrote one, docs/design.md), the
 true share of flare (`masks_gt/<stem>.png`) and the target flag; and per workspace how many
 targets the truth puts over the rule (`targets_over_truth`) and how many views the truth
-puts under it that are not targets (`kept_out_under_truth`). No network runs: it reads files.
+puts under it that are not targets (`kept_out_under_truth`). No network runs: it reads files
+(docs/history/fmg.md, "Seventy-fourth session").
 
     python benchmarks/target_rule.py /work/dev/sceaux_synth=/work/s70/ab/sceaux_s72_pad_s2.ws \
         ... --out docs/results/target_rule_s74.json
@@ -27,18 +27,17 @@ def rule_rows(synth: Path, root: Path, max_flare: float | None = None) -> dict:
     """The per-view rows and the counts of one workspace ``root`` made from ``synth``."""
     from gnfr.view_sampler import is_target
     from pipeline.workspace import Workspace
-    from pipeline.ws_files import read_flare, read_mask_file, read_views
+    from pipeline.ws_files import read_mask_file, read_views
 
     ws = Workspace(root)
-    views, flare = read_views(ws), read_flare(ws)
+    views = read_views(ws)
     limit = views.max_flare if max_flare is None else max_flare
     rows = {}
     for s, v in views.views.items():
         truth = read_mask_file(synth / "masks_gt" / f"{s}.png",
                                f"give a synth folder whose masks_gt/ has view {s}")
-        entry = flare.views[s]
-        rows[s] = {"marked": entry.flare_fraction, "counted": entry.counted,
-                   "true": round(float(truth.mean()), 6), "target": v.target}
+        rows[s] = {"marked": v.flare_fraction, "true": round(float(truth.mean()), 6),
+                   "target": v.target}
     return {"synth": str(synth), "workspace": str(root), "max_flare": limit, "views": rows,
             "targets": sum(r["target"] for r in rows.values()),
             "targets_over_truth": sum(r["target"] and not is_target(r["true"], limit)

@@ -10,9 +10,7 @@ Reads ``WS/images/<stem>.png`` and writes
   network's masks before the other photos judged them (``pipeline.crosscheck``; WS/masks
   holds the judged ones);
 - ``WS/masks_ghosts/<stem>.png`` with ``--ghost-views`` only: the ghost-line candidates the
-  other photos judged (``pipeline.flare_ghosts``);
-- ``WS/masks_plain/<stem>.png`` with ``--pads`` only: the network's marks from its plain run
-  alone, which the 10 % target rule counts with the mask (flare.json's ``rule_fraction``).
+  other photos judged (``pipeline.flare_ghosts``).
 
 The FMG runs batched at a working resolution (long side ``work_size``) and its probability
 map is upsampled to the image size, optionally refined to follow image edges with a guided
@@ -279,19 +277,13 @@ def fmg_probs(model, images_bgr: list[np.ndarray], work_size: int,
 
 def network_maps(model, images_bgr: list[np.ndarray], work_size: int,
                  scales: tuple[float, ...] = (1.0,), pads: tuple[str, ...] = (),
-                 keep: str = "pixels") -> tuple[list[np.ndarray], list, list[np.ndarray]]:
-    """(probs, consensus, plain) of each image: what ``flare_marks`` cuts, and the plain
-    run's probabilities (what the target rule counts, ``WS/masks_plain``). With ``pads``
-    (``fmg_probs_pair``) and ``keep`` "regions": the plain run, the padded runs' agreement,
-    the plain run; with ``pads``: the agreement, no consensus (None each), the plain run;
-    without: ``fmg_probs``, None each, the same probabilities."""
-    if not pads:
-        probs = fmg_probs(model, images_bgr, work_size, scales, pads)
-        return probs, [None] * len(images_bgr), probs
-    plain, agreed = fmg_probs_pair(model, images_bgr, work_size, scales, pads)
-    if keep == "regions":
-        return plain, agreed, plain
-    return agreed, [None] * len(images_bgr), plain
+                 keep: str = "pixels") -> tuple[list[np.ndarray], list]:
+    """(probs, consensus) of each image, what ``flare_marks`` cuts: with ``pads`` and
+    ``keep`` "regions" the plain run and the padded runs' agreement (``fmg_probs_pair``),
+    else ``fmg_probs`` with ``pads`` and no consensus (None each)."""
+    if pads and keep == "regions":
+        return fmg_probs_pair(model, images_bgr, work_size, scales, pads)
+    return fmg_probs(model, images_bgr, work_size, scales, pads), [None] * len(images_bgr)
 
 
 def fmg_probs_pair(model, images_bgr: list[np.ndarray], work_size: int,
@@ -384,7 +376,7 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
         return refine_probs(image_bgr, p) if refine else p
 
     if probs is None and consensus is None:
-        maps = network_maps(model, [image_bgr], work_size, scales, pads, pads_keep)[:2]
+        maps = network_maps(model, [image_bgr], work_size, scales, pads, pads_keep)
         probs, consensus = maps[0][0], maps[1][0]
     p_main = network_probs(model, probs)
     marks = p_main > cut
@@ -484,8 +476,7 @@ def _batches(stems: list[str], sizes: dict[str, tuple[int, int]], n: int):
 def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
                     confirm=None) -> None:
     """Run the FMG ``model`` (``load_fmg_weights``) on the views in ``stems`` and write
-    their masks (with ``config.pads``, first the plain run's marks, ``PLAIN_MARKS_DIR``);
-    ``confirm`` = (second model, its cut, keep) for ``config.confirm``."""
+    their masks; ``confirm`` = (second model, its cut, keep) for ``config.confirm``."""
     import torch
 
     sizes = {s: image_size(ws.image_path(s), fix=ws.rerun("pose")) for s in stems}
@@ -493,18 +484,15 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
     rule = ray_config(config)
     ghosts = ghost_config(config)
     judged_later = config.ghost_views  # the candidates wait for the other photos' judgement
-    if config.pads:
-        (ws.root / PLAIN_MARKS_DIR).mkdir(exist_ok=True)
     with torch.inference_mode():
         for batch in track(batches, "FMG masks (batches)"):
             imgs = [read_view_image(ws, s, bgr=True) for s in batch]
-            probs, agreed, plain = network_maps(model, imgs, config.work_size,
-                                                config.scales, config.pads, config.pads_keep)
+            probs, agreed = network_maps(model, imgs, config.work_size, config.scales,
+                                         config.pads, config.pads_keep)
             second = (fmg_probs(confirm[0], imgs, config.work_size, config.scales,
                                 config.pads)
                       if confirm is not None else [None] * len(imgs))
-            for s, img, p, q, c, pp in zip(batch, imgs, probs, second, agreed, plain,
-                                           strict=True):
+            for s, img, p, q, c in zip(batch, imgs, probs, second, agreed, strict=True):
                 found = lights_at_work_size(img, config.work_size) if ghosts else None
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
@@ -516,10 +504,6 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
                     pg = refine_probs(img, p) if config.refine else p
                     write_mask_file(ws.root / GHOST_CANDIDATES_DIR / f"{s}.png",
                                     ghost_marks(img, pg, config.work_size, ghosts, found) & ~m)
-                if config.pads:  # written before the mask, as the candidates
-                    pp = refine_probs(img, pp) if config.refine else pp
-                    write_mask_file(ws.root / PLAIN_MARKS_DIR / f"{s}.png",
-                                    pp > config.threshold)
                 write_mask(ws, s, m)
 
 
@@ -647,14 +631,9 @@ def run(config: MaskConfig, ws: Workspace, force: bool = False) -> list[Path]:
     for d in (FMG_MASKS_DIR, GHOST_CANDIDATES_DIR):
         if (ws.root / d).is_dir() and not (views_pass and resumed):
             shutil.rmtree(ws.root / d)  # an earlier run's: stale now
-    plain_dir = ws.root / PLAIN_MARKS_DIR
-    counts_plain = bool(config.pads) and model is not None
-    if plain_dir.is_dir() and not (counts_plain and resumed):
-        shutil.rmtree(plain_dir)
     if config.ghost_views:
         (ws.root / GHOST_CANDIDATES_DIR).mkdir(exist_ok=True)
-    todo = [s for s in stems if not ws.mask_path(s).exists()
-            or (counts_plain and not (plain_dir / f"{s}.png").exists())]
+    todo = [s for s in stems if not ws.mask_path(s).exists()]
     if todo and config.masks_dir is not None:
         write_given_masks(given, ws, todo)
     elif todo:
@@ -670,12 +649,6 @@ masks before the other photos judged them (same format as WS/masks)."""
 GHOST_CANDIDATES_DIR = "masks_ghosts"
 """``WS/masks_ghosts/<stem>.png``: with ``--ghost-views``, the ghost-line regions the
 network's masks leave out, before the other photos judged them (same format)."""
-PLAIN_MARKS_DIR = "masks_plain"
-"""``WS/masks_plain/<stem>.png``: with ``--pads``, the network's marks from its plain run
-alone (same format). The 10 % target rule counts them with the mask
-(``FlareEntry.rule_fraction``): the padded runs' agreement marks fewer pixels, and a view
-over the rule by the plain run stays out of training (docs/history/fmg.md,
-"Seventy-fourth session")."""
 
 
 def crosscheck_masks(ws: Workspace, stems: list[str], drop: bool = True,
@@ -721,14 +694,9 @@ def _summarise(config: MaskConfig, ws: Workspace, stage_run, stems: list[str], s
                wid: str | None) -> list[Path]:
     flare, tiles = FlareFile(source, config.threshold, wid), []
     src = "fmg" if source == "fmg" else "masks"
-    plain_dir = ws.root / PLAIN_MARKS_DIR
     for s in stems:
         m = read_mask(ws, s)
-        rule = None
-        if src == "fmg" and config.pads:
-            counted = m | read_mask_file(plain_dir / f"{s}.png", ws.rerun("mask"))
-            rule = round(flare_fraction(counted), 6)
-        flare.views[s] = FlareEntry(round(flare_fraction(m), 6), src, rule)
+        flare.views[s] = FlareEntry(round(flare_fraction(m), 6), src)
         tiles.append((s, read_view_image(ws, s, bgr=True), m))
     write_flare(ws, flare)
     atomic_imwrite(ws.masks_overview, overview_sheet(tiles), [cv2.IMWRITE_JPEG_QUALITY, 90])

@@ -1,8 +1,7 @@
 """Stage `select`: the View Sampler's rules, written to ``WS/views.json``.
 
 Per view (format: ``pipeline.ws_files.ViewsFile``, docs/design.md): its flare fraction, its
-``target`` flag (the flare the rule counts at most ``max_flare``: what finetune trains on;
-flare.json's ``rule_fraction`` where the mask stage wrote one) and every OTHER view
+``target`` flag (flare at most ``max_flare``: what finetune trains on) and every OTHER view
 as a source, nearest camera centre first. A flared view can still be rendered and still
 serve as a source where it is clean; training and rendering choose among the nearest
 sources with ``gnfr.view_sampler.pick_sources``.
@@ -59,8 +58,9 @@ def check_targets(views: ViewsFile, max_flare: float, min_targets: int, root: Pa
     targets = views.targets()
     if len(targets) >= min_targets:
         return
-    flared = ", ".join(f"{s} ({100 * v.counted:.1f}%)"
-                       for s, v in sorted(views.views.items(), key=lambda kv: -kv[1].counted)
+    flared = ", ".join(f"{s} ({100 * v.flare_fraction:.1f}%)"
+                       for s, v in sorted(views.views.items(),
+                                          key=lambda kv: -kv[1].flare_fraction)
                        if not v.target)
     raise UserError(
         f"only {len(targets)} of {len(views.views)} views have at most "
@@ -75,7 +75,7 @@ def few_targets_note(views: ViewsFile, max_flare: float, root: Path) -> str | No
     command; None when half or more are targets or the looser rule adds none. The default
     rule stays the paper's: the trade-off is the user's."""
     n_t, n = len(views.targets()), len(views.views)
-    looser = sum(is_target(v.counted, NOTE_MAX_FLARE) for v in views.views.values())
+    looser = sum(is_target(v.flare_fraction, NOTE_MAX_FLARE) for v in views.views.values())
     if 2 * n_t >= n or max_flare >= NOTE_MAX_FLARE or looser <= n_t:
         return None
     return (f"only {n_t} of {n} views may be training targets: the other {n - n_t} have "
@@ -97,15 +97,13 @@ def run(config: SelectConfig, ws: Workspace, force: bool = False) -> list[Path]:
         info(f"select: up to date ({ws.views_json})")
         return stage_run.outputs
     cams = read_cameras(ws)
-    flare_file = read_flare(ws)
-    flare = flare_file.fractions()
+    flare = read_flare(ws).fractions()
     missing = [s for s in cams.stems if s not in flare]
     if missing:
         raise UserError(f"{ws.flare_json} has no flare fraction for view(s) "
                         f"{', '.join(missing)}: {ws.rerun('mask')}")
     fractions = {s: flare[s] for s in cams.stems}
-    rule = {s: flare_file.views[s].rule_fraction for s in cams.stems}
-    views = make_views(cams.stems, cams.centers(), fractions, config.max_flare, rule)
+    views = make_views(cams.stems, cams.centers(), fractions, config.max_flare)
     check_targets(views, config.max_flare, config.min_targets, ws.root)
     write_views(ws, views)
     n_t = len(views.targets())

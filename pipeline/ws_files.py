@@ -177,15 +177,6 @@ class FlareEntry:
     """Fraction of the view's pixels its mask marks as flare (rounded to 6 decimals)."""
     source: str
     """Where the mask came from: "fmg" (the network) or "masks" (hand-made)."""
-    rule_fraction: float | None = None
-    """Fraction the 10 % target rule counts (``select``): with `mask --pads`, the pixels the
-    mask or the network's plain run marks (the padded runs' agreement marks fewer, and the
-    rule must not loosen with it; ``WS/masks_plain``); None: ``flare_fraction``."""
-
-    @property
-    def counted(self) -> float:
-        """The fraction the target rule counts: ``rule_fraction``, else ``flare_fraction``."""
-        return self.flare_fraction if self.rule_fraction is None else self.rule_fraction
 
 
 @dataclass
@@ -194,8 +185,7 @@ class FlareFile:
 
     ```
     {"source": "fmg" | "masks:<dir>", "threshold": cut | null, "weights": id | null,
-     "views": {"<stem>": {"flare_fraction": f, "source": "fmg" | "masks",
-                          "rule_fraction": f (only with `mask --pads`)}}}
+     "views": {"<stem>": {"flare_fraction": f, "source": "fmg" | "masks"}}}
     ```
     """
 
@@ -214,28 +204,15 @@ class FlareFile:
 
     def to_json(self) -> dict:
         return {"source": self.source, "threshold": self.threshold, "weights": self.weights,
-                "views": {s: _with_rule({"flare_fraction": v.flare_fraction,
-                                         "source": v.source}, v.rule_fraction)
+                "views": {s: {"flare_fraction": v.flare_fraction, "source": v.source}
                           for s, v in self.views.items()}}
 
     @classmethod
     def from_json(cls, d: dict) -> FlareFile:
-        views = {s: FlareEntry(float(v["flare_fraction"]), str(v.get("source", "")),
-                               _rule_of(v))
+        views = {s: FlareEntry(float(v["flare_fraction"]), str(v.get("source", "")))
                  for s, v in d.get("views", {}).items()}
         return cls(source=d.get("source", ""), threshold=d.get("threshold"),
                    weights=d.get("weights"), views=views)
-
-
-def _with_rule(entry: dict, rule: float | None) -> dict:
-    """``entry`` with its "rule_fraction" when there is one (flare.json, views.json)."""
-    return entry if rule is None else {**entry, "rule_fraction": rule}
-
-
-def _rule_of(entry: dict) -> float | None:
-    """The "rule_fraction" of a flare.json or views.json view entry, None when absent."""
-    rule = entry.get("rule_fraction")
-    return None if rule is None else float(rule)
 
 
 def _read_stage_json(ws: Workspace, path: Path, stage: str, parse):
@@ -276,17 +253,10 @@ class ViewEntry:
 
     flare_fraction: float
     target: bool
-    """May be a training target: the fraction the rule counts (``counted``) at most
-    ``max_flare`` (``is_target``, the rule of ``gnfr.view_sampler``)."""
+    """May be a training target: flare fraction at most ``max_flare`` (``is_target``, the
+    rule of ``gnfr.view_sampler``)."""
     sources: list[SourceEntry] = field(default_factory=list)
     """Every other view, nearest camera centre first."""
-    rule_fraction: float | None = None
-    """As ``FlareEntry.rule_fraction`` (None: the rule counted ``flare_fraction``)."""
-
-    @property
-    def counted(self) -> float:
-        """The fraction the target rule counted: ``rule_fraction``, else ``flare_fraction``."""
-        return self.flare_fraction if self.rule_fraction is None else self.rule_fraction
 
 
 @dataclass
@@ -296,8 +266,7 @@ class ViewsFile:
     ```
     {"max_flare": 0.1,
      "views": {"<stem>": {"flare_fraction": f, "target": bool,
-                          "sources": [{"stem", "distance", "flare_fraction"}, ...],
-                          "rule_fraction": f (only with `mask --pads`)}}}
+                          "sources": [{"stem", "distance", "flare_fraction"}, ...]}}}
     ```
     """
 
@@ -339,10 +308,9 @@ class ViewsFile:
     # JSON -------------------------------------------------------------------
     def to_json(self) -> dict:
         return {"max_flare": self.max_flare, "views": {
-            s: _with_rule({"flare_fraction": v.flare_fraction, "target": v.target,
-                           "sources": [{"stem": x.stem, "distance": x.distance,
-                                        "flare_fraction": x.flare_fraction}
-                                       for x in v.sources]}, v.rule_fraction)
+            s: {"flare_fraction": v.flare_fraction, "target": v.target,
+                "sources": [{"stem": x.stem, "distance": x.distance,
+                             "flare_fraction": x.flare_fraction} for x in v.sources]}
             for s, v in self.views.items()}}
 
     @classmethod
@@ -350,7 +318,7 @@ class ViewsFile:
         views = {s: ViewEntry(float(v["flare_fraction"]), bool(v["target"]),
                               [SourceEntry(str(x["stem"]), float(x["distance"]),
                                            float(x["flare_fraction"]))
-                               for x in v.get("sources", [])], _rule_of(v))
+                               for x in v.get("sources", [])])
                  for s, v in d["views"].items()}
         return cls(max_flare=d["max_flare"], views=views)
 
@@ -368,20 +336,15 @@ def rank_sources(centers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def make_views(stems: list[str], centers: np.ndarray, fractions: dict[str, float],
-               max_flare: float, rule: dict[str, float | None] | None = None) -> ViewsFile:
-    """The views.json of views ``stems`` with camera centres [N, 3] and flare fractions;
-    ``rule``: {stem: the fraction the target rule counts, None for ``fractions``'}
-    (``FlareEntry.rule_fraction``)."""
+               max_flare: float) -> ViewsFile:
+    """The views.json of views ``stems`` with camera centres [N, 3] and flare fractions."""
     order, dist = rank_sources(np.asarray(centers, float))
-    rule = rule or {}
     views = {}
     for i, s in enumerate(stems):
-        r = rule.get(s)
         views[s] = ViewEntry(
-            flare_fraction=fractions[s],
-            target=is_target(fractions[s] if r is None else r, max_flare),
+            flare_fraction=fractions[s], target=is_target(fractions[s], max_flare),
             sources=[SourceEntry(stems[j], round(float(dd), 6), fractions[stems[j]])
-                     for j, dd in zip(order[i], dist[i], strict=True)], rule_fraction=r)
+                     for j, dd in zip(order[i], dist[i], strict=True)])
     return ViewsFile(max_flare, views)
 
 

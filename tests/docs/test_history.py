@@ -2229,3 +2229,45 @@ def test_mask_pixels_four_seeds_outcome_is_its_files():
     for page in (history, card, options, goals):
         assert f"flare region {p['psnr_flare']:+.3f} dB (sceaux_castle {sceaux:+.3f})" in page
         assert f"{p['held']:+.3f} dB" in page and f"{p['psnr']:+.3f} dB" in page
+
+
+def test_target_rule_outcome_is_its_files():
+    """The seventy-fourth session's rule (the 10 % rule counting the plain run's marks too):
+    the judge recomputed from the arms' files fails as saved, the numbers the history quotes
+    are those files', the repeat on et is exact, and the targets against the truth are
+    target_rule_s74.json's."""
+    history = _page("docs", "history", "fmg.md")
+    ab = load_benchmark("fmg_photo_ab")
+    for base, name in (("s72_pad:2,3+s73_pad:4,5", "target_rule_photo_judge4_s74.json"),
+                       ("s69_sh:2,3+s73_sh:4,5", "target_rule_vs_plain_judge4_s74.json")):
+        again = ab.judge(RESULTS, "s74_cnt", base, ["sceaux"], [2, 3, 4, 5], rule="speed")
+        saved = json.loads((RESULTS / name).read_text())
+        assert again["decision"] == saved["decision"] and saved["decision"].startswith("fails")
+        assert again["per_scene"]["sceaux"] == pytest.approx(saved["per_scene"]["sceaux"])
+    m = json.loads((RESULTS / "target_rule_photo_judge4_s74.json").read_text())["mean"]
+    assert (f"flare region of the de-flared photos {m['psnr_flare']:+.3f} dB (needed >= "
+            f"-0.05), whole photo {m['psnr']:+.3f}") in history
+    assert f"held-out views {m['held']:+.3f}" in history
+    p = json.loads((RESULTS / "target_rule_vs_plain_judge4_s74.json").read_text())["mean"]
+    assert (f"flare region {p['psnr_flare']:+.3f} dB, whole photo {p['psnr']:+.3f}, "
+            f"held-out views {p['held']:+.3f}") in history
+    et = json.loads((RESULTS / "fmg_s74_cnt_fair_et_s2.json").read_text())
+    base = json.loads((RESULTS / "fmg_s72_pad_fair_et_s2.json").read_text())
+    assert et["inputs"] == base["inputs"] and et["heldout"] == base["heldout"]
+
+    def view(arm: str, seed: int) -> float:
+        run = json.loads((RESULTS / f"fmg_{arm}_fair_sceaux_s{seed}.json").read_text())
+        return run["inputs"]["views"]["100_7105"]["psnr_flare"]
+
+    own = [np.mean([view(a, s) for a, s in arms]) for arms in (
+        [("s74_cnt", s) for s in (2, 3, 4, 5)],
+        [("s72_pad", 2), ("s72_pad", 3), ("s73_pad", 4), ("s73_pad", 5)],
+        [("s69_sh", 2), ("s69_sh", 3), ("s73_sh", 4), ("s73_sh", 5)])]
+    assert (f"{own[0]:.2f} dB on the four seeds against {own[1]:.2f} as a target (the plain "
+            f"run's arms: {own[2]:.2f})") in history
+    rows = json.loads((RESULTS / "target_rule_s74.json").read_text())["workspaces"]
+    over = {Path(r["workspace"]).name: r["targets_over_truth"] for r in rows}
+    assert [over[f"sceaux_{a}_s2.ws"] for a in ("s69_sh", "s72_pad", "s74_cnt")] == [4, 5, 4]
+    assert over["et_s69_sh_s2.ws"] == over["et_s72_pad_s2.ws"] == 0
+    assert over["lund_s69_sh_s2.ws"] == over["lund_s72_pad_s2.ws"] == 1
+    assert all(r["kept_out_under_truth"] == 0 for r in rows)

@@ -454,56 +454,6 @@ def test_ghost_lines_in_the_mask_stage(kermit_ws, monkeypatch, tmp_path):
     assert M.ghost_config(M.MaskConfig(ghost_lines=True)).min_chain == 2
 
 
-def test_target_rule_counts_the_plain_runs_marks_with_pads(kermit_ws, monkeypatch):
-    """With `mask --pads` the padded runs' agreement marks less than the plain run; the
-    stage keeps the plain run's marks in WS/masks_plain and flare.json's rule_fraction counts
-    them with the mask, so a view the plain run puts over the 10 % rule is no target though
-    its mask marks under 10 %. Without pads: no rule_fraction, no WS/masks_plain; an
-    interrupted run whose plain marks are missing redoes that view."""
-    from pipeline import mask as M
-    from pipeline import select as S
-    from pipeline.ws_files import read_flare, read_views
-
-    ws = kermit_ws
-    stems, (h, w) = _stems_and_size(ws)
-    yy, xx = np.mgrid[:h, :w]
-    r = np.hypot(yy - h / 2, xx - w / 2)
-    big = r < np.sqrt(0.12 * h * w / np.pi)     # 12 % of the view
-    small = r < np.sqrt(0.08 * h * w / np.pi)   # 8 %
-
-    def fake_probs(model, imgs, work_size, scales=(1.0,), pads=()):
-        return [(small if pads else big).astype(np.float32) for _ in imgs]
-
-    fake_fmg_probs(monkeypatch, fake_probs)
-    monkeypatch.setattr(M, "load_fmg_weights", lambda path, device="cpu", flag="": "net")
-    cfg = M.MaskConfig(threshold=0.5, rays=False, ghost_lines=False, ghost_views=False)
-    assert cfg.pads  # the default since the seventy-third session
-    M.run(cfg, ws, force=True)
-    assert (read_png_mask(ws, stems[0]) == small).all()
-    plain = ws.root / M.PLAIN_MARKS_DIR / f"{stems[0]}.png"
-    assert (cv2.imread(str(plain), cv2.IMREAD_GRAYSCALE) > 127).sum() == big.sum()
-    entry = read_flare(ws).views[stems[0]]
-    assert entry.flare_fraction == pytest.approx(small.mean(), abs=1e-6)
-    assert entry.rule_fraction == pytest.approx(big.mean(), abs=1e-6)
-    with pytest.raises(UserError, match=r"only 0 of \d+ views have at most 10% flare.*12\.0%"):
-        S.run(S.SelectConfig(max_flare=0.10), ws, force=True)
-    S.run(S.SelectConfig(max_flare=0.13), ws, force=True)
-    assert len(read_views(ws).targets()) == len(stems)
-    # an interrupted run: one view's plain marks lost, its mask kept -> that view redone
-    plain.unlink()
-    before = ws.mask_path(stems[1]).stat().st_mtime_ns
-    with monkeypatch.context() as mp:
-        mp.setattr(ws, "resumable", lambda stage_run: True)
-        M.run(cfg, ws, force=True)
-    assert plain.exists() and ws.mask_path(stems[1]).stat().st_mtime_ns == before
-    # no pads: the plain run is the mask; nothing more kept or counted
-    M.run(M.MaskConfig(threshold=0.5, rays=False, ghost_lines=False, ghost_views=False,
-                       pads=()), ws, force=True)
-    assert (read_png_mask(ws, stems[0]) == big).all()
-    assert not (ws.root / M.PLAIN_MARKS_DIR).exists()
-    assert read_flare(ws).views[stems[0]].rule_fraction is None
-
-
 def test_confirmed_regions_keep_what_both_masks_find():
     """A region of either mask is kept, whole, when the other mask marks one of its pixels;
     a region only one mask has is dropped; diagonal neighbours are one region."""
