@@ -2271,3 +2271,26 @@ def test_target_rule_outcome_is_its_files():
     assert over["et_s69_sh_s2.ws"] == over["et_s72_pad_s2.ws"] == 0
     assert over["lund_s69_sh_s2.ws"] == over["lund_s72_pad_s2.ws"] == 1
     assert all(r["kept_out_under_truth"] == 0 for r in rows)
+
+
+def test_colour_match_darkest_ring_table_is_its_files():
+    """The seventy-fourth session's look at a colour match fitted on the ring's darkest
+    pixels: each row of the history's table is its rerender files', and every scene is
+    lower than today's fit at both shares kept."""
+    history = _page("docs", "history", "fill.md")
+    scenes = ("sceaux", "et", "lund")
+
+    def scores(arm: str) -> list[tuple[float, float]]:
+        runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{s}_s2.json").read_text())["inputs"]
+                for s in scenes]
+        return [(r["psnr_flare"], r["psnr"]) for r in runs]
+
+    today = scores("x74_k100")
+    for arm, label in (("x74_k100", "1 (today)"), ("x74_k50", "0.5"), ("x74_k25", "0.25")):
+        got = scores(arm)
+        assert f"| {label} | " + " | ".join(f"{f:.2f} / {w:.2f}" for f, w in got) in history
+        if arm != "x74_k100":
+            assert all(g[0] < t[0] and g[1] < t[1] for g, t in zip(got, today, strict=True))
+    for s, t in zip(scenes, today, strict=True):
+        base = json.loads((RESULTS / f"fmg_s72_pad_fair_{s}_s2.json").read_text())["inputs"]
+        assert (base["psnr_flare"], base["psnr"]) == t  # the rerender repeats the arm
