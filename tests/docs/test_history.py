@@ -2294,3 +2294,30 @@ def test_colour_match_darkest_ring_table_is_its_files():
     for s, t in zip(scenes, today, strict=True):
         base = json.loads((RESULTS / f"fmg_s72_pad_fair_{s}_s2.json").read_text())["inputs"]
         assert (base["psnr_flare"], base["psnr"]) == t  # the rerender repeats the arm
+
+
+def test_flare_layer_width_table_is_its_files():
+    """The seventy-fourth session's look at the flare layer's width: each row of the
+    history's table is its rerender files' (today's row the default's run), and the trade
+    it states holds: the narrower layers raise every scene's flare region and lower et's
+    SSIM by more than 0.002, the wider one the reverse."""
+    history = _page("docs", "history", "fill.md")
+    scenes = ("sceaux", "et", "lund")
+
+    def scores(arm: str) -> list[tuple[float, float, float]]:
+        runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{s}_s2.json").read_text())["inputs"]
+                for s in scenes]
+        return [(r["psnr_flare"], r["psnr"], r["ssim"]) for r in runs]
+
+    rows = {arm: scores(arm) for arm in ("s72_pad", "x74_ad5", "x74_fl08", "x74_fl16")}
+    for arm, label in (("s72_pad", "today (`--flare-layer 0.12`)"),
+                       ("x74_ad5", "`--flare-layer-adapt 0.5`"),
+                       ("x74_fl08", "`--flare-layer 0.08`"), ("x74_fl16", "`--flare-layer 0.16`")):
+        cells = " | ".join(f"{f:.2f} / {w:.2f} / {s:.4f}" for f, w, s in rows[arm])
+        assert f"| {label} | {cells} |" in history
+    today = rows["s72_pad"]
+    for arm in ("x74_ad5", "x74_fl08"):
+        assert all(r[0] > t[0] for r, t in zip(rows[arm], today, strict=True))
+        assert rows[arm][1][2] < today[1][2] - 0.002  # et's SSIM
+    assert all(r[0] < t[0] and r[2] >= t[2] - 0.0001
+               for r, t in zip(rows["x74_fl16"], today, strict=True))
