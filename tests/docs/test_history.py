@@ -2248,6 +2248,8 @@ def test_target_rule_outcome_is_its_files():
     assert (f"flare region of the de-flared photos {m['psnr_flare']:+.3f} dB (needed >= "
             f"-0.05), whole photo {m['psnr']:+.3f}") in history
     assert f"held-out views {m['held']:+.3f}" in history
+    card = _page("gnfr", "weights", "fmg.md")
+    assert f"lost more ({m['psnr_flare']:+.3f} dB against the default on four seeds" in card
     p = json.loads((RESULTS / "target_rule_vs_plain_judge4_s74.json").read_text())["mean"]
     assert (f"flare region {p['psnr_flare']:+.3f} dB, whole photo {p['psnr']:+.3f}, "
             f"held-out views {p['held']:+.3f}") in history
