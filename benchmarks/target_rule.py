@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def rule_rows(synth: Path, root: Path, max_flare: float | None = None) -> dict:
+def rule_rows(synth: Path, root: Path) -> dict:
     """The per-view rows and the counts of one workspace ``root`` made from ``synth``."""
     from gnfr.view_sampler import is_target
     from pipeline.workspace import Workspace
@@ -31,7 +31,7 @@ def rule_rows(synth: Path, root: Path, max_flare: float | None = None) -> dict:
 
     ws = Workspace(root)
     views = read_views(ws)
-    limit = views.max_flare if max_flare is None else max_flare
+    limit = views.max_flare  # select's --max-flare, as recorded
     rows = {}
     for s, v in views.views.items():
         truth = read_mask_file(synth / "masks_gt" / f"{s}.png",
