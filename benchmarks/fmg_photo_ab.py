@@ -420,6 +420,8 @@ def spread(work: Path, arm: str, scenes: list[str], seeds: list[int],
     difference of their scene means' mean, sqrt(sum over scenes of 2 sd^2 / n) / scenes,
     the runs taken as independent: what ``judge``'s mean difference shows with no change
     behind it."""
+    from statistics import fmean, stdev
+
     from pipeline.errors import UserError
 
     runs = arm_runs(arm, seeds)
@@ -433,9 +435,8 @@ def spread(work: Path, arm: str, scenes: list[str], seeds: list[int],
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
         vals = [arm_means([json.loads(f.read_text())]) for f in files]
-        per_scene[scene] = {k: {"mean": sum(v[k] for v in vals) / len(vals),
-                                "sd": (sum((v[k] - sum(u[k] for u in vals) / len(vals)) ** 2
-                                           for v in vals) / (len(vals) - 1)) ** 0.5}
+        per_scene[scene] = {k: {"mean": fmean(v[k] for v in vals),
+                                "sd": stdev(v[k] for v in vals)}  # n - 1
                             for k in SPREAD_KEYS}
     se = {str(n): {k: (sum(2 * d[k]["sd"] ** 2 / n for d in per_scene.values()) ** 0.5
                        / len(per_scene)) for k in SPREAD_KEYS} for n in per_arm}

@@ -90,8 +90,8 @@ def pytest_collection_modifyitems(config, items):
 def fake_fmg_probs(monkeypatch, fn) -> None:
     """Replace the mask stage's network with ``fn(model, images, work_size, scales=(1.0,),
     pads=())`` -> a list of [H, W] maps: ``pipeline.mask.fmg_probs``, and
-    ``fmg_probs_pair`` (the default `--pads-keep regions` calls it) as ``fn`` without and
-    with the pads."""
+    ``fmg_probs_pair`` (``network_maps`` calls it for `--pads-keep regions`) as ``fn``
+    without and with the pads."""
     from pipeline import mask as M
 
     monkeypatch.setattr(M, "fmg_probs", fn)
