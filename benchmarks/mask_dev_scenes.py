@@ -14,7 +14,7 @@ Use development scenes to choose.
 --ray-min MIN --ray-opposite OPP` (e.g. ``--ray-rule 3,0 --ray-rule 3,8``: the stage's rule
 and one that also keeps a lone streak through a light), the network run once for all;
 ``--streak-lines`` scores each ray setting again with the streak lines (`mask
---streak-lines`).
+--streak-lines`), ``--light-cores`` with lamps found by their core (`mask --light-cores`).
 """
 
 from __future__ import annotations
@@ -87,15 +87,16 @@ def score_scene(model, cut: float, synth: Path, rays: bool, work_size: int = 512
                 if (key, scales, pads) not in cache:
                     cache[key, scales, pads] = fmg_probs(model, [img], work_size, scales,
                                                          pads)[0]
-                if (rays or ghosts is not None) and key not in cache:
-                    cache[key] = lights_at_work_size(img, work_size)
+                cores = ray_cfg is not None and ray_cfg.cores
+                if (rays or ghosts is not None) and (key, cores) not in cache:
+                    cache[key, cores] = lights_at_work_size(img, work_size, ray_cfg)
                 if regions and (key, scales, ()) not in cache:
                     cache[key, scales, ()] = fmg_probs(model, [img], work_size, scales)[0]
                 m = flare_marks(model, img, cut, work_size, rays,
                                 probs=cache[key, scales, () if regions else pads],
                                 consensus=cache[key, scales, pads] if regions else None,
                                 confirm=confirm, scales=scales, ghosts=ghosts,
-                                found=cache.get(key), ray_cfg=ray_cfg)
+                                found=cache.get((key, cores)), ray_cfg=ray_cfg)
             if fill_holes:
                 m |= enclosed_holes(m)
             yield photo.stem, m, gt
@@ -152,6 +153,8 @@ def main(argv: list[str] | None = None) -> int:
                          "OPP` (repeat to score each; default the stage's)")
     ap.add_argument("--streak-lines", action="store_true",
                     help="also score each ray setting with `mask --streak-lines`")
+    ap.add_argument("--light-cores", action="store_true",
+                    help="also score each ray setting with `mask --light-cores`")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     try:
@@ -191,14 +194,18 @@ def main(argv: list[str] | None = None) -> int:
         cache = {}  # each photo's probabilities under this model, and its lights
         cut = resolve_threshold(MaskConfig(), w)
         ghost_settings = (False, True) if a.ghost_lines else (False,)
-        ray_settings = ([(False, None, False)] + [(True, r, False) for r in rules or [None]]
-                        + [(True, r, True) for r in (rules or [None]) if a.streak_lines])
-        for (rays, rule, lines), scales, pads, ghost, scene in itertools.product(
+        ray_settings = ([(False, None, False, False)]
+                        + [(True, r, False, False) for r in rules or [None]]
+                        + [(True, r, True, False) for r in (rules or [None]) if a.streak_lines]
+                        + [(True, r, False, True) for r in (rules or [None]) if a.light_cores])
+        for (rays, rule, lines, cores), scales, pads, ghost, scene in itertools.product(
                 ray_settings, settings, pad_settings, ghost_settings, a.scenes):
             ray_cfg = RayConfig(**({} if rule is None else
-                                   {"min_rays": rule[0], "opposite": rule[1]}), lines=lines)
+                                   {"min_rays": rule[0], "opposite": rule[1]}), lines=lines,
+                                cores=cores)
             r = {"weights": str(w), "sha256": sha256(w), "cut": cut, "rays": rays,
                  "ray_rule": None if rule is None else list(rule), "streak_lines": lines,
+                 "light_cores": cores,
                  "scene": scene.name, "max_size": a.max_size, "fill_holes": a.fill_holes,
                  "confirm": None if confirm is None else str(a.confirm),
                  "confirm_keep": a.confirm_keep, "scales": list(scales), "pads": list(pads),
@@ -214,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{' ' + a.pads_keep if pads and a.pads_keep != 'pixels' else ''}"
                   f"{' +ghost-lines' if ghost else ''} "
                   f"{'rays' if rays else 'fmg '}{'' if rule is None else f' {rule[0]},{rule[1]:g}'}"
-                  f"{' +streak-lines' if lines else ''}"
+                  f"{' +streak-lines' if lines else ''}{' +light-cores' if cores else ''}"
                   f" {scene.name}: flare IoU "
                   f"{r['flare_iou']:.3f}, marked outside the flare "
                   f"{100 * r['marked_outside']:.2f} % (near {100 * r['marked_near']:.2f}, far "

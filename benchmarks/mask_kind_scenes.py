@@ -72,7 +72,8 @@ def setting(row: dict) -> str:
     """``WEIGHTS_FILE_NAME@SCALES`` of a mask_dev_scenes.py (or mask_views_scenes.py) row,
     ``+ghosts`` added for a row scored with `mask --ghost-lines`, ``+views`` with
     `--ghost-views`, ``+raysMIN,OPP`` with a ray rule of its own (mask_dev_scenes.py
-    ``--ray-rule``), ``+lines`` with the streak lines (``--streak-lines``), ``+pads=MODES``
+    ``--ray-rule``), ``+lines`` with the streak lines (``--streak-lines``), ``+cores`` with
+    lamps found by their core (``--light-cores``), ``+pads=MODES``
     with `mask --pads` (``--pads``), then ``+regions`` with `--pads-keep regions`."""
     scales = ",".join(f"{s:g}" for s in row.get("scales", [1.0]))
     rule = row.get("ray_rule")
@@ -80,6 +81,7 @@ def setting(row: dict) -> str:
             f"{'+views' if row.get('ghost_views') else ''}"
             f"{'' if rule is None else f'+rays{rule[0]},{rule[1]:g}'}"
             f"{'+lines' if row.get('streak_lines') else ''}"
+            f"{'+cores' if row.get('light_cores') else ''}"
             f"{'+pads=' + ','.join(row['pads']) if row.get('pads') else ''}"
             f"{'+regions' if row.get('pads_keep') == 'regions' else ''}")
 
@@ -94,13 +96,15 @@ def kind_scores(rows: list[dict], kind: str, name: str, scene: str | None = None
 
 
 def judge(files: list[list[dict]], base: str, candidate: str, target: str | None = None,
-          mean_gain: float = MEAN_GAIN, scene: str | None = None) -> dict:
+          mean_gain: float = MEAN_GAIN, scene: str | None = None,
+          target_gain: float = TARGET_GAIN) -> dict:
     """Per kind: each setting's flare IoU (rays on) averaged over the scenes whose truth
     has flare pixels, pooled over the builds (``files``: each build's rows, both settings
     scored on the same scenes; ``scene``: one workspace's scenes only); the means over
     kinds and the rule's verdict: the mean's gain (``mean_gain``, a rule's own, default
     MEAN_GAIN) and worst kind (KIND_LOSS), or for a change aimed at the kind ``target``,
-    its gain, the other kinds and the mean (TARGET_GAIN, TARGET_KIND_LOSS)."""
+    its gain (``target_gain``, default TARGET_GAIN), the other kinds (TARGET_KIND_LOSS) and
+    the mean."""
     from pipeline.errors import UserError
     from pipeline.flare import KINDS
 
@@ -137,9 +141,9 @@ def judge(files: list[list[dict]], base: str, candidate: str, target: str | None
                             f"{', '.join(kinds)}")
         gain = kinds[target][candidate] - kinds[target][base]
         worst = min(k[candidate] - k[base] for n, k in kinds.items() if n != target)
-        passes = (gain >= TARGET_GAIN and worst >= -TARGET_KIND_LOSS
+        passes = (gain >= target_gain and worst >= -TARGET_KIND_LOSS
                   and mean[candidate] >= mean[base])
-        rule = {"target": target, "target_gain": TARGET_GAIN,
+        rule = {"target": target, "target_gain": target_gain,
                 "other_kind_loss": TARGET_KIND_LOSS, "mean_not_lower": True}
     return {"base": base, "candidate": candidate, "kinds": kinds, "mean": mean,
             "mean_gain": mean[candidate] - mean[base], "worst_kind_change": worst,
@@ -217,6 +221,9 @@ def main(argv: list[str] | None = None) -> int:
     j.add_argument("--candidate", required=True)
     j.add_argument("--target", default=None, metavar="KIND",
                    help="judge a change aimed at one kind (its gain, the others, the mean)")
+    j.add_argument("--target-gain", type=float, default=TARGET_GAIN,
+                   help=f"with --target: the gain on that kind a rule asks (default "
+                        f"{TARGET_GAIN})")
     j.add_argument("--mean-gain", type=float, default=MEAN_GAIN,
                    help=f"the gain of the mean over kinds a rule asks (default {MEAN_GAIN})")
     j.add_argument("--scene", default=None,
@@ -234,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if a.cmd == "judge":
             res = judge([build_rows(str(f)) for f in a.scores], a.base, a.candidate,
-                        a.target, a.mean_gain, a.scene)
+                        a.target, a.mean_gain, a.scene, a.target_gain)
             print_judgement(res)
         else:
             res = summary([read_rows(f) for f in a.scores], a.setting)

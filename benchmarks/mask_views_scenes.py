@@ -75,7 +75,8 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "rays": True, "scene": synth.name, "folder": folder, "setting": name,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
-                     "streak_lines": config.streak_lines, "pads": list(config.pads),
+                     "streak_lines": config.streak_lines, "light_cores": config.light_cores,
+                     "pads": list(config.pads),
                      "pads_keep": config.pads_keep if config.pads else None,
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
                      **mask_scores((s, marks[s], truth[s]) for s in stems)})
@@ -107,10 +108,16 @@ def main(argv: list[str] | None = None) -> int:
                          "`candidate_added`: its mean share over ghost_views')")
     ap.add_argument("--pads-keep", choices=("pixels", "regions"), default="pixels",
                     help="with --pads: as `mask --pads-keep`")
+    ap.add_argument("--light-cores", action="store_true",
+                    help="score today's default (setting ghost_views_pads: the ghost lines "
+                         "the other photos confirm, --pads reflect,replicate,constant) and it "
+                         "with `mask --light-cores` (ghost_views_pads_cores), those two only; "
+                         "`candidate_added`: the second's mean share over the first's")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
-    if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None)) > 1:
-        ap.error("give one candidate: --ray-opposite, --streak-lines or --pads")
+    if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None,
+            a.light_cores)) > 1:
+        ap.error("give one candidate: --ray-opposite, --streak-lines, --pads or --light-cores")
     pads = tuple(a.pads.split(",")) if a.pads else ()
     if any(m not in ("reflect", "replicate", "constant") for m in pads):
         ap.error("--pads: paddings of reflect, replicate, constant separated by commas")
@@ -126,6 +133,10 @@ def main(argv: list[str] | None = None) -> int:
     if pads:
         settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads,
                                         "pads_keep": a.pads_keep}
+    if a.light_cores:
+        today = {**SETTINGS["ghost_views"], "pads": ("reflect", "replicate", "constant")}
+        settings = {"ghost_views_pads": today,
+                    "ghost_views_pads_cores": {**today, "light_cores": True}}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -149,11 +160,15 @@ def main(argv: list[str] | None = None) -> int:
     out = {"weights": str(weights), "clean": a.clean, "settings": settings, "rows": rows}
     by = {name: [r for r in rows if r["setting"] == name] for name in settings}
     out["mean_marked"] = {n: float(np.mean([r["marked"] for r in v])) for n, v in by.items()}
-    out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
+    if "base" in settings:
+        out["mean_added"] = out["mean_marked"]["ghost_views"] - out["mean_marked"]["base"]
     for cand in ("ghost_views_opp", "ghost_views_lines", "ghost_views_pads"):
-        if cand in settings:
+        if cand in settings and "ghost_views" in settings:
             out["candidate_added"] = (out["mean_marked"][cand]
                                       - out["mean_marked"]["ghost_views"])
+    if a.light_cores:
+        out["candidate_added"] = (out["mean_marked"]["ghost_views_pads_cores"]
+                                  - out["mean_marked"]["ghost_views_pads"])
     out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
                               for n, rs in by.items()}
     print(f"mean over {len(a.scenes) + len(a.posed)} scenes: marked " + ", ".join(

@@ -115,6 +115,18 @@ class RayConfig:
     lines: bool = False
     """Also mark streak lines through each light (``pipeline.flare_lines``): thin straight
     streaks, one each way, that the rays' polar runs lose (`mask --streak-lines`)."""
+    cores: bool = False
+    """A saturated region too large or too ragged to be a light (``max_light``,
+    ``compact``) is looked at again by its core: its pixels at least half its largest
+    inscribed radius deep, the part around the deepest one, grown back by that much
+    (``light_core``). A lamp whose saturated streak runs out of it (a long thin arm of the
+    region) is then found at its lamp, where alone its rays can be seen; the core must pass
+    the same tests, and its rays are kept when two of them leave it in opposite directions
+    within ``core_opposite`` degrees, as well as by ``min_rays`` (the saturated arm is a
+    streak through the lamp; `mask --light-cores`)."""
+    core_opposite: float = option(8.0, ge=0, le=90)
+    """With ``cores``: the opposite rays' tolerance (degrees) for a light found by its core
+    (0: such a light needs ``min_rays`` as any other)."""
 
 
 def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, float]]:
@@ -122,19 +134,30 @@ def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, flo
     of ``min_light`` pixels up to ``max_light`` of the image, ``compact`` and isolated
     (``isolation``), largest first (at most ``max_lights``)."""
     sat = (img.max(-1) >= cfg.saturated).astype(np.uint8)
-    n, _, stats, cents = cv2.connectedComponentsWithStats(sat, connectivity=8)
+    n, labels, stats, cents = cv2.connectedComponentsWithStats(sat, connectivity=8)
     area_max = cfg.max_light * sat.size
     area = stats[:, cv2.CC_STAT_AREA]
     box = stats[:, cv2.CC_STAT_WIDTH] * stats[:, cv2.CC_STAT_HEIGHT]
-    lights = [(int(area[i]), i) for i in range(1, n)
-              if cfg.min_light <= area[i] <= area_max and area[i] >= cfg.compact * box[i]]
+    lights = []  # (area, label, x, y): a whole region, or (``cores``) its core
+    for i in range(1, n):
+        if area[i] < cfg.min_light:
+            continue
+        if area[i] <= area_max and area[i] >= cfg.compact * box[i]:
+            lights.append((int(area[i]), i, *map(float, cents[i])))
+        elif cfg.cores:
+            x0, y0, bw, bh = stats[i, :4]
+            core = light_core(labels[y0:y0 + bh, x0:x0 + bw] == i)
+            ys, xs = np.nonzero(core)
+            a = len(xs)
+            if (cfg.min_light <= a <= area_max
+                    and a >= cfg.compact * (np.ptp(xs) + 1) * (np.ptp(ys) + 1)):
+                lights.append((a, i, x0 + float(xs.mean()), y0 + float(ys.mean())))
     lights.sort(reverse=True)
     bright = img.max(-1) >= 0.9
     h, w = sat.shape
     diag = float(np.hypot(h, w))
     out = []
-    for a, i in lights:
-        x, y = cents[i]
+    for a, _, x, y in lights:
         rad = float(np.sqrt(a / np.pi))
         r_out = rad + 0.04 * diag  # the ring, looked at in its own window only
         x0, x1 = max(0, int(x - r_out)), min(w, int(x + r_out) + 2)
@@ -147,6 +170,39 @@ def find_lights(img: np.ndarray, cfg: RayConfig) -> list[tuple[float, float, flo
         out.append((float(x), float(y), rad))
         if len(out) == cfg.max_lights:
             break
+    return out
+
+
+def light_core(region: np.ndarray) -> np.ndarray:
+    """[h, w] bool: the core of the saturated ``region`` [h, w] bool: its pixels at least half
+    its largest inscribed radius from its edge, the connected part holding the deepest one,
+    grown back by that half radius within the region (an opening that keeps a lamp and
+    drops the thin arms of a saturated streak through it)."""
+    region = region.astype(np.uint8)
+    depth = cv2.distanceTransform(np.pad(region, 1), cv2.DIST_L2, 5)[1:-1, 1:-1]
+    half = 0.5 * float(depth.max())
+    _, parts = cv2.connectedComponents((depth >= half).astype(np.uint8), connectivity=8)
+    y, x = np.unravel_index(int(depth.argmax()), depth.shape)
+    r = max(1, int(round(half)))
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    grown = cv2.dilate((parts == parts[y, x]).astype(np.uint8), disk,
+                       borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return (grown > 0) & (region > 0)
+
+
+def found_by_core(img: np.ndarray, lights: list[tuple[float, float, float]],
+                  cfg: RayConfig) -> list[bool]:
+    """Per light of ``lights`` (``find_lights``), whether its saturated region fails the
+    whole-region tests (``max_light``, ``compact``): a light ``cores`` found by its core."""
+    sat = (img.max(-1) >= cfg.saturated).astype(np.uint8)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(sat, connectivity=8)
+    h, w = sat.shape
+    out = []
+    for x, y, _ in lights:
+        i = labels[min(h - 1, max(0, int(round(y)))), min(w - 1, max(0, int(round(x))))]
+        a = stats[i, cv2.CC_STAT_AREA]
+        box = stats[i, cv2.CC_STAT_WIDTH] * stats[i, cv2.CC_STAT_HEIGHT]
+        out.append(bool(i > 0 and (a > cfg.max_light * sat.size or a < cfg.compact * box)))
     return out
 
 
@@ -243,15 +299,17 @@ def ray_directions(rows: np.ndarray, gap: float) -> list[float]:
     return [float((g.mean() + 0.5) * 360.0 / a % 360.0) for g in groups]
 
 
-def enough_rays(directions: list[float], cfg: RayConfig) -> bool:
+def enough_rays(directions: list[float], cfg: RayConfig, core: bool = False) -> bool:
     """Whether a light's rays look like flare: at least ``min_rays`` of them, or (with
-    ``opposite``) two leaving it in opposite directions, as a streak through the light does."""
+    ``opposite``, or ``core_opposite`` for a light found by its ``core``) two leaving it in
+    opposite directions, as a streak through the light does."""
     if len(directions) >= cfg.min_rays:
         return True
-    if cfg.opposite > 0:
+    tol = max(cfg.opposite, cfg.core_opposite if core and cfg.cores else 0.0)
+    if tol > 0:
         d = np.asarray(directions)
         diff = np.abs((d[:, None] - d[None, :]) % 360.0 - 180.0)
-        return bool((diff <= cfg.opposite).any())
+        return bool((diff <= tol).any())
     return False
 
 
@@ -270,7 +328,8 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None,
     sat = (img.max(-1) >= cfg.saturated).astype(np.float32)
     ones = np.ones((h, w), np.float32)
     diag = float(np.hypot(h, w))
-    for x, y, rad in lights:
+    cores = found_by_core(img, lights, cfg) if cfg.cores else [False] * len(lights)
+    for (x, y, rad), core in zip(lights, cores, strict=True):
         rmax = float(max(np.hypot(cx - x, cy - y) for cx in (0, w) for cy in (0, h)))
         nr = max(8, int(np.ceil(rmax)))
         na = int(np.clip(np.pi * rmax, 360, 2048))
@@ -293,7 +352,8 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None,
                                      int(round(cfg.slack * diag)))
         if cfg.fade > 0:
             run &= _fading(run, excess, min(start, nr), np.maximum(stop, start), cfg.fade)[:, None]
-        if cfg.min_rays > 1 and not enough_rays(ray_directions(run.any(1), cfg.ray_gap), cfg):
+        if cfg.min_rays > 1 and not enough_rays(ray_directions(run.any(1), cfg.ray_gap), cfg,
+                                                core):
             continue
         back = cv2.warpPolar(run.astype(np.float32), (w, h), (x, y), rmax,
                              flags | cv2.WARP_INVERSE_MAP)

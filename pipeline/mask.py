@@ -105,6 +105,11 @@ class MaskConfig:
     """With the rays: also mark thin straight streaks through a light, one each way
     (``pipeline.flare_lines``; an anamorphic lens's streak), which the rays' polar runs
     lose. Default (unset): the ray rule's (off)."""
+    light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
+    """Also find a lamp whose saturated streak runs out of it (its saturated region too long
+    or ragged to be a light) by the region's core, for the rays and the ghost lines; such a
+    light's rays are kept when two leave it in opposite directions (a streak through it;
+    ``pipeline.flare_rays.RayConfig.cores``). Default (unset): the ray rule's (off)."""
     ghost_lines: bool | None = option(None, flag="--ghost-lines/--no-ghost-lines")
     """Also mark the FMG's weak regions (probability above 0.25, under the cut) on the line
     through a saturated light and the image centre, where a lens's ghosts lie
@@ -190,6 +195,8 @@ class MaskConfig:
         for on, flag, what in (
                 (self.confirm, "--confirm", "checks an FMG's marks with a second network"),
                 (self.ghost_lines, "--ghost-lines", "adds to an FMG's marks"),
+                (self.light_cores, "--light-cores", "finds lights for an FMG's rays and "
+                 "ghost lines"),
                 (self.crosscheck, "--crosscheck",
                  "checks an FMG's marks against the other photos")):
             if on and self.masks_dir is not None:
@@ -298,15 +305,16 @@ def fmg_probs_pair(model, images_bgr: list[np.ndarray], work_size: int,
     return list(pair[0][:, 0].cpu().numpy()), list(pair[1][:, 0].cpu().numpy())
 
 
-def lights_at_work_size(image_bgr: np.ndarray, work_size: int) -> tuple:
+def lights_at_work_size(image_bgr: np.ndarray, work_size: int, ray_cfg=None) -> tuple:
     """(sRGB float image at long side ``work_size``, its scale, its lights): what the flare
-    rays and the ghost lines both start from (``pipeline.flare_rays.find_lights``, whose
-    settings no mask option changes), for ``ray_marks`` and ``ghost_marks``' ``found``."""
+    rays and the ghost lines both start from (``pipeline.flare_rays.find_lights`` with
+    ``ray_cfg``, default its RayConfig; of the mask options only ``light_cores`` changes
+    it), for ``ray_marks`` and ``ghost_marks``' ``found``."""
     from pipeline.flare_rays import RayConfig, find_lights
 
     small, s = _at_work_size(image_bgr, work_size)
     rgb = small[..., ::-1].astype(np.float32) / 255.0
-    return rgb, s, find_lights(rgb, RayConfig())
+    return rgb, s, find_lights(rgb, ray_cfg or RayConfig())
 
 
 def ray_marks(image_bgr: np.ndarray, work_size: int, ray_cfg=None,
@@ -384,7 +392,7 @@ def flare_marks(model, image_bgr: np.ndarray, cut: float, work_size: int,
         marks = regions_touching(marks, consensus > cut)
     if ghosts is not None:
         if found is None:  # the rays start from the same lights
-            found = lights_at_work_size(image_bgr, work_size)
+            found = lights_at_work_size(image_bgr, work_size, ray_cfg)
         marks |= ghost_marks(image_bgr, p_main, work_size, ghosts, found)
     rayed = ray_marks(image_bgr, work_size, ray_cfg, found) if rays else None
     if confirm is not None:
@@ -432,12 +440,12 @@ def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.nd
 
 def ray_config(config: MaskConfig):
     """The flare-ray rule of the mask stage (or of any config with ``ray_min``,
-    ``ray_opposite`` and ``streak_lines``, e.g. `fmg eval`'s): RayConfig's defaults with
-    those where given."""
+    ``ray_opposite``, ``streak_lines`` and ``light_cores``, e.g. `fmg eval`'s): RayConfig's
+    defaults with those where given."""
     from pipeline.flare_rays import RayConfig
 
     over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite),
-                              ("lines", config.streak_lines))
+                              ("lines", config.streak_lines), ("cores", config.light_cores))
             if v is not None}
     return RayConfig(**over)
 
@@ -493,7 +501,7 @@ def write_fmg_masks(model, config: MaskConfig, ws: Workspace, stems: list[str],
                                 config.pads)
                       if confirm is not None else [None] * len(imgs))
             for s, img, p, q, c in zip(batch, imgs, probs, second, agreed, strict=True):
-                found = lights_at_work_size(img, config.work_size) if ghosts else None
+                found = lights_at_work_size(img, config.work_size, rule) if ghosts else None
                 m = flare_marks(model, img, config.threshold, config.work_size, config.rays,
                                 config.refine, probs=p, ray_cfg=rule, confirm=confirm,
                                 confirm_probs=q, ghosts=None if judged_later else ghosts,

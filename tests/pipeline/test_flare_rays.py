@@ -206,3 +206,64 @@ def test_min_rays_drops_a_light_with_one_ray_and_keeps_a_starburst():
     kept = ray_mask(img, RayConfig(min_rays=3))
     assert (kept == ray_mask(img, RayConfig(min_rays=1))).all()
     assert (kept & visible).sum() > 0.6 * visible.sum()
+
+
+def _lamp_with_a_saturated_streak(amp: float = 3.0):
+    """A lamp (saturated disc of radius 6) with a broad streak through it both ways, its
+    middle saturated for about 50 px each side (the saturated region: the disc and two thin arms,
+    too ragged to be a light by itself), fading to the frame's edge."""
+    r, th = _polar()
+    a = 0.35
+    along, across = r * np.cos(th - a), r * np.sin(th - a)
+    streak = amp * np.exp(-np.abs(along) / 45.0) * np.exp(-0.5 * (across / 1.2) ** 2)
+    lin = _scene() + streak[..., None]
+    lin[r <= 6] = 4.0
+    return lin, streak
+
+
+def test_light_core_keeps_the_lamp_and_drops_the_arms():
+    from pipeline.flare_rays import light_core
+
+    r, th = _polar()
+    region = (r <= 6) | ((np.abs(r * np.sin(th - 0.35)) <= 1.0) & (r <= 40))
+    core = light_core(region)
+    assert core[int(C[1]), int(C[0])] and not (core & ~region).any()
+    assert core.sum() <= (r <= 6.5).sum() and core.sum() >= 0.8 * (r <= 6).sum()
+    assert not core[r > 8].any()  # the arms are gone
+
+
+def test_a_lamp_with_a_saturated_streak_is_found_by_its_core():
+    lin, _ = _lamp_with_a_saturated_streak()
+    img = _srgb(lin)
+    assert find_lights(img, RayConfig()) == []  # the region is too ragged to be a light
+    lights = find_lights(img, RayConfig(cores=True))
+    assert len(lights) == 1
+    x, y, rad = lights[0]
+    assert abs(x - C[0]) < 1.5 and abs(y - C[1]) < 1.5 and 5 < rad < 8
+
+
+def test_the_streak_through_a_lamp_found_by_its_core_is_marked():
+    from pipeline.flare_rays import found_by_core
+
+    lin, streak = _lamp_with_a_saturated_streak()
+    img = _srgb(lin)
+    r, _ = _polar()
+    visible = (streak > 0.05) & (streak < 0.9) & (r > 10)  # unsaturated, clearly visible
+    cfg = RayConfig(cores=True)
+    assert found_by_core(img, find_lights(img, cfg), cfg) == [True]
+    marked = ray_mask(img, cfg)
+    assert (marked & visible).sum() > 0.5 * visible.sum()
+    assert (marked & (streak < 0.003)).sum() < 0.05 * marked.sum()
+    assert not ray_mask(img, RayConfig(cores=True, core_opposite=0)).any()  # two rays only
+    assert not ray_mask(img).any()  # without cores the lamp is not found
+
+
+def test_cores_never_make_a_blown_sky_or_a_compact_light_different():
+    lin = _scene()
+    lin[:60] = 3.0  # a blown-out sky: its core is as large
+    img = _srgb(lin)
+    assert find_lights(img, RayConfig(cores=True)) == []
+    light, _ = _spikes()
+    img = _srgb(_core(_scene() + light[..., None]))
+    assert find_lights(img, RayConfig(cores=True)) == find_lights(img, RayConfig())
+    assert (ray_mask(img, RayConfig(cores=True)) == ray_mask(img)).all()

@@ -929,7 +929,8 @@ def test_mask_kind_scenes_judge_pools_builds(tmp_path):
 def test_mask_kind_scenes_judge_with_a_target_kind():
     """`judge --target KIND`: a change aimed at one kind passes on that kind's gain with the
     other kinds and the mean held; it fails when another kind drops by more than 0.01, or its
-    own gain is short; rows of --ghost-views are named +views."""
+    own gain is short (0.03, or a rule's own ``target_gain``); rows of --ghost-views are
+    named +views."""
     from pipeline.errors import UserError
 
     mk = load_benchmark("mask_kind_scenes")
@@ -947,6 +948,10 @@ def test_mask_kind_scenes_judge_with_a_target_kind():
     assert mk.judge([rows(0.34, 0.50)], base, cand)["passes"] is True  # +0.02 on the mean
     assert mk.judge([rows(0.34, 0.485)], base, cand, target="ghosts")["passes"] is False
     assert mk.judge([rows(0.32, 0.50)], base, cand, target="ghosts")["passes"] is False
+    smaller = mk.judge([rows(0.32, 0.50)], base, cand, target="ghosts", target_gain=0.01)
+    assert smaller["passes"] is True and smaller["rule"]["target_gain"] == 0.01  # +0.02
+    assert mk.judge([rows(0.305, 0.50)], base, cand, target="ghosts",
+                    target_gain=0.01)["passes"] is False
     with pytest.raises(UserError, match="--target streaks: no scored scene"):
         mk.judge([rows(0.34, 0.50)], base, cand, target="streaks")
 
@@ -1483,3 +1488,53 @@ def test_fmg_pads_benchmark_combines_its_passes(tmp_path, capsys):
     assert lone.tolist() == [[True, True, False, False]]  # a region the min never kept goes
     assert bench.main(["--clean", str(tmp_path)]) == 2
     assert "no images/ folder" in capsys.readouterr().err
+
+
+def test_mask_dev_scenes_light_cores_rows_mark_the_streak_of_a_lamp_with_saturated_arms(
+        tmp_path, monkeypatch):
+    """benchmarks/mask_dev_scenes.py --light-cores: each ray setting scored again with lamps
+    found by their core; a lamp whose saturated streak makes its region too ragged to be a
+    light has its streak marked only there, and mask_kind_scenes names the rows ``+cores``."""
+    from tests.pipeline.test_flare_rays import S, _lamp_with_a_saturated_streak, _srgb
+
+    bench = load_benchmark("mask_dev_scenes")
+    mk = load_benchmark("mask_kind_scenes")
+    lin, streak = _lamp_with_a_saturated_streak()
+    img = (_srgb(lin)[..., ::-1] * 255).round().astype(np.uint8)
+    assert img.shape[:2] == (S, S)
+    _one_photo_scene(tmp_path / "s_streaks", img, streak > 0.012)
+    _no_network(monkeypatch)
+    out = tmp_path / "rows.json"
+    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
+                       "--light-cores", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    by = {(r["rays"], r["light_cores"]): r for r in rows}
+    assert set(by) == {(False, False), (True, False), (True, True)}
+    assert by[True, False]["flare_iou"] == 0.0
+    assert by[True, True]["flare_iou"] > 0.3
+    assert {mk.setting(r) for r in rows if r["rays"]} == {"w.safetensors@1",
+                                                          "w.safetensors@1+cores"}
+
+
+def test_light_cores_reach_the_rays_and_need_the_network():
+    """mask --light-cores sets the rays' light finder; with --masks, and fmg eval's without
+    --rays, one line each, before anything runs; mask_views_scenes.py --light-cores scores
+    today's default and it, those two only."""
+    from pipeline.errors import UserError
+    from pipeline.mask import MaskConfig, ray_config
+    from pipeline.options import validate
+    from workflows.research.fmg_eval import check_ray_rule
+
+    assert ray_config(MaskConfig(light_cores=True)).cores
+    assert not ray_config(MaskConfig()).cores
+    with pytest.raises(UserError, match="--light-cores"):
+        validate(MaskConfig(light_cores=True, masks_dir=Path("m")))
+
+    class Cfg:
+        rays, ray_min, ray_opposite, streak_lines, light_cores = False, None, None, None, True
+
+    with pytest.raises(UserError, match="--light-cores"):
+        check_ray_rule(Cfg())
+    bench = load_benchmark("mask_views_scenes")
+    with pytest.raises(SystemExit):
+        bench.main(["--posed", "x", "--work", "w", "--light-cores", "--streak-lines"])

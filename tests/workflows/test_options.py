@@ -175,11 +175,14 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
     (["fmg", "eval", "--per-kind", "--clean"],
      "error: give one of --per-kind, --work-sizes, --clean"),
     (["fmg", "eval", "--per-kind", "--ray-min", "1"],
-     "error: --ray-min, --ray-opposite and --streak-lines set the flare rays' rule: add --rays"),
+     "error: --ray-min, --ray-opposite, --streak-lines and --light-cores set the flare rays' "
+     "rule: add --rays"),
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--ray-opposite", "8"],
-     "error: --ray-min, --ray-opposite and --streak-lines set the flare rays' rule: add --rays"),
+     "error: --ray-min, --ray-opposite, --streak-lines and --light-cores set the flare rays' "
+     "rule: add --rays"),
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--streak-lines"],
-     "error: --ray-min, --ray-opposite and --streak-lines set the flare rays' rule: add --rays"),
+     "error: --ray-min, --ray-opposite, --streak-lines and --light-cores set the flare rays' "
+     "rule: add --rays"),
     (["fmg", "calibrate", "--count", "0", "--out", "{tmp}/c.json"],
      "error: --count 0: must be at least 1"),
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--work-size", "0"],

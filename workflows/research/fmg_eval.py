@@ -83,6 +83,9 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
     """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
+    light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
+    """With ``rays``: also lamps found by their saturated region's core (as `mask
+    --light-cores`)."""
     ghost_lines: bool = False
     """With ``per_kind`` or ``clean``: add the ghost-line regions to every model's mask (as
     `mask --ghost-lines`)."""
@@ -149,6 +152,9 @@ class FMGOverlayConfig:
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
     """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
+    light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
+    """With ``rays``: also lamps found by their saturated region's core (as `mask
+    --light-cores`)."""
     ghost_lines: bool = False
     """Add the ghost-line regions to each model's mask (as `mask --ghost-lines`)."""
     ghost_chain: int | None = option(None, ge=1)
@@ -199,12 +205,12 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
 
 
 def check_ray_rule(cfg) -> None:
-    """A one-line UserError when ``ray_min``, ``ray_opposite`` or ``streak_lines`` is given
-    without ``rays`` (they would silently change nothing)."""
+    """A one-line UserError when ``ray_min``, ``ray_opposite``, ``streak_lines`` or
+    ``light_cores`` is given without ``rays`` (they would silently change nothing)."""
     if not cfg.rays and (cfg.ray_min is not None or cfg.ray_opposite is not None
-                         or cfg.streak_lines is not None):
-        raise UserError("--ray-min, --ray-opposite and --streak-lines set the flare rays' "
-                        "rule: add --rays")
+                         or cfg.streak_lines is not None or cfg.light_cores is not None):
+        raise UserError("--ray-min, --ray-opposite, --streak-lines and --light-cores set the "
+                        "flare rays' rule: add --rays")
 
 
 # --------------------------------------------------------------------------- scoring a batch
