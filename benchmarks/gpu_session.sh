@@ -106,7 +106,7 @@ start_pt() {
   echo "GN-FR pretraining started (init $init)"
 }
 start_fmg() {
-  local init=() from=gnfr/weights/fmg_candidate_L.safetensors   # 26 200 GPU steps (fmg.md)
+  local init=() from=${FMG_FROM:-gnfr/weights/fmg_candidate_L.safetensors}   # L: 26 200 GPU steps
   [ -f .carry/fmg_init.safetensors ] && from=.carry/fmg_init.safetensors
   [ -f $from ] && [ ! -f $FM/checkpoint.safetensors ] && init=(--init $from)
   setsid nohup python3 -m workflows.cli fmg train --out $FM --data .carry/fmgdata \
@@ -235,5 +235,27 @@ Path('$LK/loko_$k/fmg.safetensors'), extra={'without': '${k/all/}', 'export': 'c
   for k in all $KINDS; do echo "== $k"; grep -v '^|' $LK/loko_$k.log | tail -n 3; done \
     > $OUT/loko_train_tails.txt
   exit 0 ;;
-*) echo "unknown phase $PHASE (short, check, train, devab, fern, loko)"; exit 2 ;;
+session)   # one call for a whole 15-minute lease (a start costs 1-2 of them): the paper bench
+           # alone on the GPU, then the FMG training (.carry/fmgdata) beside the CUDA tests and
+           # fern's `paper` fine-tune of ITERS steps (.carry/fern, .carry/whl), the FMG
+           # exported at END; the small results come back in one tar (the tool returns 8 files)
+  mkdir -p /root/small; nvidia-smi -L
+  cli bench --preset paper --device cuda --rays ${BENCH_RAYS:-65536} \
+    --out /root/small/bench_paper_cuda.json 2>&1 | tail -3
+  train_on
+  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA \
+    > /root/small/gpu_tests.log 2>&1; tail -3 /root/small/gpu_tests.log
+  if [ -d .carry/fern ]; then
+    timeout $(( $(left) - 60 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern \
+      --preset paper --init gnfr/weights/gnfr_paper.safetensors --iters $ITERS --device cuda \
+      > /root/small/fern_log.txt 2>&1; tail -12 /root/small/fern_log.txt
+    cp /root/fern/results.json /root/small/fern_paper_results.json 2>/dev/null
+    cp /root/fern/table.md /root/small/fern_table.md 2>/dev/null
+    cp /root/fern/clean.ws/variants/gnfr/model/metrics.jsonl /root/small/fern_metrics.jsonl 2>/dev/null
+  fi
+  while [ "$(left)" -gt 40 ]; do sleep 5; done
+  tail -2 $FM.log; export_fmg; tail -c 6000 $FM.log > /root/small/fmg_log_tail.txt
+  tar -C /root/small -cf $OUT/small.tar . ; ls -la $OUT
+  exit 0 ;;
+*) echo "unknown phase $PHASE (short, check, train, devab, fern, loko, session)"; exit 2 ;;
 esac
