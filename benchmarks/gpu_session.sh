@@ -36,6 +36,12 @@
 #           background if not running (from gnfr/weights/gnfr_paper.safetensors and
 #           .carry/fmg_init.safetensors or fmg_candidate_L.safetensors), until END; then both
 #           exported (fp16, split under the tool's 16 MiB per file)
+#   session one call for a whole 15-minute lease (the seventy-seventh session's): the paper
+#           bench alone on the GPU, then the FMG training (FMG_FROM=FILE: its start, default
+#           L) beside the gpu tests and fern's `paper` fine-tune of ITERS steps; the FMG
+#           exported at END, the small results in one small.tar (carry .carry/fmgdata,
+#           .carry/fern, .carry/whl). On an H200: 13 119 FMG steps in 661 s over it and a
+#           `train 215` on the warm machine, fern's 1 500 steps in 228 s beside them.
 #   devab   the development A/B that decides `auto_init` of gnfr_paper.safetensors
 #           (gnfr/weights/gnfr.md): `paper` fine-tuned ITERS steps on et's synth set from
 #           scratch and from the file (resumes: run it again if a call ends first)

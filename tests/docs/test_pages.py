@@ -127,9 +127,18 @@ CHECKS = [
     *[("README.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
-    *[("README.md", "fern_llff_paper_cuda_h100_ptp5000.json",
+    *[(page, f"fern_llff_paper_cuda_{gpu}.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
+      for page in ("README.md", "docs/goals.md") for gpu in ("h100_ptp5000", "h200_s77")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
+    *[(page, "bench_paper_cuda_h200_s77.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
+      for page in ("README.md", "docs/presets.md", PERF) for mode in ("end_to_end", "cached")],
+    *[(page, "bench_paper_cuda_h200_s77.json", f"results/cuda/render/{size}/{path}/s_per_frame",
+       "{:.2f} s") for page, path in ((PERF, "fast"), ("docs/presets.md", "fast"),
+                                      ("docs/presets.md", "reference"))
+      for size in ("504x378", "1008x756")],
+    ("docs/presets.md", "bench_paper_cuda_h200_s77.json", "results/cuda/train/reference/it_per_s",
+     "{:.2f}"),
     *[(page, f"bench_paper_cuda_h100{sfx}.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
       for page in ("README.md", "docs/presets.md", PERF) for sfx in ("", "_s35")
       for mode in ("end_to_end", "cached")],
