@@ -741,6 +741,23 @@ def test_overlay_columns_are_named_by_the_file_or_its_run():
     assert weights_label(Path("fmg.safetensors")) == "fmg"
 
 
+def test_overlay_labels_name_every_option_that_added_marks():
+    from pathlib import Path
+
+    from pipeline.flare_rays import RayConfig
+    from workflows.research.fmg_eval import overlay_label
+
+    w = Path("gnfr/weights/fmg.safetensors")
+    assert overlay_label(w, 0.0541, False, None, False, False) == "weights/fmg: 5.4 %"
+    assert (overlay_label(w, 0.07, True, RayConfig(cores=True), True, True)
+            == "weights/fmg + rays + light cores + ghost lines + pads: 7.0 %")
+    assert (overlay_label(w, 0.07, True, RayConfig(lines=True), False, False)
+            == "weights/fmg + rays + streak lines: 7.0 %")
+    # cores or lines without rays add nothing, so the label does not claim them
+    assert (overlay_label(w, 0.07, False, RayConfig(cores=True), False, False)
+            == "weights/fmg: 7.0 %")
+
+
 def test_export_checkpoint_gives_weights_that_load_and_count_their_steps(tmp_path):
     """A run cut short (a lent GPU given back) leaves fp16 weights from its checkpoint."""
     from workflows.research.fmg_eval import weights_info

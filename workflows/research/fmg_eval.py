@@ -658,6 +658,17 @@ def format_clean(res: dict) -> str:
     return "\n".join(rows)
 
 
+def overlay_label(weights: Path, marked: float, rays: bool, ray_cfg, ghost_lines: bool,
+                  pads: bool) -> str:
+    """An overlay tile's label: the weights, each option that added marks, the share marked."""
+    lines = rays and ray_cfg is not None and ray_cfg.lines
+    cores = rays and ray_cfg is not None and ray_cfg.cores
+    return (f"{weights_label(weights)}{' + rays' if rays else ''}"
+            f"{' + streak lines' if lines else ''}{' + light cores' if cores else ''}"
+            f"{' + ghost lines' if ghost_lines else ''}{' + pads' if pads else ''}: "
+            f"{100 * marked:.1f} %")
+
+
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
                         ray_cfg=None, ghosts=None, pads: tuple[str, ...] = (),
@@ -671,7 +682,6 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
-    streaks = rays and ray_cfg is not None and ray_cfg.lines  # said in each tile's label
     rows, fracs = [], {}
     for photo in photos:
         img = read_image(photo, bgr=True)
@@ -689,11 +699,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
                                + 0.45 * np.array([0, 0, 255])).astype(np.uint8)
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
-            label = (f"{weights_label(Path(w))}{' + rays' if rays else ''}"
-                     f"{' + streak lines' if streaks else ''}"
-                     f"{' + ghost lines' if ghosts is not None else ''}"
-                     f"{' + pads' if pads else ''}: "
-                     f"{100 * marked.mean():.1f} %")
+            label = overlay_label(Path(w), float(marked.mean()), rays, ray_cfg,
+                                  ghosts is not None, bool(pads))
             size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
                 label, cv2.FONT_HERSHEY_SIMPLEX, 0.7, 2)[0][0])  # the label fits the tile
             cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, size, (255, 255, 255), 2)
