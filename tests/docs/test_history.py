@@ -2323,3 +2323,38 @@ def test_flare_layer_width_table_is_its_files():
         assert rows[arm][1][2] < today[1][2] - 0.002  # et's SSIM
     assert all(r[0] < t[0] and r[2] >= t[2] - 0.0001
                for r, t in zip(rows["x74_fl16"], today, strict=True))
+
+
+def test_light_cores_verdict_is_the_judge_of_the_committed_scores():
+    """The seventy-fifth session's rule for `mask --light-cores`, scored in the
+    seventy-seventh: the pooled one-kind table is the judge of the three builds' files
+    (judged again here), part 2's rows are identical view by view, part 3's shares are
+    the file's; the candidate fails part 1, as the page, the options and the card say."""
+    mk = load_benchmark("mask_kind_scenes")
+    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_cores_s{s}_s77.json"))
+              for s in (31, 32, 33)]
+    base = "fmg.safetensors@1+pads=reflect,replicate,constant"
+    cand = "fmg.safetensors@1+cores+pads=reflect,replicate,constant"
+    res = mk.judge(builds, base, cand, target="streaks", target_gain=0.01)
+    saved = json.loads((RESULTS / "mask_kinds_judge_cores_s77.json").read_text())
+    assert res["mean"] == saved["mean"] and res["passes"] is saved["passes"] is False
+    kinds = saved["kinds"]
+    assert f"streaks | {kinds['streaks'][base]:.4f} | {kinds['streaks'][cand]:.4f} |" in flat
+    assert f"| {res['mean'][base]:.4f} | {res['mean'][cand]:.4f} | not lower |" in flat
+    others = ("starburst", "ghosts", "glare", "scatter")
+    for arm in (base, cand):
+        assert " / ".join(f"{kinds[k][arm]:.4f}" for k in others) in flat
+    rows = json.loads((RESULTS / "mask_dev_scenes_cores_s77.json").read_text())["rows"]
+    by = {(r["scene"], r["light_cores"]): r for r in rows if r["rays"]}
+    for scene in ("sceaux_synth", "et_synth", "lund_synth"):  # part 4 held by identity
+        plain, cores = by[(scene, False)], by[(scene, True)]
+        assert plain["per_view"] == cores["per_view"]
+        assert plain["flare_iou"] == cores["flare_iou"]
+    clean = json.loads((RESULTS / "mask_views_clean_dev_cores_s77.json").read_text())["rows"]
+    shares = {(r["scene"], r["setting"]): r["marked"] for r in clean}
+    for setting in ("ghost_views_pads", "ghost_views_pads_cores"):
+        cell = " / ".join(f"{100 * shares[(s, setting)]:.3f} %"
+                          for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
+        assert cell in flat, cell
+        assert cell in " ".join((REPO / "docs/options.md").read_text().split())
