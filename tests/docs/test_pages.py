@@ -39,7 +39,7 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f, f"clean/methods/gnfr_hybrid/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for f in (FERN4, "fern_llff_paper_cuda_h100_ptp5000.json") for m in ("psnr", "ssim")],
-    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s42.json", f"methods/{m}/inputs/{k}", "{:.2f}")
+    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s77.json", f"methods/{m}/inputs/{k}", "{:.2f}")
       for s in ("kermit", "cyprus") for m in ("gnfr", "gnt", "input")
       for k in ("psnr_flare", "psnr")],
     *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s42.json", f"methods/{m}/heldout/{k}", f)
@@ -580,24 +580,32 @@ def test_goals_page_rows_follow_their_files():
                     ("fern_llff_paper_cuda_h100_ptp5000.json", "network")):
         h = load(f)["clean"]["methods"][f"gnfr_{fill}"]["heldout"]
         assert f"{h['psnr']:.2f} / {h['ssim']:.3f}" in text, (f, fill)
-    for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s42.json"),
-                     ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s42.json"),
+    flat = " ".join(text.split())
+    for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s77.json"),
+                     ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s77.json"),
                      ("fern", "fern_llff_quick_cpu_s50.json")):
         d = load(f)
         m = d["flare"]["methods"] if "flare" in d else d["methods"]
         a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
         assert f"| {scene} | {a:.2f} | {b:.2f} | {a - b:+.2f} |" in text, scene
-        if scene != "fern":  # the held-out frames: the forty-fifth session's renders
-            h = load(f.replace("_s42", "_s45"))["methods"]
-            for k in ("gnfr", "gnt"):  # the same models: the de-flared photos to the digit
-                assert h[k]["inputs"]["psnr_flare"] == m[k]["inputs"]["psnr_flare"], (scene, k)
-            assert f"{scene} {h['gnfr']['heldout']['psnr']:.2f} dB (GNT " \
-                   f"{h['gnt']['heldout']['psnr']:.2f}" in " ".join(text.split()), scene
-            before = load(f.replace("_s42", "_s44"))["methods"]["gnfr"]["heldout"]["psnr"]
-            assert f"{before:.2f}" in text, scene  # "before it"
-            assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before those"
+        if scene != "fern":  # the same models' held-out views, and the margins before
+            h = m["gnfr"]["heldout"]["psnr"], m["gnt"]["heldout"]["psnr"]
+            assert f"{scene} {h[0]:.2f} dB (GNT {h[1]:.2f})" in flat, scene
+            old = load(f.replace("_s77", "_s42"))["methods"]
+            gain = old["gnfr"]["inputs"]["psnr_flare"] - old["gnt"]["inputs"]["psnr_flare"]
+            assert f"{scene} {gain:+.2f}" in flat, scene
+    for scene in ("kermit", "cyprus"):  # the held-out frames: the forty-fifth session's renders
+        m = load(f"{scene}_synth_gnfr_gnt_cpu_s42.json")["methods"]
+        h = load(f"{scene}_synth_gnfr_gnt_cpu_s45.json")["methods"]
+        for k in ("gnfr", "gnt"):  # the same models: the de-flared photos to the digit
+            assert h[k]["inputs"]["psnr_flare"] == m[k]["inputs"]["psnr_flare"], (scene, k)
+        assert (f"{scene} {h['gnfr']['heldout']['psnr']:.2f} dB (GNT "
+                f"{h['gnt']['heldout']['psnr']:.2f}") in flat, scene
+        before = load(f"{scene}_synth_gnfr_gnt_cpu_s44.json")["methods"]["gnfr"]["heldout"]
+        assert f"{before['psnr']:.2f}" in text, scene  # "before it"
+        assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before those"
     readme = " ".join((REPO / "README.md").read_text().split())
-    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s45.json")["methods"] for s in ("kermit", "cyprus"))
+    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s77.json")["methods"] for s in ("kermit", "cyprus"))
     ahead = c["gnfr"]["heldout"]["psnr"] - c["gnt"]["heldout"]["psnr"]
     behind = k["gnt"]["heldout"]["psnr"] - k["gnfr"]["heldout"]["psnr"]
     assert (f"On novel views GN-FR is {ahead:.2f} dB ahead on cyprus and {behind:.2f} dB "
