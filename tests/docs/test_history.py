@@ -699,6 +699,29 @@ def test_fmg_d_candidates_table_is_their_files():
         assert f"| {part} | " in hist and f" | {cells['D'][i]} | {cells['D2'][i]} | " in hist, part
 
 
+def column_cells(rows: list, c: str, weights: str, pooled: float, sfx: str = ""):
+    """A candidate's column of its rule's table: part 4 from the development scenes' ``rows``
+    of the file ``weights``.safetensors, the other parts from its files named by ``c``."""
+    scenes = [r["flare_iou"] for r in rows
+              if r["rays"] and r["weights"].endswith(f"/{weights}.safetensors")]
+    assert len(scenes) == 3
+    return fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays{sfx}.json",
+                          f"fmg_dev_per_kind_{c}_rays{sfx}.json", pooled, scenes,
+                          f"fmg_dev_clean_{c}_rays{sfx}.json")
+
+
+def judged_means(mk, builds, settings: dict[str, str], saved: str) -> dict[str, float]:
+    """Each candidate's one-kind builds judged again against M (``fmg.safetensors@1``), equal
+    to its saved judgement (``saved`` names the file by the candidate); the pooled means,
+    M's under "M"."""
+    base, pooled = "fmg.safetensors@1", {}
+    for c, setting in settings.items():
+        res = mk.judge(builds, base, setting)
+        assert res["mean"] == json.loads((RESULTS / saved.format(c)).read_text())["mean"]
+        pooled["M"], pooled[c] = res["mean"][base], res["mean"][setting]
+    return pooled
+
+
 def test_fmg_r_candidates_table_is_their_files():
     """docs/history/fmg.md's table of candidates R8 and R13 (fifty-ninth session) is their
     committed files, M scored again beside them on the same builds; both fail part 1."""
@@ -706,21 +729,11 @@ def test_fmg_r_candidates_table_is_their_files():
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_R_s{s}.json")) for s in (31, 32, 33)]
     rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
-    base = "fmg.safetensors@1"
-    judged = {c: mk.judge(builds, base, f"fmg_{c}.safetensors@1") for c in ("R8", "R13")}
-    pooled = {"M": judged["R8"]["mean"][base]}
-    for c, res in judged.items():
-        saved = json.loads((RESULTS / f"mask_kinds_judge_{c}_s59.json").read_text())
-        assert res["mean"] == saved["mean"]
-        pooled[c] = res["mean"][f"fmg_{c}.safetensors@1"]
+    pooled = judged_means(mk, builds, {c: f"fmg_{c}.safetensors@1" for c in ("R8", "R13")},
+                          "mask_kinds_judge_{}_s59.json")
     cells = {"M": fmg_m_s59_cells(pooled["M"])}  # M scored again, beside its older files
     for c in ("R8", "R13"):
-        scenes = [r["flare_iou"] for r in rows
-                  if r["rays"] and r["weights"].endswith(f"/fmg_{c}.safetensors")]
-        assert len(scenes) == 3
-        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays.json",
-                                  f"fmg_dev_per_kind_{c}_rays.json", pooled[c], scenes,
-                                  f"fmg_dev_clean_{c}_rays.json")
+        cells[c] = column_cells(rows, c, f"fmg_{c}", pooled[c])
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {cells['M'][i]} | {cells['R8'][i]} | {cells['R13'][i]} | "
         assert row in hist, row
@@ -2369,22 +2382,10 @@ def test_fmg_f_candidates_table_is_their_files():
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_F_s{s}_s77.json"))
               for s in (31, 32, 33)]
     rows = json.loads((RESULTS / "mask_dev_scenes_F_s77.json").read_text())["rows"]
-    base = "fmg.safetensors@1"
-    judged = {c: mk.judge(builds, base, f"{c}.safetensors@1") for c in ("F8", "F13")}
-    pooled = {"M": judged["F8"]["mean"][base]}
-    for c, res in judged.items():
-        saved = json.loads((RESULTS / f"mask_kinds_judge_{c}_s77.json").read_text())
-        assert res["mean"] == saved["mean"]
-        pooled[c] = res["mean"][f"{c}.safetensors@1"]
-    cells = {}
-    for c, name in (("M", "fmg"), ("F8", "F8"), ("F13", "F13")):
-        scenes = [r["flare_iou"] for r in rows
-                  if r["rays"] and r["weights"].endswith(f"/{name}.safetensors")]
-        assert len(scenes) == 3
-        sfx = "_s77" if c == "M" else ""
-        cells[c] = fmg_rule_cells(f"fmg_dev_per_kind_{c}_day_rays{sfx}.json",
-                                  f"fmg_dev_per_kind_{c}_rays{sfx}.json", pooled[c], scenes,
-                                  f"fmg_dev_clean_{c}_rays{sfx}.json")
+    pooled = judged_means(mk, builds, {c: f"{c}.safetensors@1" for c in ("F8", "F13")},
+                          "mask_kinds_judge_{}_s77.json")
+    cells = {c: column_cells(rows, c, name, pooled[c], "_s77" if c == "M" else "")
+             for c, name in (("M", "fmg"), ("F8", "F8"), ("F13", "F13"))}
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {cells['M'][i]} | {cells['F8'][i]} | {cells['F13'][i]} | "
         assert row in hist, row
