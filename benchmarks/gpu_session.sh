@@ -12,7 +12,7 @@
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
 # devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The checkout and the carried
 # folders must stay under 64 MiB (67.1 MB) together; the tracked tree alone is 133 MB with the
-# four full-width weight files (since fmg_candidate_F13), so hold what the phase does not read first:
+# four 20-25 MB weight files (since fmg_candidate_F13), so hold what the phase does not read first:
 #   bash benchmarks/device_slim.sh out gnfr/weights/fmg_candidate_L.safetensors ... -- CARRY
 # (it prints what would travel; `device_slim.sh back` after the calls). Older notes follow:
 # carry .carry/packs in one call and .carry/fmgdata in the next
