@@ -2393,3 +2393,15 @@ def test_fmg_f_candidates_table_is_their_files():
     assert m_day == pytest.approx(fmg_kind_mean("fmg_dev_per_kind_M_day_rays.json"), abs=5e-4)
     for c in ("F8", "F13"):   # part 1 fails: the mean short of M's + 0.02
         assert fmg_kind_mean(f"fmg_dev_per_kind_{c}_day_rays.json") < m_day + 0.02
+
+
+def test_f13_rule_uncorrected_part_two_numbers_are_its_file():
+    """The F13 rule's part 2 as first run (no paddings): the history's two triples are the
+    file's rows, lund / sceaux_castle / et, with and without the ghost views."""
+    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    rows = json.loads((RESULTS / "mask_views_clean_dev_F13_nopads_s77.json").read_text())["rows"]
+    shares = {(r["scene"], r["setting"]): r["marked"] for r in rows}
+    for setting in ("ghost_views", "base"):
+        cell = " / ".join(f"{100 * shares[(s, setting)]:.3f} %"
+                          for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
+        assert cell in flat, cell
