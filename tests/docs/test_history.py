@@ -2405,3 +2405,20 @@ def test_f13_rule_uncorrected_part_two_numbers_are_its_file():
         cell = " / ".join(f"{100 * shares[(s, setting)]:.3f} %"
                           for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
         assert cell in flat, cell
+
+
+def test_f13_rule_part_one_is_the_judge_of_its_builds():
+    """F13's rule, part 1: the three new builds judged again equal the saved judgement,
+    which passes; the history and the card quote its pooled means."""
+    mk = load_benchmark("mask_kind_scenes")
+    builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_F13rule_s{s}_s77.json"))
+              for s in (34, 35, 36)]
+    base = "fmg.safetensors@1+pads=reflect,replicate,constant"
+    cand = "fmg_candidate_F13.safetensors@1+pads=reflect,replicate,constant"
+    res = mk.judge(builds, base, cand, mean_gain=0.02)
+    saved = json.loads((RESULTS / "mask_kinds_judge_F13rule_s77.json").read_text())
+    assert res["mean"] == saved["mean"] and res["passes"] is saved["passes"] is True
+    hist = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    card = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    assert f"{res['mean'][base]:.4f} for M, {res['mean'][cand]:.4f} for F13" in hist
+    assert f"{res['mean'][cand]:.4f} against this file's {res['mean'][base]:.4f}" in card
