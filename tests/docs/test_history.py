@@ -2338,6 +2338,16 @@ def test_flare_layer_width_table_is_its_files():
                for r, t in zip(rows["x74_fl16"], today, strict=True))
 
 
+def clean_triples(name: str, settings: tuple[str, ...]) -> list[str]:
+    """Per setting of a `mask_views_scenes.py --posed` file, the share each clean
+    development scene marks as the pages write it: "lund % / sceaux_castle % / et %"."""
+    rows = json.loads((RESULTS / name).read_text())["rows"]
+    shares = {(r["scene"], r["setting"]): r["marked"] for r in rows}
+    return [" / ".join(f"{100 * shares[(s, setting)]:.3f} %"
+                       for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
+            for setting in settings]
+
+
 def test_light_cores_verdict_is_the_judge_of_the_committed_scores():
     """The seventy-fifth session's rule for `mask --light-cores`, scored in the
     seventy-seventh: the pooled one-kind table is the judge of the three builds' files
@@ -2364,13 +2374,10 @@ def test_light_cores_verdict_is_the_judge_of_the_committed_scores():
         plain, cores = by[(scene, False)], by[(scene, True)]
         assert plain["per_view"] == cores["per_view"]
         assert plain["flare_iou"] == cores["flare_iou"]
-    clean = json.loads((RESULTS / "mask_views_clean_dev_cores_s77.json").read_text())["rows"]
-    shares = {(r["scene"], r["setting"]): r["marked"] for r in clean}
-    for setting in ("ghost_views_pads", "ghost_views_pads_cores"):
-        cell = " / ".join(f"{100 * shares[(s, setting)]:.3f} %"
-                          for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
-        assert cell in flat, cell
-        assert cell in " ".join((REPO / "docs/options.md").read_text().split())
+    options = " ".join((REPO / "docs/options.md").read_text().split())
+    for cell in clean_triples("mask_views_clean_dev_cores_s77.json",
+                              ("ghost_views_pads", "ghost_views_pads_cores")):
+        assert cell in flat and cell in options, cell
 
 
 def test_fmg_f_candidates_table_is_their_files():
@@ -2399,11 +2406,8 @@ def test_f13_rule_uncorrected_part_two_numbers_are_its_file():
     """The F13 rule's part 2 as first run (no paddings): the history's two triples are the
     file's rows, lund / sceaux_castle / et, with and without the ghost views."""
     flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
-    rows = json.loads((RESULTS / "mask_views_clean_dev_F13_nopads_s77.json").read_text())["rows"]
-    shares = {(r["scene"], r["setting"]): r["marked"] for r in rows}
-    for setting in ("ghost_views", "base"):
-        cell = " / ".join(f"{100 * shares[(s, setting)]:.3f} %"
-                          for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
+    for cell in clean_triples("mask_views_clean_dev_F13_nopads_s77.json",
+                              ("ghost_views", "base")):
         assert cell in flat, cell
 
 
