@@ -2426,3 +2426,19 @@ def test_f13_rule_part_one_is_the_judge_of_its_builds():
     card = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
     assert f"{res['mean'][base]:.4f} for M, {res['mean'][cand]:.4f} for F13" in hist
     assert f"{res['mean'][cand]:.4f} against this file's {res['mean'][base]:.4f}" in card
+
+
+def test_f13_rule_part_two_shares_are_its_files():
+    """F13's rule, part 2: the history's and the card's triples are the two files'
+    `ghost_views_pads` rows, each scene within +0.05 points of M's and no view over 10 %."""
+    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    card = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    for w in ("F13", "M"):
+        (cell,) = clean_triples(f"mask_views_clean_dev_F13rule_{w}_s77.json",
+                                ("ghost_views_pads",))
+        assert cell in flat and cell in card, cell
+    rows = {w: {r["scene"]: r for r in json.loads(
+        (RESULTS / f"mask_views_clean_dev_F13rule_{w}_s77.json").read_text())["rows"]
+        if r["setting"] == "ghost_views_pads"} for w in ("F13", "M")}
+    for scene, r in rows["F13"].items():
+        assert r["marked"] <= rows["M"][scene]["marked"] + 0.0005 and r["over_rule"] == 0
