@@ -154,11 +154,20 @@ until_end_then_export() {
   # phase's own result (the FMG's text log is not kept: its log.jsonl holds the same)
   tail -c 4000 $PT.log > $OUT/ptp_log.txt; ls -la $OUT
 }
+gpu_tests() {   # the gpu-marked tests, their log written to $1, its end printed
+  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA > "$1" 2>&1
+  tail -6 "$1"
+}
+fern_llff() {   # fern in the LLFF protocol at `paper` from $2 for ITERS steps into /root/fern,
+                # stopped $1 s before END; its output in /root/fern_log.txt, the end printed
+  timeout $(( $(left) - $1 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern \
+    --preset paper --init "$2" --iters $ITERS --device cuda > /root/fern_log.txt 2>&1
+  tail -15 /root/fern_log.txt
+}
 case $PHASE in
 check)
   nvidia-smi -L; python3 -c "import torch; print(torch.__version__, torch.cuda.get_device_name())"
-  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA 2>&1 \
-    | tee $OUT/gpu_tests.log | tail -6
+  gpu_tests $OUT/gpu_tests.log
   for p in paper quick; do
     cli bench --preset $p --device cuda --out $OUT/bench_${p}_cuda.json 2>&1 | tail -2; done
   cli bench --preset paper --device cuda --train-size 1008x756 \
@@ -172,8 +181,7 @@ train)
   exit 0 ;;
 short)
   train_on
-  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA 2>&1 \
-    | tee $OUT/gpu_tests.log | tail -6
+  gpu_tests $OUT/gpu_tests.log
   until_end_then_export
   exit 0 ;;
 devab)
@@ -194,8 +202,7 @@ fern)
     cat .carry/fern_run/fern_run.part_* > /root/fern_run.safetensors; init=/root/fern_run.safetensors
   fi
   train_on
-  timeout $(( $(left) - 50 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern --preset paper --init $init \
-    --iters $ITERS --device cuda 2>&1 | tail -15
+  fern_llff 50 $init
   cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
   FR=/root/fern/clean.ws/variants/gnfr/model   # its last checkpoint, fp16, for the next session
   [ -f $FR/gnfr.safetensors ] && python3 -c "from pathlib import Path; \
@@ -216,8 +223,7 @@ loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one
       --kind-probs starburst=0.7,ghosts=0.7,streaks=0.7 --dice 0.5 "${w[@]}" \
       --workers ${LOKO_WORKERS:-2} > $LK/loko_$k.log 2>&1 < /dev/null &
   done
-  [ $DEV = cuda ] && python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA \
-    > $OUT/gpu_tests.log 2>&1   # the CUDA tests beside the six runs (about 20 s)
+  [ $DEV = cuda ] && gpu_tests $OUT/gpu_tests.log   # the CUDA tests beside the six runs (20 s)
   while pgrep -f "fmg train --out $LK/loko_" > /dev/null && [ "$(left)" -gt 200 ]; do sleep 10; done
   pkill -f "fmg train --out $LK/loko_"; sleep 5
   for k in all $KINDS; do   # a run cut short by the clock: its last checkpoint, kind recorded
@@ -249,12 +255,10 @@ session)   # one call for a whole 15-minute lease (a start costs 1-2 of them): t
   cli bench --preset paper --device cuda --rays ${BENCH_RAYS:-65536} \
     --out /root/small/bench_paper_cuda.json 2>&1 | tail -3
   train_on
-  python3 -m pytest -q -m gpu tests/gnfr/test_gpu.py -p no:cacheprovider -rA \
-    > /root/small/gpu_tests.log 2>&1; tail -3 /root/small/gpu_tests.log
+  gpu_tests /root/small/gpu_tests.log
   if [ -d .carry/fern ]; then
-    timeout $(( $(left) - 60 )) python3 -m workflows.cli eval-llff .carry/fern --out /root/fern \
-      --preset paper --init gnfr/weights/gnfr_paper.safetensors --iters $ITERS --device cuda \
-      > /root/small/fern_log.txt 2>&1; tail -12 /root/small/fern_log.txt
+    fern_llff 60 gnfr/weights/gnfr_paper.safetensors
+    cp /root/fern_log.txt /root/small/fern_log.txt
     cp /root/fern/results.json /root/small/fern_paper_results.json 2>/dev/null
     cp /root/fern/table.md /root/small/fern_table.md 2>/dev/null
     cp /root/fern/clean.ws/variants/gnfr/model/metrics.jsonl /root/small/fern_metrics.jsonl 2>/dev/null
