@@ -203,12 +203,18 @@ fern)
   fi
   train_on
   fern_llff 50 $init
-  cp /root/fern/results.json $OUT/fern_paper_results.json; cp /root/fern/table.md $OUT/
+  # the small results in one tar: with the two models' parts and the trainings' logs they
+  # stay inside the tool's 8 files
+  mkdir -p /root/small; cp /root/fern_log.txt /root/small/
+  cp /root/fern/results.json /root/small/fern_paper_results.json 2>/dev/null
+  cp /root/fern/table.md /root/small/fern_table.md 2>/dev/null
   FR=/root/fern/clean.ws/variants/gnfr/model   # its last checkpoint, fp16, for the next session
+  cp $FR/metrics.jsonl /root/small/fern_metrics.jsonl 2>/dev/null
   [ -f $FR/gnfr.safetensors ] && python3 -c "from pathlib import Path; \
 from workflows.research.pretrain import export_fp16; \
 export_fp16(Path('$FR/gnfr.safetensors'), Path('/root/fern_run16.safetensors'))" \
-    && split -b 15000000 /root/fern_run16.safetensors $OUT/fern_run.part_ && cp $FR/metrics.jsonl $OUT/fern_metrics.jsonl
+    && split -b 15000000 /root/fern_run16.safetensors $OUT/fern_run.part_
+  tar -C /root/small -cf $OUT/small.tar .
   until_end_then_export
   exit 0 ;;
 loko)   # issue 10 item 2 at full width: six runs from scratch side by side, one without each
