@@ -129,7 +129,7 @@ CHECKS = [
       for m in ("gnfr", "input") for k in ("psnr_flare", "psnr")],
     *[(page, f"fern_llff_paper_cuda_{gpu}.json",
        f"clean/methods/gnfr_{fill}/heldout/{m}", "{:.2f}" if m == "psnr" else "{:.3f}")
-      for page in ("README.md", "docs/goals.md") for gpu in ("h100_ptp5000", "h200_s77")
+      for page in ("README.md", "docs/goals.md") for gpu in ("h100_ptp5000", "h200_s77", "h200_s78")
       for fill in ("hybrid", "network") for m in ("psnr", "ssim")],
     *[(page, "bench_paper_cuda_h200_s77.json", f"results/cuda/train/{mode}/it_per_s", "{:.2f}")
       for page in ("README.md", "docs/presets.md", PERF) for mode in ("end_to_end", "cached")],
