@@ -48,6 +48,10 @@
 #   fern    fern in the LLFF protocol at `paper` from the latest paper checkpoint (ITERS steps);
 #           sends back its model (fp16 parts, fern_run.part_*): carried in the next session's
 #           call as .carry/fern_run, the fine-tune goes on from there (ITERS the total)
+#           and its small results in small.tar. The seventy-eighth session (an H200, carry
+#           .carry/{fmgdata,fern,whl,fmg_init.safetensors}, docs/, samples/ and six weight files
+#           held): `fern 575 2700` ran 2 700 fern steps in 425 s beside 8 600 FMG steps,
+#           then `train 230` took the FMG to 12 800 (F26); 13.2 device minutes in all.
 #   loko    the full-width leave-one-kind-out table (issue 10 item 2): six FMG runs from
 #           scratch on the GPU at once (without each kind, and with all), ITERS steps each or
 #           until END - 200 s (then their last checkpoints), each calibrated, scored by `fmg
