@@ -10,6 +10,13 @@ square window), pooled over SYNTH's flared training views:
 - ``light_left``: the share of the light the flare added (the flared photo minus the clean
   one, clipped at 0, summed over the 8-bit sRGB channels) that falls outside the mask, i.e.
   what stays in the photo where the mask does not reach.
+- ``flare_psnr_ceiling``: the PSNR inside the true flare (as ``eval``'s ``psnr_flare``, 8-bit
+  sRGB scaled to 0-1) of the flared photo with every marked pixel replaced by the clean one:
+  the best a fill could do with these masks. IoU and ``light_left`` count a missed pixel by
+  its area or its added light; this counts it by its squared error, as the photos are scored,
+  so a few missed saturated pixels weigh more than a faint rim;
+- ``left_saturated``: the share of that ceiling's squared error in pixels the flared photo
+  has saturated (a channel at 250 or more), e.g. a light's core left unmarked.
 A tight mask (high precision, low recall) leaves more of the added light outside it; a mask
 that overreaches the flare's rim leaves less. The sixteenth session's untested hypothesis
 (gnfr/weights/fmg.md) was that the shipped FMG's blobs leave less light outside than J's
@@ -29,6 +36,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
+SATURATED = 250
+"""An 8-bit channel at or above this is taken as saturated (``left_saturated``)."""
+
+
 def grown(mask: np.ndarray, r: int) -> np.ndarray:
     """``mask`` dilated by ``r`` pixels (a (2r+1)-square window); itself for r = 0."""
     if r <= 0:
@@ -39,21 +50,34 @@ def grown(mask: np.ndarray, r: int) -> np.ndarray:
 def shape_scores(pairs, grows: list[int]) -> dict:
     """{grow: scores} pooled over ``pairs`` of (mask, true mask, flared, clean) arrays
     (bool [H, W], bool [H, W], uint8 [H, W, 3], uint8 [H, W, 3])."""
-    acc = {r: np.zeros(5) for r in grows}  # inter, union, true, marked, light outside
+    # inter, union, true, marked, light outside, squared error left in the true flare (sum
+    # over the channels), the part of it on saturated pixels
+    acc = {r: np.zeros(7) for r in grows}
     light = 0.0
     for m, t, flared, clean in pairs:
-        added = np.clip(flared.astype(np.float64) - clean.astype(np.float64), 0, None).sum(-1)
+        diff = flared.astype(np.float64) - clean.astype(np.float64)
+        added = np.clip(diff, 0, None).sum(-1)
+        sq = (diff / 255.0) ** 2
+        sq = sq.sum(-1)
+        sat = (flared >= SATURATED).any(-1)
         light += added.sum()
         for r in grows:
             g = grown(m, r)
-            acc[r] += [(g & t).sum(), (g | t).sum(), t.sum(), g.sum(), added[~g].sum()]
+            left = t & ~g
+            acc[r] += [(g & t).sum(), (g | t).sum(), t.sum(), g.sum(), added[~g].sum(),
+                       sq[left].sum(), sq[left & sat].sum()]
     out = {}
-    for r, (inter, union, true, marked, left) in acc.items():
+    for r, (inter, union, true, marked, left, err, err_sat) in acc.items():
+        mse = err / (3 * true) if true else None
         out[str(r)] = {"iou": inter / union if union else None,
                        "recall": inter / true if true else None,
                        "precision": inter / marked if marked else None,
                        "marked_over_true": marked / true if true else None,
-                       "light_left": left / light if light else None}
+                       "light_left": left / light if light else None,
+                       "flare_psnr_ceiling": (None if mse is None
+                                              else float("inf") if mse == 0
+                                              else float(-10 * np.log10(mse))),
+                       "left_saturated": err_sat / err if err else 0.0}
     return out
 
 
@@ -94,7 +118,9 @@ def main(argv: list[str] | None = None) -> int:
             x = res[str(r)]
             print(f"{wdir} grow {r}: IoU {x['iou']:.3f} recall {x['recall']:.3f} precision "
                   f"{x['precision']:.3f} marked {x['marked_over_true']:.2f}x true, added light "
-                  f"outside the mask {x['light_left']:.3f}", flush=True)
+                  f"outside the mask {x['light_left']:.3f}, flare PSNR of a perfect fill "
+                  f"{x['flare_psnr_ceiling']:.2f} ({x['left_saturated']:.2f} of its error on "
+                  f"saturated pixels)", flush=True)
     write_result(a.out, {"scene": str(a.scene), "views": stems, "rows": rows})
     return 0
 

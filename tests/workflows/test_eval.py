@@ -365,6 +365,38 @@ def test_mask_shape_scores_light_outside_the_mask():
     assert res["1"]["marked_over_true"] == pytest.approx(1.44)
 
 
+def test_mask_shape_perfect_fill_ceiling_weighs_misses_by_squared_error():
+    """benchmarks/mask_shape.py's ``flare_psnr_ceiling``: a mask that misses only a saturated
+    core scores a lower ceiling than one that misses a faint rim of more pixels, though its
+    recall is higher; the ceiling is the PSNR over the true flare of the photo with the
+    marked pixels made clean, and ``left_saturated`` the saturated share of its error."""
+
+    bench = load_benchmark("mask_shape")
+    clean = np.full((20, 20, 3), 100, np.uint8)
+    true = np.zeros((20, 20), bool)
+    true[4:16, 4:16] = True  # 144 px
+    core = np.zeros_like(true)
+    core[9:11, 9:11] = True  # 4 px, pushed to 255
+    rim = true.copy()
+    rim[5:15, 5:15] = False  # 44 px, +5 grey levels
+    flared = clean.copy()
+    flared[true] = 140
+    flared[core] = 255
+    flared[rim] = 105
+    miss_core = bench.shape_scores([(true & ~core, true, flared, clean)], [0])["0"]
+    miss_rim = bench.shape_scores([(true & ~rim, true, flared, clean)], [0])["0"]
+    assert miss_core["recall"] == pytest.approx(140 / 144)
+    assert miss_rim["recall"] == pytest.approx(100 / 144)
+    mse_core = 4 * 3 * (155 / 255) ** 2 / (144 * 3)
+    mse_rim = 44 * 3 * (5 / 255) ** 2 / (144 * 3)
+    assert miss_core["flare_psnr_ceiling"] == pytest.approx(-10 * np.log10(mse_core))
+    assert miss_rim["flare_psnr_ceiling"] == pytest.approx(-10 * np.log10(mse_rim))
+    assert miss_core["flare_psnr_ceiling"] < miss_rim["flare_psnr_ceiling"]
+    assert miss_core["left_saturated"] == 1.0 and miss_rim["left_saturated"] == 0.0
+    whole = bench.shape_scores([(true, true, flared, clean)], [0])["0"]
+    assert whole["flare_psnr_ceiling"] == float("inf") and whole["left_saturated"] == 0.0
+
+
 def test_score_workspace_matches_eval(scene, tmp_path):
     """benchmarks/score_workspace.py scores an evaluated variant's de-flared inputs and
     held-out renders to exactly the numbers eval wrote in results.json."""
