@@ -73,7 +73,8 @@ def setting(row: dict) -> str:
     ``+ghosts`` added for a row scored with `mask --ghost-lines`, ``+views`` with
     `--ghost-views`, ``+raysMIN,OPP`` with a ray rule of its own (mask_dev_scenes.py
     ``--ray-rule``), ``+lines`` with the streak lines (``--streak-lines``), ``+cores`` with
-    lamps found by their core (``--light-cores``), ``+pads=MODES``
+    lamps found by their core (``--light-cores``), ``+holes`` with the enclosed holes
+    filled (``--fill-holes``), ``+pads=MODES``
     with `mask --pads` (``--pads``), then ``+regions`` with `--pads-keep regions`."""
     scales = ",".join(f"{s:g}" for s in row.get("scales", [1.0]))
     rule = row.get("ray_rule")
@@ -82,6 +83,7 @@ def setting(row: dict) -> str:
             f"{'' if rule is None else f'+rays{rule[0]},{rule[1]:g}'}"
             f"{'+lines' if row.get('streak_lines') else ''}"
             f"{'+cores' if row.get('light_cores') else ''}"
+            f"{'+holes' if row.get('fill_holes') else ''}"
             f"{'+pads=' + ','.join(row['pads']) if row.get('pads') else ''}"
             f"{'+regions' if row.get('pads_keep') == 'regions' else ''}")
 

@@ -14,7 +14,8 @@ clean photos likewise (a real scene posed by `pose`; run in WORK/<name>.ws, shar
 photos and cameras, so nothing is written into WS). Use development scenes to choose.
 
     python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS [WS ...]] --work DIR \
-        [--clean] [--weights W] [--pads reflect,replicate,constant] --out J
+        [--clean] [--weights W] [--pads reflect,replicate,constant | --light-cores |
+        --fill-holes] --out J
 """
 
 from __future__ import annotations
@@ -76,6 +77,7 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
                      "streak_lines": config.streak_lines, "light_cores": config.light_cores,
+                     "fill_holes": config.fill_holes,
                      "pads": list(config.pads),
                      "pads_keep": config.pads_keep if config.pads else None,
                      "marked": float(np.mean([m.mean() for m in marks.values()])),
@@ -113,11 +115,16 @@ def main(argv: list[str] | None = None) -> int:
                          "the other photos confirm, --pads reflect,replicate,constant) and it "
                          "with `mask --light-cores` (ghost_views_pads_cores), those two only; "
                          "`candidate_added`: the second's mean share over the first's")
+    ap.add_argument("--fill-holes", action="store_true",
+                    help="score today's default (ghost_views_pads, as with --light-cores) and "
+                         "it with `mask --fill-holes` (ghost_views_pads_holes), those two only; "
+                         "`candidate_added`: the second's mean share over the first's")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None,
-            a.light_cores)) > 1:
-        ap.error("give one candidate: --ray-opposite, --streak-lines, --pads or --light-cores")
+            a.light_cores, a.fill_holes)) > 1:
+        ap.error("give one candidate: --ray-opposite, --streak-lines, --pads, --light-cores "
+                 "or --fill-holes")
     pads = tuple(a.pads.split(",")) if a.pads else ()
     if any(m not in ("reflect", "replicate", "constant") for m in pads):
         ap.error("--pads: paddings of reflect, replicate, constant separated by commas")
@@ -133,10 +140,13 @@ def main(argv: list[str] | None = None) -> int:
     if pads:
         settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads,
                                         "pads_keep": a.pads_keep}
-    if a.light_cores:
+    # today's default against it with one option more: (setting's suffix, MaskConfig field)
+    extra = ("_cores", "light_cores") if a.light_cores else (
+        ("_holes", "fill_holes") if a.fill_holes else None)
+    if extra:
         today = {**SETTINGS["ghost_views"], "pads": ("reflect", "replicate", "constant")}
         settings = {"ghost_views_pads": today,
-                    "ghost_views_pads_cores": {**today, "light_cores": True}}
+                    "ghost_views_pads" + extra[0]: {**today, extra[1]: True}}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -166,8 +176,8 @@ def main(argv: list[str] | None = None) -> int:
         if cand in settings and "ghost_views" in settings:
             out["candidate_added"] = (out["mean_marked"][cand]
                                       - out["mean_marked"]["ghost_views"])
-    if a.light_cores:
-        out["candidate_added"] = (out["mean_marked"]["ghost_views_pads_cores"]
+    if extra:
+        out["candidate_added"] = (out["mean_marked"]["ghost_views_pads" + extra[0]]
                                   - out["mean_marked"]["ghost_views_pads"])
     out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
                               for n, rs in by.items()}

@@ -1570,3 +1570,16 @@ def test_light_cores_reach_the_rays_and_need_the_network():
     bench = load_benchmark("mask_views_scenes")
     with pytest.raises(SystemExit):
         bench.main(["--posed", "x", "--work", "w", "--light-cores", "--streak-lines"])
+    with pytest.raises(SystemExit):
+        bench.main(["--posed", "x", "--work", "w", "--light-cores", "--fill-holes"])
+
+
+def test_mask_kind_scenes_names_filled_holes():
+    """mask_kind_scenes.py's setting names a row scored with the enclosed holes filled
+    (``+holes``), so a judge never pools such rows with the plain masks' rows."""
+    kinds = load_benchmark("mask_kind_scenes")
+    row = {"weights": "w/fmg_candidate_F26.safetensors", "scales": [1.0],
+           "pads": ["reflect", "replicate", "constant"]}
+    assert kinds.setting(row) == "fmg_candidate_F26.safetensors@1+pads=reflect,replicate,constant"
+    assert (kinds.setting({**row, "fill_holes": True})
+            == "fmg_candidate_F26.safetensors@1+holes+pads=reflect,replicate,constant")
