@@ -57,8 +57,7 @@ def shape_scores(pairs, grows: list[int]) -> dict:
     for m, t, flared, clean in pairs:
         diff = flared.astype(np.float64) - clean.astype(np.float64)
         added = np.clip(diff, 0, None).sum(-1)
-        sq = (diff / 255.0) ** 2
-        sq = sq.sum(-1)
+        sq = ((diff / 255.0) ** 2).sum(-1)
         sat = (flared >= SATURATED).any(-1)
         light += added.sum()
         for r in grows:
