@@ -582,9 +582,11 @@ def draw_frame_flare(flare_cfg: fl.FlareConfig, frame_hw: tuple[int, int],
 
 def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeConfig,
                     rng: np.random.Generator, window: tuple[int, int] | None = None,
-                    frame_hw: tuple[int, int] | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool).
+                    frame_hw: tuple[int, int] | None = None, with_clean: bool = False
+                    ) -> tuple:
+    """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool),
+    and with ``with_clean`` the photo as the same exposure shows it without the flare and
+    noise (sRGB float32: what a perfect de-flaring would give back; the same draws).
 
     A fresh lens at a random light position (:func:`draw_flare`), its layers moved by one
     random affine; or, given the ``window`` ``img`` was cut from a ``frame_hw`` photo
@@ -607,7 +609,10 @@ def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeC
     visible = fl.flare_mask(layers.flare, layers.core, flare_cfg,
                             srgb_to_linear(img) * gain)
     layers = dataclasses.replace(layers, mask=label & visible)
-    return fl.apply_flare(img, layers, rng, noise, gain), layers.mask
+    flared = fl.apply_flare(img, layers, rng, noise, gain)
+    if not with_clean:
+        return flared, layers.mask
+    return flared, layers.mask, linear_to_srgb(srgb_to_linear(img) * np.float32(gain))
 
 
 class CompositeSource:
@@ -622,9 +627,11 @@ class CompositeSource:
         self.comp = comp or CompositeConfig()
 
     def sample(self, rng: np.random.Generator, train: bool = True,
-               extras: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """One composite. ``train`` adds jitter, distractors, hard negatives and flare-free
-        samples; ``extras`` (default: ``train``) enables night backgrounds."""
+               extras: bool | None = None, with_clean: bool = False) -> tuple:
+        """One composite (image, mask). ``train`` adds jitter, distractors, hard negatives and
+        flare-free samples; ``extras`` (default: ``train``) enables night backgrounds;
+        ``with_clean`` adds the image without its flare (``composite_flare``), from the same
+        draws."""
         c = self.comp
         extras = train if extras is None else extras
         bg = self.backgrounds[int(rng.integers(len(self.backgrounds)))]
@@ -643,21 +650,31 @@ class CompositeSource:
             if rng.random() < (c.negative_prob if flared else c.clean_negative_prob):
                 img = add_hard_negatives(img, rng, pool=c.negatives)
             if not flared:
-                return img, np.zeros(img.shape[:2], bool)
-        return composite_flare(img, self.flare_cfg, c, rng, window, bg.shape[:2])
+                none = np.zeros(img.shape[:2], bool)
+                return (img, none, img) if with_clean else (img, none)
+        return composite_flare(img, self.flare_cfg, c, rng, window, bg.shape[:2], with_clean)
 
     def batch(self, n: int, rng: np.random.Generator, train: bool = True,
-              extras: bool | None = None):
-        """(images [n, 3, S, S] float32, masks [n, 1, S, S] float32) as torch tensors."""
+              extras: bool | None = None, with_clean: bool = False):
+        """(images [n, 3, S, S] float32, masks [n, 1, S, S] float32) as torch tensors; with
+        ``with_clean`` also the images without their flare [n, 3, S, S]."""
         import torch
 
-        pairs = [self.sample(rng, train, extras) for _ in range(n)]
-        x = torch.from_numpy(np.stack([p[0] for p in pairs])).permute(0, 3, 1, 2)
-        y = torch.from_numpy(np.stack([p[1] for p in pairs]))[:, None].float()
-        return x.contiguous(), y
+        draws = [self.sample(rng, train, extras, with_clean) for _ in range(n)]
+
+        def images(k: int):
+            return torch.from_numpy(np.stack([d[k] for d in draws])).permute(0, 3, 1, 2)
+
+        y = torch.from_numpy(np.stack([d[1] for d in draws]))[:, None].float()
+        if with_clean:
+            return images(0).contiguous(), y, images(2).contiguous()
+        return images(0).contiguous(), y
 
 
-def fixed_set(source: CompositeSource, n: int, seed: int, extras: bool = False) -> tuple:
+def fixed_set(source: CompositeSource, n: int, seed: int, extras: bool = False,
+              with_clean: bool = False) -> tuple:
     """A deterministic validation set: n evaluation composites (every one flared); with
-    ``extras``, night backgrounds as configured in ``source.comp``."""
-    return source.batch(n, np.random.default_rng(seed), train=False, extras=extras)
+    ``extras``, night backgrounds as configured in ``source.comp``; with ``with_clean``, the
+    images without their flare as a third tensor (the same composites either way)."""
+    return source.batch(n, np.random.default_rng(seed), train=False, extras=extras,
+                        with_clean=with_clean)

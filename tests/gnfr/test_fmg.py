@@ -259,6 +259,38 @@ def test_composites_mark_visible_flare_not_core():
     assert not (w.mask & (w.core.max(axis=2) > 0)).any()
 
 
+def test_composites_with_clean_are_the_same_draws_and_score_a_perfect_fill():
+    """``with_clean`` gives the same composites and masks, and each photo as its exposure
+    shows it without the flare; the fill ceiling is the flare-region PSNR with the marked
+    pixels made clean: everything marked, nothing left; nothing marked, the flared photos'
+    own; a hole the marks enclose is marked by ``holes_filled``."""
+    from pipeline import flare as fl
+    from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
+    from workflows.research.fmg_eval import fill_ceiling, fill_error, holes_filled
+
+    rng = np.random.default_rng(0)
+    bgs = [(rng.random((120, 150, 3)) * 160).astype(np.uint8) for _ in range(3)]
+    src = CompositeSource(bgs, fl.FlareConfig(noise=(0.0, 0.0)), CompositeConfig(size=64))
+    x, y = fixed_set(src, 4, 7)
+    x2, y2, clean = fixed_set(src, 4, 7, with_clean=True)
+    assert torch.equal(x, x2) and torch.equal(y, y2) and clean.shape == x.shape
+    true = y > 0.5
+    diff = (x - clean).abs().amax(1, keepdim=True)
+    assert true.any() and diff[true].mean() > 5 * diff[~true].mean()
+    everything = fill_error(x, clean, torch.ones_like(true), true)
+    assert everything[0] == 0 and fill_ceiling(*everything) == 99.0
+    nothing = fill_error(x, clean, torch.zeros_like(true), true)
+    q = [np.round(np.clip(t.numpy().astype(np.float64), 0, 1) * 255) / 255 for t in (x, clean)]
+    mse = ((q[0] - q[1]) ** 2).sum(1)[true.numpy()[:, 0]].sum() / (3 * true.sum().item())
+    assert fill_ceiling(*nothing) == pytest.approx(-10 * np.log10(mse))
+    assert fill_ceiling(0.0, 0.0) is None
+    ring = torch.zeros(1, 1, 9, 9, dtype=torch.bool)
+    ring[0, 0, 2:7, 2:7] = True
+    ring[0, 0, 4, 4] = False  # the light's core, unmarked inside its glow
+    filled = holes_filled(ring)
+    assert filled[0, 0, 4, 4] and filled.sum() == 25 and not filled[0, 0, 0, 0]
+
+
 def test_flare_canvas_draws_a_window_of_a_larger_frame():
     """flare_canvas 1 draws as before (the same lens, light and intensity from the stream);
     2 renders the lens for a frame twice the side and keeps a window holding the light, so
@@ -647,6 +679,19 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     assert got[pads, "regions"][key] == pytest.approx(
         regions_touching(plain[0] > cut, agreed[0] > cut).mean())
     assert got[pads, "pixels"][key] <= got[pads, "regions"][key] <= got[(), "pixels"][key]
+    # every score has its fill ceiling; --fill-holes scores the masks with holes filled
+    assert all(r["weights"]["flare_psnr_ceiling"] > 0 for r in res["kinds"].values())
+    assert res["fill_holes"] is False
+    assert main(["fmg", "eval", "--per-kind", "--weights", str(allw), "--data", str(data),
+                 "--count", "2", "--size", "64", "--fill-holes",
+                 "--out", str(tmp_path / "h.json")]) == 0
+    holes = json.loads((tmp_path / "h.json").read_text())
+    assert holes["fill_holes"] is True
+    for kind, row in holes["kinds"].items():  # filling only adds marks: the ceiling only rises
+        assert (row["weights"]["flare_psnr_ceiling"]
+                >= res["kinds"][kind]["weights"]["flare_psnr_ceiling"] - 1e-9)
+    assert main(["fmg", "eval", "--fill-holes", "--weights", str(allw), "--data", str(data),
+                 "--count", "2", "--size", "64"]) != 0  # --fill-holes needs --per-kind
     # weights trained on every kind cannot stand in for a leave-one-kind-out model
     assert main(["fmg", "eval", "--per-kind", "--loo", str(allw), "--data", str(data),
                  "--count", "2", "--size", "64"]) != 0

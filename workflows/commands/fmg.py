@@ -71,7 +71,8 @@ def register(app: typer.Typer) -> None:
                                               confirm=config.confirm,
                                               confirm_keep=keep, scales=config.scales,
                                               flare_canvas=config.flare_canvas,
-                                              night=config.night, ghosts=ghosts)
+                                              night=config.night, ghosts=ghosts,
+                                              fill_holes=config.fill_holes)
             typer.echo(fmg_eval.format_kinds(metrics))
         else:
             metrics = fmg_eval.evaluate(weights, config.data, config.count,

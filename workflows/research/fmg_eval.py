@@ -91,6 +91,9 @@ class FMGEvalConfig:
     `mask --ghost-lines`)."""
     ghost_chain: int | None = option(None, ge=1)
     """With ``ghost_lines``: the rule's chain (as `mask --ghost-chain`)."""
+    fill_holes: bool = False
+    """With ``per_kind``: every model's mask with the unmarked pixels it encloses marked (as
+    `mask --fill-holes`); the IoUs and the fill ceiling are scored on those masks."""
     pads: tuple[str, ...] = option((), choices=("reflect", "replicate", "constant"))
     """With ``clean``: also run the network on each photo padded these ways and keep what
     the runs agree on, as the mask stage does by default (`mask --pads
@@ -196,6 +199,8 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
         raise UserError("--night needs --per-kind")
     if cfg.ghost_lines and not (cfg.per_kind or cfg.clean):
         raise UserError("--ghost-lines needs --per-kind or --clean")
+    if cfg.fill_holes and not cfg.per_kind:
+        raise UserError("--fill-holes needs --per-kind")
     if cfg.pads and not cfg.clean:
         raise UserError("--pads needs --clean")
     check_pads(cfg)
@@ -216,7 +221,8 @@ def check_ray_rule(cfg) -> None:
 # --------------------------------------------------------------------------- scoring a batch
 def score(model, images, masks, batch: int = 8, refine: bool = False,
           cut: float = 0.5, also=None, confirm=None,
-          scales: tuple[float, ...] = (1.0,), ghosts=None) -> dict[str, float]:
+          scales: tuple[float, ...] = (1.0,), ghosts=None, clean=None,
+          fill_holes: bool = False) -> dict[str, float]:
     """mIoU / mAcc of ``model`` on images [N, 3, S, S] with masks [N, 1, S, S] (pooled),
     flare where the probability exceeds ``cut`` or where ``also`` [N, 1, S, S] bool (e.g.
     the images' flare rays, ``ray_batch``) is set. With ``confirm`` = (second model, its
@@ -224,7 +230,10 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
     ``also`` as the rays). ``scales``: each network's probabilities averaged over these
     fractions of the composites' side (``gnfr.fmg.predict_probs``). ``ghosts`` (a
     ``pipeline.flare_ghosts.GhostConfig``): the ghost-line regions of the probabilities
-    added, as `mask --ghost-lines` adds them (before the confirmation)."""
+    added, as `mask --ghost-lines` adds them (before the confirmation). ``fill_holes``: the
+    unmarked pixels a mask encloses marked too, as `mask --fill-holes` does (last).
+    ``clean``: the images without their flare [N, 3, S, S]; adds ``flare_psnr_ceiling``
+    (:func:`fill_ceiling`)."""
     import torch
 
     from gnfr.fmg import confusion, predict_probs, seg_metrics
@@ -236,6 +245,7 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
             None if extra is None else extra[i, 0].numpy())] for i in range(len(marked))]))
 
     conf = torch.zeros(2, 2, dtype=torch.long)
+    err = np.zeros(2)  # squared error the marks leave in the true flare, its pixels
     model.eval()
     dev = next(model.parameters()).device
     with torch.no_grad():
@@ -256,8 +266,49 @@ def score(model, images, masks, batch: int = 8, refine: bool = False,
                 marked = confirmed(marked, q > confirm[1], extra)
             elif extra is not None:
                 marked |= extra
-            conf += confusion(marked, masks[i:i + batch] > 0.5)
-    return seg_metrics(conf)
+            if fill_holes:
+                marked = holes_filled(marked)
+            true = masks[i:i + batch] > 0.5
+            conf += confusion(marked, true)
+            if clean is not None:
+                err += fill_error(images[i:i + batch], clean[i:i + batch], marked, true)
+    out = seg_metrics(conf)
+    if clean is not None:
+        out["flare_psnr_ceiling"] = fill_ceiling(*err)
+    return out
+
+
+def holes_filled(marked):
+    """[N, 1, S, S] bool masks with the unmarked pixels each encloses marked
+    (``pipeline.ws_files.enclosed_holes``, as `mask --fill-holes`)."""
+    import torch
+
+    from pipeline.ws_files import enclosed_holes
+
+    return torch.stack([m | torch.from_numpy(enclosed_holes(m[0].numpy()))[None]
+                        for m in marked])
+
+
+def fill_error(images, clean, marked, true) -> np.ndarray:
+    """(squared error, pixels) in the true flare ``true`` [N, 1, S, S] of ``images`` [N, 3,
+    S, S] (sRGB 0..1) with every ``marked`` pixel made ``clean``: the images quantised to 8
+    bits as photos are, the error summed over the channels."""
+    def q(x):
+        return np.round(np.clip(x.numpy().astype(np.float64), 0, 1) * 255) / 255
+
+    left = (true & ~marked).numpy()[:, 0]
+    sq = ((q(images) - q(clean)) ** 2).sum(1)
+    return np.array([sq[left].sum(), 3 * true.sum().item()])
+
+
+def fill_ceiling(err: float, count: float) -> float | None:
+    """The flare-region PSNR (dB, 0..1 scale) of a perfect fill of the marked pixels: what
+    the marks leave, as ``benchmarks/mask_shape.py`` scores a synth scene's photos (None
+    without true flare; capped at 99 where nothing is left)."""
+    if count <= 0:
+        return None
+    mse = err / count
+    return 99.0 if mse <= 1e-10 else float(min(99.0, -10 * np.log10(mse)))
 
 
 def ray_batch(x, ray_cfg=None):
@@ -340,12 +391,13 @@ def evaluate(weights: Path, data: Path, count: int = 64, seed: int = 2024,
             ("unseen", fl.FlareConfig.unseen(), comp, False),
             ("night", fl.FlareConfig(), CompositeConfig(size=size, night_prob=0.5), True))
     for name, fcfg, c, extras in rows:
-        imgs, masks = fixed_set(CompositeSource(bgs, fcfg, c), count, seed, extras)
+        imgs, masks, clean = fixed_set(CompositeSource(bgs, fcfg, c), count, seed, extras,
+                                       with_clean=True)
         frac = {"flare_pixels": round(float(masks.mean()), 4)}
-        res[name] = {**score(model, imgs, masks, cut=cut), **frac}
+        res[name] = {**score(model, imgs, masks, cut=cut, clean=clean), **frac}
         if refine:
-            res[name + "_refined"] = {**score(model, imgs, masks, refine=True, cut=cut),
-                                      **frac}
+            res[name + "_refined"] = {**score(model, imgs, masks, refine=True, cut=cut,
+                                              clean=clean), **frac}
     return res
 
 
@@ -385,7 +437,7 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
                    rays: bool = False, ray_cfg=None, confirm: Path | None = None,
                    confirm_keep: str = "both", scales: tuple[float, ...] = (1.0,),
                    flare_canvas: float = 1.0, night: float | None = None,
-                   ghosts=None) -> dict:
+                   ghosts=None, fill_holes: bool = False) -> dict:
     """Per kind of flare: flare IoU, mIoU and mAcc on ``count`` composites of the ``split``
     part flared with that kind alone (``FlareConfig(kinds=(kind,))``; test or development
     scenes and backgrounds, night backgrounds on ``night`` of them, default
@@ -397,7 +449,8 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     ``scales``: every network at these fractions of the composites' side (``score``);
     ``flare_canvas``: the flare drawn for a frame that many times the composites' side
     (``CompositeConfig.flare_canvas``); ``ghosts``: every model's mask with the ghost-line
-    regions (``score``)."""
+    regions (``score``); ``fill_holes``: every model's mask with its enclosed holes marked
+    (`mask --fill-holes`). Each score has the fill ceiling (``flare_psnr_ceiling``)."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
     from pipeline.mask import load_fmg_weights
@@ -419,21 +472,24 @@ def evaluate_kinds(weights: Path, data: Path, loo: tuple[Path, ...] = (), count:
     res = {"count": count, "seed": seed, "size": size, "night": night, "split": split,
            "rays": rays, "ray_rule": _ray_rule(rays, ray_cfg), "scales": list(scales),
            "flare_canvas": flare_canvas, "ghost_lines": _ghost_rule(ghosts),
+           "fill_holes": fill_holes,
            "weights": {k: v for k, v in main.items() if k != "model"},
            "confirm": None if confirm is None else {**weights_info(Path(confirm)),
                                                      "keep": confirm_keep},
            "loo": [{k: v for k, v in h.items() if k != "model"} for h in held], "kinds": {}}
     for i, kind in enumerate(kinds):
         src = CompositeSource(bgs, fl.FlareConfig(kinds=(kind,)), comp)
-        imgs, masks = fixed_set(src, count, seed + i, extras=True)
+        imgs, masks, clean = fixed_set(src, count, seed + i, extras=True, with_clean=True)
         ray = ray_batch(imgs, ray_cfg) if rays else None  # the same for every model: once
         row = {"flare_pixels": round(float(masks.mean()), 4),
                "weights": score(main["model"], imgs, masks, cut=main["cut"], also=ray,
-                                confirm=second, scales=scales, ghosts=ghosts)}
+                                confirm=second, scales=scales, ghosts=ghosts, clean=clean,
+                                fill_holes=fill_holes)}
         for h in held:
             if kind in h["without"]:
                 row["without"] = {**score(h["model"], imgs, masks, cut=h["cut"], also=ray,
-                                          scales=scales, ghosts=ghosts),
+                                          scales=scales, ghosts=ghosts, clean=clean,
+                                          fill_holes=fill_holes),
                                   "weights": h["weights"], "steps": h["steps"]}
         res["kinds"][kind] = row
     return res
@@ -444,12 +500,16 @@ def format_kinds(res: dict) -> str:
     w, c = res["weights"], res.get("confirm")
     also = f", confirmed by {Path(c['weights']).name}" if c else ""
     rows = [f"{res['count']} held-out composites per kind ({res['size']} px, night "
-            f"{res['night']:g}); flare IoU / mIoU / mAcc",
+            f"{res['night']:g}{', holes filled' if res.get('fill_holes') else ''}); flare "
+            "IoU / mIoU / mAcc / fill ceiling (flare-region PSNR of a perfect fill of the "
+            "marks)",
             f"| kind | flare pixels | trained without it (steps) | {Path(w['weights']).name} "
             f"({w['steps']} steps{also}) |", "|---|---|---|---|"]
 
     def cell(m: dict) -> str:
-        return f"{m['IoU_flare']:.3f} / {m['mIoU']:.3f} / {m['mAcc']:.3f}"
+        fill = m.get("flare_psnr_ceiling")
+        return (f"{m['IoU_flare']:.3f} / {m['mIoU']:.3f} / {m['mAcc']:.3f}"
+                + ("" if fill is None else f" / {fill:.2f} dB"))
 
     for kind, r in res["kinds"].items():
         loo = f"{cell(r['without'])} ({r['without']['steps']})" if "without" in r else "-"
@@ -458,11 +518,17 @@ def format_kinds(res: dict) -> str:
 
 
 def format_metrics(m: dict) -> str:
-    rows = ["| flare settings | mIoU | mAcc | IoU flare | flare pixels |", "|---|---|---|---|---|"]
+    """The metrics table; the fill ceiling's column where a row has one (`fmg eval`)."""
+    fills = any(isinstance(v, dict) and "flare_psnr_ceiling" in v for v in m.values())
+    rows = ["| flare settings | mIoU | mAcc | IoU flare | flare pixels |"
+            + (" fill ceiling (dB) |" if fills else ""), "|---|---|---|---|---|"
+            + ("---|" if fills else "")]
     for k, v in m.items():
         if isinstance(v, dict):
+            fill = v.get("flare_psnr_ceiling")
             rows.append(f"| {k} | {v['mIoU']:.3f} | {v['mAcc']:.3f} | {v['IoU_flare']:.3f} | "
-                        f"{v.get('flare_pixels', math.nan):.3f} |")
+                        f"{v.get('flare_pixels', math.nan):.3f} |"
+                        + ((" - |" if fill is None else f" {fill:.2f} |") if fills else ""))
     if "cut" in m:
         rows.append(f"(flare where the probability exceeds {m['cut']:g})")
     return "\n".join(rows)
