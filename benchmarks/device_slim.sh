@@ -1,7 +1,8 @@
 #!/bin/bash
 # Fit the checkout into the device tool's 64 MiB: hold tracked files a phase does not read.
-# The tracked tree is larger than the tool's limit (133 MB with the four 20-25 MB weight
-# files, fmg_candidate_F13 the fourth), so a call to the lent GPU must leave some behind.
+# The tracked tree is larger than the tool's limit (four 20-25 MB weight files: fmg,
+# fmg_candidate_L, fmg_candidate_F26, gnfr_paper), so a call to the lent GPU must leave some
+# behind.
 # Run from the repo root here:
 #   bash benchmarks/device_slim.sh size [CARRY...]   # MB that would travel, and the limit
 #   bash benchmarks/device_slim.sh out PATH... [-- CARRY...]   # move PATHs to $HELD, then size

@@ -11,8 +11,9 @@
 #       .carry/dev/et_synth          # devab (5 MB); pip download trimesh -d .carry/whl (eval-llff)
 # and call with carry naming the folders the phase reads (train: .carry/packs, .carry/fmgdata;
 # devab: .carry/dev, .carry/whl; fern: .carry/fern, .carry/whl). The checkout and the carried
-# folders must stay under 64 MiB (67.1 MB) together; the tracked tree alone is 133 MB with the
-# four 20-25 MB weight files (since fmg_candidate_F13), so hold what the phase does not read first:
+# folders must stay under 64 MiB (67.1 MB) together; the tracked tree alone is larger, with
+# four 20-25 MB weight files (fmg, fmg_candidate_L, fmg_candidate_F26, gnfr_paper), so hold
+# what the phase does not read first:
 #   bash benchmarks/device_slim.sh out gnfr/weights/fmg_candidate_L.safetensors ... -- CARRY
 # (it prints what would travel; `device_slim.sh back` after the calls). Older notes follow:
 # carry .carry/packs in one call and .carry/fmgdata in the next

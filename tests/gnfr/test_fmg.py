@@ -654,10 +654,14 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     jpg = tmp_path / "overlay.jpg"
     photo = data / "scenes/kermit/kermit000.jpg"
     assert main(["fmg", "overlay", str(photo), "--weights", str(allw),
-                 "--weights", str(loo), "--out", str(jpg), "--work-size", "64"]) == 0
+                 "--weights", str(loo), "--out", str(jpg), "--work-size", "64",
+                 "--json", str(tmp_path / "o.json")]) == 0
     import cv2
 
     assert cv2.imread(str(jpg)).shape[1] == 3 * 480
+    shares = json.loads((tmp_path / "o.json").read_text())["marked"]
+    assert sorted(shares) == sorted(f"{photo.name} {w}" for w in (allw, loo))
+    assert all(0 <= v <= 1 for v in shares.values())
     ghosts_seen.clear()
     assert main(["fmg", "overlay", str(photo), "--weights", str(allw), "--out", str(jpg),
                  "--work-size", "64", "--ghost-lines"]) == 0

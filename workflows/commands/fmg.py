@@ -119,4 +119,11 @@ def register(app: typer.Typer) -> None:
                                      pads_keep=config.pads_keep)
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
-        typer.echo(f"wrote {config.out}")
+        if config.json is not None:
+            from pipeline.provenance import write_result
+
+            write_result(config.json, {"overview": str(config.out), "marked": marked,
+                                       "weights": [str(w) for w in weights],
+                                       "work_size": config.work_size, "rays": config.rays,
+                                       "pads": list(config.pads)})
+        typer.echo(f"wrote {config.out}" + (f" and {config.json}" if config.json else ""))

@@ -145,6 +145,8 @@ class FMGOverlayConfig:
     """FMG weights, one column each (default: the shipped ones)."""
     out: Path
     """The overview JPEG to write."""
+    json: Path | None = None
+    """Also write each photo's marked share per model here (JSON, with the command and code)."""
     work_size: int = option(512, ge=32)
     """The network's working size (long side)."""
     rays: bool = False
