@@ -2442,3 +2442,48 @@ def test_f13_rule_part_two_shares_are_its_files():
         if r["setting"] == "ghost_views_pads"} for w in ("F13", "M")}
     for scene, r in rows["F13"].items():
         assert r["marked"] <= rows["M"][scene]["marked"] + 0.0005 and r["over_rule"] == 0
+
+
+FILL_S79 = (("M, 30 % night", "M_rays"), ("M + holes filled", "Mfh_rays"), ("F13", "F13_rays"),
+            ("F13 + holes filled", "F13fh_rays"), ("F26", "F26_rays"),
+            ("F26 + holes filled", "F26fh_rays"), ("M, daylight", "M_day_rays"),
+            ("M + holes filled", "Mfh_day_rays"), ("F26", "F26_day_rays"),
+            ("F26 + holes filled", "F26fh_day_rays"),
+            ("M, daylight, flare drawn for a 512 px frame", "M_day_canvas2_rays"),
+            ("F26", "F26_day_canvas2_rays"), ("F26 + holes filled", "F26fh_day_canvas2_rays"))
+
+
+def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
+    """The seventy-ninth session: F26 with --fill-holes judged again from the committed arm
+    files fails (c) as saved and as the history says; the fill-ceiling table is the
+    `fmg eval` files row by row; the composites drawn with their clean images are the earlier
+    files' to the digit; the real photos' shares are the overlay's file."""
+    hist = (REPO / "docs" / "history" / "fmg.md").read_text()
+    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s78_F26fh", "s77_M",
+                                                 ["sceaux", "et", "lund"], [2, 3, 4, 5],
+                                                 rule="speed")
+    saved = json.loads((RESULTS / "fmg_F26fh_vs_M_judge_s79.json").read_text())
+    assert again["decision"] == saved["decision"] == "fails (c)"
+    assert again["mean"] == pytest.approx(saved["mean"])
+    m = saved["mean"]
+    assert (f"| mean | {m['psnr_flare']:+.3f} | {m['psnr']:+.3f} | {m['ssim']:+.3f} | "
+            f"{m['held']:+.3f} |") in hist
+    for label, tag in FILL_S79:
+        kinds = json.loads((RESULTS / f"fmg_dev_per_kind_{tag}_fill_s79.json").read_text())
+        w = [r["weights"] for r in kinds["kinds"].values()]
+        cells = [f"{x['IoU_flare']:.3f} / {x['flare_psnr_ceiling']:.2f}" for x in w]
+        mean = (f"{np.mean([x['IoU_flare'] for x in w]):.3f} / "
+                f"{np.mean([x['flare_psnr_ceiling'] for x in w]):.2f}")
+        row = f"| {label} | " + " | ".join(cells) + f" | {mean} |"
+        assert row in hist, row
+        assert kinds["fill_holes"] is tag.split("_")[0].endswith("fh")
+    for new, old in (("M_rays", "M_rays_s77"), ("F26_rays", "F26_rays"),
+                     ("M_day_rays", "M_day_rays_s77"), ("F26_day_rays", "F26_day_rays")):
+        a = json.loads((RESULTS / f"fmg_dev_per_kind_{new}_fill_s79.json").read_text())["kinds"]
+        b = json.loads((RESULTS / f"fmg_dev_per_kind_{old}.json").read_text())["kinds"]
+        assert all(a[k]["weights"]["IoU_flare"] == b[k]["weights"]["IoU_flare"] for k in a)
+    shares = json.loads((RESULTS / "fmg_real_flare_M_F26_s79.json").read_text())["marked"]
+    flat = " ".join(hist.split())
+    f26 = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" in k]
+    m_ = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" not in k]
+    assert f"F26 marks {f26[0]} and {f26[1]} of the two photos where M marks {m_[0]} and {m_[1]}" in flat
