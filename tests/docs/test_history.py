@@ -2486,4 +2486,5 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     flat = " ".join(hist.split())
     f26 = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" in k]
     m_ = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" not in k]
-    assert f"F26 marks {f26[0]} and {f26[1]} of the two photos where M marks {m_[0]} and {m_[1]}" in flat
+    assert (f"F26 marks {f26[0]} and {f26[1]} of the two photos where M marks {m_[0]} and "
+            f"{m_[1]}") in flat
