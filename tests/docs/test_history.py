@@ -2080,12 +2080,8 @@ def test_mask_pads_outcome_is_its_files():
     assert again["mean"] == pytest.approx(saved["mean"])
     for name in (base, cand):
         assert f"{saved['mean'][name]:.4f}" in history and f"{saved['mean'][name]:.4f}" in options
-    photos = load_benchmark("fmg_photo_ab").judge(RESULTS, "s72_pad", "s69_sh",
-                                                  ["sceaux", "et", "lund"], [2, 3], rule="speed")
-    saved = json.loads((RESULTS / "mask_pads_photo_judge_s72.json").read_text())
-    assert photos["decision"] == saved["decision"] == "fails (a)"
-    assert photos["mean"] == pytest.approx(saved["mean"])
-    m = saved["mean"]
+    m = photo_verdict("s72_pad", "s69_sh", [2, 3], "mask_pads_photo_judge_s72.json",
+                      "fails (a)")
     assert (f"{m['psnr_flare']:+.3f} / {m['psnr']:+.3f} / {m['ssim']:+.3f} / "
             f"{m['held']:+.3f} dB") in history
     assert f"lost the flare region by {-m['psnr_flare']:.3f} dB" in history
@@ -2444,6 +2440,19 @@ def test_f13_rule_part_two_shares_are_its_files():
         assert r["marked"] <= rows["M"][scene]["marked"] + 0.0005 and r["over_rule"] == 0
 
 
+def photo_verdict(candidate: str, baseline: str, seeds: list[int], saved: str,
+                  decision: str) -> dict:
+    """`fmg_photo_ab.py judge --rule speed` of two arms' committed files on the three
+    development scenes, checked against its saved file (``decision`` and the means); the
+    saved mean differences."""
+    again = load_benchmark("fmg_photo_ab").judge(RESULTS, candidate, baseline,
+                                                 ["sceaux", "et", "lund"], seeds, rule="speed")
+    kept = json.loads((RESULTS / saved).read_text())
+    assert again["decision"] == kept["decision"] == decision
+    assert again["mean"] == pytest.approx(kept["mean"])
+    return kept["mean"]
+
+
 FILL_S79 = (("M, 30 % night", "M_rays"), ("M + holes filled", "Mfh_rays"), ("F13", "F13_rays"),
             ("F13 + holes filled", "F13fh_rays"), ("F26", "F26_rays"),
             ("F26 + holes filled", "F26fh_rays"), ("M, daylight", "M_day_rays"),
@@ -2459,13 +2468,8 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     `fmg eval` files row by row; the composites drawn with their clean images are the earlier
     files' to the digit; the real photos' shares are the overlay's file."""
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
-    again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s78_F26fh", "s77_M",
-                                                 ["sceaux", "et", "lund"], [2, 3, 4, 5],
-                                                 rule="speed")
-    saved = json.loads((RESULTS / "fmg_F26fh_vs_M_judge_s79.json").read_text())
-    assert again["decision"] == saved["decision"] == "fails (c)"
-    assert again["mean"] == pytest.approx(saved["mean"])
-    m = saved["mean"]
+    m = photo_verdict("s78_F26fh", "s77_M", [2, 3, 4, 5], "fmg_F26fh_vs_M_judge_s79.json",
+                      "fails (c)")
     assert (f"| mean | {m['psnr_flare']:+.3f} | {m['psnr']:+.3f} | {m['ssim']:+.3f} | "
             f"{m['held']:+.3f} |") in hist
     for label, tag in FILL_S79:
