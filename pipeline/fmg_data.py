@@ -585,8 +585,9 @@ def composite_flare(img: np.ndarray, flare_cfg: fl.FlareConfig, comp: CompositeC
                     frame_hw: tuple[int, int] | None = None, with_clean: bool = False
                     ) -> tuple:
     """Flare an sRGB float image [S, S, 3]: (flared sRGB [S, S, 3] float32, mask [S, S] bool),
-    and with ``with_clean`` the photo as the same exposure shows it without the flare and
-    noise (sRGB float32: what a perfect de-flaring would give back; the same draws).
+    and with ``with_clean`` the photo as the same exposure shows it without the flare, the
+    light's core and the noise (sRGB float32, from the same draws: what a perfect de-flaring
+    would give back where the mask is; the core is never in the mask).
 
     A fresh lens at a random light position (:func:`draw_flare`), its layers moved by one
     random affine; or, given the ``window`` ``img`` was cut from a ``frame_hw`` photo
