@@ -662,6 +662,13 @@ def test_leave_one_kind_out_trains_and_scores(tmp_path, monkeypatch):
     shares = json.loads((tmp_path / "o.json").read_text())["marked"]
     assert sorted(shares) == sorted(f"{photo.name} {w}" for w in (allw, loo))
     assert all(0 <= v <= 1 for v in shares.values())
+    # --fill-holes marks what each mask encloses too: never less, and recorded
+    assert main(["fmg", "overlay", str(photo), "--weights", str(allw),
+                 "--weights", str(loo), "--out", str(jpg), "--work-size", "64",
+                 "--fill-holes", "--json", str(tmp_path / "oh.json")]) == 0
+    filled = json.loads((tmp_path / "oh.json").read_text())
+    assert filled["fill_holes"] is True
+    assert all(filled["marked"][k] >= v for k, v in shares.items())
     ghosts_seen.clear()
     assert main(["fmg", "overlay", str(photo), "--weights", str(allw), "--out", str(jpg),
                  "--work-size", "64", "--ghost-lines"]) == 0
@@ -802,6 +809,8 @@ def test_overlay_labels_name_every_option_that_added_marks():
             == "weights/fmg + rays + light cores + ghost lines + pads: 7.0 %")
     assert (overlay_label(w, 0.07, True, RayConfig(lines=True), False, False)
             == "weights/fmg + rays + streak lines: 7.0 %")
+    assert (overlay_label(w, 0.07, False, None, False, True, holes=True)
+            == "weights/fmg + pads + holes filled: 7.0 %")
     # cores or lines without rays add nothing, so the label does not claim them
     assert (overlay_label(w, 0.07, False, RayConfig(cores=True), False, False)
             == "weights/fmg: 7.0 %")

@@ -116,7 +116,8 @@ def register(app: typer.Typer) -> None:
         marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
                                      rays=config.rays, ray_cfg=ray_config(config),
                                      ghosts=ghost_config(config), pads=config.pads,
-                                     pads_keep=config.pads_keep)
+                                     pads_keep=config.pads_keep,
+                                     fill_holes=config.fill_holes)
         for key, fraction in marked.items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
         if config.json is not None:
@@ -125,5 +126,6 @@ def register(app: typer.Typer) -> None:
             write_result(config.json, {"overview": str(config.out), "marked": marked,
                                        "weights": [str(w) for w in weights],
                                        "work_size": config.work_size, "rays": config.rays,
-                                       "pads": list(config.pads)})
+                                       "pads": list(config.pads),
+                                       "fill_holes": config.fill_holes})
         typer.echo(f"wrote {config.out}" + (f" and {config.json}" if config.json else ""))

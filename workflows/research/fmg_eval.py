@@ -147,6 +147,8 @@ class FMGOverlayConfig:
     """The overview JPEG to write."""
     json: Path | None = None
     """Also write each photo's marked share per model here (JSON, with the command and code)."""
+    fill_holes: bool = False
+    """Mark the unmarked pixels each mask encloses too, as `mask --fill-holes` does (last)."""
     work_size: int = option(512, ge=32)
     """The network's working size (long side)."""
     rays: bool = False
@@ -727,27 +729,30 @@ def format_clean(res: dict) -> str:
 
 
 def overlay_label(weights: Path, marked: float, rays: bool, ray_cfg, ghost_lines: bool,
-                  pads: bool) -> str:
+                  pads: bool, holes: bool = False) -> str:
     """An overlay tile's label: the weights, each option that added marks, the share marked."""
     lines = rays and ray_cfg is not None and ray_cfg.lines
     cores = rays and ray_cfg is not None and ray_cfg.cores
     return (f"{weights_label(weights)}{' + rays' if rays else ''}"
             f"{' + streak lines' if lines else ''}{' + light cores' if cores else ''}"
-            f"{' + ghost lines' if ghost_lines else ''}{' + pads' if pads else ''}: "
+            f"{' + ghost lines' if ghost_lines else ''}{' + pads' if pads else ''}"
+            f"{' + holes filled' if holes else ''}: "
             f"{100 * marked:.1f} %")
 
 
 def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out: Path,
                         work_size: int = 512, width: int = 480, rays: bool = False,
                         ray_cfg=None, ghosts=None, pads: tuple[str, ...] = (),
-                        pads_keep: str = "pixels") -> dict:
+                        pads_keep: str = "pixels", fill_holes: bool = False) -> dict:
     """One JPEG: a row per photo, the photo then each model's mask (at its cut; with the flare
     rays of rule ``ray_cfg`` if ``rays``, the ghost-line regions of rule ``ghosts`` if given,
-    with ``pads`` what the padded runs agree on, as `mask --pads --pads-keep` keeps it)
+    with ``pads`` what the padded runs agree on, as `mask --pads --pads-keep` keeps it; with
+    ``fill_holes`` the unmarked pixels each mask encloses marked last, as `mask --fill-holes`)
     outlined and tinted red; returns the fraction of each photo each model marks."""
     import cv2
 
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
+    from pipeline.ws_files import enclosed_holes
 
     models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
     rows, fracs = [], {}
@@ -759,6 +764,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
         for (cut, model), w in zip(models, weights, strict=True):
             marked = flare_marks(model, img, cut, work_size, ghosts=ghosts, pads=tuple(pads),
                                  pads_keep=pads_keep) | ray
+            if fill_holes:
+                marked |= enclosed_holes(marked)
             fracs[f"{photo.name} {w}"] = float(marked.mean())
             small = cv2.resize(marked.astype(np.uint8), (tiles[0].shape[1], tiles[0].shape[0]),
                                interpolation=cv2.INTER_NEAREST)
@@ -768,7 +775,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             contours, _ = cv2.findContours(small, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             label = overlay_label(Path(w), float(marked.mean()), rays, ray_cfg,
-                                  ghosts is not None, bool(pads))
+                                  ghosts is not None, bool(pads), fill_holes)
             size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
                 label, cv2.FONT_HERSHEY_SIMPLEX, 0.7, 2)[0][0])  # the label fits the tile
             cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, size, (255, 255, 255), 2)
