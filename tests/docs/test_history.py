@@ -2492,3 +2492,7 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     m_ = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" not in k]
     assert (f"F26 marks {f26[0]} and {f26[1]} of the two photos where M marks {m_[0]} and "
             f"{m_[1]}") in flat
+    holes = json.loads((RESULTS / "fmg_real_flare_F26fh_s79.json").read_text())
+    assert holes["fill_holes"] is True
+    filled = [f"{100 * v:.2f} %" for v in holes["marked"].values()]
+    assert f"it marks {filled[0]} and {filled[1]}:" in flat
