@@ -381,6 +381,7 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
     from pipeline.errors import UserError
 
     base_seeds = seeds if baseline_seeds is None else baseline_seeds
+    machines: dict[str, list[str]] = {}  # each machine the runs were made on: its runs
 
     def load(arm: str, scene: str, arm_seeds: list[int]) -> dict:
         files = [work / result_name(name, scene, s) for name, s in arm_runs(arm, arm_seeds)]
@@ -388,8 +389,10 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
         if missing:
             raise UserError(f"{missing[0]}: no such result; run this arm first "
                             "(python benchmarks/fmg_photo_ab.py run ...)")
-        return arm_means([json.loads(f.read_text()) for f in files],
-                         rule in ("depth", "frames") or rule.startswith("reach"),
+        results = [json.loads(f.read_text()) for f in files]
+        for f, r in zip(files, results, strict=True):
+            machines.setdefault(machine_key(r), []).append(f.name)
+        return arm_means(results, rule in ("depth", "frames") or rule.startswith("reach"),
                          rule.startswith(("keys", "reach")))
 
     cand = {s: load(candidate, s, seeds) for s in scenes}
@@ -404,7 +407,18 @@ def judge(work: Path, candidate: str, baseline: str, scenes: list[str],
             "baseline_seeds": [s for _, s in runs["baseline"]],
             "runs": {k: [list(r) for r in v] for k, v in runs.items()},
             "held_baseline": held_baseline or {},
+            "machines": {k: sorted(v) for k, v in sorted(machines.items())},
             "means": {"candidate": cand, "baseline": base}, **photo_rule(cand, base, rule)}
+
+
+def machine_key(result: dict) -> str:
+    """The machine a run's result file was made on, as far as it moves the numbers: the
+    CPU, the platform (host kernel), torch and its threads. One machine repeats a run to
+    the last digit; another moves the sample's de-flared photos by 0.16 dB
+    (docs/performance.md, "The sample on another machine"), as much as a rule allows, so a
+    judgement over runs of two machines says so (``judge``'s ``machines``)."""
+    m = result.get("machine") or {}
+    return " / ".join(str(m.get(k, "?")) for k in ("cpu", "platform", "torch", "torch_threads"))
 
 
 SPREAD_KEYS = ("psnr", "psnr_flare", "ssim", "held")
@@ -583,6 +597,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{s}: " + " / ".join(f"{k} {v:+.3f}" for k, v in d.items()))
     print("mean: " + " / ".join(f"{k} {v:+.3f}" for k, v in res["mean"].items()))
     print(f"parts {res['parts']}: {res['decision']}")
+    if len(res["machines"]) > 1:
+        print("warning: these runs were made on " + str(len(res["machines"])) + " machines ("
+              + "; ".join(f"{k}: {len(v)} runs" for k, v in res["machines"].items())
+              + "); across machines a run moves by about as much as a rule allows: run both "
+              "arms on one machine", file=sys.stderr)
     if a.out:
         from pipeline.provenance import write_result
         write_result(a.out, res)

@@ -775,6 +775,39 @@ def test_fmg_photo_ab_joins_one_settings_runs_under_two_names(tmp_path, capsys):
     assert "arm 's26_Mp:0,x' takes seeds" in err and len(err.splitlines()) == 1
 
 
+def test_fmg_photo_ab_judge_names_the_machines_and_warns_when_they_differ(tmp_path, capsys):
+    """A judgement lists the machines its runs were made on (every committed one so far: a
+    single machine); runs of two machines are judged as before, listed under each, and the
+    command line warns on stderr."""
+    m = _photo_ab()
+    results = Path(__file__).parents[2] / "docs" / "results"
+    scenes = ["sceaux", "et", "lund"]
+    one = m.judge(results, "s78_F26fh", "s77_M", scenes, [2, 3])
+    assert len(one["machines"]) == 1
+    (runs,) = one["machines"].values()
+    assert len(runs) == 12 and "fmg_s77_M_fair_et_s2.json" in runs
+    for scene in scenes:
+        for arm in ("s78_F26fh", "s77_M"):
+            for seed in (2, 3):
+                r = json.loads((results / m.result_name(arm, scene, seed)).read_text())
+                if arm == "s78_F26fh" and seed == 3:
+                    r["machine"] = {**r["machine"], "platform": "another-host"}
+                (tmp_path / m.result_name(arm, scene, seed)).write_text(json.dumps(r))
+    two = m.judge(tmp_path, "s78_F26fh", "s77_M", scenes, [2, 3])
+    assert two["per_scene"] == one["per_scene"] and two["decision"] == one["decision"]
+    other = [k for k in two["machines"] if "another-host" in k]
+    assert len(two["machines"]) == 2 and len(other) == 1
+    assert sorted(two["machines"][other[0]]) == sorted(
+        m.result_name("s78_F26fh", s, 3) for s in scenes)
+    assert m.main(["judge", str(tmp_path), "--candidate", "s78_F26fh", "--baseline", "s77_M",
+                   "--seeds", "2,3"]) == 0
+    err = capsys.readouterr().err
+    assert "2 machines" in err and "3 runs" in err and "run both arms on one machine" in err
+    assert m.main(["judge", str(results), "--candidate", "s78_F26fh", "--baseline", "s77_M",
+                   "--seeds", "2,3"]) == 0
+    assert "machines" not in capsys.readouterr().err
+
+
 def test_fmg_photo_ab_spread_is_the_seed_to_seed_deviation(tmp_path, capsys):
     """`spread` on a committed arm of three seeds: each scene's standard deviation of each
     measure over the runs (n - 1), and the standard error of two such arms' mean
