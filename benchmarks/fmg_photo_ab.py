@@ -421,6 +421,38 @@ def machine_key(result: dict) -> str:
     return " / ".join(str(m.get(k, "?")) for k in ("cpu", "platform", "torch", "torch_threads"))
 
 
+def saved_machines(results: Path) -> dict:
+    """Every saved judgement in ``results`` (a JSON file with a candidate, a baseline, seeds
+    and a decision) judged again from the arm files beside it: {file: its runs' machines
+    (``judge``'s ``machines``)}, and the files that cannot be judged again (an arm's runs
+    missing, or no scenes named) with the reason."""
+    from pipeline.errors import UserError
+
+    judged, skipped = {}, {}
+    for f in sorted(Path(results).glob("*.json")):
+        try:
+            d = json.loads(f.read_text())
+        except (OSError, ValueError):
+            continue
+        if not (isinstance(d, dict) and {"candidate", "baseline", "seeds", "decision"} <= set(d)):
+            continue
+        scenes = list((d.get("means") or {}).get("candidate") or d.get("per_scene") or [])
+        if not scenes:
+            skipped[f.name] = "no scenes named"
+            continue
+        base = list(dict.fromkeys(d["baseline_seeds"])) if d.get("baseline_seeds") else None
+        try:
+            res = judge(results, d["candidate"], d["baseline"], scenes,
+                        list(dict.fromkeys(d["seeds"])), d.get("held_baseline") or None,
+                        base, d.get("rule", "flare"))
+        except (UserError, KeyError) as e:
+            skipped[f.name] = str(e)
+            continue
+        judged[f.name] = res["machines"]
+    return {"judged": judged, "skipped": skipped,
+            "mixed": sorted(k for k, v in judged.items() if len(v) > 1)}
+
+
 SPREAD_KEYS = ("psnr", "psnr_flare", "ssim", "held")
 """What ``spread`` measures of each run: the de-flared photos' whole, flare region and SSIM,
 the held-out views."""
@@ -541,8 +573,21 @@ def main(argv: list[str] | None = None) -> int:
     sp.add_argument("--scenes", default="sceaux,et,lund")
     sp.add_argument("--seeds", default="0,1")
     sp.add_argument("--out", type=Path, default=None)
+    ma = sub.add_parser("machines", help="every saved judgement in a folder judged again: "
+                                          "the machines each one's runs came from")
+    ma.add_argument("results", type=Path)
+    ma.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
+
+    if a.cmd == "machines":
+        res = saved_machines(a.results)
+        print(f"{len(res['judged'])} judgements judged again, {len(res['skipped'])} could not "
+              f"be; runs of more than one machine: {', '.join(res['mixed']) or 'none'}")
+        if a.out:
+            from pipeline.provenance import write_result
+            write_result(a.out, res)
+        return 1 if res["mixed"] else 0
 
     try:
         if a.cmd in ("run", "rerender"):

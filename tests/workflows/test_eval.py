@@ -806,6 +806,17 @@ def test_fmg_photo_ab_judge_names_the_machines_and_warns_when_they_differ(tmp_pa
     assert m.main(["judge", str(results), "--candidate", "s78_F26fh", "--baseline", "s77_M",
                    "--seeds", "2,3"]) == 0
     assert "machines" not in capsys.readouterr().err
+    # `machines` judges every saved judgement of a folder again: the mixed one is named
+    saved = tmp_path / "saved"
+    saved.mkdir()
+    for f in tmp_path.glob("fmg_*_fair_*.json"):
+        (saved / f.name).write_text(f.read_text())
+    (saved / "two_judge.json").write_text(json.dumps({**two, "machines": {}}))
+    (saved / "gone_judge.json").write_text(json.dumps({**two, "candidate": "gone"}))
+    res = m.saved_machines(saved)
+    assert res["mixed"] == ["two_judge.json"] and list(res["skipped"]) == ["gone_judge.json"]
+    assert m.main(["machines", str(saved)]) == 1
+    assert "more than one machine: two_judge.json" in capsys.readouterr().out
 
 
 def test_fmg_photo_ab_spread_is_the_seed_to_seed_deviation(tmp_path, capsys):
