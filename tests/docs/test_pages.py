@@ -2314,3 +2314,17 @@ def test_eval_page_odds_of_a_change_with_no_effect_are_the_spread_files():
     assert "about a third of the time with two seeds an arm" in page
     assert round(1 / min(passes)) == 8 and round(1 / max(passes)) == 4
     assert "about one time in eight to one in four" in page
+
+
+def test_every_saved_photo_judgement_came_from_one_machine():
+    """docs/eval.md's count of the committed judgements judged again is the file's, none of
+    them mixes machines, and judging them again today gives the same machines."""
+    saved = json.loads((RESULTS / "photo_judgements_machines_s79.json").read_text())
+    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    assert saved["mixed"] == []
+    assert f"all {len(saved['judged'])} committed judgements" in text
+    assert f"({len(saved['skipped'])} more name an arm" in text
+    again = load_benchmark("fmg_photo_ab").saved_machines(RESULTS)
+    assert again["mixed"] == [] and set(saved["judged"]) <= set(again["judged"])
+    for name, machines in saved["judged"].items():
+        assert again["judged"][name] == machines, name
