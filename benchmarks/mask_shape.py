@@ -50,14 +50,15 @@ def grown(mask: np.ndarray, r: int) -> np.ndarray:
 def shape_scores(pairs, grows: list[int]) -> dict:
     """{grow: scores} pooled over ``pairs`` of (mask, true mask, flared, clean) arrays
     (bool [H, W], bool [H, W], uint8 [H, W, 3], uint8 [H, W, 3])."""
+    from workflows.research.fmg_eval import fill_ceiling, squared_error
+
     # inter, union, true, marked, light outside, squared error left in the true flare (sum
     # over the channels), the part of it on saturated pixels
     acc = {r: np.zeros(7) for r in grows}
     light = 0.0
     for m, t, flared, clean in pairs:
-        diff = flared.astype(np.float64) - clean.astype(np.float64)
-        added = np.clip(diff, 0, None).sum(-1)
-        sq = ((diff / 255.0) ** 2).sum(-1)
+        added = np.clip(flared.astype(np.float64) - clean.astype(np.float64), 0, None).sum(-1)
+        sq = squared_error(flared, clean)
         sat = (flared >= SATURATED).any(-1)
         light += added.sum()
         for r in grows:
@@ -67,15 +68,12 @@ def shape_scores(pairs, grows: list[int]) -> dict:
                        sq[left].sum(), sq[left & sat].sum()]
     out = {}
     for r, (inter, union, true, marked, left, err, err_sat) in acc.items():
-        mse = err / (3 * true) if true else None
         out[str(r)] = {"iou": inter / union if union else None,
                        "recall": inter / true if true else None,
                        "precision": inter / marked if marked else None,
                        "marked_over_true": marked / true if true else None,
                        "light_left": left / light if light else None,
-                       "flare_psnr_ceiling": (None if mse is None
-                                              else float("inf") if mse == 0
-                                              else float(-10 * np.log10(mse))),
+                       "flare_psnr_ceiling": fill_ceiling(err, 3 * true),
                        "left_saturated": err_sat / err if err else 0.0}
     return out
 

@@ -266,6 +266,7 @@ def test_composites_with_clean_are_the_same_draws_and_score_a_perfect_fill():
     own; a hole the marks enclose is marked by ``holes_filled``."""
     from pipeline import flare as fl
     from pipeline.fmg_data import CompositeConfig, CompositeSource, fixed_set
+    from pipeline.metrics import PSNR_CAP
     from workflows.research.fmg_eval import fill_ceiling, fill_error, holes_filled
 
     rng = np.random.default_rng(0)
@@ -278,7 +279,7 @@ def test_composites_with_clean_are_the_same_draws_and_score_a_perfect_fill():
     diff = (x - clean).abs().amax(1, keepdim=True)
     assert true.any() and diff[true].mean() > 5 * diff[~true].mean()
     everything = fill_error(x, clean, torch.ones_like(true), true)
-    assert everything[0] == 0 and fill_ceiling(*everything) == 99.0
+    assert everything[0] == 0 and fill_ceiling(*everything) == PSNR_CAP
     nothing = fill_error(x, clean, torch.zeros_like(true), true)
     q = [np.round(np.clip(t.numpy().astype(np.float64), 0, 1) * 255) / 255 for t in (x, clean)]
     mse = ((q[0] - q[1]) ** 2).sum(1)[true.numpy()[:, 0]].sum() / (3 * true.sum().item())

@@ -294,25 +294,29 @@ def holes_filled(marked):
 
 
 def fill_error(images, clean, marked, true) -> np.ndarray:
-    """(squared error, pixels) in the true flare ``true`` [N, 1, S, S] of ``images`` [N, 3,
-    S, S] (sRGB 0..1) with every ``marked`` pixel made ``clean``: the images quantised to 8
-    bits as photos are, the error summed over the channels."""
-    def q(x):
-        return np.round(np.clip(x.numpy().astype(np.float64), 0, 1) * 255) / 255
+    """(squared error, channel values) in the true flare ``true`` [N, 1, S, S] of ``images``
+    [N, 3, S, S] (sRGB 0..1) with every ``marked`` pixel made ``clean``: both quantised to 8
+    bits as photos are (:func:`squared_error`)."""
+    def u8(x):
+        return np.round(np.clip(x.permute(0, 2, 3, 1).numpy().astype(np.float64), 0, 1) * 255)
 
     left = (true & ~marked).numpy()[:, 0]
-    sq = ((q(images) - q(clean)) ** 2).sum(1)
-    return np.array([sq[left].sum(), 3 * true.sum().item()])
+    return np.array([squared_error(u8(images), u8(clean))[left].sum(), 3 * true.sum().item()])
+
+
+def squared_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Each pixel's squared error [..., H, W] of two 8-bit images [..., H, W, 3] (uint8 or
+    0-255 values) on the 0-1 scale, summed over the channels: what a photo's PSNR counts."""
+    return (((a.astype(np.float64) - b.astype(np.float64)) / 255.0) ** 2).sum(-1)
 
 
 def fill_ceiling(err: float, count: float) -> float | None:
-    """The flare-region PSNR (dB, 0..1 scale) of a perfect fill of the marked pixels: what
-    the marks leave, as ``benchmarks/mask_shape.py`` scores a synth scene's photos (None
-    without true flare; capped at 99 where nothing is left)."""
-    if count <= 0:
-        return None
-    mse = err / count
-    return 99.0 if mse <= 1e-10 else float(min(99.0, -10 * np.log10(mse)))
+    """The flare-region PSNR (dB) of a perfect fill of the marked pixels from the squared
+    error the marks leave and the channel values it is over (``pipeline.metrics.mse_to_psnr``,
+    capped alike; None without true flare): `fmg eval`'s and ``benchmarks/mask_shape.py``'s."""
+    from pipeline.metrics import mse_to_psnr
+
+    return None if count <= 0 else mse_to_psnr(err / count)
 
 
 def ray_batch(x, ray_cfg=None):
