@@ -73,7 +73,9 @@ def shape_scores(pairs, grows: list[int]) -> dict:
                        "precision": inter / marked if marked else None,
                        "marked_over_true": marked / true if true else None,
                        "light_left": left / light if light else None,
-                       "flare_psnr_ceiling": fill_ceiling(err, 3 * true),
+                       # nothing left: infinite here, as this file has always said it
+                       "flare_psnr_ceiling": (float("inf") if true and not err
+                                              else fill_ceiling(err, 3 * true)),
                        "left_saturated": err_sat / err if err else 0.0}
     return out
 
