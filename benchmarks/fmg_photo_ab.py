@@ -581,6 +581,10 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
 
     if a.cmd == "machines":
+        if not a.results.is_dir():
+            print(f"error: {a.results}: no such folder; give the folder of saved judgements "
+                  "and arm results (e.g. docs/results)", file=sys.stderr)
+            return 2
         res = saved_machines(a.results)
         print(f"{len(res['judged'])} judgements judged again, {len(res['skipped'])} could not "
               f"be; runs of more than one machine: {', '.join(res['mixed']) or 'none'}")

@@ -817,6 +817,9 @@ def test_fmg_photo_ab_judge_names_the_machines_and_warns_when_they_differ(tmp_pa
     assert res["mixed"] == ["two_judge.json"] and list(res["skipped"]) == ["gone_judge.json"]
     assert m.main(["machines", str(saved)]) == 1
     assert "more than one machine: two_judge.json" in capsys.readouterr().out
+    assert m.main(["machines", str(tmp_path / "nope")]) == 2
+    err = capsys.readouterr().err
+    assert "nope: no such folder" in err and len(err.splitlines()) == 1
 
 
 def test_fmg_photo_ab_spread_is_the_seed_to_seed_deviation(tmp_path, capsys):
