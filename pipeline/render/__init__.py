@@ -199,7 +199,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         params.pop("tour")
     if key != "inputs":  # the ring check is the de-flared photos' alone
         params.pop("band_rejected")
-    if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade
+    if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade, and
+        params.pop("nearest_count")  # they never take themselves as a source
         params.pop("source_fade")
         params.pop("fade_cut")
         params.pop("fade_limit")

@@ -204,6 +204,12 @@ class RenderConfig:
     pixel only where a second photo agrees), so a frame at a flared photo's position is drawn
     from that photo. Default: ``NOVEL_NEAREST_SOURCE``. The de-flared photos never take
     themselves; for them the option does nothing."""
+    nearest_count: int = option(1, ge=1, le=8)
+    """With ``nearest_source``: how many of the input views nearest a novel camera are
+    always among its sources (each in place of the farthest chosen). 2 keeps both photos a
+    frame between two photos of the tour lies between, where a photo taken from the same
+    spot, turned the way the frame turns, is as near as the nearest but more flared
+    (docs/history/fill.md, "The two nearest photos as sources")."""
     source_scale: float | None = option(None, gt=0)
     """Resolution of the encoded source views relative to WS/images (default: the
     checkpoint's training value, else 1)."""
