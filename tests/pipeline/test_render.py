@@ -263,6 +263,33 @@ def test_nearest_source_keeps_the_nearest_view_however_flared(rws, monkeypatch):
             (on if flag else off)
 
 
+def test_nearest_count_keeps_the_nearest_views_however_flared(rws):
+    """``nearest_count`` 2: the two views nearest a novel camera, both 40 % flared, are its
+    sources in place of the two farthest chosen (nearest first, as many sources); 1 keeps
+    the nearest alone, as ``nearest_source`` always did; without ``nearest_source`` the
+    count does nothing."""
+    from pipeline.render import RenderConfig, novel_sources
+
+    cams, views, c, nearest = _nearest_view_flared(rws)
+    views = {s: {**v, "flare_fraction": 0.4 if s in nearest[:2] else 0.0}
+             for s, v in views.items()}
+    clean = [s for s in nearest if s not in nearest[:2]]
+
+    def src(**kw):
+        return novel_sources(c, cams, views, RenderConfig(n_sources=3, pool=5, **kw))
+
+    assert src(nearest_source=False, nearest_count=2) == clean[:3]
+    assert src(nearest_source=True, nearest_count=1) == [nearest[0], *clean[:2]]
+    assert src(nearest_source=True, nearest_count=2) == [*nearest[:2], clean[0]]
+    # more kept than there are sources: the nearest of them
+    assert novel_sources(c, cams, views, RenderConfig(n_sources=1, pool=5, nearest_source=True,
+                                                      nearest_count=2)) == [nearest[0]]
+    # kept views already chosen stay where they are, and nothing else moves
+    calm = {s: {**v, "flare_fraction": 0.0} for s, v in views.items()}
+    assert novel_sources(c, cams, calm, RenderConfig(n_sources=3, pool=5, nearest_source=True,
+                                                     nearest_count=2)) == nearest[:3]
+
+
 def test_sources_equal_below_defaults_novel_frames_and_photos_apart(rws, monkeypatch):
     """Not given, novel frames use NOVEL_SOURCES_EQUAL_BELOW and the de-flared photos 0."""
     from pipeline.render import RenderConfig, input_sources, novel_sources
@@ -936,6 +963,10 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:interpolate")["params"]["nearest_source"] is \
         NOVEL_NEAREST_SOURCE
     assert hws.stage_record("render:inputs")["params"]["nearest_source"] is None
+    # the count is the novel frames' (recorded there); the photos never take themselves
+    assert hws.stage_record("render:interpolate")["params"]["nearest_count"] == \
+        RenderConfig().nearest_count
+    assert "nearest_count" not in hws.stage_record("render:inputs")["params"]
 
 
 def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
