@@ -194,6 +194,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["fade_limit"] = 0.0  # and its step-back on a dense path
         defaults["path_exposure"] = 0.0
         defaults["tour"] = "position"  # records before the fifty-sixth session's tour
+        defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
     if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
         params.pop("tour")

@@ -2328,3 +2328,30 @@ def test_every_saved_photo_judgement_came_from_one_machine():
     assert again["mixed"] == [] and set(saved["judged"]) <= set(again["judged"])
     for name, machines in saved["judged"].items():
         assert again["judged"][name] == machines, name
+
+
+def test_nearest_count_rule_table_and_default_are_the_judgments():
+    """docs/history/fill.md's table of the eightieth session's rule (two nearest views as
+    sources) is the judge files'; both passed and 2 is the code's default; camera_paths.md
+    and options.md quote the same held-out gain."""
+    from pipeline.render.config import NOVEL_NEAREST_COUNT, RenderConfig
+
+    judge = json.loads((RESULTS / "nearest2_judge_s80.json").read_text())
+    guard = json.loads((RESULTS / "nearest2_guard_s80.json").read_text())
+    assert judge["rule"] == "reach" and guard["rule"] == "reach-guard"
+    assert judge["decision"] == guard["decision"] == "passes"
+    assert NOVEL_NEAREST_COUNT == RenderConfig().nearest_count == 2
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+
+    def row(d):
+        return (f"{d['held']:+.3f} / {d['held_ssim']:+.3f} | "
+                f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} |")
+
+    for scene, d in judge["per_scene"].items():
+        assert f"| {scene} | {row(d)}" in fill, scene
+    assert f"| mean | {row(judge['mean'])}" in fill
+    assert f"| guard mean (sceaux, et, lund) | {row(guard['mean'])}" in fill
+    held = f"+{judge['mean']['held']:.2f} dB"
+    for page in ("camera_paths.md", "options.md"):
+        text = " ".join((REPO / "docs" / page).read_text().split())
+        assert f"held-out views {held} on the flared development scenes' mean" in text, page

@@ -969,6 +969,29 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert "nearest_count" not in hws.stage_record("render:inputs")["params"]
 
 
+def test_a_video_recorded_before_the_nearest_count_renders_again_at_two(hws):
+    """A video recorded before ``nearest_count`` (one nearest view kept) is not up to date
+    under the default of two (NOVEL_NEAREST_COUNT); asked for one, it is."""
+    from pipeline.render import RenderConfig, run
+    from pipeline.render.config import NOVEL_NEAREST_COUNT
+
+    assert NOVEL_NEAREST_COUNT == 2 == RenderConfig().nearest_count
+    one = RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25,
+                       nearest_count=1)
+    run(one, hws)
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["nearest_count"] == 1
+    hws.update_manifest("render:interpolate", {**rec, "params": {
+        k: v for k, v in rec["params"].items() if k != "nearest_count"}})
+    frames = sorted(hws.render_dir("interpolate").glob("*.png"))
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    run(one, hws)  # the old record is what --nearest-count 1 renders
+    assert [f.stat().st_mtime_ns for f in frames] == stamps
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    assert [f.stat().st_mtime_ns for f in frames] != stamps
+    assert hws.stage_record("render:interpolate")["params"]["nearest_count"] == 2
+
+
 def test_fill_defaults_recorded_as_used_and_older_photos_stay_up_to_date(hws):
     """The novel frames record the CPU fill they used (NOVEL_CPU_FILL); the de-flared photos
     record no network scale (they do not use one), and a record written before the
