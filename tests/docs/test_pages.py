@@ -2355,3 +2355,14 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
     for page in ("camera_paths.md", "options.md"):
         text = " ".join((REPO / "docs" / page).read_text().split())
         assert f"held-out views {held} on the flared development scenes' mean" in text, page
+    # the test scenes, after: the held-out views as quoted, the same both ways
+    for scene, name in (("kermit", "kermit"), ("cyprus", "cyprus_truth")):
+        n1, n2 = (json.loads((RESULTS / f"fmg_s81_{a}_fair_{name}_s0.json").read_text())
+                  for a in ("n1", "n2"))
+        assert n1["heldout"] == n2["heldout"], scene
+        h = n2["heldout"]
+        assert f"{scene} {h['psnr']:.2f}" in " ".join(fill.split()), scene
+    cy = [json.loads((RESULTS / f"fmg_s81_{a}_fair_cyprus_truth_s0.json").read_text())["keys"]
+          for a in ("n1", "n2")]
+    assert (f"cyprus moves {cy[0]['psnr']:.2f} -> {cy[1]['psnr']:.2f} dB, its flare region "
+            f"{cy[0]['psnr_flare']:.2f} -> {cy[1]['psnr_flare']:.2f}") in " ".join(fill.split())
