@@ -2366,3 +2366,17 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
           for a in ("n1", "n2")]
     assert (f"cyprus moves {cy[0]['psnr']:.2f} -> {cy[1]['psnr']:.2f} dB, its flare region "
             f"{cy[0]['psnr_flare']:.2f} -> {cy[1]['psnr_flare']:.2f}") in " ".join(fill.split())
+
+
+def test_the_two_nearest_views_cost_is_the_oneshot_files():
+    """docs/performance.md's one-shot pair of the eighty-first session: the frames' seconds
+    as the files record them, the same scores both ways, the earlier commit as named."""
+    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
+    before = json.loads((RESULTS / "sample_oneshot_cpu_s81_b47cd36.json").read_text())
+    assert before["code"]["commit"].startswith("b47cd36") and head["mean"] == before["mean"]
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    for d in (head, before):
+        assert f"the frames {d['stages']['render:interpolate']['seconds']:.1f} s" in perf \
+            or f"the 48 frames {d['stages']['render:interpolate']['seconds']:.1f} s" in perf
+    assert (f"({head['mean']['psnr_flare']:.2f} / {head['mean']['psnr']:.2f} dB; the count "
+            "is not theirs)") in perf
