@@ -160,7 +160,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if key != "inputs":  # novel frames record how they chose their sources: a render made
         # another way re-renders (for the de-flared photos neither applies)
         cfg = replace(cfg, sources_equal_below=cfg.equal_below(novel=True),
-                      nearest_source=cfg.keeps_nearest())
+                      nearest_source=cfg.keeps_nearest(), nearest_count=cfg.nearest_n())
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,

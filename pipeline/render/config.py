@@ -212,7 +212,7 @@ class RenderConfig:
     pixel only where a second photo agrees), so a frame at a flared photo's position is drawn
     from that photo. Default: ``NOVEL_NEAREST_SOURCE``. The de-flared photos never take
     themselves; for them the option does nothing."""
-    nearest_count: int = option(NOVEL_NEAREST_COUNT, ge=1, le=8)
+    nearest_count: int | None = option(None, ge=1, le=8)
     """With ``nearest_source``: how many of the input views nearest a novel camera are
     always among its sources (each in place of the farthest chosen). 2 keeps both photos a
     frame between two photos of the tour lies between, where a photo taken from the same
@@ -368,3 +368,8 @@ class RenderConfig:
         """``nearest_source`` as it applies to a novel frame: the option when given, else
         ``NOVEL_NEAREST_SOURCE``."""
         return NOVEL_NEAREST_SOURCE if self.nearest_source is None else self.nearest_source
+
+    def nearest_n(self) -> int:
+        """``nearest_count`` as it applies to a novel frame: the option when given, else
+        ``NOVEL_NEAREST_COUNT``."""
+        return NOVEL_NEAREST_COUNT if self.nearest_count is None else int(self.nearest_count)

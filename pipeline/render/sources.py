@@ -55,7 +55,7 @@ def input_sources(stem: str, views: ViewsFile | Mapping, cfg: RenderConfig,
 def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
                   cfg: RenderConfig) -> list[str]:
     """Sources of a novel camera: the input views views.json lists, ranked by distance to
-    ``center``; with ``cfg.keeps_nearest()`` the ``cfg.nearest_count`` nearest of them are
+    ``center``; with ``cfg.keeps_nearest()`` the ``cfg.nearest_n()`` nearest of them are
     always sources (each in place of the farthest chosen), however flared. Nearest first."""
     views = _views_file(views)
     d = np.linalg.norm(cams.centers() - center, axis=1)
@@ -64,7 +64,7 @@ def novel_sources(center: np.ndarray, cams: Cameras, views: ViewsFile | Mapping,
     fractions = views.fractions(ranked)
     chosen = _eval_sources(ranked, [fractions[s] for s in ranked], cfg, novel=True)
     if ranked and cfg.keeps_nearest():
-        missing = [s for s in ranked[:cfg.nearest_count] if s not in chosen]
+        missing = [s for s in ranked[:cfg.nearest_n()] if s not in chosen]
         if missing:  # chosen come nearest first, all n of them: the farthest give way
             rank = {s: i for i, s in enumerate(ranked)}
             kept = chosen[:max(0, len(chosen) - len(missing))]

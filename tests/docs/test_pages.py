@@ -2340,7 +2340,7 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
     guard = json.loads((RESULTS / "nearest2_guard_s80.json").read_text())
     assert judge["rule"] == "reach" and guard["rule"] == "reach-guard"
     assert judge["decision"] == guard["decision"] == "passes"
-    assert NOVEL_NEAREST_COUNT == RenderConfig().nearest_count == 2
+    assert NOVEL_NEAREST_COUNT == RenderConfig().nearest_n() == 2
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
 
     def row(d):

@@ -965,7 +965,7 @@ def test_depth_min_blob_defaults_by_path(hws):
     assert hws.stage_record("render:inputs")["params"]["nearest_source"] is None
     # the count is the novel frames' (recorded there); the photos never take themselves
     assert hws.stage_record("render:interpolate")["params"]["nearest_count"] == \
-        RenderConfig().nearest_count
+        RenderConfig().nearest_n()
     assert "nearest_count" not in hws.stage_record("render:inputs")["params"]
 
 
@@ -975,7 +975,7 @@ def test_a_video_recorded_before_the_nearest_count_renders_again_at_two(hws):
     from pipeline.render import RenderConfig, run
     from pipeline.render.config import NOVEL_NEAREST_COUNT
 
-    assert NOVEL_NEAREST_COUNT == 2 == RenderConfig().nearest_count
+    assert NOVEL_NEAREST_COUNT == 2 == RenderConfig().nearest_n()
     one = RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25,
                        nearest_count=1)
     run(one, hws)
