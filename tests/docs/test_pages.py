@@ -2355,6 +2355,10 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
     for page in ("camera_paths.md", "options.md"):
         text = " ".join((REPO / "docs" / page).read_text().split())
         assert f"held-out views {held} on the flared development scenes' mean" in text, page
+    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    lund = judge["per_scene"]["lund_k4"]["held"]
+    assert (f"2 against 1, held-out views {judge['mean']['held']:+.3f} dB on three development "
+            f"scenes flared like the sample (lund_k4 {lund:+.3f}, the others level)") in depth
     # the test scenes, after: the held-out views as quoted, the same both ways
     for scene, name in (("kermit", "kermit"), ("cyprus", "cyprus_truth")):
         n1, n2 = (json.loads((RESULTS / f"fmg_s81_{a}_fair_{name}_s0.json").read_text())
