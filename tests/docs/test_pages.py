@@ -2384,3 +2384,24 @@ def test_the_two_nearest_views_cost_is_the_oneshot_files():
             or f"the 48 frames {d['stages']['render:interpolate']['seconds']:.1f} s" in perf
     assert (f"({head['mean']['psnr_flare']:.2f} / {head['mean']['psnr']:.2f} dB; the count "
             "is not theirs)") in perf
+
+
+def test_key_blend_beside_a_twin_quotes_its_file():
+    """docs/history/fill.md's diagnosis of the key blend beside a twin: the sample's shares
+    and frames as key_share_twins_s81.json has them; the scenes without twins agree."""
+    rec = json.loads((RESULTS / "key_share_twins_s81.json").read_text())["scenes"]
+    fill = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    sample = next(v for k, v in rec.items() if k.endswith("n2.deflare"))
+    f = {r["frame"]: r for r in sample["frames"]}
+    assert (f"frame 8, {f['00008']['distance']:.3f} from DSC_6466, leans "
+            f"{f['00008']['share']:.2f} to it and frame 10 none") in fill
+    assert f["00010"]["share"] == 0.0
+    assert (f"they would lean {f['00008']['share_past_twins']:.2f} and "
+            f"{f['00010']['share_past_twins']:.2f}") in fill
+    assert (f"mean share {sample['mean_share']:.2f} as rendered against "
+            f"{sample['mean_share_past_twins']:.2f}") in fill
+    assert (f"{sample['frames_share_lost']} of {len(sample['frames'])} frames leaning more "
+            "than 0.25 less") in fill
+    for k, v in rec.items():
+        if not (k.endswith("n2.deflare") or "cyprus" in k):
+            assert v["frames_share_lost"] == 0 and v["mean_share"] == v["mean_share_past_twins"]

@@ -508,3 +508,37 @@ def test_loo_pairs_tabulates_differences_and_refuses_other_views(tmp_path, capsy
     assert m.main([str(tmp_path / "b1"), str(rec("c3", 20.0, 0.6, ("z",)))]) == 2
     assert "not the views" in capsys.readouterr().err
     assert m.main([str(tmp_path / "b1")]) == 2
+
+
+def test_key_share_path_measures_the_lean_as_rendered_and_past_a_twin():
+    """benchmarks/key_share_path.py: the share as rendered is ``key_share``'s, to the nearest
+    other source (a twin 0.017 away takes it to none at 0.008 from the camera, reach 0.5);
+    measured past the twin, the spacing is the next spot's (0.12) and the frame leans."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from pipeline.render.fill import key_share
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("key_share_path")
+    centres = [np.zeros(3), np.array([0.017, 0, 0]), np.array([0.12, 0, 0])]
+    at = np.array([0.008, 0, 0])
+    views = [SimpleNamespace(c2w=np.c_[np.eye(3), c]) for c in centres]
+    r = m.frame_share(at, centres, 0.5, same_spot=0.03)
+    assert r["share"] == pytest.approx(key_share(at, views, 0.5)) == pytest.approx(0.0588, 1e-3)
+    assert r["spacing"] == pytest.approx(0.017) and r["spacing_past_twins"] == pytest.approx(0.12)
+    assert r["share_past_twins"] == pytest.approx(1 - 0.008 / 0.06)
+    # no photo within the spot: the two are the same
+    r = m.frame_share(at, centres, 0.5, same_spot=0.01)
+    assert r["share"] == r["share_past_twins"]
+
+
+def test_key_share_path_without_a_workspace_is_one_line(tmp_path, capsys):
+    """benchmarks/key_share_path.py on a folder that is no workspace: one line, exit 2."""
+    from tests.conftest import load_benchmark
+
+    m = load_benchmark("key_share_path")
+    assert m.main([str(tmp_path / "nothing.ws")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and "nothing.ws" in err
