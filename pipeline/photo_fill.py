@@ -126,14 +126,23 @@ def lean_to_nearest(colour: np.ndarray, weight: np.ndarray, warped: Warped,
     return mixed.astype(np.float32), total.astype(np.float32)
 
 
-def nearest_seen(fill: PhotoFill, occluded: bool = False) -> Warped:
+def nearest_seen(fill: PhotoFill, occluded: bool = False,
+                 spot: list[int] | None = None) -> Warped:
     """The fill's nearest photo (its first source) as the fill warped it (through the
     fill's depth, with the gains the fill gave it), valid wherever it sees the frame outside
     its flare mask, without the occlusion test against the photo's own depth map (near the
     photo's camera depth hides little, at it nothing); with ``occluded``, only where it
-    passes that test too. For :func:`lean_to_nearest`."""
+    passes that test too. ``spot``: the fill's sources taken from the nearest photo's spot
+    (indices, the nearest first; ``pipeline.render.fill.at_spot``): each where the ones
+    before it do not see the frame. For :func:`lean_to_nearest`."""
     w = fill.warped
-    return Warped(w.colours[:1], (w.ok if occluded or w.seen is None else w.seen)[:1])
+    valid = w.ok if occluded or w.seen is None else w.seen
+    colour, ok = w.colours[0].copy(), valid[0].copy()
+    for i in (spot or [0])[1:]:
+        take = valid[i] & ~ok
+        colour[take] = w.colours[i][take]
+        ok |= take
+    return Warped(colour[None], ok[None])
 
 
 def small_holes(ok: np.ndarray, radius: float) -> np.ndarray:

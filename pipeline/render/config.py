@@ -313,6 +313,13 @@ class RenderConfig:
     the reach, ``1 - x ** key_power`` at the fraction ``x`` of the way (1: linearly; above 1
     it stays near the photo longer and falls faster near the reach; docs/history/fill.md,
     "The key blend's falloff")."""
+    key_spot: float = option(0.0, ge=0, le=0.5)
+    """hybrid novel frames, with ``key_blend``: the input photos standing within this
+    fraction of the median distance between the cameras of a frame's nearest photo count as
+    taken from its spot (a twin, turned apart): the lean's reach is measured past them, and
+    the frame leans to each of them where the nearer ones do not see it (0 = off: the reach
+    ends at the twin, a few thousandths of a unit away; docs/history/fill.md, "The key
+    blend beside a twin")."""
     key_occlusion: bool = option(False, flag="--key-occlusion/--no-key-occlusion")
     """hybrid novel frames, with ``key_blend``: the frame leans to its nearest photo only
     where that photo passes the fill's occlusion test against its own depth map (off: wherever

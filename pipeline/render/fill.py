@@ -112,10 +112,11 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
         colour, ok = close_small_holes(colour, ok, close * max(size))
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
     share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0,
-                      cfg.key_power) if novel else 0.0
+                      cfg.key_power, job.same_spot) if novel else 0.0
     if share > 0:
-        colour, weight = lean_to_nearest(colour, weight, nearest_seen(pf, cfg.key_occlusion),
-                                         share)
+        spot = at_spot([photos[s] for s in near[:len(srcs)]], job.same_spot)
+        colour, weight = lean_to_nearest(colour, weight,
+                                         nearest_seen(pf, cfg.key_occlusion, spot), share)
     return HybridFill(colour, weight, real, pf.warped)
 
 
@@ -134,15 +135,27 @@ def at_frame_exposure(photos: dict, stems: list[str], job: FrameJob) -> dict:
                          for s in stems if s in job.photo_gains}}
 
 
-def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0) -> float:
+def at_spot(views: list, same_spot: float) -> list[int]:
+    """The indices of ``views`` (nearest a frame first) standing within ``same_spot`` of the
+    first's camera, the first included: the photos taken from its spot
+    (``FrameJob.same_spot``; 0: the first alone)."""
+    own = np.asarray(views[0].c2w)[:3, 3]
+    return [0] + [i for i, v in enumerate(views[1:], 1)
+                  if same_spot > 0
+                  and float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own)) <= same_spot]
+
+
+def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0,
+              same_spot: float = 0.0) -> float:
     """How much a novel frame at ``centre`` leans to the first of ``views`` (its sources
     nearest first; ``RenderConfig.key_blend``): 1 at that photo's camera, falling with the
     distance to none at ``reach`` times the distance from that camera to the nearest of the
-    other sources' (0 without another source): ``1 - x ** power`` of that fraction ``x``
-    of the way (``RenderConfig.key_power``; 1: linearly)."""
+    other sources' standing farther than ``same_spot`` from it (0 without one; the photos
+    at its spot are leant to as well, ``RenderConfig.key_spot``): ``1 - x ** power`` of
+    that fraction ``x`` of the way (``RenderConfig.key_power``; 1: linearly)."""
     own = np.asarray(views[0].c2w)[:3, 3]
     spacing = min((d for d in (float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own))
-                               for v in views[1:]) if d > 0), default=0.0)
+                               for v in views[1:]) if d > max(same_spot, 0.0)), default=0.0)
     if spacing <= 0 or reach <= 0:
         return 0.0
     x = min(float(np.linalg.norm(centre - own)) / (reach * spacing), 1.0)

@@ -69,6 +69,10 @@ class FrameJob:
     photo_gains: dict | None = None
     """{stem: gain to the common exposure} of the photos (the model's, shared by the
     path's jobs), with ``exposure``."""
+    same_spot: float = 0.0
+    """Photos within this distance of the fill's nearest photo stand at its spot
+    (``RenderConfig.key_spot`` times the median distance between the cameras; 0: none):
+    the key blend reaches past them and leans to them too."""
 
     @property
     def all_sources(self) -> list[str]:

@@ -32,18 +32,30 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
     if key == "interpolate" and len(path_cams) > 1:
         info(pace_line(cfg, cams, path_cams, points))
     out_dir = ws.render_dir(cfg.path)
+    spot = cfg.key_spot * median_camera_distance(cams) if cfg.key_spot else 0.0
     jobs = []
     for i, pc in enumerate(path_cams):
         near, far = novel_depth_range(pc.c2w[:3, 3], cams)
         name = pc.name if key not in NAMED_PATHS else f"{i:05d}"
         jobs.append(FrameJob(out_dir / f"{name}.png", novel_sources(pc.c2w[:3, 3], cams, views,
-                                                                    cfg), near, far, pc))
+                                                                    cfg), near, far, pc,
+                             same_spot=spot))
     if cfg.source_hold:
         jobs = hold_sources(jobs, cams, views, cfg, cfg.source_hold)
     if cfg.source_fade:
         jobs = fade_or_not(fade_sources(jobs, cams, cfg.source_fade, cfg.photo_sources,
                                         cfg.fade_cut), cfg.fade_limit)
     return key, out_dir, jobs
+
+
+def median_camera_distance(cams: Cameras) -> float:
+    """The median distance between two of the input photos' cameras (0 with fewer than
+    two): the scale of ``RenderConfig.key_spot``."""
+    c = cams.centers()
+    if len(c) < 2:
+        return 0.0
+    i, j = np.triu_indices(len(c), 1)
+    return float(np.median(np.linalg.norm(c[i] - c[j], axis=1)))
 
 
 def fade_or_not(jobs: list[FrameJob], limit: float) -> list[FrameJob]:

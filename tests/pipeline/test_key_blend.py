@@ -78,3 +78,33 @@ def test_with_the_occlusion_test_the_lean_keeps_to_what_the_test_passes():
                                      nearest_seen(fill, occluded=True), 1.0)
     assert np.allclose(colour[4:-4, 4:18], photo.image[4:-4, 4:18], atol=1e-4)
     assert (weight[:, 25:] == 0).all()
+
+
+def test_key_spot_reaches_past_a_twin_and_leans_to_it_where_the_nearest_does_not_see():
+    """``render --key-spot``: a twin standing within the spot no longer ends the reach (the
+    next spot's distance does), and the lean takes the twin where the nearest photo does
+    not see the frame (its flare, or out of its view), the nearest first where both do."""
+    from pipeline.render.fill import at_spot
+
+    views = [_view(0.0, 0), _view(0.02, 1), _view(1.0, 2)]
+    at = np.array([0.01, 0, 0])
+    assert key_share(at, views, 0.5) == 0.0  # the twin, 0.02 away, ends the reach at 0.01
+    assert abs(key_share(at, views, 0.5, same_spot=0.05) - (1 - 0.01 / 0.5)) < 1e-9
+    assert at_spot(views, 0.05) == [0, 1] and at_spot(views, 0.0) == [0]
+    assert at_spot(views, 0.01) == [0]
+    # the composite: the nearest where it sees, the twin on its right half where it does not
+    depth = np.full((32, 48), 2.0, np.float32)
+    left = np.zeros((32, 48), bool)
+    left[:, :24] = True
+    near = _view(0.0, 0, valid=left)
+    twin = _view(0.0, 1, valid=np.ones((32, 48), bool))  # same spot, sees all of it
+    warped = warp_sources(near.K, near.c2w, depth, [near, twin])
+    fill = PhotoFill(colour=np.full((32, 48, 3), 0.5, np.float32),
+                     support=np.zeros((32, 48), int), depth=depth, warped=warped)
+    one = nearest_seen(fill)
+    assert one.ok[0][:, :23].all() and not one.ok[0][:, 25:].any()
+    both = nearest_seen(fill, spot=[0, 1])
+    assert both.ok[0].all() and both.colours.shape == (1, 32, 48, 3)
+    assert np.allclose(both.colours[0][:, :23], near.image[:, :23], atol=1e-4)
+    assert np.allclose(both.colours[0][:, 25:], twin.image[:, 25:], atol=1e-4)
+    assert np.array_equal(nearest_seen(fill, spot=[0]).colours, one.colours)

@@ -1673,3 +1673,24 @@ def test_de_flared_photos_default_to_more_sources_than_novel_frames(tmp_path):
     assert len(R.input_sources(FLARED, views, R.RenderConfig(n_sources=12))) == 4  # all
     R.run(R.RenderConfig(path="interpolate", frames=2, size=(20, 15), fill="network"), ws)
     assert ws.stage_record("render:interpolate")["params"]["n_sources"] == 3
+
+
+def test_key_spot_scales_with_the_cameras_and_renders(hws):
+    """``key_spot``: each novel job's ``same_spot`` is the option times the median distance
+    between the cameras (0 when off); a video renders with it and records it."""
+    from pipeline.render import RenderConfig, plan_jobs, run
+    from pipeline.render.plan import median_camera_distance
+    from pipeline.ws_files import read_cameras, read_views
+
+    cams = read_cameras(hws)
+    c = cams.centers()
+    pairs = [np.linalg.norm(c[i] - c[j]) for i in range(len(c)) for j in range(i + 1, len(c))]
+    assert median_camera_distance(cams) == pytest.approx(float(np.median(pairs)))
+    cfg = RenderConfig(path="interpolate", frames=3, size=(40, 30), n_sources=3)
+    for spot in (0.0, 0.2):
+        _, _, jobs = plan_jobs(replace(cfg, key_spot=spot), hws, cams, read_views(hws), "cpu")
+        assert {j.same_spot for j in jobs} == {spot * median_camera_distance(cams)}
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_spot=0.2),
+        hws)
+    assert hws.stage_record("render:interpolate")["params"]["key_spot"] == 0.2
+    assert len(list(hws.render_dir("interpolate").glob("*.png"))) == 2
