@@ -20,6 +20,11 @@ bilinear), and every view is cropped to the middle rectangle both turned views f
 others unturned; ``--keep`` is then unused): photos from one spot looking apart, as the
 sample's.
 
+``--middle`` (with ``--turn``): each twin's photo as it is, unturned, is written too, first
+(STEMm), so that a view between the two, from their spot, can be held out: with ``--every
+E`` every ``E + 2``-th view is one (``synth --heldout-every E+2``). The frames of a video
+between a twin's two photos look like it.
+
 ``--spacing`` reports how a posed capture is spaced instead (:func:`spacing`): how close each
 view's nearest neighbour stands, against the views' usual distance, and how far it moves a
 point between the view's near and far depth, the plane sweep's parallax.
@@ -95,16 +100,20 @@ def turned_crop(frame, turn: float) -> tuple[int, int]:
     raise ValueError(f"a turn of {turn} degrees leaves nothing of {frame.stem}")
 
 
-def turned_views(frame, img: np.ndarray, turn: float, twin: bool, size: tuple[int, int]):
+def turned_views(frame, img: np.ndarray, turn: float, twin: bool, size: tuple[int, int],
+                 middle: bool = False):
     """[(Frame, image)]: ``frame`` turned by -turn/2 and +turn/2 (stems STEMa, STEMb) with
-    ``twin``, else as it is, each cropped to the middle ``size`` = (w, h)."""
+    ``twin``, else as it is, each cropped to the middle ``size`` = (w, h); with ``middle``
+    the twin's photo as it is comes first (stem STEMm): a view between the two, from their
+    spot."""
     import cv2
 
     K = np.asarray(frame.K, float)
     w, h = size
     x0, y0 = frame.width // 2 - w // 2, frame.height // 2 - h // 2
     out = []
-    for tag, deg in ((("a", -turn / 2), ("b", turn / 2)) if twin else (("", 0.0),)):
+    tags = ((("m", 0.0),) if middle else ()) + (("a", -turn / 2), ("b", turn / 2))
+    for tag, deg in (tags if twin else (("", 0.0),)):
         R = yaw(deg)
         Hm = K @ R.T @ np.linalg.inv(K)  # photo pixel -> turned pixel
         im = img if deg == 0 else cv2.warpPerspective(img, Hm, (frame.width, frame.height),
@@ -115,7 +124,7 @@ def turned_views(frame, img: np.ndarray, turn: float, twin: bool, size: tuple[in
 
 
 def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
-               turn: float = 0.0) -> list[str]:
+               turn: float = 0.0, middle: bool = False) -> list[str]:
     """Write the twin workspace (module docstring); returns its stems."""
     from pipeline.cameras import Cameras
     from pipeline.errors import UserError
@@ -128,6 +137,8 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
         raise UserError(f"--every {every}: give 1 (every view twinned) or more")
     if not 0 <= turn < 90:
         raise UserError(f"--turn {turn}: give degrees from 0 to under 90")
+    if middle and turn <= 0:
+        raise UserError("--middle needs --turn: the view between two turned views")
     if not (ws_path / "cameras.json").is_file():
         raise UserError(f"{ws_path}: not a posed workspace (no cameras.json); pass a workspace "
                         "after `deflare-scene pose`")
@@ -148,7 +159,7 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
     frames = []
     for i, f in enumerate(cams.frames):
         img = read_view_image(ws, f.stem, bgr=True)
-        parts = (turned_views(f, img, turn, i % every == 0, box) if box is not None
+        parts = (turned_views(f, img, turn, i % every == 0, box, middle) if box is not None
                  else crops(f, img, keep, i % every == 0))
         for fr, im in parts:
             atomic_imwrite(new.image_path(fr.stem), im)
@@ -156,7 +167,8 @@ def make_twins(ws_path: Path, out: Path, every: int = 2, keep: float = 0.8,
     write_cameras(new, Cameras(frames, cams.colmap_to_world))
     manifest = json.loads((ws.root / "manifest.json").read_text())
     manifest["stages"] = {k: v for k, v in manifest["stages"].items() if k in ("decode", "pose")}
-    manifest["twins"] = {"from": str(ws.root), "every": every, "keep": keep, "turn": turn}
+    manifest["twins"] = {"from": str(ws.root), "every": every, "keep": keep, "turn": turn,
+                         "middle": middle}
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2))
     return [f.stem for f in frames]
 
@@ -210,6 +222,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", type=float, default=0.8)
     ap.add_argument("--turn", type=float, default=0.0,
                     help="degrees the two views of a twin look apart (0: crops, not turned)")
+    ap.add_argument("--middle", action="store_true",
+                    help="with --turn: each twin's photo as it is too, first (STEMm), to hold "
+                         "out: `synth --heldout-every EVERY+2` holds out exactly those")
     a = ap.parse_args(argv)
     from pipeline.errors import UserError
 
@@ -224,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if len(a.ws) != 1:
             raise UserError("give one workspace to copy (several only with --spacing)")
-        stems = make_twins(a.ws[0], a.out, a.every, a.keep, a.turn)
+        stems = make_twins(a.ws[0], a.out, a.every, a.keep, a.turn, a.middle)
     except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
