@@ -760,6 +760,23 @@ def test_twin_views_make_two_exact_crops_of_one_camera(tmp_path):
         assert np.abs(got.astype(int) - want.astype(int))[2:-2, 2:-2].mean() < 1.0
     a, b = (np.asarray(tc[s].c2w)[:3, :3] for s in ("plane00a", "plane00b"))
     assert np.isclose(np.degrees(rotation_angle(a, b)), 10.0)
+    # --middle: the twin's photo as it is comes first, unturned, cropped like the others, so
+    # that `synth --heldout-every 4` holds out exactly the middles
+    stems = tv.make_twins(ws.root, tmp_path / "mid.ws", every=2, turn=10, middle=True)
+    assert stems == ["plane00m", "plane00a", "plane00b", "plane01", "plane02m", "plane02a",
+                     "plane02b"]
+    mid = Workspace(tmp_path / "mid.ws")
+    mc = load_cameras(mid.cameras_json).by_stem()
+    assert np.allclose(mc["plane00m"].c2w, o.c2w)
+    w, h = mc["plane00m"].width, mc["plane00m"].height
+    assert (w, h) == (tc["plane00a"].width, tc["plane00a"].height)
+    x0, y0 = 80 - w // 2, 60 - h // 2
+    assert np.array_equal(read_view_image(mid, "plane00m"), img[y0:y0 + h, x0:x0 + w])
+    from pipeline.synth import heldout_indices
+    assert [stems[i] for i in heldout_indices(len(stems), None, 4)] == ["plane00m",
+                                                                       "plane02m"]
+    with pytest.raises(Exception, match="--middle needs --turn"):
+        tv.make_twins(ws.root, tmp_path / "mid2.ws", every=2, middle=True)
     # --spacing: the twins stand 0 apart and move no point; the arc's views do
     arc, twin = tv.spacing(ws.root), tv.spacing(new.root)
     assert arc["views"] == 3 and arc["views_with_a_neighbour_under_0.03"] == 0
