@@ -51,7 +51,7 @@ unchanged."""
 
 
 NOVEL_CPU_FILL = {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes",
-                  "key_blend": 0.5, "novel_agree": 0.12}
+                  "key_blend": 0.5, "novel_agree": 0.12, "key_spot": 0.1}
 """The hybrid fill of novel frames on the CPU where the options are not given (``plan.
 resolve_fill``): GN-FR's share at ``network_scale`` of the frame, its
 own depth where the depth maps do not reach, the photos' agreement judged over 3x3 pixels.
@@ -59,7 +59,8 @@ Chosen by the forty-fifth session's rule on fresh development draws (docs/histor
 "The novel frames' fill on the frames' own depth"). The de-flared photos keep a 1-pixel
 agreement; CUDA keeps GN-FR at full size with the depth maps' depth (never timed there).
 ``key_blend`` since the forty-ninth session, ``novel_agree`` (the photos' agreement
-tolerance, 0.12 against ``photo_fill.AGREE``'s 0.08) since the fiftieth, each by its rule in
+tolerance, 0.12 against ``photo_fill.AGREE``'s 0.08) since the fiftieth, ``key_spot`` (the
+lean reaching past a twin and taking it too) since the eighty-first, each by its rule in
 docs/history/fill.md."""
 
 
@@ -313,13 +314,14 @@ class RenderConfig:
     the reach, ``1 - x ** key_power`` at the fraction ``x`` of the way (1: linearly; above 1
     it stays near the photo longer and falls faster near the reach; docs/history/fill.md,
     "The key blend's falloff")."""
-    key_spot: float = option(0.0, ge=0, le=0.5)
+    key_spot: float | None = option(None, ge=0, le=0.5)
     """hybrid novel frames, with ``key_blend``: the input photos standing within this
     fraction of the median distance between the cameras of a frame's nearest photo count as
     taken from its spot (a twin, turned apart): the lean's reach is measured past them, and
     the frame leans to each of them where the nearer ones do not see it (0 = off: the reach
-    ends at the twin, a few thousandths of a unit away; docs/history/fill.md, "The key
-    blend beside a twin")."""
+    ends at the twin, a few thousandths of a unit away). Default: 0.1 on the CPU
+    (``NOVEL_CPU_FILL``; docs/history/fill.md, "The key blend beside a twin"), 0 on CUDA
+    (no key blend there) and for the de-flared photos."""
     key_occlusion: bool = option(False, flag="--key-occlusion/--no-key-occlusion")
     """hybrid novel frames, with ``key_blend``: the frame leans to its nearest photo only
     where that photo passes the fill's occlusion test against its own depth map (off: wherever

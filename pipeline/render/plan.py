@@ -32,7 +32,8 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
     if key == "interpolate" and len(path_cams) > 1:
         info(pace_line(cfg, cams, path_cams, points))
     out_dir = ws.render_dir(cfg.path)
-    spot = cfg.key_spot * median_camera_distance(cams) if cfg.key_spot else 0.0
+    spot_share = resolve_fill(cfg, device, novel=True).key_spot
+    spot = spot_share * median_camera_distance(cams) if spot_share else 0.0
     jobs = []
     for i, pc in enumerate(path_cams):
         near, far = novel_depth_range(pc.c2w[:3, 3], cams)
@@ -352,7 +353,8 @@ def novel_scale(cfg: RenderConfig, device: str) -> float:
 
 def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
     """``cfg`` with the hybrid fill's ``network_scale``, ``agree_window``, ``network_depth``,
-    ``key_blend`` and ``novel_agree`` resolved where not given: ``NOVEL_CPU_FILL``'s for
+    ``key_blend``, ``novel_agree`` and ``key_spot`` resolved where not given:
+    ``NOVEL_CPU_FILL``'s for
     hybrid novel frames on the CPU; a 1-pixel agreement, the depth maps' depth, no key blend
     and the photo fill's own tolerance for the de-flared photos, on CUDA and where GN-FR
     renders every pixel (``fill`` network: none is used).
@@ -376,7 +378,9 @@ def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
                    key_blend=cfg.key_blend if cfg.key_blend is not None else (
                        NOVEL_CPU_FILL["key_blend"] if cpu_novel else 0.0),
                    novel_agree=cfg.novel_agree if novel and cfg.novel_agree is not None
-                   else NOVEL_CPU_FILL["novel_agree"] if cpu_novel else AGREE)
+                   else NOVEL_CPU_FILL["novel_agree"] if cpu_novel else AGREE,
+                   key_spot=cfg.key_spot if cfg.key_spot is not None else (
+                       NOVEL_CPU_FILL["key_spot"] if cpu_novel else 0.0))
 
 
 def depth_samples(cfg: RenderConfig, device: str, samples: int, novel: bool) -> int:

@@ -1694,3 +1694,30 @@ def test_key_spot_scales_with_the_cameras_and_renders(hws):
         hws)
     assert hws.stage_record("render:interpolate")["params"]["key_spot"] == 0.2
     assert len(list(hws.render_dir("interpolate").glob("*.png"))) == 2
+    # the default: NOVEL_CPU_FILL's on the CPU for hybrid novel frames, 0 on CUDA, for the
+    # network alone and for the de-flared photos
+    from pipeline.render.config import NOVEL_CPU_FILL
+    from pipeline.render.plan import resolve_fill
+
+    assert NOVEL_CPU_FILL["key_spot"] == 0.1
+    hybrid = RenderConfig(path="interpolate", fill="hybrid")
+    assert resolve_fill(hybrid, "cpu", novel=True).key_spot == 0.1
+    assert resolve_fill(hybrid, "cuda", novel=True).key_spot == 0.0
+    assert resolve_fill(replace(hybrid, fill="network"), "cpu", novel=True).key_spot == 0.0
+    assert resolve_fill(hybrid, "cpu", novel=False).key_spot == 0.0
+    _, _, jobs = plan_jobs(replace(cfg, fill="network"), hws, cams, read_views(hws), "cpu")
+    assert {j.same_spot for j in jobs} == {0.0}
+    _, _, jobs = plan_jobs(cfg, hws, cams, read_views(hws), "cpu")  # hybrid, the default
+    assert {j.same_spot for j in jobs} == {0.1 * median_camera_distance(cams)}
+    # a video recorded before the option (no key_spot) is not up to date at the default
+    rec = hws.stage_record("render:interpolate")
+    hws.update_manifest("render:interpolate", {**rec, "params": {
+        k: v for k, v in rec["params"].items() if k != "key_spot"}})
+    frames = sorted(hws.render_dir("interpolate").glob("*.png"))
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25, key_spot=0.0),
+        hws)  # the old record is what --key-spot 0 renders
+    assert [f.stat().st_mtime_ns for f in frames] == stamps
+    run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
+    assert hws.stage_record("render:interpolate")["params"]["key_spot"] == 0.1
+    assert [f.stat().st_mtime_ns for f in frames] != stamps
