@@ -2405,3 +2405,36 @@ def test_key_blend_beside_a_twin_quotes_its_file():
     for k, v in rec.items():
         if not (k.endswith("n2.deflare") or "cyprus" in k):
             assert v["frames_share_lost"] == 0 and v["mean_share"] == v["mean_share_past_twins"]
+
+
+def test_key_spot_rule_table_and_default_are_the_judgments():
+    """docs/history/fill.md's table of the key spot's rule is the judge file's; the rule and
+    its guard passed (the guard with every difference 0) and 0.1 is the CPU default; the
+    pages quote the same held-out gain."""
+    from pipeline.render.config import NOVEL_CPU_FILL
+
+    judge = json.loads((RESULTS / "key_spot_judge_s81.json").read_text())
+    guard = json.loads((RESULTS / "key_spot_guard_s81.json").read_text())
+    assert judge["rule"] == "reach" and guard["rule"] == "reach-guard"
+    assert judge["decision"] == guard["decision"] == "passes"
+    assert all(v == 0 for d in guard["per_scene"].values() for v in d.values())
+    assert NOVEL_CPU_FILL["key_spot"] == 0.1
+    fill = (REPO / "docs" / "history" / "fill.md").read_text()
+    for scene, d in {**judge["per_scene"], "mean": judge["mean"]}.items():
+        assert (f"| {scene} | {d['held']:+.3f} / {d['held_ssim']:+.3f} | "
+                f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} |") in fill, scene
+    held = f"{judge['mean']['held']:+.3f} dB"
+    for page in ("options.md", "depth.md", "goals.md"):
+        text = " ".join((REPO / "docs" / page).read_text().split())
+        assert f"held-out views {held}" in text, page
+    base, cand = judge["means"]["baseline"], judge["means"]["candidate"]
+    assert base.keys() == cand.keys() and all(cand[s]["held"] > base[s]["held"] for s in base)
+    # the test scenes, after: held-out views the same both ways, cyprus's keys as quoted
+    flat = " ".join(fill.split())
+    for name in ("kermit", "cyprus_truth"):
+        n2, ks = (json.loads((RESULTS / f"fmg_s81_{a}_fair_{name}_s0.json").read_text())
+                  for a in ("n2", "ks"))
+        assert n2["heldout"] == ks["heldout"], name
+    assert (f"its frames at the photos' cameras move {n2['keys']['psnr']:.2f} -> "
+            f"{ks['keys']['psnr']:.2f} dB, the flare region {n2['keys']['psnr_flare']:.2f} -> "
+            f"{ks['keys']['psnr_flare']:.2f}") in flat
