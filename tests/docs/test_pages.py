@@ -2438,3 +2438,14 @@ def test_key_spot_rule_table_and_default_are_the_judgments():
     assert (f"its frames at the photos' cameras move {n2['keys']['psnr']:.2f} -> "
             f"{ks['keys']['psnr']:.2f} dB, the flare region {n2['keys']['psnr_flare']:.2f} -> "
             f"{ks['keys']['psnr_flare']:.2f}") in flat
+
+
+def test_the_key_spot_oneshot_is_its_file():
+    """docs/performance.md's one-shot with the key spot: its frames' seconds and the scores
+    of the runs before it."""
+    ks = json.loads((RESULTS / "sample_oneshot_cpu_s81_keyspot.json").read_text())
+    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
+    assert ks["mean"] == head["mean"] and ks["code"]["commit"].startswith("1b6952f")
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    assert f"the frames {ks['stages']['render:interpolate']['seconds']:.1f} s, the same scores" \
+        in perf
