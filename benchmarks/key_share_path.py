@@ -1,6 +1,6 @@
 """How much each frame of the video leans to its nearest photo, and what a twin does to it.
 
-    python benchmarks/key_share_path.py WS [WS ...] [--frames 48] [--twin 0.25] [--out JSON]
+    python benchmarks/key_share_path.py WS [WS ...] [--frames 48] [--twin 0.1] [--out JSON]
 
 On the CPU a video frame near a photo's camera leans to that photo (``render --key-blend``,
 0.5: ``pipeline.render.fill.key_share``): fully at the camera, to none at the key blend
@@ -14,8 +14,10 @@ interpolate path and, for every frame, chooses its sources as `render` does
 (``pipeline.render.sources.novel_sources`` at today's defaults), orders them nearest first
 and reports: the nearest source and its distance, the key share as rendered, and the share
 the frame would have if the spacing were measured past the photos standing within
-``--twin`` times the median distance between the capture's cameras of the nearest one (a
-diagnosis: no render option does that). Reads cameras only: no network, no depth.
+``--twin`` times the median distance between the capture's cameras of the nearest one (what
+``render --key-spot`` does, the CPU default since the eighty-first session; this reports the
+key blend's reach both ways whatever the workspace's render used). Reads cameras only: no
+network, no depth.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import argparse
 import sys
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -32,18 +35,15 @@ def frame_share(at: np.ndarray, centres: list, reach: float, same_spot: float) -
     """A frame at ``at`` whose sources stand at ``centres`` (nearest first): its distance to
     the nearest, the spacing ``pipeline.render.fill.key_share`` measures (to the nearest
     other source) and its share, and the same with the spacing measured past the sources
-    within ``same_spot`` of the nearest."""
-    own = np.asarray(centres[0], float)
-    gaps = [float(np.linalg.norm(np.asarray(c, float) - own)) for c in centres[1:]]
-    spacing = min((g for g in gaps if g > 0), default=0.0)
-    past = min((g for g in gaps if g > same_spot), default=0.0)
-    dist = float(np.linalg.norm(np.asarray(at, float) - own))
+    within ``same_spot`` of the nearest (``render --key-spot``)."""
+    from pipeline.render.fill import key_share, key_spacing
 
-    def share(gap: float) -> float:
-        return 0.0 if gap <= 0 or reach <= 0 else float(1.0 - min(dist / (reach * gap), 1.0))
-
-    return {"distance": dist, "spacing": spacing, "share": share(spacing),
-            "spacing_past_twins": past, "share_past_twins": share(past)}
+    views = [SimpleNamespace(c2w=np.c_[np.eye(3), np.asarray(c, float)]) for c in centres]
+    at = np.asarray(at, float)
+    return {"distance": float(np.linalg.norm(at - views[0].c2w[:3, 3])),
+            "spacing": key_spacing(views), "share": key_share(at, views, reach),
+            "spacing_past_twins": key_spacing(views, same_spot),
+            "share_past_twins": key_share(at, views, reach, same_spot=same_spot)}
 
 
 def shares(ws_dir: Path, frames: int, twin: float) -> dict:
@@ -51,7 +51,12 @@ def shares(ws_dir: Path, frames: int, twin: float) -> dict:
     from pipeline.cameras import load_cameras
     from pipeline.render import find_checkpoint, train_meta
     from pipeline.render.config import RenderConfig
-    from pipeline.render.plan import novel_path, resolve_fill, scene_points
+    from pipeline.render.plan import (
+        median_camera_distance,
+        novel_path,
+        resolve_fill,
+        scene_points,
+    )
     from pipeline.render.sources import novel_sources
     from pipeline.workspace import Workspace
     from pipeline.ws_files import read_views
@@ -66,9 +71,7 @@ def shares(ws_dir: Path, frames: int, twin: float) -> dict:
     reach = float(cfg.key_blend or 0.0)
     path = novel_path(cfg, cams, "cpu", scene_points(ws, cams))[0]
     centre = {f.stem: np.asarray(f.c2w, float)[:3, 3] for f in cams.frames}
-    c = np.stack(list(centre.values()))
-    d = np.linalg.norm(c[:, None] - c[None], axis=-1)
-    same_spot = twin * float(np.median(d[np.triu_indices(len(c), 1)]))
+    same_spot = twin * median_camera_distance(cams)
 
     rows = []
     for cam in path:

@@ -145,6 +145,15 @@ def at_spot(views: list, same_spot: float) -> list[int]:
                   and float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own)) <= same_spot]
 
 
+def key_spacing(views: list, same_spot: float = 0.0) -> float:
+    """The distance :func:`key_share`'s reach is measured on: from the first of ``views``
+    (nearest a frame first) to the nearest of the others standing farther than
+    ``same_spot`` from it (0 without one)."""
+    own = np.asarray(views[0].c2w)[:3, 3]
+    return min((d for d in (float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own))
+                            for v in views[1:]) if d > max(same_spot, 0.0)), default=0.0)
+
+
 def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0,
               same_spot: float = 0.0) -> float:
     """How much a novel frame at ``centre`` leans to the first of ``views`` (its sources
@@ -154,8 +163,7 @@ def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0,
     at its spot are leant to as well, ``RenderConfig.key_spot``): ``1 - x ** power`` of
     that fraction ``x`` of the way (``RenderConfig.key_power``; 1: linearly)."""
     own = np.asarray(views[0].c2w)[:3, 3]
-    spacing = min((d for d in (float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own))
-                               for v in views[1:]) if d > max(same_spot, 0.0)), default=0.0)
+    spacing = key_spacing(views, same_spot)
     if spacing <= 0 or reach <= 0:
         return 0.0
     x = min(float(np.linalg.norm(centre - own)) / (reach * spacing), 1.0)

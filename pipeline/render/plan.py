@@ -354,10 +354,9 @@ def novel_scale(cfg: RenderConfig, device: str) -> float:
 def resolve_fill(cfg: RenderConfig, device: str, novel: bool) -> RenderConfig:
     """``cfg`` with the hybrid fill's ``network_scale``, ``agree_window``, ``network_depth``,
     ``key_blend``, ``novel_agree`` and ``key_spot`` resolved where not given:
-    ``NOVEL_CPU_FILL``'s for
-    hybrid novel frames on the CPU; a 1-pixel agreement, the depth maps' depth, no key blend
-    and the photo fill's own tolerance for the de-flared photos, on CUDA and where GN-FR
-    renders every pixel (``fill`` network: none is used).
+    ``NOVEL_CPU_FILL``'s for hybrid novel frames on the CPU; a 1-pixel agreement, the depth
+    maps' depth, no key blend and the photo fill's own tolerance for the de-flared photos,
+    on CUDA and where GN-FR renders every pixel (``fill`` network: none is used).
     GN-FR's share of a novel frame is 1 on CUDA and ``NOVEL_CPU_FILL``'s on the CPU (with
     ``fill`` network too, where nothing reads it: the value its records hold); the de-flared
     photos' GN-FR renders at their own size, so theirs stays unset. The one place those
