@@ -2449,3 +2449,13 @@ def test_the_key_spot_oneshot_is_its_file():
     perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
     assert f"the frames {ks['stages']['render:interpolate']['seconds']:.1f} s, the same scores" \
         in perf
+
+
+def test_the_eightieth_oneshot_fine_tune_is_its_file():
+    """docs/performance.md compares the eighty-first session's fine-tunes with the
+    eightieth's one-shot, whose stage times are its file's."""
+    s80 = json.loads((RESULTS / "sample_oneshot_cpu_s80_b47cd36.json").read_text())
+    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
+    assert s80["mean"] == head["mean"]
+    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    assert f"against {s80['stages']['finetune']['seconds']:.1f} s, code it does not touch" in perf
