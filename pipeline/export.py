@@ -142,8 +142,7 @@ def write_comparisons(ws: Workspace, cams: Cameras, cfg: ExportConfig) -> list[P
     pairs = [side_by_side(read_decoded(ws, s), read_image(ws.deflared_path(s), fix=REWRITE),
                           height)
              for s in track(stems, "comparisons")]
-    width = max(p.shape[1] for p in pairs)
-    pairs = [np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0))) for p in pairs]
+    pairs = centred(pairs)
     mp4, jpg = ws.compare_video, ws.compare_sheet
     # each view held for one second; frames repeated so any player shows them
     hold = max(1, round(cfg.fps))
@@ -152,6 +151,17 @@ def write_comparisons(ws: Workspace, cams: Cameras, cfg: ExportConfig) -> list[P
     atomic_imwrite(jpg, sheet[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 90])
     info(f"wrote {mp4} and {jpg} ({len(stems)} views: input | de-flared)")
     return [mp4, jpg]
+
+
+def centred(tiles: list[np.ndarray]) -> list[np.ndarray]:
+    """Tiles of one height padded with black to the widest, each in the middle: a portrait
+    photo's pair among landscape ones sits centred in the video and the sheet."""
+    width = max(t.shape[1] for t in tiles)
+    out = []
+    for t in tiles:
+        left = (width - t.shape[1]) // 2
+        out.append(np.pad(t, ((0, 0), (left, width - t.shape[1] - left), (0, 0))))
+    return out
 
 
 def contact_sheet(tiles: list[np.ndarray], long_side: int = 2400) -> np.ndarray:

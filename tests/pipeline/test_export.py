@@ -113,6 +113,21 @@ def test_export_writes_every_output(ews):
     assert run(ExportConfig(fps=6), ews) == sorted(outs)
 
 
+def test_a_portrait_pair_sits_centred_among_landscape_ones():
+    from pipeline.export import centred, contact_sheet, side_by_side
+
+    land = np.full((30, 40, 3), 200, np.uint8)
+    tall = np.full((40, 30, 3), 100, np.uint8)
+    pairs = centred([side_by_side(land, land, 30), side_by_side(tall, tall, 30)])
+    assert {p.shape for p in pairs} == {(30, 80, 3)}
+    filled = np.flatnonzero(pairs[1][15].max(axis=1))  # the portrait pair's columns
+    left, right = filled[0], 80 - 1 - filled[-1]
+    assert len(filled) == 2 * 22 and abs(left - right) <= 1  # 30 x 22.5 each, in the middle
+    assert (pairs[0] == 200).all()  # a full-width pair is as it was
+    sheet = contact_sheet(pairs)
+    assert sheet.shape == (30, 160, 3) and (sheet[:, 80 + left:80 + 80 - right] == 100).all()
+
+
 def test_transforms_camera_models(ews):
     from pipeline.export import nerfstudio_transforms
 
