@@ -135,23 +135,33 @@ def at_frame_exposure(photos: dict, stems: list[str], job: FrameJob) -> dict:
                          for s in stems if s in job.photo_gains}}
 
 
+def centre_of(view) -> np.ndarray:
+    """The camera centre of ``view`` (anything with a 4x4 ``c2w``)."""
+    return np.asarray(view.c2w)[:3, 3]
+
+
+def from_first(views: list) -> np.ndarray:
+    """The distances of ``views[1:]`` from the first's camera centre, in their order."""
+    own = centre_of(views[0])
+    return np.array([float(np.linalg.norm(centre_of(v) - own)) for v in views[1:]])
+
+
 def at_spot(views: list, same_spot: float) -> list[int]:
     """The indices of ``views`` (nearest a frame first) standing within ``same_spot`` of the
     first's camera, the first included: the photos taken from its spot
     (``FrameJob.same_spot``; 0: the first alone)."""
-    own = np.asarray(views[0].c2w)[:3, 3]
-    return [0] + [i for i, v in enumerate(views[1:], 1)
-                  if same_spot > 0
-                  and float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own)) <= same_spot]
+    if same_spot <= 0:
+        return [0]
+    return [0] + [i for i, d in enumerate(from_first(views), 1) if d <= same_spot]
 
 
 def key_spacing(views: list, same_spot: float = 0.0) -> float:
     """The distance :func:`key_share`'s reach is measured on: from the first of ``views``
     (nearest a frame first) to the nearest of the others standing farther than
     ``same_spot`` from it (0 without one)."""
-    own = np.asarray(views[0].c2w)[:3, 3]
-    return min((d for d in (float(np.linalg.norm(np.asarray(v.c2w)[:3, 3] - own))
-                            for v in views[1:]) if d > max(same_spot, 0.0)), default=0.0)
+    d = from_first(views)
+    d = d[d > max(same_spot, 0.0)]
+    return float(d.min()) if len(d) else 0.0
 
 
 def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0,
@@ -162,9 +172,8 @@ def key_share(centre: np.ndarray, views: list, reach: float, power: float = 1.0,
     other sources' standing farther than ``same_spot`` from it (0 without one; the photos
     at its spot are leant to as well, ``RenderConfig.key_spot``): ``1 - x ** power`` of
     that fraction ``x`` of the way (``RenderConfig.key_power``; 1: linearly)."""
-    own = np.asarray(views[0].c2w)[:3, 3]
     spacing = key_spacing(views, same_spot)
     if spacing <= 0 or reach <= 0:
         return 0.0
-    x = min(float(np.linalg.norm(centre - own)) / (reach * spacing), 1.0)
+    x = min(float(np.linalg.norm(centre - centre_of(views[0]))) / (reach * spacing), 1.0)
     return float(1.0 - x ** power)
