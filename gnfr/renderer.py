@@ -97,6 +97,10 @@ class SourceViews:
     rows: torch.Tensor | None = None
     """[V] long: the row of ``images`` and ``masks`` that holds each view, when they are a
     larger bank shared without copying (``SourceBank.encode``); None: view v is row v."""
+    extents: torch.Tensor | None = None
+    """[V, 2] float: each view's own (width, height) in pixels of ``images``, when views of
+    different sizes are padded to one (``pipeline.render.sources.encode_sources``): a point
+    in a view's padding is outside that view. None: every view fills the whole size."""
 
     @property
     def w2c(self) -> torch.Tensor:  # [V, 4, 4]
@@ -112,7 +116,8 @@ class SourceViews:
                grad: bool = False, feature_scale: float = 1.0,
                enc_images: torch.Tensor | None = None,
                rows: torch.Tensor | None = None,
-               feats: torch.Tensor | None = None) -> SourceViews:
+               feats: torch.Tensor | None = None,
+               extents: torch.Tensor | None = None) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
@@ -123,7 +128,9 @@ class SourceViews:
         ``images``), for a caller that encodes the same views at every step. ``rows``: the
         views are these rows of ``images`` and ``masks`` (a bank kept whole, not copied;
         ``enc_images``, ``K`` and ``c2w`` are then the views' own). ``feats``: the views'
-        feature maps made elsewhere (``gnfr.ray_split``): the encoder does not run."""
+        feature maps made elsewhere (``gnfr.ray_split``): the encoder does not run.
+        ``extents``: [V, 2] each view's own (width, height) in ``images`` when padded
+        (:attr:`extents`)."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         if rows is not None and enc_images is None:
@@ -142,7 +149,19 @@ class SourceViews:
         return cls(images=images, feats=feats, K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
                    masks=None if masks is None else masks.to(device, torch.float32),
-                   rows=None if rows is None else rows.to(device))
+                   rows=None if rows is None else rows.to(device),
+                   extents=None if extents is None else extents.to(device, torch.float32))
+
+    def inside(self, src_ids: torch.Tensor, xy: torch.Tensor,
+               depth: torch.Tensor) -> torch.Tensor:
+        """[Vs, P] bool: the projections ``xy`` [Vs, P, 2] (depths ``depth`` [Vs, P]) of
+        points into the views ``src_ids`` lie in front of each camera and inside its image,
+        its padding excluded (:attr:`extents`)."""
+        ok = inside_image(xy, depth, self.size)
+        if self.extents is None:
+            return ok
+        ext = self.extents[src_ids.to(self.extents.device)]
+        return ok & (xy[..., 0] <= ext[:, None, 0]) & (xy[..., 1] <= ext[:, None, 1])
 
 
 def encoder_input(images: torch.Tensor, feature_scale: float) -> torch.Tensor:
@@ -176,7 +195,7 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
 
     # contiguous: a permuted view would make every linear layer downstream copy its input
     rgb_feat = to_rsv(torch.cat([rgb, feat.to(rgb.dtype)], -1)).contiguous()
-    valid = to_rsv(inside_image(xy, depth, size))
+    valid = to_rsv(src.inside(src_ids, xy, depth))
     flared = None
     if src.masks is not None:
         flared = to_rsv(sample_rows(src.masks, rows, xy, size)[..., 0] > 0.5)
@@ -218,6 +237,30 @@ def forward_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: t
         rgb, depth = model(points, F.normalize(rays_d, dim=-1), rgb_feat, rel_dir, attend, t,
                            fused=not reference, with_depth=with_depth, flared=flared)
     return {"rgb": rgb, "depth": depth, "all_flared": all_flared.float().mean(-1)}
+
+
+def seen_share(src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,
+               rays_d: torch.Tensor, near: torch.Tensor, far: torch.Tensor, n_samples: int,
+               chunk: int = 8192) -> torch.Tensor:
+    """[R] float: the share of each ray's samples (``render_rays``' depths between ``near``
+    and ``far``) that lie in front of and inside at least one of the sources ``src_ids``
+    (``gather``'s ``valid``). 0: no source sees any of the ray, and GN-FR draws it from
+    zero colours and features."""
+    out = []
+    device = src.K.device
+    ids = src_ids.to(device)
+    K, w2c = src.K[ids], src.w2c[ids]
+    with torch.inference_mode():
+        for i in range(0, rays_o.shape[0], chunk):
+            o = rays_o[i:i + chunk].to(device, torch.float32)
+            d = rays_d[i:i + chunk].to(device, torch.float32)
+            t = sample_depths(near[i:i + chunk].to(o), far[i:i + chunk].to(o), n_samples,
+                              jitter=False)
+            points = o[:, None] + t[..., None] * d[:, None]  # [r, S, 3]
+            xy, depth = project(points.reshape(-1, 3), K, w2c)
+            valid = src.inside(ids, xy, depth).any(0)  # [r * S]
+            out.append(valid.reshape(t.shape).float().mean(-1).cpu())
+    return torch.cat(out) if out else torch.zeros(0)
 
 
 def render_rays(model: GNFR, src: SourceViews, src_ids: torch.Tensor, rays_o: torch.Tensor,

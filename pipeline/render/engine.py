@@ -90,7 +90,14 @@ def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
         from pipeline.exposure import apply_gain
 
         rgb = apply_gain(rgb, exposure_back(job, gains))
-    return compose(rgb, depth) if want_depth else compose(rgb)
+    image = compose(rgb, depth) if want_depth else compose(rgb)
+    if cfg.unseen_below > 0 and not job.is_input:
+        from pipeline.render.unseen import fill_unseen, seen_map
+
+        ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
+        image = fill_unseen(image, seen_map(src, ids, job.camera, job.near, job.far,
+                                            params["samples"]), cfg.unseen_below)
+    return image
 
 
 def exposure_back(job: FrameJob, gains: dict) -> np.ndarray:

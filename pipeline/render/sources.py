@@ -126,8 +126,10 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     sampled at the full size. ``gains``: {stem: [3] linear gain} the model was trained at
     (``finetune --exposure-match``), applied to the views.
 
-    Images of different sizes are padded to the largest; the padding is marked as flare so
-    the Point Sampler ignores it. Without masks (no WS/masks) the Point Sampler is off.
+    Images of different sizes (a portrait photo among landscape ones) are padded to the
+    largest; the padding lies outside its view (``SourceViews.extents``: no point in it is
+    sampled, as no point past a photo's edge is) and is marked as flare. Without masks (no
+    WS/masks) the Point Sampler is off.
     """
     import torch
 
@@ -169,8 +171,10 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
         K[v, 1] *= img.shape[0] / by[s].height
     K = torch.tensor(K, dtype=torch.float32)
     c2w = torch.tensor(np.stack([by[s].c2w for s in stems]), dtype=torch.float32)
+    extents = (torch.tensor([[i.shape[1], i.shape[0]] for i in imgs], dtype=torch.float32)
+               if padded else None)
     src = SourceViews.encode(model, images, K, c2w, masks, device,
-                             feature_scale=feature_scale)
+                             feature_scale=feature_scale, extents=extents)
     return src, {s: i for i, s in enumerate(stems)}
 
 
