@@ -286,3 +286,35 @@ def test_flare_flag_grows_from_weights_without_it_and_reads_the_masks(tmp_path):
     assert torch.allclose(forward_rays(again, src_all, ids, o, d, t)["rgb"], a, atol=1e-6)
     with pytest.raises(CheckpointError, match="flare_flag True in the file, False"):
         load_weights(GNFR(TINY), tmp_path / "flag.safetensors")
+
+
+def test_a_point_in_a_padded_view_s_padding_is_outside_that_view():
+    """A view smaller than the cache (a portrait photo padded to the landscape ones' size,
+    ``SourceViews.extents``): a point projecting into its padding is not valid there, so the
+    flare fallback never attends the padding's black; inside its own image it is valid, and
+    without extents the whole canvas counts as before."""
+    torch.manual_seed(0)
+    model = GNFR(TINY)
+    imgs, K, c2w, masks = _scene(V=2)
+    ext = torch.tensor([[56.0, 40.0], [20.0, 40.0]])  # view 1 fills only x < 20
+    padded = SourceViews.encode(model, imgs, K, c2w, masks, "cpu", extents=ext)
+    plain = SourceViews.encode(model, imgs, K, c2w, masks, "cpu")
+    xy = torch.tensor([[[10.0, 5.0], [30.0, 5.0], [56.0, 40.0]]]).expand(2, 3, 2)
+    depth = torch.ones(2, 3)
+    ids = torch.arange(2)
+    assert padded.inside(ids, xy, depth).tolist() == [[True, True, True],
+                                                      [True, False, False]]
+    assert plain.inside(ids, xy, depth).all()
+    assert padded.inside(torch.tensor([1, 0]), xy, depth).tolist() == [[True, False, False],
+                                                                       [True, True, True]]
+    # rays seen only through view 1's padding: GN-FR's seen share drops to what view 1's
+    # own image covers
+    from gnfr.renderer import seen_share
+
+    o, d = pixel_rays(K[1], c2w[1], image_pixels(40, 56))
+    n = len(o)
+    near, far = torch.full((n,), 1.5), torch.full((n,), 2.5)
+    s_plain = seen_share(plain, torch.tensor([1]), o, d, near, far, 8).reshape(40, 56)
+    s_pad = seen_share(padded, torch.tensor([1]), o, d, near, far, 8).reshape(40, 56)
+    assert float(s_plain.min()) == 1.0  # its own camera: every sample in its image
+    assert float(s_pad[:, :19].min()) == 1.0 and float(s_pad[:, 21:].max()) == 0.0
