@@ -196,6 +196,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["tour"] = "position"  # records before the fifty-sixth session's tour
         defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
         defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
+        defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
     if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
         params.pop("tour")

@@ -295,11 +295,12 @@ class RenderConfig:
     this (largest channel difference, 0..1 colours) is taken there at full resolution: the
     network vouches for the colour, the photo adds the detail (0 = off; docs/history/fill.md,
     "The network's vote")."""
-    unseen_below: float = option(0.0, ge=0, le=1)
+    unseen_below: float = option(0.5, ge=0, le=1)
     """novel frames: pixels whose ray lies inside none of the frame's sources over less than
     this share of its samples (past every photo's frame edge) are drawn from the frame around
     them (Telea inpainting), blended in by how little is seen, instead of GN-FR's guess from
-    zero features (a dark smear; ``pipeline.render.unseen``). 0 = off."""
+    zero features (a dark smear; ``pipeline.render.unseen``). 0 = off, as before the
+    eighty-third session (docs/history/fill.md, "Where no source sees")."""
     harmonize: float = option(0.0, ge=0, le=0.2)
     """hybrid novel frames: before the warped photos are fused, each is brought to their
     per-pixel median by a smooth local offset, its difference from the median averaged by a

@@ -51,9 +51,9 @@ def _turned(c2w: np.ndarray, degrees: float) -> np.ndarray:
 
 def test_a_frame_turned_past_the_sources_changes_only_where_they_do_not_see(rws, tmp_path):  # noqa: F811
     """A path camera at the first photo's spot turned 35 degrees: part of its frame lies
-    past every source. With --unseen-below 0.5 only the pixels whose rays are under half
-    seen change, the seen ones are the default's to the bit, and the stage re-renders when
-    the option changes."""
+    past every source. At the default (--unseen-below 0.5) only the pixels whose rays are under half
+    seen change, the seen ones are those of `--unseen-below 0` to the bit, and the stage
+    re-renders when the option changes."""
     import torch
 
     from gnfr.paths import PathCamera, path_to_json
@@ -67,11 +67,11 @@ def test_a_frame_turned_past_the_sources_changes_only_where_they_do_not_see(rws,
     cam = PathCamera("turned", K, _turned(f0.c2w, 35.0), 32, 24)
     p = tmp_path / "turned.json"
     p.write_text(json.dumps(path_to_json([cam])))
-    run(RenderConfig(path=str(p)), rws)
+    run(RenderConfig(path=str(p), unseen_below=0.0), rws)
     frame = rws.renders / "turned" / "turned.png"
     plain = cv2.imread(str(frame))
     rec = json.loads((rws.renders / "turned" / "cameras.json").read_text())["frames"][0]
-    run(RenderConfig(path=str(p), unseen_below=0.5), rws)
+    run(RenderConfig(path=str(p)), rws)  # the default, 0.5
     filled = cv2.imread(str(frame))
 
     model = load_model(find_checkpoint(rws, None), "cpu")
