@@ -22,7 +22,6 @@ import json
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,25 +31,22 @@ WHOLE_TOLERANCE = 0.01
 """dB the whole frames may fall, on the scenes' mean (part b)."""
 
 
-def psnr_of(mse: float) -> float:
-    return float(10 * np.log10(255.0 ** 2 / max(mse, 1e-12)))
-
-
 def score_scene(scene: Path, base: Path, cand: Path) -> dict:
     """The two arms' frames of one scene against its clean photos."""
+    from pipeline.metrics import mse_to_psnr, psnr
+    from workflows.research.eval.scoring import read_bgr
+
     whole = {"baseline": [], "candidate": []}
     sq = {"baseline": 0.0, "candidate": 0.0}
     n_region = n_pixels = 0
     frames = sorted(base.glob("*/*.png"))
     for fb in frames:
         fc = cand / fb.relative_to(base)
-        b, c = cv2.imread(str(fb)).astype(np.float64), cv2.imread(str(fc)).astype(np.float64)
-        gt = cv2.imread(str(scene / "clean" / fb.name))
-        if gt.shape[:2] != b.shape[:2]:
-            gt = cv2.resize(gt, (b.shape[1], b.shape[0]), interpolation=cv2.INTER_AREA)
-        gt = gt.astype(np.float64)
+        b, c = read_bgr(fb), read_bgr(fc)
+        gt = read_bgr(scene / "clean" / fb.name, b.shape[:2])
         for arm, img in (("baseline", b), ("candidate", c)):
-            whole[arm].append(psnr_of(float(np.mean((img - gt) ** 2))))
+            whole[arm].append(psnr(img, gt))
+        b, c, gt = (x.astype(np.float64) for x in (b, c, gt))
         region = np.abs(b - c).sum(-1) > 0
         n_region += int(region.sum())
         n_pixels += region.size
@@ -59,7 +55,8 @@ def score_scene(scene: Path, base: Path, cand: Path) -> dict:
     rec = {"frames": len(frames), "region_share": n_region / max(n_pixels, 1),
            "whole": {k: float(np.mean(v)) for k, v in whole.items()}}
     if n_region:
-        rec["region"] = {k: psnr_of(v / (3 * n_region)) for k, v in sq.items()}
+        rec["region"] = {k: mse_to_psnr(v / (3 * n_region) / 255.0 ** 2)
+                         for k, v in sq.items()}
     return rec
 
 

@@ -64,8 +64,8 @@ def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
     rays_o, rays_d, compose, guided, want_depth = prepare_job(job, cfg, ws, photos, params)
     prog.reset(t_rays, total=max(len(rays_o), 1))
     rgb, depth = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
+    ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
     if len(rays_o):
-        ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
         n = len(rays_o)
         near, far = torch.full((n,), job.near), torch.full((n,), job.far)
         chunk = cfg.chunk or default_chunk(src.images.device.type)
@@ -94,7 +94,6 @@ def render_image(model, src, index: dict[str, int], job: FrameJob, params: dict,
     if cfg.unseen_below > 0 and not job.is_input:
         from pipeline.render.unseen import fill_unseen, seen_map
 
-        ids = torch.tensor([index[s] for s in job.sources], dtype=torch.long)
         image = fill_unseen(image, seen_map(src, ids, job.camera, job.near, job.far,
                                             params["samples"]), cfg.unseen_below)
     return image

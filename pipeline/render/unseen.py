@@ -29,13 +29,10 @@ def seen_map(src, ids, camera, near: float, far: float, samples: int,
 
     from gnfr.geometry import image_pixels, pixel_rays
     from gnfr.renderer import seen_share
+    from pipeline.render.novel import low_res_camera
 
     W, H = int(camera.width), int(camera.height)
-    s = min(1.0, long_side / max(W, H))
-    w, h = max(1, round(W * s)), max(1, round(H * s))
-    K = np.asarray(camera.K, np.float64).copy()
-    K[0] *= w / W
-    K[1] *= h / H
+    K, w, h = low_res_camera(camera, min(1.0, long_side / max(W, H)))
     rays_o, rays_d = pixel_rays(torch.tensor(K, dtype=torch.float32),
                                 torch.tensor(np.asarray(camera.c2w), dtype=torch.float32),
                                 image_pixels(h, w))
