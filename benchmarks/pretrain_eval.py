@@ -102,7 +102,7 @@ def render_heldout(model_path: Path, scene, scale: float) -> dict:
 
     _, meta = read_metadata(model_path)
     model = load_model(model_path)
-    imgs, K, masks = downscale(scene, meta["source_scale"])
+    imgs, K, masks, _ = downscale(scene, meta["source_scale"])
     src = SourceViews.encode(model, imgs, K, scene.c2w.float(), masks, "cpu")
     gt = {f["stem"]: f for f in json.loads((TRUTH / "cameras_gt.json").read_text())["frames"]}
     res = {}

@@ -74,7 +74,7 @@ def render_speed(preset: str, views: int, size: int, n_rays: int) -> dict:
     cfg = PRESETS[preset]
     scene = synthetic_scene(views, (size, round(size * 0.75)))
     model = GNFR(cfg.model).eval()
-    imgs, K, masks = downscale(scene, cfg.source_scale)
+    imgs, K, masks, _ = downscale(scene, cfg.source_scale)
     t = time.perf_counter()
     src = SourceViews.encode(model, imgs, K, scene.c2w.float(), masks, "cpu")
     enc = time.perf_counter() - t

@@ -173,6 +173,12 @@ class Scene:
     """The views that may be training targets when the scene says so (a workspace's
     views.json flags, set by pipeline.training_scenes), else None: those within
     ``TrainConfig.max_flare``. Derived from ``flare``: reset it when ``flare`` changes."""
+    extents: torch.Tensor | None = None
+    """[N, 2] long: each view's own (width, height) when views of different sizes (a
+    portrait photo among landscape ones) are padded to one size at the bottom and right
+    (``pipeline.training_scenes.make_scene``); the padding is never a target pixel and lies
+    outside its view as a source (``SourceViews.extents``), as at render time. None: every
+    view fills ``images``."""
 
     edge_q: dict[tuple[int, float], torch.Tensor] = field(
         default_factory=dict, init=False, repr=False, compare=False)
@@ -182,27 +188,54 @@ class Scene:
     def index(self) -> dict[str, int]:
         return {s: i for i, s in enumerate(self.stems)}
 
+    def size_of(self, i: int) -> tuple[int, int]:
+        """(height, width) of view ``i`` itself, its padding excluded."""
+        if self.extents is None:
+            return int(self.images.shape[-2]), int(self.images.shape[-1])
+        return int(self.extents[i, 1]), int(self.extents[i, 0])
+
 
 def mirrored(scene: Scene) -> Scene:
     """``scene`` seen in a mirror: every view (and mask) flipped left-right, and the world
     and each camera reflected in x (c2w -> S c2w S, S = diag(-1, 1, 1, 1), so the rotations
     stay proper), so a world point at pixel (x, y) of a view lands at (W - x, y) of its
     mirror (the +0.5 pixel-centre convention: cx -> W - cx). Depths, bounds and the distances
-    between cameras are unchanged, so ``ranked`` and ``flare`` carry over."""
+    between cameras are unchanged, so ``ranked`` and ``flare`` carry over. A padded view
+    (``Scene.extents``) is flipped inside its own width, its padding staying at the right."""
     S = torch.diag(torch.tensor([-1.0, 1.0, 1.0, 1.0], dtype=scene.c2w.dtype))
     K = scene.K.clone()
-    K[:, 0, 2] = scene.images.shape[-1] - K[:, 0, 2]
-    return replace(scene, images=scene.images.flip(-1), K=K, c2w=S @ scene.c2w @ S,
-                   masks=None if scene.masks is None else scene.masks.flip(-1),
+    if scene.extents is None:
+        K[:, 0, 2] = scene.images.shape[-1] - K[:, 0, 2]
+        images = scene.images.flip(-1)
+        masks = None if scene.masks is None else scene.masks.flip(-1)
+    else:
+        K[:, 0, 2] = scene.extents[:, 0].to(K) - K[:, 0, 2]
+        images = scene.images.clone()
+        masks = None if scene.masks is None else scene.masks.clone()
+        for i in range(len(scene.stems)):
+            w = int(scene.extents[i, 0])
+            images[i, :, :, :w] = scene.images[i, :, :, :w].flip(-1)
+            if masks is not None:
+                masks[i, :, :, :w] = scene.masks[i, :, :, :w].flip(-1)
+    return replace(scene, images=images, K=K, c2w=S @ scene.c2w @ S, masks=masks,
                    name=f"{scene.name}~mirror")
 
 
 def downscale(scene: Scene, scale: float) -> tuple[torch.Tensor, torch.Tensor,
-                                                   torch.Tensor | None]:
-    """Source images [N, 3, h, w] float 0..1, K [N, 3, 3] and masks [N, 1, h, w] float at
-    ``scale`` of the scene's resolution (area filter; K rows scale exactly)."""
+                                                   torch.Tensor | None, torch.Tensor | None]:
+    """Source images [N, 3, h, w] float 0..1, K [N, 3, 3], masks [N, 1, h, w] float and
+    extents [N, 2] float (None unless the scene's views are padded, ``Scene.extents``) at
+    ``scale`` of the scene's resolution (area filter; K rows and extents scale exactly).
+    The padding is marked as flare in the masks, as the render's source cache marks it."""
     imgs = scene.images.float() / 255.0
     masks = None if scene.masks is None else scene.masks.float()
+    ext = None if scene.extents is None else scene.extents.float()
+    if ext is not None:
+        H, W = imgs.shape[-2:]
+        pad = ~((torch.arange(W)[None, None, :] < ext[:, 0, None, None])
+                & (torch.arange(H)[None, :, None] < ext[:, 1, None, None]))  # [N, H, W]
+        masks = torch.zeros(len(imgs), 1, H, W) if masks is None else masks.clone()
+        masks[pad[:, None]] = 1.0
     K = scene.K.clone().float()
     if scale != 1.0:
         H, W = imgs.shape[-2:]
@@ -211,7 +244,9 @@ def downscale(scene: Scene, scale: float) -> tuple[torch.Tensor, torch.Tensor,
         masks = None if masks is None else F.interpolate(masks, size=(h, w), mode="area")
         K[:, 0] *= w / W
         K[:, 1] *= h / H
-    return imgs, K, masks
+        if ext is not None:
+            ext = ext * torch.tensor([w / W, h / H])
+    return imgs, K, masks, ext
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,6 +268,9 @@ class SourceBank:
     enc_images: torch.Tensor | None = None
     """[N, 3, h', w'] the encoder's input when ``feature_scale`` < 1, filtered once here
     (``encoder_input``) rather than from the full-size views at every step."""
+    extents: torch.Tensor | None = None
+    """[N, 2] float each view's own (width, height) in ``images`` when the scene's views
+    are padded (``Scene.extents``), else None."""
 
     @classmethod
     def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False
@@ -240,14 +278,15 @@ class SourceBank:
         """The views of ``scene`` at ``scale`` of their resolution (``downscale``), on
         ``device``; with ``full_res_colour`` the images stay at full resolution and only
         the encoder sees them at ``scale``."""
-        imgs, K, masks = downscale(scene, 1.0 if full_res_colour else scale)
+        imgs, K, masks, ext = downscale(scene, 1.0 if full_res_colour else scale)
         imgs = imgs.to(device)
         feature_scale = scale if full_res_colour else 1.0
         return cls(images=imgs, K=K.to(device),
                    masks=None if masks is None else masks.to(device),
                    c2w=scene.c2w.float().to(device), feature_scale=feature_scale,
                    enc_images=(None if feature_scale == 1.0
-                               else encoder_input(imgs.float(), feature_scale)))
+                               else encoder_input(imgs.float(), feature_scale)),
+                   extents=None if ext is None else ext.to(device))
 
     def views(self, ids: torch.Tensor, feats: torch.Tensor, device) -> SourceViews:
         """The views ``ids`` with their feature maps ``feats`` [len(ids), C, h, w] made
@@ -260,20 +299,22 @@ class SourceBank:
         """The views ``ids`` (all when None) encoded by ``model`` (``SourceViews.encode``;
         ``grad`` keeps the encoder's graph; ``feats``: their features made elsewhere, the
         encoder not run: ``views``)."""
-        enc = self.enc_images
+        enc, ext = self.enc_images, self.extents
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,
-                                      enc_images=enc, feats=feats)
+                                      enc_images=enc, feats=feats, extents=ext)
+        ext = None if ext is None else ext[ids.to(ext.device)]
         if enc is not None:  # full-size colours: the views are rows of the bank, not copies
             return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
                                       self.masks, device, grad=grad,
                                       feature_scale=self.feature_scale, enc_images=enc[ids],
-                                      rows=ids, feats=feats)
+                                      rows=ids, feats=feats, extents=ext)
         # the encoder reads the views themselves: stack them
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
-                                  grad=grad, feature_scale=self.feature_scale, feats=feats)
+                                  grad=grad, feature_scale=self.feature_scale, feats=feats,
+                                  extents=ext)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
@@ -333,7 +374,7 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
     src = train_sources(scene.ranked[tgt], flare, gen, cfg.n_views, cfg.pool_k,
                         cfg.view_sampler, random_pick=cfg.random_sources)
     i = idx[tgt]
-    H, W = scene.images.shape[-2:]
+    H, W = scene.size_of(i)  # the view itself: a padded view's padding is never drawn
     weight = None
     if cfg.edge_rays > 0:
         q = edge_probabilities(scene, i, cfg.edge_rays)
@@ -352,11 +393,13 @@ def sample_batch(scene: Scene, cfg: TrainConfig, gen: torch.Generator) -> Batch:
 
 
 def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
-    """[H * W] drawing probabilities of view ``i``'s pixels: ``share`` in proportion to the
-    Sobel gradient magnitude of its grey image, the rest uniform (cached per view)."""
+    """[H * W] drawing probabilities of view ``i``'s pixels (H, W its own size,
+    ``Scene.size_of``): ``share`` in proportion to the Sobel gradient magnitude of its grey
+    image, the rest uniform (cached per view)."""
     key = (i, share)
     if key not in scene.edge_q:
-        grey = scene.images[i].float().mean(0, keepdim=True)[None] / 255.0  # [1, 1, H, W]
+        h, w = scene.size_of(i)
+        grey = scene.images[i, :, :h, :w].float().mean(0, keepdim=True)[None] / 255.0
         kx = torch.tensor([[-1.0, 0, 1], [-2, 0, 2], [-1, 0, 1]])
         k = torch.stack([kx, kx.T])[:, None]  # [2, 1, 3, 3]
         g = F.conv2d(F.pad(grey, (1, 1, 1, 1), mode="replicate"), k).square().sum(1).sqrt()

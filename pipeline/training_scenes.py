@@ -32,7 +32,7 @@ from pipeline.errors import UserError, shell_path
 from pipeline.images import image_size, is_photo, list_photos, read_image
 from pipeline.progress import warn
 from pipeline.workspace import Workspace
-from pipeline.ws_files import enclosed_holes, read_cameras, read_masks, read_views
+from pipeline.ws_files import enclosed_holes, read_cameras, read_mask, read_views
 
 PACK_FILE = "scene_pack.npz"
 """A scene pack's file name (``save_pack``)."""
@@ -53,22 +53,56 @@ def make_scene(name: str, stems: list[str], images: list[np.ndarray], K: np.ndar
                c2w: np.ndarray, near: np.ndarray, far: np.ndarray,
                masks: list[np.ndarray] | None = None, flare: dict | None = None,
                ranked: dict | None = None, targets: list[str] | None = None) -> Scene:
-    """Stack per-view arrays (images [H, W, 3] uint8, masks [H, W] bool) into a Scene;
-    ``targets`` None: the training targets follow ``TrainConfig.max_flare``."""
+    """Stack per-view arrays (images [H, W, 3] uint8, masks [H, W] bool, each view at its
+    own size) into a Scene; ``targets`` None: the training targets follow
+    ``TrainConfig.max_flare``. Views of different sizes (a portrait photo among landscape
+    ones) are padded at the bottom and right to the largest height and width, as the
+    render's source cache pads them (``pipeline.render.sources.encode_sources``): black, its
+    mask flare, and ``Scene.extents`` keeps each view's own size. Nothing is resized: a
+    view's intrinsics stay its own. A view's flare fraction is of its own pixels."""
+    if flare is None:
+        flare = {s: float(mk.mean()) if masks is not None else 0.0
+                 for s, mk in zip(stems, masks or [None] * len(stems), strict=True)}
+    sizes = [im.shape[:2] for im in images]
+    extents = None
+    if len(set(sizes)) > 1:
+        H, W = max(h for h, _ in sizes), max(w for _, w in sizes)
+        extents = torch.tensor([[w, h] for h, w in sizes], dtype=torch.long)
+        images = [_pad(im, H, W, 0) for im in images]
+        if masks is not None:
+            masks = [_pad(np.asarray(mk, bool), H, W, True) for mk in masks]
     imgs = torch.from_numpy(np.stack(images)).permute(0, 3, 1, 2).contiguous()
     m = None
     if masks is not None:
         m = torch.from_numpy(np.stack(masks).astype(np.uint8))[:, None]
-    if flare is None:
-        flare = {s: float(mk.mean()) if masks is not None else 0.0
-                 for s, mk in zip(stems, masks or [None] * len(stems), strict=True)}
     if ranked is None:
         ranked = rank_by_distance(stems, c2w[:, :3, 3])
     return Scene(stems=stems, images=imgs, K=torch.as_tensor(K, dtype=torch.float64),
                  c2w=torch.as_tensor(c2w, dtype=torch.float64),
                  near=torch.as_tensor(near, dtype=torch.float64),
                  far=torch.as_tensor(far, dtype=torch.float64), masks=m, flare=flare,
-                 ranked=ranked, name=name, targets=targets)
+                 ranked=ranked, name=name, targets=targets, extents=extents)
+
+
+def _pad(a: np.ndarray, H: int, W: int, value) -> np.ndarray:
+    """``a`` ([h, w] or [h, w, C]) padded at the bottom and right to [H, W(, C)] with
+    ``value``."""
+    out = np.full((H, W) + a.shape[2:], value, dtype=a.dtype)
+    out[:a.shape[0], :a.shape[1]] = a
+    return out
+
+
+def scene_views(scene: Scene) -> tuple[list[np.ndarray], list[np.ndarray] | None]:
+    """The views of ``scene`` as arrays at their own sizes (padding cut off,
+    ``Scene.extents``): images [h, w, 3] uint8 and masks [h, w] bool (None without masks);
+    ``make_scene`` takes them back."""
+    images, masks = [], None if scene.masks is None else []
+    for i in range(len(scene.stems)):
+        h, w = scene.size_of(i)
+        images.append(np.ascontiguousarray(scene.images[i, :, :h, :w].permute(1, 2, 0).numpy()))
+        if masks is not None:
+            masks.append(scene.masks[i, 0, :h, :w].numpy().astype(bool))
+    return images, masks
 
 
 def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
@@ -100,22 +134,18 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
     names = [f.stem for f in frames]
-    size = (frames[0].width, frames[0].height)
-    images, Ks = [], []
-    for f in frames:
-        img = read_image(ws.image_path(f.stem), size=size, fix=ws.rerun("pose"))
+    images = []
+    for f in frames:  # each at its own size (cameras.json's): views of other sizes are padded
+        img = read_image(ws.image_path(f.stem), size=(f.width, f.height), fix=ws.rerun("pose"))
         if gains and f.stem in gains:
             from pipeline.exposure import apply_gain
 
             img = apply_gain(img, gains[f.stem])
         images.append(img)
-        K = np.array(f.K, float)
-        K[0] *= size[0] / f.width
-        K[1] *= size[1] / f.height
-        Ks.append(K)
+    Ks = [np.array(f.K, float) for f in frames]
     masks = None
     if ws.masks.is_dir():
-        masks = list(read_masks(ws, names, size).values())
+        masks = [read_mask(ws, f.stem, (f.width, f.height)) for f in frames]
         if holes_as_flare:
             masks = [m | enclosed_holes(m) for m in masks]
     else:
@@ -393,14 +423,16 @@ def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
 # --------------------------------------------------------------------------- scene packs
 def save_pack(scene: Scene, folder: str | Path, quality: int = 95) -> Path:
     """``scene`` as ``folder/scene_pack.npz``: views as JPEG (``quality``), intrinsics,
-    OpenCV c2w, near/far, masks bit-packed when the scene has them, targets. What it drops:
-    the exact pixels (JPEG), and ``ranked``/``flare`` (recomputed from cameras and masks)."""
+    OpenCV c2w, near/far, masks bit-packed when the scene has them, targets; views of
+    different sizes each at its own (``Scene.extents``; their masks padded, with
+    ``extents``). What it drops: the exact pixels (JPEG), and ``ranked``/``flare``
+    (recomputed from cameras and masks)."""
     import cv2
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     blobs = []
-    for img in scene.images.permute(0, 2, 3, 1).numpy():
+    for img in scene_views(scene)[0]:
         ok, buf = cv2.imencode(".jpg", np.ascontiguousarray(img[..., ::-1]),
                                [cv2.IMWRITE_JPEG_QUALITY, quality])
         if not ok:
@@ -439,10 +471,12 @@ def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise UserError(f"{path}: not a readable scene pack ({e}); write it again with "
                         "`python -m workflows.research.scene_pack`") from e
-    w = images[0].shape[1]
     masks = None
-    if "masks" in d:
-        masks = list(np.unpackbits(d["masks"], axis=-1, count=w)[:, 0].astype(bool))
+    if "masks" in d:  # stored padded to the largest view: each cut to its own view's size
+        w = max(im.shape[1] for im in images)
+        masks = [m[:im.shape[0], :im.shape[1]] for m, im in zip(
+            np.unpackbits(d["masks"], axis=-1, count=w)[:, 0].astype(bool), images,
+            strict=True)]
     images, masks, K = _shrink(images, masks, d["K"], max_size)
     targets = [str(t) for t in d["targets"]] if "targets" in d else None
     return make_scene(str(d["name"]), [str(t) for t in d["stems"]], images, K, d["c2w"],
@@ -452,27 +486,30 @@ def load_pack(folder: str | Path, max_size: int = 504) -> Scene:
 def shrink_scene(scene: Scene, max_size: int) -> Scene:
     """``scene`` with views (masks, intrinsics alike) shrunk to ``max_size`` on the long
     side when larger; never enlarged."""
-    masks = None if scene.masks is None else list(scene.masks[:, 0].numpy().astype(bool))
-    images, masks, K = _shrink(list(scene.images.permute(0, 2, 3, 1).numpy()), masks,
-                               scene.K.numpy(), max_size)
+    images, masks = scene_views(scene)
+    images, masks, K = _shrink(images, masks, scene.K.numpy(), max_size)
     return make_scene(scene.name, scene.stems, images, K, scene.c2w.numpy(),
                       scene.near.numpy(), scene.far.numpy(), masks, targets=scene.targets)
 
 
 def _shrink(images: list[np.ndarray], masks: list[np.ndarray] | None, K: np.ndarray,
             max_size: int):
-    """(images, masks, K [N, 3, 3]) shrunk so the long side is at most ``max_size``."""
+    """(images, masks, K [N, 3, 3]) shrunk by one factor, so that the longest side of any
+    view is at most ``max_size`` (views of different sizes keep their own shapes)."""
     import cv2
 
-    h, w = images[0].shape[:2]
     K = np.array(K, dtype=np.float64, copy=True)
-    s = min(1.0, max_size / max(h, w))
+    s = min(1.0, max_size / max(max(im.shape[:2]) for im in images))
     if s < 1.0:
-        W, H = round(w * s), round(h * s)
-        images = [cv2.resize(im, (W, H), interpolation=cv2.INTER_AREA) for im in images]
-        if masks is not None:
-            masks = [cv2.resize(m.astype(np.uint8), (W, H), interpolation=cv2.INTER_NEAREST)
-                     .astype(bool) for m in masks]
-        K[:, 0] *= W / w
-        K[:, 1] *= H / h
+        out_i, out_m = [], None if masks is None else []
+        for v, im in enumerate(images):
+            h, w = im.shape[:2]
+            W, H = round(w * s), round(h * s)
+            out_i.append(cv2.resize(im, (W, H), interpolation=cv2.INTER_AREA))
+            if masks is not None:
+                out_m.append(cv2.resize(masks[v].astype(np.uint8), (W, H),
+                                        interpolation=cv2.INTER_NEAREST).astype(bool))
+            K[v, 0] *= W / w
+            K[v, 1] *= H / h
+        images, masks = out_i, out_m
     return [np.ascontiguousarray(im) for im in images], masks, K
