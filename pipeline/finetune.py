@@ -438,11 +438,13 @@ def run_provenance(cfg: TrainConfig, preset: str, device: torch.device, init: di
 
 def scene_record(scene: Scene) -> dict:
     """What a fine-tune learns from, in short (``fit`` records it; ``continuation``
-    compares it): the views' names and size, each view's focal length, camera centre, mean
-    colour (0-255) and masked fraction."""
-    means = [img.double().mean((1, 2)) for img in scene.images]  # a view at a time
+    compares it): the views' names and size (padded, ``Scene.extents``), each view's focal
+    length, camera centre, mean colour (0-255) and masked fraction, of its own pixels."""
+    own = [(slice(None), slice(0, h), slice(0, w))
+           for h, w in (scene.size_of(i) for i in range(len(scene.stems)))]
+    means = [img[o].double().mean((1, 2)) for img, o in zip(scene.images, own, strict=True)]
     masks = [0.0] * len(scene.stems) if scene.masks is None else \
-        [float(m.double().mean()) for m in scene.masks]
+        [float(m[o].double().mean()) for m, o in zip(scene.masks, own, strict=True)]
     return {"stems": list(scene.stems), "size": list(scene.images.shape[-2:]),
             "focal": [round(float(f), 4) for f in scene.K[:, 0, 0]],
             "centre": [[round(float(x), 6) for x in c] for c in scene.c2w[:, :3, 3]],

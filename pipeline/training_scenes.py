@@ -345,7 +345,8 @@ def colmap_model_dir(folder: Path) -> Path:
 
 def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
     """A COLMAP workspace (sparse model + ``images/``) as a Scene; near/far per view from
-    the depths of the 3D points it sees (1st / 99th percentile, with margins)."""
+    the depths of the 3D points it sees (1st / 99th percentile, with margins). Views of
+    different sizes are padded (``make_scene``)."""
     folder = Path(folder)
     model = colmap_model_dir(folder)
     binary = (model / "cameras.bin").is_file()
@@ -377,10 +378,6 @@ def load_colmap(folder: str | Path, max_size: int = 504) -> Scene:
         c2ws.append(c2w)
         nears.append(near)
         fars.append(far)
-    sizes = {im.shape[:2] for im in images}
-    if len(sizes) > 1:
-        raise UserError(f"{folder}: images have different sizes {sorted(sizes)}; pretraining "
-                        "needs one size per scene (undistort to a single PINHOLE camera)")
     c2w, near, far = normalise(np.stack(c2ws), np.array(nears), np.array(fars))
     return make_scene(folder.name, stems, images, np.stack(Ks), c2w, near, far)
 

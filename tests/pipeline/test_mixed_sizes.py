@@ -222,3 +222,35 @@ def test_finetune_trains_on_a_workspace_with_a_portrait_view(plane_pair, monkeyp
                              workers=2), ws)
     assert ws.model_file.exists() and len(targets) == 12
     assert (120, 90) in targets and (90, 120) in targets
+
+
+def test_the_fine_tune_s_scene_record_counts_each_view_s_own_pixels(plane_pair):
+    """scene_record (what a carried fine-tune is compared by): a padded view's mean colour
+    and masked fraction are of its own pixels, the padding (black, marked) left out."""
+    from pipeline.finetune import scene_record
+    from pipeline.workspace import Workspace
+
+    _, turned, stems = plane_pair
+    scene = load_workspace(turned)
+    rec = scene_record(scene)
+    assert rec["size"] == [120, 120]
+    tw = Workspace(turned)
+    for i, s in enumerate(stems):
+        assert rec["masked"][i] == pytest.approx(float(read_mask(tw, s).mean()), abs=1e-6)
+        own = read_view_image(tw, s).reshape(-1, 3).mean(0)
+        assert np.allclose(rec["mean"][i], own, atol=1e-3)
+
+
+def test_a_colmap_folder_with_a_portrait_view_loads_padded(plane_pair, tmp_path):
+    """load_colmap (pretraining's COLMAP reader) takes views of different sizes as
+    load_workspace does: each at its own size and intrinsics, padded."""
+    from pipeline.training_scenes import load_colmap
+    from pipeline.workspace import Workspace
+    from tests.workflows.test_pretrain import _write_colmap_text
+
+    _, turned, _ = plane_pair
+    _write_colmap_text(Workspace(turned), tmp_path / "col")
+    a, b = load_colmap(tmp_path / "col"), load_workspace(turned)
+    assert torch.equal(a.extents, b.extents)
+    assert torch.equal(a.images, b.images)
+    assert torch.allclose(a.K, b.K, atol=1e-6)
