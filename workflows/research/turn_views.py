@@ -3,7 +3,8 @@ landscape ones), cameras turned exactly with them: a test bed for captures of mi
 
     python -m workflows.research.turn_views WS --stems A,B --out WS_TURNED
 
-Each named view's image, decoded photo, masks and depth map are turned 90 degrees clockwise
+Each named view's image, decoded photo, masks and depth maps (``depth/`` and the novel
+frames' ``depth/frames/``) are turned 90 degrees clockwise
 and its camera with it (``turn_frame``): the same photo, as if the camera had been held
 upright. Nothing else changes, so a stage run on the copy sees the same scene with views of
 two sizes. The copy leaves out what stages wrote from the images (``model/``, ``renders/``,
@@ -92,8 +93,7 @@ def turn_workspace(src: Path, out: Path, stems: list[str]) -> list[str]:
                 if not cv2.imwrite(str(p), cv2.rotate(img, cv2.ROTATE_90_CLOCKWISE)):
                     raise UserError(f"{p}: could not be written")
                 turned.append(str(p.relative_to(out)))
-        dp = out / "depth" / f"{stem}.npz"
-        if dp.exists():
+        for dp in sorted((out / "depth").rglob(f"{stem}.npz")):  # the novel frames' too
             with np.load(dp) as d:
                 arrays = {k: np.ascontiguousarray(np.rot90(d[k], -1)) for k in d.files}
             np.savez(dp, **arrays)
