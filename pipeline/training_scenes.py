@@ -119,7 +119,7 @@ def normalise(c2w: np.ndarray, near: np.ndarray, far: np.ndarray):
 # --------------------------------------------------------------------------- workspace
 def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
                    holes_as_flare: bool = False, gains: dict | None = None,
-                   grow: float = 0.0) -> Scene:
+                   grow: float = 0.0, pad: bool = False) -> Scene:
     """A workspace's posed views (and masks / views.json when present) as a Scene. With
     views.json its flags are the training targets (``ViewsFile.targets``, the rule select
     applied with its --max-flare); without it the training config's max_flare decides.
@@ -129,23 +129,32 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     fine-tune passes its own ``FinetuneConfig.holes_as_flare`` (on by default). ``gains``:
     {stem: [3] linear gain} applied to the views (``pipeline.exposure``). ``grow``: each
     mask grown by this fraction of the long side (a disc; ``grow_mask``), after the holes;
-    the flare fractions stay select's."""
+    the flare fractions stay select's. Views of another size than the most common one (a
+    portrait photo among landscape ones): stretched to it, intrinsics scaled alike; with
+    ``pad`` kept at their own size and padded (``make_scene``, ``Scene.extents``), as the
+    render pads its sources (``FinetuneConfig.pad_views``)."""
     ws = Workspace(root)
     cams = read_cameras(ws)
     frames = [f for f in cams.frames if stems is None or f.stem in stems]
     names = [f.stem for f in frames]
-    images = []
-    for f in frames:  # each at its own size (cameras.json's): views of other sizes are padded
-        img = read_image(ws.image_path(f.stem), size=(f.width, f.height), fix=ws.rerun("pose"))
+    sizes = [(f.width, f.height) for f in frames]
+    common = max(sizes, key=sizes.count)  # the most common size (the first of a tie)
+    size = {f.stem: (f.width, f.height) if pad else common for f in frames}
+    images, Ks = [], []
+    for f in frames:
+        img = read_image(ws.image_path(f.stem), size=size[f.stem], fix=ws.rerun("pose"))
         if gains and f.stem in gains:
             from pipeline.exposure import apply_gain
 
             img = apply_gain(img, gains[f.stem])
         images.append(img)
-    Ks = [np.array(f.K, float) for f in frames]
+        K = np.array(f.K, float)
+        K[0] *= size[f.stem][0] / f.width
+        K[1] *= size[f.stem][1] / f.height
+        Ks.append(K)
     masks = None
     if ws.masks.is_dir():
-        masks = [read_mask(ws, f.stem, (f.width, f.height)) for f in frames]
+        masks = [read_mask(ws, f.stem, size[f.stem]) for f in frames]
         if holes_as_flare:
             masks = [m | enclosed_holes(m) for m in masks]
     else:

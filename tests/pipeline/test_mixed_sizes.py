@@ -1,5 +1,6 @@
-"""Views of different sizes (a portrait photo among landscape ones) in training: each kept
-at its own size and padded, as the render's source cache keeps them, never stretched."""
+"""Views of different sizes (a portrait photo among landscape ones) in training: stretched to
+the most common size by default; with ``pad`` (``finetune --pad-views``) each kept at its own
+size and padded, as the render's source cache keeps them."""
 
 from __future__ import annotations
 
@@ -62,6 +63,32 @@ def plane_pair(tmp_path):
     return ws, turned, stems
 
 
+def test_load_workspace_stretches_other_sizes_to_the_most_common_one_by_default(plane_pair,
+                                                                             tmp_path):
+    """Without ``pad``: every view at the most common size (here landscape, though the first
+    view is portrait), intrinsics scaled alike, nothing padded."""
+    import cv2
+
+    from pipeline.workspace import Workspace
+
+    ws, turned, stems = plane_pair
+    first = tmp_path / "first"  # the first view portrait, the others landscape
+    turn_workspace(ws.root, first, [stems[0]])
+    for root, turned_stems in ((turned, [stems[0], stems[3]]), (first, [stems[0]])):
+        scene = load_workspace(root)
+        assert scene.extents is None and tuple(scene.images.shape[-2:]) == (90, 120)
+        cams = load_cameras(Workspace(root).cameras_json).by_stem()
+        for s in turned_stems:
+            i = scene.stems.index(s)
+            own = read_view_image(Workspace(root), s)
+            want = cv2.resize(own, (120, 90), interpolation=cv2.INTER_AREA)
+            assert np.array_equal(scene.images[i].permute(1, 2, 0).numpy(), want)
+            K = cams[s].K.copy()
+            K[0] *= 120 / 90
+            K[1] *= 90 / 120
+            assert np.allclose(scene.K[i].numpy(), K)
+
+
 def test_load_workspace_pads_a_portrait_view_and_does_not_stretch_it(plane_pair):
     """A portrait view among landscape ones keeps its own pixels and intrinsics; views are
     padded (black, marked flare) to the largest height and width; the flare fractions are of
@@ -71,7 +98,7 @@ def test_load_workspace_pads_a_portrait_view_and_does_not_stretch_it(plane_pair)
     ws, turned, stems = plane_pair
     plain = load_workspace(ws.root)
     assert plain.extents is None and tuple(plain.images.shape[-2:]) == (90, 120)
-    scene = load_workspace(turned)
+    scene = load_workspace(turned, pad=True)
     assert tuple(scene.images.shape[-2:]) == (120, 120)
     assert scene.extents.tolist() == [[90, 120], [120, 90], [120, 90], [90, 120], [120, 90]]
     tw = Workspace(turned)
@@ -88,6 +115,7 @@ def test_load_workspace_pads_a_portrait_view_and_does_not_stretch_it(plane_pair)
         assert int(pad.sum()) == (0 if (h, w) == (120, 120) else 120 * 120 - h * w)
         assert scene.flare[s] == pytest.approx(float(read_mask(tw, s).mean()))
     assert scene.flare[stems[3]] == pytest.approx(plain.flare[stems[3]])
+    assert load_workspace(ws.root, pad=True).extents is None
 
 
 def _views(bank: SourceBank, ids: torch.Tensor):
@@ -106,7 +134,7 @@ def test_a_padded_source_gives_each_point_the_colour_of_the_unturned_photo(plane
     from gnfr.renderer import gather
 
     ws, turned, stems = plane_pair
-    sa, sb = load_workspace(ws.root), load_workspace(turned)
+    sa, sb = load_workspace(ws.root), load_workspace(turned, pad=True)
     a = SourceBank.of(sa, 0.5, "cpu", full_res_colour)
     b = SourceBank.of(sb, 0.5, "cpu", full_res_colour)
     ids = torch.tensor([3, 0])
@@ -133,7 +161,7 @@ def test_training_never_draws_a_padded_view_s_padding(plane_pair):
     """sample_batch draws target pixels inside the target's own size, uniformly and by
     edges; the edge probabilities cover the view's own pixels."""
     _, turned, _ = plane_pair
-    scene = load_workspace(turned)
+    scene = load_workspace(turned, pad=True)
     scene = replace(scene, targets=None)
     gen = torch.Generator().manual_seed(1)
     for edge in (0.0, 0.5):
@@ -153,7 +181,7 @@ def test_a_padded_scene_s_mirror_flips_each_view_inside_its_own_width(plane_pair
     from gnfr.renderer import gather
 
     _, turned, _ = plane_pair
-    scene = load_workspace(turned)
+    scene = load_workspace(turned, pad=True)
     m = mirrored(scene)
     assert torch.equal(m.extents, scene.extents)
     assert torch.equal(m.images[0, :, :, :90], scene.images[0, :, :, :90].flip(-1))
@@ -181,7 +209,7 @@ def test_a_scene_pack_keeps_views_of_different_sizes(plane_pair, tmp_path):
     plain = load_workspace(ws.root)
     save_pack(plain, tmp_path / "plain")
     jpeg = (load_pack(tmp_path / "plain").images.float() - plain.images.float()).abs().mean()
-    scene = load_workspace(turned)
+    scene = load_workspace(turned, pad=True)
     save_pack(scene, tmp_path / "pack")
     back = load_pack(tmp_path / "pack")
     assert torch.equal(back.extents, scene.extents)
@@ -219,9 +247,13 @@ def test_finetune_trains_on_a_workspace_with_a_portrait_view(plane_pair, monkeyp
     _, turned, _ = plane_pair
     ws = Workspace(turned)
     ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", mirror=True,
-                             workers=2), ws)
+                             workers=2, pad_views=True), ws)
     assert ws.model_file.exists() and len(targets) == 12
     assert (120, 90) in targets and (90, 120) in targets
+    assert ws.stage_record("finetune")["params"]["pad_views"] is True
+    targets.clear()  # the default stretches the portrait views to the common size
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert set(targets) == {(90, 120)}
 
 
 def test_the_fine_tune_s_scene_record_counts_each_view_s_own_pixels(plane_pair):
@@ -231,7 +263,7 @@ def test_the_fine_tune_s_scene_record_counts_each_view_s_own_pixels(plane_pair):
     from pipeline.workspace import Workspace
 
     _, turned, stems = plane_pair
-    scene = load_workspace(turned)
+    scene = load_workspace(turned, pad=True)
     rec = scene_record(scene)
     assert rec["size"] == [120, 120]
     tw = Workspace(turned)
@@ -250,7 +282,7 @@ def test_a_colmap_folder_with_a_portrait_view_loads_padded(plane_pair, tmp_path)
 
     _, turned, _ = plane_pair
     _write_colmap_text(Workspace(turned), tmp_path / "col")
-    a, b = load_colmap(tmp_path / "col"), load_workspace(turned)
+    a, b = load_colmap(tmp_path / "col"), load_workspace(turned, pad=True)
     assert torch.equal(a.extents, b.extents)
     assert torch.equal(a.images, b.images)
     assert torch.allclose(a.K, b.K, atol=1e-6)
