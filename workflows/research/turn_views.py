@@ -1,5 +1,7 @@
-"""A copy of a posed workspace with some views turned a quarter (portrait photos among
-landscape ones), cameras turned exactly with them: a test bed for captures of mixed sizes.
+"""A copy of a posed workspace with some views turned a quarter, their cameras with them.
+
+Portrait photos among landscape ones, the cameras turned exactly: a test bed for captures of
+mixed sizes.
 
     python -m workflows.research.turn_views WS --stems A,B --out WS_TURNED
 
