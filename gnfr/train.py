@@ -194,6 +194,12 @@ class Scene:
             return int(self.images.shape[-2]), int(self.images.shape[-1])
         return int(self.extents[i, 1]), int(self.extents[i, 0])
 
+    def own(self, i: int, x: torch.Tensor) -> torch.Tensor:
+        """``x`` [..., H, W] (view ``i``'s image or mask, or a copy of one) cut to the view's
+        own size (``size_of``): a view of ``x``, so writing into it writes into ``x``."""
+        h, w = self.size_of(i)
+        return x[..., :h, :w]
+
 
 def mirrored(scene: Scene) -> Scene:
     """``scene`` seen in a mirror: every view (and mask) flipped left-right, and the world
@@ -398,8 +404,7 @@ def edge_probabilities(scene: Scene, i: int, share: float) -> torch.Tensor:
     image, the rest uniform (cached per view)."""
     key = (i, share)
     if key not in scene.edge_q:
-        h, w = scene.size_of(i)
-        grey = scene.images[i, :, :h, :w].float().mean(0, keepdim=True)[None] / 255.0
+        grey = scene.own(i, scene.images[i]).float().mean(0, keepdim=True)[None] / 255.0
         kx = torch.tensor([[-1.0, 0, 1], [-2, 0, 2], [-1, 0, 1]])
         k = torch.stack([kx, kx.T])[:, None]  # [2, 1, 3, 3]
         g = F.conv2d(F.pad(grey, (1, 1, 1, 1), mode="replicate"), k).square().sum(1).sqrt()

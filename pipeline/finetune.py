@@ -449,11 +449,9 @@ def scene_record(scene: Scene) -> dict:
     """What a fine-tune learns from, in short (``fit`` records it; ``continuation``
     compares it): the views' names and size (padded, ``Scene.extents``), each view's focal
     length, camera centre, mean colour (0-255) and masked fraction, of its own pixels."""
-    own = [(slice(None), slice(0, h), slice(0, w))
-           for h, w in (scene.size_of(i) for i in range(len(scene.stems)))]
-    means = [img[o].double().mean((1, 2)) for img, o in zip(scene.images, own, strict=True)]
+    means = [scene.own(i, img).double().mean((1, 2)) for i, img in enumerate(scene.images)]
     masks = [0.0] * len(scene.stems) if scene.masks is None else \
-        [float(m[o].double().mean()) for m, o in zip(scene.masks, own, strict=True)]
+        [float(scene.own(i, m).double().mean()) for i, m in enumerate(scene.masks)]
     return {"stems": list(scene.stems), "size": list(scene.images.shape[-2:]),
             "focal": [round(float(f), 4) for f in scene.K[:, 0, 0]],
             "centre": [[round(float(x), 6) for x in c] for c in scene.c2w[:, :3, 3]],

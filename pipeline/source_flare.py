@@ -36,10 +36,11 @@ TWINS = 4
 def scene_cameras(scene: Scene) -> Cameras:
     """The views of ``scene`` as pipeline cameras (its K, c2w, bounds and each view's own
     image size, ``Scene.size_of``)."""
-    frames = [Frame(name=s, stem=s, K=scene.K[i].numpy(), width=scene.size_of(i)[1],
-                    height=scene.size_of(i)[0], c2w=scene.c2w[i].numpy(),
-                    near=float(scene.near[i]), far=float(scene.far[i]))
-              for i, s in enumerate(scene.stems)]
+    sizes = [scene.size_of(i) for i in range(len(scene.stems))]
+    frames = [Frame(name=s, stem=s, K=scene.K[i].numpy(), width=w, height=h,
+                    c2w=scene.c2w[i].numpy(), near=float(scene.near[i]),
+                    far=float(scene.far[i]))
+              for i, (s, (h, w)) in enumerate(zip(scene.stems, sizes, strict=True))]
     return Cameras(frames)
 
 
@@ -75,15 +76,14 @@ def flared_twin(scene: Scene, seed: int, kinds: tuple[str, ...] | None = None) -
     masks = (torch.zeros_like(scene.images[:, :1]) if scene.masks is None
              else scene.masks.clone())
     for i, frame in enumerate(cams.frames):  # each view at its own size (padding left out)
-        h, w = frame.height, frame.width
-        img = scene.images[i, :, :h, :w].permute(1, 2, 0).numpy()
+        img = scene.own(i, scene.images[i]).permute(1, 2, 0).numpy()
         layers, _ = view_flare(cfg, lens, frame, light, base, i, srgb_to_linear(img / 255.0))
         if not layers.flare.any():
             continue
         no_core = FlareLayers(layers.flare, np.zeros_like(layers.core), layers.mask)
         out = np.round(apply_flare(img, no_core) * 255).astype(np.uint8)
-        images[i, :, :h, :w] = torch.from_numpy(out).permute(2, 0, 1)
-        masks[i, 0, :h, :w] |= torch.from_numpy(layers.mask.astype(np.uint8))
+        scene.own(i, images[i])[:] = torch.from_numpy(out).permute(2, 0, 1)
+        scene.own(i, masks[i, 0])[:] |= torch.from_numpy(layers.mask.astype(np.uint8))
     return replace(scene, images=images, masks=masks, name=f"{scene.name}~flare{seed}")
 
 

@@ -98,10 +98,10 @@ def scene_views(scene: Scene) -> tuple[list[np.ndarray], list[np.ndarray] | None
     ``make_scene`` takes them back."""
     images, masks = [], None if scene.masks is None else []
     for i in range(len(scene.stems)):
-        h, w = scene.size_of(i)
-        images.append(np.ascontiguousarray(scene.images[i, :, :h, :w].permute(1, 2, 0).numpy()))
+        images.append(np.ascontiguousarray(scene.own(i, scene.images[i]).permute(1, 2, 0)
+                                           .numpy()))
         if masks is not None:
-            masks.append(scene.masks[i, 0, :h, :w].numpy().astype(bool))
+            masks.append(scene.own(i, scene.masks[i, 0]).numpy().astype(bool))
     return images, masks
 
 
@@ -430,9 +430,9 @@ def detect_and_load(path: str | Path, max_size: int = 504) -> Scene:
 def save_pack(scene: Scene, folder: str | Path, quality: int = 95) -> Path:
     """``scene`` as ``folder/scene_pack.npz``: views as JPEG (``quality``), intrinsics,
     OpenCV c2w, near/far, masks bit-packed when the scene has them, targets; views of
-    different sizes each at its own (``Scene.extents``; their masks padded, with
-    ``extents``). What it drops: the exact pixels (JPEG), and ``ranked``/``flare``
-    (recomputed from cameras and masks)."""
+    different sizes each at its own size (``Scene.extents``), their masks padded to the
+    largest (``load_pack`` cuts each to its view's JPEG size). What it drops: the exact
+    pixels (JPEG), and ``ranked``/``flare`` (recomputed from cameras and masks)."""
     import cv2
 
     folder = Path(folder)

@@ -147,13 +147,11 @@ def impose_flare(scene: Scene, prob: float, rng: np.random.Generator) -> Scene:
     for i in range(imgs.shape[0]):
         if rng.random() >= prob:
             continue
-        h, w = scene.size_of(i)  # the view itself, its padding (Scene.extents) left out
-        flared, layers = synthesize(imgs[i, :, :h, :w].permute(1, 2, 0).numpy(), cfg, rng)
-        imgs[i, :, :h, :w] = torch.from_numpy(
-            np.round(flared * 255).astype(np.uint8)).permute(2, 0, 1)
-        masks[i, 0, :h, :w] = torch.from_numpy(layers.mask.astype(np.uint8))
-    flare = {s: float(masks[i, 0, :scene.size_of(i)[0], :scene.size_of(i)[1]].float().mean())
-             for i, s in enumerate(scene.stems)}
+        view = scene.own(i, imgs[i])  # the view itself, its padding (Scene.extents) left out
+        flared, layers = synthesize(view.permute(1, 2, 0).numpy(), cfg, rng)
+        view[:] = torch.from_numpy(np.round(flared * 255).astype(np.uint8)).permute(2, 0, 1)
+        scene.own(i, masks[i, 0])[:] = torch.from_numpy(layers.mask.astype(np.uint8))
+    flare = {s: float(scene.own(i, masks[i]).float().mean()) for i, s in enumerate(scene.stems)}
     # the synthetic flare changes which views may be targets: the rule decides again
     return replace(scene, images=imgs, masks=masks, flare=flare, targets=None)
 
