@@ -1,16 +1,17 @@
 """Judge the fine-tune's padded views against stretched ones on turned development builds.
 
     python benchmarks/mixed_sizes_judge.py --runs DIR --scenes sceaux_p4,et_p5,lund_k4 \
-        [--out JSON]
+        [--seeds 2,3,4] [--out JSON]
 
-DIR/<scene>/<arm>/ (arm: ``baseline``, ``candidate``) holds each arm's
-``novel_loo.py --out`` files ``heldout.json`` and ``non_targets.json`` and the fine-tune's
-``finetune_seconds`` (the stage record's seconds, as a number in a text file). The rule
-(docs/history/gnfr.md, "Views of different sizes in the fine-tune"), per scene the mean PSNR
-of its held-out and non-target frames: (a) the candidate's, averaged over the scenes, at
-least the baseline's minus 0.05 dB; (b) no scene below the baseline's by more than 0.2 dB;
-(c) the candidate's fine-tune seconds, summed over the scenes, at most 1.3 times the
-baseline's.
+DIR/<scene>/<arm>/ (arm: ``baseline``, ``candidate``; with ``--seeds``,
+DIR/seed<N>/<scene>/<arm>/ for each seed) holds each arm's ``novel_loo.py --out`` files
+``heldout.json`` and ``non_targets.json`` and the fine-tune's ``finetune_seconds`` (the
+stage record's seconds, as a number in a text file). The rule (docs/history/gnfr.md, "Views
+of different sizes in the fine-tune"; over seeds, "... three seeds"), per scene the mean
+PSNR of its held-out and non-target frames (over seeds, the mean of each seed's): (a) the
+candidate's, averaged over the scenes, at least the baseline's minus 0.05 dB; (b) no scene
+below the baseline's by more than 0.2 dB; (c) the candidate's fine-tune seconds, summed
+over the scenes (and seeds), at most 1.3 times the baseline's.
 """
 
 from __future__ import annotations
@@ -48,10 +49,31 @@ def arm_record(folder: Path) -> dict:
             "per_view": views}
 
 
-def judge(runs: Path, scenes: list[str]) -> dict:
-    per = {s: {a: arm_record(runs / s / a) for a in ARMS} for s in scenes}
+def seeded_record(runs: Path, scene: str, arm: str, seeds: list[int]) -> dict:
+    """One arm of one scene over seeds: the mean of each seed's mean PSNR and SSIM, the
+    fine-tune seconds summed, and each seed's record."""
+    each = {n: arm_record(runs / f"seed{n}" / scene / arm) for n in seeds}
+    return {"frames": each[seeds[0]]["frames"],
+            "psnr": float(np.mean([r["psnr"] for r in each.values()])),
+            "ssim": float(np.mean([r["ssim"] for r in each.values()])),
+            "finetune_seconds": float(sum(r["finetune_seconds"] for r in each.values())),
+            "seeds": each}
+
+
+def _frames(rec: dict) -> list[set]:
+    """The frames an arm scored, one set per seed (one set without seeds)."""
+    if "seeds" in rec:
+        return [set(r["per_view"]) for r in rec["seeds"].values()]
+    return [set(rec["per_view"])]
+
+
+def judge(runs: Path, scenes: list[str], seeds: list[int] | None = None) -> dict:
+    if seeds:
+        per = {s: {a: seeded_record(runs, s, a, seeds) for a in ARMS} for s in scenes}
+    else:
+        per = {s: {a: arm_record(runs / s / a) for a in ARMS} for s in scenes}
     for s, r in per.items():
-        if set(r["baseline"]["per_view"]) != set(r["candidate"]["per_view"]):
+        if _frames(r["baseline"]) != _frames(r["candidate"]):
             raise SystemExit(f"{s}: the arms scored different frames")
         r["delta"] = r["candidate"]["psnr"] - r["baseline"]["psnr"]
     mean = {a: float(np.mean([per[s][a]["psnr"] for s in scenes])) for a in ARMS}
@@ -60,7 +82,7 @@ def judge(runs: Path, scenes: list[str]) -> dict:
     rule = {"a_mean": mean["candidate"] >= mean["baseline"] - MEAN_TOLERANCE,
             "b_each_scene": worst >= -SCENE_TOLERANCE,
             "c_time": secs["candidate"] <= TIME_RATIO * secs["baseline"]}
-    return {"scenes": per, "mean_psnr": mean, "worst_scene_delta": worst,
+    return {"scenes": per, "seeds": seeds or None, "mean_psnr": mean, "worst_scene_delta": worst,
             "finetune_seconds": secs, "time_ratio": secs["candidate"] / secs["baseline"],
             "rule": rule, "passed": all(rule.values())}
 
@@ -69,11 +91,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=Path, required=True)
     ap.add_argument("--scenes", required=True)
+    ap.add_argument("--seeds", default="", help="comma-separated seeds: DIR/seed<N>/...")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.provenance import write_result
 
-    rec = judge(a.runs, [s for s in a.scenes.split(",") if s])
+    seeds = [int(n) for n in a.seeds.split(",") if n]
+    rec = judge(a.runs, [s for s in a.scenes.split(",") if s], seeds)
     print(json.dumps({k: rec[k] for k in ("mean_psnr", "worst_scene_delta", "time_ratio",
                                           "rule", "passed")}, indent=1))
     write_result(a.out, rec)

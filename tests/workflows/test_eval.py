@@ -1630,3 +1630,35 @@ def test_mask_kind_scenes_names_filled_holes():
     assert kinds.setting(row) == "fmg_candidate_F26.safetensors@1+pads=reflect,replicate,constant"
     assert (kinds.setting({**row, "fill_holes": True})
             == "fmg_candidate_F26.safetensors@1+holes+pads=reflect,replicate,constant")
+
+
+def _mixed_arm(folder, psnr: dict, seconds: float):
+    """One arm's files as benchmarks/mixed_sizes_judge.py reads them."""
+    folder.mkdir(parents=True)
+    for part in ("heldout", "non_targets"):
+        views = {k: {"psnr": v, "ssim": 0.5} for k, v in psnr.items() if k.startswith(part[0])}
+        (folder / f"{part}.json").write_text(json.dumps({"per_view": views}))
+    (folder / "finetune_seconds").write_text(str(seconds))
+
+
+def test_mixed_sizes_judge_averages_seeds_before_its_rule(tmp_path):
+    """benchmarks/mixed_sizes_judge.py --seeds: each scene's PSNR is the mean of its seeds'
+    means, so one seed's loss past 0.2 dB that another seed makes up passes (b), while a loss
+    that holds over the seeds fails it; time sums over scenes and seeds; arms that scored
+    different frames are refused."""
+    bench = load_benchmark("mixed_sizes_judge")
+    base = {"h1": 17.0, "n1": 16.0}
+    deltas = {("a", 2): 0.1, ("a", 3): 0.1, ("b", 2): -0.5, ("b", 3): 0.3}
+    for (scene, seed), d in deltas.items():
+        _mixed_arm(tmp_path / f"seed{seed}" / scene / "baseline", base, 100.0)
+        _mixed_arm(tmp_path / f"seed{seed}" / scene / "candidate",
+                   {k: v + d for k, v in base.items()}, 110.0 + seed)
+    v = bench.judge(tmp_path, ["a", "b"], [2, 3])
+    assert v["scenes"]["b"]["delta"] == pytest.approx(-0.1)
+    assert v["worst_scene_delta"] == pytest.approx(-0.1) and v["passed"]
+    assert v["finetune_seconds"]["candidate"] == pytest.approx(2 * 112 + 2 * 113)
+    assert bench.judge(tmp_path, ["b"], [2])["rule"]["b_each_scene"] is False
+    (tmp_path / "seed3" / "b" / "candidate" / "heldout.json").write_text(
+        json.dumps({"per_view": {"h2": {"psnr": 17.0, "ssim": 0.5}}}))
+    with pytest.raises(SystemExit, match="b: the arms scored different frames"):
+        bench.judge(tmp_path, ["a", "b"], [2, 3])
