@@ -126,7 +126,8 @@ class FinetuneConfig:
     stretched to that size (``pipeline.training_scenes.load_workspace``). Off by default:
     judged on turned development builds it raised two scenes' novel views (+0.63, +0.39 dB)
     and lowered the third's by 0.29, over the rule's 0.2 (docs/history/gnfr.md, "Views of
-    different sizes in the fine-tune"). Costs 1.06x the fine-tune's time there."""
+    different sizes in the fine-tune"). Costs 1.06x the fine-tune's time there. Where
+    every view has one size it changes nothing and is recorded off (``mixed_sizes``)."""
     flare_flag: bool = False
     """Give the network, with each source's colour and features, a bit saying the point is
     on flare in that source (``GNFRConfig.flare_flag``), so a point on flare in every
@@ -280,6 +281,14 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     return name, replace(cfg, cached_features=cached)
 
 
+def mixed_sizes(ws: Workspace) -> bool:
+    """Whether the posed views are not all of one size (a portrait photo among landscape
+    ones): where ``FinetuneConfig.pad_views`` changes what the fine-tune sees."""
+    from pipeline.ws_files import read_cameras
+
+    return len({(f.width, f.height) for f in read_cameras(ws).frames}) > 1
+
+
 def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Fine-tune on ``ws``; returns the written paths."""
     validate(config)
@@ -294,11 +303,14 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     if config.random_sources is None and flare_free(ws):
         cfg = replace(cfg, random_sources=True)
         info("finetune: no view has flare marked: random sources inside the nearest pool")
+    # padding changes nothing where every view has one size: recorded as off there, so the
+    # flag (or its default) never reruns a finished fine-tune of such a capture
+    pad = config.pad_views and mixed_sizes(ws)
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     inputs += ws.depth_inputs() if config.exposure_match else []  # the gains come from the depth
     params = {"preset": name, "init": config.init, "train": asdict(cfg),
               "holes_as_flare": config.holes_as_flare, "train_grow": config.train_grow,
-              "pad_views": config.pad_views,
+              "pad_views": pad,
               "exposure_match": config.exposure_match,
               "exposure_model": config.exposure_model if config.exposure_match else "gain",
               "exposure_reference": (config.exposure_reference if config.exposure_match
@@ -327,7 +339,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     gains = (exposure_gains(ws, config.exposure_model, config.exposure_reference)
              if config.exposure_match else None)
     scene = load_workspace(ws.root, holes_as_flare=config.holes_as_flare, gains=gains,
-                           grow=config.train_grow, pad=config.pad_views)
+                           grow=config.train_grow, pad=pad)
     workers, threads = fit_workers(config, device, cfg), fit_threads(config, device)
     with torch_threads(threads):
         stats = fit(scene, cfg, device, ws.model, resume=ws.resumable(stage_run),

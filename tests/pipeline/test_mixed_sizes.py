@@ -256,6 +256,26 @@ def test_finetune_trains_on_a_workspace_with_a_portrait_view(plane_pair, monkeyp
     assert set(targets) == {(90, 120)}
 
 
+def test_pad_views_on_views_of_one_size_is_recorded_off_and_reruns_nothing(plane_pair,
+                                                                         monkeypatch):
+    """Where every view has one size padding changes nothing: the stage records it off, so
+    a fine-tune finished without the flag is up to date with it (and the other way)."""
+    import gnfr.train
+    import pipeline.finetune as ft
+    from pipeline.workspace import Workspace
+    from tests.pipeline.test_finetune import TINY
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=4, ckpt_every=100))
+    ws, turned, _ = plane_pair
+    assert not ft.mixed_sizes(ws) and ft.mixed_sizes(Workspace(turned))
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert ws.stage_record("finetune")["params"]["pad_views"] is False
+    fits = []
+    monkeypatch.setattr(ft, "fit", lambda *a, **k: fits.append(1))
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", pad_views=True), ws)
+    assert fits == [] and ws.stage_record("finetune")["params"]["pad_views"] is False
+
+
 def test_the_fine_tune_s_scene_record_counts_each_view_s_own_pixels(plane_pair):
     """scene_record (what a carried fine-tune is compared by): a padded view's mean colour
     and masked fraction are of its own pixels, the padding (black, marked) left out."""
