@@ -4,6 +4,7 @@ size and padded, as the render's source cache keeps them."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -228,7 +229,8 @@ def test_a_scene_pack_keeps_views_of_different_sizes(plane_pair, tmp_path):
 
 def test_finetune_trains_on_a_workspace_with_a_portrait_view(plane_pair, monkeypatch):
     """The fine-tune stage runs on views of two sizes, with the mirror and in two processes,
-    and its targets include the portrait views."""
+    padded by default, and its targets include the portrait views; --no-pad-views
+    stretches them to the common size."""
     import gnfr.train
     import pipeline.finetune as ft
     from pipeline.workspace import Workspace
@@ -247,19 +249,21 @@ def test_finetune_trains_on_a_workspace_with_a_portrait_view(plane_pair, monkeyp
     _, turned, _ = plane_pair
     ws = Workspace(turned)
     ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", mirror=True,
-                             workers=2, pad_views=True), ws)
+                             workers=2), ws)
     assert ws.model_file.exists() and len(targets) == 12
     assert (120, 90) in targets and (90, 120) in targets
     assert ws.stage_record("finetune")["params"]["pad_views"] is True
-    targets.clear()  # the default stretches the portrait views to the common size
-    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    targets.clear()  # --no-pad-views stretches the portrait views to the common size
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", pad_views=False),
+           ws)
     assert set(targets) == {(90, 120)}
 
 
 def test_pad_views_on_views_of_one_size_is_recorded_off_and_reruns_nothing(plane_pair,
                                                                          monkeypatch):
     """Where every view has one size padding changes nothing: the stage records it off, so
-    a fine-tune finished without the flag is up to date with it (and the other way)."""
+    a fine-tune finished with the default (padding) is up to date without it, and so is
+    one recorded before the option existed."""
     import gnfr.train
     import pipeline.finetune as ft
     from pipeline.workspace import Workspace
@@ -272,8 +276,14 @@ def test_pad_views_on_views_of_one_size_is_recorded_off_and_reruns_nothing(plane
     assert ws.stage_record("finetune")["params"]["pad_views"] is False
     fits = []
     monkeypatch.setattr(ft, "fit", lambda *a, **k: fits.append(1))
-    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", pad_views=True), ws)
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu", pad_views=False),
+           ws)
     assert fits == [] and ws.stage_record("finetune")["params"]["pad_views"] is False
+    manifest = json.loads(ws.manifest_path.read_text())  # as written before the option
+    del manifest["stages"]["finetune"]["params"]["pad_views"]
+    ws.manifest_path.write_text(json.dumps(manifest))
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert fits == []
 
 
 def test_the_fine_tune_s_scene_record_counts_each_view_s_own_pixels(plane_pair):
