@@ -885,15 +885,24 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     pixels = json.loads((RESULTS / "sample_oneshot_cpu_s73_pixels.json").read_text())
     assert pixels["code"]["commit"].startswith("ae048c4")  # the pixel-wise default
     assert f"{pixels['mean']['psnr_flare']:.2f} / {pixels['mean']['psnr']:.2f}" in rows
-    # the row since the seventy-ninth session: its fresh clone; the seventy-third session's
-    # code on the same machine scores the same to the digit (the machine moved the row)
-    today = json.loads((RESULTS / "sample_oneshot_cpu_s79_head.json").read_text())
+    # the seventy-ninth session's fresh clone; the seventy-third session's code on the same
+    # machine scores the same to the digit (the machine moved the row)
+    s79 = json.loads((RESULTS / "sample_oneshot_cpu_s79_head.json").read_text())
     again = json.loads((RESULTS / "sample_oneshot_cpu_s79_ae048c4.json").read_text())
-    assert again["code"]["commit"].startswith("ae048c4") and again["mean"] == today["mean"]
-    assert today["machine"]["platform"] == again["machine"]["platform"]
+    assert again["code"]["commit"].startswith("ae048c4") and again["mean"] == s79["mean"]
+    assert s79["machine"]["platform"] == again["machine"]["platform"]
+    assert f"{s79['mean']['psnr_flare']:.2f} / {s79['mean']['psnr']:.2f}" in rows
+    # the row since the eighty-fifth session (the fine-tune pads the portrait photo); that
+    # session's first commit, run just before on its machine, repeats the s79 clone exactly
+    today = json.loads((RESULTS / "sample_oneshot_cpu_s85_head.json").read_text())
+    first = json.loads((RESULTS / "sample_oneshot_cpu_s85_313090a.json").read_text())
+    assert first["code"]["commit"].startswith("313090a") and first["mean"] == s79["mean"]
+    assert today["machine"]["platform"] == first["machine"]["platform"]
     assert (f"(the main job above) | {today['mean']['psnr_flare']:.2f} / "
             f"{today['mean']['psnr']:.2f} |") in readme
     assert f"{today['mean']['psnr_flare']:.2f} / {today['mean']['psnr']:.2f}" in rows
+    first_row = f"{first['mean']['psnr_flare']:.2f} / {first['mean']['psnr']:.2f}"
+    assert f"{first_row} at that session's first commit" in readme
     now = json.loads((RESULTS / "sample_oneshot_cpu_s73_head.json").read_text())
     assert now["code"]["commit"].startswith("5b30369")  # the regions form
     assert f"{now['mean']['psnr_flare']:.2f} / {now['mean']['psnr']:.2f}" in rows
