@@ -329,6 +329,9 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
         info(f"finetune: up to date ({ws.model})")
         _check_init(ws, cfg, config.init)
         return stage_run.outputs
+    if not ws.resumable(stage_run):  # a checkpoint of other settings or inputs (a finished
+        # run's, kept while this one has not checkpointed yet) is never resumed from
+        checkpoint_files(ws.model)[1].unlink(missing_ok=True)
     info(f"finetune: preset '{name}' on {device.type} ({cfg.iters} steps, {cfg.rays} rays, "
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
          f"{'cached features' if cfg.cached_features else 'end-to-end'}"

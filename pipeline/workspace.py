@@ -196,18 +196,42 @@ def same_params(previous, current, defaults=None) -> bool:
     its default leaves every finished stage up to date while it stays at that default, and
     makes the stage run again when it is set; no manifest needs migrating. Both sides are
     JSON values (``begin_stage`` round-trips them)."""
+    return not changed_params(previous, current, defaults)
+
+
+def changed_params(previous, current, defaults=None, prefix: str = "") -> list[tuple]:
+    """The parameters that differ, as ``same_params`` compares them: (dotted key, recorded
+    value, current value) for each, a key absent on one side given as its default (or
+    None); empty when they are the same."""
     if not (isinstance(previous, dict) and isinstance(current, dict)):
-        return previous == current
+        return [] if previous == current else [(prefix or "parameters", previous, current)]
     defaults = defaults if isinstance(defaults, dict) else {}
-    for key in previous.keys() | current.keys():
+    changed = []
+    for key in sorted(previous.keys() | current.keys()):
         old, new = previous.get(key, _ABSENT), current.get(key, _ABSENT)
+        name = f"{prefix}.{key}" if prefix else key
         if old is _ABSENT or new is _ABSENT:
             value = new if old is _ABSENT else old
             if key not in defaults or value != defaults[key]:
-                return False
-        elif not same_params(old, new, defaults.get(key)):
-            return False
-    return True
+                old, new = (defaults.get(key) if v is _ABSENT else v for v in (old, new))
+                changed.append((name, old, new))
+        else:
+            changed += changed_params(old, new, defaults.get(key), name)
+    return changed
+
+
+def rerun_reason(previous: dict, params: dict, digest: str, defaults: dict | None,
+                 outputs_ok: bool) -> str:
+    """Why a finished stage runs again, in words: its changed settings (up to three, with
+    their old and new values), changed inputs or a missing output."""
+    changed = changed_params(previous.get("params"), params, defaults)
+    if changed:
+        shown = ", ".join(f"{k} {json.dumps(a)} -> {json.dumps(b)}" for k, a, b in changed[:3])
+        more = f" and {len(changed) - 3} more" if len(changed) > 3 else ""
+        return f"its settings changed ({shown}{more})"
+    if previous.get("inputs_digest") != digest:
+        return "its inputs changed since it ran"
+    return "an output it wrote is missing" if not outputs_ok else "it is asked to"
 
 
 @dataclass
@@ -526,6 +550,11 @@ class Workspace:
         skip = (not force and prev.get("status") == "complete"
                 and same_params(prev.get("params"), params, defaults)
                 and prev.get("inputs_digest") == digest and outputs_ok)
+        if not skip and not force and prev.get("status") == "complete":
+            from pipeline.progress import info
+
+            info(f"{name}: running again: "
+                 f"{rerun_reason(prev, params, digest, defaults, outputs_ok)}")
         if not skip:
             self.update_manifest(name, {"status": "running", "params": params,
                                         "inputs_digest": digest,

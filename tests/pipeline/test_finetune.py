@@ -84,6 +84,35 @@ def test_finetune_stage_writes_model_and_skips_when_up_to_date(tmp_path, monkeyp
     assert ws.model_file.stat().st_mtime_ns == stamp
 
 
+def test_a_run_of_new_settings_stopped_before_its_checkpoint_starts_afresh(tmp_path,
+                                                                            monkeypatch):
+    """A finished fine-tune's checkpoint is not resumed by a run of other settings stopped
+    before it wrote its own: the next attempt trains from step 0, not from the old steps."""
+    import gnfr.train
+    import pipeline.finetune as ft
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=4, ckpt_every=100))
+    ws = masked_workspace(tmp_path / "ws")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    real_fit = ft.fit
+
+    def stopped(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(ft, "fit", stopped)
+    new = FinetuneConfig(preset="quick", init="scratch", device="cpu", iters=6)
+    with pytest.raises(KeyboardInterrupt):
+        run(new, ws)
+    assert ws.stage_record("finetune")["status"] == "running" and ws.model_file.exists()
+    said = []
+    monkeypatch.setattr(ft, "fit", real_fit)
+    monkeypatch.setattr(ft, "info", said.append)
+    run(new, ws)
+    assert not any(m.startswith("finetune: resuming") for m in said)
+    assert any(m.startswith("finetune: starting") for m in said)
+    assert [json.loads(ln)["step"] for ln in ws.metrics_jsonl.read_text().splitlines()][-1] == 6
+
+
 def _select(ws, max_flare: float) -> list[str]:
     """Write WS/views.json as `select --max-flare` does; returns its targets."""
     from pipeline.ws_files import make_views, read_cameras, read_mask, write_views

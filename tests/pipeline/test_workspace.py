@@ -122,6 +122,40 @@ def test_a_stage_of_an_earlier_version_stays_up_to_date_until_a_new_option_is_se
     assert not ws.begin_stage("s", {"p": 1, "new": False}, [], defaults=defaults).skip
 
 
+def test_a_finished_stage_run_again_says_why(tmp_path, monkeypatch):
+    """A finished stage that runs again says so in one line: its changed settings with old
+    and new values (an option added since at its default is no change), else its changed
+    inputs, else a missing output; a first or resumed run says nothing of it."""
+    import pipeline.progress
+
+    said = []
+    monkeypatch.setattr(pipeline.progress, "info", said.append)
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    ws = Workspace.create(tmp_path / "ws", photos)
+    inp, out = ws.root / "in.txt", ws.root / "out.txt"
+    inp.write_text("a")
+    out.write_text("o")
+    ws.begin_stage("s", {"p": 1, "t": {"x": 1}}, [inp]).finish([out])
+    assert said == []
+    ws.begin_stage("s", {"p": 2, "t": {"x": 1}, "new": True}, [inp],
+                   defaults={"new": False})
+    assert said == ["s: running again: its settings changed (new false -> true, p 1 -> 2)"]
+    ws.begin_stage("s", {"p": 2, "t": {"x": 1}, "new": True}, [inp])  # resumed: nothing said
+    assert len(said) == 1
+    ws.begin_stage("s", {"p": 1, "t": {"x": 1}}, [inp]).finish([out])
+    ws.begin_stage("s", {"p": 1, "t": {"x": 2}, "new": False}, [inp], defaults={"new": False})
+    assert said[-1] == "s: running again: its settings changed (t.x 1 -> 2)"
+    ws.begin_stage("s", {"p": 1}, [inp]).finish([out])
+    inp.write_text("b")
+    ws.begin_stage("s", {"p": 1}, [inp])
+    assert said[-1] == "s: running again: its inputs changed since it ran"
+    ws.begin_stage("s", {"p": 1}, [inp]).finish([out])
+    out.unlink()
+    ws.begin_stage("s", {"p": 1}, [inp])
+    assert said[-1] == "s: running again: an output it wrote is missing"
+
+
 def test_interrupted_stage_is_resumable_but_not_skipped(tmp_path):
     photos = tmp_path / "photos"
     photos.mkdir()
