@@ -44,7 +44,8 @@ with a photo is a phone's Live Photo clip and is left out with a warning.
 Two photos with one stem (a RAW+JPEG pair): the raw is kept and a warning names both.
 Unreadable files are named in one line each and skipped; fewer than 3 usable photos is
 an error. Per-file resume: outputs of an interrupted run with the same inputs and
-parameters are kept.
+parameters are kept, never an earlier finished run's of other settings
+(``Workspace.kept``).
 """
 
 from __future__ import annotations
@@ -382,11 +383,12 @@ def _decode_file(photo: Photo, cfg: DecodeConfig, png: Path, tiff: Path) -> None
     atomic_imwrite(png, bgr)
 
 
-def _decode_video(path: Path, cfg: DecodeConfig, ws: Workspace, resume: bool,
+def _decode_video(path: Path, cfg: DecodeConfig, ws: Workspace, keep: Callable[[Path], bool],
                   taken_stems: set[str]) -> tuple[dict[str, dict], int]:
     """Choose and write the frames of one video (``pipeline.video_input``): ({stem: {video,
     frame, seconds}} of the frames written or kept, how many were kept from an interrupted
-    run). Raises VideoError when the video cannot be read."""
+    run; ``keep``: whether a written frame is this run's, ``Workspace.kept``). Raises
+    VideoError when the video cannot be read."""
     from pipeline import video_input as vi
 
     with make_progress() as prog:
@@ -400,7 +402,7 @@ def _decode_video(path: Path, cfg: DecodeConfig, ws: Workspace, resume: bool,
             if stem in taken_stems:
                 raise UserError(f"frame {stem} of {path.name} has the name of another photo "
                                 "in the folder: rename the video or that photo")
-        todo = [i for i in chosen if not (resume and ws.decoded_path(stems[i]).exists())]
+        todo = [i for i in chosen if not keep(ws.decoded_path(stems[i]))]
         if todo:
             task = prog.add_task(f"decode {path.name}: {len(todo)} frames", total=max(todo) + 1)
             for i, bgr in vi.read_chosen(path, todo, lambda: prog.advance(task)):
@@ -444,12 +446,14 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     if stage_run.skip:
         info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws
-    resume = ws.resumable(stage_run)
+    def keep(path: Path) -> bool:  # this run's file (an earlier run's of other settings: not)
+        return ws.kept(stage_run, path)
+
     done, skipped, reused, frames = {}, {}, 0, {}
     stills = [p for p in chosen if not p.video]
     for video in (p for p in chosen if p.video):
         try:
-            taken, kept = _decode_video(video.path, cfg, ws, resume, set(done) | {
+            taken, kept = _decode_video(video.path, cfg, ws, keep, set(done) | {
                 p.stem for p in stills})
         except VideoError as e:
             warn(f"skipping {video.path.name}: {e}; replace or remove the file")
@@ -460,7 +464,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         reused += kept
     for photo in track(stills, "decode") if stills else ():
         png, tiff = ws.decoded_path(photo.stem), ws.linear_path(photo.stem)
-        if resume and png.exists() and (tiff.exists() or not photo.is_raw):
+        if keep(png) and (keep(tiff) or not photo.is_raw):
             done[photo.stem], reused = photo, reused + 1
             continue
         try:

@@ -7,7 +7,10 @@ what the files hold is read and written by ``pipeline/ws_files.py``. Each stage 
 in ``WS/manifest.json`` its parameters, a digest of the inputs it read, the outputs it
 wrote, package versions and timing. A stage whose parameters and input digest are
 unchanged is skipped; since a stage's input digest covers the files earlier stages
-wrote, rerunning an early stage makes every later one that read its outputs stale.
+wrote, rerunning an early stage makes every later one that read its outputs stale. A
+stage interrupted resumes at the same parameters and inputs; the files it keeps are those
+written since its first attempt at them (``Workspace.kept``; ``StageRun.since``), and a
+finished stage that runs again says why (``rerun_reason``).
 
 All writes go to a temporary name in the destination folder and are renamed into
 place (``os.replace`` is atomic on POSIX), so a run killed at any moment leaves either
@@ -248,6 +251,9 @@ class StageRun:
     started: float = field(default_factory=time.time)
     defaults: dict = field(default_factory=dict)
     """The parameters' defaults (``same_params``)."""
+    since: float = 0.0
+    """When the attempts at these parameters and inputs began (the manifest's mtime then):
+    a file older than that is an earlier run's, of other settings (``Workspace.kept``)."""
 
     @property
     def outputs(self) -> list[Path]:
@@ -555,11 +561,27 @@ class Workspace:
 
             info(f"{name}: running again: "
                  f"{rerun_reason(prev, params, digest, defaults, outputs_ok)}")
+        # the first attempt at these settings and inputs: files older than it are an
+        # earlier run's (a record without it: its files are all of these settings)
+        resumes = (not force and same_params(prev.get("params"), params, defaults)
+                   and prev.get("inputs_digest") == digest)
+        since = float(prev.get("since", 0.0)) if resumes else None
         if not skip:
-            self.update_manifest(name, {"status": "running", "params": params,
-                                        "inputs_digest": digest,
-                                        "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
-        return StageRun(self, name, params, digest, skip, prev, force, defaults=defaults)
+            record = {"status": "running", "params": params, "inputs_digest": digest,
+                      "started": time.strftime("%Y-%m-%dT%H:%M:%S")}
+            if since is None:  # stamped by the file system's clock, which stamps the files
+                self.update_manifest(name, record)
+                since = self.manifest_path.stat().st_mtime
+            self.update_manifest(name, {**record, "since": since})
+        return StageRun(self, name, params, digest, skip, prev, force, defaults=defaults,
+                        since=since or 0.0)
+
+    def kept(self, run: StageRun, path: Path) -> bool:
+        """Whether the file ``path`` may be kept as ``run``'s output: the run resumes
+        (``resumable``) and the file was written since its attempts began, not by an
+        earlier run of other settings that an interrupted attempt had not yet replaced."""
+        return (self.resumable(run) and path.exists()
+                and path.stat().st_mtime >= run.since)
 
     def resumable(self, run: StageRun) -> bool:
         """True when per-file outputs left by an interrupted run can be kept.

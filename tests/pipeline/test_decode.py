@@ -154,6 +154,34 @@ def test_resume_after_interrupt(tmp_path, monkeypatch):
     assert max(cv2.imread(str(ws.decoded / "kermit000.png")).shape) == 160
 
 
+def test_a_decode_at_new_settings_stopped_midway_never_keeps_the_earlier_images(tmp_path,
+                                                                                  monkeypatch):
+    """A finished decode at one size, then one at another stopped after 3 photos: the next
+    attempt keeps those 3 and decodes the rest again, rather than taking the earlier run's
+    images (of the old size) as the interrupted run's."""
+    kermit = shared("scenes", "kermit")
+    out = tmp_path / "ws"
+    decode.run(decode.DecodeConfig(max_size=200), kermit, out)
+    calls: list[str] = []
+    real = decode._decode_file
+
+    def failing(photo, cfg, png, tiff):
+        if len(calls) == 3:
+            raise RuntimeError("simulated crash")
+        calls.append(photo.stem)
+        real(photo, cfg, png, tiff)
+
+    monkeypatch.setattr(decode, "_decode_file", failing)
+    with pytest.raises(RuntimeError):
+        decode.run(decode.DecodeConfig(max_size=160), kermit, out)
+    monkeypatch.setattr(decode, "_decode_file", lambda *a: (calls.append(a[0].stem), real(*a)))
+    decode.run(decode.DecodeConfig(max_size=160), kermit, out)
+    assert len(calls) == 11 and len(set(calls)) == 11  # the 3 kept, the other 8 again
+    ws = Workspace.open(out)
+    sizes = {max(cv2.imread(str(p)).shape) for p in ws.decoded.glob("*.png")}
+    assert sizes == {160} and len(list(ws.decoded.glob("*.png"))) == 11
+
+
 def test_without_copies_compares_whole_files_of_one_size(tmp_path, capsys):
     """Files of one size (one camera's uncompressed raws) are copies only when every byte is
     the same: two that share their first MiB and differ after it both stay; a true copy
