@@ -233,7 +233,6 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if stage_run.skip:
         info(f"synth: {out} is up to date (use --force to redo)")
         return stage_run.outputs
-    resume = book.resumable(stage_run)
     rng = np.random.default_rng([cfg.seed, 0])
     lens = sample_lens(cfg.flare, rng)
     light = np.asarray(cfg.light, float) if cfg.light is not None else choose_light(cams, rng)
@@ -247,7 +246,7 @@ def run(cfg: SynthConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                                srgb_to_linear(img / 255.0))
         views[frame.stem]["flare_fraction"] = round(float(layers.mask.mean()), 5)
         names = ["clean", "masks_gt"] + ([] if i in held else ["photos"])
-        if resume and all((out / n / f"{frame.stem}.png").exists() for n in names):
+        if all(book.kept(stage_run, out / n / f"{frame.stem}.png") for n in names):
             continue
         _write_view(out, frame.stem, img, layers, i not in held)
     _remove_stale(out / "photos", set(cams.stems) - {cams.stems[i] for i in held})
