@@ -122,18 +122,24 @@ def test_jpeg_orientation_raw_pair_and_unchanged_folder(tmp_path, capsys):
     assert "pair.dng, pair.jpg share the stem 'pair'" in err
 
 
-def test_resume_after_interrupt(tmp_path, monkeypatch):
-    kermit = shared("scenes", "kermit")
-    calls: list[str] = []
+def _crash_after(count: int, calls: list[str], monkeypatch):
+    """Make decode write ``count`` photos (their stems into ``calls``), then crash."""
     real = decode._decode_file
 
     def failing(photo, cfg, png, tiff):
-        if len(calls) == 3:
+        if len(calls) == count:
             raise RuntimeError("simulated crash")
         calls.append(photo.stem)
         real(photo, cfg, png, tiff)
 
     monkeypatch.setattr(decode, "_decode_file", failing)
+    return real
+
+
+def test_resume_after_interrupt(tmp_path, monkeypatch):
+    kermit = shared("scenes", "kermit")
+    calls: list[str] = []
+    real = _crash_after(3, calls, monkeypatch)
     out = tmp_path / "ws"
     with pytest.raises(RuntimeError):
         decode.run(decode.DecodeConfig(max_size=200), kermit, out)
@@ -163,15 +169,7 @@ def test_a_decode_at_new_settings_stopped_midway_never_keeps_the_earlier_images(
     out = tmp_path / "ws"
     decode.run(decode.DecodeConfig(max_size=200), kermit, out)
     calls: list[str] = []
-    real = decode._decode_file
-
-    def failing(photo, cfg, png, tiff):
-        if len(calls) == 3:
-            raise RuntimeError("simulated crash")
-        calls.append(photo.stem)
-        real(photo, cfg, png, tiff)
-
-    monkeypatch.setattr(decode, "_decode_file", failing)
+    real = _crash_after(3, calls, monkeypatch)
     with pytest.raises(RuntimeError):
         decode.run(decode.DecodeConfig(max_size=160), kermit, out)
     monkeypatch.setattr(decode, "_decode_file", lambda *a: (calls.append(a[0].stem), real(*a)))
