@@ -53,6 +53,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -446,8 +447,7 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
     if stage_run.skip:
         info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws
-    def keep(path: Path) -> bool:  # this run's file (an earlier run's of other settings: not)
-        return ws.kept(stage_run, path)
+    keep = partial(ws.kept, stage_run)  # this run's file (an earlier run's of other settings: not)
 
     done, skipped, reused, frames = {}, {}, 0, {}
     stills = [p for p in chosen if not p.video]

@@ -251,6 +251,9 @@ class StageRun:
     started: float = field(default_factory=time.time)
     defaults: dict = field(default_factory=dict)
     """The parameters' defaults (``same_params``)."""
+    resumes: bool = False
+    """The previous attempt had these parameters and inputs, and no ``force``: its per-file
+    outputs may be kept (``Workspace.resumable``)."""
     since: float = 0.0
     """When the attempts at these parameters and inputs began (the manifest's mtime then):
     a file older than that is an earlier run's, of other settings (``Workspace.kept``)."""
@@ -553,9 +556,9 @@ class Workspace:
         digest = digest_paths(inputs, self.root)
         prev = self.stage_record(name)
         outputs_ok = all((self.root / p).exists() for p in prev.get("outputs", []))
-        skip = (not force and prev.get("status") == "complete"
-                and same_params(prev.get("params"), params, defaults)
-                and prev.get("inputs_digest") == digest and outputs_ok)
+        resumes = (not force and same_params(prev.get("params"), params, defaults)
+                   and prev.get("inputs_digest") == digest)
+        skip = resumes and prev.get("status") == "complete" and outputs_ok
         if not skip and not force and prev.get("status") == "complete":
             from pipeline.progress import info
 
@@ -563,8 +566,6 @@ class Workspace:
                  f"{rerun_reason(prev, params, digest, defaults, outputs_ok)}")
         # the first attempt at these settings and inputs: files older than it are an
         # earlier run's (a record without it: its files are all of these settings)
-        resumes = (not force and same_params(prev.get("params"), params, defaults)
-                   and prev.get("inputs_digest") == digest)
         since = float(prev.get("since", 0.0)) if resumes else None
         if not skip:
             record = {"status": "running", "params": params, "inputs_digest": digest,
@@ -574,7 +575,7 @@ class Workspace:
                 since = self.manifest_path.stat().st_mtime
             self.update_manifest(name, {**record, "since": since})
         return StageRun(self, name, params, digest, skip, prev, force, defaults=defaults,
-                        since=since or 0.0)
+                        since=since or 0.0, resumes=resumes)
 
     def kept(self, run: StageRun, path: Path) -> bool:
         """Whether the file ``path`` may be kept as ``run``'s output: the run resumes
@@ -586,8 +587,7 @@ class Workspace:
     def resumable(self, run: StageRun) -> bool:
         """True when per-file outputs left by an interrupted run can be kept.
 
-        That is the case when the previous attempt had the same parameters and inputs.
+        That is the case when the previous attempt had the same parameters and inputs
+        (``StageRun.resumes``, decided once by ``begin_stage``).
         """
-        prev = run.previous
-        return (not run.force and same_params(prev.get("params"), run.params, run.defaults)
-                and prev.get("inputs_digest") == run.inputs_digest)
+        return run.resumes
