@@ -1,17 +1,18 @@
-"""Judge the fine-tune's padded views against stretched ones on turned development builds.
+"""Judge two ways of fine-tuning views of different sizes on turned development builds.
 
     python benchmarks/mixed_sizes_judge.py --runs DIR --scenes sceaux_p4,et_p5,lund_k4 \
-        [--seeds 2,3,4] [--out JSON]
+        [--seeds 2,3,4] [--time-ratio 1.3] [--out JSON]
 
 DIR/<scene>/<arm>/ (arm: ``baseline``, ``candidate``; with ``--seeds``,
 DIR/seed<N>/<scene>/<arm>/ for each seed) holds each arm's ``novel_loo.py --out`` files
 ``heldout.json`` and ``non_targets.json`` and the fine-tune's ``finetune_seconds`` (the
 stage record's seconds, as a number in a text file). The rule (docs/history/gnfr.md, "Views
-of different sizes in the fine-tune"; over seeds, "... three seeds"), per scene the mean
-PSNR of its held-out and non-target frames (over seeds, the mean of each seed's): (a) the
+of different sizes in the fine-tune"; over seeds, "... three seeds"; with ``--time-ratio
+0.97``, "Views of different sizes encoded each at its own size"), per scene the mean PSNR
+of its held-out and non-target frames (over seeds, the mean of each seed's): (a) the
 candidate's, averaged over the scenes, at least the baseline's minus 0.05 dB; (b) no scene
 below the baseline's by more than 0.2 dB; (c) the candidate's fine-tune seconds, summed
-over the scenes (and seeds), at most 1.3 times the baseline's.
+over the scenes (and seeds), at most ``--time-ratio`` (1.3) times the baseline's.
 """
 
 from __future__ import annotations
@@ -67,7 +68,8 @@ def _frames(rec: dict) -> list[set]:
     return [set(rec["per_view"])]
 
 
-def judge(runs: Path, scenes: list[str], seeds: list[int] | None = None) -> dict:
+def judge(runs: Path, scenes: list[str], seeds: list[int] | None = None,
+          time_ratio: float = TIME_RATIO) -> dict:
     if seeds:
         per = {s: {a: seeded_record(runs, s, a, seeds) for a in ARMS} for s in scenes}
     else:
@@ -81,9 +83,10 @@ def judge(runs: Path, scenes: list[str], seeds: list[int] | None = None) -> dict
     worst = min(per[s]["delta"] for s in scenes)
     rule = {"a_mean": mean["candidate"] >= mean["baseline"] - MEAN_TOLERANCE,
             "b_each_scene": worst >= -SCENE_TOLERANCE,
-            "c_time": secs["candidate"] <= TIME_RATIO * secs["baseline"]}
+            "c_time": secs["candidate"] <= time_ratio * secs["baseline"]}
     return {"scenes": per, "seeds": seeds or None, "mean_psnr": mean, "worst_scene_delta": worst,
             "finetune_seconds": secs, "time_ratio": secs["candidate"] / secs["baseline"],
+            "time_ratio_allowed": time_ratio,
             "rule": rule, "passed": all(rule.values())}
 
 
@@ -92,12 +95,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=Path, required=True)
     ap.add_argument("--scenes", required=True)
     ap.add_argument("--seeds", default="", help="comma-separated seeds: DIR/seed<N>/...")
+    ap.add_argument("--time-ratio", type=float, default=TIME_RATIO,
+                    help="most the candidate's fine-tune seconds may be, times the baseline's")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
     from pipeline.provenance import write_result
 
     seeds = [int(n) for n in a.seeds.split(",") if n]
-    rec = judge(a.runs, [s for s in a.scenes.split(",") if s], seeds)
+    rec = judge(a.runs, [s for s in a.scenes.split(",") if s], seeds, a.time_ratio)
     print(json.dumps({k: rec[k] for k in ("mean_psnr", "worst_scene_delta", "time_ratio",
                                           "rule", "passed")}, indent=1))
     write_result(a.out, rec)

@@ -71,6 +71,12 @@ class ResUNet(nn.Module):
         self.out_ch = out_ch
 
     @staticmethod
+    def out_size(h: int, w: int) -> tuple[int, int]:
+        """The (height, width) of the features of an [h, w] image: each of the stem's and
+        the first stage's stride-2 convolutions (padding k // 2) rounds up."""
+        return -(-h // 4), -(-w // 4)
+
+    @staticmethod
     def _stage(cin: int, cout: int, n: int) -> nn.Sequential:
         return nn.Sequential(BasicBlock(cin, cout, 2), *[BasicBlock(cout, cout, 1)
                                                           for _ in range(n - 1)])

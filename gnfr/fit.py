@@ -75,6 +75,8 @@ def render_meta(cfg: TrainConfig, preset: str, step: int) -> dict:
             "eval_views": cfg.eval_views, "point_sampler": cfg.point_sampler,
             "view_sampler": cfg.view_sampler, "mask_loss": cfg.mask_loss,
             "source_scale": cfg.source_scale, "full_res_colour": cfg.full_res_colour}
+    if cfg.encode_apart:  # absent: padded views encoded together, as earlier models were
+        meta["encode_apart"] = True
     if cfg.flare_fallback != "valid":  # absent: the validity fallback of earlier models
         meta["flare_fallback"] = cfg.flare_fallback
     if cfg.lr_restart > 0:  # how the rates went (provenance; render does not read it)

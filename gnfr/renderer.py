@@ -18,6 +18,7 @@ import torch
 import torch.nn.functional as F
 
 from gnfr.checkpoint import load_model  # noqa: F401  (part of the renderer API)
+from gnfr.encoder import ResUNet
 from gnfr.geometry import (
     inside_image,
     project,
@@ -101,6 +102,11 @@ class SourceViews:
     """[V, 2] float: each view's own (width, height) in pixels of ``images``, when views of
     different sizes are padded to one (``pipeline.render.sources.encode_sources``): a point
     in a view's padding is outside that view. None: every view fills the whole size."""
+    feat_scale: torch.Tensor | None = None
+    """[V, 2] float: feature pixels per pixel of ``images`` (x, y) of each view, when views
+    of different sizes were encoded each at its own size and their feature maps padded
+    (``encode(apart=True)``): a view's features fill only its own corner of ``feats``.
+    None: every feature map covers the whole of ``images``."""
 
     @property
     def w2c(self) -> torch.Tensor:  # [V, 4, 4]
@@ -117,7 +123,7 @@ class SourceViews:
                enc_images: torch.Tensor | None = None,
                rows: torch.Tensor | None = None,
                feats: torch.Tensor | None = None,
-               extents: torch.Tensor | None = None) -> SourceViews:
+               extents: torch.Tensor | None = None, apart: bool = False) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
@@ -130,12 +136,22 @@ class SourceViews:
         ``enc_images``, ``K`` and ``c2w`` are then the views' own). ``feats``: the views'
         feature maps made elsewhere (``gnfr.ray_split``): the encoder does not run.
         ``extents``: [V, 2] each view's own (width, height) in ``images`` when padded
-        (:attr:`extents`)."""
+        (:attr:`extents`). ``apart`` (with ``extents``): each view encoded at its own size,
+        padding cut off, and its feature map padded with zeros to the padded size's
+        (:attr:`feat_scale`): its features are then those of the view encoded alone,
+        which the padding's black no longer reaches through the encoder's instance norms
+        and convolutions, and the encoder reads no padding (exact where each view's size
+        times ``feature_scale`` is whole)."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         if rows is not None and enc_images is None:
             raise ValueError("SourceViews.encode: rows need the views' enc_images")
         n = images.shape[0] if rows is None else len(rows)
+        layout = None
+        if apart and extents is not None:
+            enc_hw = (tuple(enc_images.shape[-2:]) if enc_images is not None
+                      else encoder_size(*images.shape[-2:], feature_scale))
+            layout = apart_layout(extents, tuple(images.shape[-2:]), enc_hw)
         if feats is None:
             parts = []
             ctx = contextlib.nullcontext() if grad else torch.no_grad()
@@ -144,13 +160,16 @@ class SourceViews:
                     x = (encoder_input(images[i:i + chunk], feature_scale)
                          if enc_images is None
                          else enc_images[i:i + chunk].to(device, torch.float32))
-                    parts.append(model.encode(x).float())
+                    parts.append(model.encode(x).float() if layout is None else
+                                 _encode_apart(model, x, layout.crops[i:i + chunk],
+                                               layout.out_hw))
             feats = torch.cat(parts)
         return cls(images=images, feats=feats, K=K.to(device, torch.float32),
                    c2w=c2w.to(device, torch.float32),
                    masks=None if masks is None else masks.to(device, torch.float32),
                    rows=None if rows is None else rows.to(device),
-                   extents=None if extents is None else extents.to(device, torch.float32))
+                   extents=None if extents is None else extents.to(device, torch.float32),
+                   feat_scale=None if layout is None else layout.feat_scale.to(device))
 
     def inside(self, src_ids: torch.Tensor, xy: torch.Tensor,
                depth: torch.Tensor) -> torch.Tensor:
@@ -164,14 +183,61 @@ class SourceViews:
         return ok & (xy[..., 0] <= ext[:, None, 0]) & (xy[..., 1] <= ext[:, None, 1])
 
 
+def encoder_size(H: int, W: int, feature_scale: float) -> tuple[int, int]:
+    """The (height, width) the encoder sees an [H, W] image at (:func:`encoder_input`)."""
+    if feature_scale == 1.0:
+        return H, W
+    return max(8, round(H * feature_scale)), max(8, round(W * feature_scale))
+
+
 def encoder_input(images: torch.Tensor, feature_scale: float) -> torch.Tensor:
     """[V, 3, H, W] images as the encoder sees them: area-filtered down by ``feature_scale``
     (at least 8 pixels a side), unchanged at 1."""
     if feature_scale == 1.0:
         return images
-    H, W = images.shape[-2:]
-    return F.interpolate(images, size=(max(8, round(H * feature_scale)),
-                                       max(8, round(W * feature_scale))), mode="area")
+    return F.interpolate(images, size=encoder_size(*images.shape[-2:], feature_scale),
+                         mode="area")
+
+
+@dataclass
+class ApartLayout:
+    """How views of different sizes padded to one are encoded each at its own size
+    (``SourceViews.encode(apart=True)``)."""
+
+    crops: list[tuple[int, int]]
+    """Each view's own (height, width) in the encoder's input (its padding cut off)."""
+    out_hw: tuple[int, int]
+    """The feature maps' padded (height, width): the features of the whole padded size."""
+    feat_scale: torch.Tensor
+    """[V, 2] float feature pixels per image pixel (x, y) of each view."""
+
+
+def apart_layout(extents: torch.Tensor, image_hw: tuple[int, int],
+                 enc_hw: tuple[int, int]) -> ApartLayout:
+    """The layout of views whose own (width, height) in images of ``image_hw`` are
+    ``extents`` [V, 2], the encoder seeing those images at ``enc_hw``."""
+    (H, W), (eh, ew) = image_hw, enc_hw
+    crops, scale = [], []
+    for w, h in extents.tolist():
+        ch, cw = min(eh, max(1, round(h * eh / H))), min(ew, max(1, round(w * ew / W)))
+        fh, fw = ResUNet.out_size(ch, cw)
+        crops.append((ch, cw))
+        scale.append((fw / w, fh / h))
+    return ApartLayout(crops, ResUNet.out_size(eh, ew), torch.tensor(scale))
+
+
+def _encode_apart(model: GNFR, x: torch.Tensor, crops: list[tuple[int, int]],
+                  out_hw: tuple[int, int]) -> torch.Tensor:
+    """Features [V, C, *out_hw] of the encoder inputs ``x`` [V, 3, h, w], each cut to its
+    own size ``crops[v]`` (views of one size encoded together) and zero-padded."""
+    out: list[torch.Tensor | None] = [None] * len(crops)
+    for ch, cw in dict.fromkeys(crops):
+        idx = [v for v, c in enumerate(crops) if c == (ch, cw)]
+        f = model.encode(x[idx, :, :ch, :cw]).float()
+        f = F.pad(f, (0, out_hw[1] - f.shape[-1], 0, out_hw[0] - f.shape[-2]))
+        for k, v in enumerate(idx):
+            out[v] = f[k]
+    return torch.stack(out)
 
 
 def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
@@ -188,7 +254,11 @@ def gather(src: SourceViews, src_ids: torch.Tensor, points: torch.Tensor,
     size = src.size
     rows = src_ids if src.rows is None else src.rows[src_ids]
     rgb = sample_rows(src.images, rows, xy, size)
-    feat = sample_bilinear(src.feats[src_ids], xy, size)
+    if src.feat_scale is None:
+        feat = sample_bilinear(src.feats[src_ids], xy, size)
+    else:  # each view's features fill only its own corner of the padded maps
+        feat = sample_bilinear(src.feats[src_ids], xy * src.feat_scale[src_ids][:, None],
+                               tuple(src.feats.shape[-2:]))
 
     def to_rsv(x: torch.Tensor) -> torch.Tensor:  # [Vs, P, ...] -> [R, S, Vs, ...]
         return x.reshape(x.shape[0], R, S, *x.shape[2:]).movedim(0, 2)

@@ -75,6 +75,10 @@ class TrainConfig:
     full_res_colour: bool = False
     """Sample the sources' colours (and flare masks) at their full resolution while the
     encoder still sees them at ``source_scale``: sharp colours at the features' cost."""
+    encode_apart: bool = False
+    """Views of different sizes (a scene padded to one size, ``Scene.extents``) encoded each
+    at its own size, their feature maps padded instead of their images
+    (``SourceViews.encode(apart=True)``)."""
     cached_features: bool = False
     """Encode every source once with a frozen encoder and reuse the features every step."""
     point_sampler: bool = True
@@ -277,13 +281,15 @@ class SourceBank:
     extents: torch.Tensor | None = None
     """[N, 2] float each view's own (width, height) in ``images`` when the scene's views
     are padded (``Scene.extents``), else None."""
+    apart: bool = False
+    """Padded views encoded each at its own size (``TrainConfig.encode_apart``)."""
 
     @classmethod
-    def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False
-           ) -> SourceBank:
+    def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False,
+           apart: bool = False) -> SourceBank:
         """The views of ``scene`` at ``scale`` of their resolution (``downscale``), on
         ``device``; with ``full_res_colour`` the images stay at full resolution and only
-        the encoder sees them at ``scale``."""
+        the encoder sees them at ``scale``; ``apart``: :attr:`apart`."""
         imgs, K, masks, ext = downscale(scene, 1.0 if full_res_colour else scale)
         imgs = imgs.to(device)
         feature_scale = scale if full_res_colour else 1.0
@@ -292,7 +298,7 @@ class SourceBank:
                    c2w=scene.c2w.float().to(device), feature_scale=feature_scale,
                    enc_images=(None if feature_scale == 1.0
                                else encoder_input(imgs.float(), feature_scale)),
-                   extents=None if ext is None else ext.to(device))
+                   extents=None if ext is None else ext.to(device), apart=apart)
 
     def views(self, ids: torch.Tensor, feats: torch.Tensor, device) -> SourceViews:
         """The views ``ids`` with their feature maps ``feats`` [len(ids), C, h, w] made
@@ -309,25 +315,27 @@ class SourceBank:
         if ids is None:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,
-                                      enc_images=enc, feats=feats, extents=ext)
+                                      enc_images=enc, feats=feats, extents=ext,
+                                      apart=self.apart)
         ext = None if ext is None else ext[ids.to(ext.device)]
         if enc is not None:  # full-size colours: the views are rows of the bank, not copies
             return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
                                       self.masks, device, grad=grad,
                                       feature_scale=self.feature_scale, enc_images=enc[ids],
-                                      rows=ids, feats=feats, extents=ext)
+                                      rows=ids, feats=feats, extents=ext, apart=self.apart)
         # the encoder reads the views themselves: stack them
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
                                   grad=grad, feature_scale=self.feature_scale, feats=feats,
-                                  extents=ext)
+                                  extents=ext, apart=self.apart)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
                     device) -> tuple[SourceBank, SourceViews | None]:
     """(bank, cache): all views at source scale on ``device``, and in cached-feature mode
     their features encoded once with the frozen encoder (which stops training)."""
-    bank = SourceBank.of(scene, cfg.source_scale, device, cfg.full_res_colour)
+    bank = SourceBank.of(scene, cfg.source_scale, device, cfg.full_res_colour,
+                         cfg.encode_apart)
     cache = None
     if cfg.cached_features:
         model.encoder.requires_grad_(False)

@@ -129,6 +129,13 @@ class FinetuneConfig:
     (docs/history/gnfr.md, "Views of different sizes in the fine-tune, three seeds");
     ``--no-pad-views`` stretches as before. Where every view has one size it changes
     nothing and is recorded off (``mixed_sizes``)."""
+    encode_apart: bool = False
+    """With views of different sizes padded (``pad_views``): each view encoded at its own
+    size and its feature map padded, instead of its image padded and the padded image
+    encoded (``gnfr.renderer.SourceViews.encode``, ``apart``): the encoder reads no padding,
+    and a view's features are those it would have alone. Recorded in the model, so render
+    encodes its sources the same way. Where nothing is padded it changes nothing and is
+    recorded off."""
     flare_flag: bool = False
     """Give the network, with each source's colour and features, a bit saying the point is
     on flare in that source (``GNFRConfig.flare_flag``), so a point on flare in every
@@ -307,6 +314,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     # padding changes nothing where every view has one size: recorded as off there, so the
     # flag (or its default) never reruns a finished fine-tune of such a capture
     pad = config.pad_views and mixed_sizes(ws)
+    cfg = replace(cfg, encode_apart=config.encode_apart and pad)
     inputs = [ws.images, ws.cameras_json, ws.masks, ws.views_json]
     inputs += ws.depth_inputs() if config.exposure_match else []  # the gains come from the depth
     params = {"preset": name, "init": config.init, "train": asdict(cfg),

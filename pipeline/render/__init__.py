@@ -171,6 +171,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
               "scale": novel_scale(cfg, device),
               "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
               "point_sampler": bool(meta.get("point_sampler", True)),
+              "encode_apart": bool(meta.get("encode_apart", False)),
               "flare_fallback": cfg.flare_fallback or meta.get("flare_fallback", "valid"),
               "depth_maps": "frames" if frames_maps else "depth",
               "bf16": cfg.bf16}
@@ -180,6 +181,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
                 "depth_maps": "depth", "bf16": False,  # records before bf16 rendered fp32
+                "encode_apart": False,  # and before padded views could be encoded apart
                 "flare_fallback": "valid"}  # and before the fallback was a choice
     if key != "inputs":  # records before the options: without the nearest view, no lean,
         from pipeline.photo_fill import AGREE  # and the photo fill's one tolerance

@@ -120,7 +120,7 @@ def load_model(ckpt: Path, device: str):
 
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
                    scale: float = 1.0, full_res_colour: bool = False,
-                   gains: dict | None = None):
+                   gains: dict | None = None, apart: bool = False):
     """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i});
     with ``full_res_colour`` only the encoder sees them at ``scale``, colours and masks are
     sampled at the full size. ``gains``: {stem: [3] linear gain} the model was trained at
@@ -128,8 +128,9 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
 
     Images of different sizes (a portrait photo among landscape ones) are padded to the
     largest; the padding lies outside its view (``SourceViews.extents``: no point in it is
-    sampled, as no point past a photo's edge is) and is marked as flare. Without masks (no
-    WS/masks) the Point Sampler is off.
+    sampled, as no point past a photo's edge is) and is marked as flare; with ``apart`` (a
+    model fine-tuned so, ``FinetuneConfig.encode_apart``) each is encoded at its own size
+    and its feature map padded. Without masks (no WS/masks) the Point Sampler is off.
     """
     import torch
 
@@ -174,7 +175,7 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     extents = (torch.tensor([[i.shape[1], i.shape[0]] for i in imgs], dtype=torch.float32)
                if padded else None)
     src = SourceViews.encode(model, images, K, c2w, masks, device,
-                             feature_scale=feature_scale, extents=extents)
+                             feature_scale=feature_scale, extents=extents, apart=apart)
     return src, {s: i for i, s in enumerate(stems)}
 
 

@@ -90,7 +90,8 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
         model = load_model(setup.ckpt, setup.device)
         src, index = encode_sources(model, setup.ws, cams, setup.stems, setup.device,
                                     setup.params["source_scale"],
-                                    setup.params["full_res_colour"], setup.gains)
+                                    setup.params["full_res_colour"], setup.gains,
+                                    setup.params["encode_apart"])
         photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled

@@ -316,3 +316,89 @@ def test_a_colmap_folder_with_a_portrait_view_loads_padded(plane_pair, tmp_path)
     assert torch.equal(a.extents, b.extents)
     assert torch.equal(a.images, b.images)
     assert torch.allclose(a.K, b.K, atol=1e-6)
+
+
+@pytest.mark.parametrize("scale,full_res_colour", [(1.0, False), (0.5, True)])
+def test_a_view_encoded_apart_has_the_features_it_has_alone(plane_pair, scale,
+                                                            full_res_colour):
+    """SourceBank(apart=True): every view of a padded scene, portrait or landscape, gives a
+    point the features (and colour) that view gives it encoded alone at its own size, also
+    when its features come from elsewhere (``views``, as the two-process step makes them);
+    encoded in the padded image instead, its features differ."""
+    from gnfr.geometry import pixel_rays
+    from gnfr.model import GNFR
+    from gnfr.renderer import SourceViews, gather
+    from tests.pipeline.test_finetune import TINY
+
+    torch.manual_seed(0)
+    model = GNFR(TINY.model).eval()
+    _, turned, _ = plane_pair
+    scene = load_workspace(turned, pad=True)
+    apart = SourceBank.of(scene, scale, "cpu", full_res_colour, apart=True)
+    together = SourceBank.of(scene, scale, "cpu", full_res_colour)
+    ids = torch.tensor([3, 1, 0])
+    with torch.no_grad():
+        va, vt = apart.encode(model, "cpu", ids), together.encode(model, "cpu", ids)
+        vv = apart.views(ids, va.feats, "cpu")
+        assert tuple(va.feats.shape[-2:]) == tuple(vt.feats.shape[-2:])
+        for j, v in enumerate(ids.tolist()):
+            h, w = scene.size_of(v)
+            one = replace(scene, images=scene.images[v:v + 1, :, :h, :w].clone(),
+                          masks=scene.masks[v:v + 1, :, :h, :w].clone(), K=scene.K[v:v + 1],
+                          c2w=scene.c2w[v:v + 1], near=scene.near[v:v + 1],
+                          far=scene.far[v:v + 1], stems=[scene.stems[v]], extents=None)
+            alone = SourceBank.of(one, scale, "cpu", full_res_colour).encode(model, "cpu")
+            assert isinstance(alone, SourceViews) and alone.feat_scale is None
+            pix = torch.rand(150, 2, generator=torch.Generator().manual_seed(v)) * torch.tensor(
+                [w - 2.0, h - 2.0]) + 1.0
+            o, d = pixel_rays(scene.K[v].float(), scene.c2w[v].float(), pix)
+            pts = (o + d * float(scene.near[v] + scene.far[v]) / 2)[:, None]
+            want, ok, _ = gather(alone, torch.tensor([0]), pts)
+            assert ok.all() and float(want[..., 3:].std()) > 1e-3
+            for got_views in (va, vv):
+                got, ok2, _ = gather(got_views, torch.tensor([j]), pts)
+                assert ok2.all()
+                assert torch.allclose(got, want, atol=1e-5)
+            padded, _, _ = gather(vt, torch.tensor([j]), pts)
+            assert torch.allclose(padded[..., :3], want[..., :3], atol=1e-5)
+            assert float((padded[..., 3:] - want[..., 3:]).abs().max()) > 1e-3
+
+
+def test_encode_apart_is_recorded_in_the_model_and_read_by_render(plane_pair, monkeypatch):
+    """finetune --encode-apart on views of two sizes records it in the stage and the model,
+    and render encodes the sources apart for that model; on views of one size it is
+    recorded off (nothing padded, nothing to encode apart)."""
+    import gnfr.train
+    import pipeline.finetune as ft
+    from gnfr.checkpoint import read_metadata
+    from gnfr.renderer import SourceViews
+    from pipeline.render import RenderConfig
+    from pipeline.render import run as render
+    from pipeline.select import build_views
+    from pipeline.workspace import Workspace, atomic_write_json
+    from tests.pipeline.test_finetune import TINY
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=4, ckpt_every=100))
+    plain, turned, _ = plane_pair
+    ws = Workspace(turned)
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu",
+                             encode_apart=True), ws)
+    assert ws.stage_record("finetune")["params"]["train"]["encode_apart"] is True
+    assert read_metadata(ws.model_file)[1].get("encode_apart") is True
+    seen = []
+    real = SourceViews.encode
+
+    def spy(*a, **k):
+        seen.append((k.get("apart"), k.get("extents") is not None))
+        return real(*a, **k)
+
+    monkeypatch.setattr(SourceViews, "encode", spy)
+    cams = load_cameras(ws.cameras_json)  # views.json as select writes it
+    frac = {s: float(read_mask(ws, s).mean()) for s in cams.stems}
+    atomic_write_json(ws.views_json, build_views(cams.stems, cams.centers(), frac, 0.1))
+    render(RenderConfig(path="inputs", device="cpu", workers=1), ws)
+    assert seen and all(s == (True, True) for s in seen)
+    ft.run(ft.FinetuneConfig(preset="quick", init="scratch", device="cpu",
+                             encode_apart=True), plain)
+    assert plain.stage_record("finetune")["params"]["train"]["encode_apart"] is False
+    assert "encode_apart" not in read_metadata(plain.model_file)[1]

@@ -1658,6 +1658,9 @@ def test_mixed_sizes_judge_averages_seeds_before_its_rule(tmp_path):
     assert v["worst_scene_delta"] == pytest.approx(-0.1) and v["passed"]
     assert v["finetune_seconds"]["candidate"] == pytest.approx(2 * 112 + 2 * 113)
     assert bench.judge(tmp_path, ["b"], [2])["rule"]["b_each_scene"] is False
+    # a limit below 1 (a change for speed): 112.5 s on the mean against 100 fails 0.97
+    assert v["rule"]["c_time"] and not bench.judge(tmp_path, ["a", "b"], [2, 3],
+                                                   time_ratio=0.97)["rule"]["c_time"]
     (tmp_path / "seed3" / "b" / "candidate" / "heldout.json").write_text(
         json.dumps({"per_view": {"h2": {"psnr": 17.0, "ssim": 0.5}}}))
     with pytest.raises(SystemExit, match="b: the arms scored different frames"):
