@@ -540,7 +540,7 @@ def _tiny_data(tmp_path):
     return data
 
 
-def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
+def test_fmg_train_cli_resumes_and_evaluates(tmp_path, capsys):
     import json
 
     from workflows.cli import main
@@ -554,6 +554,12 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path):
     assert main([*args, "--iters", "3", "--workers", "1"]) == 0  # resumes at step 2
     steps = [json.loads(line)["step"] for line in (out / "log.jsonl").read_text().splitlines()]
     assert steps == [1, 2, 3]
+    # a resume under other settings (here a kind left out) is refused, naming the option,
+    # before anything is trained or written
+    capsys.readouterr()
+    assert main([*args, "--iters", "4", "--without", "ghosts"]) == 2
+    assert "was started with --without none (now ghosts)" in capsys.readouterr().err
+    assert len((out / "log.jsonl").read_text().splitlines()) == 3
     metrics = json.loads((out / "metrics.json").read_text())
     from workflows.research.fmg_eval import evaluate
 

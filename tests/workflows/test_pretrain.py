@@ -233,6 +233,14 @@ def test_interrupted_pretrain_resumes_its_step_count(pretrain_scenes, steps_take
     assert steps_taken[5:] == list(range(4, 10))         # continued, not restarted
     assert torch.load(tmp_path / "run" / "train_state.pt", weights_only=True)["step"] == 10
     assert _steps_logged(tmp_path / "run") == [5, 10]   # the killed run's 5 was dropped
+    # resumed under other settings (another share of flared views): refused, naming it
+    from pipeline.errors import UserError
+
+    with pytest.raises(UserError, match=r"started with --flare-prob 0.5 \(now 0.3\)"):
+        wp.run(replace(config, flare_prob=0.3, iters=12), cfg)
+    assert steps_taken[-1] == 9
+    wp.run(replace(config, iters=12), cfg)               # more steps of the same: resumes
+    assert steps_taken[-2:] == [10, 11]
 
 
 def test_resumes_a_train_state_of_the_existing_format(pretrain_scenes, steps_taken, tmp_path):

@@ -29,6 +29,7 @@ from workflows.research.fmg_eval import (
     score,
     weights_info,
 )
+from workflows.research.run_settings import record_settings, refuse_other_settings
 
 
 @dataclass
@@ -142,6 +143,13 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 BEST_FILE = "best.safetensors"
 """The run's weights at its best validation flare IoU so far (``_fit``; fp32, like the
 checkpoint, with the step and the score in its metadata)."""
+
+
+FREE_ON_RESUME = frozenset({"out", "data", "iters", "ckpt_every", "eval_every", "val_count",
+                            "device", "workers", "init"})
+"""Options a resumed run may change (``workflows.research.run_settings``): more steps,
+checkpoint and validation spacing, the data's path (another machine), the device and
+workers; ``init`` is read only at a fresh start. Any other change is refused."""
 
 
 def _save_weights(path: Path, model, meta: dict[str, str]) -> None:
@@ -377,6 +385,9 @@ def train(cfg: FMGTrainConfig) -> dict:
     if cfg.without:  # each kind once, in the order given
         cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
     out = Path(cfg.out)
+    settings = {k: v for k, v in asdict(cfg).items() if k not in FREE_ON_RESUME}
+    if has_checkpoint(out):  # a run of other settings is never resumed from
+        refuse_other_settings(out, settings, "fmg train")
     dev = resolve_device(cfg.device)
     torch.manual_seed(cfg.seed)
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
@@ -399,6 +410,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     elif cfg.init:
         info(f"fmg train: starting from {cfg.init}")
     out.mkdir(parents=True, exist_ok=True)
+    record_settings(out, settings)
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)

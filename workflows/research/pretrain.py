@@ -19,7 +19,7 @@ values and its scene.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,7 @@ from pipeline.progress import info, make_progress, warn
 from pipeline.scene_splits import HELDOUT_SCENES
 from pipeline.training_scenes import detect_and_load, load_workspace, scene_layout
 from pipeline.workspace import Workspace
+from workflows.research.run_settings import record_settings, refuse_other_settings
 
 
 @dataclass
@@ -118,6 +119,13 @@ class PretrainConfig:
     """Seed of initialisation and sampling."""
     init: str = option("scratch", choices=("scratch", "auto"), suffix=".safetensors")
     """scratch | auto (shipped weights) | path to a .safetensors checkpoint."""
+
+
+FREE_ON_RESUME = frozenset({"scenes", "out", "iters", "ckpt_every", "device", "init"})
+"""Options a resumed run may change (``workflows.research.run_settings``): more steps,
+checkpoint spacing, the device, and ``init`` (read only at a fresh start); the scenes are
+compared by folder name, so the same scenes at another path resume. Any other change is
+refused."""
 
 
 def find_scenes(paths: list[Path]) -> list[Path]:
@@ -285,6 +293,10 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     out = Path(config.out)
     step = start_step(train_cfg, config.init, config.preset)
     resume = has_checkpoint(out)
+    settings = {**{k: v for k, v in asdict(config).items() if k not in FREE_ON_RESUME},
+                "scenes": [f.name for f in folders]}  # by name: paths differ by machine
+    if resume:  # a run of other settings is never resumed from
+        refuse_other_settings(out, settings, "pretrain")
     if config.lr_restart is not None:
         train_cfg = replace(train_cfg, lr_restart=config.lr_restart, lr_restart_step=step)
     if step and not resume and step >= train_cfg.iters:
@@ -294,6 +306,8 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     scenes = load_scenes(config, folders, evened)  # an unreadable scene fails before OUT is made
     model, how = init_model(train_cfg, device, config.init)  # so does an --init that misfits
     out.mkdir(parents=True, exist_ok=True)
+    if rank == 0:
+        record_settings(out, settings)
     trainer = Trainer(model, train_cfg, step=step)
     if step:
         how += f", continuing its step count at {step} (fresh optimizer state)"
