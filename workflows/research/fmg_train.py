@@ -414,13 +414,12 @@ def train(cfg: FMGTrainConfig) -> dict:
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
-    if cfg.init:
-        init_steps = weights_info(Path(cfg.init))["steps"]
-    else:  # a run resumed without its --init: the steps its checkpoint recorded
+    init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
+    if step:  # resumed: the steps its checkpoint recorded for the --init it started from
         from gnfr.fmg import read_fmg_metadata
 
         ck = out / "checkpoint.safetensors"
-        init_steps = int(read_fmg_metadata(ck).get("init_iters", "0")) if step else 0
+        init_steps = int(read_fmg_metadata(ck).get("init_iters", init_steps))
     batches.begin(step)
     try:
         _fit(cfg, model, opt, batches, step, val, dev, out, init_steps)
