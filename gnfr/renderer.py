@@ -123,7 +123,8 @@ class SourceViews:
                enc_images: torch.Tensor | None = None,
                rows: torch.Tensor | None = None,
                feats: torch.Tensor | None = None,
-               extents: torch.Tensor | None = None, apart: bool = False) -> SourceViews:
+               extents: torch.Tensor | None = None, apart: bool = False,
+               bf16: bool = False) -> SourceViews:
         """Encode views in chunks of ``chunk``. images [V, 3, H, W] 0..1; K [V, 3, 3] of
         ``images``; c2w [V, 4, 4]; masks [V, 1, H, W] 0/1 or None. ``grad=True`` keeps the
         graph (end-to-end training); otherwise no gradients and bf16 autocast on CUDA.
@@ -141,7 +142,8 @@ class SourceViews:
         (:attr:`feat_scale`): its features are then those of the view encoded alone,
         which the padding's black no longer reaches through the encoder's instance norms
         and convolutions, and the encoder reads no padding (exact where each view's size
-        times ``feature_scale`` is whole)."""
+        times ``feature_scale`` is whole). ``bf16``: on the CPU, the encoder runs under bf16
+        autocast, with ``grad`` too (``TrainConfig.encoder_bf16``)."""
         device = torch.device(device)
         images = images.to(device, torch.float32)
         if rows is not None and enc_images is None:
@@ -155,7 +157,7 @@ class SourceViews:
         if feats is None:
             parts = []
             ctx = contextlib.nullcontext() if grad else torch.no_grad()
-            with ctx, autocast(device, enabled=not grad):
+            with ctx, autocast(device, enabled=not grad or bf16, cpu=bf16):
                 for i in range(0, n, chunk):
                     x = (encoder_input(images[i:i + chunk], feature_scale)
                          if enc_images is None

@@ -79,6 +79,10 @@ class TrainConfig:
     """Views of different sizes (a scene padded to one size, ``Scene.extents``) encoded each
     at its own size, their feature maps padded instead of their images
     (``SourceViews.encode(apart=True)``)."""
+    encoder_bf16: bool = False
+    """With ``cpu_bf16``: the encoder's forward and backward in training under bf16 autocast
+    too (its weights stay fp32; ``SourceViews.encode``'s ``bf16``). The render encodes in
+    fp32 as before."""
     cached_features: bool = False
     """Encode every source once with a frozen encoder and reuse the features every step."""
     point_sampler: bool = True
@@ -283,13 +287,16 @@ class SourceBank:
     are padded (``Scene.extents``), else None."""
     apart: bool = False
     """Padded views encoded each at its own size (``TrainConfig.encode_apart``)."""
+    bf16: bool = False
+    """The encoder under CPU bf16 autocast (``TrainConfig.encoder_bf16``)."""
 
     @classmethod
     def of(cls, scene: Scene, scale: float, device, full_res_colour: bool = False,
-           apart: bool = False) -> SourceBank:
+           apart: bool = False, bf16: bool = False) -> SourceBank:
         """The views of ``scene`` at ``scale`` of their resolution (``downscale``), on
         ``device``; with ``full_res_colour`` the images stay at full resolution and only
-        the encoder sees them at ``scale``; ``apart``: :attr:`apart`."""
+        the encoder sees them at ``scale``; ``apart``: :attr:`apart`; ``bf16``:
+        :attr:`bf16`."""
         imgs, K, masks, ext = downscale(scene, 1.0 if full_res_colour else scale)
         imgs = imgs.to(device)
         feature_scale = scale if full_res_colour else 1.0
@@ -298,7 +305,8 @@ class SourceBank:
                    c2w=scene.c2w.float().to(device), feature_scale=feature_scale,
                    enc_images=(None if feature_scale == 1.0
                                else encoder_input(imgs.float(), feature_scale)),
-                   extents=None if ext is None else ext.to(device), apart=apart)
+                   extents=None if ext is None else ext.to(device), apart=apart,
+                   bf16=bf16)
 
     def views(self, ids: torch.Tensor, feats: torch.Tensor, device) -> SourceViews:
         """The views ``ids`` with their feature maps ``feats`` [len(ids), C, h, w] made
@@ -316,18 +324,19 @@ class SourceBank:
             return SourceViews.encode(model, self.images, self.K, self.c2w, self.masks, device,
                                       grad=grad, feature_scale=self.feature_scale,
                                       enc_images=enc, feats=feats, extents=ext,
-                                      apart=self.apart)
+                                      apart=self.apart, bf16=self.bf16)
         ext = None if ext is None else ext[ids.to(ext.device)]
         if enc is not None:  # full-size colours: the views are rows of the bank, not copies
             return SourceViews.encode(model, self.images, self.K[ids], self.c2w[ids],
                                       self.masks, device, grad=grad,
                                       feature_scale=self.feature_scale, enc_images=enc[ids],
-                                      rows=ids, feats=feats, extents=ext, apart=self.apart)
+                                      rows=ids, feats=feats, extents=ext, apart=self.apart,
+                                      bf16=self.bf16)
         # the encoder reads the views themselves: stack them
         return SourceViews.encode(model, self.images[ids], self.K[ids], self.c2w[ids],
                                   None if self.masks is None else self.masks[ids], device,
                                   grad=grad, feature_scale=self.feature_scale, feats=feats,
-                                  extents=ext, apart=self.apart)
+                                  extents=ext, apart=self.apart, bf16=self.bf16)
 
 
 def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
@@ -335,7 +344,7 @@ def prepare_sources(model: GNFR, scene: Scene, cfg: TrainConfig,
     """(bank, cache): all views at source scale on ``device``, and in cached-feature mode
     their features encoded once with the frozen encoder (which stops training)."""
     bank = SourceBank.of(scene, cfg.source_scale, device, cfg.full_res_colour,
-                         cfg.encode_apart)
+                         cfg.encode_apart, cfg.encoder_bf16 and cfg.cpu_bf16)
     cache = None
     if cfg.cached_features:
         model.encoder.requires_grad_(False)

@@ -178,6 +178,11 @@ class FinetuneConfig:
     in fp32 (two processes; the one-shot in fresh clones). Changes what is learnt beyond
     rounding: in the stage's record (a workspace moved to a CPU that decides otherwise
     fine-tunes again; ``--bf16`` / ``--no-bf16`` pin it)."""
+    encoder_bf16: bool = False
+    """With bf16 on (``--bf16``, the default on a CPU with native bf16): the encoder's
+    forward and backward under bf16 autocast too (``TrainConfig.encoder_bf16``). Where the
+    step pads a portrait photo among landscape ones the encoder is most of what padding
+    costs. Recorded off where bf16 is off (it changes nothing there). Off by default."""
     init: str = option("auto", choices=("auto", "scratch"), suffix=".safetensors", exists=True)
     """auto (shipped weights marked for automatic use that match, else scratch) | scratch |
     a .safetensors path (e.g. gnfr/weights/gnfr.safetensors, pretrained for quick). A copy
@@ -277,6 +282,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   random_sources=bool(config.random_sources), mirror=config.mirror,
                   full_res_colour=config.full_res_colour, edge_rays=config.edge_rays,
                   cpu_bf16=cpu_bf16(config.bf16, device),
+                  encoder_bf16=config.encoder_bf16 and cpu_bf16(config.bf16, device),
                   flare_fallback=config.flare_fallback, source_flare=config.source_flare)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))
@@ -345,7 +351,7 @@ def run(config: FinetuneConfig, ws: Workspace, force: bool = False) -> list[Path
     info(f"finetune: preset '{name}' on {device.type} ({cfg.iters} steps, {cfg.rays} rays, "
          f"{cfg.samples} samples, depth {cfg.model.depth} width {cfg.model.width}, "
          f"{'cached features' if cfg.cached_features else 'end-to-end'}"
-         f"{', bf16' if cfg.cpu_bf16 else ''})")
+         f"{', bf16' if cfg.cpu_bf16 else ''}{' (the encoder too)' if cfg.encoder_bf16 else ''})")
     if note := emulated_bf16("finetune", cfg.cpu_bf16):
         warn(note)
     from pipeline.training_scenes import load_workspace

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
+import sys
 from pathlib import Path
 
 import cv2
@@ -1665,3 +1666,48 @@ def test_mixed_sizes_judge_averages_seeds_before_its_rule(tmp_path):
         json.dumps({"per_view": {"h2": {"psnr": 17.0, "ssim": 0.5}}}))
     with pytest.raises(SystemExit, match="b: the arms scored different frames"):
         bench.judge(tmp_path, ["a", "b"], [2, 3])
+
+
+def test_finetune_time_ab_alternates_arms_on_copies(tmp_path):
+    """benchmarks/finetune_time_ab.py: the arms take turns round after round, each on its
+    own copy of the workspace (left as it was), with its own arguments and executable; each
+    arm's means and ratios to the first come from the stage records; a failing run stops it
+    naming its log."""
+    bench = load_benchmark("finetune_time_ab")
+    ws = tmp_path / "ws"
+    ws.mkdir()
+    manifest = {"stages": {"finetune": {"seconds": 1.0, "train_seconds": 1.0}}}
+    (ws / "manifest.json").write_text(json.dumps(manifest))
+    calls = tmp_path / "calls.txt"
+    fake = tmp_path / "fake-deflare-scene"  # writes train_seconds = 10 per extra argument + 10
+    fake.write_text(f"""#!{sys.executable}
+import json, sys
+from pathlib import Path
+ws, extra = Path(sys.argv[2]), sys.argv[6:]
+open({str(calls)!r}, "a").write(ws.name + " " + " ".join(sys.argv[3:]) + "\\n")
+if "--fail" in extra:
+    sys.exit(3)
+m = json.loads((ws / "manifest.json").read_text())
+m["stages"]["finetune"] = {{"seconds": 5.0, "train_seconds": 10.0 * (1 + len(extra)),
+                            "it_per_s": 2.0, "steps": int(sys.argv[4])}}
+(ws / "manifest.json").write_text(json.dumps(m))
+""")
+    fake.chmod(0o755)
+    out = tmp_path / "ab.json"
+    assert bench.main([str(ws), "--work", str(tmp_path / "w"), "--arm", "a=", "--arm",
+                       "b=--no-pad-views", "--exe", f"a={fake}", "--exe", f"b={fake}",
+                       "--iters", "7", "--rounds", "2", "--out", str(out)]) == 0
+    assert calls.read_text().split("\n")[:4] == [
+        "a --iters 7 --force", "b --iters 7 --force --no-pad-views",
+        "a --iters 7 --force", "b --iters 7 --force --no-pad-views"]
+    res = json.loads(out.read_text())
+    assert [r["arm"] for r in res["runs"]] == ["a", "b", "a", "b"]
+    assert res["summary"]["b"]["train_ratio"] == pytest.approx(2.0)
+    assert res["summary"]["a"]["train_s"] == pytest.approx(10.0)
+    assert json.loads((ws / "manifest.json").read_text()) == manifest
+    with pytest.raises(SystemExit, match="b_0.log"):
+        bench.main([str(ws), "--work", str(tmp_path / "w2"), "--arm", "a=", "--arm",
+                    "b=--fail", "--exe", f"a={fake}", "--exe", f"b={fake}", "--rounds", "1"])
+    with pytest.raises(SystemExit, match="--exe c"):
+        bench.main([str(ws), "--work", str(tmp_path / "w3"), "--arm", "a=", "--exe",
+                    f"c={fake}"])
