@@ -318,3 +318,24 @@ def test_a_point_in_a_padded_view_s_padding_is_outside_that_view():
     s_pad = seen_share(padded, torch.tensor([1]), o, d, near, far, 8).reshape(40, 56)
     assert float(s_plain.min()) == 1.0  # its own camera: every sample in its image
     assert float(s_pad[:, :19].min()) == 1.0 and float(s_pad[:, 21:].max()) == 0.0
+
+
+def test_encoding_under_cpu_bf16_is_close_to_fp32_and_trains_the_encoder():
+    """SourceViews.encode(grad=True, bf16=True): the encoder runs under CPU bf16 autocast (its
+    features are rounded, not the fp32 ones, yet within bf16's precision of them) and its
+    fp32 weights still get gradients through the features."""
+    from gnfr.train import TINY
+
+    torch.manual_seed(0)
+    model = GNFR(TINY.model)
+    images = torch.rand(3, 3, 40, 48)
+    K = torch.eye(3).expand(3, 3, 3)
+    c2w = torch.eye(4).expand(3, 4, 4)
+    ref = SourceViews.encode(model, images, K, c2w, None, "cpu", grad=True).feats
+    half = SourceViews.encode(model, images, K, c2w, None, "cpu", grad=True, bf16=True).feats
+    assert half.dtype == torch.float32 and not torch.equal(half, ref)
+    assert (half - ref).abs().max() <= 0.05 * ref.abs().max()
+    half.square().mean().backward()
+    grads = [p.grad for p in model.encoder.parameters()]
+    assert all(g is not None and g.dtype == torch.float32 for g in grads)
+    assert any(g.abs().sum() > 0 for g in grads)

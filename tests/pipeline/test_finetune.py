@@ -786,3 +786,40 @@ def test_train_grow_grows_the_training_masks_only(tmp_path, monkeypatch):
     assert grown.flare == plain.flare
     assert all(np.array_equal(read_mask(ws, s), before[s]) for s in before)
     assert ws.stage_record("finetune")["params"]["train_grow"] == 0.05
+
+
+def test_finetune_encoder_bf16_encodes_under_cpu_autocast_only_with_bf16(tmp_path, monkeypatch):
+    """--encoder-bf16: with --bf16 the encoder's training forward runs under CPU bf16 autocast
+    too (the weights stay fp32) and the setting is recorded; without --bf16 it is recorded off
+    and the encoder runs in fp32; a record made before the option existed is up to date."""
+    import gnfr.renderer as gr
+    import gnfr.train
+
+    monkeypatch.setitem(gnfr.train.PRESETS, "quick", replace(TINY, iters=3, ckpt_every=100))
+    seen = []
+    real_enc = gr.GNFR.encode
+
+    def enc(self, *a, **k):
+        if torch.is_grad_enabled():  # training's encoding, not the bank's probe
+            seen.append(torch.is_autocast_enabled("cpu"))
+        return real_enc(self, *a, **k)
+
+    monkeypatch.setattr(gr.GNFR, "encode", enc)
+    monkeypatch.setattr(gr, "native_bf16", lambda: True)
+    ws = masked_workspace(tmp_path / "ws")
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=True,
+                       encoder_bf16=True, workers=1), ws)
+    assert seen and all(seen)
+    assert ws.stage_record("finetune")["params"]["train"]["encoder_bf16"] is True
+    assert all(t.dtype == torch.float32 for t in load_file(str(ws.model_file)).values())
+    seen.clear()
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=False,
+                       encoder_bf16=True, workers=1), ws)  # trains again, the encoder in fp32
+    assert seen and not any(seen)
+    assert ws.stage_record("finetune")["params"]["train"]["encoder_bf16"] is False
+    rec = ws.stage_record("finetune")
+    del rec["params"]["train"]["encoder_bf16"]  # as written before the option existed
+    ws.update_manifest("finetune", rec)
+    stamp = ws.model_file.stat().st_mtime_ns
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu", bf16=False, workers=1), ws)
+    assert ws.model_file.stat().st_mtime_ns == stamp
