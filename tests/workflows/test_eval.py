@@ -1659,6 +1659,10 @@ def test_mixed_sizes_judge_averages_seeds_before_its_rule(tmp_path):
     assert v["worst_scene_delta"] == pytest.approx(-0.1) and v["passed"]
     assert v["finetune_seconds"]["candidate"] == pytest.approx(2 * 112 + 2 * 113)
     assert bench.judge(tmp_path, ["b"], [2])["rule"]["b_each_scene"] is False
+    assert bench.judge(tmp_path, ["a", "b"], [2, 3], time_ratio=1.1)["rule"]["c_time"] is False
+    untimed = bench.judge(tmp_path, ["a", "b"], [2, 3], time_ratio=0)
+    assert "c_time" not in untimed["rule"] and untimed["passed"]
+    assert untimed["time_ratio"] == pytest.approx(v["time_ratio"])
     # a limit below 1 (a change for speed): 112.5 s on the mean against 100 fails 0.97
     assert v["rule"]["c_time"] and not bench.judge(tmp_path, ["a", "b"], [2, 3],
                                                    time_ratio=0.97)["rule"]["c_time"]
