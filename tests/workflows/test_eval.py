@@ -1715,3 +1715,25 @@ m["stages"]["finetune"] = {{"seconds": 5.0, "train_seconds": 10.0 * (1 + len(ext
     with pytest.raises(SystemExit, match="--exe c"):
         bench.main([str(ws), "--work", str(tmp_path / "w3"), "--arm", "a=", "--exe",
                     f"c={fake}"])
+
+
+def test_step_parts_times_each_part_of_padded_and_stretched_steps(tmp_path):
+    """benchmarks/step_parts.py: every setting (padded or stretched, fp32 or bf16 encoder)
+    is timed in each round, each part a positive time that the total sums, on the workspace's
+    views as the fine-tune loads them."""
+    from tests.pipeline.test_finetune import masked_workspace
+
+    bench = load_benchmark("step_parts")
+    ws = masked_workspace(tmp_path / "ws")
+    out = tmp_path / "parts.json"
+    assert bench.main([str(ws.root), "--steps", "1", "--rounds", "1", "--out", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert set(res["mean_ms"]) == {"padded_fp32_encoder", "stretched_fp32_encoder",
+                                   "padded_encoder_bf16", "stretched_encoder_bf16"}
+    for runs in res["runs"].values():
+        (run,) = runs
+        assert all(run[p] > 0 for p in bench.PARTS)
+        assert run["total"] == pytest.approx(sum(run[p] for p in bench.PARTS))
+        assert run["bank"][0] == 5 and run["encoder_input"][1] == 3
+    with pytest.raises(SystemExit, match="not a workspace"):
+        bench.main([str(tmp_path)])
