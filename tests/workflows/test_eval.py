@@ -1715,6 +1715,8 @@ m["stages"]["finetune"] = {{"seconds": 5.0, "train_seconds": 10.0 * (1 + len(ext
     with pytest.raises(SystemExit, match="--exe c"):
         bench.main([str(ws), "--work", str(tmp_path / "w3"), "--arm", "a=", "--exe",
                     f"c={fake}"])
+    with pytest.raises(SystemExit, match="not a workspace"):
+        bench.main([str(tmp_path / "w"), "--work", str(tmp_path / "w4"), "--arm", "a="])
 
 
 def test_step_parts_times_each_part_of_padded_and_stretched_steps(tmp_path):
