@@ -275,6 +275,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
     if name == "auto":
         name = "paper" if device.type == "cuda" else "quick"
     cfg = PRESETS[name]
+    bf16 = cpu_bf16(config.bf16, device)
     over = {k: v for k, v in (("iters", config.iters), ("rays", config.rays),
                               ("samples", config.samples)) if v is not None}
     if config.views is not None:
@@ -284,8 +285,7 @@ def resolve(config: FinetuneConfig, device: torch.device) -> tuple[str, TrainCon
                   reference=config.reference, seed=config.seed,
                   random_sources=bool(config.random_sources), mirror=config.mirror,
                   full_res_colour=config.full_res_colour, edge_rays=config.edge_rays,
-                  cpu_bf16=cpu_bf16(config.bf16, device),
-                  encoder_bf16=config.encoder_bf16 and cpu_bf16(config.bf16, device),
+                  cpu_bf16=bf16, encoder_bf16=config.encoder_bf16 and bf16,
                   flare_fallback=config.flare_fallback, source_flare=config.source_flare)
     if config.dropout is not None:
         cfg = replace(cfg, model=replace(cfg.model, dropout=config.dropout))

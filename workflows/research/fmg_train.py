@@ -414,12 +414,15 @@ def train(cfg: FMGTrainConfig) -> dict:
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
-    init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
+    recorded = None
     if step:  # resumed: the steps its checkpoint recorded for the --init it started from
         from gnfr.fmg import read_fmg_metadata
 
-        ck = out / "checkpoint.safetensors"
-        init_steps = int(read_fmg_metadata(ck).get("init_iters", init_steps))
+        recorded = read_fmg_metadata(out / "checkpoint.safetensors").get("init_iters")
+    if recorded is not None:
+        init_steps = int(recorded)
+    else:  # a fresh start, or a checkpoint written before it recorded them: --init's own
+        init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
     batches.begin(step)
     try:
         _fit(cfg, model, opt, batches, step, val, dev, out, init_steps)
