@@ -22,6 +22,7 @@ from tests.docs.numbers import (
     SAMPLE,
     assert_quoted,
     fill_row,
+    spaced,
 )
 
 CHECKS = [
@@ -2468,3 +2469,53 @@ def test_the_eightieth_oneshot_fine_tune_is_its_file():
     assert s80["mean"] == head["mean"]
     perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
     assert f"against {s80['stages']['finetune']['seconds']:.1f} s, code it does not touch" in perf
+
+
+def test_goals_at_a_glance_is_its_files():
+    """docs/goals.md's table "At a glance": each goal's number is its result file's (the
+    held-out kinds' best and worst by flare IoU, the clean photos' most marked scene and
+    view, fern at both presets, the test scenes' novel views and flare-region margins, the
+    padded views' cost)."""
+    text = (REPO / "docs" / "goals.md").read_text()
+    glance = text[text.index("## At a glance"):text.index("## Issue 10")]
+
+    def load(name):
+        return json.loads((RESULTS / name).read_text())
+
+    def cells(m):
+        return " / ".join(f"{m[k]:.3f}" for k in ("IoU_flare", "mIoU", "mAcc"))
+
+    kinds = {k: v["without"] for k, v in
+             load("fmg_loko_full_width_test_h100_s35.json")["kinds"].items()}
+    best = max(kinds, key=lambda k: kinds[k]["IoU_flare"])
+    worst = min(kinds, key=lambda k: kinds[k]["IoU_flare"])
+    assert (f"best ({best}) {cells(kinds[best])}, worst ({worst}) "
+            f"{cells(kinds[worst])} | no |") in glance
+    clean = [r for name in ("mask_views_clean_dev_pads_s72.json",
+                            "mask_views_clean_test_pads_s72.json")
+             for r in load(name)["rows"] if r["setting"] == "ghost_views_pads"]
+    scene = max(clean, key=lambda r: r["marked"])
+    view = max(clean, key=lambda r: max(v["marked"] for v in r["per_view"].values()))
+    top = max(v["marked"] for v in view["per_view"].values())
+    met = scene["marked"] < 0.005 and top <= 0.1
+    assert (f"most on a scene {100 * scene['marked']:.3f} % ({scene['scene'].split('.')[0]}), "
+            f"most on a view {100 * top:.3f} % ({view['scene'].split('.')[0]}) | "
+            f"{'yes' if met else 'no'} |") in glance
+    quick = load("fern_llff_quick_cpu_s51_agree.json")["clean"]["methods"]["gnfr_hybrid"]
+    assert f"| {quick['heldout']['psnr']:.2f} dB (the hybrid fill) | yes |" in glance
+    paper = load("fern_llff_paper_cuda_h200_s78.json")["clean"]
+    assert (f"{paper['methods']['gnfr_network']['heldout']['psnr']:.2f} dB (GN-FR alone) after "
+            f"{spaced(paper['budget']['iters'])} of the preset's 50 000 steps") in glance
+    m = {s: load(f"{s}_synth_gnfr_gnt_cpu_s77.json")["methods"] for s in ("kermit", "cyprus")}
+    assert (f"kermit {m['kermit']['gnfr']['heldout']['psnr']:.2f} dB, cyprus "
+            f"{m['cyprus']['gnfr']['heldout']['psnr']:.2f} dB | cyprus only |") in glance
+    fern = load("fern_llff_quick_cpu_s50.json")
+    fern = fern["flare"]["methods"] if "flare" in fern else fern["methods"]
+    margin = {s: m[s]["gnfr"]["inputs"]["psnr_flare"] - m[s]["gnt"]["inputs"]["psnr_flare"]
+              for s in m}
+    margin["fern"] = fern["gnfr"]["inputs"]["psnr_flare"] - fern["gnt"]["inputs"]["psnr_flare"]
+    assert max(margin.values()) < 2
+    assert (f"kermit {margin['kermit']:+.2f}, cyprus {margin['cyprus']:+.2f}, fern "
+            f"{margin['fern']:+.2f} dB | no |") in glance
+    pad = load("pad_time_ab_sample_s87.json")["summary"]["stretch"]["train_ratio"]
+    assert f"the fine-tune {1 / pad:.3f} times as long" in glance
