@@ -19,6 +19,10 @@ removed): unbiased (the model never saw them), but only as many views as the spl
 fine-tuning target (views.json: flared over the 10 % rule): the network never learned to
 draw them, so, like ``--heldout``, it is unbiased, and it has more cameras on a heavily
 flared scene.
+``--deflared`` renders the de-flared photos (``render --path inputs``, the defaults) in each
+scratch workspace before its frame, from the views that workspace keeps, so a left-out
+photo reaches no other photo's de-flared fill: for ``--set render.from_deflared=true``,
+whose frames read them.
 ``--eval-ws`` names the evaluation workspace (default SCENE/eval.ws; finetune_ab.py writes
 DIR/base.ws). ``--ws`` names a fine-tuned workspace itself instead (an arm of
 ``fmg_photo_ab.py``: DIR/<scene>_<arm>_s<seed>.ws).
@@ -52,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="render the held-out cameras from the whole workspace instead")
     ap.add_argument("--non-targets", action="store_true",
                     help="leave out only the training cameras that were never a target")
+    ap.add_argument("--deflared", action="store_true",
+                    help="render the de-flared photos in each scratch workspace first")
     ap.add_argument("--frames", type=Path, default=None,
                     help="also keep the rendered frames in this folder")
     ap.add_argument("--out", type=Path, default=None)
@@ -100,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
             pj = Path(tmp) / f"{stem}.json"
             atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
                                                            f.height)]))
+            if a.deflared:
+                render.run(render.RenderConfig(checkpoint=str(ckpt), workers=cfg.workers),
+                           ws, force=True)
             render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
         r = score_views(scene, frames, stems, with_region=False)
@@ -108,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     rec = {"scene": str(a.scene), "variant": a.variant, "checkpoint": str(ckpt),
            "render": {k: v for k, v in asdict(cfg).items() if k != "path"},
            "sets": a.sets, "heldout": a.heldout, "non_targets": a.non_targets,
+           "deflared": a.deflared,
            "views": stems,
            "psnr": r["psnr"], "ssim": r["ssim"],
            "per_view": {k: {m: round(v[m], 4) for m in ("psnr", "ssim")}

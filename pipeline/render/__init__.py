@@ -83,6 +83,7 @@ from pipeline.render.sources import (
     input_sources,
     load_model,
     novel_sources,
+    require_deflared,
     train_meta,
 )
 from pipeline.render.workers import (
@@ -142,6 +143,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if key == "inputs" and cfg.novel_agree is not None:
         warn("render: --novel-agree is for the video's frames; the de-flared photos keep "
              "the photo fill's own tolerance")
+    if key == "inputs" and cfg.from_deflared:
+        warn("render: --from-deflared is for the video's frames; the de-flared photos are "
+             "drawn from the photos")
+        cfg = replace(cfg, from_deflared=False)
+    deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
     if key != "inputs" and not cfg.band_rejected:
         warn("render: --no-band-rejected is for the de-flared photos (--path inputs); the "
              "video's frames have no ring check")
@@ -179,6 +185,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
+    inputs += [ws.deflared] if cfg.from_deflared else []
     defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
                 "depth_maps": "depth", "bf16": False,  # records before bf16 rendered fp32
                 "encode_apart": False,  # and before padded views could be encoded apart
@@ -199,6 +206,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
         defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
         defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
+        defaults["from_deflared"] = False  # and before the eighty-eighth's option
     if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
         params.pop("tour")
@@ -211,6 +219,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         params.pop("fade_limit")
         params.pop("source_hold")
         params.pop("path_exposure")
+        params.pop("from_deflared")  # they are what it reads
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again
@@ -234,7 +243,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     if todo:
         setup = RenderSetup(ws, ckpt, cfg, params, device,
                             sorted({s for j in todo for s in j.all_sources}),
-                            meta.get("exposure_gains") or None)
+                            meta.get("exposure_gains") or None, deflared_blend)
         workers = frame_workers(cfg, device, len(todo))
         if workers > 1:
             render_in_workers(setup, todo, workers)

@@ -295,6 +295,13 @@ class RenderConfig:
     this (largest channel difference, 0..1 colours) is taken there at full resolution: the
     network vouches for the colour, the photo adds the detail (0 = off; docs/history/fill.md,
     "The network's vote")."""
+    from_deflared: bool = option(False, flag="--from-deflared/--no-from-deflared")
+    """novel frames: GN-FR's sources read each photo's flare region from its de-flared photo
+    (WS/deflared, ``render --path inputs``, which must be up to date; blended in as that
+    photo's fill was), colours and features, the flare masks kept: where every source is
+    flared at a point, GN-FR attends to the de-flared fills instead of the flare. The photo
+    fill and the key blend read the photos as they are (``sources.with_deflared``;
+    docs/history/fill.md, "Novel frames' network sources from the de-flared photos")."""
     unseen_below: float = option(0.5, ge=0, le=1)
     """novel frames: pixels whose ray lies inside none of the frame's sources over less than
     this share of its samples (past every photo's frame edge) are drawn from the frame around

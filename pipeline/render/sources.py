@@ -120,11 +120,14 @@ def load_model(ckpt: Path, device: str):
 
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
                    scale: float = 1.0, full_res_colour: bool = False,
-                   gains: dict | None = None, apart: bool = False):
+                   gains: dict | None = None, apart: bool = False,
+                   deflared: tuple[float, float] | None = None):
     """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i});
     with ``full_res_colour`` only the encoder sees them at ``scale``, colours and masks are
     sampled at the full size. ``gains``: {stem: [3] linear gain} the model was trained at
-    (``finetune --exposure-match``), applied to the views.
+    (``finetune --exposure-match``), applied to the views. ``deflared`` = (dilate, feather)
+    of the de-flared photos' blend: each view's flare region read from its de-flared photo
+    (:func:`with_deflared`, ``RenderConfig.from_deflared``), its flare mask kept.
 
     Images of different sizes (a portrait photo among landscape ones) are padded to the
     largest; the padding lies outside its view (``SourceViews.extents``: no point in it is
@@ -138,7 +141,10 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
 
     by = cams.by_stem()
     feature_scale, scale = (scale, 1.0) if full_res_colour else (1.0, scale)
-    imgs = [_resize_img(read_view_image(ws, s), scale) for s in stems]
+    imgs = [read_view_image(ws, s) for s in stems]
+    if deflared is not None:
+        imgs = [with_deflared(ws, by[s], i, *deflared) for s, i in zip(stems, imgs, strict=True)]
+    imgs = [_resize_img(i, scale) for i in imgs]
     if gains:
         from pipeline.exposure import apply_gain
 
@@ -177,6 +183,48 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     src = SourceViews.encode(model, images, K, c2w, masks, device,
                              feature_scale=feature_scale, extents=extents, apart=apart)
     return src, {s: i for i, s in enumerate(stems)}
+
+
+def require_deflared(ws: Workspace, views: ViewsFile | Mapping) -> tuple[float, float]:
+    """The de-flared photos' blend (dilate, feather) from their stage's record, for
+    ``RenderConfig.from_deflared``; a one-line error when that stage has not finished or a
+    view's de-flared photo is missing."""
+    rec = ws.stage_record("render:inputs")
+    fix = f"run `deflare-scene render {shell_path(ws.root)}` (--path inputs) first"
+    if rec.get("status") != "complete":
+        raise UserError(f"render --from-deflared reads the de-flared photos in {ws.deflared}, "
+                        f"which are not rendered: {fix}, or drop --from-deflared")
+    for stem in _views_file(views).views:
+        if not ws.deflared_path(stem).is_file():
+            raise UserError(f"{ws.deflared_path(stem)} is missing (render --from-deflared "
+                            f"reads it): {fix}, or drop --from-deflared")
+    params = rec.get("params", {})
+    return float(params.get("dilate", 0.0)), float(params.get("feather", 0.01))
+
+
+def with_deflared(ws: Workspace, frame, img: np.ndarray, dilate: float,
+                  feather: float) -> np.ndarray:
+    """``img`` (WS/images/<stem>, uint8 RGB) with its flare region taken from the view's
+    de-flared photo (WS/deflared, in the decoded photo's camera, warped into WS/images'
+    pinhole one): blended in by the weights that blended the de-flared photo's fill into
+    the photo (``pipeline.render.inputs.blend_weights`` of its flare mask, ``dilate``,
+    ``feather``), so outside them the photo's own pixels stay, unresampled."""
+    import cv2
+
+    from pipeline.camera_models import CameraModel, warp_maps
+    from pipeline.images import read_image
+    from pipeline.render.inputs import blend_weights, decoded_camera
+
+    path = ws.deflared_path(frame.stem)
+    fix = f"run `deflare-scene render {shell_path(ws.root)}` (--path inputs) again"
+    fill = read_image(path, fix=fix)
+    H, W = img.shape[:2]
+    pin = CameraModel.pinhole(frame.K, W, H)
+    mx, my = warp_maps(decoded_camera(frame, fill.shape[1], fill.shape[0]), pin)
+    fill = cv2.remap(fill, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    alpha = blend_weights(read_mask(ws, frame.stem), dilate, feather)[..., None]
+    out = alpha * fill.astype(np.float32) + (1.0 - alpha) * img.astype(np.float32)
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
 def _resize_img(img: np.ndarray, scale: float, like: np.ndarray | None = None) -> np.ndarray:

@@ -50,6 +50,9 @@ class RenderSetup:
     """The source views to encode: every job's, whichever process renders it."""
     gains: dict | None
     """The exposure the model was trained at (the checkpoint's ``exposure_gains``)."""
+    deflared: tuple[float, float] | None = None
+    """With ``RenderConfig.from_deflared``: the de-flared photos' blend (dilate, feather),
+    by which GN-FR's sources read their flare regions from them."""
 
     @property
     def use_photos(self) -> bool:
@@ -91,7 +94,7 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
         src, index = encode_sources(model, setup.ws, cams, setup.stems, setup.device,
                                     setup.params["source_scale"],
                                     setup.params["full_res_colour"], setup.gains,
-                                    setup.params["encode_apart"])
+                                    setup.params["encode_apart"], setup.deflared)
         photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled
