@@ -1739,3 +1739,41 @@ def test_step_parts_times_each_part_of_padded_and_stretched_steps(tmp_path):
         assert run["bank"][0] == 5 and run["encoder_input"][1] == 3
     with pytest.raises(SystemExit, match="not a workspace"):
         bench.main([str(tmp_path)])
+
+
+def test_unseen_judge_pools_seeds_and_applies_its_tolerances(tmp_path):
+    """benchmarks/unseen_judge.py: per seed the frames' PSNR averaged, then the seeds; the
+    region where the arms differ by more than ``level`` pooled over every seed; the rule's
+    per-scene and SSIM tolerances."""
+    judge = load_benchmark("unseen_judge")
+    rng = np.random.default_rng(0)
+    scenes = []
+    for k in range(3):
+        scene = tmp_path / f"x{k}_synth"
+        (scene / "clean").mkdir(parents=True)
+        gt = rng.integers(40, 200, (24, 32, 3)).astype(np.uint8)
+        cv2.imwrite(str(scene / "clean" / "v.png"), gt)
+        for arm, err in (("base", 12), ("cand", 6 if k < 2 else 14)):
+            for s in (5, 6):
+                d = tmp_path / "J" / scene.name / arm / f"s{s}" / "loo"
+                d.mkdir(parents=True)
+                img = gt.astype(int)
+                img[:8] += err  # the arms differ in the top rows only
+                img[8:] += 1 if arm == "cand" else 0  # by one level below: not region at 1
+                cv2.imwrite(str(d / "v.png"), np.clip(img, 0, 255).astype(np.uint8))
+        scenes.append(str(scene))
+    out = tmp_path / "j.json"
+    judge.main([str(tmp_path / "J"), "--scenes", ",".join(scenes), "--baseline", "base",
+                "--candidate", "cand", "--seeds", "5,6", "--level", "1",
+                "--scene-tolerance", "0.05", "--ssim-tolerance", "0.001", "--out", str(out)])
+    rec = json.loads(out.read_text())
+    x0 = rec["scenes"]["x0_synth"]
+    assert x0["frames"] == 2 and abs(x0["region_share"] - 8 / 24) < 1e-9
+    assert x0["region"]["candidate"] > x0["region"]["baseline"]
+    assert len(x0["whole_per_seed"]["baseline"]) == 2
+    r = rec["rule"]
+    assert r["region_gains"][2] < 0 < r["region_gains"][0]  # two of three up
+    assert r["a"] is True
+    worst = min(s["whole"]["candidate"] - s["whole"]["baseline"] for s in rec["scenes"].values())
+    assert worst < -0.05 and r["b"] is False and r["passed"] is False  # x2 fell too far
+    assert "ssim_gain_mean" in r and isinstance(r["c"], bool)
