@@ -69,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from gnfr.paths import PathCamera, path_to_json
     from pipeline import render
+    from pipeline.cameras import Cameras, load_cameras, save_cameras
     from pipeline.provenance import write_result
     from pipeline.workspace import Workspace, atomic_write_json
     from pipeline.ws_files import ViewsFile, read_views, write_views
@@ -85,6 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         Workspace(a.eval_ws or a.scene / "eval.ws").variants / a.variant)
     ckpt = render.find_checkpoint(base, cfg.checkpoint)
     views = read_views(base)
+    scene_cams = load_cameras(base.cameras_json)
     by_stem = scene.cams.by_stem()
     with tempfile.TemporaryDirectory(prefix="deflare-loo-") as tmp:
         frames = Path(tmp) / "frames"
@@ -106,9 +108,17 @@ def main(argv: list[str] | None = None) -> int:
             pj = Path(tmp) / f"{stem}.json"
             atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
                                                            f.height)]))
-            if a.deflared:
+            if a.deflared:  # the left-out view is no photo here: it gets no de-flared one
+                kept = ws.cameras_json.read_bytes()
+                if not a.heldout:  # (an atomic write: a new file, not into base's link)
+                    save_cameras(ws.cameras_json, Cameras(
+                        [c for c in scene_cams.frames if c.stem != stem],
+                        scene_cams.colmap_to_world))
                 render.run(render.RenderConfig(checkpoint=str(ckpt), workers=cfg.workers),
                            ws, force=True)
+                if not a.heldout:
+                    ws.cameras_json.unlink()
+                    ws.cameras_json.write_bytes(kept)
             render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
         r = score_views(scene, frames, stems, with_region=False)
