@@ -2519,3 +2519,17 @@ def test_goals_at_a_glance_is_its_files():
             f"{margin['fern']:+.2f} dB | no |") in glance
     pad = load("pad_time_ab_sample_s87.json")["summary"]["stretch"]["train_ratio"]
     assert f"the fine-tune {1 / pad:.3f} times as long" in glance
+
+
+def test_performance_apart_timing_of_the_eighty_eighth_session_is_its_file():
+    """docs/performance.md quotes each arm's training seconds per round and the mean of the
+    undisturbed rounds 0 and 2 from apart_time_ab_sample_s88.json."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    runs = json.loads((RESULTS / "apart_time_ab_sample_s88.json").read_text())["runs"]
+    means = []
+    for arm in ("pad", "apart", "stretch"):
+        secs = [r["train_seconds"] for r in sorted(runs, key=lambda r: r["round"])
+                if r["arm"] == arm]
+        assert " / ".join(f"{s:g}" for s in secs) in text, arm
+        means.append(f"{(secs[0] + secs[2]) / 2:g}")
+    assert f"({means[0]}, {means[1]} and {means[2]} s)" in text
