@@ -2496,3 +2496,26 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     assert holes["fill_holes"] is True
     filled = [f"{100 * v:.2f} %" for v in holes["marked"].values()]
     assert f"it marks {filled[0]} and {filled[1]}:" in flat
+
+
+def test_from_deflared_rule_table_is_its_judgment():
+    """docs/history/fill.md's outcome table for `render --from-deflared` and the rule's
+    verdict are from_deflared_judge_s88.json's; the option stays off."""
+    from pipeline.render.config import RenderConfig
+
+    rec = json.loads((RESULTS / "from_deflared_judge_s88.json").read_text())
+    text = (REPO / "docs" / "history" / "fill.md").read_text()
+    for scene, r in rec["scenes"].items():
+        w, s, g = r["whole"], r["ssim"], r["region"]
+        gain = g["candidate"] - g["baseline"]
+        row = (f"| {scene.removesuffix('_synth')} | {r['frames']} | "
+               f"{100 * r['region_share']:.2f} % | {w['baseline']:.3f} -> {w['candidate']:.3f} | "
+               f"{s['baseline']:.4f} -> {s['candidate']:.4f} | {g['baseline']:.2f} -> "
+               f"{g['candidate']:.2f} ({gain:+.3f}) |")
+        assert row in text, row
+    rule = rec["rule"]
+    assert rule["passed"] is False and rule["a"] is False
+    flat = " ".join(text.split())
+    assert f"(a) the region {rule['region_gain_mean']:+.3f} dB on the mean" in flat
+    assert f"whole frames {rule['whole_gain_mean']:+.3f} dB, no scene below" in flat
+    assert RenderConfig().from_deflared is False

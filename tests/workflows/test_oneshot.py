@@ -64,6 +64,18 @@ def test_one_shot_on_sample_produces_video_and_deflared_photos(tmp_path, capsys)
                for s in man["stages"])
 
 
+def test_one_shot_renders_the_deflared_photos_before_frames_that_read_them(tmp_path, capsys):
+    """With ``--set render.from_deflared=true`` the de-flared photos render first, without
+    the option (no warning), and the video's frames read them."""
+    ws = tmp_path / "cyprus.deflare"
+    assert main([str(SAMPLE), "--out", str(ws), *TINY_ARGS,
+                 "--set", "render.from_deflared=true"]) == 0
+    assert "--from-deflared is for the video's frames" not in capsys.readouterr().err
+    man = json.loads((ws / "manifest.json").read_text())["stages"]
+    assert man["render:interpolate"]["params"]["from_deflared"] is True
+    assert "from_deflared" not in man["render:inputs"]["params"]
+
+
 def test_set_overrides_reach_stage_configs():
     st = apply_overrides(_stage_configs(), ["finetune.rays=512", "render.size=320x240",
                                             "mask.masks_dir=/tmp/m", "select.max_flare=0.2",
