@@ -206,9 +206,10 @@ def with_deflared(ws: Workspace, frame, img: np.ndarray, dilate: float,
                   feather: float) -> np.ndarray:
     """``img`` (WS/images/<stem>, uint8 RGB) with its flare region taken from the view's
     de-flared photo (WS/deflared, in the decoded photo's camera, warped into WS/images'
-    pinhole one): blended in by the weights that blended the de-flared photo's fill into
-    the photo (``pipeline.render.inputs.blend_weights`` of its flare mask, ``dilate``,
-    ``feather``), so outside them the photo's own pixels stay, unresampled."""
+    pinhole one): blended in by the rule that blended the de-flared photo's fill into the
+    photo (``pipeline.render.inputs.blend_weights``, ``dilate``, ``feather``), applied to
+    the WS/masks mask in WS/images' geometry, so outside it the photo's own pixels stay,
+    unresampled."""
     import cv2
 
     from pipeline.camera_models import CameraModel, warp_maps
