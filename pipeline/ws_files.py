@@ -38,7 +38,7 @@ from pipeline.workspace import Workspace, atomic_imwrite, atomic_path, atomic_wr
 __all__ = [
     "MASK_THRESHOLD", "Cameras", "Frame", "read_cameras", "write_cameras", "read_decoded",
     "view_stems", "read_view_image", "read_mask_file", "read_mask", "read_masks", "write_mask",
-    "write_mask_file",
+    "write_mask_file", "grow_mask",
     "has_masks", "flare_fraction", "read_depth", "write_depth", "FlareEntry", "FlareFile",
     "read_flare", "write_flare", "SourceEntry", "ViewEntry", "ViewsFile", "is_target",
     "rank_sources", "make_views", "read_views", "write_views",
@@ -84,6 +84,18 @@ def read_view_image(ws: Workspace, stem: str, *, bgr: bool = False,
 MASK_THRESHOLD = 127
 """A mask pixel is flare where its grey level is above this. WS/masks holds 0 and 255 only
 (the mask stage writes them so); ground-truth masks (synth's masks_gt) use the same cut."""
+
+
+def grow_mask(mask: np.ndarray, grow: float) -> np.ndarray:
+    """[H, W] bool ``mask`` grown by ``grow`` of its long side (a disc, at least one pixel
+    where ``grow`` > 0); unchanged at 0."""
+    import cv2
+
+    if grow <= 0:
+        return mask
+    r = max(1, round(grow * max(mask.shape)))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return cv2.dilate(mask.astype(np.uint8), disc) > 0
 
 
 def read_mask_file(path: str | os.PathLike, fix: str | None = None,

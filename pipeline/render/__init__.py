@@ -147,6 +147,10 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         warn("render: --from-deflared is for the video's frames; the de-flared photos are "
              "drawn from the photos")
         cfg = replace(cfg, from_deflared=False)
+    if key == "inputs" and cfg.source_grow:
+        warn("render: --source-grow is for the video's frames; the de-flared photos grow "
+             "their masks by --dilate")
+        cfg = replace(cfg, source_grow=0.0)
     deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
     if key != "inputs" and not cfg.band_rejected:
         warn("render: --no-band-rejected is for the de-flared photos (--path inputs); the "
@@ -206,7 +210,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
         defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
         defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
-        defaults["from_deflared"] = False  # and before the eighty-eighth's option
+        defaults["from_deflared"] = False  # and before the eighty-eighth's options
+        defaults["source_grow"] = 0.0
     if key != "interpolate":  # only the interpolate path is paced and toured
         params.pop("pace")
         params.pop("tour")
@@ -220,6 +225,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         params.pop("source_hold")
         params.pop("path_exposure")
         params.pop("from_deflared")  # they are what it reads
+        params.pop("source_grow")
     if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
         # network scale to record; records before the forty-fifth session hold the novel
         # frames' default of then, which must not make finished photos render again

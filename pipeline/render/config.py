@@ -304,6 +304,12 @@ class RenderConfig:
     judged in the eighty-eighth session, the frames' changed pixels -0.005 dB on the
     development mean, one scene of three up (docs/history/fill.md, "Novel frames' network
     sources from the de-flared photos")."""
+    source_grow: float = option(0.0, ge=0, le=0.2)
+    """novel frames: each source photo's flare mask grown by this fraction of its long side
+    (``pipeline.ws_files.grow_mask``) for GN-FR's Point Sampler and the photo fill, so the
+    faint glow just past a mask is not taken as scene (0 = the masks as they are; the
+    de-flared photos keep theirs: ``--dilate``). docs/history/fill.md, "Novel frames'
+    sources with their masks grown"."""
     unseen_below: float = option(0.5, ge=0, le=1)
     """novel frames: pixels whose ray lies inside none of the frame's sources over less than
     this share of its samples (past every photo's frame edge) are drawn from the frame around

@@ -26,7 +26,14 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
 
     stems = sorted(set().union(*(j.photo_stems(cfg.photo_sources + cfg.photo_fallback)
                                  for j in jobs)))
-    views = load_views(ws, cams, stems, with_depth=True, frames=frames)
+    masks = None
+    if cfg.source_grow:  # novel frames: the photos' flare masks grown (RenderConfig.source_grow)
+        from pipeline.ws_files import grow_mask, read_mask
+
+        masks = {s: grow_mask(read_mask(ws, s), cfg.source_grow) for s in stems
+                 if ws.mask_path(s).exists()}
+        masks = masks if len(masks) == len(stems) else None
+    views = load_views(ws, cams, stems, with_depth=True, masks=masks, frames=frames)
     if cfg.depth_min_blob:  # None (unresolved) or 0: every island kept
         params = ws.stage_record("depth").get("params", {})
         planes = int(params.get("planes", DepthConfig().planes))

@@ -15,6 +15,7 @@ from pipeline.workspace import Workspace
 from pipeline.ws_files import (
     MASK_THRESHOLD,
     ViewsFile,
+    grow_mask,
     has_masks,
     read_mask,
     read_view_image,
@@ -121,13 +122,15 @@ def load_model(ckpt: Path, device: str):
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
                    scale: float = 1.0, full_res_colour: bool = False,
                    gains: dict | None = None, apart: bool = False,
-                   deflared: tuple[float, float] | None = None):
+                   deflared: tuple[float, float] | None = None, grow: float = 0.0):
     """Encode the views ``stems`` once, at ``scale`` of WS/images: (SourceViews, {stem: i});
     with ``full_res_colour`` only the encoder sees them at ``scale``, colours and masks are
     sampled at the full size. ``gains``: {stem: [3] linear gain} the model was trained at
     (``finetune --exposure-match``), applied to the views. ``deflared`` = (dilate, feather)
     of the de-flared photos' blend: each view's flare region read from its de-flared photo
-    (:func:`with_deflared`, ``RenderConfig.from_deflared``), its flare mask kept.
+    (:func:`with_deflared`, ``RenderConfig.from_deflared``), its flare mask kept. ``grow``:
+    the flare masks grown by that fraction of each view's long side
+    (``RenderConfig.source_grow``).
 
     Images of different sizes (a portrait photo among landscape ones) are padded to the
     largest; the padding lies outside its view (``SourceViews.extents``: no point in it is
@@ -164,7 +167,7 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
         if masks is not None:
             m = np.zeros((h, w), np.float32)
             if have_masks:
-                flare = read_mask(ws, s)
+                flare = grow_mask(read_mask(ws, s), grow)
                 if flare.shape != (by[s].height, by[s].width):
                     raise UserError(f"{ws.mask_path(s)} is not the size of its image: "
                                     f"{ws.rerun('mask')}")

@@ -94,7 +94,8 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
         src, index = encode_sources(model, setup.ws, cams, setup.stems, setup.device,
                                     setup.params["source_scale"],
                                     setup.params["full_res_colour"], setup.gains,
-                                    setup.params["encode_apart"], setup.deflared)
+                                    setup.params["encode_apart"], setup.deflared,
+                                    setup.cfg.source_grow)
         photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled
