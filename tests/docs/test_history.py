@@ -2498,12 +2498,14 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     assert f"it marks {filled[0]} and {filled[1]}:" in flat
 
 
-def test_from_deflared_rule_table_is_its_judgment():
-    """docs/history/fill.md's outcome table for `render --from-deflared` and the rule's
-    verdict are from_deflared_judge_s88.json's; the option stays off."""
+@pytest.mark.parametrize("name, field", [("from_deflared", "from_deflared"),
+                                         ("source_grow", "source_grow")])
+def test_eighty_eighth_sessions_frame_rules_tables_are_their_judgments(name, field):
+    """docs/history/fill.md's outcome tables for `render --from-deflared` and `--source-grow`
+    and the rules' verdicts are their judge files'; both options stay off."""
     from pipeline.render.config import RenderConfig
 
-    rec = json.loads((RESULTS / "from_deflared_judge_s88.json").read_text())
+    rec = json.loads((RESULTS / f"{name}_judge_s88.json").read_text())
     text = (REPO / "docs" / "history" / "fill.md").read_text()
     for scene, r in rec["scenes"].items():
         w, s, g = r["whole"], r["ssim"], r["region"]
@@ -2515,7 +2517,12 @@ def test_from_deflared_rule_table_is_its_judgment():
         assert row in text, row
     rule = rec["rule"]
     assert rule["passed"] is False and rule["a"] is False
-    flat = " ".join(text.split())
-    assert f"(a) the region {rule['region_gain_mean']:+.3f} dB on the mean" in flat
-    assert f"whole frames {rule['whole_gain_mean']:+.3f} dB, no scene below" in flat
-    assert RenderConfig().from_deflared is False
+    assert not getattr(RenderConfig(), field)
+    if name == "from_deflared":
+        flat = " ".join(text.split())
+        assert f"(a) the region {rule['region_gain_mean']:+.3f} dB on the mean" in flat
+        assert f"whole frames {rule['whole_gain_mean']:+.3f} dB, no scene below" in flat
+    else:
+        assert rule["b"] is False and rule["c"] is False
+        config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+        assert f"whole frames {rule['whole_gain_mean']:+.3f} dB on the development mean" in config
