@@ -2526,3 +2526,5 @@ def test_eighty_eighth_sessions_frame_rules_tables_are_their_judgments(name, fie
         assert rule["b"] is False and rule["c"] is False
         config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
         assert f"whole frames {rule['whole_gain_mean']:+.3f} dB on the development mean" in config
+        goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+        assert f"by {-rule['whole_gain_mean']:.3f} dB (`source_grow_judge_s88.json`" in goals
