@@ -2533,3 +2533,20 @@ def test_performance_apart_timing_of_the_eighty_eighth_session_is_its_file():
         assert " / ".join(f"{s:g}" for s in secs) in text, arm
         means.append(f"{(secs[0] + secs[2]) / 2:g}")
     assert f"({means[0]}, {means[1]} and {means[2]} s)" in text
+
+
+def test_performance_apart_timing_rerun_is_its_file():
+    """docs/performance.md quotes the idle rerun's seconds per round, means and ratios
+    (apart_time_ab_sample_s88b.json)."""
+    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    rec = json.loads((RESULTS / "apart_time_ab_sample_s88b.json").read_text())
+    runs, summ = rec["runs"], rec["summary"]
+    for arm in ("pad", "apart", "stretch"):
+        secs = [r["train_seconds"] for r in sorted(runs, key=lambda r: r["round"])
+                if r["arm"] == arm]
+        assert " / ".join(f"{s:g}" for s in secs) in text, arm
+    assert (f"the means {summ['pad']['train_s']:.2f}, {summ['apart']['train_s']:.2f} and "
+            f"{summ['stretch']['train_s']:.2f} s") in text
+    assert f"apart trained {summ['apart']['train_ratio']:.3f} times" in text
+    assert f"stretched views {summ['stretch']['train_ratio']:.3f} times" in text
+    assert f"cost {1 / summ['stretch']['train_ratio']:.3f} times the stretched" in text
