@@ -109,16 +109,14 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_json(pj, path_to_json([PathCamera(stem, f.K, f.c2w, f.width,
                                                            f.height)]))
             if a.deflared:  # the left-out view is no photo here: it gets no de-flared one
-                kept = ws.cameras_json.read_bytes()
-                if not a.heldout:  # (an atomic write: a new file, not into base's link)
+                if not a.heldout:  # (atomic writes: new files, not into base's link)
                     save_cameras(ws.cameras_json, Cameras(
                         [c for c in scene_cams.frames if c.stem != stem],
                         scene_cams.colmap_to_world))
                 render.run(render.RenderConfig(checkpoint=str(ckpt), workers=cfg.workers),
                            ws, force=True)
                 if not a.heldout:
-                    ws.cameras_json.unlink()
-                    ws.cameras_json.write_bytes(kept)
+                    save_cameras(ws.cameras_json, scene_cams)
             render.run(replace(cfg, path=str(pj), checkpoint=str(ckpt)), ws, force=True)
             shutil.copy(ws.renders / stem / f"{stem}.png", frames / f"{stem}.png")
         r = score_views(scene, frames, stems, with_region=False)

@@ -32,7 +32,7 @@ from pipeline.errors import UserError, shell_path
 from pipeline.images import image_size, is_photo, list_photos, read_image
 from pipeline.progress import warn
 from pipeline.workspace import Workspace
-from pipeline.ws_files import enclosed_holes, read_cameras, read_mask, read_views
+from pipeline.ws_files import enclosed_holes, grow_mask, read_cameras, read_mask, read_views
 
 PACK_FILE = "scene_pack.npz"
 """A scene pack's file name (``save_pack``)."""
@@ -171,18 +171,6 @@ def load_workspace(root: str | Path, stems: Sequence[str] | None = None,
     return make_scene(Path(root).name, names, images, np.stack(Ks),
                       np.stack([f.c2w for f in frames]), np.array([f.near for f in frames]),
                       np.array([f.far for f in frames]), masks, flare, ranked, targets)
-
-
-def grow_mask(mask: np.ndarray, share: float) -> np.ndarray:
-    """[H, W] bool ``mask`` grown by a disc of radius round(``share`` x long side) pixels
-    (unchanged when that is 0)."""
-    import cv2
-
-    r = round(share * max(mask.shape))
-    if r < 1 or not mask.any():
-        return mask
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    return cv2.dilate(mask.astype(np.uint8), disc) > 0
 
 
 # --------------------------------------------------------------------------- LLFF

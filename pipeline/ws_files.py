@@ -86,14 +86,15 @@ MASK_THRESHOLD = 127
 (the mask stage writes them so); ground-truth masks (synth's masks_gt) use the same cut."""
 
 
-def grow_mask(mask: np.ndarray, grow: float) -> np.ndarray:
-    """[H, W] bool ``mask`` grown by ``grow`` of its long side (a disc, at least one pixel
-    where ``grow`` > 0); unchanged at 0."""
+def grow_mask(mask: np.ndarray, share: float) -> np.ndarray:
+    """[H, W] bool ``mask`` grown by a disc of radius round(``share`` x long side) pixels
+    (unchanged when that is 0): the fine-tune's ``--train-grow`` and render's
+    ``--source-grow``."""
     import cv2
 
-    if grow <= 0:
+    r = round(share * max(mask.shape))
+    if r < 1 or not mask.any():
         return mask
-    r = max(1, round(grow * max(mask.shape)))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
     return cv2.dilate(mask.astype(np.uint8), disc) > 0
 

@@ -263,6 +263,18 @@ def test_novel_loo_heldout_and_leave_one_out(scene, tmp_path):
             assert json.loads(res_ws.read_text())["per_view"] == rec["per_view"]
             with pytest.raises(SystemExit, match="exclude each other"):
                 bench.main([str(scene), "--ws", str(out), "--eval-ws", str(out), *flag])
+    # --deflared: each scratch workspace renders its de-flared photos without the left-out
+    # view, and the variant's cameras.json stays as it was
+    cams_json = out / "variants" / "gnfr" / "cameras.json"
+    cams_before = cams_json.read_bytes()
+    res = tmp_path / "loo_deflared.json"
+    assert bench.main([str(scene), "--eval-ws", str(out), "--scale", "0.25", "--deflared",
+                       "--set", "render.fill=network", "--set", "render.from_deflared=true",
+                       "--out", str(res)]) == 0
+    rec = json.loads(res.read_text())
+    assert rec["deflared"] is True and rec["views"] == split["train"]
+    assert 0 < rec["psnr"] < 60
+    assert cams_json.read_bytes() == cams_before
     assert views_json.read_bytes() == before
 
 
