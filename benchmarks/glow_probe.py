@@ -10,7 +10,8 @@ stage's, WS/images the size of SYNTH's photos, e.g. a copy of `SYNTH/eval.ws` af
 `deflare-scene mask`), are scored against SYNTH's true masks (``benchmarks/mask_shape.py``'s
 scores: flare IoU, recall, precision, the share of the added light left outside the mask,
 the flare region's fill ceiling), with the share of the view each adds and the share of
-that on true flare:
+that on true flare; and where the true flare pixels the masks miss lie, by distance from
+the light:
 
 - ``ring`` (one photo): about each light the mask holds (its largest saturated part,
   ``marked_lights``), the ``quantile`` of each one-pixel ring's linear luminance over the
@@ -47,6 +48,9 @@ from pipeline.colour import LUMA, srgb_to_linear  # noqa: E402
 
 ABS, REL = 0.012, 0.1
 """The synthesizer's mask rule (``pipeline.flare``: ``MASK_THRESHOLD``, ``MASK_RELATIVE``)."""
+BANDS = (0.0, 0.05, 0.1, 0.2, 2.0)
+"""Distances from the light (fractions of the diagonal) by which the true flare pixels the
+mask stage misses are counted (``missed_by_distance``, from SYNTH's ``light_xy``)."""
 
 
 def ring_profile(lum: np.ndarray, x: float, y: float, radius: int, quantile: float,
@@ -216,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     cons = dict(view_consensus(Workspace(a.ws), masks))
     arms = {"mask stage": [], "ring": [], "views": []}
     added = {"ring": np.zeros(3), "views": np.zeros(3)}  # added, added on true, pixels
+    missed = np.zeros(len(BANDS) - 1)  # true pixels the mask stage misses, by distance
     views = {}
     for s in stems:
         flared = cv2.imread(str(a.ws / "images" / f"{s}.png"), cv2.IMREAD_COLOR)
@@ -226,6 +231,11 @@ def main(argv: list[str] | None = None) -> int:
         probes = {"ring": ring_glow(rgb, m),
                   "views": views_glow(rgb, m, c.lum_view, c.lum, c.support)}
         arms["mask stage"].append((m, truth, flared, clean))
+        light = split.get("views", {}).get(s, {}).get("light_xy")
+        if light is not None:
+            yy, xx = np.mgrid[:m.shape[0], :m.shape[1]]
+            d = np.hypot(xx - light[0], yy - light[1]) / np.hypot(*m.shape)
+            missed += np.histogram(d[truth & ~m], bins=BANDS)[0]
         views[s] = {}
         for k, g in probes.items():
             arms[k].append((m | g, truth, flared, clean))
@@ -241,7 +251,12 @@ def main(argv: list[str] | None = None) -> int:
     for k, v in scores.items():
         print(f"{k}: iou {v['iou']:.3f} light_left {v['light_left']:.3f} "
               f"ceiling {v['flare_psnr_ceiling']:.2f}")
+    bands = [f"{lo}-{hi}" for lo, hi in zip(BANDS[:-1], BANDS[1:], strict=True)]
+    share = missed / missed.sum() if missed.sum() else missed
+    print("missed true pixels by distance from the light (diagonals):",
+          " ".join(f"{b}: {v:.3f}" for b, v in zip(bands, share, strict=True)))
     write_result(a.out, {"synth": str(a.synth), "workspace": str(a.ws), "scores": scores,
+                         "missed_by_distance": dict(zip(bands, map(float, share), strict=True)),
                          "views": views})
     return 0
 
