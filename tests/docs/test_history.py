@@ -2528,3 +2528,31 @@ def test_eighty_eighth_sessions_frame_rules_tables_are_their_judgments(name, fie
         assert f"whole frames {rule['whole_gain_mean']:+.3f} dB on the development mean" in config
         goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
         assert f"by {-rule['whole_gain_mean']:.3f} dB (`source_grow_judge_s88.json`" in goals
+
+
+def test_glow_probe_table_is_its_files():
+    """docs/history/fmg.md's eighty-ninth-session table of the glow probe: each cell is its
+    scene's file, the quoted distances of the missed flare are theirs, and the finding the
+    text draws holds (each probe lowers flare IoU, and most of what it adds is not flare)."""
+    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
+    far, near, left = [], [], []
+    for scene, name in names.items():
+        rec = json.loads((RESULTS / f"glow_probe_{scene}_s89.json").read_text())
+        sc = rec["scores"]
+        base, ring, views = sc["mask stage"], sc["ring"], sc["views"]
+        row = (f"| {name} | {base['iou']:.3f} / {base['light_left']:.3f} | "
+               f"{ring['iou']:.3f} / {ring['light_left']:.3f}, adds {ring['added']:.3f}"
+               + (" of the view, " if scene == "sceaux" else ", ")
+               + f"{ring['added_on_flare']:.3f}" + (" of it flare" if scene == "sceaux"
+                                                     else " flare")
+               + f" | {views['iou']:.3f} / {views['light_left']:.3f}, adds "
+               f"{views['added']:.3f}, {views['added_on_flare']:.3f} flare |")
+        assert row in history, row
+        for probe in (ring, views):
+            assert probe["iou"] < base["iou"] and probe["added_on_flare"] < 0.1
+        far.append(f"{rec['missed_by_distance']['0.1-0.2']:.3f}")
+        near.append(f"{rec['missed_by_distance']['0.0-0.05']:.3f}")
+        left.append(f"{base['light_left']:.3f}")
+    assert f"({' / '.join(far)} of them; nearer than a twentieth, {' / '.join(near)}" in history
+    assert f"`light_left` below: {' / '.join(left)}," in history
