@@ -67,6 +67,8 @@
 #           its --frame-prob (windows of whole photos with flare drawn as `synth` draws it;
 #           the sixtieth session's CPU candidate W: photo parts up, composites and streaks
 #           down; next here: FMG_FRAMES=0.5 FMG_KINDS=starburst=0.7,ghosts=0.7,streaks=0.85).
+#           FMG_NIGHT_GLARE=G its --night-glare (the glare kind G times as likely on night
+#           backgrounds; 0.25 for the card's next recipe, gnfr/weights/fmg.md "Next").
 #           The thirty-fifth session ran all six for 1 250 steps each (`loko 555 20000`);
 #           LOKO_KINDS="ghosts streaks" trains only those beside the control, for more steps.
 # devab and fern stop their own job 50 s before END (it resumes in the next call), keep the
@@ -125,7 +127,7 @@ start_fmg() {
     --depths 2,2,2,2 --skip-width 32 --ckpt-every ${CKPT:-200} --eval-every 2000 \
     --night-prob ${FMG_NIGHT:-0.35} --flare-canvas ${FMG_CANVAS:-1} --frame-prob ${FMG_FRAMES:-0} \
     --kind-probs ${FMG_KINDS:-starburst=0.7,ghosts=0.7,streaks=0.7} --dice 0.5 "${init[@]}" \
-    --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} \
+    --workers ${FMG_WORKERS:-10} ${FMG_LR:+--lr $FMG_LR} ${FMG_NIGHT_GLARE:+--night-glare $FMG_NIGHT_GLARE} \
     >> $FM.log 2>&1 < /dev/null &
   echo "FMG training started (${init[*]:-scratch})"
 }

@@ -99,6 +99,12 @@ class CompositeConfig:
     ``night_gain``, slightly blue), as in real flare photos taken at night."""
     night_gain: tuple[float, float] = (0.02, 0.3)
     """Log-uniform linear-light gain of a night background."""
+    night_glare: float = 1.0
+    """The ``glare`` kind's probability on a night background is its ``FlareConfig``
+    probability times this (capped at 1; 1: as by day, 0: no veiling glare at night). Trained
+    on glare at night, a network marks a night sky's whole haze, the foliage beside a lamp
+    included (candidate F26 on the real night photos, docs/history/fmg.md, "Seventy-ninth
+    session"); fewer such composites are the card's next recipe (gnfr/weights/fmg.md)."""
     flare_canvas: float = 1.0
     """The flare is drawn for a frame this many times the composite's side, and the
     composite is a window of it around the light (1: drawn for the composite itself). The
@@ -626,6 +632,10 @@ class CompositeSource:
         self.backgrounds = backgrounds
         self.flare_cfg = flare_cfg or fl.FlareConfig()
         self.comp = comp or CompositeConfig()
+        self.night_flare_cfg = self.flare_cfg  # the flare of night composites
+        if self.comp.night_glare != 1.0 and "glare" in self.flare_cfg.kinds:
+            p = min(1.0, self.flare_cfg.kind_prob("glare") * self.comp.night_glare)
+            self.night_flare_cfg = self.flare_cfg.with_kind_probs({"glare": p})
 
     def sample(self, rng: np.random.Generator, train: bool = True,
                extras: bool | None = None, with_clean: bool = False) -> tuple:
@@ -641,7 +651,8 @@ class CompositeSource:
             window = frame_window(bg, c.size, rng)
         img = (random_crop(bg, c.size, c.crop_scale, rng) if window is None
                else frame_crop(bg, window, c.size, rng))
-        if extras and rng.random() < c.night_prob:
+        night = extras and rng.random() < c.night_prob
+        if night:
             img = darken_night(img, c, rng)
         if train:
             img = colour_jitter(img, c.jitter, rng)
@@ -653,7 +664,8 @@ class CompositeSource:
             if not flared:
                 none = np.zeros(img.shape[:2], bool)
                 return (img, none, img) if with_clean else (img, none)
-        return composite_flare(img, self.flare_cfg, c, rng, window, bg.shape[:2], with_clean)
+        return composite_flare(img, self.night_flare_cfg if night else self.flare_cfg, c, rng,
+                               window, bg.shape[:2], with_clean)
 
     def batch(self, n: int, rng: np.random.Generator, train: bool = True,
               extras: bool | None = None, with_clean: bool = False):

@@ -384,6 +384,34 @@ def test_frame_composites_draw_flare_for_the_whole_photo():
     assert torch.equal(va[0], vb[0]) and torch.equal(va[1], vb[1])
 
 
+def test_night_glare_scales_the_glare_of_night_composites(monkeypatch):
+    """`fmg train --night-glare`: night composites draw their flare from a config whose
+    glare kind is that many times as likely (capped at 1); day composites, and every
+    composite at 1, from the training flare itself."""
+    import pipeline.fmg_data as fd
+
+    cfg = fd.training_flare()
+    bgs = [np.full((120, 120, 3), 40, np.uint8)]
+    used = []
+    real = fd.composite_flare
+
+    def spy(img, flare_cfg, *a, **k):
+        used.append(flare_cfg)
+        return real(img, flare_cfg, *a, **k)
+
+    monkeypatch.setattr(fd, "composite_flare", spy)
+    flat = {"size": 64, "flare_prob": 1.0, "distractor_prob": 0.0, "negative_prob": 0.0}
+    cases = ((1.0, 0.0, 0.0), (1.0, 2.0, 0.8), (1.0, 5.0, 1.0), (0.0, 0.0, 0.4), (1.0, 1.0, 0.4))
+    for night_prob, night_glare, glare in cases:
+        used.clear()
+        src = fd.CompositeSource(bgs, cfg, fd.CompositeConfig(
+            night_prob=night_prob, night_glare=night_glare, **flat))
+        src.sample(np.random.default_rng(1))
+        assert used[0].kind_prob("glare") == pytest.approx(glare)
+        assert used[0].kind_prob("streaks") == cfg.kind_prob("streaks")
+    assert cfg.kind_prob("glare") == pytest.approx(0.4)
+
+
 def test_night_backgrounds_and_hard_negatives():
     from pipeline import flare as fl
     from pipeline.fmg_data import (
@@ -559,6 +587,10 @@ def test_fmg_train_cli_resumes_and_evaluates(tmp_path, capsys):
     capsys.readouterr()
     assert main([*args, "--iters", "4", "--without", "ghosts"]) == 2
     assert "was started with --without none (now ghosts)" in capsys.readouterr().err
+    # --night-glare at 1 is the run as started (the option's value before it existed);
+    # another value is another run
+    assert main([*args, "--iters", "4", "--night-glare", "0.5"]) == 2
+    assert "was started with --night-glare none (now 0.5)" in capsys.readouterr().err
     assert len((out / "log.jsonl").read_text().splitlines()) == 3
     metrics = json.loads((out / "metrics.json").read_text())
     from workflows.research.fmg_eval import evaluate

@@ -69,6 +69,10 @@ class FMGTrainConfig:
     """Held-out composites scored during training (twice as many at the end)."""
     night_prob: float = option(0.0, ge=0, le=1)
     """Probability of a night-darkened training background (``CompositeConfig``)."""
+    night_glare: float = option(1.0, ge=0)
+    """The ``glare`` kind's probability on a night-darkened background, as a multiple of its
+    probability by day (``CompositeConfig.night_glare``; 1: the same, 0: none at night).
+    Recorded in the run's settings only when not 1 (runs started before it resume)."""
     flare_prob: float = option(0.8, ge=0, le=1)
     """Probability that a training composite has flare; the rest are clean photos (with hard
     negatives at ``CompositeConfig.clean_negative_prob``) that teach 'nothing here'."""
@@ -119,7 +123,7 @@ class FMGTrainConfig:
 def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str, ...] = (),
              negatives: tuple[str, ...] | None = None,
              kind_probs: dict[str, float] | None = None, flare_prob: float = 0.8,
-             flare_canvas: float = 1.0, frame_prob: float = 0.0):
+             flare_canvas: float = 1.0, frame_prob: float = 0.0, night_glare: float = 1.0):
     from pipeline.fmg_data import (
         CompositeConfig,
         CompositeSource,
@@ -130,7 +134,8 @@ def _sources(data: Path, size: int, night_prob: float = 0.0, without: tuple[str,
 
     parts = split_backgrounds(data)
     comp = CompositeConfig(size=size, night_prob=night_prob, flare_prob=flare_prob,
-                           flare_canvas=flare_canvas, frame_prob=frame_prob)
+                           flare_canvas=flare_canvas, frame_prob=frame_prob,
+                           night_glare=night_glare)
     if negatives is not None:
         comp = replace(comp, negatives=tuple(negatives))
     tr = CompositeSource(load_backgrounds(parts.train, comp.preload_side),
@@ -386,6 +391,8 @@ def train(cfg: FMGTrainConfig) -> dict:
         cfg = replace(cfg, without=check_kinds(cfg.without, "--without"))
     out = Path(cfg.out)
     settings = {k: v for k, v in asdict(cfg).items() if k not in FREE_ON_RESUME}
+    if cfg.night_glare == 1.0:  # as before the option existed: earlier runs still resume
+        settings.pop("night_glare")
     if has_checkpoint(out):  # a run of other settings is never resumed from
         refuse_other_settings(out, settings, "fmg train")
     dev = resolve_device(cfg.device)
@@ -393,7 +400,7 @@ def train(cfg: FMGTrainConfig) -> dict:
     src, val_bgs, comp, counts = _sources(Path(cfg.data), cfg.size, cfg.night_prob,
                                           tuple(cfg.without), tuple(cfg.negatives),
                                           kind_probs, cfg.flare_prob, cfg.flare_canvas,
-                                          cfg.frame_prob)
+                                          cfg.frame_prob, cfg.night_glare)
     info(f"fmg train: {counts[0]} training photos, {counts[1]} development (validation), "
          f"{counts[2]} test (never seen), device {dev}, "
          f"kinds {','.join(src.flare_cfg.kinds)}")
@@ -431,7 +438,8 @@ def train(cfg: FMGTrainConfig) -> dict:
     meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
             "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds),
             "kind_probs": json.dumps({k: src.flare_cfg.kind_prob(k)
-                                      for k in src.flare_cfg.kinds})}
+                                      for k in src.flare_cfg.kinds}),
+            "night_glare": str(cfg.night_glare)}
     if cfg.init:
         meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
     meta["total_iters"] = str(cfg.iters + init_steps)  # steps from scratch, init included
