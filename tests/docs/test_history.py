@@ -2556,3 +2556,25 @@ def test_glow_probe_table_is_its_files():
         left.append(f"{base['light_left']:.3f}")
     assert f"({' / '.join(far)} of them; nearer than a twentieth, {' / '.join(near)}" in history
     assert f"`light_left` below: {' / '.join(left)}," in history
+
+
+def test_night_glare_check_is_its_file():
+    """docs/history/fmg.md's eighty-ninth-session night-glare table is the overlay's file,
+    F26's row is the seventy-ninth session's, and the two runs' logs hold 150 steps."""
+    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    marked = json.loads((RESULTS / "fmg_real_flare_nightglare_s89.json").read_text())["marked"]
+    old = json.loads((RESULTS / "fmg_real_flare_M_F26_s79.json").read_text())["marked"]
+
+    def pct(photo: str, tag: str, table: dict) -> str:
+        (v,) = [x for k, x in table.items() if k.startswith(photo) and tag in k]
+        return f"{100 * v:.2f} %"
+
+    rows = {"F26": "fmg_candidate_F26", "(G = 1)": "fmg_ng_g1", "(G = 0.25)": "fmg_ng_g025"}
+    for label, tag in rows.items():
+        cells = f"{label} | {pct('input1', tag, marked)} | {pct('input2', tag, marked)} |"
+        assert cells in history, cells
+    for photo in ("input1", "input2"):
+        assert pct(photo, "F26", marked) == pct(photo, "F26", old)
+    for arm in ("g1", "g025"):
+        lines = (RESULTS / f"fmg_train_cpu_s89_{arm}.jsonl").read_text().splitlines()
+        assert [json.loads(line)["step"] for line in lines] == list(range(1, 151))
