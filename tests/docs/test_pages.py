@@ -582,7 +582,7 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
     assert "## The test scenes at the ninetieth session's code, three seeds" in text
     for scene in ("kermit", "cyprus", "fern"):
         files = s90_files(scene)
-        assert len(files) >= (2 if scene == "fern" else 3), scene
+        assert len(files) == 3, scene
         gaps, held = [], []
         for i, f in enumerate(files):
             d = json.loads((RESULTS / f).read_text())
