@@ -560,17 +560,22 @@ def s90_methods(name: str) -> dict:
     return d["flare"]["methods"] if "flare" in d else d["methods"]
 
 
+def seed_gaps(scene: str) -> tuple[list[float], list[float]]:
+    """GN-FR minus GNT for each of the scene's seeds: in the flare region, on held-out views."""
+    ms = [s90_methods(f) for f in s90_files(scene)]
+    return ([m["gnfr"]["inputs"]["psnr_flare"] - m["gnt"]["inputs"]["psnr_flare"] for m in ms],
+            [m["gnfr"]["heldout"]["psnr"] - m["gnt"]["heldout"]["psnr"] for m in ms])
+
+
 def seed_mean_margin(scene: str) -> tuple[float, int]:
     """GN-FR minus GNT in the flare region, the mean over the scene's seeds, and their count."""
-    gaps = [m["gnfr"]["inputs"]["psnr_flare"] - m["gnt"]["inputs"]["psnr_flare"]
-            for m in map(s90_methods, s90_files(scene))]
+    gaps = seed_gaps(scene)[0]
     return sum(gaps) / len(gaps), len(gaps)
 
 
 def seed_mean_heldout(scene: str) -> float:
     """GN-FR minus GNT on held-out views, the mean over the scene's seeds."""
-    gaps = [m["gnfr"]["heldout"]["psnr"] - m["gnt"]["heldout"]["psnr"]
-            for m in map(s90_methods, s90_files(scene))]
+    gaps = seed_gaps(scene)[1]
     return sum(gaps) / len(gaps)
 
 
@@ -583,7 +588,6 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
     for scene in ("kermit", "cyprus", "fern"):
         files = s90_files(scene)
         assert len(files) == 3, scene
-        gaps, held = [], []
         for i, f in enumerate(files):
             d = json.loads((RESULTS / f).read_text())
             part = d.get("flare", d)
@@ -593,17 +597,14 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
             g, t = part["methods"]["gnfr"], part["methods"]["gnt"]
             a, b = g["inputs"]["psnr_flare"], t["inputs"]["psnr_flare"]
             h, k = g["heldout"]["psnr"], t["heldout"]["psnr"]
-            gaps.append(a - b)
-            held.append(h - k)
             assert (f"| {scene} | {i} | {a:.2f} | {b:.2f} | {a - b:+.2f} | {h:.2f} | {k:.2f} | "
                     f"{h - k:+.2f} |") in text, f
-        mean = sum(gaps) / len(gaps)
+        mean = seed_mean_margin(scene)[0]
         assert mean < 2, scene
         assert (f"| **{scene}, mean of {len(files)}** | | | | **{mean:+.2f}** | | | "
-                f"**{sum(held) / len(held):+.2f}** |") in text, scene
+                f"**{seed_mean_heldout(scene):+.2f}** |") in text, scene
     flat = " ".join(text.split())
-    spans = {s: [m["gnfr"]["inputs"]["psnr_flare"] - m["gnt"]["inputs"]["psnr_flare"]
-                 for m in map(s90_methods, s90_files(s))] for s in ("kermit", "cyprus", "fern")}
+    spans = {s: seed_gaps(s)[0] for s in ("kermit", "cyprus", "fern")}
     assert (f"the flare-region margin spans {max(spans['kermit']) - min(spans['kermit']):.2f} dB "
             f"on kermit, {max(spans['cyprus']) - min(spans['cyprus']):.2f} on cyprus and "
             f"{max(spans['fern']) - min(spans['fern']):.2f} on fern") in flat
@@ -657,8 +658,7 @@ def test_goals_page_rows_follow_their_files():
     for scene, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s90.json"),
                      ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s90.json"),
                      ("fern", "fern_llff_quick_cpu_s90.json")):
-        d = load(f)
-        m = d["flare"]["methods"] if "flare" in d else d["methods"]
+        m = s90_methods(f)
         a, b = m["gnfr"]["inputs"]["psnr_flare"], m["gnt"]["inputs"]["psnr_flare"]
         mean, n = seed_mean_margin(scene)
         assert f"| {scene} | {a:.2f} | {b:.2f} | {a - b:+.2f} | {mean:+.2f} ({n} seeds) |" \
@@ -2585,14 +2585,11 @@ def test_goals_at_a_glance_is_its_files():
     paper = load("fern_llff_paper_cuda_h200_s78.json")["clean"]
     assert (f"{paper['methods']['gnfr_network']['heldout']['psnr']:.2f} dB (GN-FR alone) after "
             f"{spaced(paper['budget']['iters'])} of the preset's 50 000 steps") in glance
-    m = {s: load(f"{s}_synth_gnfr_gnt_cpu_s90.json")["methods"] for s in ("kermit", "cyprus")}
+    m = {s: s90_methods(s90_files(s)[0]) for s in ("kermit", "cyprus", "fern")}
     assert (f"kermit {m['kermit']['gnfr']['heldout']['psnr']:.2f} dB, cyprus "
             f"{m['cyprus']['gnfr']['heldout']['psnr']:.2f} dB (seed 0;") in glance
-    fern = load("fern_llff_quick_cpu_s90.json")
-    fern = fern["flare"]["methods"] if "flare" in fern else fern["methods"]
     margin = {s: m[s]["gnfr"]["inputs"]["psnr_flare"] - m[s]["gnt"]["inputs"]["psnr_flare"]
               for s in m}
-    margin["fern"] = fern["gnfr"]["inputs"]["psnr_flare"] - fern["gnt"]["inputs"]["psnr_flare"]
     assert (f"kermit {margin['kermit']:+.2f}, cyprus {margin['cyprus']:+.2f}, fern "
             f"{margin['fern']:+.2f} dB (seed 0;") in glance
     assert max(seed_mean_margin(s)[0] for s in ("kermit", "cyprus", "fern")) < 2
