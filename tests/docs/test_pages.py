@@ -2582,6 +2582,10 @@ def test_goals_at_a_glance_is_its_files():
             f"{'yes' if met else 'no'} |") in glance
     quick = load("fern_llff_quick_cpu_s90.json")["clean"]["methods"]["gnfr_hybrid"]
     assert f"| {quick['heldout']['psnr']:.2f} dB (the hybrid fill, seed 0; seed" in glance
+    verdicts = {ln.split(" | ")[1]: ln.split(" | ")[-2] for ln in glance.splitlines()
+                if ln.startswith("| 13 |")}
+    assert verdicts["fern held-out PSNR >= 22 dB at `quick` on the CPU"] == (
+        "yes" if quick["heldout"]["psnr"] >= 22 else "no")
     paper = load("fern_llff_paper_cuda_h200_s78.json")["clean"]
     assert (f"{paper['methods']['gnfr_network']['heldout']['psnr']:.2f} dB (GN-FR alone) after "
             f"{spaced(paper['budget']['iters'])} of the preset's 50 000 steps") in glance
@@ -2593,6 +2597,7 @@ def test_goals_at_a_glance_is_its_files():
     assert (f"kermit {margin['kermit']:+.2f}, cyprus {margin['cyprus']:+.2f}, fern "
             f"{margin['fern']:+.2f} dB (seed 0;") in glance
     assert max(seed_mean_margin(s)[0] for s in ("kermit", "cyprus", "fern")) < 2
+    assert verdicts["GN-FR >= vanilla GNT + 2 dB in the flare region on every test scene"] == "no"
     pad = load("pad_time_ab_sample_s87.json")["summary"]["stretch"]["train_ratio"]
     assert f"the fine-tune {1 / pad:.3f} times as long" in glance
 
