@@ -1789,3 +1789,36 @@ def test_unseen_judge_pools_seeds_and_applies_its_tolerances(tmp_path):
     worst = min(s["whole"]["candidate"] - s["whole"]["baseline"] for s in rec["scenes"].values())
     assert worst < -0.05 and r["b"] is False and r["passed"] is False  # x2 fell too far
     assert "ssim_gain_mean" in r and isinstance(r["c"], bool)
+
+
+def test_heldout_swap_reproduces_the_eval_and_swaps_models(scene, tmp_path, capsys):
+    """benchmarks/heldout_swap.py: each model with its own variant's sources scores exactly
+    what eval wrote for its held-out views; the swapped arms render too; the evaluation
+    workspace is not written; a workspace without eval's results is one line, exit 2."""
+    out = tmp_path / "ews"
+    assert main(["eval", str(scene), "--out", str(out), "--variants", "gnfr,gnt", "--masks",
+                 "gt", "--preset", "tiny", "--iters", "3", "--render-scale", "0.5",
+                 "--device", "cpu"]) == 0
+    before = {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()}
+    bench = load_benchmark("heldout_swap")
+    res = tmp_path / "swap.json"
+    assert bench.main([str(scene), str(out), "--work", str(tmp_path / "work"),
+                       "--out", str(res)]) == 0
+    got = json.loads(res.read_text())
+    want = json.loads((out / "eval" / "results.json").read_text())["methods"]
+    for m in ("gnfr", "gnt"):
+        assert got["arms"][f"{m}_model_{m}_sources_hybrid"]["psnr"] == pytest.approx(
+            want[m]["heldout"]["psnr"], abs=1e-9)
+    crossed = got["arms"]["gnfr_model_gnt_sources_hybrid"]
+    assert crossed["model"] == "gnfr" and crossed["sources"] == "gnt"
+    assert math.isfinite(crossed["psnr"]) and set(crossed["views"]) == set(got["heldout_views"])
+    assert len(got["arms"]) == 4 and set(got["models_sha256"]) == {"gnfr", "gnt"}
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()} == before
+    capsys.readouterr()
+    assert bench.main([str(scene), str(tmp_path / "nothing"), "--work",
+                       str(tmp_path / "w2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "results.json is missing" in err[0]
+    assert bench.main([str(scene), str(out), "--work", str(tmp_path / "w3"),
+                       "--fills", "blur"]) == 2
+    assert "blur is no fill" in capsys.readouterr().err
