@@ -13,7 +13,8 @@ variant's source choice, in copies of the variant workspaces under ``DIR`` (noth
 scale, source count, fill), and scores them against ``SYNTH/clean``. The Point Sampler
 goes with the model (its checkpoint's metadata, as the render stage reads it). Where a
 model gap stays whatever the sources, the fine-tune made it; where it moves with the
-sources, the render's choice did (docs/history/gnfr.md, "Ninety-first session").
+sources, the render's choice did (docs/eval.md, "Why GN-FR trails vanilla GNT on novel
+views").
 """
 
 from __future__ import annotations

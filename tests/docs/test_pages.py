@@ -617,6 +617,96 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
                    for x in ("psnr", "psnr_flare", "ssim")), k
 
 
+def swap_cells(scene: str, seed: int) -> tuple[float, float, float, float]:
+    """benchmarks/heldout_swap.py's file of one test scene and seed (ninety-first session):
+    held-out PSNR of (GN-FR model, its sources), (GN-FR model, GNT's), (GNT model, GN-FR's),
+    (GNT model, its own)."""
+    arms = json.loads((RESULTS / f"heldout_swap_{scene}{S90_SEEDS[seed]}_s91.json")
+                      .read_text())["arms"]
+    return tuple(arms[f"{m}_model_{s}_sources_hybrid"]["psnr"]
+                 for m, s in (("gnfr", "gnfr"), ("gnfr", "gnt"), ("gnt", "gnfr"), ("gnt", "gnt")))
+
+
+def ablation_methods(scene: str, seed: int) -> dict:
+    """GN-FR and GNT (the ninetieth session's file) and the single ablations (the ninety-first
+    session's files) of one test scene and seed: {variant: eval's method record}."""
+    stem = "fern_llff_quick_cpu_s90" if scene == "fern" else f"{scene}_synth_gnfr_gnt_cpu_s90"
+    out = dict(s90_methods(f"{stem}{S90_SEEDS[seed]}.json"))
+    for f in sorted(RESULTS.glob(f"ablation_{scene}_s91_seed{seed}*.json")):
+        out.update(json.loads(f.read_text())["methods"])
+    return out
+
+
+ABLATED = ("gnfr", "no_vs", "no_ps", "no_ml", "gnt")
+
+
+def test_ninety_first_session_heldout_diagnosis_is_its_files():
+    """docs/eval.md, "Why GN-FR trails vanilla GNT on novel views": the swap table is
+    heldout_swap.py's files (each of whose same-model arms is the ninetieth session's eval
+    number, so the models are that session's), the gaps add up to the eval's difference, the
+    ablation table is eval's files at a clean tree with the seed each names, the means and
+    the verdicts in the prose follow from them."""
+    text = (REPO / "docs" / "eval.md").read_text()
+    title = "## Why GN-FR trails vanilla GNT on novel views (ninety-first session): a diagnosis"
+    assert title in text
+    section = text.split(title)[1].split("\n## ")[0]
+    flat = " ".join(section.split())
+    models = {}
+    for scene in ("kermit", "cyprus", "fern"):
+        gaps = []
+        for seed in range(3):
+            ff, fg, gf, gg = swap_cells(scene, seed)
+            s90 = ablation_methods(scene, seed)
+            assert ff == s90["gnfr"]["heldout"]["psnr"] and gg == s90["gnt"]["heldout"]["psnr"]
+            model, src = ((ff - gf) + (fg - gg)) / 2, ((ff - fg) + (gf - gg)) / 2
+            assert abs(model + src - (ff - gg)) < 1e-9
+            gaps.append((model, src))
+            assert (f"| {scene} | {seed} | {ff:.2f} | {fg:.2f} | {gf:.2f} | {gg:.2f} | "
+                    f"{model:+.2f} | {src:+.2f} |") in section, (scene, seed)
+        m, s = (sum(g[i] for g in gaps) / 3 for i in (0, 1))
+        models[scene] = m
+        assert f"| **{scene}, mean of 3** | | | | | | **{m:+.2f}** | **{s:+.2f}** |" in section
+        assert abs(m) > 3 * abs(s), scene  # "the models, not the sources"
+    assert models["kermit"] < 0 and models["fern"] < 0 and models["cyprus"] > 0
+    assert (f"{models['kermit']:+.2f} dB on kermit and {models['fern']:+.2f} on fern (mean of "
+            f"three seeds), {models['cyprus']:+.2f} on cyprus") in flat
+    for scene in ("kermit", "fern"):
+        rows = []
+        for seed in range(3):
+            m = ablation_methods(scene, seed)
+            if not all(v in m for v in ABLATED):
+                continue
+            for f in RESULTS.glob(f"ablation_{scene}_s91_seed{seed}*.json"):
+                d = json.loads(f.read_text())
+                code = d["provenance"]["code"]
+                assert code["commit"].startswith("b3e05ad") and not code["dirty"], f.name
+                assert d["budget"]["seed"] == seed and d["budget"]["iters"] == 3000, f.name
+            cells = [(m[v]["heldout"]["psnr"], m[v]["inputs"]["psnr_flare"]) for v in ABLATED]
+            rows.append(cells)
+            assert (f"| {scene} | {seed} | "
+                    + " | ".join(f"{h:.2f} / {r:.2f}" for h, r in cells) + " |") in section
+        n = len(rows)
+        assert n >= 1
+        mean = [tuple(sum(r[i][j] for r in rows) / n for j in (0, 1)) for i in range(5)]
+        assert (f"| **{scene}, mean of {n}** | | "
+                + " | ".join(f"**{h:.2f} / {r:.2f}**" for h, r in mean) + " |") in section
+        # every single ablation lifts the novel views, none to GNT's
+        assert all(mean[0][0] < mean[i][0] < mean[4][0] for i in (1, 2, 3)), scene
+        if scene == "kermit":
+            rise = {v: mean[i][0] - mean[0][0] for i, v in enumerate(ABLATED)}
+            readme = " ".join((REPO / "README.md").read_text().split())
+            assert (f"the View Sampler (all 8 views as targets, not the 4 under the 10 % rule) "
+                    f"{rise['no_vs']:+.2f} dB, the Point Sampler {rise['no_ps']:+.2f}, the "
+                    f"masking loss {rise['no_ml']:+.2f}, none reaching GNT") in readme
+            assert (f"({models['kermit']:+.2f} of kermit's {seed_mean_heldout('kermit'):+.2f} dB"
+                    in readme)
+            goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+            lo, hi = sorted(rise[v] for v in ("no_vs", "no_ps", "no_ml"))[::2]
+            assert f"lifts kermit's novel views by {lo:.2f} to {hi:.2f} dB, none to GNT's" in goals
+            assert (f"the models' gap {models['kermit']:+.2f} dB on kermit, "
+                    f"{models['fern']:+.2f} on fern, {models['cyprus']:+.2f} on cyprus") in goals
+
+
 def test_goals_page_rows_follow_their_files():
     """docs/goals.md: each row of the open issues' goals is its result file's numbers
     (per kind, clean photos per scene, fern, GN-FR against GNT and its margin)."""
