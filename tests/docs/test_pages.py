@@ -668,6 +668,14 @@ def test_ninety_first_session_heldout_diagnosis_is_its_files():
         assert f"| **{scene}, mean of 3** | | | | | | **{m:+.2f}** | **{s:+.2f}** |" in section
         assert abs(m) > 3 * abs(s), scene  # "the models, not the sources"
     assert models["kermit"] < 0 and models["fern"] < 0 and models["cyprus"] > 0
+    net = json.loads((RESULTS / "heldout_swap_kermit_network_s91.json").read_text())["arms"]
+    n = {(m, so): net[f"{m}_model_{so}_sources_network"]["psnr"]
+         for m in ("gnfr", "gnt") for so in ("gnfr", "gnt")}
+    n_model = (n["gnfr", "gnfr"] - n["gnt", "gnfr"] + n["gnfr", "gnt"] - n["gnt", "gnt"]) / 2
+    ff, fg, gf, gg = swap_cells("kermit", 0)
+    assert n_model < (ff - gf + fg - gg) / 2 < 0  # "the gap is wider" than seed 0's hybrid
+    assert (f"GN-FR {n['gnfr', 'gnfr']:.2f} against GNT {n['gnt', 'gnt']:.2f} dB, the models' "
+            f"gap {n_model:+.2f}") in flat
     assert (f"{models['kermit']:+.2f} dB on kermit and {models['fern']:+.2f} on fern (mean of "
             f"three seeds), {models['cyprus']:+.2f} on cyprus") in flat
     for scene in ("kermit", "fern"):
