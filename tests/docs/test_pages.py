@@ -693,13 +693,23 @@ def test_ninety_first_session_heldout_diagnosis_is_its_files():
             rows.append(cells)
             assert (f"| {scene} | {seed} | "
                     + " | ".join(f"{h:.2f} / {r:.2f}" for h, r in cells) + " |") in section
-        n = len(rows)
-        assert n >= 1
-        mean = [tuple(sum(r[i][j] for r in rows) / n for j in (0, 1)) for i in range(5)]
-        assert (f"| **{scene}, mean of {n}** | | "
+        assert len(rows) == 3, scene
+        mean = [tuple(sum(r[i][j] for r in rows) / 3 for j in (0, 1)) for i in range(5)]
+        assert (f"| **{scene}, mean of 3** | | "
                 + " | ".join(f"**{h:.2f} / {r:.2f}**" for h, r in mean) + " |") in section
         # every single ablation lifts the novel views, none to GNT's
         assert all(mean[0][0] < mean[i][0] < mean[4][0] for i in (1, 2, 3)), scene
+        up = [f"{mean[i][0] - mean[0][0]:.2f}" for i in (1, 2, 3)]
+        flare = [f"{mean[i][1] - mean[0][1]:+.2f}" for i in (1, 2, 3)]
+        unit = "dB " if scene == "kermit" else ""
+        assert f"{up[0]}, {up[1]} and {up[2]} {unit}on {scene}" in flat
+        if scene == "kermit":  # the View and Point Samplers do not pay there, the loss does
+            assert float(flare[0]) > 0 and float(flare[1]) > 0 and float(flare[2]) < 0
+            assert (f"without them {flare[0]} and {flare[1]} dB on the mean); the masking loss "
+                    f"does ({flare[2]} dB without it)") in flat
+        else:  # each part pays in fern's flare region
+            assert all(float(x) < 0 for x in flare)
+            assert f"without it {flare[0]}, {flare[1]} and {flare[2]} dB on the mean" in flat
         if scene == "kermit":
             rise = {v: mean[i][0] - mean[0][0] for i, v in enumerate(ABLATED)}
             readme = " ".join((REPO / "README.md").read_text().split())
