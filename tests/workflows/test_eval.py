@@ -85,6 +85,18 @@ def test_eval_end_to_end(scene, tmp_path):
     assert render.shape[:2] == (round(clean.shape[0] * 0.5), round(clean.shape[1] * 0.5))
     table = (out / "eval" / "table.md").read_text()
     assert "| GN-FR |" in table and "ground truth" in table and "tiny" in table
+    # how many views each fine-tune trained on: views.json's targets, all of them for GNT
+    views = json.loads((out / "views.json").read_text())["views"]
+    flagged = sum(v["target"] for v in views.values())
+    assert 2 <= flagged < len(views) == len(split["train"])  # some views over the rule
+    assert (res["methods"]["gnfr"]["train"]["targets"], res["methods"]["gnt"]["train"]["targets"],
+            res["methods"]["gnt"]["train"]["views"]) == (flagged, len(views), len(views))
+    cells = {ln.split(" | ")[0][2:]: ln.split(" | ") for ln in table.splitlines()
+             if ln.startswith("| ") and "---" not in ln}
+    assert cells["method"][6] == "targets"
+    assert cells["GN-FR"][6] == f"{flagged}/{len(views)}"
+    assert cells["GNT (all GN-FR parts off)"][6] == f"{len(views)}/{len(views)}"
+    assert cells["flared input (no removal)"][6] == "—"
     # what init resolved to and the colour match are recorded; the summary script reads them
     assert res["budget"]["init_weights"] == "scratch" and res["budget"]["color_match"] is True
     summary = load_benchmark("eval_summary")

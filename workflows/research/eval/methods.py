@@ -9,7 +9,7 @@ import numpy as np
 
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, read_json
-from pipeline.ws_files import read_cameras, read_mask, read_view_image
+from pipeline.ws_files import read_cameras, read_mask, read_view_image, read_views
 from workflows.research.eval.config import LABELS, NEURAL, EvalConfig
 from workflows.research.eval.scene import SynthScene
 from workflows.research.eval.workspaces import variant_workspace
@@ -48,8 +48,13 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
                    variant_ws, force=cfg.force)
         out["heldout"] = variant_ws.render_dir(str(path_json))
     record = variant_ws.stage_record("finetune")
+    views = read_views(variant_ws)
+    # the views its fine-tune took as targets (gnfr.train.scene_targets): views.json's
+    # flags with the View Sampler, every view without it
+    targets = views.targets() if NEURAL[name]["view_sampler"] else list(views.views)
     out["train"] = {"seconds": record.get("seconds"), "steps": record.get("steps"),
-                    "it_per_s": record.get("it_per_s"),
+                    "it_per_s": record.get("it_per_s"), "targets": len(targets),
+                    "views": len(views.views),
                     "render_seconds": sum(
                         variant_ws.stage_record(stage).get("seconds") or 0
                         for stage in variant_ws.manifest()["stages"]

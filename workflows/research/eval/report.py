@@ -64,8 +64,8 @@ def table_markdown(res: dict) -> str:
         f"colour match of the fill; render fill: {budget.get('fill', 'network')}.",
         *provenance_lines(res), "",
         "| method | held-out PSNR | held-out SSIM | inputs PSNR | inputs SSIM | "
-        "flare-region PSNR | train s |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "flare-region PSNR | targets | train s |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for method in res["methods"].values():
         heldout, inputs, train = (method.get("heldout", {}), method["inputs"],
@@ -75,13 +75,16 @@ def table_markdown(res: dict) -> str:
                  format_or_dash(inputs.get("psnr")),
                  format_or_dash(inputs.get("ssim"), "{:.4f}"),
                  format_or_dash(inputs.get("psnr_flare")),
+                 (f"{train['targets']}/{train['views']}" if "targets" in train else "—"),
                  format_or_dash(train.get("seconds"), "{:.0f}")]
         lines.append(f"| {method['label']} | " + " | ".join(cells) + " |")
     lines += ["", "PSNR in dB, SSIM (Gaussian window, Wang et al. 2004) on [0, 1] RGB against "
               "SCENE/clean. Held-out: full renders of the held-out cameras (novel views). "
               "Inputs: the de-flared training photos as `render --path inputs` writes them "
               "(the masked region re-rendered and blended; baselines: the photo itself, or "
-              "inpainted). Flare-region PSNR: only the pixels of masks_gt. Baselines have no "
+              "inpainted). Flare-region PSNR: only the pixels of masks_gt. Targets: the "
+              "training views each fine-tune took as targets, of all (views.json's flags, "
+              "select's --max-flare rule; every view without the View Sampler). Baselines have no "
               "held-out views (—). Paper (Table 1, full budget, real-scene synthetic "
               "flare): GNT 22.44 dB, GN-FR 26.18 dB / SSIM 0.8815 on held-out views.", ""]
     return "\n".join(lines)
