@@ -29,12 +29,12 @@ sys.path.insert(0, str(ROOT))
 
 
 def render_arm(eval_ws: Path, work: Path, model: str, sources: str, fill: str,
-               budget: dict, view_sampler: bool, device: str = "cpu") -> Path:
+               budget: dict, device: str = "cpu") -> Path:
     """The held-out renders of ``model``'s checkpoint with ``sources``' workspace and source
     rule, in ``work/<model>_with_<sources>``: the folder of PNGs."""
     from pipeline import render
-    from pipeline.render import RenderConfig
     from pipeline.workspace import Workspace
+    from workflows.research.eval.methods import heldout_render_config, source_pool
 
     ws_dir = work / f"{model}_with_{sources}"
     if not ws_dir.exists():
@@ -42,12 +42,10 @@ def render_arm(eval_ws: Path, work: Path, model: str, sources: str, fill: str,
     ws = Workspace(ws_dir)
     path = ws_dir / f"heldout_{fill}.json"
     shutil.copy(eval_ws / "eval" / "heldout_cameras.json", path)
-    n = int(budget["eval_views"])
-    pool = {} if view_sampler else {"n_sources": n, "pool": n}  # as eval's run_neural
     ckpt = eval_ws / "variants" / model / "model" / "gnfr.safetensors"
-    render.run(RenderConfig(path=str(path), scale=float(budget["render_scale"]),
-                            source_fade=0, path_exposure=0.0, device=device, fill=fill,
-                            checkpoint=str(ckpt), **pool), ws)
+    render.run(heldout_render_config(path, float(budget["render_scale"]), device=device,
+                                     fill=fill, checkpoint=str(ckpt),
+                                     **source_pool(sources, int(budget["eval_views"]))), ws)
     return ws.render_dir(str(path))
 
 
@@ -55,7 +53,6 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.errors import UserError
     from pipeline.provenance import sha256, write_result
     from pipeline.workspace import read_json
-    from workflows.research.eval.config import NEURAL
     from workflows.research.eval.scene import load_synth
     from workflows.research.eval.scoring import score_views
 
@@ -81,6 +78,14 @@ def main(argv: list[str] | None = None) -> int:
         if not scene.heldout:
             raise UserError(f"{args.synth} has no held-out views: build it with "
                             "`deflare-scene synth --heldout N`")
+        if res.get("heldout_views") != scene.heldout:
+            raise UserError(f"{args.eval_ws} was not evaluated on {args.synth} (its held-out "
+                            f"views differ): give the SYNTH folder its eval ran on")
+        missing = [m for m in (args.a, args.b)
+                   if not (args.eval_ws / "variants" / m / "model").is_dir()]
+        if missing:
+            raise UserError(f"{args.eval_ws}/variants/{missing[0]} has no model: run eval with "
+                            f"--variants {args.a},{args.b}")
         fills = args.fills.split(",")
         if bad := [f for f in fills if f not in ("hybrid", "network")]:
             raise UserError(f"--fills {args.fills}: {', '.join(bad)} is no fill; give hybrid "
@@ -89,12 +94,8 @@ def main(argv: list[str] | None = None) -> int:
         for fill in fills:
             for model in (args.a, args.b):
                 for sources in (args.a, args.b):
-                    if not (args.eval_ws / "variants" / model / "model").is_dir():
-                        raise UserError(f"{args.eval_ws}/variants/{model} has no model: "
-                                        f"run eval with --variants {args.a},{args.b}")
                     folder = render_arm(args.eval_ws, args.work, model, sources, fill,
-                                        budget, NEURAL[sources]["view_sampler"],
-                                        args.device)
+                                        budget, args.device)
                     scores = score_views(scene, folder, scene.heldout, with_region=False)
                     key = f"{model}_model_{sources}_sources_{fill}"
                     arms[key] = {"model": model, "sources": sources, "fill": fill,

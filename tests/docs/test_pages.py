@@ -548,10 +548,15 @@ def test_consistency_planes_known_depth_is_its_records():
 S90_SEEDS = ("", "_seed1", "_seed2")
 
 
+def s90_stem(scene: str) -> str:
+    """The ninetieth session's result files' name of a test scene, before the seed."""
+    return "fern_llff_quick_cpu_s90" if scene == "fern" else f"{scene}_synth_gnfr_gnt_cpu_s90"
+
+
 def s90_files(scene: str) -> list[str]:
     """The ninetieth session's result files of a test scene, one per seed (0, 1, 2), those
     that exist."""
-    stem = "fern_llff_quick_cpu_s90" if scene == "fern" else f"{scene}_synth_gnfr_gnt_cpu_s90"
+    stem = s90_stem(scene)
     return [f"{stem}{s}.json" for s in S90_SEEDS if (RESULTS / f"{stem}{s}.json").exists()]
 
 
@@ -630,8 +635,7 @@ def swap_cells(scene: str, seed: int) -> tuple[float, float, float, float]:
 def ablation_methods(scene: str, seed: int) -> dict:
     """GN-FR and GNT (the ninetieth session's file) and the single ablations (the ninety-first
     session's files) of one test scene and seed: {variant: eval's method record}."""
-    stem = "fern_llff_quick_cpu_s90" if scene == "fern" else f"{scene}_synth_gnfr_gnt_cpu_s90"
-    out = dict(s90_methods(f"{stem}{S90_SEEDS[seed]}.json"))
+    out = dict(s90_methods(f"{s90_stem(scene)}{S90_SEEDS[seed]}.json"))
     for f in sorted(RESULTS.glob(f"ablation_{scene}_s91_seed{seed}*.json")):
         out.update(json.loads(f.read_text())["methods"])
     return out

@@ -23,6 +23,22 @@ def finetune_config(cfg: EvalConfig, name: str):
                           init=cfg.init, seed=cfg.seed, **NEURAL[name], **cfg.finetune_extra)
 
 
+def source_pool(name: str, n_views: int) -> dict:
+    """Render options of variant ``name``'s source choice: without the View Sampler the
+    nearest ``n_views`` views whatever their flare; with it the render's own choice."""
+    return {} if NEURAL[name]["view_sampler"] else {"n_sources": n_views, "pool": n_views}
+
+
+def heldout_render_config(path_json: Path, scale: float, **common):
+    """The RenderConfig of the held-out cameras: scored one by one, so no video and nothing
+    to cross-fade, each at its sources' exposure as the eval always rendered them
+    (path_exposure 0). ``common``: device, samples, fill, source pool, checkpoint."""
+    from pipeline.render import RenderConfig
+
+    return RenderConfig(path=str(path_json), scale=scale, source_fade=0, path_exposure=0.0,
+                        **common)
+
+
 def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | None) -> dict:
     """Finetune and render one variant (each a resumable stage); paths of its outputs."""
     from pipeline import finetune, render
@@ -34,18 +50,14 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
     finetune.run(finetune_cfg, variant_ws, force=cfg.force)
     _, train_cfg = finetune.resolve(finetune_cfg, finetune.pick_device(cfg.device))
     n_views = train_cfg.eval_views
-    # without the View Sampler, render from the nearest eval_views views whatever their flare
-    pool = {} if NEURAL[name]["view_sampler"] else {"n_sources": n_views, "pool": n_views}
-    common = {"device": cfg.device, "samples": cfg.samples, "fill": cfg.fill, **pool}
+    common = {"device": cfg.device, "samples": cfg.samples, "fill": cfg.fill,
+              **source_pool(name, n_views)}
     render.run(RenderConfig(path="inputs", color_match=cfg.color_match, **common),
                variant_ws, force=cfg.force)
     out = {"inputs": variant_ws.deflared, "workspace": variant_ws.root}
     if path_json is not None:
-        # held-out cameras are scored one by one: no video, nothing to cross-fade, and each
-        # at its sources' exposure as the eval always rendered them (path_exposure 0)
-        render.run(RenderConfig(path=str(path_json), scale=cfg.render_scale, source_fade=0,
-                                path_exposure=0.0, **common),
-                   variant_ws, force=cfg.force)
+        render.run(heldout_render_config(path_json, cfg.render_scale, **common), variant_ws,
+                   force=cfg.force)
         out["heldout"] = variant_ws.render_dir(str(path_json))
     record = variant_ws.stage_record("finetune")
     views = read_views(variant_ws)
