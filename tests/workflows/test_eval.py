@@ -1834,3 +1834,14 @@ def test_heldout_swap_reproduces_the_eval_and_swaps_models(scene, tmp_path, caps
     assert bench.main([str(scene), str(out), "--work", str(tmp_path / "w3"),
                        "--fills", "blur"]) == 2
     assert "blur is no fill" in capsys.readouterr().err
+    # a SYNTH folder other than the one eval ran on (here: one more held-out view) is refused
+    # before anything renders
+    other = tmp_path / "other_synth"
+    shutil.copytree(scene, other)
+    split = json.loads((other / "split.json").read_text())
+    split["heldout"] = [*split["heldout"], split["train"][0]]
+    (other / "split.json").write_text(json.dumps(split))
+    assert bench.main([str(other), str(out), "--work", str(tmp_path / "w4")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "was not evaluated on" in err[0] and "held-out views differ" in err[0]
+    assert not (tmp_path / "w4").exists() or not any((tmp_path / "w4").iterdir())
