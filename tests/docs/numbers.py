@@ -42,3 +42,28 @@ def fill_row(name: str, fill: str) -> dict:
 def spaced(n: int) -> str:
     """A count as the docs write it (thin groups of three: 13 597)."""
     return f"{n:,}".replace(",", " ")
+
+
+def page_text(path: str) -> str:
+    """A page's text with its line breaks and runs of spaces made single spaces."""
+    return " ".join((REPO / path).read_text().split())
+
+
+def _between(path: str, start: str, end: str) -> str:
+    text = page_text(path)
+    i = text.index(start)
+    return text[i:text.index(end, i)]
+
+
+def readme_notes() -> str:
+    """The README's notes on its results rows as they read until the ninety-second session,
+    kept in docs/eval.md ("The README's results, row by row") since the README became a
+    summary."""
+    return _between("docs/eval.md", "The README's notes on its rows, as they read until",
+                    "Notes on the rows, as the README gave them until the fifty-first")
+
+
+def readme_performance() -> str:
+    """The README's "Performance" as it read until the ninety-second session, kept in
+    docs/performance.md."""
+    return _between(PERF, "## The README's summary, as it read until", "## The machine")

@@ -1066,8 +1066,8 @@ def test_fortieth_session_fill_rules_agree_with_the_judge(times, judged, base, a
 
 
 def test_fortieth_session_fill_numbers_on_the_pages():
-    """The fill options' rows (docs/depth.md, docs/options.md) and the README quote the
-    fortieth session's judges."""
+    """The fill options' rows (docs/depth.md, docs/options.md, its "At a glance" table)
+    quote the fortieth session's judges."""
     def mean(f, arm):
         return json.loads((RESULTS / f).read_text())["candidates"][arm]["mean"]
 
@@ -1076,7 +1076,6 @@ def test_fortieth_session_fill_numbers_on_the_pages():
 
     depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    readme = " ".join((REPO / "README.md").read_text().split())
     hs = mean("seam_judge_s40.json", "hs")
     assert f"held-out frames {hs['psnr']:+.3f} dB and {hs['ssim']:+.3f} SSIM" in depth
     assert f"+{hs['ssim']:.3f} SSIM on the development scenes" in options
@@ -1086,7 +1085,7 @@ def test_fortieth_session_fill_numbers_on_the_pages():
     assert f"held-out frames {ndh['psnr']:+.3f} dB (lund {lund:+.3f}" in depth
     assert f"`all` (GN-FR's depth everywhere) {nda['psnr']:+.3f} dB" in depth
     assert f"{lund:+.3f} dB on the development street walk, {ndh['psnr']:+.3f} dB" in options
-    assert f"held-out frames {lund:+.2f} dB on that street walk" in readme
+    assert f"held-out frames {lund:+.2f} dB on that street walk" in options  # "At a glance"
     sc_all, lund_all = (scene("netdepth_judge_s40.json", "nda", s) for s in ("sceaux", "lund"))
     assert (f"held-out frames {sc_all['psnr']:+.3f} dB and {sc_all['ssim']:+.3f} SSIM on "
             f"sceaux_castle, {lund_all['psnr']:+.3f} dB on the street walk") in options
@@ -1114,9 +1113,8 @@ def test_fortieth_session_test_scene_report_is_its_files():
         assert f"| {label} | " + " | ".join(cells) + " |" in hist
     loss = held("nda", "cyprus")["psnr"] - held("base", "cyprus")["psnr"]
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    readme = " ".join((REPO / "README.md").read_text().split())
     assert f"cyprus (the sample's photos) {loss:+.2f} dB" in options
-    assert f"held-out views {loss:+.2f} dB" in readme
+    assert f"held-out views {loss:+.2f} dB" in options  # "At a glance"
 
 
 def test_sgm_rule_numbers_agree_with_the_judge():
@@ -1252,10 +1250,9 @@ def test_frames_rule_table_is_the_runs_and_the_judge_recomputes_its_decision():
     for page in ("goals.md", "depth.md"):
         text = " ".join((REPO / "docs" / page).read_text().split())
         assert quoted in text or f"held-out SSIM {m['held_ssim']:+.3f} on the" in text, page
-    readme = " ".join((REPO / "README.md").read_text().split())
-    assert f"held-out frames' SSIM {m['held_ssim']:+.3f} on the development mean" in readme
     options = " ".join((REPO / "docs" / "options.md").read_text().split())
     assert f"SSIM {m['held_ssim']:+.3f} and PSNR {m['held']:+.3f} dB on the mean" in options
+    assert f"held-out frames' SSIM {m['held_ssim']:+.3f} on the development mean" in options
 
 
 def test_sgm_exposure_gain_moves_are_the_files():
@@ -2066,10 +2063,9 @@ def _page(*parts: str) -> str:
 def test_mask_pads_outcome_is_its_files():
     """`mask --pads` (seventy-second session): the rule's parts recomputed from their files
     (the one-kind judge, the photo judge), and the numbers docs/history/fmg.md, the FMG
-    card, docs/options.md, docs/goals.md and the README quote are those files'."""
+    card, docs/options.md and docs/goals.md quote are those files'."""
     history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
-    options, goals, readme = _page("docs", "options.md"), _page("docs", "goals.md"), _page(
-        "README.md")
+    options, goals = _page("docs", "options.md"), _page("docs", "goals.md")
     base, cand = "fmg.safetensors@1", "fmg.safetensors@1+pads=reflect,replicate,constant"
     kinds = load_benchmark("mask_kind_scenes")
     builds = [json.loads((RESULTS / f"mask_dev_kinds_pads_s{s}.json").read_text())["rows"]
@@ -2099,7 +2095,7 @@ def test_mask_pads_outcome_is_its_files():
     pads, plain = (f"{100 * dev_mean[k]:.3f} %" for k in ("ghost_views_pads", "ghost_views"))
     assert f"{pads} of the pixels ({scenes})" in options  # the default since s73
     assert f"marks {pads} of the clean development scenes" in card
-    assert f"{pads} of the pixels marked instead of" in readme and plain in options
+    assert f"{pads} of the pixels marked instead of" in options and plain in options
     test, _ = marked("mask_views_clean_test_pads_s72.json")
     for page in (card, goals):
         assert f"kermit {test['kermit']}, cyprus {test['cyprus']}, fern {test['fern']}" in page
