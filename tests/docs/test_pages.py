@@ -171,7 +171,7 @@ CHECKS = [
     (PERF, "sample_oneshot_cpu_s13_5d4b156.json", "mean/psnr_flare", "{:.2f}"),
     (PERF, "sample_oneshot_cpu_idle_6c828cd.json", "stages/render:interpolate/seconds",
      "{:.1f}"),
-    *[("README.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
+    *[("docs/eval.md", f"fill_flare_layer_dev_{scene}_network.json", f"rows/{row}/psnr_flare",
        "{:.2f}") for scene in ("sceaux", "et")
       for row in ("network", "hybrid_guided_support2")],
     *[("docs/eval.md", "sample_oneshot_cpu_s17_dilate0.json", f"mean/{m}", "{:.2f}")
@@ -2789,3 +2789,46 @@ def test_the_sample_in_fp32_on_a_cpu_without_native_bf16_is_its_file():
     assert (f"scored {f['psnr_flare']:.2f} / {f['psnr']:.2f} dB (flare region / whole; "
             f"`docs/results/sample_oneshot_cpu_s92_fp32.json`) against the row's "
             f"{r['psnr_flare']:.2f} / {r['psnr']:.2f}") in page_text("docs/eval.md")
+
+
+S92_DEV = (("sceaux_castle", "sceaux_p4"), ("et", "et_p5"), ("lund", "lund_k4"))
+
+
+def test_development_rows_at_the_ninety_second_sessions_code_are_their_files():
+    """README and docs/eval.md: the development rows are the ninety-second session's evals of
+    the flared development builds (seed 0, 5b95ea5, its clone's two untracked files of the
+    one-shot the only dirt), the table's margins and means are the files', and the README's
+    rows quote them; the parts taken out on sceaux_p4 are their file's."""
+    readme, section = page_text("README.md"), page_text("docs/eval.md")
+    i = section.index("## The development scenes at today's code (ninety-second session)")
+    section = section[i:section.index("## Why GN-FR trails vanilla GNT", i)]
+    margins, diffs = [], []
+    for scene, build in S92_DEV:
+        d = json.loads((RESULTS / f"{build}_synth_gnfr_gnt_cpu_s92.json").read_text())
+        code = d["provenance"]["code"]
+        assert code["commit"].startswith("5b95ea5"), build
+        assert sorted(code["dirty_files"]) == ["oneshot.log", "scores.json"], build
+        assert d["budget"]["seed"] == 0 and d["budget"]["preset"] == "quick", build
+        m = d["methods"]
+        g, t, inp = m["gnfr"], m["gnt"], m["input"]
+        margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
+        diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
+        margins.append(margin)
+        diffs.append(diff)
+        assert g["train"]["views"] == t["train"]["targets"] == t["train"]["views"], build
+        assert (f"| {scene} ({build}) | {g['inputs']['psnr_flare']:.2f} | "
+                f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | {g['heldout']['psnr']:.2f} | "
+                f"{t['heldout']['psnr']:.2f} | {diff:+.2f} | "
+                f"{g['train']['targets']} of {g['train']['views']} |") in section, build
+        assert (f"| {scene} + synthetic flare (dev; {build}) | flare-region / whole PSNR of the "
+                f"de-flared photos, FMG masks, quick, CPU (fp32) | GN-FR "
+                f"{g['inputs']['psnr_flare']:.2f} / {g['inputs']['psnr']:.2f}, GNT "
+                f"{t['inputs']['psnr_flare']:.2f} / {t['inputs']['psnr']:.2f} | | flared input "
+                f"{inp['inputs']['psnr_flare']:.2f} / {inp['inputs']['psnr']:.2f} |") in readme
+    mean_m, mean_d = sum(margins) / 3, sum(diffs) / 3
+    assert f"| **mean of 3** | | | **{mean_m:+.2f}** | | | **{mean_d:+.2f}** | |" in section
+    assert all(x > 2 for x in margins)
+    cells = ", ".join(f"{x:+.2f}" for x in margins)
+    assert f"{cells} dB in the flare region on the development builds" in readme
+    cells = ", ".join(f"{x:+.2f}" for x in diffs)
+    assert f"on novel views {cells} dB" in readme
