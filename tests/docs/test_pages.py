@@ -2832,3 +2832,29 @@ def test_development_rows_at_the_ninety_second_sessions_code_are_their_files():
     assert f"{cells} dB in the flare region on the development builds" in readme
     cells = ", ".join(f"{x:+.2f}" for x in diffs)
     assert f"on novel views {cells} dB" in readme
+
+
+def test_parts_taken_out_on_sceaux_p4_are_their_file():
+    """docs/eval.md: the ninety-second session's single ablations on sceaux_p4 are
+    ablation_sceaux_p4_s92.json's, beside the GN-FR and GNT arms of its eval, at the same
+    commit and seed; the sentences' differences are the files'."""
+    abl = json.loads((RESULTS / "ablation_sceaux_p4_s92.json").read_text())
+    base = json.loads((RESULTS / "sceaux_p4_synth_gnfr_gnt_cpu_s92.json").read_text())
+    assert abl["provenance"]["code"]["commit"] == base["provenance"]["code"]["commit"]
+    assert abl["budget"] == base["budget"] and abl["heldout_views"] == base["heldout_views"]
+    m = {**base["methods"], **abl["methods"]}
+    order = ("gnfr", "no_vs", "no_ps", "no_ml", "gnt")
+    cells = [f"{m[k]['heldout']['psnr']:.2f} / {m[k]['inputs']['psnr_flare']:.2f}" for k in order]
+    text = page_text("docs/eval.md")
+    assert "| " + " | ".join(cells) + " |" in text
+    assert m["no_vs"]["train"]["targets"] == m["no_vs"]["train"]["views"] == 9
+    assert m["gnfr"]["train"]["targets"] == 4
+    up = {k: m[k]["heldout"]["psnr"] - m["gnfr"]["heldout"]["psnr"] for k in order[1:4]}
+    flare = {k: m[k]["inputs"]["psnr_flare"] - m["gnfr"]["inputs"]["psnr_flare"]
+             for k in order[1:4]}
+    assert max(up, key=up.get) == "no_vs" and m["no_vs"]["heldout"]["psnr"] > m["gnt"][
+        "heldout"]["psnr"]
+    assert f"the held-out views rise {up['no_vs']:.2f} dB" in text
+    assert f"the flare region stays ({flare['no_vs']:+.2f} dB)" in text
+    assert (f"Without the Point Sampler {up['no_ps']:+.2f} / {flare['no_ps']:+.2f}; without "
+            f"the masking loss {up['no_ml']:+.2f} / {flare['no_ml']:+.2f}") in text
