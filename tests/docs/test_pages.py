@@ -2858,3 +2858,27 @@ def test_parts_taken_out_on_sceaux_p4_are_their_file():
     assert f"the flare region stays ({flare['no_vs']:+.2f} dB)" in text
     assert (f"Without the Point Sampler {up['no_ps']:+.2f} / {flare['no_ps']:+.2f}; without "
             f"the masking loss {up['no_ml']:+.2f} / {flare['no_ml']:+.2f}") in text
+
+
+def test_the_samples_fp32_time_is_its_idle_run():
+    """README: the sample's one-shot in fp32 on the idle machine without native bf16 (its
+    stage times from the file, the wall time from docs/results/README.md's row); it repeats
+    the first fp32 run's scores to the digit."""
+    idle = json.loads((RESULTS / "sample_oneshot_cpu_s92_fp32_idle.json").read_text())
+    first = json.loads((RESULTS / "sample_oneshot_cpu_s92_fp32.json").read_text())
+    assert idle["mean"] == first["mean"]
+    assert idle["model"]["provenance"]["train"]["cpu_bf16"] is False
+    st = idle["stages"]
+    row = next(r for r in (RESULTS / "README.md").read_text().splitlines()
+               if r.startswith("| `sample_oneshot_cpu_s92_fp32_idle.json`"))
+    wall = re.search(r"wall (\d+):(\d+\.\d)", row)
+    clock = f"{wall.group(1)}:{round(float(wall.group(2))):02d}"
+    assert (f"{clock} on an idle 2-core EPYC without it (the fine-tune "
+            f"{st['finetune']['seconds']:.0f} s, the 48 frames "
+            f"{st['render:interpolate']['seconds']:.0f} s") in page_text("README.md")
+    perf = page_text(PERF)
+    bf16 = json.loads((RESULTS / "sample_oneshot_cpu_s85_head.json").read_text())["stages"]
+    assert (f"the fine-tune {st['finetune']['seconds']:.1f} s and the 48 frames "
+            f"{st['render:interpolate']['seconds']:.1f} s, against "
+            f"{bf16['finetune']['seconds']:.1f} s and {bf16['render:interpolate']['seconds']:.1f}"
+            " s in the eighty-fifth session's bf16 run") in perf
