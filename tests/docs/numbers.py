@@ -4,6 +4,7 @@ docs write numbers, and the result files several pages quote."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -67,3 +68,24 @@ def readme_performance() -> str:
     """The README's "Performance" as it read until the ninety-second session, kept in
     docs/performance.md."""
     return _between(PERF, "## The README's summary, as it read until", "## The machine")
+
+
+def recorded_walls(row_start: str) -> tuple[list[float], list[float]]:
+    """The wall times (seconds) and peaks (GB) that docs/results/README.md's rows starting
+    with the regex ``row_start`` record from `time -v` ("wall 8:13.5 and 7:47.6, peaks 1.04
+    and 1.01 GB"), in row order."""
+    walls, peaks = [], []
+    for row in (RESULTS / "README.md").read_text().splitlines():
+        if not re.match(row_start, row):
+            continue
+        m = re.search(r"wall ([\d:. and]+), peaks? ([\d. and]+) GB", row)
+        assert m, row[:80]
+        walls += [sum(float(x) * 60 ** i for i, x in enumerate(reversed(w.split(":"))))
+                  for w in m.group(1).split(" and ")]
+        peaks += [float(p) for p in m.group(2).split(" and ")]
+    return walls, peaks
+
+
+def clock(seconds: float) -> str:
+    """A wall time as the pages write it to the second (16:05)."""
+    return f"{int(seconds // 60)}:{round(seconds % 60):02d}"

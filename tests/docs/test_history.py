@@ -21,6 +21,7 @@ from tests.docs.numbers import (
     RESULTS,
     SAMPLE,
     assert_quoted,
+    page_text,
     spaced,
 )
 
@@ -2056,8 +2057,8 @@ def test_goals_page_quotes_the_pretraining_levers_judged():
 
 
 def _page(*parts: str) -> str:
-    """A page of the repository with its line breaks as spaces."""
-    return " ".join(REPO.joinpath(*parts).read_text().split())
+    """A page of the repository with its line breaks as spaces (``page_text``)."""
+    return page_text("/".join(parts))
 
 
 def test_mask_pads_outcome_is_its_files():

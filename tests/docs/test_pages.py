@@ -22,10 +22,12 @@ from tests.docs.numbers import (
     RESULTS,
     SAMPLE,
     assert_quoted,
+    clock,
     fill_row,
     page_text,
     readme_notes,
     readme_performance,
+    recorded_walls,
     spaced,
 )
 
@@ -985,8 +987,6 @@ def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session
     """docs/performance.md: the fine-tune's steps/s on one thread and on two are the runs'
     lines in finetune_threads_cpu_s46.txt (one faster in every pair), and the sample's stage
     times and scores are sample_oneshot_cpu_s46.json's."""
-    import re
-
     text = " ".join((REPO / "docs" / "performance.md").read_text().split())
     runs = [(int(m[1]), float(m[2])) for m in re.finditer(
         r"^threads (\d): finetune: 300/300 \(\d+ s\) speed=([\d.]+)",
@@ -2342,20 +2342,8 @@ def test_readme_sample_time_is_the_recent_runs():
     """README, "Run the main job": the range of the sample's wall times and the largest peak
     are the eightieth to eighty-seventh sessions' one-shots as docs/results/README.md records
     them (`time -v`'s figures, not in the result files)."""
-    walls, peaks = [], []
-    for row in (RESULTS / "README.md").read_text().splitlines():
-        if not re.match(r"\| `sample_oneshot_cpu_s8\d_", row):
-            continue
-        m = re.search(r"wall ([\d:. and]+), peaks? ([\d. and]+) GB", row)
-        assert m, row[:80]
-        walls += [sum(float(x) * 60 ** i for i, x in enumerate(reversed(w.split(":"))))
-                  for w in m.group(1).split(" and ")]
-        peaks += [float(p) for p in m.group(2).split(" and ")]
+    walls, peaks = recorded_walls(r"\| `sample_oneshot_cpu_s8\d_")
     assert len(walls) == len(peaks) >= 6
-
-    def clock(s):
-        return f"{int(s // 60)}:{round(s % 60):02d}"
-
     readme = page_text("README.md")
     assert f"it has taken {clock(min(walls))} to {clock(max(walls))} wall in the eightieth to " \
            f"eighty-seventh sessions' runs, peak memory up to {max(peaks):.2f} GB" in readme
@@ -2869,11 +2857,8 @@ def test_the_samples_fp32_time_is_its_idle_run():
     assert idle["mean"] == first["mean"]
     assert idle["model"]["provenance"]["train"]["cpu_bf16"] is False
     st = idle["stages"]
-    row = next(r for r in (RESULTS / "README.md").read_text().splitlines()
-               if r.startswith("| `sample_oneshot_cpu_s92_fp32_idle.json`"))
-    wall = re.search(r"wall (\d+):(\d+\.\d)", row)
-    clock = f"{wall.group(1)}:{round(float(wall.group(2))):02d}"
-    assert (f"{clock} on an idle 2-core EPYC without it (the fine-tune "
+    (wall,), _ = recorded_walls(r"\| `sample_oneshot_cpu_s92_fp32_idle\.json`")
+    assert (f"{clock(wall)} on an idle 2-core EPYC without it (the fine-tune "
             f"{st['finetune']['seconds']:.0f} s, the 48 frames "
             f"{st['render:interpolate']['seconds']:.0f} s") in page_text("README.md")
     perf = page_text(PERF)
