@@ -27,7 +27,15 @@ from gnfr.fit import StepInput, Trainer, checkpoint_files, has_checkpoint, rende
 from gnfr.model import GNFR
 from gnfr.ray_split import HelperDied
 from gnfr.renderer import cpu_bf16, emulated_bf16
-from gnfr.train import PRESETS, Scene, TrainConfig, mirrored, prepare_sources, sample_batch
+from gnfr.train import (
+    PRESETS,
+    Scene,
+    TrainConfig,
+    mirrored,
+    prepare_sources,
+    sample_batch,
+    scene_targets,
+)
 from gnfr.transformer import FLARE_FALLBACKS
 from pipeline.errors import UserError, shell_path
 from pipeline.exposure import MODELS
@@ -676,7 +684,9 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
                             "in the one-shot command) to train in one process (less memory)"
                             ) from None
     _write_unseen(out / UNSEEN_FILE, scene, unseen)
-    return {**stats, "init": prov["init"]}
+    # the views a step could take as its target: the stage's record says them, so whoever
+    # reports the fine-tune (eval's table) reads them rather than applying the rule again
+    return {**stats, "init": prov["init"], "targets": scene_targets(scene, cfg)}
 
 
 def saved_step(out: Path) -> int:

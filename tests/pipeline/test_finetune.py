@@ -151,6 +151,11 @@ def test_training_targets_are_views_json_targets(tmp_path, monkeypatch):
     run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
     trained = json.loads(ws.unseen_json.read_text())["views"]
     assert set(trained) == set(stems)                      # the 15% view included
+    # and the stage's record names the views a step could take (eval's table reads them)
+    assert ws.stage_record("finetune")["targets"] == stems
+    _select(ws, 0.05)
+    run(FinetuneConfig(preset="quick", init="scratch", device="cpu"), ws)
+    assert ws.stage_record("finetune")["targets"] == stems[:3]
 
 
 def test_shipped_pretrained_weights_load_and_start_quick_finetuning():

@@ -91,6 +91,10 @@ def test_eval_end_to_end(scene, tmp_path):
     assert 2 <= flagged < len(views) == len(split["train"])  # some views over the rule
     assert (res["methods"]["gnfr"]["train"]["targets"], res["methods"]["gnt"]["train"]["targets"],
             res["methods"]["gnt"]["train"]["views"]) == (flagged, len(views), len(views))
+    # ... as each variant's fine-tune recorded them (the count is read from the record)
+    from pipeline.workspace import Workspace
+    gnfr_record = Workspace(out / "variants" / "gnfr").stage_record("finetune")
+    assert sorted(gnfr_record["targets"]) == sorted(s for s, v in views.items() if v["target"])
     cells = {ln.split(" | ")[0][2:]: ln.split(" | ") for ln in table.splitlines()
              if ln.startswith("| ") and "---" not in ln}
     assert cells["method"][6] == "targets"
@@ -145,6 +149,19 @@ def test_eval_rejects_bad_input(tmp_path, scene, capsys):
     assert "error: --variants gnfr,nerf: must be one or more of gnfr, gnt" in \
         capsys.readouterr().err
     assert not (scene / "eval.ws").exists()
+
+
+def test_fit_targets_reads_the_record_and_an_older_record_as_its_code_chose():
+    from pipeline.ws_files import make_views
+    from workflows.research.eval.methods import fit_targets
+
+    stems = ["a", "b", "c"]
+    views = make_views(stems, np.eye(3), {"a": 0.0, "b": 0.5, "c": 0.02}, 0.1)
+    assert views.targets() == ["a", "c"]
+    assert fit_targets({"targets": ["c"]}, views, True) == ["c"]      # the record wins
+    assert fit_targets({"targets": ["c"]}, views, False) == ["c"]
+    assert fit_targets({}, views, True) == ["a", "c"]                 # older: views.json
+    assert fit_targets({}, views, False) == stems                     # older ablation: all
 
 
 def test_variant_choices_are_the_variants():

@@ -39,6 +39,16 @@ def heldout_render_config(path_json: Path, scale: float, **common):
                         **common)
 
 
+def fit_targets(record: dict, views, view_sampler: bool) -> list[str]:
+    """The views a variant's fine-tune took as targets, as its stage record says them
+    (``pipeline.finetune.fit`` writes them since the ninety-third session). A record from
+    before says nothing: there they are read as that code chose them, ``views``' (views.json)
+    flagged targets with the View Sampler, every view without it."""
+    if "targets" in record:
+        return list(record["targets"])
+    return views.targets() if view_sampler else list(views.views)
+
+
 def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | None) -> dict:
     """Finetune and render one variant (each a resumable stage); paths of its outputs."""
     from pipeline import finetune, render
@@ -61,9 +71,7 @@ def run_neural(cfg: EvalConfig, base: Workspace, name: str, path_json: Path | No
         out["heldout"] = variant_ws.render_dir(str(path_json))
     record = variant_ws.stage_record("finetune")
     views = read_views(variant_ws)
-    # the views its fine-tune took as targets (gnfr.train.scene_targets): views.json's
-    # flags with the View Sampler, every view without it
-    targets = views.targets() if NEURAL[name]["view_sampler"] else list(views.views)
+    targets = fit_targets(record, views, NEURAL[name]["view_sampler"])
     out["train"] = {"seconds": record.get("seconds"), "steps": record.get("steps"),
                     "it_per_s": record.get("it_per_s"), "targets": len(targets),
                     "views": len(views.views),
