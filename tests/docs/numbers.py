@@ -19,6 +19,11 @@ SAMPLE = "sample_oneshot_cpu.json"
 PERF = "docs/performance.md"  # speed and memory (the README keeps a summary)
 
 
+def result(name: str) -> dict:
+    """A result file of docs/results/, parsed."""
+    return json.loads((RESULTS / name).read_text())
+
+
 def get(obj, path: str):
     """The value at a '/'-separated path of a result file (list items by index)."""
     for part in path.split("/"):
@@ -28,14 +33,14 @@ def get(obj, path: str):
 
 def assert_quoted(page: str, file: str, path: str, fmt: str) -> None:
     """The page writes the value at ``path`` of ``file`` as ``fmt`` formats it."""
-    value = get(json.loads((RESULTS / file).read_text()), path)
+    value = get(result(file), path)
     text = (REPO / page).read_text()
     assert fmt.format(value) in text, f"{page} should quote {fmt.format(value)} ({file}: {path})"
 
 
 def fill_row(name: str, fill: str) -> dict:
     """bench_cpu.json's render row of a fill ('network' or 'hybrid') at size x1 or x2."""
-    bench = json.loads((RESULTS / "bench_cpu.json").read_text())
+    bench = result("bench_cpu.json")
     rows = bench["results"]["cpu"]["render_workspace"]["rows"]
     return rows[[(r["fill"], r["size"][0] > 600) for r in rows].index((fill, name == "x2"))]
 

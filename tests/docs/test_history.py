@@ -22,6 +22,7 @@ from tests.docs.numbers import (
     SAMPLE,
     assert_quoted,
     page_text,
+    result,
     spaced,
 )
 
@@ -350,7 +351,7 @@ FMG_CLEAN = [*[("docs/history/fmg.md", f"fmg_{part}_clean_{run}.json", scene)
                          ids=[f"{p}:{f}:{s}" for p, f, s in FMG_CLEAN])
 def test_fmg_card_quotes_clean_fractions(page, file, scene):
     """The FMG pages' "mean % / max %" cells of clean photos (line breaks read as spaces)."""
-    r = json.loads((RESULTS / file).read_text())["scenes"][scene]
+    r = result(file)["scenes"][scene]
     cell = f"{100 * r['mean']:.2f} % / {100 * r['max']:.2f} %"
     assert cell in " ".join((REPO / page).read_text().split()), (file, scene, cell)
 
@@ -362,9 +363,9 @@ RAY_RUNS = ("min2", "min3", "min3_opp8")
 def test_fmg_card_fifth_session_mask_rows(run):
     """The fifth-session table's clean-lund and development-scene cells of each candidate."""
     text = (REPO / "docs/history/fmg.md").read_text()
-    clean = json.loads((RESULTS / f"fmg_dev_clean_w2400_rays_{run}.json").read_text())
+    clean = result(f"fmg_dev_clean_w2400_rays_{run}.json")
     assert f"{100 * clean['scenes']['scenes/lund/images']['mean']:.2f} %" in text
-    rows = json.loads((RESULTS / f"mask_dev_scenes_rays_{run}.json").read_text())["rows"]
+    rows = result(f"mask_dev_scenes_rays_{run}.json")["rows"]
     for r in rows:
         assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, (run, r)
 
@@ -372,15 +373,15 @@ def test_fmg_card_fifth_session_mask_rows(run):
 def test_fmg_card_fifth_session_test_clean_row():
     text = (REPO / "docs/history/fmg.md").read_text()
     for run in ("w2400", "w2400_rays", "w2400_rays_min3"):
-        sc = json.loads((RESULTS / f"fmg_test_clean_{run}.json").read_text())["scenes"]
+        sc = result(f"fmg_test_clean_{run}.json")["scenes"]
         cell = " / ".join(f"{100 * sc[k]['mean']:.2f}" for k in
                           ("scenes/fern/images_8", "scenes/kermit", "scenes/cyprus")) + " %"
         assert cell in text, (run, cell)
 
 
 def test_fmg_card_quotes_the_rays_on_the_real_photos():
-    text = " ".join((REPO / "docs/history/fmg.md").read_text().split())
-    marked = json.loads((RESULTS / "rays_real_photos.json").read_text())["marked"]
+    text = page_text("docs/history/fmg.md")
+    marked = result("rays_real_photos.json")["marked"]
     for setting in ("min_rays_1", "min_rays_3_opposite_8"):
         cell = " and ".join(f"{100 * marked[p][setting]:.2f} %" for p in ("input1.png",
                                                                            "input2.png"))
@@ -391,7 +392,7 @@ def test_fmg_card_quotes_the_rays_on_the_real_photos():
 @pytest.mark.parametrize("scene", ["sceaux_synth", "et_synth", "sceaux_ghosts"])
 def test_depth_doc_quotes_the_residual_variants(scene):
     """The seventh session's resid_2 sentence: PSNR and SSIM of resid_2 and the default."""
-    scenes = json.loads((RESULTS / "flare_layer_variants_dev_s7.json").read_text())["scenes"]
+    scenes = result("flare_layer_variants_dev_s7.json")["scenes"]
     (rows,) = [v["rows"] for k, v in scenes.items() if Path(k).name == scene]
     text = (REPO / "docs" / "history" / "fill.md").read_text()
     for row in ("resid_2", "scale_0.12 (default)"):
@@ -404,13 +405,13 @@ def test_fmg_card_candidates_e_and_f(run):
     """The sixth/seventh-session tables' E and F columns: per-kind flare IoU, clean lund,
     development scenes (rays on, as the mask stage runs them)."""
     text = (REPO / "docs/history/fmg.md").read_text()
-    kinds = json.loads((RESULTS / f"fmg_dev_per_kind_{run}_rays.json").read_text())["kinds"]
+    kinds = result(f"fmg_dev_per_kind_{run}_rays.json")["kinds"]
     for kind, row in kinds.items():
         assert f"| {kind} | " in text and f"{row['weights']['IoU_flare']:.3f} |" in text, kind
-    lund = json.loads((RESULTS / f"fmg_dev_clean_{run}_rays.json").read_text())[
+    lund = result(f"fmg_dev_clean_{run}_rays.json")[
         "scenes"]["scenes/lund/images"]
     assert f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %" in text
-    rows = json.loads((RESULTS / f"mask_dev_scenes_{run}.json").read_text())["rows"]
+    rows = result(f"mask_dev_scenes_{run}.json")["rows"]
     for r in (r for r in rows if r["rays"]):
         assert f"{r['flare_iou']:.3f} / {100 * r['marked_outside']:.2f} %" in text, r
 
@@ -420,19 +421,19 @@ def test_fmg_card_eighth_session_tables():
     photos each file's masks give (rays on, as the mask stage runs them)."""
     text = (REPO / "docs/history/fmg.md").read_text()
     text = text[text.index("## Eighth session"):]
-    rows = json.loads((RESULTS / "mask_dev_scenes_band_s8.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_band_s8.json")["rows"]
     for r in (r for r in rows if r["rays"]):
         cell = (f"{r['flare_iou']:.3f} / {100 * r['marked_near']:.2f} % / "
                 f"{100 * r['marked_far']:.2f} %")
         assert cell in text, cell
-    for r in json.loads((RESULTS / "mask_downstream_dev_s8_F.json").read_text())["rows"]:
+    for r in result("mask_downstream_dev_s8_F.json")["rows"]:
         cell = f"{r['psnr']:.2f} / {r['psnr_flare']:.2f} / {r['ssim']:.4f}"
         assert cell in text, cell
 
 
 def test_depth_md_shrink_sentence():
     """The eighth session's shrink_t sentence: flare-region PSNR of shrink_t and the default."""
-    scenes = json.loads((RESULTS / "flare_layer_variants_dev_s8.json").read_text())["scenes"]
+    scenes = result("flare_layer_variants_dev_s8.json")["scenes"]
     rows = {Path(k).name: v["rows"] for k, v in scenes.items()}
     text = (REPO / "docs" / "history" / "fill.md").read_text()
     text = text[text.index("Eighth session, for faint flare"):]
@@ -449,9 +450,9 @@ def test_fill_support_baseline_reproduces_the_arm(scene, seed):
     """docs/history/fill.md, "Photo support for the full-width masks": the default render of each
     M′ arm workspace gives the arm's committed photo score (so the variants' gains are
     against the very photos the FMG rule judged)."""
-    row = json.loads((RESULTS / f"fill_support_{scene}_Mp_s{seed}.json").read_text())
+    row = result(f"fill_support_{scene}_Mp_s{seed}.json")
     base = row["rows"]["hybrid_guided_support2"]
-    arm = json.loads((RESULTS / f"fmg_s26_Mp_fair_{scene}_s{seed}.json").read_text())["inputs"]
+    arm = result(f"fmg_s26_Mp_fair_{scene}_s{seed}.json")["inputs"]
     for m in ("psnr", "psnr_flare", "ssim"):
         assert abs(base[m] - arm[m]) < 1e-3, (m, base[m], arm[m])
 
@@ -467,7 +468,7 @@ def test_fmg_history_quotes_the_crosscheck_numbers():
         assert len(row) == 1
         return row[0]["veto"]
 
-    dev = json.loads((RESULTS / "flare_veto_dev.json").read_text())
+    dev = result("flare_veto_dev.json")
     means = [chosen(c["settings"])["mean"] for c in dev["clean"].values()]
     fmg = [c["fmg"]["mean"] for c in dev["clean"].values()]
     for v in (*means, sum(means) / 3, sum(fmg) / 3):
@@ -475,11 +476,11 @@ def test_fmg_history_quotes_the_crosscheck_numbers():
     for s in dev["scenes"].values():
         d = chosen(s["settings"])["IoU_flare"] - s["fmg"]["IoU_flare"]
         assert f"{d:+.3f}" in text
-    test = json.loads((RESULTS / "flare_veto_test.json").read_text())
+    test = result("flare_veto_test.json")
     for s in test["scenes"].values():
         for v in (s["fmg"], chosen(s["settings"])):
             assert f"{v['IoU_flare']:.3f}" in text and f"{v['recall']:.3f}" in text
-    fern = json.loads((RESULTS / "flare_veto_fern.json").read_text())["clean"]["fern_posed.ws"]
+    fern = result("flare_veto_fern.json")["clean"]["fern_posed.ws"]
     for c in (test["clean"]["kermit_ws"], fern):
         for v in (c["fmg"]["mean"], chosen(c["settings"])["mean"]):
             assert f"{100 * v:.2f}" in text
@@ -489,20 +490,20 @@ def test_fmg_candidate_p_verdict_follows_its_files():
     """The thirtieth session's candidate P (docs/history/fmg.md): parts (2) and (1) pass,
     (3) fails on every development scene, as the history says, and its numbers are the
     files'."""
-    hist = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-    clean = json.loads((RESULTS / "fmg_dev_clean_P_rays.json").read_text())
+    hist = page_text("docs/history/fmg.md")
+    clean = result("fmg_dev_clean_P_rays.json")
     mean = clean["scenes"]["scenes/lund/images"]["mean"]
     assert f"{100 * mean:.2f} %" in hist and mean <= 0.0060  # (2): at most M's 0.55 % + 0.05
     kinds = ("starburst", "ghosts", "streaks", "glare", "scatter")
 
     def per_kind(name):
-        d = json.loads((RESULTS / name).read_text())
+        d = result(name)
         return [d["kinds"][k]["weights"]["IoU_flare"] for k in kinds]
 
     p, m = per_kind("fmg_dev_per_kind_P_rays.json"), per_kind("fmg_dev_per_kind_M_rays.json")
     assert " / ".join(f"{x:.3f}" for x in p) in hist
     assert sum(p) / 5 > sum(m) / 5 and min(a - b for a, b in zip(p, m, strict=True)) >= -0.02
-    rows = json.loads((RESULTS / "mask_dev_scenes_P.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_P.json")["rows"]
     iou = {(r["weights"].split("/")[-1], r["scene"]): r["flare_iou"] for r in rows if r["rays"]}
     for scene in ("sceaux_synth", "et_synth", "lund_synth"):
         cand, ship = iou[("P.safetensors", scene)], iou[("fmg.safetensors", scene)]
@@ -527,7 +528,7 @@ def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, 
     t = ab.read_times(RESULTS / times)
     res = ab.judge(RESULTS, t, ["sceaux", "et", "lund"], [2, 3, 4], [x for x, _ in arms],
                    prefix, base)
-    saved = json.loads((RESULTS / judged).read_text())
+    saved = result(judged)
     assert res["decision"] == saved["decision"]
     assert res["decision"] == ("ds0" if judged.startswith("depth") else "nothing changes")
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
@@ -545,8 +546,8 @@ def test_network_scale_rule_numbers_agree_with_the_judge(times, judged, prefix, 
 def test_fill_regions_numbers_in_the_depth_samples_rule():
     """docs/history/fill.md's per-pixel look (photo shares, lund's GN-FR pixels) is
     fill_regions.py's file."""
-    d = json.loads((RESULTS / "fill_regions_s29_frc.json").read_text())["scenes"]
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    d = result("fill_regions_s29_frc.json")["scenes"]
+    hist = page_text("docs/history/fill.md")
     shares = [round(100 * d[f"{s}_synth"]["photo_share"]) for s in ("sceaux", "et", "lund")]
     assert f"({shares[0]} %, {shares[1]} % and {shares[2]} % of" in hist
     lund = d["lund_synth"]
@@ -574,8 +575,8 @@ def test_inputs_depth_samples_rule_numbers_agree_with_the_judge():
 
 def test_fill_regions_after_whole_ray_numbers_in_the_rule():
     """docs/history/fill.md's per-pixel split after whole-ray sampling is its file's."""
-    d = json.loads((RESULTS / "fill_regions_s30_ds0.json").read_text())["scenes"]
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    d = result("fill_regions_s30_ds0.json")["scenes"]
+    hist = page_text("docs/history/fill.md")
     for scene, part in (("sceaux", "network"), ("lund", "network"), ("et", "network"),
                         ("et", "photo"), ("lund", "photo"), ("sceaux", "photo")):
         m = d[f"{scene}_synth"]
@@ -589,9 +590,9 @@ def test_mask_kinds_table_is_the_judge_of_the_committed_scores():
     """docs/history/fmg.md's per-kind table at the photos' scale is mask_kind_scenes.py's
     judgement of the committed scores, the verdict (fails) the saved one."""
     mk = load_benchmark("mask_kind_scenes")
-    rows = json.loads((RESULTS / "mask_dev_kinds_S2.json").read_text())["rows"]
+    rows = result("mask_dev_kinds_S2.json")["rows"]
     res = mk.judge([rows], "fmg.safetensors@1", "fmg.safetensors@1,0.75")
-    saved = json.loads((RESULTS / "mask_kinds_judge_S2.json").read_text())
+    saved = result("mask_kinds_judge_S2.json")
     assert res["passes"] is saved["passes"] is False
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
     for kind, k in res["kinds"].items():
@@ -604,7 +605,7 @@ def test_mask_kinds_table_is_the_judge_of_the_committed_scores():
 def test_fill_blend_table_is_the_simulation_file():
     """docs/history/fill.md's blend table is fill_blend_sim.py's file (per-scene PSNR gains
     and the means)."""
-    d = json.loads((RESULTS / "fill_blend_sim_s31.json").read_text())["scenes"]
+    d = result("fill_blend_sim_s31.json")["scenes"]
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
     for arm in ("detail_q", "correct_q_0.06", "check_q_0.02", "mix_0.3", "network", "average"):
         cells = " | ".join(f"{d[s]['gain'][arm]['psnr']:+.3f}"
@@ -621,13 +622,13 @@ FMG_PARTS = ("1. daylight composites, mean over kinds",
 
 
 def fmg_kind_mean(name: str) -> float:
-    d = json.loads((RESULTS / name).read_text())["kinds"]
+    d = result(name)["kinds"]
     return sum(d[k]["weights"]["IoU_flare"] for k in FMG_KINDS) / len(FMG_KINDS)
 
 
 def fmg_rule_cells(day: str, mixed: str, judged: float, scenes: list[float], clean: str):
     """One column of a candidate table in docs/history/fmg.md, as the page writes it."""
-    lund = json.loads((RESULTS / clean).read_text())["scenes"]["scenes/lund/images"]
+    lund = result(clean)["scenes"]["scenes/lund/images"]
     return (f"{fmg_kind_mean(day):.3f}", f"{judged:.4f}", f"{fmg_kind_mean(mixed):.3f}",
             f"{sum(scenes) / len(scenes):.3f}",
             f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %")
@@ -636,7 +637,7 @@ def fmg_rule_cells(day: str, mixed: str, judged: float, scenes: list[float], cle
 def fmg_m_s59_cells(pooled: float):
     """M's column of the fifty-ninth and sixtieth sessions' tables: M scored again on this
     machine's builds (``pooled``: its judged one-kind mean)."""
-    rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_R_s59.json")["rows"]
     scenes = [r["flare_iou"] for r in rows
               if r["rays"] and r["weights"].endswith("/fmg.safetensors")]
     assert len(scenes) == 3
@@ -667,7 +668,7 @@ def assert_m_and_two_columns(page: str, m_pooled: float, *cands: tuple[str, floa
 
 def fmg_iou(name: str, kind: str) -> float:
     """The flare IoU of one kind in a per-kind ``fmg eval`` result file."""
-    return json.loads((RESULTS / name).read_text())["kinds"][kind]["weights"]["IoU_flare"]
+    return result(name)["kinds"][kind]["weights"]["IoU_flare"]
 
 
 def fmg_false_per_true(kind: dict) -> float:
@@ -687,7 +688,7 @@ def test_fmg_d_candidates_table_is_their_files():
                   for base, s in (("mask_dev_kinds_S2.json", 31), ("mask_dev_kinds_M_s32.json", 32),
                                   ("mask_dev_kinds_M_s33.json", 33))]
         res = mk.judge(builds, "fmg.safetensors@1", f"fmg_{c}.safetensors@1")
-        saved = json.loads((RESULTS / f"mask_kinds_judge_{c}.json").read_text())
+        saved = result(f"mask_kinds_judge_{c}.json")
         assert res["mean"] == saved["mean"]
         scenes = [r["flare_iou"] for r in json.loads(
             (RESULTS / f"mask_dev_scenes_{c}.json").read_text())["rows"] if r["rays"]]
@@ -729,7 +730,7 @@ def test_fmg_r_candidates_table_is_their_files():
     mk = load_benchmark("mask_kind_scenes")
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_R_s{s}.json")) for s in (31, 32, 33)]
-    rows = json.loads((RESULTS / "mask_dev_scenes_R_s59.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_R_s59.json")["rows"]
     pooled = judged_means(mk, builds, {c: f"fmg_{c}.safetensors@1" for c in ("R8", "R13")},
                           "mask_kinds_judge_{}_s59.json")
     cells = {"M": fmg_m_s59_cells(pooled["M"])}  # M scored again, beside its older files
@@ -759,7 +760,7 @@ def fmg_judge_candidate(letter: str, session: int, flat: str):
     lund = mk.judge(builds, base, cand, mean_gain=0.0, scene="lund")
     for got, name in ((res, f"mask_kinds_judge_{letter}_s{session}.json"),
                       (lund, f"mask_kinds_judge_{letter}_lund_s{session}.json")):
-        assert got["mean"] == json.loads((RESULTS / name).read_text())["mean"]
+        assert got["mean"] == result(name)["mean"]
     assert res["passes"] is False and 0.01 < res["mean_gain"] < 0.02
     assert lund["mean"][cand] >= lund["mean"][base]
     assert f"{lund['mean'][base]:.4f} to {lund['mean'][cand]:.4f}" in flat
@@ -782,13 +783,13 @@ def test_fmg_w_candidate_table_is_its_files():
     for i, part in enumerate(FMG_PARTS):
         row = f"| {part} | {m_cells[i]} | {cells[i]} | "
         assert row in hist, row
-    day = json.loads((RESULTS / "fmg_dev_per_kind_W_day_rays.json").read_text())["kinds"]
-    m_day = json.loads((RESULTS / "fmg_dev_per_kind_M_day_rays_s59.json").read_text())["kinds"]
+    day = result("fmg_dev_per_kind_W_day_rays.json")["kinds"]
+    m_day = result("fmg_dev_per_kind_M_day_rays_s59.json")["kinds"]
     w_mean = fmg_kind_mean("fmg_dev_per_kind_W_day_rays.json")
     assert w_mean < fmg_kind_mean("fmg_dev_per_kind_M_day_rays_s59.json") - 0.01  # part 1
     streaks = day["streaks"]["weights"]["IoU_flare"] - m_day["streaks"]["weights"]["IoU_flare"]
     assert streaks < -0.03 and "streaks 0.065" in flat and f"{-streaks:.3f}" == "0.065"
-    cost = json.loads((RESULTS / "fmg_composite_cost_s60.json").read_text())["settings"]
+    cost = result("fmg_composite_cost_s60.json")["settings"]
     for name, words in (("frame_prob 1", "29.5 ms a composite at P = 1"),
                         ("frame_prob 0.5", "25.6 ms at P = 0.5"),
                         ("composites", "against 21.0 ms"), ("flare_canvas 2", "37.5 ms at")):
@@ -827,7 +828,7 @@ def test_fmg_x_candidate_table_is_its_files():
                                        "fmg_dev_per_kind_X_rays.json")]
     assert glare[2] - glare[0] < -0.03 and f"glare (-{glare[0] - glare[2]:.3f}" in flat
     assert "| 3. ... glare | " + " | ".join(f"{v:.3f}" for v in glare) + " | |" in hist
-    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
+    card = page_text("gnfr/weights/fmg.md")
     assert f"-{-x_streaks:.3f} against -{-w_streaks:.3f}" in card
     assert (f"-{scenes[0] - scenes[2]:.3f} against -{scenes[0] - scenes[1]:.3f}), the photo "
             f"parts alike (one-kind scenes +{res['mean_gain']:.3f}, clean lund "
@@ -838,9 +839,9 @@ def test_fmg_faint_table_is_its_file():
     """docs/history/fmg.md's table of what the masks miss by brightness (sixtieth session) is
     mask_faint.py's file; its 1x column is M's pooled mean of the fifty-ninth session's judge,
     and the card quotes the same recalls."""
-    data = json.loads((RESULTS / "mask_faint_M_s60.json").read_text())
+    data = result("mask_faint_M_s60.json")
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
-    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
+    card = page_text("gnfr/weights/fmg.md")
     kinds = data["kinds"]
     assert data["scales"] == [1.0, 2.0, 4.0] and len(data["rows"]) == 45
     for kind in FMG_KINDS:
@@ -850,7 +851,7 @@ def test_fmg_faint_table_is_its_file():
         rec = " / ".join(f"{k[x]['recall']:.3f}" for x in ("x1", "x2", "x4"))
         row = f"| {kind} | {iou} | {rec} | {fmg_false_per_true(k):.2f} |"
         assert row in hist, row
-    judged = json.loads((RESULTS / "mask_kinds_judge_R8_s59.json").read_text())
+    judged = result("mask_kinds_judge_R8_s59.json")
     mean = sum(k["x1"]["mean_scene_iou"] for k in kinds.values()) / len(kinds)
     assert mean == pytest.approx(judged["mean"]["fmg.safetensors@1"], abs=1e-12)
     assert "0.3258" in hist and f"{mean:.4f}" == "0.3258"
@@ -858,7 +859,7 @@ def test_fmg_faint_table_is_its_file():
         assert f"{kinds[kind]['x4']['recall']:.2f}" == words and words in card
     assert f"{round(100 * kinds['starburst']['x4']['recall'])} % of the starbursts'" in card
     # candidate W beside M (after W's decision): fewer false marks on every kind
-    w = json.loads((RESULTS / "mask_faint_W_s60.json").read_text())["kinds"]
+    w = result("mask_faint_W_s60.json")["kinds"]
     flat = " ".join(hist.split())
     for kind in FMG_KINDS:
         m_false, w_false = fmg_false_per_true(kinds[kind]), fmg_false_per_true(w[kind])
@@ -882,9 +883,9 @@ def failed_streaks_judgement(names: list[str], base: str, cand: str, saved_name:
     judge --target streaks``): equal to its saved judgement, a fail, and the page's row
     ``| 1. LABEL, streaks | base | candidate | +0.03 |`` its numbers."""
     mk = load_benchmark("mask_kind_scenes")
-    files = [json.loads((RESULTS / n).read_text())["rows"] for n in names]
+    files = [result(n)["rows"] for n in names]
     judged = mk.judge(files, base, cand, target="streaks")
-    saved = json.loads((RESULTS / saved_name).read_text())
+    saved = result(saved_name)
     assert judged["passes"] is False is saved["passes"]
     assert judged["mean"] == pytest.approx(saved["mean"], abs=1e-12)
     k = judged["kinds"]["streaks"]
@@ -896,7 +897,7 @@ def test_fmg_opposite_rays_table_is_its_files():
     """docs/history/fmg.md's table for the lone-streak rule (sixty-first session) is the
     committed files' numbers: the judge's per-kind means (its verdict a fail, its base M's
     pooled mean), the every-kind scenes and the mask stage on the clean photos."""
-    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
     base, cand = "fmg.safetensors@1+rays3,0", "fmg.safetensors@1+rays3,8"
     judged = failed_streaks_judgement([f"mask_dev_kinds_opp_s{b}.json" for b in (31, 32, 33)],
                                       base, cand, "mask_kinds_judge_opp8_s61.json",
@@ -910,14 +911,14 @@ def test_fmg_opposite_rays_table_is_its_files():
     assert (f"| 1. ... mean over kinds | {judged['mean'][base]:.4f} | "
             f"{judged['mean'][cand]:.4f} | not lower |") in flat
     assert f"{judged['mean'][base]:.4f}" == "0.3258"
-    rows = json.loads((RESULTS / "mask_dev_scenes_opp.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_opp.json")["rows"]
     by = {(r["scene"], tuple(r["ray_rule"])): r for r in rows if r["rays"]}
     scenes = ("sceaux_synth", "et_synth", "lund_synth")
     for rule in ((3, 0.0), (3, 8.0)):
         iou = " / ".join(f"{by[s, rule]['flare_iou']:.3f}" for s in scenes)
         out = " / ".join(f"{100 * by[s, rule]['marked_outside']:.2f}" for s in scenes)
         assert iou in flat and f"{out} %" in flat, (iou, out)
-    views = json.loads((RESULTS / "mask_views_clean_dev_opp.json").read_text())["rows"]
+    views = result("mask_views_clean_dev_opp.json")["rows"]
     vb = {(r["scene"], r["setting"]): r["marked"] for r in views}
     for setting in ("ghost_views", "ghost_views_opp"):
         cells = " / ".join(f"{100 * vb[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
@@ -935,14 +936,14 @@ def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
     fails on the mean; the second, aimed at ghosts, passes), and the clean-photo parts are
     the committed files' numbers."""
     mk = load_benchmark("mask_kind_scenes")
-    hist = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    hist = page_text("docs/history/fmg.md")
     base, cand = "fmg.safetensors@1", "fmg.safetensors@1+ghosts+views"
     for seeds, target, saved_name in (((40, 41, 42), None, "mask_kinds_judge_G3.json"),
                                       ((43, 44, 45), "ghosts", "mask_kinds_judge_G3_ghosts.json")):
-        files = [json.loads((RESULTS / f"mask_views_kinds_G3_s{s}.json").read_text())["rows"]
+        files = [result(f"mask_views_kinds_G3_s{s}.json")["rows"]
                  for s in seeds]
         res = mk.judge(files, base, cand, target=target)
-        saved = json.loads((RESULTS / saved_name).read_text())
+        saved = result(saved_name)
         assert res["passes"] is saved["passes"] is (target is not None)
         g = res["kinds"]["ghosts"]
         assert f"ghosts {g[base]:.3f} to {g[cand]:.3f}" in hist or \
@@ -950,14 +951,14 @@ def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
             f"| ghosts {g[base]:.3f}, mean {res['mean'][base]:.4f} | ghosts {g[cand]:.3f}" in hist
         assert f"{res['mean'][base]:.4f}" in hist and f"{res['mean'][cand]:.4f}" in hist
     by = {(s, r["scene"], r["setting"]): r["marked"] for s in (40, 41, 42) for r in
-          json.loads((RESULTS / f"mask_views_clean_G3_s{s}.json").read_text())["rows"]}
+          result(f"mask_views_clean_G3_s{s}.json")["rows"]}
     scenes = [(s, sc) for s, sc, st in by if st == "base"]
     assert len(scenes) == 45
     mean_added = sum(by[(*k, "ghost_views")] - by[(*k, "base")] for k in scenes) / len(scenes)
     assert f"+{100 * mean_added:.3f} % (45 scenes" in hist
-    lund = json.loads((RESULTS / "mask_views_lund_clean_G3.json").read_text())["mean_marked"]
+    lund = result("mask_views_lund_clean_G3.json")["mean_marked"]
     assert f"| {100 * lund['base']:.3f} % | {100 * lund['ghost_views']:.3f} % (+0.000" in hist
-    cost = json.loads((RESULTS / "crosscheck_time_cpu_et_s34.json").read_text())
+    cost = result("crosscheck_time_cpu_et_s34.json")
     extra = cost["extra_seconds_per_view_by_setting"]
     assert f"+{extra['crosscheck']:.2f} s with `--crosscheck`, +{extra['ghost_views']:.2f} s" \
         in hist
@@ -970,7 +971,7 @@ def test_pose_passes_table_is_their_files():
     import re
 
     text = (REPO / "docs" / "history" / "pose.md").read_text()
-    files = {size: json.loads((RESULTS / f"pose_passes_dev_{size}.json").read_text())["scenes"]
+    files = {size: result(f"pose_passes_dev_{size}.json")["scenes"]
              for size in ("1008", "504")}
     rows = [r for r in text.splitlines() if re.match(r"\| [a-z_]+ \(\d+\) \|", r)]
     assert len(rows) == 12
@@ -996,8 +997,8 @@ def test_pose_passes_table_is_their_files():
 def test_clean_capture_shares_in_the_fmg_history():
     """docs/history/fmg.md's account of the ghost lines' views on the clean 29-photo capture:
     every share it quotes is the clean-capture file's."""
-    res = json.loads((RESULTS / "clean_capture_lund_s36.json").read_text())
-    page = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    res = result("clean_capture_lund_s36.json")
+    page = page_text("docs/history/fmg.md")
     m = res["mean"]
     for value, fmt in ((m["marked_network"], "mark {:.3f} %"), (m["added_by_views"],
                        "adding {:.3f} %"), (m["ghost_candidates"], "({:.3f} % of the pixels")):
@@ -1017,15 +1018,15 @@ def test_clean_capture_shares_in_the_fmg_history():
 def test_ghost_touching_counts_in_the_fmg_history():
     """The ghosts build's split of what the views added is the file's, and so are the flare
     IoU figures quoted beside it."""
-    res = json.loads((RESULTS / "ghost_touching_kinds46.json").read_text())
-    page = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    res = result("ghost_touching_kinds46.json")
+    page = page_text("docs/history/fmg.md")
 
     a = res["all"]
     assert (f"the views added {spaced(a['touching'] + a['apart'])} pixels to the three "
             f"scenes' masks, {spaced(a['touching'])} of them in regions touching the network's "
             f"marks, {spaced(a['touching_true'])} of those true ghost (and "
             f"{spaced(a['apart_true'])} of the {spaced(a['apart'])} apart)") in page
-    rows = json.loads((RESULTS / "mask_views_kinds_ghosts_s46.json").read_text())["rows"]
+    rows = result("mask_views_kinds_ghosts_s46.json")["rows"]
     iou = {(r["scene"], r["setting"]): r["flare_iou"] for r in rows}
     for scene in ("et", "lund"):
         assert (f"{iou[(scene + '_ghosts', 'base')]:.3f} to "
@@ -1046,7 +1047,7 @@ def test_fortieth_session_fill_rules_agree_with_the_judge(times, judged, base, a
     ab = load_benchmark("network_scale_ab")
     res = ab.judge(RESULTS, ab.read_times(RESULTS / times), ["sceaux", "et", "lund"],
                    [2, 3, 4], list(arms), "novel_s40_", base)
-    assert res == {k: v for k, v in json.loads((RESULTS / judged).read_text()).items()
+    assert res == {k: v for k, v in result(judged).items()
                    if k in res}
     assert res["decision"] == "nothing changes"
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
@@ -1061,8 +1062,8 @@ def test_fortieth_session_fill_rules_agree_with_the_judge(times, judged, base, a
         assert row in hist, row
     for sc in ("sceaux", "et", "lund"):
         for seed in (2, 3, 4):
-            first = json.loads((RESULTS / f"novel_s40_base_{sc}_s{seed}.json").read_text())
-            again = json.loads((RESULTS / f"novel_s40_{base}_{sc}_s{seed}.json").read_text())
+            first = result(f"novel_s40_base_{sc}_s{seed}.json")
+            again = result(f"novel_s40_{base}_{sc}_s{seed}.json")
             assert first["heldout"] == again["heldout"]
 
 
@@ -1070,13 +1071,13 @@ def test_fortieth_session_fill_numbers_on_the_pages():
     """The fill options' rows (docs/depth.md, docs/options.md, its "At a glance" table)
     quote the fortieth session's judges."""
     def mean(f, arm):
-        return json.loads((RESULTS / f).read_text())["candidates"][arm]["mean"]
+        return result(f)["candidates"][arm]["mean"]
 
     def scene(f, arm, sc):
-        return json.loads((RESULTS / f).read_text())["candidates"][arm]["per_scene"][sc]
+        return result(f)["candidates"][arm]["per_scene"][sc]
 
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    depth = page_text("docs/depth.md")
+    options = page_text("docs/options.md")
     hs = mean("seam_judge_s40.json", "hs")
     assert f"held-out frames {hs['psnr']:+.3f} dB and {hs['ssim']:+.3f} SSIM" in depth
     assert f"+{hs['ssim']:.3f} SSIM on the development scenes" in options
@@ -1099,11 +1100,11 @@ def test_fortieth_session_test_scene_report_is_its_files():
     difference of its files from the base arm, whose scores are the README's kermit and
     cyprus held-out rows (the s36 files); the pages quote cyprus's loss with `all`."""
     def held(arm, sc):
-        return json.loads((RESULTS / f"novel_s40_test_{arm}_{sc}.json").read_text())["heldout"]
+        return result(f"novel_s40_test_{arm}_{sc}.json")["heldout"]
 
     for sc, f in (("kermit", "kermit_synth_gnfr_gnt_cpu_s36.json"),
                   ("cyprus", "cyprus_synth_gnfr_gnt_cpu_s36.json")):
-        s36 = json.loads((RESULTS / f).read_text())["methods"]["gnfr"]["heldout"]["psnr"]
+        s36 = result(f)["methods"]["gnfr"]["heldout"]["psnr"]
         assert abs(held("base", sc)["psnr"] - s36) < 1e-9
     hist = (REPO / "docs" / "history" / "fill.md").read_text()
     for arm, label in (("hs", "`--harmonize 0.02`"), ("ndh", "`--network-depth holes`"),
@@ -1113,7 +1114,7 @@ def test_fortieth_session_test_scene_report_is_its_files():
                  for sc in ("kermit", "cyprus")]
         assert f"| {label} | " + " | ".join(cells) + " |" in hist
     loss = held("nda", "cyprus")["psnr"] - held("base", "cyprus")["psnr"]
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert f"cyprus (the sample's photos) {loss:+.2f} dB" in options
     assert f"held-out views {loss:+.2f} dB" in options  # "At a glance"
 
@@ -1122,11 +1123,11 @@ def test_sgm_rule_numbers_agree_with_the_judge():
     """docs/history/fill.md, "Semi-global aggregation of the sweep": the table is the judge's
     files (both rules fail (a)), the judge recomputes them from the committed runs, and the
     veto's clean shares are flare_veto's files at the product's setting."""
-    page = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    page = page_text("docs/history/fill.md")
     section = page[page.index("Semi-global aggregation of the sweep (forty-third session)"):]
     ab = load_benchmark("fmg_photo_ab")
     for rule, decision in (("flare", "fails (a)"), ("novel", "fails (a)")):
-        res = json.loads((RESULTS / f"sgm_judge_{rule}_s43.json").read_text())
+        res = result(f"sgm_judge_{rule}_s43.json")
         assert res["decision"] == decision and res["rule"] == rule
         for d in (*res["per_scene"].values(), res["mean"]):
             cells = " / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
@@ -1137,7 +1138,7 @@ def test_sgm_rule_numbers_agree_with_the_judge():
     assert f"{res['per_scene']['lund']['held']:+.3f} dB" in section
     shares = []
     for name in ("flare_veto_dev_s43.json", "flare_veto_dev_sgm_s43.json"):
-        clean = json.loads((RESULTS / name).read_text())["clean"]
+        clean = result(name)["clean"]
         row = []
         for ws in ("sceaux_ws", "et_ws", "lund_ws"):
             x = next(s for s in clean[ws]["settings"] if (s["config"]["min_support"],
@@ -1151,8 +1152,8 @@ def test_sgm_rule_numbers_agree_with_the_judge():
 
 def test_sgm_depth_share_and_time_are_the_stereo_time_files():
     """The known shares and the time ratio the depth page and the history quote."""
-    depth_page = " ".join((REPO / "docs" / "depth.md").read_text().split())
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    depth_page = page_text("docs/depth.md")
+    history = page_text("docs/history/fill.md")
     ratios = []
     for sc, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
         base, sgm = (json.loads((RESULTS / f"depth_sgm_time_dev_{sc}_{arm}_s43.json")
@@ -1167,13 +1168,13 @@ def test_sgm_depth_share_and_time_are_the_stereo_time_files():
 
 def test_sgm_test_scene_rows_are_their_files():
     """The history's test-scene table after the aggregation's decision (reported only)."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    history = page_text("docs/history/fill.md")
     for sc in ("kermit", "cyprus"):
         cells = []
         for arm in ("base", "sgm"):
-            i = json.loads((RESULTS / f"sgm_test_inputs_{sc}_{arm}_s43.json").read_text())
+            i = result(f"sgm_test_inputs_{sc}_{arm}_s43.json")
             i = i["rows"]["hybrid_guided_support2"]
-            h = json.loads((RESULTS / f"sgm_test_heldout_{sc}_{arm}_s43.json").read_text())
+            h = result(f"sgm_test_heldout_{sc}_{arm}_s43.json")
             cells.append((f"{i['psnr']:.2f} / {i['psnr_flare']:.2f} / {i['ssim']:.3f}",
                           f"{h['psnr']:.2f} / {h['ssim']:.3f}"))
         (ib, hb), (isg, hs) = cells
@@ -1184,11 +1185,11 @@ def test_sgm_render_alone_table_and_the_baselines_reproduction():
     """"Where the rule's losses came from": the re-run baseline arms equal the committed
     s41_expo files, and each row of the table is the render-alone and the rule's run minus
     that baseline."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    history = page_text("docs/history/fill.md")
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
 
     def load(arm, sc, seed):
-        return json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{seed}.json").read_text())
+        return result(f"fmg_{arm}_fair_{sc}_s{seed}.json")
 
     def cells(x, base):
         d = (x["inputs"]["psnr"] - base["inputs"]["psnr"],
@@ -1208,8 +1209,8 @@ def test_sgm_render_alone_table_and_the_baselines_reproduction():
 def test_sgm_fixed_model_rule_is_the_judge_of_the_committed_runs():
     """"The aggregation with the model held fixed, on fresh draws": the table is the judge's
     file, which the judge recomputes from the twelve committed runs (fails (a))."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    res = json.loads((RESULTS / "sgm_judge_depth_s43.json").read_text())
+    history = page_text("docs/history/fill.md")
+    res = result("sgm_judge_depth_s43.json")
     assert res["rule"] == "depth" and res["decision"] == "fails (a)"
     cells = [" / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held", "held_ssim"))
              for d in (*res["per_scene"].values(), res["mean"])]
@@ -1217,10 +1218,10 @@ def test_sgm_fixed_model_rule_is_the_judge_of_the_committed_runs():
     again = load_benchmark("fmg_photo_ab").judge(RESULTS, "s43_sgmro", "s43_base",
                                                  ["sceaux", "et", "lund"], [4, 5], rule="depth")
     assert again["mean"] == pytest.approx(res["mean"]) and again["decision"] == res["decision"]
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     assert f"flare region {res['mean']['psnr_flare']:+.3f} dB where +0.05 was asked" in goals
     assert f"held-out SSIM {res['mean']['held_ssim']:+.3f}" in goals
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert all(d["held_ssim"] > 0 for d in res["per_scene"].values())
     assert f"flare region {res['mean']['psnr_flare']:+.3f} dB on the development mean, under " \
            "the +0.05" in options
@@ -1230,13 +1231,13 @@ def test_frames_rule_table_is_the_runs_and_the_judge_recomputes_its_decision():
     """"The aggregated depth for the novel frames alone": each draw's row is its two run
     files' held-out scores; the judge's file passes and is recomputed from the twelve runs;
     the pages quote its means."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    res = json.loads((RESULTS / "frames_judge_s44.json").read_text())
+    history = page_text("docs/history/fill.md")
+    res = result("frames_judge_s44.json")
     assert res["rule"] == "frames" and res["decision"] == "passes"
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     for sc, name in names.items():
         for seed in (6, 7):
-            b, c = (json.loads((RESULTS / f"fmg_s44_{a}_fair_{sc}_s{seed}.json").read_text())
+            b, c = (result(f"fmg_s44_{a}_fair_{sc}_s{seed}.json")
                     ["heldout"] for a in ("base", "sgmro"))
             row = (f"| {name}, seed {seed} | {b['psnr']:.3f} / {b['ssim']:.4f} | "
                    f"{c['psnr']:.3f} / {c['ssim']:.4f} | {c['psnr'] - b['psnr']:+.3f} / "
@@ -1251,7 +1252,7 @@ def test_frames_rule_table_is_the_runs_and_the_judge_recomputes_its_decision():
     for page in ("goals.md", "depth.md"):
         text = " ".join((REPO / "docs" / page).read_text().split())
         assert quoted in text or f"held-out SSIM {m['held_ssim']:+.3f} on the" in text, page
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert f"SSIM {m['held_ssim']:+.3f} and PSNR {m['held']:+.3f} dB on the mean" in options
     assert f"held-out frames' SSIM {m['held_ssim']:+.3f} on the development mean" in options
 
@@ -1259,8 +1260,8 @@ def test_frames_rule_table_is_the_runs_and_the_judge_recomputes_its_decision():
 def test_sgm_exposure_gain_moves_are_the_files():
     """"Where the rule's losses came from": the largest move of a view's exposure gain (any
     channel) with the aggregated depth, sceaux_castle and lund, seed 2."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    ws = json.loads((RESULTS / "sgm_exposure_gains_dev_s43.json").read_text())["workspaces"]
+    history = page_text("docs/history/fill.md")
+    ws = result("sgm_exposure_gains_dev_s43.json")["workspaces"]
 
     def gains(name):
         return next(v for k, v in ws.items() if name in k)["ev_from_pixels"]
@@ -1276,9 +1277,9 @@ def test_sgm_exposure_gain_moves_are_the_files():
 def test_ema_rule_table_is_the_judges_file_and_both_rules_fail():
     """docs/presets.md, "A running average of the weights": the table is the photo rule's
     judge file, recomputed from the committed runs; both rules fail (a)."""
-    presets = " ".join((REPO / "docs" / "presets.md").read_text().split())
-    res = json.loads((RESULTS / "ema_judge_flare_s44.json").read_text())
-    novel = json.loads((RESULTS / "ema_judge_novel_s44.json").read_text())
+    presets = page_text("docs/presets.md")
+    res = result("ema_judge_flare_s44.json")
+    novel = result("ema_judge_novel_s44.json")
     assert res["decision"] == "fails (a)" == novel["decision"]
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     for k, d in [*res["per_scene"].items(), ("mean", res["mean"])]:
@@ -1292,7 +1293,7 @@ def test_ema_rule_table_is_the_judges_file_and_both_rules_fail():
         assert again["mean"] == pytest.approx(r["mean"]) and again["decision"] == r["decision"]
     assert f"(+{res['mean']['psnr_flare']:.3f} dB where +0.10 is asked)" in presets
     assert f"({novel['mean']['held']:+.3f} dB where +0.10 is asked)" in presets
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     assert (f"flare region {res['mean']['psnr_flare']:+.3f} dB and novel views "
             f"{novel['mean']['held']:+.3f} dB on the development mean") in goals
 
@@ -1306,7 +1307,7 @@ def test_frames_penalties_exploration_table_is_the_files():
                        ("s44_fsl", "0.05,0.5"), ("s44_fsh", "0.2,2")):
         cells, ps, ss = [], [], []
         for sc in names:
-            hs = [json.loads((RESULTS / f"fmg_{arm}_fair_{sc}_s{s}.json").read_text())["heldout"]
+            hs = [result(f"fmg_{arm}_fair_{sc}_s{s}.json")["heldout"]
                   for s in (4, 5)]
             ps.append(sum(h["psnr"] for h in hs) / 2)
             ss.append(sum(h["ssim"] for h in hs) / 2)
@@ -1319,8 +1320,8 @@ def test_novel_render_exploration_table_is_its_file():
     """"The novel frames' fill on the frames' own depth": each row of the exploration's table
     is its arm in novel_render_explore_s45.json, whose scene and mean differences are its
     draws' (seed means, then scene means) against the base arm's."""
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    res = json.loads((RESULTS / "novel_render_explore_s45.json").read_text())
+    history = page_text("docs/history/fill.md")
+    res = result("novel_render_explore_s45.json")
     arms, seeds = res["arms"], res["seeds"]
     assert len(arms) == 25 and seeds == [6, 7]  # 24 settings and the base
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
@@ -1345,12 +1346,12 @@ def test_novel_fill_rule_table_is_the_judge_of_the_committed_scores():
     default), and the base renders reproduce the base arms' own held-out scores."""
     from pipeline.render.config import NOVEL_CPU_FILL
 
-    history = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    history = page_text("docs/history/fill.md")
     ab = load_benchmark("network_scale_ab")
     res = ab.judge(RESULTS, ab.read_times(RESULTS / "novel_s45_times_cpu.txt"),
                    ["sceaux", "et", "lund"], [8, 9], ["w3d", "w3d35", "w3d50"], "novel_s45_",
                    "base", ab.read_times(RESULTS / "novel_s45_video_times_cpu.txt"))
-    saved = json.loads((RESULTS / "novel_fill_judge_s45.json").read_text())
+    saved = result("novel_fill_judge_s45.json")
     assert res["decision"] == saved["decision"] == "w3d35"
     for arm, v in res["candidates"].items():
         assert v["mean"] == pytest.approx(saved["candidates"][arm]["mean"])
@@ -1364,8 +1365,8 @@ def test_novel_fill_rule_table_is_the_judge_of_the_committed_scores():
         == {"network_scale": 0.35, "agree_window": 3, "network_depth": "holes"}
     for sc in ("sceaux", "et", "lund"):
         for s in (8, 9):
-            mine = json.loads((RESULTS / f"novel_s45_base_{sc}_s{s}.json").read_text())
-            run = json.loads((RESULTS / f"fmg_s45_base_fair_{sc}_s{s}.json").read_text())
+            mine = result(f"novel_s45_base_{sc}_s{s}.json")
+            run = result(f"fmg_s45_base_fair_{sc}_s{s}.json")
             assert mine["heldout"]["psnr"] == pytest.approx(run["heldout"]["psnr"], abs=0.01)
 
 
@@ -1374,15 +1375,15 @@ def test_streak_lines_candidates_are_their_files():
     failing margins on sceaux_castle, and B's table (the judge of three builds, the
     every-kind scenes, the clean photos, the daylight composites), are the committed files'
     numbers; the card and the goals page quote B's streaks and clean sceaux_castle."""
-    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
 
     def scenes(name):
         return {(r["scene"], r["streak_lines"]): r
-                for r in json.loads((RESULTS / name).read_text())["rows"] if r["rays"]}
+                for r in result(name)["rows"] if r["rays"]}
 
     def clean(name):
         return {(r["scene"], r["setting"]): r["marked"]
-                for r in json.loads((RESULTS / name).read_text())["rows"]}
+                for r in result(name)["rows"]}
 
     a, av = scenes("mask_dev_scenes_lines.json"), clean("mask_views_clean_dev_lines.json")
     s0, s1 = a["sceaux_synth", False], a["sceaux_synth", True]
@@ -1413,7 +1414,7 @@ def test_streak_lines_candidates_are_their_files():
         for f in ("s62", "linesB")]
     for c in comp:
         assert f"{np.mean(list(c.values())):.4f} (streaks {c['streaks']:.3f})" in flat
-    fast = json.loads((RESULTS / "mask_time_cpu_lines_fast_s62.json").read_text())["rows"]
+    fast = result("mask_time_cpu_lines_fast_s62.json")["rows"]
     t = {r.get("rays", "network"): r["median_s_per_view"] for r in fast}
     assert (f"the rays took {t['default']:.3f} s per view and {t['streak_lines']:.3f} s with "
             f"the lines, the network {t['network']:.3f} s") in flat
@@ -1431,9 +1432,9 @@ def test_learned_fusion_table_is_its_file():
     """docs/history/fmg.md's table of the learned fusion held out by workspace (sixty-third
     session's script, run in the sixty-fifth) is the committed file's numbers, and so are the
     differences its text and the card quote."""
-    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-    card = " ".join((REPO / "gnfr" / "weights" / "fmg.md").read_text().split())
-    rows = json.loads((RESULTS / "mask_fusion_folds_s63.json").read_text())["rows"]
+    flat = page_text("docs/history/fmg.md")
+    card = page_text("gnfr/weights/fmg.md")
+    rows = result("mask_fusion_folds_s63.json")["rows"]
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     by = {}
     for held, name in names.items():
@@ -1479,9 +1480,9 @@ def test_continuation_table_is_its_files():
     sixty-fifth session) is the two committed evaluations' numbers, the continued one's
     provenance says it went on at step 1 500 with a fresh optimizer, and the differences the
     text and the card quote are theirs."""
-    flat = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
-    runs = [json.loads((RESULTS / f"continuation_et_{n}_s65.json").read_text())["methods"]["gnfr"]
+    flat = page_text("docs/history/gnfr.md")
+    card = page_text("gnfr/weights/gnfr.md")
+    runs = [result(f"continuation_et_{n}_s65.json")["methods"]["gnfr"]
             for n in ("straight", "continued")]
     for name, g in zip(("straight to 3 000 steps", "stopped at 1 500, went on from its "
                         "weights (fresh Adam)"), runs, strict=True):
@@ -1504,8 +1505,8 @@ def test_continuation_table_is_its_files():
 def exposure_diagnosis_rows() -> list[str]:
     """The rows of docs/history/gnfr.md's lund exposure diagnosis (sixty-sixth session), each
     built from the committed round-trip file and the arms' score files."""
-    rt = json.loads((RESULTS / "exposure_roundtrip_lund_s66.json").read_text())
-    arms = {n: json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())["inputs"]
+    rt = result("exposure_roundtrip_lund_s66.json")
+    arms = {n: result(f"fmg_s66_{n}_fair_lund_s2.json")["inputs"]
             for n in ("gains", "curves", "truth", "gains_nocm")}
     split = rt["deflared"]
     rows = []
@@ -1531,11 +1532,11 @@ def test_lund_exposure_diagnosis_table_is_its_files():
     """docs/history/gnfr.md's per-view table of lund's exposure diagnosis (sixty-sixth
     session) is the round-trip benchmark's file and the arms' scores; the means the text
     quotes are theirs."""
-    flat = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    flat = page_text("docs/history/gnfr.md")
     for row in exposure_diagnosis_rows():
         assert row in flat, row
     for n in ("gains", "curves", "truth", "gains_nocm"):
-        a = json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())
+        a = result(f"fmg_s66_{n}_fair_lund_s2.json")
         words = (f"{n}: flare region {a['inputs']['psnr_flare']:.2f} dB, whole photo "
                  f"{a['inputs']['psnr']:.2f} dB, held-out views {a['heldout']['psnr']:.2f} dB")
         assert words in flat, words
@@ -1543,7 +1544,7 @@ def test_lund_exposure_diagnosis_table_is_its_files():
         (RESULTS / "exposure_roundtrip_lund_s66.json").read_text())["deflared"]["gains"]
         ["views"].values()])
     assert f"a perfect fill would score {perfect:.2f} dB" in flat
-    g, c, t = (json.loads((RESULTS / f"fmg_s66_{n}_fair_lund_s2.json").read_text())
+    g, c, t = (result(f"fmg_s66_{n}_fair_lund_s2.json")
                for n in ("gains", "curves", "truth"))
     assert (f"the curves lose {g['inputs']['psnr_flare'] - c['inputs']['psnr_flare']:.2f} dB "
             f"in the flare region") in flat
@@ -1557,7 +1558,7 @@ def test_fmg_y_candidate_table_is_its_files():
     """docs/history/fmg.md's table of candidate Y (sixty-sixth session: X's recipe run 600
     steps) is its committed files beside M's and X's columns; each part's verdict and the
     answer to the question Y was run for are what its rule makes of those numbers."""
-    flat = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
     mk = load_benchmark("mask_kind_scenes")
     base, cand = "fmg.safetensors@1", "fmg_Y.safetensors@1"
     builds = [mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
@@ -1566,7 +1567,7 @@ def test_fmg_y_candidate_table_is_its_files():
     lund = mk.judge(builds, base, cand, mean_gain=0.0, scene="lund")
     for got, name in ((res, "mask_kinds_judge_Y_s66.json"),
                       (lund, "mask_kinds_judge_Y_lund_s66.json")):
-        assert got["mean"] == json.loads((RESULTS / name).read_text())["mean"]
+        assert got["mean"] == result(name)["mean"]
     x = mk.judge([mk.build_rows(f"{RESULTS / f'mask_dev_kinds_R_s{s}.json'}+"
                                 f"{RESULTS / f'mask_dev_kinds_X_s{s}.json'}")
                   for s in (31, 32, 33)], base, "fmg_X.safetensors@1", mean_gain=0.02)
@@ -1601,7 +1602,7 @@ def test_fmg_y_candidate_table_is_its_files():
 
 def _arm_runs(arm: str, scene: str, seeds=(2, 3)) -> list[dict]:
     """One arm's ``fmg_photo_ab.py`` result files on one scene, in the order of ``seeds``."""
-    return [json.loads((RESULTS / f"fmg_{arm}_fair_{scene}_s{s}.json").read_text())
+    return [result(f"fmg_{arm}_fair_{scene}_s{s}.json")
             for s in seeds]
 
 
@@ -1637,8 +1638,8 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     `darkest` fallback and 12 sources for the de-flared photos) is the arms' files; both
     judge files are recomputed from them and their decisions and means are the ones the page
     and docs/options.md quote; the coverage, offset and timing numbers are their files'."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
+    options = page_text("docs/options.md")
     scenes = ("sceaux", "et", "lund")
 
     for sc in scenes:
@@ -1650,20 +1651,20 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
                                        "fails (a)"),
                                       ("inputs_sources_judge_s67.json", "s67_in12", "depth",
                                        "passes")):
-        res = json.loads((RESULTS / name).read_text())
+        res = result(name)
         again = judge(RESULTS, cand, "s67_base", list(scenes), [2, 3], rule=rule)
         assert again["decision"] == res["decision"] == verdict
         assert again["mean"] == pytest.approx(res["mean"])
-    dark = json.loads((RESULTS / "flare_fallback_judge_s67.json").read_text())
+    dark = result("flare_fallback_judge_s67.json")
     assert not any(dark["parts"][p] for p in "abc")
     assert (f"the flare region {dark['mean']['psnr_flare']:+.3f} dB on the mean, lund "
             f"{dark['per_scene']['lund']['psnr_flare']:+.3f}") in history
     assert f"the whole photo {dark['mean']['psnr']:+.3f}" in history
     assert f"flare region {dark['mean']['psnr_flare']:+.3f} dB on the development" in options
-    lund3 = [json.loads((RESULTS / f"fmg_s67_{a}_fair_lund_s3.json").read_text())["inputs"]
+    lund3 = [result(f"fmg_s67_{a}_fair_lund_s3.json")["inputs"]
              ["psnr_flare"] for a in ("base", "dark")]
     assert f"(seed 3: {lund3[1] - lund3[0]:+.2f})" in history
-    src = json.loads((RESULTS / "inputs_sources_judge_s67.json").read_text())
+    src = result("inputs_sources_judge_s67.json")
     ps = src["per_scene"]
     assert (f"the flare region {src['mean']['psnr_flare']:+.3f} dB on the mean (sceaux "
             f"{ps['sceaux']['psnr_flare']:+.3f}, lund {ps['lund']['psnr_flare']:+.3f}, et "
@@ -1673,7 +1674,7 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     assert all(d["held"] == 0 and d["held_ssim"] == 0 for d in ps.values())
     assert f"rose {src['mean']['psnr_flare']:.2f} dB on the development scenes' mean (lund " \
            f"{ps['lund']['psnr_flare']:+.2f}" in options
-    cov = {n: json.loads((RESULTS / f"flare_coverage_lund_s67_n{n}.json").read_text())
+    cov = {n: result(f"flare_coverage_lund_s67_n{n}.json")
            for n in (6, 9, 12)}
     assert (f"{100 * cov[6]['mean']:.1f} % of the points along the rays through the true flare "
             f"regions are on flare in every one of the 6 sources") in history
@@ -1683,25 +1684,25 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
     assert f"views 02-05: {int(min(worst))}-{round(max(worst))} %" in history
     assert f"(lund {round(100 * cov[12]['mean'])} % against {round(100 * cov[6]['mean'])} %)" \
         in options
-    sce = [json.loads((RESULTS / f"flare_coverage_sceaux_s67_n{n}.json").read_text())["mean"]
+    sce = [result(f"flare_coverage_sceaux_s67_n{n}.json")["mean"]
            for n in (6, 12)]
     assert f"sceaux's barely move, {100 * sce[0]:.2f} % to {100 * sce[1]:.2f} %" in history
-    rt = json.loads((RESULTS / "exposure_roundtrip_lund_s67.json").read_text())["deflared"]
+    rt = result("exposure_roundtrip_lund_s67.json")["deflared"]
     level = {k: {v: 255 * np.mean(r["bias_region"]) for v, r in rt[k]["views"].items()}
              for k in ("base", "rrdark")}
     assert max(abs(level["base"][v] - level["rrdark"][v]) for v in level["base"]) < 1
     early = [level["base"][v] for v in ("01", "02", "03", "04", "05", "07", "08")]
     assert f"{min(early):.1f}-{max(early):.1f} sRGB levels brighter" in history
-    rr = [json.loads((RESULTS / f"fmg_s67_{a}_fair_lund_s2.json").read_text())["inputs"]
+    rr = [result(f"fmg_s67_{a}_fair_lund_s2.json")["inputs"]
           ["psnr_flare"] for a in ("base", "base_rrdark", "base_rr12")]
     assert f"region by {rr[1] - rr[0]:+.2f} dB, and its mean offset" in history
     assert f"raised lund's flare region by {rr[2] - rr[0]:.2f} dB" in history
-    t = json.loads((RESULTS / "inputs_sources_time_lund_s67.json").read_text())
+    t = result("inputs_sources_time_lund_s67.json")
     assert t["photos"] == 13
     assert (f"lund's 13 de-flared photos at 504 px render in {t['seconds']['12']:.1f} s against "
             f"{t['seconds']['6']:.1f} s") in history
     assert f"render in about {t['seconds']['12'] / t['seconds']['6']:.1f}x the time" in options
-    start, head = (json.loads((RESULTS / f"sample_oneshot_cpu_s67_{n}.json").read_text())
+    start, head = (result(f"sample_oneshot_cpu_s67_{n}.json")
                    for n in ("start", "head"))
     assert start["mean"]["psnr_input"] == head["mean"]["psnr_input"]  # the same photos
     assert (f"the de-flared photos {head['mean']['psnr']:.2f} dB against "
@@ -1721,8 +1722,8 @@ def test_flare_fallback_and_inputs_sources_table_is_its_files():
             f"{in12['whole']:.2f}, the held-out views {v12['held']:.2f} dB against "
             f"{base['held']:.2f} (SSIM {v12['held_ssim']:.4f} against "
             f"{base['held_ssim']:.4f})") in history
-    rr12 = json.loads((RESULTS / "fmg_s67_base_rr12_fair_lund_s2.json").read_text())
-    base2 = json.loads((RESULTS / "fmg_s67_base_fair_lund_s2.json").read_text())
+    rr12 = result("fmg_s67_base_rr12_fair_lund_s2.json")
+    base2 = result("fmg_s67_base_fair_lund_s2.json")
     assert f"cost lund's held-out views " \
            f"{base2['heldout']['psnr'] - rr12['heldout']['psnr']:.2f} dB" in history
     def levels(arm, part):
@@ -1746,7 +1747,7 @@ def test_source_flare_and_flare_flag_table_is_their_files():
     flared twins and the twins with the flare flag) is the arms' files; both judge files are
     recomputed from them with the decisions and means the page quotes; the drawn part's
     offsets and the veil are the round trip's file."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     scenes = ("sceaux", "et", "lund")
 
     for sc in scenes:
@@ -1757,7 +1758,7 @@ def test_source_flare_and_flare_flag_table_is_their_files():
     res = {}
     for name, cand in (("source_flare_judge_s68.json", "s68_sf5"),
                        ("flare_flag_judge_s68.json", "s68_ff")):
-        res[cand] = json.loads((RESULTS / name).read_text())
+        res[cand] = result(name)
         again = judge(RESULTS, cand, "s67_in12", list(scenes), [2, 3], rule="flare")
         assert again["decision"] == res[cand]["decision"] == "fails (a)"
         assert again["mean"] == pytest.approx(res[cand]["mean"])
@@ -1768,7 +1769,7 @@ def test_source_flare_and_flare_flag_table_is_their_files():
             f"{ff['per_scene']['sceaux']['psnr_flare']:+.3f}, et "
             f"{ff['per_scene']['et']['psnr_flare']:+.3f}, lund "
             f"{ff['per_scene']['lund']['psnr_flare']:+.3f})") in history
-    rt = json.loads((RESULTS / "exposure_roundtrip_lund_s68.json").read_text())
+    rt = result("exposure_roundtrip_lund_s68.json")
     drawn = {k: {v: 255 * np.mean(r["bias_drawn"]) for v, r in rt["deflared"][k]["views"].items()}
              for k in ("in12", "sf5", "ff")}
     assert len(drawn["in12"]) == 11
@@ -1789,7 +1790,7 @@ def _judged_against_in12(history: str, candidate: str, judge_file: str) -> dict:
     for sc in scenes:
         row = f"| {sc} | {_arm_cell('s67_in12', sc)} | {_arm_cell(candidate, sc)} |"
         assert row in history, row
-    res = json.loads((RESULTS / judge_file).read_text())
+    res = result(judge_file)
     again = load_benchmark("fmg_photo_ab").judge(RESULTS, candidate, "s67_in12", list(scenes),
                                                  [2, 3], rule="flare")
     assert again["decision"] == res["decision"] == "fails (a)"
@@ -1801,7 +1802,7 @@ def test_exposure_reference_table_is_its_files():
     """docs/history/gnfr.md's sixty-eighth-session table for `--exposure-reference darkest`
     is its arms' files; the judge file is recomputed from them with the verdict and means
     the page quotes; the drawn part's offsets are the round trip's file."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
 
     res = _judged_against_in12(history, "s68_dk", "exposure_reference_judge_s68.json")
     assert not any(res["parts"][p] for p in "abc") and res["parts"]["d"]
@@ -1813,7 +1814,7 @@ def test_exposure_reference_table_is_its_files():
             f"{lund[1] - base[1]:+.2f}), the whole photo {m['psnr']:+.3f}; the held-out views "
             f"{m['held']:+.3f} on the mean (sceaux {ps['sceaux']['held']:+.3f}, lund "
             f"{ps['lund']['held']:+.3f})") in history
-    rt = json.loads((RESULTS / "exposure_roundtrip_dk_lund_s68.json").read_text())["deflared"]
+    rt = result("exposure_roundtrip_dk_lund_s68.json")["deflared"]
     means = {k: np.mean([255 * np.mean(r["bias_drawn"]) for r in rt[k]["views"].values()])
              for k in ("in12", "dk")}
     assert len(rt["dk"]["views"]) == 11
@@ -1824,8 +1825,8 @@ def test_exposure_reference_table_is_its_files():
 def test_options_quote_the_sixty_eighth_session_judges():
     """docs/options.md's lines on `--source-flare`, `--flare-flag` and
     `--exposure-reference` quote the judge files' means."""
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    sf, ff, dk = (json.loads((RESULTS / f"{n}_judge_s68.json").read_text())
+    options = page_text("docs/options.md")
+    sf, ff, dk = (result(f"{n}_judge_s68.json")
                   for n in ("source_flare", "flare_flag", "exposure_reference"))
     assert (f"the flare region {sf['mean']['psnr_flare']:+.2f} and "
             f"{ff['mean']['psnr_flare']:+.2f} dB on the development scenes") in options
@@ -1837,8 +1838,8 @@ def test_train_grow_table_is_its_files():
     """docs/history/gnfr.md's sixty-eighth-session table for `--train-grow 0.02` is its arms'
     files; the judge file is recomputed from them with the verdict and means the page and
     docs/options.md quote; the drawn part's offsets are the round trip's file."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
+    options = page_text("docs/options.md")
     res = _judged_against_in12(history, "s68_gr", "train_grow_judge_s68.json")
     assert [res["parts"][p] for p in "abcd"] == [False, True, False, True]
     m, ps = res["mean"], res["per_scene"]
@@ -1847,7 +1848,7 @@ def test_train_grow_table_is_its_files():
             f"photo {m['psnr']:+.3f}, SSIM {m['ssim']:+.4f}") in history
     assert (f"the flare region moved {m['psnr_flare']:+.3f} dB on the development scenes and "
             f"the whole photo {m['psnr']:+.3f}") in options
-    rt = json.loads((RESULTS / "exposure_roundtrip_gr_lund_s68.json").read_text())["deflared"]
+    rt = result("exposure_roundtrip_gr_lund_s68.json")["deflared"]
     drawn = {k: {v: 255 * np.mean(r["bias_drawn"]) for v, r in rt[k]["views"].items()}
              for k in ("in12", "gr")}
     means = {k: np.mean(list(v.values())) for k, v in drawn.items()}
@@ -1859,7 +1860,7 @@ def test_train_grow_table_is_its_files():
 def test_veil_exploration_numbers_are_its_files():
     """docs/history/gnfr.md's exploration of lund without the veil quotes its arms' files
     (the flare-region gains over `s67_in12`, their mean) and the round trip's offset."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     base, nv = _arm_runs("s67_in12", "lund"), _arm_runs("s68_nv", "lundnv")
     gain = [b["inputs"]["psnr_flare"] - a["inputs"]["psnr_flare"]
             for a, b in zip(base, nv, strict=True)]
@@ -1867,7 +1868,7 @@ def test_veil_exploration_numbers_are_its_files():
     assert (f"The flare region gains {gain[0]:+.2f} and {gain[1]:+.2f} dB over `s67_in12` "
             f"({mean:.2f} dB on the mean") in history
     assert f"worth about {np.mean(gain):.1f} dB in lund's flare region" in history
-    rt = json.loads((RESULTS / "exposure_roundtrip_nv_lund_s68.json").read_text())
+    rt = result("exposure_roundtrip_nv_lund_s68.json")
     assert all(v == 0 for v in rt["flare_outside"].values())  # no veil left outside the masks
     drawn = [255 * np.mean(r["bias_drawn"]) for r in rt["deflared"]["nv"]["views"].values()]
     assert len(drawn) == 11
@@ -1880,14 +1881,14 @@ def test_pretrain_exposure_match_outcome_is_its_files():
     exposure) is its arms' files: the table's cells, both judge files recomputed from them
     (`--rule flare` and `--rule novel`, both failing at (a)), the means and per-seed ranges
     the page quotes; the card quotes the same means."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
-    card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
+    card = page_text("gnfr/weights/gnfr.md")
     scenes = ("sceaux", "et", "lund")
     _assert_arm_rows(history, ('s69_p0', 's69_pe'))
     judge = load_benchmark("fmg_photo_ab").judge
     for rule, name in (("flare", "pretrain_exposure_judge_s69.json"),
                        ("novel", "pretrain_exposure_judge_novel_s69.json")):
-        res = json.loads((RESULTS / name).read_text())
+        res = result(name)
         again = judge(RESULTS, "s69_pe", "s69_p0", list(scenes), [2, 3], rule=rule)
         assert res["rule"] == rule and again["decision"] == res["decision"] == "fails (a)"
         assert again["mean"] == pytest.approx(res["mean"])
@@ -1907,7 +1908,7 @@ def test_pretrain_exposure_match_outcome_is_its_files():
 def test_pretrain_exposure_match_training_psnr_is_its_logs():
     """The two priors' training PSNR over their last 8 000 steps, as docs/history/gnfr.md
     quotes it, is their committed logs' (both runs to step 58 250)."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     psnr = {}
     for arm in ("P0", "PE"):
         rows = [json.loads(x) for x in
@@ -1921,9 +1922,9 @@ def test_pretrain_exposure_match_training_psnr_is_its_logs():
 def test_veil_estimate_table_is_its_files():
     """The seventy-first session's table of the veil seen by the neighbours (docs/history/
     gnfr.md) is its three files' means over the views with more than 0.5 % marked."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     for scene in ("sceaux", "et", "lund"):
-        views = json.loads((RESULTS / f"veil_estimate_{scene}_s71.json").read_text())["views"]
+        views = result(f"veil_estimate_{scene}_s71.json")["views"]
         rows = [r for r in views.values() if r["mask_share"] > 0.005 and "smooth_0.05" in r]
         s = [r["smooth_0.05"] for r in rows]
         far = [r["offset_far"] for r in rows if r["offset_far"] is not None]
@@ -1942,18 +1943,18 @@ def test_more_pretraining_outcome_is_its_files():
     control prior P0 against the shipped prior): the table's cells are the arms' files,
     both judge files are recomputed from them (failing), and the quoted means and per-seed
     ranges are theirs."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     scenes = ("sceaux", "et", "lund")
     _assert_arm_rows(history, ('s69_sh', 's69_p0'))
     judge = load_benchmark("fmg_photo_ab").judge
     for rule, name, failed in (("flare", "prior_p0_judge_s71.json", "abc"),
                                ("novel", "prior_p0_judge_novel_s71.json", "ac")):
-        res = json.loads((RESULTS / name).read_text())
+        res = result(name)
         again = judge(RESULTS, "s69_p0", "s69_sh", list(scenes), [2, 3], rule=rule)
         assert res["rule"] == rule and again["decision"] == res["decision"] == "fails (a)"
         assert again["mean"] == pytest.approx(res["mean"])
         assert {k for k, ok in again["parts"].items() if not ok} == set(failed)
-    res = json.loads((RESULTS / "prior_p0_judge_s71.json").read_text())
+    res = result("prior_p0_judge_s71.json")
     m, lund = res["mean"], res["per_scene"]["lund"]
     assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean (lund "
             f"{lund['psnr_flare']:+.3f}), the whole photo {m['psnr']:+.3f}, the held-out views "
@@ -1969,8 +1970,8 @@ def test_more_pretraining_outcome_is_its_files():
 def test_card_quotes_the_more_pretraining_outcome():
     """gnfr/weights/gnfr.md quotes the seventy-first session's judge of P0 against the shipped
     prior as its file has it."""
-    card = " ".join((REPO / "gnfr" / "weights" / "gnfr.md").read_text().split())
-    res = json.loads((RESULTS / "prior_p0_judge_s71.json").read_text())
+    card = page_text("gnfr/weights/gnfr.md")
+    res = result("prior_p0_judge_s71.json")
     m, lund = res["mean"], res["per_scene"]["lund"]
     assert (f"{-m['psnr_flare']:.3f} dB in the flare region (lund {-lund['psnr_flare']:.3f}) "
             f"and their novel views {-m['held']:.3f} dB") in card
@@ -1981,7 +1982,7 @@ def test_source_flare_prior_outcome_is_its_files():
     table is the three arms' files, the four judge files are recomputed from them (passing
     `--rule novel` against P0 only), the quoted means are theirs and the training PSNR is
     the committed log's."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     scenes = ("sceaux", "et", "lund")
     _assert_arm_rows(history, ('s69_sh', 's69_p0', 's71_ps'))
     judge = load_benchmark("fmg_photo_ab").judge
@@ -1992,7 +1993,7 @@ def test_source_flare_prior_outcome_is_its_files():
                                   "fails (c)")}
     res = {}
     for (base, rule), (name, decision) in want.items():
-        res[base, rule] = json.loads((RESULTS / name).read_text())
+        res[base, rule] = result(name)
         again = judge(RESULTS, "s71_ps", base, list(scenes), [2, 3], rule=rule)
         assert again["decision"] == res[base, rule]["decision"] == decision
         assert again["mean"] == pytest.approx(res[base, rule]["mean"])
@@ -2019,17 +2020,17 @@ def test_source_flare_prior_outcome_is_its_files():
 def test_source_flare_prior4_outcome_is_its_files():
     """docs/history/gnfr.md's outcome of candidate PS4 (the source-flare supervision for 4 000
     steps) is its arms' files and both judges recomputed from them."""
-    history = " ".join((REPO / "docs" / "history" / "gnfr.md").read_text().split())
+    history = page_text("docs/history/gnfr.md")
     _assert_arm_rows(history, ("s69_sh", "s72_ps4"))
     judge = load_benchmark("fmg_photo_ab").judge
     for rule, name in (("flare", "source_flare_prior4_judge_s71.json"),
                        ("novel", "source_flare_prior4_judge_novel_s71.json")):
-        res = json.loads((RESULTS / name).read_text())
+        res = result(name)
         again = judge(RESULTS, "s72_ps4", "s69_sh", ["sceaux", "et", "lund"], [2, 3], rule=rule)
         assert again["decision"] == res["decision"]
         assert f"`--rule {rule}` {res['decision']}" in history
         assert again["mean"] == pytest.approx(res["mean"])
-    m = json.loads((RESULTS / "source_flare_prior4_judge_s71.json").read_text())["mean"]
+    m = result("source_flare_prior4_judge_s71.json")["mean"]
     assert (f"the flare region {m['psnr_flare']:+.3f} dB on the mean, the whole photo "
             f"{m['psnr']:+.3f}, the held-out views {m['held']:+.3f}") in history
 
@@ -2038,10 +2039,10 @@ def test_goals_page_quotes_the_pretraining_levers_judged():
     """docs/goals.md's paragraph on the `quick` prior's pretraining changes quotes each judge's
     file: the exposure lever's flare region, and P0's, PS's and PS4's flare region and novel
     views against the shipped file's arms."""
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
 
     def mean(name):
-        return json.loads((RESULTS / name).read_text())["mean"]
+        return result(name)["mean"]
 
     expo = mean("pretrain_exposure_judge_s69.json")
     assert f"flare region {expo['psnr_flare']:+.3f} dB, under the +0.10 asked" in goals
@@ -2069,10 +2070,10 @@ def test_mask_pads_outcome_is_its_files():
     options, goals = _page("docs", "options.md"), _page("docs", "goals.md")
     base, cand = "fmg.safetensors@1", "fmg.safetensors@1+pads=reflect,replicate,constant"
     kinds = load_benchmark("mask_kind_scenes")
-    builds = [json.loads((RESULTS / f"mask_dev_kinds_pads_s{s}.json").read_text())["rows"]
+    builds = [result(f"mask_dev_kinds_pads_s{s}.json")["rows"]
               for s in (31, 32, 33)]
     again = kinds.judge(builds, base, cand, mean_gain=-0.01)
-    saved = json.loads((RESULTS / "mask_kinds_judge_pads_s72.json").read_text())
+    saved = result("mask_kinds_judge_pads_s72.json")
     assert again["passes"] == saved["passes"] is True
     assert again["mean"] == pytest.approx(saved["mean"])
     for name in (base, cand):
@@ -2085,7 +2086,7 @@ def test_mask_pads_outcome_is_its_files():
     assert f"{m['psnr_flare']:.3f} and -0.059 dB against 0.05" in card  # two seeds, s72
 
     def marked(name):
-        rows = json.loads((RESULTS / name).read_text())["rows"]
+        rows = result(name)["rows"]
         return {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f} %" for r in rows
                 if r["setting"] == "ghost_views_pads"}, json.loads(
                     (RESULTS / name).read_text())["mean_marked"]
@@ -2100,7 +2101,7 @@ def test_mask_pads_outcome_is_its_files():
     test, _ = marked("mask_views_clean_test_pads_s72.json")
     for page in (card, goals):
         assert f"kermit {test['kermit']}, cyprus {test['cyprus']}, fern {test['fern']}" in page
-    rows = json.loads((RESULTS / "mask_time_pads_s72.json").read_text())["rows"]
+    rows = result("mask_time_pads_s72.json")["rows"]
     plain, padded = (next(r["median_s_per_view"] for r in rows if bool(r["pads"]) is p)
                      for p in (False, True))
     assert f"{padded:.2f} s per view instead of {plain:.2f} s" in options
@@ -2112,7 +2113,7 @@ def test_mask_pads_exploration_is_its_file():
     docs/history/fmg.md quotes for the plain pass, the mirrored pass, the consensus and the
     regions kept whole are its file's."""
     history = _page("docs", "history", "fmg.md")
-    res = json.loads((RESULTS / "fmg_pads_explore_s72.json").read_text())
+    res = result("fmg_pads_explore_s72.json")
     clean, iou = res["clean_marked"], res["synth_flare_iou"]
 
     def pct(ws, key):
@@ -2140,24 +2141,24 @@ def test_mask_pads_regions_outcome_is_its_files():
     history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
     options = _page("docs", "options.md")
     cand = "fmg.safetensors@1+pads=reflect,replicate,constant+regions"
-    builds = [json.loads((RESULTS / f"mask_dev_kinds_pads_s{s}.json").read_text())["rows"]
-              + json.loads((RESULTS / f"mask_dev_kinds_regions_s{s}.json").read_text())["rows"]
+    builds = [result(f"mask_dev_kinds_pads_s{s}.json")["rows"]
+              + result(f"mask_dev_kinds_regions_s{s}.json")["rows"]
               for s in (31, 32, 33)]
     again = load_benchmark("mask_kind_scenes").judge(builds, "fmg.safetensors@1", cand,
                                                       mean_gain=-0.01)
-    saved = json.loads((RESULTS / "mask_kinds_judge_regions_s72.json").read_text())
+    saved = result("mask_kinds_judge_regions_s72.json")
     assert again["passes"] == saved["passes"] is True
     assert again["mean"] == pytest.approx(saved["mean"])
     kinds = f"{saved['mean'][cand]:.4f}"
     assert kinds in history and kinds in card and kinds in options
     photos = load_benchmark("fmg_photo_ab").judge(RESULTS, "s72_reg", "s69_sh",
                                                   ["sceaux", "et", "lund"], [2, 3], rule="speed")
-    saved = json.loads((RESULTS / "mask_regions_photo_judge_s72.json").read_text())
+    saved = result("mask_regions_photo_judge_s72.json")
     assert photos["decision"] == saved["decision"] == "fails (a)"
     m = saved["mean"]
     assert (f"{m['psnr_flare']:+.3f} / {m['psnr']:+.3f} / {m['ssim']:+.3f} / "
             f"{m['held']:+.3f} dB") in history
-    clean = json.loads((RESULTS / "mask_views_clean_dev_regions_s72.json").read_text())
+    clean = result("mask_views_clean_dev_regions_s72.json")
     by = {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f}" for r in clean["rows"]
           if r["setting"] == "ghost_views_pads"}
     assert f"{by['lund']} / {by['sceaux_castle']} / {by['et']} %" in history
@@ -2171,20 +2172,20 @@ def test_mask_regions_four_seeds_outcome_is_its_files():
     the numbers the history, the FMG card, docs/options.md and docs/goals.md quote."""
     history, card = _page("docs", "history", "fmg.md"), _page("gnfr", "weights", "fmg.md")
     options, goals = _page("docs", "options.md"), _page("docs", "goals.md")
-    same = [json.loads((RESULTS / f"fmg_{a}_fair_et_s2.json").read_text())
+    same = [result(f"fmg_{a}_fair_et_s2.json")
             for a in ("s69_sh", "s73_re")]
     assert same[0]["inputs"] == same[1]["inputs"] and same[0]["heldout"] == same[1]["heldout"]
     ab = load_benchmark("fmg_photo_ab")
     scenes = ["sceaux", "et", "lund"]
     null = ab.judge(RESULTS, "s73_sh", "s69_sh", scenes, [4, 5], baseline_seeds=[2, 3],
                     rule="speed")
-    saved = json.loads((RESULTS / "photo_null_judge_s73.json").read_text())
+    saved = result("photo_null_judge_s73.json")
     assert null["mean"] == pytest.approx(saved["mean"]) and null["decision"] == "passes"
     n = saved["mean"]
     assert f"mean {n['psnr_flare']:+.3f} / {n['psnr']:+.3f} / {n['held']:+.3f} dB" in history
     dec = ab.judge(RESULTS, "s72_reg:2,3+s73_reg:4,5", "s69_sh:2,3+s73_sh:4,5", scenes, [0],
                    rule="speed")
-    saved = json.loads((RESULTS / "mask_regions_photo_judge4_s73.json").read_text())
+    saved = result("mask_regions_photo_judge4_s73.json")
     for scene in scenes:
         assert dec["per_scene"][scene] == pytest.approx(saved["per_scene"][scene])
     assert dec["decision"] == saved["decision"] == "passes"
@@ -2196,11 +2197,11 @@ def test_mask_regions_four_seeds_outcome_is_its_files():
         assert f"{m['psnr_flare']:.3f} dB" in page and f"{m['held']:+.3f} dB" in page
     for page in (card, options):
         assert f"sceaux_castle {sceaux['psnr_flare']:.3f}" in page
-    spread = json.loads((RESULTS / "photo_spread_s69_sh_s73.json").read_text())
+    spread = result("photo_spread_s69_sh_s73.json")
     se = spread["se_mean_difference"]
     assert f"standard error of {se['2']['psnr_flare']:.3f} dB" in card
     assert f"{se['4']['psnr_flare']:.3f} for four" in card
-    test = json.loads((RESULTS / "mask_views_clean_test_regions_s73.json").read_text())
+    test = result("mask_views_clean_test_regions_s73.json")
     by = {r["scene"].split(".")[0]: f"{100 * r['marked']:.3f} %" for r in test["rows"]
           if r["setting"] == "ghost_views_pads"}
     for page in (card, goals):
@@ -2220,17 +2221,17 @@ def test_mask_pixels_four_seeds_outcome_is_its_files():
     for base, name in (("s72_reg:2,3+s73_reg:4,5", "mask_pixels_photo_judge4_s73.json"),
                        ("s69_sh:2,3+s73_sh:4,5", "mask_pixels_vs_plain_judge4_s73.json")):
         again = ab.judge(RESULTS, cand, base, scenes, [0], rule="speed")
-        saved = json.loads((RESULTS / name).read_text())
+        saved = result(name)
         assert again["decision"] == saved["decision"] == "passes"
         for scene in scenes:
             assert again["per_scene"][scene] == pytest.approx(saved["per_scene"][scene])
-    rule = json.loads((RESULTS / "mask_pixels_photo_judge4_s73.json").read_text())
+    rule = result("mask_pixels_photo_judge4_s73.json")
     row = " | ".join(f"{rule['per_scene'][s]['psnr_flare']:+.3f}" for s in scenes)
     m = rule["mean"]
     assert f"| flare region of the de-flared photos | {row} | {m['psnr_flare']:+.3f} |" in history
     assert (f"the photos' flare region {-m['psnr_flare']:+.3f} dB and the whole photo "
             f"{-m['psnr']:+.3f} dB") in options  # the regions against the default
-    plain = json.loads((RESULTS / "mask_pixels_vs_plain_judge4_s73.json").read_text())
+    plain = result("mask_pixels_vs_plain_judge4_s73.json")
     p, sceaux = plain["mean"], plain["per_scene"]["sceaux"]["psnr_flare"]
     for page in (history, card, options, goals):
         assert f"flare region {p['psnr_flare']:+.3f} dB (sceaux_castle {sceaux:+.3f})" in page
@@ -2247,24 +2248,24 @@ def test_target_rule_outcome_is_its_files():
     for base, name in (("s72_pad:2,3+s73_pad:4,5", "target_rule_photo_judge4_s74.json"),
                        ("s69_sh:2,3+s73_sh:4,5", "target_rule_vs_plain_judge4_s74.json")):
         again = ab.judge(RESULTS, "s74_cnt", base, ["sceaux"], [2, 3, 4, 5], rule="speed")
-        saved = json.loads((RESULTS / name).read_text())
+        saved = result(name)
         assert again["decision"] == saved["decision"] and saved["decision"].startswith("fails")
         assert again["per_scene"]["sceaux"] == pytest.approx(saved["per_scene"]["sceaux"])
-    m = json.loads((RESULTS / "target_rule_photo_judge4_s74.json").read_text())["mean"]
+    m = result("target_rule_photo_judge4_s74.json")["mean"]
     assert (f"flare region of the de-flared photos {m['psnr_flare']:+.3f} dB (needed >= "
             f"-0.05), whole photo {m['psnr']:+.3f}") in history
     assert f"held-out views {m['held']:+.3f}" in history
     card = _page("gnfr", "weights", "fmg.md")
     assert f"lost more ({m['psnr_flare']:+.3f} dB against the default on four seeds" in card
-    p = json.loads((RESULTS / "target_rule_vs_plain_judge4_s74.json").read_text())["mean"]
+    p = result("target_rule_vs_plain_judge4_s74.json")["mean"]
     assert (f"flare region {p['psnr_flare']:+.3f} dB, whole photo {p['psnr']:+.3f}, "
             f"held-out views {p['held']:+.3f}") in history
-    et = json.loads((RESULTS / "fmg_s74_cnt_fair_et_s2.json").read_text())
-    base = json.loads((RESULTS / "fmg_s72_pad_fair_et_s2.json").read_text())
+    et = result("fmg_s74_cnt_fair_et_s2.json")
+    base = result("fmg_s72_pad_fair_et_s2.json")
     assert et["inputs"] == base["inputs"] and et["heldout"] == base["heldout"]
 
     def view(arm: str, seed: int) -> float:
-        run = json.loads((RESULTS / f"fmg_{arm}_fair_sceaux_s{seed}.json").read_text())
+        run = result(f"fmg_{arm}_fair_sceaux_s{seed}.json")
         return run["inputs"]["views"]["100_7105"]["psnr_flare"]
 
     own = [np.mean([view(a, s) for a, s in arms]) for arms in (
@@ -2273,7 +2274,7 @@ def test_target_rule_outcome_is_its_files():
         [("s69_sh", 2), ("s69_sh", 3), ("s73_sh", 4), ("s73_sh", 5)])]
     assert (f"{own[0]:.2f} dB on the four seeds against {own[1]:.2f} as a target (the plain "
             f"run's arms: {own[2]:.2f})") in history
-    rows = json.loads((RESULTS / "target_rule_s74.json").read_text())["workspaces"]
+    rows = result("target_rule_s74.json")["workspaces"]
     over = {Path(r["workspace"]).name: r["targets_over_truth"] for r in rows}
     assert [over[f"sceaux_{a}_s2.ws"] for a in ("s69_sh", "s72_pad", "s74_cnt")] == [4, 5, 4]
     assert over["et_s69_sh_s2.ws"] == over["et_s72_pad_s2.ws"] == 0
@@ -2289,7 +2290,7 @@ def test_colour_match_darkest_ring_table_is_its_files():
     scenes = ("sceaux", "et", "lund")
 
     def scores(arm: str) -> list[tuple[float, float]]:
-        runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{s}_s2.json").read_text())["inputs"]
+        runs = [result(f"fmg_{arm}_fair_{s}_s2.json")["inputs"]
                 for s in scenes]
         return [(r["psnr_flare"], r["psnr"]) for r in runs]
 
@@ -2300,7 +2301,7 @@ def test_colour_match_darkest_ring_table_is_its_files():
         if arm != "x74_k100":
             assert all(g[0] < t[0] and g[1] < t[1] for g, t in zip(got, today, strict=True))
     for s, t in zip(scenes, today, strict=True):
-        base = json.loads((RESULTS / f"fmg_s72_pad_fair_{s}_s2.json").read_text())["inputs"]
+        base = result(f"fmg_s72_pad_fair_{s}_s2.json")["inputs"]
         assert (base["psnr_flare"], base["psnr"]) == t  # the rerender repeats the arm
 
 
@@ -2313,7 +2314,7 @@ def test_flare_layer_width_table_is_its_files():
     scenes = ("sceaux", "et", "lund")
 
     def scores(arm: str) -> list[tuple[float, float, float]]:
-        runs = [json.loads((RESULTS / f"fmg_{arm}_fair_{s}_s2.json").read_text())["inputs"]
+        runs = [result(f"fmg_{arm}_fair_{s}_s2.json")["inputs"]
                 for s in scenes]
         return [(r["psnr_flare"], r["psnr"], r["ssim"]) for r in runs]
 
@@ -2334,7 +2335,7 @@ def test_flare_layer_width_table_is_its_files():
 def clean_triples(name: str, settings: tuple[str, ...]) -> list[str]:
     """Per setting of a `mask_views_scenes.py --posed` file, the share each clean
     development scene marks as the pages write it: "lund % / sceaux_castle % / et %"."""
-    rows = json.loads((RESULTS / name).read_text())["rows"]
+    rows = result(name)["rows"]
     shares = {(r["scene"], r["setting"]): r["marked"] for r in rows}
     return [" / ".join(f"{100 * shares[(s, setting)]:.3f} %"
                        for s in ("lund.deflare", "sceaux_castle.deflare", "et.deflare"))
@@ -2347,13 +2348,13 @@ def test_light_cores_verdict_is_the_judge_of_the_committed_scores():
     (judged again here), part 2's rows are identical view by view, part 3's shares are
     the file's; the candidate fails part 1, as the page, the options and the card say."""
     mk = load_benchmark("mask_kind_scenes")
-    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_cores_s{s}_s77.json"))
               for s in (31, 32, 33)]
     base = "fmg.safetensors@1+pads=reflect,replicate,constant"
     cand = "fmg.safetensors@1+cores+pads=reflect,replicate,constant"
     res = mk.judge(builds, base, cand, target="streaks", target_gain=0.01)
-    saved = json.loads((RESULTS / "mask_kinds_judge_cores_s77.json").read_text())
+    saved = result("mask_kinds_judge_cores_s77.json")
     assert res["mean"] == saved["mean"] and res["passes"] is saved["passes"] is False
     kinds = saved["kinds"]
     assert f"streaks | {kinds['streaks'][base]:.4f} | {kinds['streaks'][cand]:.4f} |" in flat
@@ -2361,13 +2362,13 @@ def test_light_cores_verdict_is_the_judge_of_the_committed_scores():
     others = ("starburst", "ghosts", "glare", "scatter")
     for arm in (base, cand):
         assert " / ".join(f"{kinds[k][arm]:.4f}" for k in others) in flat
-    rows = json.loads((RESULTS / "mask_dev_scenes_cores_s77.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_cores_s77.json")["rows"]
     by = {(r["scene"], r["light_cores"]): r for r in rows if r["rays"]}
     for scene in ("sceaux_synth", "et_synth", "lund_synth"):  # part 4 held by identity
         plain, cores = by[(scene, False)], by[(scene, True)]
         assert plain["per_view"] == cores["per_view"]
         assert plain["flare_iou"] == cores["flare_iou"]
-    options = " ".join((REPO / "docs/options.md").read_text().split())
+    options = page_text("docs/options.md")
     for cell in clean_triples("mask_views_clean_dev_cores_s77.json",
                               ("ghost_views_pads", "ghost_views_pads_cores")):
         assert cell in flat and cell in options, cell
@@ -2381,7 +2382,7 @@ def test_fmg_f_candidates_table_is_their_files():
     hist = (REPO / "docs" / "history" / "fmg.md").read_text()
     builds = [mk.build_rows(str(RESULTS / f"mask_dev_kinds_F_s{s}_s77.json"))
               for s in (31, 32, 33)]
-    rows = json.loads((RESULTS / "mask_dev_scenes_F_s77.json").read_text())["rows"]
+    rows = result("mask_dev_scenes_F_s77.json")["rows"]
     pooled = judged_means(mk, builds, {c: f"{c}.safetensors@1" for c in ("F8", "F13")},
                           "mask_kinds_judge_{}_s77.json")
     cells = {c: column_cells(rows, c, name, pooled[c], "_s77" if c == "M" else "")
@@ -2398,7 +2399,7 @@ def test_fmg_f_candidates_table_is_their_files():
 def test_f13_rule_uncorrected_part_two_numbers_are_its_file():
     """The F13 rule's part 2 as first run (no paddings): the history's two triples are the
     file's rows, lund / sceaux_castle / et, with and without the ghost views."""
-    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
     for cell in clean_triples("mask_views_clean_dev_F13_nopads_s77.json",
                               ("ghost_views", "base")):
         assert cell in flat, cell
@@ -2413,10 +2414,10 @@ def test_f13_rule_part_one_is_the_judge_of_its_builds():
     base = "fmg.safetensors@1+pads=reflect,replicate,constant"
     cand = "fmg_candidate_F13.safetensors@1+pads=reflect,replicate,constant"
     res = mk.judge(builds, base, cand, mean_gain=0.02)
-    saved = json.loads((RESULTS / "mask_kinds_judge_F13rule_s77.json").read_text())
+    saved = result("mask_kinds_judge_F13rule_s77.json")
     assert res["mean"] == saved["mean"] and res["passes"] is saved["passes"] is True
-    hist = " ".join((REPO / "docs/history/fmg.md").read_text().split())
-    card = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    hist = page_text("docs/history/fmg.md")
+    card = page_text("gnfr/weights/fmg.md")
     assert f"{res['mean'][base]:.4f} for M, {res['mean'][cand]:.4f} for F13" in hist
     assert f"{res['mean'][cand]:.4f} against this file's {res['mean'][base]:.4f}" in card
 
@@ -2424,8 +2425,8 @@ def test_f13_rule_part_one_is_the_judge_of_its_builds():
 def test_f13_rule_part_two_shares_are_its_files():
     """F13's rule, part 2: the history's and the card's triples are the two files'
     `ghost_views_pads` rows, each scene within +0.05 points of M's and no view over 10 %."""
-    flat = " ".join((REPO / "docs/history/fmg.md").read_text().split())
-    card = " ".join((REPO / "gnfr/weights/fmg.md").read_text().split())
+    flat = page_text("docs/history/fmg.md")
+    card = page_text("gnfr/weights/fmg.md")
     for w in ("F13", "M"):
         (cell,) = clean_triples(f"mask_views_clean_dev_F13rule_{w}_s77.json",
                                 ("ghost_views_pads",))
@@ -2444,7 +2445,7 @@ def photo_verdict(candidate: str, baseline: str, seeds: list[int], saved: str,
     saved mean differences."""
     again = load_benchmark("fmg_photo_ab").judge(RESULTS, candidate, baseline,
                                                  ["sceaux", "et", "lund"], seeds, rule="speed")
-    kept = json.loads((RESULTS / saved).read_text())
+    kept = result(saved)
     assert again["decision"] == kept["decision"] == decision
     assert again["mean"] == pytest.approx(kept["mean"])
     return kept["mean"]
@@ -2470,7 +2471,7 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
     assert (f"| mean | {m['psnr_flare']:+.3f} | {m['psnr']:+.3f} | {m['ssim']:+.3f} | "
             f"{m['held']:+.3f} |") in hist
     for label, tag in FILL_S79:
-        kinds = json.loads((RESULTS / f"fmg_dev_per_kind_{tag}_fill_s79.json").read_text())
+        kinds = result(f"fmg_dev_per_kind_{tag}_fill_s79.json")
         w = [r["weights"] for r in kinds["kinds"].values()]
         cells = [f"{x['IoU_flare']:.3f} / {x['flare_psnr_ceiling']:.2f}" for x in w]
         mean = (f"{np.mean([x['IoU_flare'] for x in w]):.3f} / "
@@ -2480,16 +2481,16 @@ def test_f26_photo_part_is_the_judge_of_its_arms_and_the_fill_table_its_files():
         assert kinds["fill_holes"] is tag.split("_")[0].endswith("fh")
     for new, old in (("M_rays", "M_rays_s77"), ("F26_rays", "F26_rays"),
                      ("M_day_rays", "M_day_rays_s77"), ("F26_day_rays", "F26_day_rays")):
-        a = json.loads((RESULTS / f"fmg_dev_per_kind_{new}_fill_s79.json").read_text())["kinds"]
-        b = json.loads((RESULTS / f"fmg_dev_per_kind_{old}.json").read_text())["kinds"]
+        a = result(f"fmg_dev_per_kind_{new}_fill_s79.json")["kinds"]
+        b = result(f"fmg_dev_per_kind_{old}.json")["kinds"]
         assert all(a[k]["weights"]["IoU_flare"] == b[k]["weights"]["IoU_flare"] for k in a)
-    shares = json.loads((RESULTS / "fmg_real_flare_M_F26_s79.json").read_text())["marked"]
+    shares = result("fmg_real_flare_M_F26_s79.json")["marked"]
     flat = " ".join(hist.split())
     f26 = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" in k]
     m_ = [f"{100 * v:.2f} %" for k, v in shares.items() if "F26" not in k]
     assert (f"F26 marks {f26[0]} and {f26[1]} of the two photos where M marks {m_[0]} and "
             f"{m_[1]}") in flat
-    holes = json.loads((RESULTS / "fmg_real_flare_F26fh_s79.json").read_text())
+    holes = result("fmg_real_flare_F26fh_s79.json")
     assert holes["fill_holes"] is True
     filled = [f"{100 * v:.2f} %" for v in holes["marked"].values()]
     assert f"it marks {filled[0]} and {filled[1]}:" in flat
@@ -2502,7 +2503,7 @@ def test_eighty_eighth_sessions_frame_rules_tables_are_their_judgments(name, fie
     and the rules' verdicts are their judge files'; both options stay off."""
     from pipeline.render.config import RenderConfig
 
-    rec = json.loads((RESULTS / f"{name}_judge_s88.json").read_text())
+    rec = result(f"{name}_judge_s88.json")
     text = (REPO / "docs" / "history" / "fill.md").read_text()
     for scene, r in rec["scenes"].items():
         w, s, g = r["whole"], r["ssim"], r["region"]
@@ -2521,9 +2522,9 @@ def test_eighty_eighth_sessions_frame_rules_tables_are_their_judgments(name, fie
         assert f"whole frames {rule['whole_gain_mean']:+.3f} dB, no scene below" in flat
     else:
         assert rule["b"] is False and rule["c"] is False
-        config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+        config = page_text("pipeline/render/config.py")
         assert f"whole frames {rule['whole_gain_mean']:+.3f} dB on the development mean" in config
-        goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+        goals = page_text("docs/goals.md")
         assert f"by {-rule['whole_gain_mean']:.3f} dB (`source_grow_judge_s88.json`" in goals
 
 
@@ -2531,11 +2532,11 @@ def test_glow_probe_table_is_its_files():
     """docs/history/fmg.md's eighty-ninth-session table of the glow probe: each cell is its
     scene's file, the quoted distances of the missed flare are theirs, and the finding the
     text draws holds (each probe lowers flare IoU, and most of what it adds is not flare)."""
-    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    history = page_text("docs/history/fmg.md")
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     far, near, left = [], [], []
     for scene, name in names.items():
-        rec = json.loads((RESULTS / f"glow_probe_{scene}_s89.json").read_text())
+        rec = result(f"glow_probe_{scene}_s89.json")
         sc = rec["scores"]
         base, ring, views = sc["mask stage"], sc["ring"], sc["views"]
         row = (f"| {name} | {base['iou']:.3f} / {base['light_left']:.3f} | "
@@ -2558,9 +2559,9 @@ def test_glow_probe_table_is_its_files():
 def test_night_glare_check_is_its_file():
     """docs/history/fmg.md's eighty-ninth-session night-glare table is the overlay's file,
     F26's row is the seventy-ninth session's, and the two runs' logs hold 150 steps."""
-    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-    marked = json.loads((RESULTS / "fmg_real_flare_nightglare_s89.json").read_text())["marked"]
-    old = json.loads((RESULTS / "fmg_real_flare_M_F26_s79.json").read_text())["marked"]
+    history = page_text("docs/history/fmg.md")
+    marked = result("fmg_real_flare_nightglare_s89.json")["marked"]
+    old = result("fmg_real_flare_M_F26_s79.json")["marked"]
 
     def pct(photo: str, tag: str, table: dict) -> str:
         (v,) = [x for k, x in table.items() if k.startswith(photo) and tag in k]

@@ -28,6 +28,7 @@ from tests.docs.numbers import (
     readme_notes,
     readme_performance,
     recorded_walls,
+    result,
     spaced,
 )
 
@@ -338,7 +339,7 @@ def test_depth_doc_quotes_the_flare_layer_variants(scene, row):
     """docs/history/fill.md's flare-layer paragraph and table (moved from docs/depth.md)
     against the variants file (keyed by the scene folders' paths, so not reachable by the
     '/'-separated paths above)."""
-    scenes = json.loads((RESULTS / "flare_layer_variants_dev.json").read_text())["scenes"]
+    scenes = result("flare_layer_variants_dev.json")["scenes"]
     (rows,) = [v["rows"] for k, v in scenes.items() if Path(k).name == scene]
     value = f"{rows[row]['psnr_flare']:.2f}"
     assert value in (REPO / "docs" / "history" / "fill.md").read_text(), (scene, row, value)
@@ -347,10 +348,10 @@ def test_depth_doc_quotes_the_flare_layer_variants(scene, row):
 def test_max_flare_note_numbers_agree_with_their_runs():
     """`--max-flare 0.15` on lund_k4 (twenty-eighth session): the seed means in the history
     and the two differences the README quotes."""
-    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
+    history = page_text("docs/history/fmg.md")
 
     def means(arm):
-        rows = [json.loads((RESULTS / f"fmg_s28_{arm}_fair_lund_k4_s{s}.json").read_text())
+        rows = [result(f"fmg_s28_{arm}_fair_lund_k4_s{s}.json")
                 for s in (0, 1, 2)]
         m = {k: sum(r["inputs"][k] for r in rows) / 3 for k in ("psnr", "psnr_flare", "ssim")}
         m.update({f"held_{k}": sum(r["heldout"][k] for r in rows) / 3 for k in ("psnr", "ssim")})
@@ -361,7 +362,7 @@ def test_max_flare_note_numbers_agree_with_their_runs():
         row = (f"{m['psnr']:.2f} / {m['psnr_flare']:.2f} / {m['ssim']:.3f} | "
                f"{m['held_psnr']:.2f} / {m['held_ssim']:.3f}")
         assert row in history
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     for text in (history, options):
         assert f"{loose['held_psnr'] - base['held_psnr']:.2f} dB" in text
         assert f"{base['psnr_flare'] - loose['psnr_flare']:.2f} dB" in text
@@ -370,15 +371,15 @@ def test_max_flare_note_numbers_agree_with_their_runs():
 def test_crosscheck_photo_rule_numbers_agree_with_the_judge():
     """The crosscheck photo rule's table (history), its mean flare gain and cost (options
     page) and its cost (README)."""
-    history = " ".join((REPO / "docs" / "history" / "fmg.md").read_text().split())
-    readme = " ".join((REPO / "docs" / "options.md").read_text().split())
-    res = json.loads((RESULTS / "fmg_photo_judge_crosscheck_s234.json").read_text())
+    history = page_text("docs/history/fmg.md")
+    readme = page_text("docs/options.md")
+    res = result("fmg_photo_judge_crosscheck_s234.json")
     for d in (*res["per_scene"].values(), res["mean"]):
         cells = " / ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
         assert cells in history
     assert res["decision"] == "fails (a)" and "fails (a)" in history
     assert f"{res['mean']['psnr_flare']:+.3f} dB in the flare region" in readme
-    cost = json.loads((RESULTS / "crosscheck_time_cpu_et.json").read_text())
+    cost = result("crosscheck_time_cpu_et.json")
     assert f"{cost['extra_seconds_per_view']:.1f} s more per view" in readme
     assert f"+{cost['extra_seconds_per_view']:.1f} s per view" in readme
 
@@ -389,7 +390,7 @@ def test_readme_sample_flare_gain_per_view():
     ninety-second session (docs/eval.md) quoted the thirty-sixth session's run."""
     for f, text in (("sample_oneshot_cpu_s85_head.json", page_text("README.md")),
                     ("sample_oneshot_cpu_s36_ghosts.json", readme_notes())):
-        views = json.loads((RESULTS / f).read_text())["views"]
+        views = result(f)["views"]
         gains = [v["psnr_flare"] - v["psnr_flare_input"] for v in views.values()]
         assert len(gains) == 8 and min(gains) > 0, f
         assert f"{sum(gains) / len(gains):.2f} dB closer to the truth" in text, f
@@ -399,8 +400,8 @@ def test_readme_sample_flare_gain_per_view():
 def test_full_res_colour_rule_numbers_agree_with_the_judge():
     """docs/presets.md's table of the full-size colours rule is the judge's file, the judge
     recomputes from the committed runs, and the baseline repeat reproduces its file."""
-    page = " ".join((REPO / "docs" / "presets.md").read_text().split())
-    res = json.loads((RESULTS / "fmg_photo_judge_full_res_colour_s234.json").read_text())
+    page = page_text("docs/presets.md")
+    res = result("fmg_photo_judge_full_res_colour_s234.json")
     assert res["rule"] == "novel" and res["decision"] == "passes"
     for d in (*res["per_scene"].values(), res["mean"]):
         cells = " | ".join(f"{d[k]:+.3f}" for k in ("psnr", "psnr_flare", "ssim", "held"))
@@ -409,8 +410,8 @@ def test_full_res_colour_rule_numbers_agree_with_the_judge():
     again = mod.judge(RESULTS, "s29_frc", "s26_Mp", ["sceaux", "et", "lund"], [2, 3, 4],
                       rule="novel")
     assert again["mean"] == pytest.approx(res["mean"]) and again["decision"] == res["decision"]
-    rep = json.loads((RESULTS / "fmg_s29_repro_fair_et_s2.json").read_text())
-    old = json.loads((RESULTS / "fmg_s26_Mp_fair_et_s2.json").read_text())
+    rep = result("fmg_s29_repro_fair_et_s2.json")
+    old = result("fmg_s26_Mp_fair_et_s2.json")
     assert rep["heldout"]["psnr"] == old["heldout"]["psnr"]
     assert rep["inputs"]["psnr_flare"] == old["inputs"]["psnr_flare"]
 
@@ -418,10 +419,10 @@ def test_full_res_colour_rule_numbers_agree_with_the_judge():
 def test_depth_next_quotes_the_network_fill_seed_means():
     """docs/depth.md "Next": GN-FR alone against the hybrid fill on the full-size-colour
     models, seed means per development scene, from the committed runs."""
-    page = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    page = page_text("docs/depth.md")
 
     def mean(prefix, scene, key):
-        return sum(json.loads((RESULTS / f"{prefix}_{scene}_s{s}.json").read_text())
+        return sum(result(f"{prefix}_{scene}_s{s}.json")
                    ["heldout"][key] for s in (2, 3, 4)) / 3
 
     for scene in ("sceaux", "et", "lund"):
@@ -432,24 +433,24 @@ def test_depth_next_quotes_the_network_fill_seed_means():
 
 def test_full_res_colour_speed_numbers():
     """docs/presets.md's speed of the two colour sizes at the decode default."""
-    r = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062.json").read_text())
-    page = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    r = result("full_res_colour_speed_cpu_lund1062.json")
+    page = page_text("docs/presets.md")
     assert (f"{r['full']['it_s']:.2f} steps/s with full-size colours against "
             f"{r['quarter']['it_s']:.2f} with quarter-size ones, {100 * r['slower']:.0f} % "
             "slower") in page
-    c = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_cached.json").read_text())
+    c = result("full_res_colour_speed_cpu_lund1062_cached.json")
     assert (f"{c['full']['it_s']:.2f} against {c['quarter']['it_s']:.2f} steps/s, "
             f"{100 * c['slower']:.0f} % slower") in page
     w, h = r["full"]["image_size"]
     assert f"{w}x{h}" in page
-    sh = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_shared.json").read_text())
+    sh = result("full_res_colour_speed_cpu_lund1062_shared.json")
     assert (f"{sh['full']['it_s']:.2f} against {sh['quarter']['it_s']:.2f} steps/s, "
             f"{100 * sh['slower']:.0f} % slower") in page
     o = json.loads((RESULTS / "full_res_colour_speed_cpu_lund1062_shared_vs_cached.json"
                     ).read_text())
     assert f"{100 * o['faster']:.0f} % faster" in page
     assert f"({o['full']['it_s']:.2f} against {o['full_other_code']['it_s']:.2f} steps/s" in page
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert f"CPU fine-tune {100 * sh['slower']:.0f} % slower" in options
 
 
@@ -457,9 +458,9 @@ def test_fern_gain_of_full_size_colours():
     """docs/eval.md: fern's gain from full-size colours per fill, from the two committed
     runs."""
     def psnr(f, fill):
-        return json.loads((RESULTS / f).read_text())["clean"]["methods"][f"gnfr_{fill}"][
+        return result(f)["clean"]["methods"][f"gnfr_{fill}"][
             "heldout"]["psnr"]
-    page = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    page = page_text("docs/eval.md")
     gains = [psnr("fern_llff_quick_cpu_s29_frc.json", f)
              - psnr("fern_llff_quick_cpu_s29_base.json", f) for f in ("hybrid", "network")]
     assert (f"+{gains[0]:.2f} dB with the default hybrid fill and +{gains[1]:.2f} dB with "
@@ -469,17 +470,17 @@ def test_fern_gain_of_full_size_colours():
 def test_sample_scores_unchanged_by_whole_ray_novel_frames():
     """docs/performance.md says the one-shot with whole-ray novel frames kept the sample's
     scores to the last digit: the de-flared photos' means are the twenty-ninth session's."""
-    new = json.loads((RESULTS / "sample_oneshot_cpu_s30_ds0.json").read_text())["mean"]
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s29_frc.json").read_text())["mean"]
+    new = result("sample_oneshot_cpu_s30_ds0.json")["mean"]
+    old = result("sample_oneshot_cpu_s29_frc.json")["mean"]
     assert new == old
 
 
 def test_sample_scores_of_the_fortieth_sessions_fresh_clone_are_the_thirty_seventh_s():
     """docs/performance.md says the fresh clone's main job gave every score of the
     thirty-seventh session's run to the last digit: per view and on the mean."""
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s37.json").read_text())
+    old = result("sample_oneshot_cpu_s37.json")
     for f in ("sample_oneshot_cpu_s40.json", "sample_oneshot_cpu_s40b.json"):
-        new = json.loads((RESULTS / f).read_text())
+        new = result(f)
         assert new["mean"] == old["mean"] and new["views"] == old["views"]
 
 
@@ -487,7 +488,7 @@ def test_sample_scores_of_the_fortieth_sessions_fresh_clone_are_the_thirty_seven
 def test_performance_whole_ray_frame_times_match(width):
     """docs/performance.md's table of the video frames with the whole-ray default, and the
     README's 504 px figures, are bench_fill_cpu_s30.json's."""
-    rows = json.loads((RESULTS / "bench_fill_cpu_s30.json").read_text())[
+    rows = result("bench_fill_cpu_s30.json")[
         "results"]["cpu"]["render_workspace"]["rows"]
     by = {r["fill"]: r for r in rows if r["size"][0] == width}
     net, hyb = by["network"], by["hybrid"]
@@ -498,11 +499,11 @@ def test_performance_whole_ray_frame_times_match(width):
         # forty-seventh sessions' runs), in the forty-fifth session and before its fill,
         # GN-FR alone
         summary = readme_performance()
-        now, s45, before = (json.loads((RESULTS / f).read_text())["stages"][
+        now, s45, before = (result(f)["stages"][
             "render:interpolate"]["seconds"] / 48 for f in (
                 "sample_oneshot_cpu_s46.json", "sample_oneshot_cpu_s45.json",
                 "sample_oneshot_cpu_s45_before.json"))
-        slow = max(json.loads((RESULTS / f"sample_oneshot_cpu_s47_{c}.json").read_text())[
+        slow = max(result(f"sample_oneshot_cpu_s47_{c}.json")[
             "stages"]["render:interpolate"]["seconds"] / 48 for c in ("f70850f", "head"))
         assert f"video frames ({now:.1f}-{slow:.1f} s each at 512x336" in summary
         assert f"{s45:.1f} s on the Intel Xeon of the forty-fifth session" in summary
@@ -515,9 +516,9 @@ def test_mask_kinds_pooled_summary_is_the_card_and_history():
     mask_kind_scenes.py's summary of the three committed builds."""
     mk = load_benchmark("mask_kind_scenes")
     files = ("mask_dev_kinds_S2.json", "mask_dev_kinds_M_s32.json", "mask_dev_kinds_M_s33.json")
-    res = mk.summary([json.loads((RESULTS / f).read_text())["rows"] for f in files],
+    res = mk.summary([result(f)["rows"] for f in files],
                      "fmg.safetensors@1")
-    saved = json.loads((RESULTS / "mask_kinds_summary_M_s31_33.json").read_text())
+    saved = result("mask_kinds_summary_M_s31_33.json")
     assert {k: v["mean"] for k, v in res["kinds"].items()} == {
         k: v["mean"] for k, v in saved["kinds"].items()}
     cells = ", ".join(f"{k} {res['kinds'][k]['mean']:.3f}"
@@ -529,8 +530,8 @@ def test_mask_kinds_pooled_summary_is_the_card_and_history():
 def test_variant_regions_numbers_in_eval_md():
     """docs/eval.md's split of the flare region (the photos' share, each network's PSNR on
     the rest) is variant_regions.py's files."""
-    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
-    k, c = (json.loads((RESULTS / f"variant_regions_{s}_s31.json").read_text())
+    text = page_text("docs/eval.md")
+    k, c = (result(f"variant_regions_{s}_s31.json")
             for s in ("kermit", "cyprus"))
     assert (f"{100 * k['identical_share']:.1f} % (kermit) and {100 * c['identical_share']:.1f} %"
             " (cyprus)") in text
@@ -541,14 +542,14 @@ def test_variant_regions_numbers_in_eval_md():
 def test_consistency_planes_known_depth_is_its_records():
     """The known depth of each arm in docs/history/fill.md's consistency-in-planes table, and
     lund's pair in docs/depth.md, are the depth stage's records."""
-    arms = json.loads((RESULTS / "depth_consistency_planes_coverage_dev.json").read_text())[
+    arms = result("depth_consistency_planes_coverage_dev.json")[
         "arms"]
     pct = {k: f"{100 * v['coverage']:.1f} %" for k, v in arms.items()}
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     for sc, name in (("sceaux", "sceaux_castle"), ("et", "et"), ("lund", "lund")):
         cell = f"| {name} | {pct[sc + '_base']} / {pct[sc + '_k1']} |"
         assert cell in hist, cell
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    depth = page_text("docs/depth.md")
     assert f"({pct['lund_base']} -> {pct['lund_k1']} at 504 px)" in depth
     options = page_text("docs/options.md")
     assert f"{pct['lund_k1']} of the pixels instead of {pct['lund_base']}" in options
@@ -570,7 +571,7 @@ def s90_files(scene: str) -> list[str]:
 
 
 def s90_methods(name: str) -> dict:
-    d = json.loads((RESULTS / name).read_text())
+    d = result(name)
     return d["flare"]["methods"] if "flare" in d else d["methods"]
 
 
@@ -603,7 +604,7 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
         files = s90_files(scene)
         assert len(files) == 3, scene
         for i, f in enumerate(files):
-            d = json.loads((RESULTS / f).read_text())
+            d = result(f)
             part = d.get("flare", d)
             assert part["budget"]["seed"] == i, f
             code = part["provenance"]["code"]
@@ -624,7 +625,7 @@ def test_ninetieth_session_test_scene_seeds_are_their_files():
             f"{max(spans['fern']) - min(spans['fern']):.2f} on fern") in flat
     reached = [x for x in spans["cyprus"] if x >= 2]
     assert " and ".join(f"{x:+.2f}" for x in reached) in flat
-    old = json.loads((RESULTS / "kermit_synth_gnfr_gnt_cpu_s77.json").read_text())["methods"]
+    old = result("kermit_synth_gnfr_gnt_cpu_s77.json")["methods"]
     new = s90_methods("kermit_synth_gnfr_gnt_cpu_s90.json")
     for k in ("gnfr", "gnt", "input", "photos"):  # "to the last digit"
         assert all(new[k]["inputs"][x] == old[k]["inputs"][x]
@@ -681,7 +682,7 @@ def test_ninety_first_session_heldout_diagnosis_is_its_files():
         assert f"| **{scene}, mean of 3** | | | | | | **{m:+.2f}** | **{s:+.2f}** |" in section
         assert abs(m) > 3 * abs(s), scene  # "the models, not the sources"
     assert models["kermit"] < 0 and models["fern"] < 0 and models["cyprus"] > 0
-    net = json.loads((RESULTS / "heldout_swap_kermit_network_s91.json").read_text())["arms"]
+    net = result("heldout_swap_kermit_network_s91.json")["arms"]
     n = {(m, so): net[f"{m}_model_{so}_sources_network"]["psnr"]
          for m in ("gnfr", "gnt") for so in ("gnfr", "gnt")}
     n_model = (n["gnfr", "gnfr"] - n["gnt", "gnfr"] + n["gnfr", "gnt"] - n["gnt", "gnt"]) / 2
@@ -731,7 +732,7 @@ def test_ninety_first_session_heldout_diagnosis_is_its_files():
                     f"masking loss {rise['no_ml']:+.2f}, none reaching GNT") in notes
             assert (f"the models' gap is {models['kermit']:+.2f} of kermit's "
                     f"{seed_mean_heldout('kermit'):+.2f} dB" in notes)
-            goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+            goals = page_text("docs/goals.md")
             lo, hi = sorted(rise[v] for v in ("no_vs", "no_ps", "no_ml"))[::2]
             assert f"lifts kermit's novel views by {lo:.2f} to {hi:.2f} dB, none to GNT's" in goals
             assert (f"the models' gap {models['kermit']:+.2f} dB on kermit, "
@@ -744,7 +745,7 @@ def test_goals_page_rows_follow_their_files():
     text = (REPO / "docs" / "goals.md").read_text()
 
     def load(name):
-        return json.loads((RESULTS / name).read_text())
+        return result(name)
 
     without = load("fmg_loko_full_width_test_h100_s35.json")["kinds"]
     shipped = load("fmg_loko_shipped_M_test_s35.json")["kinds"]
@@ -801,7 +802,7 @@ def test_goals_page_rows_follow_their_files():
         before = load(f"{scene}_synth_gnfr_gnt_cpu_s44.json")["methods"]["gnfr"]["heldout"]
         assert f"{before['psnr']:.2f}" in text, scene  # "before it"
         assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before those"
-    readme = " ".join((REPO / "README.md").read_text().split())
+    readme = page_text("README.md")
     k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s90.json")["methods"] for s in ("kermit", "cyprus"))
     ahead = c["gnfr"]["heldout"]["psnr"] - c["gnt"]["heldout"]["psnr"]
     behind = k["gnt"]["heldout"]["psnr"] - k["gnfr"]["heldout"]["psnr"]
@@ -817,7 +818,7 @@ def test_edge_rays_exploration_rows_follow_their_files():
     """docs/presets.md, "Edge rays, explored": each row is its file's numbers."""
     text = (REPO / "docs" / "presets.md").read_text()
     for scene in ("et", "lund"):
-        res = json.loads((RESULTS / f"finetune_ab_edge_rays_dev_{scene}_s38.json").read_text())
+        res = result(f"finetune_ab_edge_rays_dev_{scene}_s38.json")
         for arm, label in (("base", "default"), ("edge_rays-0.5", "edge rays 0.5")):
             r = res[arm]
             row = (f"| {scene}, {label} | {r['heldout_psnr']:.2f} / {r['heldout_ssim']:.3f} | "
@@ -828,7 +829,7 @@ def test_edge_rays_exploration_rows_follow_their_files():
     prose = " ".join(text.split())
     diff = {}
     for scene in ("et", "lund"):
-        res = json.loads((RESULTS / f"finetune_ab_edge_rays_dev_{scene}_s38.json").read_text())
+        res = result(f"finetune_ab_edge_rays_dev_{scene}_s38.json")
         diff[scene] = {k: res["edge_rays-0.5"][k] - res["base"][k]
                        for k in ("flare_region_psnr", "heldout_psnr")}
     region = [f"{diff[s]['flare_region_psnr']:+.2f}" for s in ("et", "lund")]
@@ -842,8 +843,8 @@ def test_edge_rays_exploration_rows_follow_their_files():
 def test_edge_rays_rule_table_is_its_judge():
     """docs/presets.md's table of the edge-rays rule is the judge's file, and the judge's
     means are the runs' (recomputed here); docs/options.md and goals.md quote its means."""
-    judged = json.loads((RESULTS / "finetune_ab_edge_rays_judge_s39.json").read_text())
-    text = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    judged = result("finetune_ab_edge_rays_judge_s39.json")
+    text = page_text("docs/presets.md")
     names = {"sceaux_synth": "sceaux_castle", "et_synth": "et", "lund_synth": "lund"}
 
     def cells(m):
@@ -873,19 +874,19 @@ def test_edge_rays_rule_table_is_its_judge():
     assert sum(judged["parts"].values()) == len(judged["parts"]) - 1  # (a) alone fails
     mean = f"{judged['mean']['region']:+.3f}"
     assert f"gets {mean};" in text
-    opts = " ".join((REPO / "docs" / "options.md").read_text().split())
+    opts = page_text("docs/options.md")
     assert f"flare region by {mean} dB on the mean" in opts
     assert f"novel views by {judged['mean']['novel']:+.3f} dB" in opts
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     assert f"{mean} dB on the mean" in goals
 
 
 def test_edge_rays_test_scenes_follow_their_files():
     """docs/presets.md's test-scene sentence: each difference and each default arm is the
     file's (the default arms are the thirty-sixth session's rows again)."""
-    text = " ".join((REPO / "docs" / "presets.md").read_text().split())
+    text = page_text("docs/presets.md")
     for scene in ("kermit", "cyprus"):
-        r = json.loads((RESULTS / f"finetune_ab_edge_rays_test_{scene}_s39.json").read_text())
+        r = result(f"finetune_ab_edge_rays_test_{scene}_s39.json")
         a, b = r["edge_rays-0.5"], r["base"]
         d = [a[k] - b[k] for k in ("flare_region_psnr", "inputs_psnr", "heldout_psnr")]
         if scene == "kermit":
@@ -897,7 +898,7 @@ def test_edge_rays_test_scenes_follow_their_files():
             base = f"cyprus {b['flare_region_psnr']:.2f} / {b['inputs_psnr']:.2f}"
         assert base in text, base
         assert f"{b['heldout_psnr']:.2f} dB" in text
-        s36 = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s36.json").read_text())
+        s36 = result(f"{scene}_synth_gnfr_gnt_cpu_s36.json")
         g = s36["methods"]["gnfr"]
         assert (g["inputs"]["psnr_flare"], g["inputs"]["psnr"], g["heldout"]["psnr"]) == (
             b["flare_region_psnr"], b["inputs_psnr"], b["heldout_psnr"])  # "to the last digit"
@@ -906,10 +907,10 @@ def test_edge_rays_test_scenes_follow_their_files():
 def test_performance_depth_stage_with_the_frames_maps_follows_its_files():
     """docs/performance.md: the depth stage's seconds per view without and with the novel
     frames' maps are the files', and WS/depth is the same either way (its digest)."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     names = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     for sc, name in names.items():
-        a, b = (json.loads((RESULTS / f"depth_frames_time_dev_{sc}_{arm}_s44.json").read_text())
+        a, b = (result(f"depth_frames_time_dev_{sc}_{arm}_s44.json")
                 ["depth_stage"] for arm in ("none", "frames"))
         assert f"{name} {a['seconds_per_view']:.2f} / {b['seconds_per_view']:.2f}" in text, sc
         assert a["digest"] == b["digest"] and b["seconds_per_view"] > a["seconds_per_view"]
@@ -919,10 +920,10 @@ def test_the_sample_gives_the_same_deflared_photos_with_the_frames_maps():
     """docs/eval.md (the README's rows): the one-shot at the forty-fourth session's defaults
     (the video's own depth maps) gives the sample's de-flared photos of the forty-first
     session to the digit."""
-    new = json.loads((RESULTS / "sample_oneshot_cpu_s44.json").read_text())["mean"]
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s41_expo.json").read_text())["mean"]
+    new = result("sample_oneshot_cpu_s44.json")["mean"]
+    old = result("sample_oneshot_cpu_s41_expo.json")["mean"]
     assert new == old
-    readme = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    readme = page_text("docs/eval.md")
     assert "to the last digit in 10:34 wall" in readme and "sample_oneshot_cpu_s44.json" in readme
 
 
@@ -930,10 +931,10 @@ def test_the_sample_gives_the_same_deflared_photos_with_the_frames_maps():
 def test_the_one_cost_volume_one_shot_is_the_same_and_its_depth_stage_faster():
     """docs/performance.md: the one-shot with both depth winners from one cost volume gives
     the same photos and its depth stage the quoted seconds."""
-    a = json.loads((RESULTS / "sample_oneshot_cpu_s44.json").read_text())
-    b = json.loads((RESULTS / "sample_oneshot_cpu_s44b.json").read_text())
+    a = result("sample_oneshot_cpu_s44.json")
+    b = result("sample_oneshot_cpu_s44b.json")
     assert a["mean"] == b["mean"]
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     sa, sb = (x["stages"]["depth"]["seconds"] for x in (a, b))
     assert f"{sb:.1f} s ({sa:.1f} s with a second sweep per view)" in text and sb < sa
 
@@ -941,10 +942,10 @@ def test_the_one_cost_volume_one_shot_is_the_same_and_its_depth_stage_faster():
 def test_eval_page_test_scene_frames_of_the_forty_fifth_session_are_the_files():
     """docs/eval.md: the test scenes' held-out frames with the forty-fifth session's fill are
     the eval files' numbers, and those files' de-flared photos equal the forty-fourth's."""
-    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    text = page_text("docs/eval.md")
     for scene in ("kermit", "cyprus"):
-        m = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s45.json").read_text())["methods"]
-        old = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s44.json").read_text())["methods"]
+        m = result(f"{scene}_synth_gnfr_gnt_cpu_s45.json")["methods"]
+        old = result(f"{scene}_synth_gnfr_gnt_cpu_s44.json")["methods"]
         g, n = m["gnfr"]["heldout"], m["gnt"]["heldout"]
         assert (f"{scene} {g['psnr']:.2f} / {g['ssim']:.3f} against {n['psnr']:.2f} / "
                 f"{n['ssim']:.3f}") in text, scene
@@ -956,8 +957,8 @@ def test_eval_page_test_scene_frames_of_the_forty_fifth_session_are_the_files():
 def test_performance_sample_stage_times_of_the_forty_fifth_session_are_the_files():
     """docs/performance.md: the sample one-shot's fine-tune and video times before and with
     the new fill of novel frames are the two files', and their de-flared photos agree."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    runs = [json.loads((RESULTS / f).read_text()) for f in
+    text = page_text("docs/performance.md")
+    runs = [result(f) for f in
             ("sample_oneshot_cpu_s45.json", "sample_oneshot_cpu_s45_before.json")]
     for r in runs:
         st = r["stages"]
@@ -973,9 +974,9 @@ def test_performance_frames_in_two_processes_are_the_files():
     """docs/performance.md: the table of one process against two is the two files' fastest
     passes (rows 0 and 1: chunk 256 with workers 1 and 2), its speed-ups their ratios, and
     the files say the two processes' frames differ from one's by at most one level."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     for n in (48, 12):
-        rows = json.loads((RESULTS / f"render_speed_cpu_{n}f_s46.json").read_text())["rows"]
+        rows = result(f"render_speed_cpu_{n}f_s46.json")["rows"]
         one, two = rows[0], rows[1]
         assert (one["chunk"], one["workers"], two["chunk"], two["workers"]) == (256, 1, 256, 2)
         assert (f"{one['s_per_frame']:.2f} s per frame | {two['s_per_frame']:.2f} s per frame | "
@@ -987,7 +988,7 @@ def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session
     """docs/performance.md: the fine-tune's steps/s on one thread and on two are the runs'
     lines in finetune_threads_cpu_s46.txt (one faster in every pair), and the sample's stage
     times and scores are sample_oneshot_cpu_s46.json's."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     runs = [(int(m[1]), float(m[2])) for m in re.finditer(
         r"^threads (\d): finetune: 300/300 \(\d+ s\) speed=([\d.]+)",
         (RESULTS / "finetune_threads_cpu_s46.txt").read_text(), re.M)]
@@ -996,7 +997,7 @@ def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session
     assert min(one) > max(two)
     assert (f"{one[0]:.2f} and {one[1]:.2f} steps/s on one thread against {two[0]:.2f} and "
             f"{two[1]:.2f} on two") in text
-    rec = json.loads((RESULTS / "sample_oneshot_cpu_s46.json").read_text())
+    rec = result("sample_oneshot_cpu_s46.json")
     st = rec["stages"]
     assert (f"fine-tuning {st['finetune']['seconds']:.1f} s at 7.2 steps/s, the 48 frames "
             f"{st['render:interpolate']['seconds']:.1f} s "
@@ -1010,10 +1011,10 @@ def test_performance_fine_tune_threads_and_the_sample_of_the_forty_sixth_session
 def test_performance_one_shot_before_and_after_the_fill_and_the_speed_ups():
     """docs/performance.md's table of the sample's main job at f4908b8 and at this session's
     code is the two files' (stage times, scores, commits, threads of the fine-tune)."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     for f, commit, threads in (("sample_oneshot_cpu_s46_f4908b8.json", "f4908b8", 2),
                                ("sample_oneshot_cpu_s46_head.json", "0f54f5b", 1)):
-        rec = json.loads((RESULTS / f).read_text())
+        rec = result(f)
         st = rec["stages"]
         assert rec["code"]["commit"].startswith(commit), f
         assert rec["model"]["provenance"]["machine"]["torch_threads"] == threads, f
@@ -1021,7 +1022,7 @@ def test_performance_one_shot_before_and_after_the_fill_and_the_speed_ups():
                  f"{st['render:interpolate']['seconds']:.1f} s | {rec['mean']['psnr_flare']:.2f} "
                  f"/ {rec['mean']['psnr']:.2f} dB |")
         assert cells in text, f
-    a, b = (json.loads((RESULTS / f).read_text())["mean"]["psnr_flare"] for f in
+    a, b = (result(f)["mean"]["psnr_flare"] for f in
             ("sample_oneshot_cpu_s46_head.json", "sample_oneshot_cpu_s46_f4908b8.json"))
     assert f"flare region {a - b:.3f} dB" in text
 
@@ -1035,10 +1036,10 @@ def test_performance_fine_tune_in_two_processes_is_the_files():
 
     from pipeline.finetune import FinetuneConfig
 
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     speed = {}
     for name in ("sample", "sceaux1008"):
-        rec = json.loads((RESULTS / f"finetune_split_cpu_{name}_s47.json").read_text())
+        rec = result(f"finetune_split_cpu_{name}_s47.json")
         one, two = rec["rows"]
         assert (one["workers"], two["workers"], rec["iters"]) == (1, 2, 1000)
         loops = [max(p["loop_it_per_s"] for p in r["passes"]) for r in (one, two)]
@@ -1050,21 +1051,21 @@ def test_performance_fine_tune_in_two_processes_is_the_files():
         speed[name] = f"{two['speedup']:.2f}x"
     for f, commit in (("sample_oneshot_cpu_s47_f70850f.json", "f70850f"),
                       ("sample_oneshot_cpu_s47_head.json", "cf63f10")):
-        rec = json.loads((RESULTS / f).read_text())
+        rec = result(f)
         st = rec["stages"]
         assert rec["code"]["commit"].startswith(commit), f
         cells = (f"{st['finetune']['seconds']:.1f} s | {st['render:inputs']['seconds']:.1f} s | "
                  f"{st['render:interpolate']['seconds']:.1f} s | {rec['mean']['psnr_flare']:.2f} "
                  f"/ {rec['mean']['psnr']:.2f} dB |")
         assert f"| {commit} " in text and cells in text, f
-    base = json.loads((RESULTS / "sample_oneshot_cpu_s47_f70850f.json").read_text())
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s46_head.json").read_text())
+    base = result("sample_oneshot_cpu_s47_f70850f.json")
+    old = result("sample_oneshot_cpu_s46_head.json")
     assert base["mean"] == old["mean"]  # "scored to the digit": the runs are deterministic
     sizes = "x".join(str(int(v)) for v in (1046, 771))
     assert sizes in text
     summary = readme_performance()
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    goals = page_text("docs/goals.md")
+    options = page_text("docs/options.md")
     source = " ".join(inspect.getsource(FinetuneConfig).split())  # the option's help
     for page, body in (("README", summary), ("goals", goals), ("help", source)):
         assert speed["sample"] in body and speed["sceaux1008"] in body, page
@@ -1079,22 +1080,22 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     the earlier runs docs/eval.md names are their files'; the fp32 clone at the session's
     first commit repeats the forty-seventh session's to the digit, whose last clone repeated
     its head's."""
-    readme = " ".join((REPO / "README.md").read_text().split())
-    rows = " ".join((REPO / "docs" / "eval.md").read_text().split())
-    pixels = json.loads((RESULTS / "sample_oneshot_cpu_s73_pixels.json").read_text())
+    readme = page_text("README.md")
+    rows = page_text("docs/eval.md")
+    pixels = result("sample_oneshot_cpu_s73_pixels.json")
     assert pixels["code"]["commit"].startswith("ae048c4")  # the pixel-wise default
     assert f"{pixels['mean']['psnr_flare']:.2f} / {pixels['mean']['psnr']:.2f}" in rows
     # the seventy-ninth session's fresh clone; the seventy-third session's code on the same
     # machine scores the same to the digit (the machine moved the row)
-    s79 = json.loads((RESULTS / "sample_oneshot_cpu_s79_head.json").read_text())
-    again = json.loads((RESULTS / "sample_oneshot_cpu_s79_ae048c4.json").read_text())
+    s79 = result("sample_oneshot_cpu_s79_head.json")
+    again = result("sample_oneshot_cpu_s79_ae048c4.json")
     assert again["code"]["commit"].startswith("ae048c4") and again["mean"] == s79["mean"]
     assert s79["machine"]["platform"] == again["machine"]["platform"]
     assert f"{s79['mean']['psnr_flare']:.2f} / {s79['mean']['psnr']:.2f}" in rows
     # the row since the eighty-fifth session (the fine-tune pads the portrait photo); that
     # session's first commit, run just before on its machine, repeats the s79 clone exactly
-    today = json.loads((RESULTS / "sample_oneshot_cpu_s85_head.json").read_text())
-    first = json.loads((RESULTS / "sample_oneshot_cpu_s85_313090a.json").read_text())
+    today = result("sample_oneshot_cpu_s85_head.json")
+    first = result("sample_oneshot_cpu_s85_313090a.json")
     assert first["code"]["commit"].startswith("313090a") and first["mean"] == s79["mean"]
     assert today["machine"]["platform"] == first["machine"]["platform"]
     assert (f"(the main job above) | {today['mean']['psnr_flare']:.2f} / "
@@ -1103,32 +1104,32 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     first_row = f"{first['mean']['psnr_flare']:.2f} / {first['mean']['psnr']:.2f}"
     notes = readme_notes()  # the README's notes on the row, kept in docs/eval.md
     assert f"{first_row} at that session's first commit" in notes
-    now = json.loads((RESULTS / "sample_oneshot_cpu_s73_head.json").read_text())
+    now = result("sample_oneshot_cpu_s73_head.json")
     assert now["code"]["commit"].startswith("5b30369")  # the regions form
     assert f"{now['mean']['psnr_flare']:.2f} / {now['mean']['psnr']:.2f}" in rows
     for f in ("sample_oneshot_cpu_s73_3938847.json", "sample_oneshot_cpu_s48_head.json"):
-        m = json.loads((RESULTS / f).read_text())["mean"]
+        m = result(f)["mean"]
         assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f}" in notes and f in rows, f
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s73_3938847.json").read_text())
+    perf = page_text("docs/performance.md")
+    old = result("sample_oneshot_cpu_s73_3938847.json")
     assert old["code"]["commit"].startswith("3938847")  # the plain run's last commit
     assert (f"the mask stage {now['stages']['mask']['seconds']:.1f} s against "
             f"{old['stages']['mask']['seconds']:.1f} s for the 8 views") in perf
     assert (f"the mask stage {pixels['stages']['mask']['seconds']:.1f} s, peak 0.99 GB, the "
             f"photos {pixels['mean']['psnr_flare']:.2f} / {pixels['mean']['psnr']:.2f} dB") in perf
-    s47 = json.loads((RESULTS / "sample_oneshot_cpu_s47_head.json").read_text())["mean"]
-    final = json.loads((RESULTS / "sample_oneshot_cpu_s47_final.json").read_text())
-    fp32 = json.loads((RESULTS / "sample_oneshot_cpu_s48_0d97d56.json").read_text())
+    s47 = result("sample_oneshot_cpu_s47_head.json")["mean"]
+    final = result("sample_oneshot_cpu_s47_final.json")
+    fp32 = result("sample_oneshot_cpu_s48_0d97d56.json")
     assert final["mean"] == s47 == fp32["mean"] and final["code"]["commit"].startswith("be7779b")
     st = final["stages"]
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     assert (f"fine-tuning {st['finetune']['seconds']:.1f} s, the 48 frames "
             f"{st['render:interpolate']['seconds']:.1f} s, and the same scores") in perf
     for f, words in (("sample_oneshot_cpu_s47_head.json", "(the forty-seventh session, fp32"),
                      ("sample_oneshot_cpu_s46_head.json", "(the forty-sixth session"),
                      ("sample_oneshot_cpu_s46.json", "(its run on two threads"),
                      ("sample_oneshot_cpu_s41_expo.json", "(the forty-first session")):
-        m = json.loads((RESULTS / f).read_text())["mean"]
+        m = result(f)["mean"]
         assert f"{m['psnr_flare']:.2f} / {m['psnr']:.2f} {words}" in rows, f
 
 
@@ -1136,11 +1137,11 @@ def test_bf16_oneshot_pair_is_its_files():
     """docs/performance.md, README and goals.md: the bf16 one-shot against fp32 (stage times,
     scores, the difference in the flare region) are the two fresh clones' files, and the
     runs did train as said (bf16 recorded in the new one only)."""
-    old = json.loads((RESULTS / "sample_oneshot_cpu_s48_0d97d56.json").read_text())
-    new = json.loads((RESULTS / "sample_oneshot_cpu_s48_head.json").read_text())
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    old = result("sample_oneshot_cpu_s48_0d97d56.json")
+    new = result("sample_oneshot_cpu_s48_head.json")
+    perf = page_text("docs/performance.md")
     summary = readme_performance()
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     o, n = old["stages"], new["stages"]
     for stage in ("finetune", "render:interpolate"):
         pair = f"{o[stage]['seconds']:.1f} s against {n[stage]['seconds']:.1f} s"
@@ -1163,7 +1164,7 @@ def test_bf16_oneshot_pair_is_its_files():
 
     pair = f"{n['finetune']['seconds']:.1f} s against {o['finetune']['seconds']:.1f} s in fp32"
     assert pair in " ".join(inspect.getsource(FinetuneConfig).split())
-    assert pair in " ".join((REPO / "docs" / "options.md").read_text().split())
+    assert pair in page_text("docs/options.md")
     assert f"({o['finetune']['seconds'] / n['finetune']['seconds']:.2f}x in the default two" in perf
     assert "cpu_bf16" not in old["model"]["provenance"]["train"]  # before the setting
 
@@ -1172,8 +1173,8 @@ def test_performance_bf16_without_native_bf16_is_its_file():
     """docs/performance.md's frames on a CPU without native bf16 (emulated by limiting oneDNN
     and ATen to AVX2) are render_bf16_cpu_avx2_sample_s48.json's, and the run did see no
     native bf16."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    r = json.loads((RESULTS / "render_bf16_cpu_avx2_sample_s48.json").read_text())
+    text = page_text("docs/performance.md")
+    r = result("render_bf16_cpu_avx2_sample_s48.json")
     assert r["native_bf16"] is False and r["onednn_max_cpu_isa"] == "AVX2"
     assert r["aten_cpu_capability"] == "AVX2"
     assert (f"{r['s_per_frame']['fp32']:.2f} s per frame in fp32 and "
@@ -1188,8 +1189,8 @@ def test_bf16_rule_table_and_decision_are_the_judgments():
     means and the render-alone bound."""
     text = (REPO / "docs" / "performance.md").read_text()
     flat = " ".join(text.split())
-    j = json.loads((RESULTS / "bf16_judge_speed_s48.json").read_text())
-    r = json.loads((RESULTS / "rbf16_judge_speed_s48.json").read_text())
+    j = result("bf16_judge_speed_s48.json")
+    r = result("rbf16_judge_speed_s48.json")
     assert j["decision"] == "passes" and r["decision"] == "passes" and j["rule"] == "speed"
     # the module's value as written, not the suite's (conftest holds the suite to fp32)
     assert "\nAUTO_BF16 = True\n" in (REPO / "gnfr" / "renderer.py").read_text()
@@ -1200,7 +1201,7 @@ def test_bf16_rule_table_and_decision_are_the_judgments():
     assert (f"flare region {r['mean']['psnr_flare']:+.3f} dB, novel views "
             f"{r['mean']['held']:+.3f} dB on the mean") in flat
     assert max(abs(v) for d in r["per_scene"].values() for v in d.values()) < 0.01
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert (f"region {j['mean']['psnr_flare']:+.3f} dB and novel views "
             f"{j['mean']['held']:+.3f} dB on the mean") in options
 
@@ -1209,10 +1210,10 @@ def test_bf16_test_scene_table_is_the_evals():
     """docs/performance.md's test-scene table (fp32 and bf16 evals of kermit and cyprus) and
     goals.md's margins are the four eval files', and the arms trained as labelled."""
     text = (REPO / "docs" / "performance.md").read_text()
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     for scene in ("kermit", "cyprus"):
         for arm in ("fp32", "bf16"):
-            r = json.loads((RESULTS / f"{scene}_synth_gnfr_gnt_cpu_s48_{arm}.json").read_text())
+            r = result(f"{scene}_synth_gnfr_gnt_cpu_s48_{arm}.json")
             g, t = r["methods"]["gnfr"], r["methods"]["gnt"]
             margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
             row = (f"| {scene} | {arm} | {g['inputs']['psnr_flare']:.2f} / "
@@ -1233,15 +1234,15 @@ def test_performance_bf16_frames_exploration_is_its_file():
     differences are render_bf16_cpu_sample_s47.json's."""
     import inspect
 
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    r = json.loads((RESULTS / "render_bf16_cpu_sample_s47.json").read_text())
+    text = page_text("docs/performance.md")
+    r = result("render_bf16_cpu_sample_s47.json")
     assert r["native_bf16"] is True
     assert (f"{r['s_per_frame']['fp32']:.2f} s per frame in fp32 against "
             f"{r['s_per_frame']['bf16']:.2f} s with bf16 autocast, {r['speedup']:.2f}x") in text
     assert (f"{r['psnr_bf16_vs_fp32']:.1f} dB from the fp32 frames, but "
             f"{r['share_of_values_differing'] * 100:.1f} % of the values differ and the largest "
             f"difference is {r['max_abs_diff']} levels") in text
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert (f"frames {r['speedup']:.2f}x faster on this EPYC, {r['psnr_bf16_vs_fp32']:.1f} dB "
             f"from the fp32 frames with a few pixels up to {r['max_abs_diff']} levels "
             "off") in options
@@ -1259,9 +1260,9 @@ def test_key_blend_rules_tables_and_defaults_are_the_judgments():
     from pipeline.render.config import NOVEL_CPU_FILL, NOVEL_NEAREST_SOURCE
 
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
-    eb = json.loads((RESULTS / "eb_judge_eb25_s49.json").read_text())
-    eb100 = json.loads((RESULTS / "eb_judge_eb100_s49.json").read_text())
-    guard = json.loads((RESULTS / "eb_guard_eb25_s49.json").read_text())
+    eb = result("eb_judge_eb25_s49.json")
+    eb100 = result("eb_judge_eb100_s49.json")
+    guard = result("eb_guard_eb25_s49.json")
     assert eb["decision"] == eb100["decision"] == "fails (b)"
     assert eb["per_scene"] == eb100["per_scene"]  # the same sources on these scenes
     assert ("| `s49_eb25`, `s49_eb100` | " + " | ".join(
@@ -1272,32 +1273,32 @@ def test_key_blend_rules_tables_and_defaults_are_the_judgments():
         return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
 
     for c in ("kb50", "nkb50", "near"):
-        j = json.loads((RESULTS / f"keys_judge_{c}_s49.json").read_text())
-        g = json.loads((RESULTS / f"keys_guard_{c}_s49.json").read_text())
+        j = result(f"keys_judge_{c}_s49.json")
+        g = result(f"keys_guard_{c}_s49.json")
         assert j["rule"] == "keys" and g["rule"] == "keys-guard" and j["seeds"] == [22, 23]
         assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
                 + f" | {cell(j['mean'])} | {cell(g['mean'])} | {j['decision']}, guard "
                 f"{g['decision']} |") in fill, c
-    chosen = json.loads((RESULTS / "keys_judge_nkb50_s49.json").read_text())
-    gains = {c: json.loads((RESULTS / f"keys_judge_{c}_s49.json").read_text())["mean"]["keys"]
+    chosen = result("keys_judge_nkb50_s49.json")
+    gains = {c: result(f"keys_judge_{c}_s49.json")["mean"]["keys"]
              for c in ("kb50", "nkb50", "near")}
     assert chosen["decision"] == "passes" and max(gains, key=gains.get) == "nkb50"
     assert NOVEL_CPU_FILL["key_blend"] == 0.5 and NOVEL_NEAREST_SOURCE is True
     m = chosen["mean"]
-    near = json.loads((RESULTS / "keys_judge_near_s49.json").read_text())["mean"]
+    near = result("keys_judge_near_s49.json")["mean"]
     et = chosen["per_scene"]["et_p5"]["held"]
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
+    options = page_text("docs/options.md")
     assert (f"gained {m['keys']:.2f} dB on three development scenes flared like the sample and "
             f"the held-out views between them {m['held']:+.3f} dB on the mean, et's "
             f"{et:.2f} dB") in options
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    depth = page_text("docs/depth.md")
     assert (f"the frames at the photos' own cameras {m['keys']:+.2f} dB, the held-out views "
             f"between them {m['held']:+.3f} dB on the mean (et {et:.2f} dB)") in depth
     assert (f"alone {near['keys']:+.2f} dB at the photos' cameras and {near['held']:+.3f} dB "
             "held-out") in depth
-    guard = json.loads((RESULTS / "keys_guard_nkb50_s49.json").read_text())
+    guard = result("keys_guard_nkb50_s49.json")
     per = [d["keys"] for d in [*chosen["per_scene"].values(), *guard["per_scene"].values()]]
-    paths = " ".join((REPO / "docs" / "camera_paths.md").read_text().split())
+    paths = page_text("docs/camera_paths.md")
     assert f"gained {min(per):.1f} to {max(per):.1f} dB per development scene" in paths
     before = [d["keys"] for d in chosen["means"]["baseline"].values()]
     after = [d["keys"] for d in chosen["means"]["candidate"].values()]
@@ -1312,10 +1313,10 @@ def test_key_blend_test_scene_rows_are_their_files():
     four rerenders' files; the 'old' arms rendered with the options off, the 'new' ones
     with today's defaults (key blend 0.5, the nearest source)."""
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     for s in ("kermit", "cyprus"):
-        o = json.loads((RESULTS / f"keys_test_{s}_s49_old.json").read_text())
-        n = json.loads((RESULTS / f"keys_test_{s}_s49_new.json").read_text())
+        o = result(f"keys_test_{s}_s49_old.json")
+        n = result(f"keys_test_{s}_s49_new.json")
         assert (f"| {s} | {o['keys']['psnr']:.2f} / {o['keys']['psnr_flare']:.2f} | "
                 f"{n['keys']['psnr']:.2f} / {n['keys']['psnr_flare']:.2f} | "
                 f"{o['heldout']['psnr']:.2f} / {o['heldout']['ssim']:.3f} | "
@@ -1334,7 +1335,7 @@ def test_key_blend_reported_seeds_and_ets_loss_are_the_files():
     and its range of et's held-out losses over six draws is the arm files'."""
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
     flat = " ".join(fill.split())
-    j = json.loads((RESULTS / "keys_report_nkb50_s2021_s49.json").read_text())
+    j = result("keys_report_nkb50_s2021_s49.json")
 
     def cell(d):
         return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
@@ -1347,7 +1348,7 @@ def test_key_blend_reported_seeds_and_ets_loss_are_the_files():
               for s in (10, 11)]
     diffs = []
     for b, c in pairs:
-        rb, rc = (json.loads((RESULTS / f).read_text())["heldout"] for f in (b, c))
+        rb, rc = (result(f)["heldout"] for f in (b, c))
         diffs.append((rc["psnr"] - rb["psnr"], rc["ssim"] - rb["ssim"]))
     assert all(d < 0 for d, _ in diffs)
     lo, hi = -max(d for d, _ in diffs), -min(d for d, _ in diffs)
@@ -1360,10 +1361,10 @@ def test_key_blend_cost_is_the_one_shot_pair():
     """docs/performance.md's one-shot pair of the forty-ninth session: the stage times are
     the two files', the de-flared photos scored alike, and the README names its scores as the
     sample's row until the seventy-third session."""
-    o = json.loads((RESULTS / "sample_oneshot_cpu_s49_f9719de.json").read_text())
-    h = json.loads((RESULTS / "sample_oneshot_cpu_s49_head.json").read_text())
+    o = result("sample_oneshot_cpu_s49_f9719de.json")
+    h = result("sample_oneshot_cpu_s49_head.json")
     assert o["code"]["commit"].startswith("f9719de") and h["code"]["commit"].startswith("e8c259f")
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    text = page_text("docs/performance.md")
     fo, fh = (r["stages"]["render:interpolate"]["seconds"] for r in (o, h))
     to, th = (r["stages"]["finetune"]["seconds"] for r in (o, h))
     assert (f"the 48 frames {fh:.1f} s against {fo:.1f} s, the fine-tune {th:.1f} s against "
@@ -1378,8 +1379,8 @@ def test_key_blend_shorter_reach_row_is_its_exploration():
     """fill.md's row of the shorter reach (explored after the decision) is its judge file's,
     and its gains at the photos' cameras equal the chosen arm's (distance 0 for any reach)."""
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
-    j = json.loads((RESULTS / "keys_explore_nkb25_s49.json").read_text())
-    chosen = json.loads((RESULTS / "keys_judge_nkb50_s49.json").read_text())
+    j = result("keys_explore_nkb25_s49.json")
+    chosen = result("keys_judge_nkb50_s49.json")
 
     def cell(d):
         return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
@@ -1402,25 +1403,25 @@ def test_key_blend_reach_outcome_rows_are_the_judgments():
         return f"{d['held']:+.3f} / {d['held_ssim']:+.3f} / {d['keys']:+.2f}"
 
     for c in ("nkb25", "nkb50o", "nkb25o", "near"):
-        j = json.loads((RESULTS / f"reach_judge_{c}_s50.json").read_text())
+        j = result(f"reach_judge_{c}_s50.json")
         assert j["rule"] == "reach" and j["seeds"] == [24, 25] and j["baseline"] == "s50_nkb50"
         assert j["decision"].startswith("fails")
         assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
                 + f" | {cell(j['mean'])} | {j['decision']} |") in fill, c
-    near = json.loads((RESULTS / "reach_judge_near_s50.json").read_text())
+    near = result("reach_judge_near_s50.json")
     m, per = near["mean"], near["per_scene"]
     assert (f"the held-out views are {-m['held']:+.3f} dB and {-m['held_ssim']:+.3f} SSIM on "
             f"the mean (sceaux_p4h {-per['sceaux_p4h']['held']:+.3f}, lund_k4h "
             f"{-per['lund_k4h']['held']:+.3f}; et_p5h's three cameras lie beyond the reach of "
             f"any photo, {per['et_p5h']['held']:.3f}), the frames at the photos' cameras "
             f"{-m['keys']:+.2f} dB") in flat
-    occl = json.loads((RESULTS / "reach_judge_nkb50o_s50.json").read_text())["per_scene"]
+    occl = result("reach_judge_nkb50o_s50.json")["per_scene"]
     lo, hi = sorted(-d["keys"] for d in occl.values())[::2]
     assert f"costs the frames at the photos' own cameras {lo:.1f} to {hi:.1f} dB" in flat
     assert NOVEL_CPU_FILL["key_blend"] == 0.5 and RenderConfig().key_occlusion is False
     for sd in (24, 25):  # the arms ran the code of the rule's commit
         for s in ("sceaux_p4h", "et_p5h", "lund_k4h"):
-            r = json.loads((RESULTS / f"fmg_s50_nkb25o_fair_{s}_s{sd}.json").read_text())
+            r = result(f"fmg_s50_nkb25o_fair_{s}_s{sd}.json")
             assert r["code"]["commit"].startswith("c6f23f7") and not r["code"]["dirty"]
 
 
@@ -1436,13 +1437,13 @@ def test_key_blend_falloff_outcome_rows_are_the_judgments():
         return f"{d['held']:+.3f} / {d['held_ssim']:+.3f} / {d['keys']:+.2f}"
 
     for c in ("nkb50p2", "nkb50p3"):
-        j = json.loads((RESULTS / f"fall_judge_{c}_s50.json").read_text())
+        j = result(f"fall_judge_{c}_s50.json")
         assert j["rule"] == "reach" and j["seeds"] == [24, 25] and j["baseline"] == "s50_nkb50"
         assert j["decision"] == "fails (a)"
         assert (f"| `{c}` | " + " | ".join(cell(d) for d in j["per_scene"].values())
                 + f" | {cell(j['mean'])} | {j['decision']} |") in fill, c
     assert RenderConfig().key_power == 1.0
-    base = json.loads((RESULTS / "fall_judge_nkb50p2_s50.json").read_text())["means"]["baseline"]
+    base = result("fall_judge_nkb50p2_s50.json")["means"]["baseline"]
     held = sorted(d["held"] for d in base.values())
     keys = sorted(d["keys"] for d in base.values())
     assert (f"the held-out views ({held[0]:.1f}-{held[-1]:.1f} dB on these scenes, where the "
@@ -1452,8 +1453,8 @@ def test_key_blend_falloff_outcome_rows_are_the_judgments():
 def test_depth_options_table_quotes_the_fiftieth_session_files():
     """docs/depth.md's rows of the key blend's options quote the fiftieth session's judge
     files."""
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
-    load = lambda n: json.loads((RESULTS / n).read_text())["mean"]  # noqa: E731
+    depth = page_text("docs/depth.md")
+    load = lambda n: result(n)["mean"]  # noqa: E731
     near, short, occl = (load(f"reach_judge_{c}_s50.json") for c in ("near", "nkb25", "nkb50o"))
     assert (f"{-near['held']:+.3f} dB and {-near['held_ssim']:+.3f} SSIM against no lean, and a "
             f"reach of 0.25 lower by {-short['held']:.3f} dB") in depth
@@ -1466,7 +1467,7 @@ def test_depth_options_table_quotes_the_fiftieth_session_files():
 def test_fern_at_todays_defaults_sentences_are_the_file():
     """The README's and depth.md's sentences on fern at the fiftieth session's defaults: the
     flare region's gains over the flared input, and the hybrid fill now above GN-FR alone."""
-    d = json.loads((RESULTS / "fern_llff_quick_cpu_s50.json").read_text())
+    d = result("fern_llff_quick_cpu_s50.json")
     f = d["flare"]["methods"]
     gn, gt, inp = (f[k]["inputs"]["psnr_flare"] for k in ("gnfr", "gnt", "input"))
     notes = readme_notes()
@@ -1475,10 +1476,10 @@ def test_fern_at_todays_defaults_sentences_are_the_file():
     c = d["clean"]["methods"]
     hy, net = c["gnfr_hybrid"]["heldout"], c["gnfr_network"]["heldout"]
     assert hy["psnr"] > net["psnr"]
-    rows = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    rows = page_text("docs/eval.md")
     assert (f"The hybrid fill now scores above GN-FR alone there ({net['psnr']:.2f} / "
             f"{net['ssim']:.3f})") in rows
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    depth = page_text("docs/depth.md")
     assert f"{hy['psnr']:.2f} against {net['psnr']:.2f} dB" in depth
     assert d["clean"]["provenance"]["code"]["commit"].startswith("e38f2f7")
 
@@ -1487,14 +1488,14 @@ def test_fern_at_the_looser_agreement_is_the_fiftieth_sessions_model():
     """fern_llff_quick_cpu_s51_agree.json renders the fiftieth session's fern model again (the
     docs say "its model held fixed"): the same checkpoint, GN-FR alone the same to the digit,
     and only the hybrid fill moved, every held-out view up as docs/eval.md says."""
-    old, new = (json.loads((RESULTS / f).read_text())["clean"]
+    old, new = (result(f)["clean"]
                 for f in ("fern_llff_quick_cpu_s50.json", "fern_llff_quick_cpu_s51_agree.json"))
     assert new["methods"]["gnfr_network"]["heldout"] == old["methods"]["gnfr_network"]["heldout"]
     assert new["budget"] == old["budget"]
     a, b = (d["methods"]["gnfr_hybrid"]["heldout"]["views"] for d in (old, new))
     gains = [b[s]["psnr"] - a[s]["psnr"] for s in a]
     assert min(gains) > 0
-    evl = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    evl = page_text("docs/eval.md")
     assert f"by {min(gains):.2f} to {max(gains):.2f} dB" in evl
     assert new["provenance"]["code"]["commit"].startswith("eea6f82")
 
@@ -1502,8 +1503,8 @@ def test_fern_at_the_looser_agreement_is_the_fiftieth_sessions_model():
 def test_goals_fiftieth_session_summary_is_the_reference_file():
     """goals.md's summary of the fiftieth session quotes the `near` reference's held-out gain
     (today's key blend against no lean)."""
-    near = json.loads((RESULTS / "reach_judge_near_s50.json").read_text())["mean"]
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    near = result("reach_judge_near_s50.json")["mean"]
+    goals = page_text("docs/goals.md")
     assert (f"today's key blend held, {-near['held']:+.3f} dB and {-near['held_ssim']:+.3f} SSIM "
             "on the held-out views against no lean") in goals
 
@@ -1511,9 +1512,9 @@ def test_goals_fiftieth_session_summary_is_the_reference_file():
 def test_held_out_photo_share_sentence_is_the_fill_regions_file():
     """fill.md's shares of the held-out views drawn by the photos alone, and both parts'
     PSNR, are fill_regions_heldout_s50.json's."""
-    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"]
+    d = result("fill_regions_heldout_s50.json")["scenes"]
     s, e, lu = (d[f"{n}_synth"] for n in ("sceaux_p4h", "et_p5h", "lund_k4h"))
-    flat = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    flat = page_text("docs/history/fill.md")
     assert (f"are {100 * s['photo_share']:.0f} % of sceaux_p4h's held-out views, "
             f"{100 * e['photo_share']:.0f} % of et_p5h's and {100 * lu['photo_share']:.0f} % "
             f"of lund_k4h's, and score {s['heldout_cameras']['photo']:.2f}, "
@@ -1525,22 +1526,22 @@ def test_held_out_photo_share_sentence_is_the_fill_regions_file():
 
 def test_goals_held_out_parts_are_the_fill_regions_file():
     """goals.md's ranges of the held-out views' two parts are fill_regions_heldout_s50.json's."""
-    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"].values()
+    d = result("fill_regions_heldout_s50.json")["scenes"].values()
     share = sorted(100 * (1 - m["photo_share"]) for m in d)
     net = sorted(m["heldout_cameras"]["network"] for m in d)
     photo = sorted(m["heldout_cameras"]["photo"] for m in d)
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     assert (f"({share[0]:.0f}-{share[-1]:.0f} % of their pixels on those scenes, "
             f"{net[0]:.1f}-{net[-1]:.1f} dB, where the pixels the photos alone draw score "
             f"{photo[0]:.1f}-{photo[-1]:.1f} dB;") in goals
-    readme = " ".join((REPO / "README.md").read_text().split())
+    readme = page_text("README.md")
     assert (f"most of a frame is GN-FR's own render ({share[0]:.0f}-{share[-1]:.0f} % of the "
             "held-out views of three development scenes)") in readme
 
 
 def test_network_scale_exploration_rows_are_the_fill_regions_file():
     """fill.md's table of the part GN-FR decides at four sizes is fill_regions_heldout_s50's."""
-    d = json.loads((RESULTS / "fill_regions_heldout_s50.json").read_text())["scenes"]
+    d = result("fill_regions_heldout_s50.json")["scenes"]
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
     for s in ("sceaux_p4h", "et_p5h", "lund_k4h"):
         m = d[f"{s}_synth"]
@@ -1555,7 +1556,7 @@ def test_network_scale_exploration_times_are_the_times_file():
     for line in (RESULTS / "network_scale_times_s50.txt").read_text().splitlines():
         scene, scale, secs, _ = line.split()
         times[(scene, scale)] = float(secs)
-    flat = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    flat = page_text("docs/history/fill.md")
     order = ("sceaux_p4h", "et_p5h", "lund_k4h")
     full = " / ".join(f"{times[(s, 'ns1.0')]:.1f}" for s in order)
     half = " / ".join(f"{times[(s, 'ns0.5')]:.1f}" for s in order)
@@ -1578,7 +1579,7 @@ def test_looser_agreement_rows_are_the_judgments_and_the_default():
     verdicts = {}
     for c in ("ag12", "ag16"):
         for k, lab in labels.items():
-            j = json.loads((RESULTS / f"agree_{k}_{c}_s50.json").read_text())
+            j = result(f"agree_{k}_{c}_s50.json")
             assert j["rule"] == ("reach" if k == "judge" else "reach-guard")
             verdicts[c, k] = j["decision"]
             row = [ln for ln in fill.splitlines() if ln.startswith(f"| `{c}`, {lab}")]
@@ -1588,7 +1589,7 @@ def test_looser_agreement_rows_are_the_judgments_and_the_default():
     assert all(verdicts["ag12", k] == "passes" for k in labels)
     assert verdicts["ag16", "judge"] == "passes" and verdicts["ag16", "guard49"] == "fails (b)"
     assert NOVEL_CPU_FILL["novel_agree"] == 0.12 and AGREE == 0.08
-    gain = json.loads((RESULTS / "agree_judge_ag12_s50.json").read_text())["mean"]["held"]
+    gain = result("agree_judge_ag12_s50.json")["mean"]["held"]
     for page in ("docs/options.md", "docs/depth.md"):
         assert f"+{gain:.3f} dB" in " ".join((REPO / page).read_text().split()), page
 
@@ -1597,9 +1598,9 @@ def test_looser_agreement_test_scene_rows_are_their_files():
     """fill.md's test-scene rows of the agreement rule and goals.md's summary are the four
     rerenders' files; the de-flared photos are the same in both."""
     fill = (REPO / "docs" / "history" / "fill.md").read_text()
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    goals = page_text("docs/goals.md")
     for s in ("kermit", "cyprus"):
-        o, n = (json.loads((RESULTS / f"agree_test_{s}_s50_{a}.json").read_text())
+        o, n = (result(f"agree_test_{s}_s50_{a}.json")
                 for a in ("old", "new"))
         assert (f"| {s} | {o['heldout']['psnr']:.2f} / {o['heldout']['ssim']:.3f} | "
                 f"{n['heldout']['psnr']:.2f} / {n['heldout']['ssim']:.3f} | "
@@ -1613,8 +1614,8 @@ def test_looser_agreement_test_scene_rows_are_their_files():
 def test_sample_one_shot_at_the_looser_agreement_keeps_the_photos():
     """The fiftieth session's one-shot at the looser agreement scored the de-flared photos as
     the forty-ninth's head did (the option never touches them)."""
-    a = json.loads((RESULTS / "sample_oneshot_cpu_s49_head.json").read_text())
-    b = json.loads((RESULTS / "sample_oneshot_cpu_s50_head.json").read_text())
+    a = result("sample_oneshot_cpu_s49_head.json")
+    b = result("sample_oneshot_cpu_s50_head.json")
     assert a["mean"] == b["mean"]
     assert b["code"]["commit"].startswith("eef1146")
     assert b["code"]["dirty_files"] == ["oneshot.log"]  # only the log the script writes
@@ -1626,7 +1627,7 @@ def test_refiner_exploration_tables_are_its_runs():
     and the outcome's counts and ranges are those runs'."""
     import numpy as np
 
-    runs = json.loads((RESULTS / "refine_sim_s51.json").read_text())["runs"]
+    runs = result("refine_sim_s51.json")["runs"]
     text = (REPO / "docs" / "history" / "fill.md").read_text()
     section = text[text.index("## A per-scene refiner of the frames, explored"):]
     flat = " ".join(section.split())
@@ -1667,9 +1668,9 @@ def test_refiner_exploration_tables_are_its_runs():
 def test_refiner_across_scenes_sentences_are_its_runs():
     """docs/history/fill.md and goals.md: the cross-scene refiner's gains, pairs and training
     seconds are refine_cross_s51.json's."""
-    runs = json.loads((RESULTS / "refine_cross_s51.json").read_text())["runs"]
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    goals = " ".join((REPO / "docs" / "goals.md").read_text().split())
+    runs = result("refine_cross_s51.json")["runs"]
+    hist = page_text("docs/history/fill.md")
+    goals = page_text("docs/goals.md")
     label = {"sceaux": "sceaux_castle", "et": "et", "lund": "lund"}
     for fam, r in runs.items():
         m = r["mean"]
@@ -1685,7 +1686,7 @@ def _flow_rows(name: str) -> dict:
     import numpy as np
 
     rows: dict = {}
-    for folder, rec in json.loads((RESULTS / name).read_text())["flow"].items():
+    for folder, rec in result(name)["flow"].items():
         build, arm = Path(folder).name.rsplit("_", 1)
         steps = np.asarray(rec["steps"])
         rows.setdefault(build, {})[arm] = (float(np.percentile(steps, 90) / np.median(steps)),
@@ -1699,10 +1700,10 @@ def test_video_pace_tables_and_sentences_are_their_files():
     and counts the third rule reads) are path_motion_*_s52.json's."""
     import numpy as np
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     label = {"sceaux_synth": "sceaux_castle", "et_synth": "et", "lund_synth": "lund"}
-    first = json.loads((RESULTS / "path_motion_dev_s52.json").read_text())["scenes"]
-    points = json.loads((RESULTS / "path_motion_dev_points_s52.json").read_text())["scenes"]
+    first = result("path_motion_dev_s52.json")["scenes"]
+    points = result("path_motion_dev_points_s52.json")["scenes"]
     for ws, r in first.items():
         name = label[Path(ws).parent.name]
         assert f"{name} {r['travel']['max']:.4f} -> {r['today']['max']:.4f}" in hist
@@ -1734,8 +1735,8 @@ def test_video_pace_tables_and_sentences_are_their_files():
 def test_video_pace_test_scenes_are_their_file():
     """docs/history/fill.md, the README and docs/camera_paths.md: the test scenes' points'
     pace (largest step, largest over median) is path_motion_test_s52.json's."""
-    scenes = json.loads((RESULTS / "path_motion_test_s52.json").read_text())["scenes"]
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    scenes = result("path_motion_test_s52.json")["scenes"]
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
     label = {"cyprus.deflare": "the sample (cyprus)", "kermit_bf16": "kermit",
              "fern_ws": "fern"}
@@ -1749,7 +1750,7 @@ def test_video_pace_test_scenes_are_their_file():
             assert f"{t['max']:.3f} of the width before, {n['max']:.3f} now" in notes
             # its pace a second at the CPU's 12 fps and 4 s, as the README and paths page say
             pct = f"{100 * n['median'] * 12:.0f} %"
-            paths = " ".join((REPO / "docs" / "camera_paths.md").read_text().split())
+            paths = page_text("docs/camera_paths.md")
             options = page_text("docs/options.md")  # its "At a glance" table
             assert f"(the sample: {pct} of the frame's width a second" in options
             assert f"4-second tour moves {pct} a second at 12 fps" in paths
@@ -1758,12 +1759,12 @@ def test_video_pace_test_scenes_are_their_file():
 def test_video_pace_sample_flow_and_cost_are_their_files():
     """The sample's video before and after the pace (its frames' flow) in the history and
     README, and docs/performance.md's one-shot pair and render times, are the files'."""
-    flow = json.loads((RESULTS / "path_motion_sample_flow_s52.json").read_text())["flow"]
+    flow = result("path_motion_sample_flow_s52.json")["flow"]
     (old,) = [v for k, v in flow.items() if "fresh51o" in k]
     (new,) = [v for k, v in flow.items() if "s52head" in k]
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     assert f"step {old['max']:.4f} -> {new['max']:.4f} of the width" in hist
     assert f"{old['max_over_median']:.2f} -> {new['max_over_median']:.2f}" in hist
     assert f"optical flow {old['max']:.3f} and {new['max']:.3f}" in notes
@@ -1794,7 +1795,7 @@ def _oneshot_pair(perf: str, head: tuple[str, str], base: tuple[str, str]) -> No
     their scores quoted."""
     recs = []
     for name, commit in (head, base):
-        rec = json.loads((RESULTS / name).read_text())
+        rec = result(name)
         assert rec["code"]["commit"].startswith(commit), name
         recs.append(rec)
     st = [(r["stages"]["render:interpolate"]["seconds"], r["stages"]["finetune"]["seconds"])
@@ -1811,11 +1812,11 @@ def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
     degrees) is the turn between consecutive cameras of the sample's old path."""
     import numpy as np
 
-    frames = json.loads((RESULTS / "sample_path_cameras_49b4096.json").read_text())["frames"]
+    frames = result("sample_path_cameras_49b4096.json")["frames"]
     R = np.array([np.asarray(f["c2w"])[:3, :3] for f in frames])
     cos = (np.trace(np.swapaxes(R[:-1], 1, 2) @ R[1:], axis1=1, axis2=2) - 1) / 2
     turn = np.degrees(np.arccos(np.clip(cos, -1, 1)))
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     assert f"whip-pan of {turn.max():.0f} degrees a frame at 12 fps" in hist
     assert 1 <= np.median(turn) <= 5 and "frames between them turn 1-5 degrees" in hist
 
@@ -1823,7 +1824,7 @@ def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
 def _judge_rows(name: str) -> tuple[dict, dict]:
     """(the judge file ``name`` of benchmarks/video_flicker.py --judge, {build's short name:
     its table cells "largest | mean | sharpness", each "before -> after"})."""
-    rec = json.loads((RESULTS / name).read_text())
+    rec = result(name)
     cells = {Path(cand).name.split("_s50_")[0]: " | ".join(
         f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in ("largest", "mean", "sharpness"))
         for cand, r in rec["builds"].items()}
@@ -1834,11 +1835,11 @@ def test_source_fade_rule_is_its_files():
     """docs/history/fill.md's table of the cross-fade's rule, its means and verdicts, and the
     numbers the README, docs/options.md and the option's docstring quote are the judge
     files' (fade_judge_fade{1,2}_s53.json), and the verdicts follow the rule."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+    hist = page_text("docs/history/fill.md")
+    options = page_text("docs/options.md")
+    config = page_text("pipeline/render/config.py")
     one, cells = _judge_rows("fade_judge_fade1_s53.json")
-    two = json.loads((RESULTS / "fade_judge_fade2_s53.json").read_text())
+    two = result("fade_judge_fade2_s53.json")
     for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
         assert f"| {short} | {row} | {r['renders_per_frame'][1]:.2f} |" in hist, short
         assert r["unfaded_identical"] == r["unfaded_frames"]
@@ -1864,7 +1865,7 @@ def _step_phrase(name: str, third: str = "sharpness") -> tuple[dict, dict, str]:
     """(the one build's row, the relative changes, the phrase "the largest step A -> B (x %),
     the steps' mean C -> D (y %), THIRD z %") of a one-build judge file of
     benchmarks/video_flicker.py --judge."""
-    rec = json.loads((RESULTS / name).read_text())
+    rec = result(name)
     (r,) = rec["builds"].values()
     rel = rec["relative"]
     return r, rel, (f"the largest step {r['largest'][0]:.4f} -> {r['largest'][1]:.4f} "
@@ -1876,7 +1877,7 @@ def _step_phrase(name: str, third: str = "sharpness") -> tuple[dict, dict, str]:
 def test_source_fade_on_the_sample_is_its_file():
     """The sample's video with and without the cross-fade (README, docs/history/fill.md) is
     fade_sample_s53.json's."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
     r, rel, phrase = _step_phrase("fade_sample_s53.json")
     assert r["unfaded_identical"] == r["unfaded_frames"] == 42
@@ -1890,11 +1891,11 @@ def test_source_hold_rule_is_its_files():
     """docs/history/fill.md's table of the hold's rule, its means and verdicts, and the
     numbers docs/options.md and the option's docstring quote are the judge files'
     (hold_judge_hold{1,2}_s53.json); both fail (c), as the history says."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
+    hist = page_text("docs/history/fill.md")
+    options = page_text("docs/options.md")
+    config = page_text("pipeline/render/config.py")
     one, cells = _judge_rows("hold_judge_hold1_s53.json")
-    two = json.loads((RESULTS / "hold_judge_hold2_s53.json").read_text())
+    two = result("hold_judge_hold2_s53.json")
     for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
         rpf = r["renders_per_frame"]
         assert f"| {short} | {row} | {rpf[0]:.2f} -> {rpf[1]:.2f} |" in hist, short
@@ -1919,7 +1920,7 @@ def test_the_cross_fades_cost_is_its_files():
     """docs/performance.md, "The cross-fade's cost": the one-shots' stage times and scores
     (sample_oneshot_cpu_s53_{head,c9a6309}.json), the four renders in turn
     (fade_sample_times_s53.txt) and the head video's share of faded frames."""
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     _oneshot_pair(perf, ("sample_oneshot_cpu_s53_head.json", "25c4eb2"),
                   ("sample_oneshot_cpu_s53_c9a6309.json", "c9a6309"))
     rows = _text_rows("fade_sample_times_s53.txt")
@@ -1930,7 +1931,7 @@ def test_the_cross_fades_cost_is_its_files():
     assert (f"{secs['f0a']:.1f} and {secs['f0b']:.1f} s without the fade, "
             f"{secs['f1a']:.1f} and {secs['f1b']:.1f} s with it, {off:.1f} against "
             f"{on:.1f} s on the mean (+{100 * (on / off - 1):.0f} %") in perf
-    sample = json.loads((RESULTS / "fade_sample_s53.json").read_text())
+    sample = result("fade_sample_s53.json")
     (r,) = sample["builds"].values()
     faded = 48 - r["unfaded_frames"]
     assert f"on the sample {faded} of 48 frames, {r['renders_per_frame'][1]:.3f} images" in perf
@@ -1940,7 +1941,7 @@ def test_the_street_walks_pace_with_the_fade_is_its_file():
     """docs/history/fill.md, "The street walk's pace with the fade": the flow's spread of
     both lund builds, travel -> image pace, is path_motion_lund_fade_s53.json's, and the
     image pace is the less even on both."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     rows = _flow_rows("path_motion_lund_fade_s53.json")
     assert len(rows) == 2
     for build, r in rows.items():
@@ -1952,7 +1953,7 @@ def test_the_street_walks_pace_with_the_fade_is_its_file():
 def test_source_fade_on_kermit_is_its_file():
     """The test scene kermit with and without the cross-fade (docs/history/fill.md, the
     README) is fade_kermit_s53.json's."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
     r, rel, phrase = _step_phrase("fade_kermit_s53.json")
     assert r["unfaded_identical"] == r["unfaded_frames"] == 48 - 15
@@ -1966,13 +1967,13 @@ def test_fade_blends_exploration_is_its_files():
     """docs/history/fill.md, "The cross-fade's renders aligned before they are mixed": each
     build's row (steps' mean, largest step, sharpness by DIS, relative to the plain mean) is
     fade_blend_parts_BUILD_s54.json's, and neither blend moves the mean by 1 %."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
 
     def pct(x: float) -> str:
         return f"{100 * x:+.2f} %".replace("+0.00", "0.00").replace("-0.00", "0.00")
 
     for build in ("sceaux_p4", "et_p5", "lund_k4"):
-        rec = json.loads((RESULTS / f"fade_blend_parts_{build}_s54.json").read_text())["blends"]
+        rec = result(f"fade_blend_parts_{build}_s54.json")["blends"]
         cells = [" / ".join(pct(rec[b]["dis"][f"{k}_rel"]) for k in ("mean", "max", "sharpness"))
                  for b in ("align", "morph", "nofade")]
         assert f"| {build} | {' | '.join(cells)} |" in hist, build
@@ -1982,7 +1983,7 @@ def test_fade_blends_exploration_is_its_files():
 
 def _loo_pairs(name: str) -> dict:
     """{build's short name: (PSNR before, after, SSIM before, after)} of a loo_pairs file."""
-    rec = json.loads((RESULTS / name).read_text())
+    rec = result(name)
     return rec, {Path(c).name.split("_s50_")[0]: (*r["psnr"], *r["ssim"])
                  for c, r in rec["pairs"].items()}
 
@@ -1990,7 +1991,7 @@ def _loo_pairs(name: str) -> dict:
 def test_path_exposure_first_rule_is_its_file():
     """docs/history/fill.md's left-out table of the path exposure's first rule and its mean
     are exposure_loo_pe1_s54.json's; it fails (d), every build's PSNR down."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     rec, rows = _loo_pairs("exposure_loo_pe1_s54.json")
     for short, (p0, p1, s0, s1) in rows.items():
         assert f"| {short} | {p0:.3f} -> {p1:.3f} | {s0:.4f} -> {s1:.4f} |" in hist, short
@@ -2008,11 +2009,11 @@ def test_path_exposure_rule_is_its_files():
     the verdict follows the rule, and the option's default is 1."""
     from pipeline.render.config import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    config = " ".join((REPO / "pipeline" / "render" / "config.py").read_text().split())
-    judge = json.loads((RESULTS / "exposure_judge_pe1n_s54.json").read_text())
+    options = page_text("docs/options.md")
+    config = page_text("pipeline/render/config.py")
+    judge = result("exposure_judge_pe1n_s54.json")
     for cand, r in judge["builds"].items():
         short = Path(cand).name.split("_s50_")[0]
         cells = [f"{r[k][0]:.4f} -> {r[k][1]:.4f}" for k in ("largest", "mean", "mean_farneback")]
@@ -2044,14 +2045,14 @@ def test_path_exposure_pilot_and_spread_are_their_files():
     """The exposure spread of the six builds and the pilot on a seventh that
     docs/history/fill.md quotes are exposure_spread_dev_s54.json's and
     exposure_pilot_lund_s23_s54.json's."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    builds = json.loads((RESULTS / "exposure_spread_dev_s54.json").read_text())["builds"]
+    hist = page_text("docs/history/fill.md")
+    builds = result("exposure_spread_dev_s54.json")["builds"]
     ev = [b["spread_ev"] for b in builds.values()]
     assert f"differ in exposure by {min(ev):.2f} to {max(ev):.2f} EV" in hist
     lo = min(b["gain_min"] for b in builds.values())
     hi = max(b["gain_max"] for b in builds.values())
     assert f"the model's gains from {lo:.2f} to {hi:.2f}" in hist
-    rel = json.loads((RESULTS / "exposure_pilot_lund_s23_s54.json").read_text())["relative"]
+    rel = result("exposure_pilot_lund_s23_s54.json")["relative"]
     assert (f"the steps' mean error {100 * rel['mean']:.1f} % by DIS, "
             f"{100 * rel['mean_farneback']:.1f} % by Farneback, the largest step "
             f"{100 * rel['largest']:.1f} %, the brightness {100 * rel['brightness']:.1f} %") in hist
@@ -2063,22 +2064,22 @@ def test_path_exposure_on_the_test_scenes_is_its_files():
     """The test scenes' videos and left-out views with and without the path exposure
     (docs/history/fill.md, the README) and their exposure spread are exposure_kermit_s54,
     exposure_sample_s54, exposure_loo_test_s54 and exposure_spread_test_s54's."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     notes = readme_notes()
     for name, label in (("kermit", "kermit"), ("sample", "the sample")):
         _, rel, phrase = _step_phrase(f"exposure_{name}_s54.json", "brightness")
         assert f"{label} {phrase}" in hist, name
         assert abs(rel["mean"]) < 0.01
-    k = json.loads((RESULTS / "exposure_kermit_s54.json").read_text())["relative"]
-    s = json.loads((RESULTS / "exposure_sample_s54.json").read_text())["relative"]
+    k = result("exposure_kermit_s54.json")["relative"]
+    s = result("exposure_sample_s54.json")["relative"]
     assert (f"kermit's largest jump {100 * k['largest']:.1f} %, the sample's "
             f"{100 * s['largest']:.1f} %") in notes
-    loo = json.loads((RESULTS / "exposure_loo_test_s54.json").read_text())["pairs"]
+    loo = result("exposure_loo_test_s54.json")["pairs"]
     (lk, lc) = loo.values()
     assert (f"kermit PSNR {lk['psnr'][0]:.3f} -> {lk['psnr'][1]:.3f}, SSIM {lk['ssim'][0]:.4f} "
             f"-> {lk['ssim'][1]:.4f}; cyprus PSNR {lc['psnr'][0]:.3f} -> {lc['psnr'][1]:.3f}, "
             f"SSIM {lc['ssim'][0]:.4f} -> {lc['ssim'][1]:.4f}") in hist
-    spread = json.loads((RESULTS / "exposure_spread_test_s54.json").read_text())["builds"]
+    spread = result("exposure_spread_test_s54.json")["builds"]
     ev = f"{spread['kermit']['spread_ev']:.2f} and {spread['sample']['spread_ev']:.2f} EV"
     assert ev in notes
     assert (f"span {spread['kermit']['spread_ev']:.2f} EV on kermit and "
@@ -2089,7 +2090,7 @@ def test_the_path_exposures_cost_is_its_file():
     """docs/performance.md, "The exposure along the path's cost", is
     exposure_sample_times_s54.txt's: the four renders in turn and the conversion per
     photo, and the conversion's bound over the sample's images."""
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     rows = _text_rows("exposure_sample_times_s54.txt")
     secs = {r[0]: float(r[-2]) for r in rows if r[0] != "between"}
     ms = float(rows[-1][-2])
@@ -2110,9 +2111,9 @@ def test_fade_cut_rule_is_its_files():
     (fade_cut_plans_s55.json), and the option stays off by default because (c) failed."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    rec = json.loads((RESULTS / "fade_cut_judge_s55.json").read_text())
-    plans = json.loads((RESULTS / "fade_cut_plans_s55.json").read_text())["paths"]
+    hist = page_text("docs/history/fill.md")
+    rec = result("fade_cut_judge_s55.json")
+    plans = result("fade_cut_plans_s55.json")["paths"]
     assert rec["rule_name"] == "cut" and rec["identical"]
     rendered = [plans[k] for k in ("tumbler12", "maryrose12", "tumbler24", "maryrose24")]
     assert all(p["alike_but_different"] == [] for p in rendered)
@@ -2160,11 +2161,11 @@ def test_fade_on_dense_objects_is_its_files():
     """docs/history/fill.md, "What the cross-fade costs on a densely photographed object":
     the table is dense_fade_{tumbler24,maryrose24}_s55.json's and the two times files', and
     the README's troubleshooting row quotes maryrose's numbers."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     options = page_text("docs/options.md")
     times = _seconds("dense_fade_times_s55.txt", "fade_cut_times_s55.txt")
     for scene in ("tumbler", "maryrose"):
-        rec = json.loads((RESULTS / f"dense_fade_{scene}24_s55.json").read_text())
+        rec = result(f"dense_fade_{scene}24_s55.json")
         (r,) = rec["builds"].values()
         assert r["unfaded_identical"] == r["unfaded_frames"] and Path(r["baseline"]).name == (
             f"{scene}24_fade0")
@@ -2197,10 +2198,10 @@ def test_fade_limit_rule_is_its_files():
     the limit, so unchanged), and the step-back is the default."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    rec = json.loads((RESULTS / "fade_limit_judge_s55.json").read_text())
-    plans = json.loads((RESULTS / "fade_limit_plans_s55.json").read_text())["paths"]
+    hist = page_text("docs/history/fill.md")
+    options = page_text("docs/options.md")
+    rec = result("fade_limit_judge_s55.json")
+    plans = result("fade_limit_plans_s55.json")["paths"]
     times = _seconds("fade_limit_times_s55.txt")
     assert rec["rule_name"] == "fade" and rec["identical"] and not rec["passes"]
     assert not (rec["checks"]["a"] and rec["checks"]["c"])
@@ -2232,8 +2233,8 @@ def test_fade_limit_rule_is_its_files():
 def test_source_fade_on_a_close_object_is_its_file():
     """docs/history/fill.md, "The cross-fade on a close object": tumbler's video with and
     without the fade is fade_tumbler_s54.json's, its largest step untouched."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    rec = json.loads((RESULTS / "fade_tumbler_s54.json").read_text())
+    hist = page_text("docs/history/fill.md")
+    rec = result("fade_tumbler_s54.json")
     (r,) = rec["builds"].values()
     rel = rec["relative"]
     assert r["unfaded_identical"] == r["unfaded_frames"] and r["largest"][0] == r["largest"][1]
@@ -2249,9 +2250,9 @@ def test_tour_by_view_rule_is_its_file():
     the rule's three parts are read from them (all fail), and the tour stays by position."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    scenes = json.loads((RESULTS / "tour_view_dev_s56.json").read_text())["scenes"]
+    hist = page_text("docs/history/fill.md")
+    options = page_text("docs/options.md")
+    scenes = result("tour_view_dev_s56.json")["scenes"]
     label = {"et_ws": "et", "sceaux_ws": "sceaux_castle", "lund_ws": "lund",
              "maryrose_ws": "maryrose", "tumbler_ws": "tumbler"}
     ratios, rises = [], []
@@ -2277,7 +2278,7 @@ def test_tour_by_view_rule_is_its_file():
     fall = 1 - maryrose["view"]["total"] / maryrose["today"]["total"]
     assert f"on maryrose the video moves {100 * fall:.0f} % less" in options
     assert RenderConfig().tour == "position"
-    test = json.loads((RESULTS / "tour_view_test_s56.json").read_text())["scenes"]
+    test = result("tour_view_test_s56.json")["scenes"]
     names = {"cyprus.deflare": "the sample", "kermit_ws": "kermit", "fern_ws": "fern"}
     for ws, r in test.items():
         t, v = r["today"]["total"], r["view"]["total"]
@@ -2289,8 +2290,8 @@ def test_sample_fill_network_against_hybrid_is_its_files():
     """docs/history/fill.md, "The de-flared photos' fill with the FMG's masks": the sample's
     de-flared photos, hybrid and network alone, are sample_fill_{hybrid,network}_s56.json's
     (the network ahead in the flare region on every photo)."""
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
-    h, n = (json.loads((RESULTS / f"sample_fill_{arm}_s56.json").read_text())
+    hist = page_text("docs/history/fill.md")
+    h, n = (result(f"sample_fill_{arm}_s56.json")
             for arm in ("hybrid", "network"))
     gains = [n["views"][k]["psnr_flare"] - h["views"][k]["psnr_flare"] for k in h["views"]]
     assert len(gains) == 8 and min(gains) > 0
@@ -2306,10 +2307,10 @@ def test_fill_with_fmg_masks_rule_is_its_files():
     hybrid."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     margins = []
     for short, name in (("sceaux", "sceaux_castle"), ("et", "et")):
-        rows = json.loads((RESULTS / f"fill_fmg_dev_{short}_s56.json").read_text())["rows"]
+        rows = result(f"fill_fmg_dev_{short}_s56.json")["rows"]
         cells = []
         for arm in ("network", "hybrid_guided_support2"):
             r = rows[arm]
@@ -2326,8 +2327,8 @@ def test_fill_with_fmg_masks_rule_is_its_files():
 def test_slower_machine_oneshot_is_its_file():
     """docs/performance.md, "A slower machine": the fresh clone's stage times and scores are
     sample_oneshot_cpu_s56_head.json's, and the README's range reaches its wall time."""
-    r = json.loads((RESULTS / "sample_oneshot_cpu_s56_head.json").read_text())
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    r = result("sample_oneshot_cpu_s56_head.json")
+    perf = page_text("docs/performance.md")
     st = r["stages"]
     assert (f"the fine-tune {st['finetune']['seconds']:.1f} s" in perf
             and f"the 48 frames {st['render:interpolate']['seconds']:.1f} s" in perf)
@@ -2360,7 +2361,7 @@ def band_table(files: list[tuple[str, str]], hist: str) -> tuple[float, float, f
     returns the means of the three and the candidate's time over the default's."""
     deltas, t_base, t_cand = [], 0.0, 0.0
     for file, name in files:
-        rows = json.loads((RESULTS / file).read_text())["rows"]
+        rows = result(file)["rows"]
         b, c = rows["hybrid_guided_support2"], rows["hybrid_band_checked"]
         assert b["settings"] == {"fill": "hybrid", "depth_support": 2}
         assert c["settings"] == {"fill": "hybrid", "band_rejected": False}
@@ -2381,22 +2382,22 @@ def test_band_rejected_rule_is_its_files():
     fill_parts_*_s57.json's and sample_fill_band_checked_s57.json's."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     mean, whole, ssim, ratio = band_table(
         [(f"band_checked_dev_{short}_s57.json", name) for short, name in BAND_DRAWS], hist)
     assert mean < 0.10 and RenderConfig().band_rejected is True
     assert f"| mean | **{mean:+.3f}** | {whole:+.3f} | {ssim:+.4f} | x{ratio:.2f} |" in hist
     # the s56 rows reproduced
     for short, file in (("sceaux_s0", "sceaux"), ("et_s3", "et")):
-        now = json.loads((RESULTS / f"band_checked_dev_{short}_s57.json").read_text())
-        old = json.loads((RESULTS / f"fill_fmg_dev_{file}_s56.json").read_text())
+        now = result(f"band_checked_dev_{short}_s57.json")
+        old = result(f"fill_fmg_dev_{file}_s56.json")
         a, o = now["rows"]["hybrid_guided_support2"], old["rows"]["hybrid_guided_support2"]
         assert (a["psnr_flare"], a["psnr"]) == (o["psnr_flare"], o["psnr"])
-    shares = [json.loads((RESULTS / f"fill_parts_dev_{s}_s57.json").read_text())["rays"]
+    shares = [result(f"fill_parts_dev_{s}_s57.json")["rays"]
               ["rejected_share"] for s, _ in BAND_DRAWS]
     assert (f"turns down {100 * min(shares):.0f} to {100 * max(shares):.0f} % of the band's "
             "network rays") in hist
-    parts = json.loads((RESULTS / "fill_parts_sample_s57.json").read_text())
+    parts = result("fill_parts_sample_s57.json")
     p = parts["pooled"]
     assert f"the sample: {100 * parts['rays']['rejected_share']:.0f} %" in hist
     assert (f"the photos' part {p['photos_hybrid']:.3f} dB against the network alone's "
@@ -2405,9 +2406,9 @@ def test_band_rejected_rule_is_its_files():
             f"{p['network_network']:.3f}**") in hist
     assert f"the network's part reads {p['network_whole_ray']:.3f} dB" in hist
     assert abs(p["network_whole_ray"] - p["network_network"]) < 0.01
-    s = json.loads((RESULTS / "sample_fill_band_checked_s57.json").read_text())["mean"]
-    h = json.loads((RESULTS / "sample_fill_hybrid_s56.json").read_text())["mean"]
-    n = json.loads((RESULTS / "sample_fill_network_s56.json").read_text())["mean"]
+    s = result("sample_fill_band_checked_s57.json")["mean"]
+    h = result("sample_fill_hybrid_s56.json")["mean"]
+    n = result("sample_fill_network_s56.json")["mean"]
     assert (f"**{s['psnr_flare']:.2f} / {s['psnr']:.2f} dB** in the flare region and the whole "
             f"photo, against {h['psnr_flare']:.2f} / {h['psnr']:.2f} at today's defaults (the "
             f"network alone: {n['psnr_flare']:.2f} / {n['psnr']:.2f})") in hist
@@ -2420,7 +2421,7 @@ def test_band_on_strong_flare_rule_is_its_files():
     option pages quote the same means."""
     from pipeline.render import RenderConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     flare, whole, ssim, ratio = band_table(
         [(f"band_checked_strong_{short}_s57.json", name) for short, name in
          (("sceaux", "sceaux_castle, seed 7"), ("et", "et, seed 7"), ("lund", "lund, seed 3"))],
@@ -2428,21 +2429,21 @@ def test_band_on_strong_flare_rule_is_its_files():
     assert (flare < 0.15 or whole < -0.02) and RenderConfig().band_rejected is True
     assert (f"| mean | **{flare:+.3f}** | **{whole:+.3f}** | {ssim:+.4f} | "
             f"x{ratio:.2f} |") in hist
-    options = " ".join((REPO / "docs" / "options.md").read_text().split())
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    options = page_text("docs/options.md")
+    depth = page_text("docs/depth.md")
     assert (f"+{flare:.3f} dB on three drawn as strong as the sample, whose whole photos lost "
             f"{-whole:.3f} dB; {ratio:.2f} times the render time") in options
     assert (f"+{flare:.3f} dB on three as strongly flared as the sample (whole photo "
             f"{whole:.3f} dB)") in depth
-    first = [json.loads((RESULTS / f"band_checked_dev_{s}_s57.json").read_text())["rows"]
+    first = [result(f"band_checked_dev_{s}_s57.json")["rows"]
              for s, _ in BAND_DRAWS]
     mean = sum(r["hybrid_band_checked"]["psnr_flare"] - r["hybrid_guided_support2"]["psnr_flare"]
                for r in first) / len(first)
     assert (f"+{mean:.3f} and +{flare:.3f} dB on the means of two sets of draws, the whole "
             f"photos {whole:.3f} dB on the second") in options  # "At a glance"
     assert f"+{mean:.3f} dB in the flare region on five development draws" in depth
-    s = json.loads((RESULTS / "sample_fill_band_checked_s57.json").read_text())["mean"]
-    h = json.loads((RESULTS / "sample_fill_hybrid_s56.json").read_text())["mean"]
+    s = result("sample_fill_band_checked_s57.json")["mean"]
+    h = result("sample_fill_hybrid_s56.json")["mean"]
     gain = s["psnr_flare"] - h["psnr_flare"]
     assert f"the sample +{gain:.2f} dB in the flare region" in options
     assert f"the sample +{gain:.2f} dB (history" in depth
@@ -2458,18 +2459,18 @@ def test_photos_from_one_spot_rule_is_its_files():
     parts and the spacing figures are their files'."""
     from pipeline.depth import DepthConfig
 
-    hist = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    hist = page_text("docs/history/fill.md")
     deltas = []
     for short, name in TWIN_DRAWS:
-        b = json.loads((RESULTS / f"twin_default_{short}_s58.json").read_text())["rows"][
+        b = result(f"twin_default_{short}_s58.json")["rows"][
             "hybrid_guided_support2"]
-        c = json.loads((RESULTS / f"twin_depth_{short}_s58.json").read_text())["rows"][
+        c = result(f"twin_depth_{short}_s58.json")["rows"][
             "hybrid_guided_support2"]
-        n = json.loads((RESULTS / f"twin_network_{short}_s58.json").read_text())["rows"]["network"]
+        n = result(f"twin_network_{short}_s58.json")["rows"]["network"]
         d = (c["psnr_flare"] - b["psnr_flare"], c["psnr"] - b["psnr"], c["ssim"] - b["ssim"])
         assert f"| {name} | {d[0]:+.3f} | {d[1]:+.3f} | {d[2]:+.4f} |" in hist
         deltas.append(d)
-        parts = json.loads((RESULTS / f"twin_fill_parts_{short}_s58.json").read_text())
+        parts = result(f"twin_fill_parts_{short}_s58.json")
         p = parts["pooled"]
         assert (f"| {name} | {p['photos_hybrid']:.3f} / {p['photos_network']:.3f} | "
                 f"{p['network_hybrid']:.3f} / {p['network_network']:.3f} | "
@@ -2478,11 +2479,11 @@ def test_photos_from_one_spot_rule_is_its_files():
     flare, whole, ssim = (sum(d[i] for d in deltas) / 3 for i in range(3))
     assert flare < 0.15 and not hasattr(DepthConfig(), "min_parallax")
     assert f"| mean | **{flare:+.3f}** | **{whole:+.3f}** | {ssim:+.4f} |" in hist
-    cov = json.loads((RESULTS / "twin_depth_coverage_s58.json").read_text())["draws"]
+    cov = result("twin_depth_coverage_s58.json")["draws"]
     for arm in ("default", "min_parallax_0.03"):  # "51 %, 45 % and 38 %"
         pct = [f"{100 * cov[s][arm]['coverage']:.0f} %" for s, _ in TWIN_DRAWS]
         assert f"{pct[0]}, {pct[1]} and {pct[2]}" in hist
-    sp = json.loads((RESULTS / "twin_spacing_s58.json").read_text())["workspaces"]
+    sp = result("twin_spacing_s58.json")["workspaces"]
     sample = sp["/work/s56/sample/cyprus.deflare"]
     assert (f"{sample['nearest_distance'][0]} apart at the least and "
             f"{sample['nearest_distance'][1]} at the median") in hist
@@ -2502,12 +2503,12 @@ def test_photos_from_one_spot_rule_is_its_files():
             f"{sample['nearest_turn_deg'][1]} at the median") in hist
     scenes = [(short, draw.split(",")[0]) for short, draw in TWIN_DRAWS]
     for short, name in scenes:
-        rows = json.loads((RESULTS / f"strong_network_{short}_s58.json").read_text())["rows"]
+        rows = result(f"strong_network_{short}_s58.json")["rows"]
         h, n = rows["hybrid_guided_support2"], rows["network"]
-        old = json.loads((RESULTS / f"band_checked_strong_{short}_s57.json").read_text())
+        old = result(f"band_checked_strong_{short}_s57.json")
         assert h["psnr_flare"] == old["rows"]["hybrid_guided_support2"]["psnr_flare"]
         assert f"{name} {h['psnr_flare'] - n['psnr_flare']:+.3f}" in hist
-    tour = json.loads((RESULTS / "tour_view_turned_s58.json").read_text())["scenes"]
+    tour = result("tour_view_turned_s58.json")["scenes"]
     for short, name in scenes:
         t = tour[f"/work/s58/{short}_turn"]
         a, b = t["today"]["total"], t["view"]["total"]
@@ -2523,8 +2524,8 @@ def test_eval_page_odds_of_a_change_with_no_effect_are_the_spread_files():
     errors (normal approximation)."""
     from statistics import NormalDist
 
-    page = " ".join((REPO / "docs" / "eval.md").read_text().split())
-    se = [json.loads((RESULTS / f"photo_spread_{a}_s73.json").read_text())
+    page = page_text("docs/eval.md")
+    se = [result(f"photo_spread_{a}_s73.json")
           ["se_mean_difference"]["2"]["psnr_flare"] for a in ("s29_frc", "s26_Mp")]
     fails = [NormalDist().cdf(-0.05 / x) for x in se]
     passes = [1 - NormalDist().cdf(0.10 / x) for x in se]
@@ -2537,8 +2538,8 @@ def test_eval_page_odds_of_a_change_with_no_effect_are_the_spread_files():
 def test_every_saved_photo_judgement_came_from_one_machine():
     """docs/eval.md's count of the committed judgements judged again is the file's, none of
     them mixes machines, and judging them again today gives the same machines."""
-    saved = json.loads((RESULTS / "photo_judgements_machines_s79.json").read_text())
-    text = " ".join((REPO / "docs" / "eval.md").read_text().split())
+    saved = result("photo_judgements_machines_s79.json")
+    text = page_text("docs/eval.md")
     assert saved["mixed"] == []
     assert f"all {len(saved['judged'])} committed judgements" in text
     assert f"({len(saved['skipped'])} more name an arm" in text
@@ -2554,8 +2555,8 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
     and options.md quote the same held-out gain."""
     from pipeline.render.config import NOVEL_NEAREST_COUNT, RenderConfig
 
-    judge = json.loads((RESULTS / "nearest2_judge_s80.json").read_text())
-    guard = json.loads((RESULTS / "nearest2_guard_s80.json").read_text())
+    judge = result("nearest2_judge_s80.json")
+    guard = result("nearest2_guard_s80.json")
     assert judge["rule"] == "reach" and guard["rule"] == "reach-guard"
     assert judge["decision"] == guard["decision"] == "passes"
     assert NOVEL_NEAREST_COUNT == RenderConfig().nearest_n() == 2
@@ -2573,18 +2574,18 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
     for page in ("camera_paths.md", "options.md"):
         text = " ".join((REPO / "docs" / page).read_text().split())
         assert f"held-out views {held} on the flared development scenes' mean" in text, page
-    depth = " ".join((REPO / "docs" / "depth.md").read_text().split())
+    depth = page_text("docs/depth.md")
     lund = judge["per_scene"]["lund_k4"]["held"]
     assert (f"2 against 1, held-out views {judge['mean']['held']:+.3f} dB on three development "
             f"scenes flared like the sample (lund_k4 {lund:+.3f}, the others level)") in depth
     # the test scenes, after: the held-out views as quoted, the same both ways
     for scene, name in (("kermit", "kermit"), ("cyprus", "cyprus_truth")):
-        n1, n2 = (json.loads((RESULTS / f"fmg_s81_{a}_fair_{name}_s0.json").read_text())
+        n1, n2 = (result(f"fmg_s81_{a}_fair_{name}_s0.json")
                   for a in ("n1", "n2"))
         assert n1["heldout"] == n2["heldout"], scene
         h = n2["heldout"]
         assert f"{scene} {h['psnr']:.2f}" in " ".join(fill.split()), scene
-    cy = [json.loads((RESULTS / f"fmg_s81_{a}_fair_cyprus_truth_s0.json").read_text())["keys"]
+    cy = [result(f"fmg_s81_{a}_fair_cyprus_truth_s0.json")["keys"]
           for a in ("n1", "n2")]
     assert (f"cyprus moves {cy[0]['psnr']:.2f} -> {cy[1]['psnr']:.2f} dB, its flare region "
             f"{cy[0]['psnr_flare']:.2f} -> {cy[1]['psnr_flare']:.2f}") in " ".join(fill.split())
@@ -2593,10 +2594,10 @@ def test_nearest_count_rule_table_and_default_are_the_judgments():
 def test_the_two_nearest_views_cost_is_the_oneshot_files():
     """docs/performance.md's one-shot pair of the eighty-first session: the frames' seconds
     as the files record them, the same scores both ways, the earlier commit as named."""
-    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
-    before = json.loads((RESULTS / "sample_oneshot_cpu_s81_b47cd36.json").read_text())
+    head = result("sample_oneshot_cpu_s81_head.json")
+    before = result("sample_oneshot_cpu_s81_b47cd36.json")
     assert before["code"]["commit"].startswith("b47cd36") and head["mean"] == before["mean"]
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     for d in (head, before):
         assert f"the frames {d['stages']['render:interpolate']['seconds']:.1f} s" in perf \
             or f"the 48 frames {d['stages']['render:interpolate']['seconds']:.1f} s" in perf
@@ -2607,8 +2608,8 @@ def test_the_two_nearest_views_cost_is_the_oneshot_files():
 def test_key_blend_beside_a_twin_quotes_its_file():
     """docs/history/fill.md's diagnosis of the key blend beside a twin: the sample's shares
     and frames as key_share_twins_s81.json has them; the scenes without twins agree."""
-    rec = json.loads((RESULTS / "key_share_twins_s81.json").read_text())["scenes"]
-    fill = " ".join((REPO / "docs" / "history" / "fill.md").read_text().split())
+    rec = result("key_share_twins_s81.json")["scenes"]
+    fill = page_text("docs/history/fill.md")
     sample = next(v for k, v in rec.items() if k.endswith("n2.deflare"))
     f = {r["frame"]: r for r in sample["frames"]}
     assert (f"frame 8, {f['00008']['distance']:.3f} from DSC_6466, leans "
@@ -2631,8 +2632,8 @@ def test_key_spot_rule_table_and_default_are_the_judgments():
     pages quote the same held-out gain."""
     from pipeline.render.config import NOVEL_CPU_FILL
 
-    judge = json.loads((RESULTS / "key_spot_judge_s81.json").read_text())
-    guard = json.loads((RESULTS / "key_spot_guard_s81.json").read_text())
+    judge = result("key_spot_judge_s81.json")
+    guard = result("key_spot_guard_s81.json")
     assert judge["rule"] == "reach" and guard["rule"] == "reach-guard"
     assert judge["decision"] == guard["decision"] == "passes"
     assert all(v == 0 for d in guard["per_scene"].values() for v in d.values())
@@ -2650,7 +2651,7 @@ def test_key_spot_rule_table_and_default_are_the_judgments():
     # the test scenes, after: held-out views the same both ways, cyprus's keys as quoted
     flat = " ".join(fill.split())
     for name in ("kermit", "cyprus_truth"):
-        n2, ks = (json.loads((RESULTS / f"fmg_s81_{a}_fair_{name}_s0.json").read_text())
+        n2, ks = (result(f"fmg_s81_{a}_fair_{name}_s0.json")
                   for a in ("n2", "ks"))
         assert n2["heldout"] == ks["heldout"], name
     assert (f"its frames at the photos' cameras move {n2['keys']['psnr']:.2f} -> "
@@ -2661,10 +2662,10 @@ def test_key_spot_rule_table_and_default_are_the_judgments():
 def test_the_key_spot_oneshot_is_its_file():
     """docs/performance.md's one-shot with the key spot: its frames' seconds and the scores
     of the runs before it."""
-    ks = json.loads((RESULTS / "sample_oneshot_cpu_s81_keyspot.json").read_text())
-    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
+    ks = result("sample_oneshot_cpu_s81_keyspot.json")
+    head = result("sample_oneshot_cpu_s81_head.json")
     assert ks["mean"] == head["mean"] and ks["code"]["commit"].startswith("1b6952f")
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     assert f"the frames {ks['stages']['render:interpolate']['seconds']:.1f} s, the same scores" \
         in perf
 
@@ -2672,10 +2673,10 @@ def test_the_key_spot_oneshot_is_its_file():
 def test_the_eightieth_oneshot_fine_tune_is_its_file():
     """docs/performance.md compares the eighty-first session's fine-tunes with the
     eightieth's one-shot, whose stage times are its file's."""
-    s80 = json.loads((RESULTS / "sample_oneshot_cpu_s80_b47cd36.json").read_text())
-    head = json.loads((RESULTS / "sample_oneshot_cpu_s81_head.json").read_text())
+    s80 = result("sample_oneshot_cpu_s80_b47cd36.json")
+    head = result("sample_oneshot_cpu_s81_head.json")
     assert s80["mean"] == head["mean"]
-    perf = " ".join((REPO / "docs" / "performance.md").read_text().split())
+    perf = page_text("docs/performance.md")
     assert f"against {s80['stages']['finetune']['seconds']:.1f} s, code it does not touch" in perf
 
 
@@ -2688,7 +2689,7 @@ def test_goals_at_a_glance_is_its_files():
     glance = text[text.index("## At a glance"):text.index("## Issue 10")]
 
     def load(name):
-        return json.loads((RESULTS / name).read_text())
+        return result(name)
 
     def cells(m):
         return " / ".join(f"{m[k]:.3f}" for k in ("IoU_flare", "mIoU", "mAcc"))
@@ -2734,8 +2735,8 @@ def test_goals_at_a_glance_is_its_files():
 def test_performance_apart_timing_of_the_eighty_eighth_session_is_its_file():
     """docs/performance.md quotes each arm's training seconds per round and the mean of the
     undisturbed rounds 0 and 2 from apart_time_ab_sample_s88.json."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    runs = json.loads((RESULTS / "apart_time_ab_sample_s88.json").read_text())["runs"]
+    text = page_text("docs/performance.md")
+    runs = result("apart_time_ab_sample_s88.json")["runs"]
     means = []
     for arm in ("pad", "apart", "stretch"):
         secs = [r["train_seconds"] for r in sorted(runs, key=lambda r: r["round"])
@@ -2748,8 +2749,8 @@ def test_performance_apart_timing_of_the_eighty_eighth_session_is_its_file():
 def test_performance_apart_timing_rerun_is_its_file():
     """docs/performance.md quotes the idle rerun's seconds per round, means and ratios
     (apart_time_ab_sample_s88b.json)."""
-    text = " ".join((REPO / "docs" / "performance.md").read_text().split())
-    rec = json.loads((RESULTS / "apart_time_ab_sample_s88b.json").read_text())
+    text = page_text("docs/performance.md")
+    rec = result("apart_time_ab_sample_s88b.json")
     runs, summ = rec["runs"], rec["summary"]
     for arm in ("pad", "apart", "stretch"):
         secs = [r["train_seconds"] for r in sorted(runs, key=lambda r: r["round"])
@@ -2766,8 +2767,8 @@ def test_the_sample_in_fp32_on_a_cpu_without_native_bf16_is_its_file():
     """docs/eval.md: the ninety-second session's one-shot on a CPU without native bf16 trained
     in fp32 (its model's record), at 5b95ea5, and scored what the page says; the README's row
     is the eighty-fifth session's, trained in bf16."""
-    fp32 = json.loads((RESULTS / "sample_oneshot_cpu_s92_fp32.json").read_text())
-    row = json.loads((RESULTS / "sample_oneshot_cpu_s85_head.json").read_text())
+    fp32 = result("sample_oneshot_cpu_s92_fp32.json")
+    row = result("sample_oneshot_cpu_s85_head.json")
     assert fp32["model"]["provenance"]["train"]["cpu_bf16"] is False
     assert row["model"]["provenance"]["train"]["cpu_bf16"] is True
     assert fp32["code"]["commit"].startswith("5b95ea5") and fp32["code"]["dirty_files"] == [
@@ -2792,7 +2793,7 @@ def test_development_rows_at_the_ninety_second_sessions_code_are_their_files():
     section = section[i:section.index("## Why GN-FR trails vanilla GNT", i)]
     margins, diffs = [], []
     for scene, build in S92_DEV:
-        d = json.loads((RESULTS / f"{build}_synth_gnfr_gnt_cpu_s92.json").read_text())
+        d = result(f"{build}_synth_gnfr_gnt_cpu_s92.json")
         code = d["provenance"]["code"]
         assert code["commit"].startswith("5b95ea5"), build
         assert sorted(code["dirty_files"]) == ["oneshot.log", "scores.json"], build
@@ -2826,8 +2827,8 @@ def test_parts_taken_out_on_sceaux_p4_are_their_file():
     """docs/eval.md: the ninety-second session's single ablations on sceaux_p4 are
     ablation_sceaux_p4_s92.json's, beside the GN-FR and GNT arms of its eval, at the same
     commit and seed; the sentences' differences are the files'."""
-    abl = json.loads((RESULTS / "ablation_sceaux_p4_s92.json").read_text())
-    base = json.loads((RESULTS / "sceaux_p4_synth_gnfr_gnt_cpu_s92.json").read_text())
+    abl = result("ablation_sceaux_p4_s92.json")
+    base = result("sceaux_p4_synth_gnfr_gnt_cpu_s92.json")
     assert abl["provenance"]["code"]["commit"] == base["provenance"]["code"]["commit"]
     assert abl["budget"] == base["budget"] and abl["heldout_views"] == base["heldout_views"]
     m = {**base["methods"], **abl["methods"]}
@@ -2852,8 +2853,8 @@ def test_the_samples_fp32_time_is_its_idle_run():
     """README: the sample's one-shot in fp32 on the idle machine without native bf16 (its
     stage times from the file, the wall time from docs/results/README.md's row); it repeats
     the first fp32 run's scores to the digit."""
-    idle = json.loads((RESULTS / "sample_oneshot_cpu_s92_fp32_idle.json").read_text())
-    first = json.loads((RESULTS / "sample_oneshot_cpu_s92_fp32.json").read_text())
+    idle = result("sample_oneshot_cpu_s92_fp32_idle.json")
+    first = result("sample_oneshot_cpu_s92_fp32.json")
     assert idle["mean"] == first["mean"]
     assert idle["model"]["provenance"]["train"]["cpu_bf16"] is False
     st = idle["stages"]
@@ -2862,7 +2863,7 @@ def test_the_samples_fp32_time_is_its_idle_run():
             f"{st['finetune']['seconds']:.0f} s, the 48 frames "
             f"{st['render:interpolate']['seconds']:.0f} s") in page_text("README.md")
     perf = page_text(PERF)
-    bf16 = json.loads((RESULTS / "sample_oneshot_cpu_s85_head.json").read_text())["stages"]
+    bf16 = result("sample_oneshot_cpu_s85_head.json")["stages"]
     assert (f"the fine-tune {st['finetune']['seconds']:.1f} s and the 48 frames "
             f"{st['render:interpolate']['seconds']:.1f} s, against "
             f"{bf16['finetune']['seconds']:.1f} s and {bf16['render:interpolate']['seconds']:.1f}"
