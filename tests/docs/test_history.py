@@ -408,8 +408,7 @@ def test_fmg_card_candidates_e_and_f(run):
     kinds = result(f"fmg_dev_per_kind_{run}_rays.json")["kinds"]
     for kind, row in kinds.items():
         assert f"| {kind} | " in text and f"{row['weights']['IoU_flare']:.3f} |" in text, kind
-    lund = result(f"fmg_dev_clean_{run}_rays.json")[
-        "scenes"]["scenes/lund/images"]
+    lund = result(f"fmg_dev_clean_{run}_rays.json")["scenes"]["scenes/lund/images"]
     assert f"{100 * lund['mean']:.2f} % / {100 * lund['max']:.2f} %" in text
     rows = result(f"mask_dev_scenes_{run}.json")["rows"]
     for r in (r for r in rows if r["rays"]):
