@@ -606,3 +606,52 @@ def test_parts_taken_out_on_sceaux_p4_are_their_file():
     assert f"the flare region stays ({flare['no_vs']:+.2f} dB)" in text
     assert (f"Without the Point Sampler {up['no_ps']:+.2f} / {flare['no_ps']:+.2f}; without "
             f"the masking loss {up['no_ml']:+.2f} / {flare['no_ml']:+.2f}") in text
+
+
+S93_TEST = tuple((scene, f"{scene}_synth_gnfr_gnt_cpu_s90.json",
+                  f"{scene}_synth_gnfr_gnt_cpu_s93_fp32.json") for scene in ("kermit", "cyprus"))
+
+
+def test_test_scenes_in_fp32_are_their_files():
+    """docs/eval.md, "The test scenes in fp32": the ninety-third session's evals ran fp32 (the
+    fine-tunes' and renders' records say so) at a clean commit, seed 0, on the builds of the
+    ninetieth session's bf16 evals (the flared input scores the same), and the table and the
+    sentences are the files'."""
+    text = page_text("docs/eval.md")
+    i = text.index("## The test scenes in fp32 (ninety-third session)")
+    section = text[i:text.index("## The development scenes at today's code", i)]
+    moved, moved_most = {}, 0.0
+    for scene, old_name, new_name in S93_TEST:
+        old, new = result(old_name), result(new_name)
+        flat_old, flat_new = json.dumps(old), json.dumps(new)
+        assert '"cpu_bf16": true' in flat_old and '"cpu_bf16": true' not in flat_new, scene
+        assert '"cpu_bf16": false' in flat_new, scene
+        code = new["provenance"]["code"]
+        assert not code["dirty"] and new["budget"]["seed"] == old["budget"]["seed"] == 0, scene
+        assert new["heldout_views"] == old["heldout_views"], scene
+        assert new["mask_scores"] == old["mask_scores"], scene
+        for k in ("psnr", "psnr_flare"):
+            assert abs(new["methods"]["input"]["inputs"][k]
+                       - old["methods"]["input"]["inputs"][k]) < 1e-5, scene
+        g = new["methods"]["gnfr"]["train"]
+        assert f"{g['targets']} of {scene}'s {g['views']}" in section
+        assert new["methods"]["gnt"]["train"]["targets"] == g["views"]
+        shifts = [abs(new["methods"][v][part]["psnr" if part == "heldout" else "psnr_flare"]
+                      - old["methods"][v][part]["psnr" if part == "heldout" else "psnr_flare"])
+                  for v in ("gnfr", "gnt") for part in ("heldout", "inputs")]
+        moved_most = max(moved_most, max(shifts))
+        for path, d in (("bf16", old), ("fp32", new)):
+            g, t = d["methods"]["gnfr"], d["methods"]["gnt"]
+            margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
+            diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
+            row = (f"| {scene} | {path} | {g['inputs']['psnr_flare']:.2f} | "
+                   f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | "
+                   f"{g['heldout']['psnr']:.2f} | {t['heldout']['psnr']:.2f} | {diff:+.2f} |")
+            assert row in section, row
+            moved.setdefault(scene, []).append((margin, diff))
+    for scene, ((m0, d0), (m1, d1)) in moved.items():
+        assert f"{scene} {m1 - m0:+.2f} / {d1 - d0:+.2f}" in section, scene
+    assert f"moves by {moved_most:.2f} dB at most" in section
+    most = max(abs(m1 - m0) for (m0, _), (m1, _) in moved.values())
+    assert (f"kermit and cyprus measured again in fp32: GN-FR's margin over GNT moved by "
+            f"{most:.2f} dB at most") in page_text("README.md")
