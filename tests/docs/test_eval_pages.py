@@ -655,3 +655,49 @@ def test_test_scenes_in_fp32_are_their_files():
     most = max(abs(m1 - m0) for (m0, _), (m1, _) in moved.values())
     assert (f"kermit and cyprus measured again in fp32: GN-FR's margin over GNT moved by "
             f"{most:.2f} dB at most") in page_text("README.md")
+
+
+ABLATION_FILES = (("sceaux_p4", "ablation_sceaux_p4_s92.json"),
+                  ("et_p5", "ablation_et_p5_s93.json"), ("lund_k4", "ablation_lund_k4_s93.json"))
+
+
+def test_parts_taken_out_on_three_development_builds_are_their_files():
+    """docs/eval.md: the single ablations on the three development builds (sceaux_p4's of the
+    ninety-second session, et_p5's and lund_k4's of the ninety-third) are their files, each
+    at the commit and budget of its build's GN-FR / GNT eval; the differences, their means
+    and the sentences' readings are the files'."""
+    text = page_text("docs/eval.md")
+    order = ("gnfr", "no_vs", "no_ps", "no_ml", "gnt")
+    ups = {k: [] for k in order[1:4]}
+    for build, name in ABLATION_FILES:
+        abl, base = result(name), result(f"{build}_synth_gnfr_gnt_cpu_s92.json")
+        assert abl["provenance"]["code"]["commit"] == base["provenance"]["code"]["commit"]
+        assert abl["budget"] == base["budget"] and abl["heldout_views"] == base["heldout_views"]
+        assert '"cpu_bf16": true' not in json.dumps(abl), build
+        m = {**base["methods"], **abl["methods"]}
+        cells = [f"{m[k]['heldout']['psnr']:.2f} / {m[k]['inputs']['psnr_flare']:.2f}"
+                 for k in order]
+        g = m["gnfr"]["train"]
+        assert m["no_vs"]["train"]["targets"] == g["views"] > g["targets"]
+        row = (f"| {build} | " + " | ".join(cells)
+               + f" | {g['targets']} of {g['views']} |")
+        assert row in text, row
+        diff = {k: (m[k]["heldout"]["psnr"] - m["gnfr"]["heldout"]["psnr"],
+                    m[k]["inputs"]["psnr_flare"] - m["gnfr"]["inputs"]["psnr_flare"])
+                for k in order[1:4]}
+        for k, v in diff.items():
+            ups[k].append(v)
+        row = f"| {build} | " + " | ".join(f"{h:+.2f} / {f:+.2f}" for h, f in diff.values())
+        assert row + " |" in text, row
+    means = " | ".join(f"**{sum(h for h, _ in v) / 3:+.2f} / {sum(f for _, f in v) / 3:+.2f}**"
+                       for v in ups.values())
+    assert f"| **mean of 3** | {means} |" in text
+    # the readings: the masking loss pays in the flare region on every build; without the
+    # View Sampler the held-out views rise on two builds and fall on one
+    assert all(f < 0 for _, f in ups["no_ml"])
+    assert sorted(h > 0 for h, _ in ups["no_vs"]) == [False, True, True]
+    loss = ", ".join(f"{f:+.2f}" for _, f in ups["no_ml"])
+    assert f"flare region on every build** ({loss} dB" in text
+    ml = -sum(f for _, f in ups["no_ml"]) / 3
+    assert (f"the masking loss pays in the flare region on all three (+{ml:.2f} dB on the mean)"
+            in page_text("README.md"))
