@@ -9,7 +9,7 @@ import numpy as np
 
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, read_json
-from pipeline.ws_files import read_cameras, read_mask, read_view_image, read_views
+from pipeline.ws_files import ViewsFile, read_cameras, read_mask, read_view_image, read_views
 from workflows.research.eval.config import LABELS, NEURAL, EvalConfig
 from workflows.research.eval.scene import SynthScene
 from workflows.research.eval.workspaces import variant_workspace
@@ -39,7 +39,7 @@ def heldout_render_config(path_json: Path, scale: float, **common):
                         **common)
 
 
-def fit_targets(record: dict, views, view_sampler: bool) -> list[str]:
+def fit_targets(record: dict, views: ViewsFile, view_sampler: bool) -> list[str]:
     """The views a variant's fine-tune took as targets, as its stage record says them
     (``pipeline.finetune.fit`` writes them since the ninety-third session). A record from
     before says nothing: there they are read as that code chose them, ``views``' (views.json)
