@@ -652,9 +652,6 @@ def test_test_scenes_in_fp32_are_their_files():
     for scene, ((m0, d0), (m1, d1)) in moved.items():
         assert f"{scene} {m1 - m0:+.2f} / {d1 - d0:+.2f}" in section, scene
     assert f"moves by {moved_most:.2f} dB at most" in section
-    most = max(abs(m1 - m0) for (m0, _), (m1, _) in moved.values())
-    assert (f"kermit and cyprus measured again in fp32: GN-FR's margin over GNT moved by "
-            f"{most:.2f} dB at most") in page_text("README.md")
 
 
 ABLATION_FILES = (("sceaux_p4", "ablation_sceaux_p4_s92.json"),
@@ -701,3 +698,47 @@ def test_parts_taken_out_on_three_development_builds_are_their_files():
     ml = -sum(f for _, f in ups["no_ml"]) / 3
     assert (f"the masking loss pays in the flare region on all three (+{ml:.2f} dB on the mean)"
             in page_text("README.md"))
+
+
+def test_fern_in_fp32_is_its_file():
+    """docs/eval.md, "The test scenes in fp32": fern's eval-llff on the fp32 path (both
+    protocols, seed 0, a clean commit) against the ninetieth session's bf16 file: the clean
+    protocol's held-out views and the flare protocol's rows are the files'."""
+    old, new = result("fern_llff_quick_cpu_s90.json"), result("fern_llff_quick_cpu_s93_fp32.json")
+    assert '"cpu_bf16": true' in json.dumps(old) and '"cpu_bf16": true' not in json.dumps(new)
+    assert not new["clean"]["provenance"]["code"]["dirty"]
+    assert new["flare"]["budget"]["seed"] == old["flare"]["budget"]["seed"] == 0
+    text = page_text("docs/eval.md")
+    i = text.index("## The test scenes in fp32 (ninety-third session)")
+    section = text[i:text.index("## The development scenes at today's code", i)]
+    moved, gaps = [], []
+    for path, d in (("bf16", old), ("fp32", new)):
+        c = d["clean"]["methods"]
+        h, n = c["gnfr_hybrid"]["heldout"], c["gnfr_network"]["heldout"]
+        cell = (f"| fern, clean | {path} | {h['psnr']:.2f} / {h['ssim']:.3f} | "
+                f"{n['psnr']:.2f} / {n['ssim']:.3f} |")
+        moved.append((h["psnr"], n["psnr"]))
+        assert cell in section, cell
+        m = d["flare"]["methods"]
+        g, t = m["gnfr"], m["gnt"]
+        margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
+        diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
+        row = (f"| fern | {path} | {g['inputs']['psnr_flare']:.2f} | "
+               f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | "
+               f"{g['heldout']['psnr']:.2f} | {t['heldout']['psnr']:.2f} | {diff:+.2f} |")
+        assert row in section, row
+        gaps.append((margin, diff))
+    (m0, d0), (m1, d1) = gaps
+    (h0, n0), (h1, n1) = moved
+    assert (f"Fern's margin moved {m1 - m0:+.2f} dB on the fp32 path" in section
+            and abs(d1 - d0) < 0.005 and "its held-out difference not at all" in section)
+    assert f"the LLFF row {abs(h1 - h0):.2f} and {abs(n1 - n0):.2f} dB" in section
+    # the README's sentence: the largest move of the margin over the three test scenes
+    most = abs(m1 - m0)
+    for _, old_name, new_name in S93_TEST:
+        def margin(name):
+            m = result(name)["methods"]
+            return m["gnfr"]["inputs"]["psnr_flare"] - m["gnt"]["inputs"]["psnr_flare"]
+        most = max(most, abs(margin(new_name) - margin(old_name)))
+    assert (f"kermit, cyprus and fern measured again in fp32: GN-FR's margin over GNT moved by "
+            f"{most:.2f} dB at most") in page_text("README.md")
