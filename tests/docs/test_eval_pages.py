@@ -612,6 +612,18 @@ S93_TEST = tuple((scene, f"{scene}_synth_gnfr_gnt_cpu_s90.json",
                   f"{scene}_synth_gnfr_gnt_cpu_s93_fp32.json") for scene in ("kermit", "cyprus"))
 
 
+def path_row(scene: str, path: str, methods: dict) -> tuple[str, float, float]:
+    """The fp32 section's table row of one eval's GN-FR and GNT (flare region, margin,
+    held-out, difference) and its margin and held-out difference."""
+    g, t = methods["gnfr"], methods["gnt"]
+    margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
+    diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
+    row = (f"| {scene} | {path} | {g['inputs']['psnr_flare']:.2f} | "
+           f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | "
+           f"{g['heldout']['psnr']:.2f} | {t['heldout']['psnr']:.2f} | {diff:+.2f} |")
+    return row, margin, diff
+
+
 def test_test_scenes_in_fp32_are_their_files():
     """docs/eval.md, "The test scenes in fp32": the ninety-third session's evals ran fp32 (the
     fine-tunes' and renders' records say so) at a clean commit, seed 0, on the builds of the
@@ -641,12 +653,7 @@ def test_test_scenes_in_fp32_are_their_files():
                   for v in ("gnfr", "gnt") for part in ("heldout", "inputs")]
         moved_most = max(moved_most, max(shifts))
         for path, d in (("bf16", old), ("fp32", new)):
-            g, t = d["methods"]["gnfr"], d["methods"]["gnt"]
-            margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
-            diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
-            row = (f"| {scene} | {path} | {g['inputs']['psnr_flare']:.2f} | "
-                   f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | "
-                   f"{g['heldout']['psnr']:.2f} | {t['heldout']['psnr']:.2f} | {diff:+.2f} |")
+            row, margin, diff = path_row(scene, path, d["methods"])
             assert row in section, row
             moved.setdefault(scene, []).append((margin, diff))
     for scene, ((m0, d0), (m1, d1)) in moved.items():
@@ -719,13 +726,7 @@ def test_fern_in_fp32_is_its_file():
                 f"{n['psnr']:.2f} / {n['ssim']:.3f} |")
         moved.append((h["psnr"], n["psnr"]))
         assert cell in section, cell
-        m = d["flare"]["methods"]
-        g, t = m["gnfr"], m["gnt"]
-        margin = g["inputs"]["psnr_flare"] - t["inputs"]["psnr_flare"]
-        diff = g["heldout"]["psnr"] - t["heldout"]["psnr"]
-        row = (f"| fern | {path} | {g['inputs']['psnr_flare']:.2f} | "
-               f"{t['inputs']['psnr_flare']:.2f} | {margin:+.2f} | "
-               f"{g['heldout']['psnr']:.2f} | {t['heldout']['psnr']:.2f} | {diff:+.2f} |")
+        row, margin, diff = path_row("fern", path, d["flare"]["methods"])
         assert row in section, row
         gaps.append((margin, diff))
     (m0, d0), (m1, d1) = gaps
