@@ -514,6 +514,13 @@ def test_the_whip_pan_the_pace_rule_quotes_is_the_old_paths():
     assert 1 <= np.median(turn) <= 5 and "frames between them turn 1-5 degrees" in hist
 
 
+def _render_option_pages() -> tuple[str, str, str]:
+    """(docs/history/fill.md, docs/options.md, pipeline/render/config.py): the pages a render
+    option's judgement is quoted on (its history, its line in options.md, its docstring)."""
+    return (page_text("docs/history/fill.md"), page_text("docs/options.md"),
+            page_text("pipeline/render/config.py"))
+
+
 def _judge_rows(name: str) -> tuple[dict, dict]:
     """(the judge file ``name`` of benchmarks/video_flicker.py --judge, {build's short name:
     its table cells "largest | mean | sharpness", each "before -> after"})."""
@@ -528,9 +535,7 @@ def test_source_fade_rule_is_its_files():
     """docs/history/fill.md's table of the cross-fade's rule, its means and verdicts, and the
     numbers the README, docs/options.md and the option's docstring quote are the judge
     files' (fade_judge_fade{1,2}_s53.json), and the verdicts follow the rule."""
-    hist = page_text("docs/history/fill.md")
-    options = page_text("docs/options.md")
-    config = page_text("pipeline/render/config.py")
+    hist, options, config = _render_option_pages()
     one, cells = _judge_rows("fade_judge_fade1_s53.json")
     two = result("fade_judge_fade2_s53.json")
     for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
@@ -584,9 +589,7 @@ def test_source_hold_rule_is_its_files():
     """docs/history/fill.md's table of the hold's rule, its means and verdicts, and the
     numbers docs/options.md and the option's docstring quote are the judge files'
     (hold_judge_hold{1,2}_s53.json); both fail (c), as the history says."""
-    hist = page_text("docs/history/fill.md")
-    options = page_text("docs/options.md")
-    config = page_text("pipeline/render/config.py")
+    hist, options, config = _render_option_pages()
     one, cells = _judge_rows("hold_judge_hold1_s53.json")
     two = result("hold_judge_hold2_s53.json")
     for r, (short, row) in zip(one["builds"].values(), cells.items(), strict=True):
@@ -702,10 +705,8 @@ def test_path_exposure_rule_is_its_files():
     the verdict follows the rule, and the option's default is 1."""
     from pipeline.render.config import RenderConfig
 
-    hist = page_text("docs/history/fill.md")
+    hist, options, config = _render_option_pages()
     notes = readme_notes()
-    options = page_text("docs/options.md")
-    config = page_text("pipeline/render/config.py")
     judge = result("exposure_judge_pe1n_s54.json")
     for cand, r in judge["builds"].items():
         short = Path(cand).name.split("_s50_")[0]
