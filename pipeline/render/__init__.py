@@ -109,6 +109,95 @@ __all__ = [
 ]
 
 
+def options_for_path(cfg: RenderConfig, key: str) -> RenderConfig:
+    """``cfg`` with the options of the other kind of render set aside, each with a warning:
+    the de-flared photos (``key`` "inputs") and the video's frames each have options of
+    their own; the depth maps' islands are dropped by the path's default."""
+    if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
+        cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
+    if key == "inputs" and cfg.novel_agree is not None:
+        warn("render: --novel-agree is for the video's frames; the de-flared photos keep "
+             "the photo fill's own tolerance")
+    if key == "inputs" and cfg.from_deflared:
+        warn("render: --from-deflared is for the video's frames; the de-flared photos are "
+             "drawn from the photos")
+        cfg = replace(cfg, from_deflared=False)
+    if key == "inputs" and cfg.source_grow:
+        warn("render: --source-grow is for the video's frames; the de-flared photos grow "
+             "their masks by --dilate")
+        cfg = replace(cfg, source_grow=0.0)
+    if key != "inputs" and not cfg.band_rejected:
+        warn("render: --no-band-rejected is for the de-flared photos (--path inputs); the "
+             "video's frames have no ring check")
+    return cfg
+
+
+def record_params(cfg: RenderConfig, meta: dict, key: str, device: str, samples: int,
+                  frames_maps: bool) -> dict:
+    """The render stage's record of ``cfg`` for the path ``key``: the settings that change
+    its images (the model's own from its training ``meta`` where ``cfg`` leaves them), less
+    those the path has no use for; a change of any of them renders again."""
+    params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,
+              "compile": None, "samples": samples,
+              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
+              "full_res_colour": bool(meta.get("full_res_colour", False)
+                                      if cfg.full_res_colour is None else cfg.full_res_colour),
+              "scale": novel_scale(cfg, device),
+              "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
+              "point_sampler": bool(meta.get("point_sampler", True)),
+              "encode_apart": bool(meta.get("encode_apart", False)),
+              "flare_fallback": cfg.flare_fallback or meta.get("flare_fallback", "valid"),
+              "depth_maps": "frames" if frames_maps else "depth",
+              "bf16": cfg.bf16}
+    if key != "interpolate":  # only the interpolate path is paced and toured
+        params.pop("pace")
+        params.pop("tour")
+    if key != "inputs":  # the ring check is the de-flared photos' alone
+        params.pop("band_rejected")
+    if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade, and
+        params.pop("nearest_count")  # they never take themselves as a source
+        params.pop("source_fade")
+        params.pop("fade_cut")
+        params.pop("fade_limit")
+        params.pop("source_hold")
+        params.pop("path_exposure")
+        params.pop("from_deflared")  # they are what it reads
+        params.pop("source_grow")
+        params.pop("network_scale")  # their GN-FR renders at their full size
+    return params
+
+
+def record_defaults(key: str, device: str) -> dict:
+    """What a render record written before a setting existed meant by it (the stage's
+    ``defaults``), for the path ``key``: an old finished render stays finished."""
+    defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
+                "depth_maps": "depth", "bf16": False,  # records before bf16 rendered fp32
+                "encode_apart": False,  # and before padded views could be encoded apart
+                "flare_fallback": "valid"}  # and before the fallback was a choice
+    if key != "inputs":  # records before the options: without the nearest view, no lean,
+        from pipeline.photo_fill import AGREE  # and the photo fill's one tolerance
+
+        defaults["nearest_source"] = False
+        defaults["key_blend"] = 0.0
+        defaults["novel_agree"] = AGREE
+        defaults["pace"] = "travel"  # records before the fifty-second session's pace
+        defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
+        defaults["source_hold"] = 0
+        defaults["fade_cut"] = 0.0  # and before the fifty-fifth's cut by the path's steps
+        defaults["fade_limit"] = 0.0  # and its step-back on a dense path
+        defaults["path_exposure"] = 0.0
+        defaults["tour"] = "position"  # records before the fifty-sixth session's tour
+        defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
+        defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
+        defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
+        defaults["from_deflared"] = False  # and before the eighty-eighth's options
+        defaults["source_grow"] = 0.0
+    else:  # records before the forty-fifth session hold the novel frames' network scale
+        # of then, which must not make finished de-flared photos render again
+        defaults["network_scale"] = 1.0 if device.startswith("cuda") else 0.25
+    return defaults
+
+
 def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
     validate(cfg)
@@ -138,23 +227,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         info(f"render: {ws.depth} was made before the depth stage wrote maps of its own for "
              f"the novel frames; `deflare-scene depth {shell_path(ws.root)} --force` writes them "
              "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
-    if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
-        cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
-    if key == "inputs" and cfg.novel_agree is not None:
-        warn("render: --novel-agree is for the video's frames; the de-flared photos keep "
-             "the photo fill's own tolerance")
-    if key == "inputs" and cfg.from_deflared:
-        warn("render: --from-deflared is for the video's frames; the de-flared photos are "
-             "drawn from the photos")
-        cfg = replace(cfg, from_deflared=False)
-    if key == "inputs" and cfg.source_grow:
-        warn("render: --source-grow is for the video's frames; the de-flared photos grow "
-             "their masks by --dilate")
-        cfg = replace(cfg, source_grow=0.0)
+    cfg = options_for_path(cfg, key)
     deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
-    if key != "inputs" and not cfg.band_rejected:
-        warn("render: --no-band-rejected is for the de-flared photos (--path inputs); the "
-             "video's frames have no ring check")
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
     shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
                                (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]
@@ -173,64 +247,13 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                       nearest_source=cfg.keeps_nearest(), nearest_count=cfg.nearest_n())
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
-    params = {**asdict(cfg), "device": None, "chunk": None, "workers": None,
-              "compile": None, "samples": samples,
-              "source_scale": float(cfg.source_scale or meta.get("source_scale") or 1.0),
-              "full_res_colour": bool(meta.get("full_res_colour", False)
-                                      if cfg.full_res_colour is None else cfg.full_res_colour),
-              "scale": novel_scale(cfg, device),
-              "depth_samples": depth_samples(cfg, device, samples, novel=key != "inputs"),
-              "point_sampler": bool(meta.get("point_sampler", True)),
-              "encode_apart": bool(meta.get("encode_apart", False)),
-              "flare_fallback": cfg.flare_fallback or meta.get("flare_fallback", "valid"),
-              "depth_maps": "frames" if frames_maps else "depth",
-              "bf16": cfg.bf16}
+    params = record_params(cfg, meta, key, device, samples, frames_maps)
     inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     inputs += [ws.deflared] if cfg.from_deflared else []
-    defaults = {**asdict(resolve_fill(RenderConfig(), device, novel=key != "inputs")),
-                "depth_maps": "depth", "bf16": False,  # records before bf16 rendered fp32
-                "encode_apart": False,  # and before padded views could be encoded apart
-                "flare_fallback": "valid"}  # and before the fallback was a choice
-    if key != "inputs":  # records before the options: without the nearest view, no lean,
-        from pipeline.photo_fill import AGREE  # and the photo fill's one tolerance
-
-        defaults["nearest_source"] = False
-        defaults["key_blend"] = 0.0
-        defaults["novel_agree"] = AGREE
-        defaults["pace"] = "travel"  # records before the fifty-second session's pace
-        defaults["source_fade"] = 0  # and before the fifty-third's cross-fade
-        defaults["source_hold"] = 0
-        defaults["fade_cut"] = 0.0  # and before the fifty-fifth's cut by the path's steps
-        defaults["fade_limit"] = 0.0  # and its step-back on a dense path
-        defaults["path_exposure"] = 0.0
-        defaults["tour"] = "position"  # records before the fifty-sixth session's tour
-        defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
-        defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
-        defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
-        defaults["from_deflared"] = False  # and before the eighty-eighth's options
-        defaults["source_grow"] = 0.0
-    if key != "interpolate":  # only the interpolate path is paced and toured
-        params.pop("pace")
-        params.pop("tour")
-    if key != "inputs":  # the ring check is the de-flared photos' alone
-        params.pop("band_rejected")
-    if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade, and
-        params.pop("nearest_count")  # they never take themselves as a source
-        params.pop("source_fade")
-        params.pop("fade_cut")
-        params.pop("fade_limit")
-        params.pop("source_hold")
-        params.pop("path_exposure")
-        params.pop("from_deflared")  # they are what it reads
-        params.pop("source_grow")
-    if key == "inputs":  # the de-flared photos' GN-FR renders at their full size: no
-        # network scale to record; records before the forty-fifth session hold the novel
-        # frames' default of then, which must not make finished photos render again
-        params.pop("network_scale")
-        defaults["network_scale"] = 1.0 if device.startswith("cuda") else 0.25
+    defaults = record_defaults(key, device)
     stage_run = ws.begin_stage(f"render:{key}", params, inputs, force, defaults=defaults)
     if stage_run.skip:
         info(f"render {key}: up to date ({out_dir})")

@@ -1721,3 +1721,38 @@ def test_key_spot_scales_with_the_cameras_and_renders(hws):
     run(RenderConfig(path="interpolate", fill="hybrid", frames=2, scale=0.25), hws)
     assert hws.stage_record("render:interpolate")["params"]["key_spot"] == 0.1
     assert [f.stat().st_mtime_ns for f in frames] != stamps
+
+
+def test_the_render_record_holds_each_paths_own_settings():
+    """record_params: the de-flared photos record no path setting (pace, tour, cross-fade,
+    nearest views, exposure glide, network scale), the video no ring check, only the
+    interpolate path its pace and tour; the model's training settings fill what the config
+    leaves; record_defaults gives the older records' meaning for each path's own settings."""
+    from dataclasses import asdict
+
+    from pipeline.render import record_defaults, record_params
+    from pipeline.render.config import RenderConfig
+
+    cfg = RenderConfig()
+    meta = {"source_scale": 0.25, "point_sampler": False}
+    rec = {key: record_params(cfg, meta, key, "cpu", 32, False)
+           for key in ("inputs", "interpolate", "spiral")}
+    video_only = {"pace", "tour", "nearest_count", "source_fade", "fade_cut", "fade_limit",
+                  "source_hold", "path_exposure", "from_deflared", "source_grow",
+                  "network_scale"}
+    assert not video_only & rec["inputs"].keys()
+    assert video_only <= rec["interpolate"].keys()
+    assert video_only - {"pace", "tour"} <= rec["spiral"].keys()
+    assert not {"pace", "tour"} & rec["spiral"].keys()
+    assert "band_rejected" in rec["inputs"] and "band_rejected" not in rec["spiral"]
+    for r in rec.values():
+        assert r["device"] is None and r["samples"] == 32
+        assert r["source_scale"] == 0.25 and r["point_sampler"] is False
+        assert r["depth_maps"] == "depth"
+        assert set(r) - set(asdict(cfg)) <= {"point_sampler", "encode_apart", "depth_maps"}
+    assert record_params(cfg, meta, "spiral", "cpu", 32, True)["depth_maps"] == "frames"
+    old_inputs, old_video = record_defaults("inputs", "cpu"), record_defaults("spiral", "cpu")
+    assert old_inputs["network_scale"] == 0.25  # the novel frames' CPU default of then
+    assert record_defaults("inputs", "cuda")["network_scale"] == 1.0
+    assert old_video["source_fade"] == 0 and old_video["pace"] == "travel"
+    assert old_inputs["source_fade"] == cfg.source_fade  # no record of it: today's default
