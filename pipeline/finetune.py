@@ -590,56 +590,14 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     gen = torch.Generator().manual_seed(cfg.seed)
     model, how = init_model(cfg, device, init)
     trainer = Trainer(model, cfg, gen=gen)
-    unseen = torch.zeros(len(scene.stems), 2, dtype=torch.float64)
-    record = scene_record(scene)
     prov = {**run_provenance(cfg, preset, device, init_record(init, init_path(cfg, init))),
-            "scene": record}
+            "scene": scene_record(scene)}
     if gains:  # the exposure the model was trained at: render reads its sources so
         from pipeline.exposure import gains_json
 
         prov["exposure_gains"] = gains_json(gains)
-    if resume and has_checkpoint(out):
-        unseen = trainer.restore(out)["unseen"]
-        prev = checkpoint_provenance(checkpoint_files(out)[0])
-        if prev is not None:
-            _goes_on(prov, prev, trainer.step)
-        info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
-    elif (prev := continuation(init_path(cfg, init), cfg, preset, record)) is not None:
-        step = int(prev["steps_done"])
-        if step >= cfg.iters:
-            raise UserError(f"--init {init} is this scene's fine-tune, trained to step {step}: "
-                            f"give --iters above {step} to train it further")
-        trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
-        gen.manual_seed(cfg.seed + step)  # new draws, not the first run's again
-        _goes_on(prov, prev, step, optimizer="fresh", **{"from": str(init)})
-        info(f"finetune: continuing {init} at step {step} of {cfg.iters} (this scene's own "
-             "fine-tune; its optimizer state is not in the weights: Adam starts afresh)")
-    else:
-        info(f"finetune: starting {how}")
-    scenes = [scene, mirrored(scene)] if cfg.mirror else [scene]
-    banks = [prepare_sources(model, sc, cfg, device) for sc in scenes]
-    twins = []
-    if cfg.source_flare > 0:
-        from pipeline.source_flare import TWINS, flared_twins
-
-        info(f"finetune: drawing {TWINS} flared twins of the scene's sources "
-             f"(--source-flare {cfg.source_flare:g})")
-        twins = [prepare_sources(model, t, cfg, device)
-                 for t in flared_twins(scene, cfg.seed, TWINS)]
-
-    def draw(gen: torch.Generator) -> StepInput:
-        """A batch of the scene, or (``cfg.mirror``) of it or its mirror image at random;
-        with ``cfg.source_flare`` its sources are, that often, a flared twin's."""
-        k = int(torch.randint(len(scenes), (1,), generator=gen)) if len(scenes) > 1 else 0
-        batch = sample_batch(scenes[k], cfg, gen)
-        if twins and k == 0 and float(torch.rand((), generator=gen)) < cfg.source_flare:
-            return StepInput(batch, *twins[int(torch.randint(len(twins), (1,), generator=gen))])
-        return StepInput(batch, *banks[k])
-
-    def count_unseen(inp: StepInput, r: dict) -> None:
-        if any(inp.bank is b for b, _ in twins):  # unseen.json counts the photos' own flare
-            return
-        unseen[inp.batch.target] += torch.tensor([r["all_flared"], 1.0], dtype=torch.float64)
+    unseen = _start(trainer, gen, prov, out, resume, init, how, preset, len(scene.stems))
+    draws = _Draws(scene, model, cfg, device, unseen)
 
     def meta(step: int, seconds: float) -> dict:
         """Render settings, plus the provenance with steps done and training seconds."""
@@ -650,20 +608,10 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
     with contextlib.ExitStack() as stack:
         split = None
         if workers > 1 and trainer.step < cfg.iters:
-            from gnfr.ray_split import NoSharedMemory, RaySplit
-
-            try:
-                split = stack.enter_context(RaySplit(model, banks + twins, cfg, workers,
-                                                     threads))
-            except NoSharedMemory as e:
-                warn(f"finetune: {e}: training in one process (more shared memory, e.g. "
-                     "Docker's `--shm-size 2g`, lets the processes share each step)")
-                workers = 1
+            split, workers = _ray_split(stack, model, draws.banks + draws.twins, cfg, workers,
+                                        threads)
         # a speed setting, but it decides the rounding: the checkpoint says it
-        if "resumed" in prov:
-            prov["resumed"][-1]["processes"] = workers
-        else:
-            prov["processes"] = workers
+        (prov["resumed"][-1] if "resumed" in prov else prov)["processes"] = workers
         label = "finetune" if workers == 1 else f"finetune ({workers} processes)"
         prog = stack.enter_context(make_progress(cols))
         task = prog.add_task(label, total=cfg.iters, completed=trainer.step, speed="-",
@@ -675,18 +623,102 @@ def fit(scene: Scene, cfg: TrainConfig, device: torch.device, out: Path, resume:
             prog.update(task, completed=step, speed=f"{speed:.2f}")
 
         try:
-            stats = trainer.run(draw, out=out, meta=meta,
-                                state=lambda _, sec: {"unseen": unseen, "seconds": float(sec)},
-                                after_step=count_unseen, report=report, split=split)
+            stats = trainer.run(draws, out=out, meta=meta,
+                                state=lambda _, sec: {"unseen": draws.unseen,
+                                                      "seconds": float(sec)},
+                                after_step=draws.count_unseen, report=report, split=split)
         except HelperDied as e:
             raise UserError(f"finetune: {e}; the checkpoint of step {saved_step(out)} is kept: "
                             "rerun to resume, with `--workers 1` (`--set finetune.workers=1` "
                             "in the one-shot command) to train in one process (less memory)"
                             ) from None
-    _write_unseen(out / UNSEEN_FILE, scene, unseen)
+    _write_unseen(out / UNSEEN_FILE, scene, draws.unseen)
     # the views a step could take as its target: the stage's record says them, so whoever
     # reports the fine-tune (eval's table) reads them rather than applying the rule again
     return {**stats, "init": prov["init"], "targets": scene_targets(scene, cfg)}
+
+
+def _start(trainer: Trainer, gen: torch.Generator, prov: dict, out: Path, resume: bool,
+           init: str, how: str, preset: str, n_views: int) -> torch.Tensor:
+    """Where ``fit`` starts, set on ``trainer`` and ``gen`` and told in ``prov``; returns
+    the unseen counts so far (per view: points on flare in every source, points drawn).
+    In order: ``out``'s own checkpoint when ``resume`` (an interrupted run, exactly where it
+    stopped); this scene's unfinished fine-tune carried as ``--init`` without its state
+    (``continuation``: its step count and schedule, a fresh optimizer, new draws); else
+    step 0 from what ``init_model`` loaded (``how`` says it)."""
+    cfg = trainer.cfg
+    if resume and has_checkpoint(out):
+        unseen = trainer.restore(out)["unseen"]
+        prev = checkpoint_provenance(checkpoint_files(out)[0])
+        if prev is not None:
+            _goes_on(prov, prev, trainer.step)
+        info(f"finetune: resuming at step {trainer.step} of {cfg.iters}")
+        return unseen
+    if (prev := continuation(init_path(cfg, init), cfg, preset, prov["scene"])) is not None:
+        step = int(prev["steps_done"])
+        if step >= cfg.iters:
+            raise UserError(f"--init {init} is this scene's fine-tune, trained to step {step}: "
+                            f"give --iters above {step} to train it further")
+        trainer.step, trainer.seconds = step, float(prev.get("train_seconds", 0.0))
+        gen.manual_seed(cfg.seed + step)  # new draws, not the first run's again
+        _goes_on(prov, prev, step, optimizer="fresh", **{"from": str(init)})
+        info(f"finetune: continuing {init} at step {step} of {cfg.iters} (this scene's own "
+             "fine-tune; its optimizer state is not in the weights: Adam starts afresh)")
+    else:
+        info(f"finetune: starting {how}")
+    return torch.zeros(n_views, 2, dtype=torch.float64)
+
+
+class _Draws:
+    """The fine-tune's batches: each step a batch of the scene, or (``cfg.mirror``) of it or
+    its mirror image at random, with that scene's encoded sources (``banks``); with
+    ``cfg.source_flare`` its sources are, that often, a flared twin's (``twins``). Counts
+    each target's points on flare in every source (``unseen``), the photos' own only."""
+
+    def __init__(self, scene: Scene, model: GNFR, cfg: TrainConfig, device: torch.device,
+                 unseen: torch.Tensor):
+        self.cfg, self.unseen = cfg, unseen
+        self.scenes = [scene, mirrored(scene)] if cfg.mirror else [scene]
+        self.banks = [prepare_sources(model, sc, cfg, device) for sc in self.scenes]
+        self.twins = []
+        if cfg.source_flare > 0:
+            from pipeline.source_flare import TWINS, flared_twins
+
+            info(f"finetune: drawing {TWINS} flared twins of the scene's sources "
+                 f"(--source-flare {cfg.source_flare:g})")
+            self.twins = [prepare_sources(model, t, cfg, device)
+                          for t in flared_twins(scene, cfg.seed, TWINS)]
+
+    def __call__(self, gen: torch.Generator) -> StepInput:
+        k = (int(torch.randint(len(self.scenes), (1,), generator=gen))
+             if len(self.scenes) > 1 else 0)
+        batch = sample_batch(self.scenes[k], self.cfg, gen)
+        if (self.twins and k == 0
+                and float(torch.rand((), generator=gen)) < self.cfg.source_flare):
+            twin = self.twins[int(torch.randint(len(self.twins), (1,), generator=gen))]
+            return StepInput(batch, *twin)
+        return StepInput(batch, *self.banks[k])
+
+    def count_unseen(self, inp: StepInput, r: dict) -> None:
+        if any(inp.bank is b for b, _ in self.twins):  # unseen.json counts the photos' own
+            return
+        self.unseen[inp.batch.target] += torch.tensor([r["all_flared"], 1.0],
+                                                      dtype=torch.float64)
+
+
+def _ray_split(stack: contextlib.ExitStack, model: GNFR, banks: list, cfg: TrainConfig,
+               workers: int, threads: int):
+    """``workers`` processes sharing each step's rays, entered on ``stack``, and the count
+    that trains: (None, 1) where the machine's shared memory has no room for them (a
+    warning says what gives it room)."""
+    from gnfr.ray_split import NoSharedMemory, RaySplit
+
+    try:
+        return stack.enter_context(RaySplit(model, banks, cfg, workers, threads)), workers
+    except NoSharedMemory as e:
+        warn(f"finetune: {e}: training in one process (more shared memory, e.g. "
+             "Docker's `--shm-size 2g`, lets the processes share each step)")
+        return None, 1
 
 
 def saved_step(out: Path) -> int:
