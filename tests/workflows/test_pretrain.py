@@ -612,3 +612,31 @@ def test_pretrain_source_flare_reads_flared_twins_and_records_it(pretrain_scenes
     assert lines and not any("twin" in r for r in lines)
     cfg, meta = read_metadata(tmp_path / "n" / "gnfr.safetensors")
     assert "pretrain_source_flare" not in meta and not cfg.flare_flag
+
+
+def test_pretrain_options_land_on_the_training_config_and_nothing_else_moves():
+    """``train_config``: each option that shapes the training sets its one field of the
+    preset (the transformers' dropout, the decoder's norm and the flare flag on the model);
+    with none given only the seed differs from the preset."""
+    from dataclasses import asdict, replace
+
+    from gnfr.train import PRESETS
+    from workflows.research.pretrain import PretrainConfig, train_config
+
+    base = PRESETS["tiny"]
+    plain = train_config(PretrainConfig(preset="tiny", seed=base.seed + 3))
+    assert asdict(plain) == {**asdict(base), "seed": base.seed + 3}
+    cfg = train_config(PretrainConfig(preset="tiny", iters=7, ckpt_every=3, dropout=0.1,
+                                      dec_norm=True, random_sources=True, flare_flag=True,
+                                      full_res_colour=True, seed=5))
+    assert (cfg.iters, cfg.ckpt_every, cfg.seed) == (7, 3, 5)
+    assert cfg.full_res_colour and cfg.random_sources
+    assert (cfg.model.dropout, cfg.model.dec_norm, cfg.model.flare_flag) == (0.1, True, True)
+    assert asdict(replace(cfg, iters=base.iters, ckpt_every=base.ckpt_every, seed=base.seed,
+                          full_res_colour=base.full_res_colour,
+                          random_sources=base.random_sources, model=base.model)) == asdict(base)
+    assert asdict(replace(cfg.model, dropout=base.model.dropout, dec_norm=base.model.dec_norm,
+                          flare_flag=base.model.flare_flag)) == asdict(base.model)
+    # --preset is overridden entirely by an explicit TrainConfig
+    other = replace(PRESETS["quick"], iters=11)
+    assert train_config(PretrainConfig(preset="tiny", seed=2), other).iters == 11

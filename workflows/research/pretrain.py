@@ -269,26 +269,57 @@ def broadcast_params(model: torch.nn.Module) -> None:
 
 
 # --------------------------------------------------------------------------- training
+def train_config(config: PretrainConfig, train: TrainConfig | None = None) -> TrainConfig:
+    """The preset's TrainConfig (or ``train``, which replaces it entirely) with the options
+    ``config`` sets: steps, checkpoint interval, full-resolution colour, dropout, the decoder's
+    InstanceNorm, random sources, the flare flag and the seed."""
+    cfg = train or PRESETS[config.preset]
+    over = {k: v for k, v in (("iters", config.iters), ("ckpt_every", config.ckpt_every))
+            if v is not None}
+    over |= {k: True for k in ("full_res_colour", "random_sources") if getattr(config, k)}
+    model = {k: True for k in ("dec_norm", "flare_flag") if getattr(config, k)}
+    if config.dropout is not None:
+        model["dropout"] = config.dropout
+    return replace(cfg, **over, model=replace(cfg.model, **model), seed=config.seed)
+
+
+def scene_draws(scenes: list[Scene], banks: list, twins: list[list], config: PretrainConfig,
+                train_cfg: TrainConfig):
+    """The pretraining's batches: a random scene (a layered one, the last
+    ``config.layered`` of ``scenes``, at ``layered_share`` of the steps when there are any),
+    then a batch of it with its sources (``banks``); with ``source_flare`` its sources are,
+    that often, one of its flared ``twins``' (none for the layered scenes)."""
+    real = len(scenes) - config.layered
+
+    def draw(gen: torch.Generator) -> StepInput:
+        if config.layered and float(torch.rand((), generator=gen)) < config.layered_share:
+            k = real + int(torch.randint(config.layered, (1,), generator=gen))
+        else:
+            k = int(torch.randint(real, (1,), generator=gen))
+        batch = sample_batch(scenes[k], train_cfg, gen)
+        if k < real and twins and float(torch.rand((), generator=gen)) < config.source_flare:
+            j = int(torch.randint(len(twins[k]), (1,), generator=gen))
+            return StepInput(batch, *twins[k][j], fields={"scene": scenes[k].name, "twin": j})
+        return StepInput(batch, *banks[k], fields={"scene": scenes[k].name})
+
+    return draw
+
+
+def data_meta(config: PretrainConfig, evened: list[str]) -> dict:
+    """What the pretraining's data was, for the weights' metadata: mirrored, layered scenes
+    and their share, the scenes brought to one exposure (``evened``), source flare."""
+    return ({"pretrain_mirror": True} if config.mirror else {}) | (
+        {"pretrain_layered": config.layered, "pretrain_layered_share": config.layered_share}
+        if config.layered else {}) | (
+        {"pretrain_exposure_match": evened} if config.exposure_match else {}) | (
+        {"pretrain_source_flare": config.source_flare} if config.source_flare else {})
+
+
 def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     """Pretrain; returns the weight file. ``train`` overrides the preset entirely."""
     validate(config)
     rank, world, device = setup_distributed(config.device)
-    train_cfg = train or PRESETS[config.preset]
-    if config.iters is not None:
-        train_cfg = replace(train_cfg, iters=config.iters)
-    if config.ckpt_every is not None:
-        train_cfg = replace(train_cfg, ckpt_every=config.ckpt_every)
-    if config.full_res_colour:
-        train_cfg = replace(train_cfg, full_res_colour=True)
-    if config.dropout is not None:
-        train_cfg = replace(train_cfg, model=replace(train_cfg.model, dropout=config.dropout))
-    if config.dec_norm:
-        train_cfg = replace(train_cfg, model=replace(train_cfg.model, dec_norm=True))
-    if config.random_sources:
-        train_cfg = replace(train_cfg, random_sources=True)
-    if config.flare_flag:
-        train_cfg = replace(train_cfg, model=replace(train_cfg.model, flare_flag=True))
-    train_cfg = replace(train_cfg, seed=config.seed)
+    train_cfg = train_config(config, train)
     folders = find_scenes(config.scenes)  # a bad scene path fails before OUT is made
     out = Path(config.out)
     step = start_step(train_cfg, config.init, config.preset)
@@ -326,34 +357,13 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     trainer.gen = torch.Generator().manual_seed(train_cfg.seed * 1_000_003 + rank * 7919
                                                 + trainer.step)
     banks = [prepare_sources(model, scene, train_cfg, device) for scene in scenes]
-
-    real = len(scenes) - config.layered
-    twins = source_twins(model, scenes[:real], config, train_cfg, device)
-
-    def draw(gen: torch.Generator) -> StepInput:
-        """A random scene (a layered one at ``layered_share`` of the steps when there are
-        any), then a batch of it; with ``source_flare`` its sources are, that often, one of
-        its flared twins'."""
-        if config.layered and float(torch.rand((), generator=gen)) < config.layered_share:
-            k = real + int(torch.randint(config.layered, (1,), generator=gen))
-        else:
-            k = int(torch.randint(real, (1,), generator=gen))
-        batch = sample_batch(scenes[k], train_cfg, gen)
-        if k < real and twins and float(torch.rand((), generator=gen)) < config.source_flare:
-            j = int(torch.randint(len(twins[k]), (1,), generator=gen))
-            return StepInput(batch, *twins[k][j], fields={"scene": scenes[k].name, "twin": j})
-        return StepInput(batch, *banks[k], fields={"scene": scenes[k].name})
-
-    data_meta = ({"pretrain_mirror": True} if config.mirror else {}) | (  # what the data was
-        {"pretrain_layered": config.layered, "pretrain_layered_share": config.layered_share}
-        if config.layered else {}) | (
-        {"pretrain_exposure_match": evened} if config.exposure_match else {}) | (
-        {"pretrain_source_flare": config.source_flare} if config.source_flare else {})
+    twins = source_twins(model, scenes[:len(scenes) - config.layered], config, train_cfg, device)
+    draw = scene_draws(scenes, banks, twins, config, train_cfg)
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
                     meta=lambda at_step, _: {**render_meta(train_cfg, config.preset, at_step),
-                                             **data_meta},
+                                             **data_meta(config, evened)},
                     record=last_record, grad_hook=allreduce_grads if world > 1 else None,
                     writer=rank == 0,
                     report=lambda at_step, _, __: prog.update(task, completed=at_step))
