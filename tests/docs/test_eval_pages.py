@@ -707,6 +707,66 @@ def test_parts_taken_out_on_three_development_builds_are_their_files():
             in page_text("README.md"))
 
 
+def test_a_second_seed_of_the_view_sampler_and_gnt_on_the_development_builds_is_its_files():
+    """docs/eval.md: seed 1 of GN-FR, no View Sampler and vanilla GNT on the three development
+    builds (ninety-fourth session's plan) are their files, each at the seed-0 files' budget
+    but the seed, from one clean commit in fp32, on the seed-0 builds (the masks score as
+    seed 0's to the digit); the tables, means and the sentences' readings are the files'."""
+    text = page_text("docs/eval.md")
+    start = text.index("Scored (`docs/results/ablation_{sceaux_p4,et_p5,lund_k4}_seed1_s94.json`")
+    section = text[start:text.index("## Why GN-FR trails vanilla GNT", start)]
+    commits, vs, margin, held = set(), [], {0: [], 1: []}, {0: [], 1: []}
+    for build, name in ABLATION_FILES:
+        base = result(f"{build}_synth_gnfr_gnt_cpu_s92.json")
+        abl, gnt = result(f"ablation_{build}_seed1_s94.json"), result(f"gnt_{build}_seed1_s94.json")
+        for d in (abl, gnt):
+            assert d["budget"] == {**base["budget"], "seed": 1}, build
+            assert d["heldout_views"] == base["heldout_views"], build
+            assert d["mask_scores"] == base["mask_scores"], build
+            assert not d["provenance"]["code"]["dirty"], build
+            assert '"cpu_bf16": true' not in json.dumps(d), build
+            commits.add(d["provenance"]["code"]["commit"])
+        m1 = {**abl["methods"], **gnt["methods"]}
+        assert set(m1) == {"gnfr", "no_vs", "gnt"}
+        g = m1["gnfr"]["train"]
+        assert m1["no_vs"]["train"]["targets"] == g["views"] > g["targets"]
+        cells = " | ".join(f"{m1[k]['heldout']['psnr']:.2f} / {m1[k]['inputs']['psnr_flare']:.2f}"
+                           for k in ("gnfr", "no_vs", "gnt"))
+        row = f"| {build} | {cells} | {g['targets']} of {g['views']} |"
+        assert row in section, row
+        m0 = {**base["methods"], **result(name)["methods"]}
+        pair = []
+        for seed, m in ((0, m0), (1, m1)):
+            h = {k: m[k]["heldout"]["psnr"] for k in ("gnfr", "no_vs", "gnt")}
+            f = {k: m[k]["inputs"]["psnr_flare"] for k in ("gnfr", "no_vs", "gnt")}
+            pair.append((h["no_vs"] - h["gnfr"], f["no_vs"] - f["gnfr"]))
+            margin[seed].append(f["gnfr"] - f["gnt"])
+            held[seed].append(h["gnfr"] - h["gnt"])
+        vs.append(pair)
+        row = f"| {build} | " + " | ".join(f"{a:+.2f} / {b:+.2f}" for a, b in pair) + " |"
+        assert row in section, row
+        row = (f"| {build} | {margin[0][-1]:+.2f} | {margin[1][-1]:+.2f} | {held[0][-1]:+.2f} | "
+               f"{held[1][-1]:+.2f} |")
+        assert row in section, row
+    assert len(commits) == 1 and commits.pop().startswith("9916de8")
+    six = [d for pair in vs for d in pair]
+    mean = (sum(a for a, _ in six) / 6, sum(b for _, b in six) / 6)
+    assert f"| **mean of 6** | **{mean[0]:+.2f} / {mean[1]:+.2f}** | |" in section
+    cells = " | ".join(f"**{sum(v[s]) / 3:+.2f}**" for v in (margin, held) for s in (0, 1))
+    assert f"| **mean** | {cells} |" in section
+    # the readings: the held-out views move the same way on each build at both seeds; the
+    # flare region falls without the rule on lund_k4 at both; the margin's sign holds
+    assert all((a0 > 0) == (a1 > 0) for (a0, _), (a1, _) in vs)
+    assert all(b < 0 for _, b in vs[2]) and all(abs(b) < 0.25 for p in vs[:2] for _, b in p)
+    assert f"+{mean[0]:.2f} dB on novel views for {mean[1]:.2f} dB in the flare region" in section
+    assert all(x > 0 for s in (0, 1) for x in margin[s])
+    assert all((a > 0) == (b > 0) for a, b in zip(held[0], held[1], strict=True))
+    six_margin = (sum(margin[0]) + sum(margin[1])) / 6
+    assert (f"+{min(margin[1]):.2f} to +{max(margin[1]):.2f} dB in the flare region; "
+            f"+{six_margin:.2f} on the mean of six") in section
+    assert "the same way on each at a second seed" in page_text("README.md")
+
+
 def test_fern_in_fp32_is_its_file():
     """docs/eval.md, "The test scenes in fp32": fern's eval-llff on the fp32 path (both
     protocols, seed 0, a clean commit) against the ninetieth session's bf16 file: the clean
