@@ -57,7 +57,7 @@ def test_bundled_ffmpeg_has_libx264():
 def ews(tmp_path):
     """A workspace with a fake rendered path and fake de-flared photos (no model needed)."""
     from gnfr.paths import PathCamera, interpolate_path, path_to_json
-    from tests.pipeline.test_render import make_render_ws
+    from tests.pipeline.render_ws import make_render_ws
 
     ws = make_render_ws(tmp_path / "ws", n_views=4)
     cams = load_cameras(ws.cameras_json)
@@ -79,7 +79,7 @@ def test_export_writes_every_output(ews):
     import trimesh
 
     from pipeline.export import ExportConfig, run
-    from tests.pipeline.test_render import BOX, FLARED
+    from tests.pipeline.render_ws import BOX, FLARED
 
     outs = run(ExportConfig(fps=6), ews)
     scene = ews.scene_name

@@ -11,7 +11,7 @@ import pytest
 
 from pipeline.cameras import load_cameras
 from pipeline.errors import UserError
-from tests.pipeline.test_render import BOX, FLARED, rws  # noqa: F401  (the posed workspace)
+from tests.pipeline.render_ws import BOX, FLARED  # rws: the posed workspace (conftest.py)
 
 
 def _deflared(ws):
@@ -20,7 +20,7 @@ def _deflared(ws):
     run(RenderConfig(path="inputs"), ws)
 
 
-def test_a_view_takes_its_flare_region_from_its_deflared_photo_and_keeps_the_rest(rws):  # noqa: F811
+def test_a_view_takes_its_flare_region_from_its_deflared_photo_and_keeps_the_rest(rws):
     from pipeline.images import read_image
     from pipeline.render import blend_weights
     from pipeline.render.sources import with_deflared
@@ -47,7 +47,7 @@ def test_a_view_takes_its_flare_region_from_its_deflared_photo_and_keeps_the_res
     assert np.abs(out[ring] - want).max() <= 1.0
 
 
-def test_novel_frames_encode_the_deflared_flare_regions_and_record_it(rws, tmp_path, capsys):  # noqa: F811
+def test_novel_frames_encode_the_deflared_flare_regions_and_record_it(rws, tmp_path, capsys):
     import torch
 
     from gnfr.paths import PathCamera, path_to_json
@@ -105,7 +105,7 @@ def test_novel_frames_encode_the_deflared_flare_regions_and_record_it(rws, tmp_p
     assert rws.stage_record("render:one")["params"]["from_deflared"] is False
 
 
-def test_from_deflared_needs_the_deflared_photos_and_is_not_for_them(rws, tmp_path, capsys):  # noqa: F811
+def test_from_deflared_needs_the_deflared_photos_and_is_not_for_them(rws, tmp_path, capsys):
     import shutil
 
     from pipeline.render import RenderConfig, run

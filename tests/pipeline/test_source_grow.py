@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from pipeline.cameras import load_cameras
-from tests.pipeline.test_render import FLARED, rws  # noqa: F401  (the posed workspace)
+from tests.pipeline.render_ws import FLARED  # rws: the posed workspace (conftest.py)
 
 
 def test_grow_mask_grows_by_a_share_of_the_long_side():
@@ -23,7 +23,7 @@ def test_grow_mask_grows_by_a_share_of_the_long_side():
     assert grow_mask(m, 0.001) is m  # under half a pixel: unchanged (as --train-grow)
 
 
-def test_novel_frames_sources_and_photo_fill_read_grown_masks(rws, tmp_path, capsys):  # noqa: F811
+def test_novel_frames_sources_and_photo_fill_read_grown_masks(rws, tmp_path, capsys):
     import torch
 
     from gnfr.paths import PathCamera, path_to_json

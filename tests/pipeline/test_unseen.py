@@ -9,7 +9,6 @@ import numpy as np
 
 from pipeline.cameras import load_cameras
 from pipeline.render.unseen import fill_unseen
-from tests.pipeline.test_render import rws  # noqa: F401  (the module's posed workspace)
 
 
 def _frame(dtype=np.uint8):
@@ -49,7 +48,7 @@ def _turned(c2w: np.ndarray, degrees: float) -> np.ndarray:
     return out
 
 
-def test_a_frame_turned_past_the_sources_changes_only_where_they_do_not_see(rws, tmp_path):  # noqa: F811
+def test_a_frame_turned_past_the_sources_changes_only_where_they_do_not_see(rws, tmp_path):
     """A path camera at the first photo's spot turned 35 degrees: part of its frame lies
     past every source. At the default (--unseen-below 0.5) only the pixels whose rays are under half
     seen change, the seen ones are those of `--unseen-below 0` to the bit, and the stage

@@ -107,7 +107,7 @@ def test_bench_workspace_times_both_fills_and_leaves_the_workspace_as_it_was(
     from pipeline.depth import DepthConfig
     from pipeline.depth import run as depth_run
     from tests.fixtures import make_plane_workspace
-    from tests.pipeline.test_render import add_masks_views_model
+    from tests.pipeline.render_ws import add_masks_views_model
     ws = make_plane_workspace(tmp_path / "ws")
     add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
     depth_run(DepthConfig(neighbours=3), ws)
@@ -127,7 +127,7 @@ def test_bench_workspace_times_both_fills_and_leaves_the_workspace_as_it_was(
 
 def test_bench_workspace_without_depth_is_one_line_and_exit_2(tmp_path, capsys):
     from tests.fixtures import make_plane_workspace
-    from tests.pipeline.test_render import add_masks_views_model
+    from tests.pipeline.render_ws import add_masks_views_model
 
     ws = make_plane_workspace(tmp_path / "ws")
     add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
@@ -144,7 +144,7 @@ def test_bench_fill_only_times_the_workspace_frames_alone(tmp_path, one_torch_th
     from pipeline.depth import DepthConfig
     from pipeline.depth import run as depth_run
     from tests.fixtures import make_plane_workspace
-    from tests.pipeline.test_render import add_masks_views_model
+    from tests.pipeline.render_ws import add_masks_views_model
     ws = make_plane_workspace(tmp_path / "ws")
     add_masks_views_model(ws, "plane02", (slice(40, 70), slice(60, 100)), 0)
     depth_run(DepthConfig(neighbours=3), ws)

@@ -1383,7 +1383,7 @@ def test_benchmarks_render_in_a_scratch_copy_and_name_what_a_workspace_lacks(tmp
     a one-line error naming the depth stage; with them the benchmark gets the workspace, its
     model and a scratch workspace elsewhere that shares its stages and is gone after, the
     workspace untouched. inputs_sources_time.py names a bad ``--sources``."""
-    from tests.pipeline.test_render import make_render_ws
+    from tests.pipeline.render_ws import make_render_ws
     from workflows.research.bench import scratch_workspace
 
     ws = make_render_ws(tmp_path / "ws")
