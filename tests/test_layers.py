@@ -232,12 +232,15 @@ def test_the_checks_catch_deliberate_violations(tmp_path):
 
 
 def test_tests_mirror_the_packages():
-    """tests/<package>/ for each package's tests, tests/docs/ for the numbers the docs
+    """tests/<package>/ for each package's tests, tests/benchmarks/ for the scripts of
+    benchmarks/ (a folder of scripts, not a package), tests/docs/ for the numbers the docs
     quote; only project-wide checks at the top."""
     tests = REPO / "tests"
     folders = {p.name for p in tests.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
-    assert folders == {"gnfr", "pipeline", "workflows", "docs"}
-    assert all((REPO / name / "__init__.py").exists() for name in folders - {"docs"})
+    assert folders == {"gnfr", "pipeline", "workflows", "benchmarks", "docs"}
+    assert all((REPO / name / "__init__.py").exists()
+               for name in folders - {"docs", "benchmarks"})
+    assert any((REPO / "benchmarks").glob("*.py"))
     assert (REPO / "docs" / "results").is_dir()
     top = {p.name for p in tests.glob("test_*.py")}
     assert top == {"test_layers.py"}, top
