@@ -764,7 +764,14 @@ def test_a_second_seed_of_the_view_sampler_and_gnt_on_the_development_builds_is_
     six_margin = (sum(margin[0]) + sum(margin[1])) / 6
     assert (f"+{min(margin[1]):.2f} to +{max(margin[1]):.2f} dB in the flare region; "
             f"+{six_margin:.2f} on the mean of six") in section
-    assert "the same way on each at a second seed" in page_text("README.md")
+    readme = page_text("README.md")
+    assert "the same way on each at a second seed" in readme
+    assert (f"in the flare region on the development builds (seed 0; +{six_margin:.2f} on the "
+            "mean of two seeds)") in readme
+    held_means = {f"{sum(held[s]) / 3:+.2f}" for s in (0, 1)}
+    assert len(held_means) == 1
+    assert (f"(sceaux_castle, et, lund; {held_means.pop()} on the mean of three at both "
+            "seeds)") in readme
 
 
 def test_fern_in_fp32_is_its_file():
