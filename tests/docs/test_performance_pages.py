@@ -462,6 +462,22 @@ def test_the_sample_in_fp32_on_a_cpu_without_native_bf16_is_its_file():
             f"{r['psnr_flare']:.2f} / {r['psnr']:.2f}") in page_text("docs/eval.md")
 
 
+def test_the_sample_after_the_ninety_fifth_sessions_splits_scores_as_before():
+    """docs/eval.md: the README's main job after the fine-tune's and the render's functions
+    were split (ninety-fifth session) scores the de-flared photos as the idle fp32 run did,
+    every view to the digit, from a clean commit but for the run's own log."""
+    new, idle = result("sample_oneshot_cpu_s95_fp32.json"), result(
+        "sample_oneshot_cpu_s92_fp32_idle.json")
+    assert new["code"]["commit"].startswith("ea7da94")
+    assert new["code"]["dirty_files"] == ["oneshot.log"]
+    assert new["model"]["provenance"]["train"]["cpu_bf16"] is False
+    assert new["mean"] == idle["mean"] and new["views"] == idle["views"]
+    assert ("at ea7da94, after the fine-tune's training function and the render's record were "
+            "split into parts (meant to change nothing), it gave the same scores to the last "
+            "digit, on every view (`sample_oneshot_cpu_s95_fp32.json`)") in page_text(
+        "docs/eval.md")
+
+
 def test_the_samples_fp32_time_is_its_idle_run():
     """README: the sample's one-shot in fp32 on the idle machine without native bf16 (its
     stage times from the file, the wall time from docs/results/README.md's row); it repeats
