@@ -476,6 +476,12 @@ def test_the_sample_after_the_ninety_fifth_sessions_splits_scores_as_before():
             "split into parts (meant to change nothing), it gave the same scores to the last "
             "digit, on every view (`sample_oneshot_cpu_s95_fp32.json`)") in page_text(
         "docs/eval.md")
+    # the README's fp32 span is the two fp32 walls on an otherwise idle machine
+    walls = [recorded_walls(rf"\| `{name}`")[0][0]
+             for name in (r"sample_oneshot_cpu_s92_fp32_idle\.json",
+                          r"sample_oneshot_cpu_s95_fp32\.json")]
+    lo, hi = int(min(walls) // 60), int(max(walls) // 60) + 1
+    assert f"and {lo}-{hi} minutes in fp32 (above)" in page_text("README.md")
 
 
 def test_the_samples_fp32_time_is_its_idle_run():
