@@ -218,6 +218,19 @@ def _one_photo_scene(folder: Path, img_bgr: np.ndarray, truth: np.ndarray) -> No
     cv2.imwrite(str(folder / "masks_gt" / "a.png"), np.where(truth, 255, 0).astype(np.uint8))
 
 
+def _rows_on_one_photo(tmp_path: Path, monkeypatch, img_bgr: np.ndarray, truth: np.ndarray,
+                       *flags: str) -> list[dict]:
+    """benchmarks/mask_dev_scenes.py's rows on a one-photo scene of ``img_bgr`` (true flare
+    ``truth``) with the network marking nothing and ``flags`` (e.g. ``--streak-lines``)."""
+    bench = load_benchmark("mask_dev_scenes")
+    _one_photo_scene(tmp_path / "s_streaks", img_bgr, truth)
+    _no_network(monkeypatch)
+    out = tmp_path / "rows.json"
+    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
+                       *flags, "--out", str(out)]) == 0
+    return json.loads(out.read_text())["rows"]
+
+
 def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_count(
         tmp_path, monkeypatch):
     """benchmarks/mask_dev_scenes.py --ray-rule: a lone streak through a light (two rays
@@ -235,12 +248,8 @@ def test_mask_dev_scenes_ray_rule_marks_a_lone_streak_only_when_opposite_rays_co
     lin += add
     lin[np.hypot(yy - 128, xx - 192) < 5] = 1.0  # the light
     img = (linear_to_srgb(np.clip(lin, 0, 1))[..., None].repeat(3, -1) * 255).round()
-    _one_photo_scene(tmp_path / "s_streaks", img.astype(np.uint8), add > 0.012)
-    _no_network(monkeypatch)
-    out = tmp_path / "rows.json"
-    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
-                       "--ray-rule", "3,0", "--ray-rule", "3,8", "--out", str(out)]) == 0
-    rows = json.loads(out.read_text())["rows"]
+    rows = _rows_on_one_photo(tmp_path, monkeypatch, img.astype(np.uint8), add > 0.012,
+                              "--ray-rule", "3,0", "--ray-rule", "3,8")
     by = {(r["rays"], None if r["ray_rule"] is None else tuple(r["ray_rule"])): r for r in rows}
     assert set(by) == {(False, None), (True, (3, 0.0)), (True, (3, 8.0))}
     assert by[True, (3, 0.0)]["flare_iou"] == 0.0  # one streak, two rays: not enough
@@ -474,16 +483,10 @@ def test_mask_dev_scenes_streak_lines_rows_mark_a_streak_the_rays_miss(tmp_path,
     only there, and mask_kind_scenes names the rows ``+lines``."""
     from tests.pipeline.test_flare_lines import _background, _photo, _streak
 
-    bench = load_benchmark("mask_dev_scenes")
     mk = load_benchmark("mask_kind_scenes")
     streak = _streak(1.0)
     img = (_photo(_background() + streak)[..., ::-1] * 255).round().astype(np.uint8)
-    _one_photo_scene(tmp_path / "s_streaks", img, streak > 0.012)
-    _no_network(monkeypatch)
-    out = tmp_path / "rows.json"
-    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
-                       "--streak-lines", "--out", str(out)]) == 0
-    rows = json.loads(out.read_text())["rows"]
+    rows = _rows_on_one_photo(tmp_path, monkeypatch, img, streak > 0.012, "--streak-lines")
     by = {(r["rays"], r["streak_lines"]): r for r in rows}
     assert set(by) == {(False, False), (True, False), (True, True)}
     assert by[True, False]["flare_iou"] == 0.0
@@ -631,17 +634,11 @@ def test_mask_dev_scenes_light_cores_rows_mark_the_streak_of_a_lamp_with_saturat
     light has its streak marked only there, and mask_kind_scenes names the rows ``+cores``."""
     from tests.pipeline.test_flare_rays import S, _lamp_with_a_saturated_streak, _srgb
 
-    bench = load_benchmark("mask_dev_scenes")
     mk = load_benchmark("mask_kind_scenes")
     lin, streak = _lamp_with_a_saturated_streak()
     img = (_srgb(lin)[..., ::-1] * 255).round().astype(np.uint8)
     assert img.shape[:2] == (S, S)
-    _one_photo_scene(tmp_path / "s_streaks", img, streak > 0.012)
-    _no_network(monkeypatch)
-    out = tmp_path / "rows.json"
-    assert bench.main([str(tmp_path / "s_streaks"), "--weights", str(tmp_path / "w.safetensors"),
-                       "--light-cores", "--out", str(out)]) == 0
-    rows = json.loads(out.read_text())["rows"]
+    rows = _rows_on_one_photo(tmp_path, monkeypatch, img, streak > 0.012, "--light-cores")
     by = {(r["rays"], r["light_cores"]): r for r in rows}
     assert set(by) == {(False, False), (True, False), (True, True)}
     assert by[True, False]["flare_iou"] == 0.0

@@ -359,11 +359,12 @@ def run(config: PretrainConfig, train: TrainConfig | None = None) -> Path:
     banks = [prepare_sources(model, scene, train_cfg, device) for scene in scenes]
     twins = source_twins(model, scenes[:len(scenes) - config.layered], config, train_cfg, device)
     draw = scene_draws(scenes, banks, twins, config, train_cfg)
+    data = data_meta(config, evened)
     with make_progress() as prog:
         task = prog.add_task("pretrain", total=train_cfg.iters, completed=trainer.step)
         trainer.run(draw, out=out,
                     meta=lambda at_step, _: {**render_meta(train_cfg, config.preset, at_step),
-                                             **data_meta(config, evened)},
+                                             **data},
                     record=last_record, grad_hook=allreduce_grads if world > 1 else None,
                     writer=rank == 0,
                     report=lambda at_step, _, __: prog.update(task, completed=at_step))
