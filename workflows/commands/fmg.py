@@ -34,51 +34,11 @@ def register(app: typer.Typer) -> None:
         per kind of flare (--per-kind) beside leave-one-kind-out models (--loo); or the
         working-size sweep (--work-sizes), clean photos (--clean) or flare-free composites
         with hard negatives (--negatives)."""
-        from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
         from pipeline.provenance import sha256, write_result
-        from workflows.research import fmg_eval
+        from workflows.research.fmg_eval import run_eval
 
-        fmg_eval.check_modes(config)
-        rule, ghosts = ray_config(config), ghost_config(config)
-        weights = config.weights or DEFAULT_WEIGHTS
-        for path in (weights, *config.loo):
-            load_fmg_weights(path)  # a missing or foreign file: one clear line
-        keep = config.confirm_keep or "both"
-        if config.confirm:
-            load_fmg_weights(config.confirm, flag="--confirm")
-        if config.work_sizes:
-            metrics = fmg_eval.work_size_sweep(weights, config.data, config.work_sizes,
-                                               split=config.split)
-            typer.echo(fmg_eval.format_work_sizes(metrics))
-        elif config.clean:
-            metrics = fmg_eval.clean_fractions(weights, config.data, config.work_size,
-                                               split=config.split, rays=config.rays,
-                                               ray_cfg=rule, confirm=config.confirm,
-                                               confirm_keep=keep, scales=config.scales,
-                                               ghosts=ghosts, pads=config.pads,
-                                               pads_keep=config.pads_keep)
-            typer.echo(fmg_eval.format_clean(metrics))
-        elif config.negatives:
-            metrics = fmg_eval.negative_fractions(weights, config.data, config.negatives,
-                                                  config.count, size=config.size,
-                                                  split=config.split, rays=config.rays,
-                                                  ray_cfg=rule)
-            typer.echo(fmg_eval.format_negatives(metrics))
-        elif config.per_kind:
-            metrics = fmg_eval.evaluate_kinds(weights, config.data, config.loo, config.count,
-                                              size=config.size, split=config.split,
-                                              rays=config.rays, ray_cfg=rule,
-                                              confirm=config.confirm,
-                                              confirm_keep=keep, scales=config.scales,
-                                              flare_canvas=config.flare_canvas,
-                                              night=config.night, ghosts=ghosts,
-                                              fill_holes=config.fill_holes)
-            typer.echo(fmg_eval.format_kinds(metrics))
-        else:
-            metrics = fmg_eval.evaluate(weights, config.data, config.count,
-                                        refine=config.refine, size=config.size,
-                                        split=config.split)
-            typer.echo(fmg_eval.format_metrics(metrics))
+        metrics, table, weights = run_eval(config)
+        typer.echo(table)
         if config.out:  # stamped with the code, the machine, the command and the weights' hash
             write_result(config.out, {**metrics, "weights_sha256": sha256(weights)})
 

@@ -222,6 +222,46 @@ def check_ray_rule(cfg) -> None:
                         "flare rays' rule: add --rays")
 
 
+def run_eval(cfg: FMGEvalConfig) -> tuple[dict, str, Path]:
+    """`fmg eval`: the one score ``cfg`` asks for (``check_modes``), as (metrics, the table
+    printed, the weights scored). Every weights file is opened first, so a missing or foreign
+    one stops the run with one clear line before any scoring."""
+    from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
+
+    check_modes(cfg)
+    rule, ghosts = ray_config(cfg), ghost_config(cfg)
+    weights = cfg.weights or DEFAULT_WEIGHTS
+    for path in (weights, *cfg.loo):
+        load_fmg_weights(path)
+    keep = cfg.confirm_keep or "both"
+    if cfg.confirm:
+        load_fmg_weights(cfg.confirm, flag="--confirm")
+    if cfg.work_sizes:
+        metrics = work_size_sweep(weights, cfg.data, cfg.work_sizes, split=cfg.split)
+        return metrics, format_work_sizes(metrics), weights
+    if cfg.clean:
+        metrics = clean_fractions(weights, cfg.data, cfg.work_size, split=cfg.split,
+                                  rays=cfg.rays, ray_cfg=rule, confirm=cfg.confirm,
+                                  confirm_keep=keep, scales=cfg.scales, ghosts=ghosts,
+                                  pads=cfg.pads, pads_keep=cfg.pads_keep)
+        return metrics, format_clean(metrics), weights
+    if cfg.negatives:
+        metrics = negative_fractions(weights, cfg.data, cfg.negatives, cfg.count,
+                                     size=cfg.size, split=cfg.split, rays=cfg.rays,
+                                     ray_cfg=rule)
+        return metrics, format_negatives(metrics), weights
+    if cfg.per_kind:
+        metrics = evaluate_kinds(weights, cfg.data, cfg.loo, cfg.count, size=cfg.size,
+                                 split=cfg.split, rays=cfg.rays, ray_cfg=rule,
+                                 confirm=cfg.confirm, confirm_keep=keep, scales=cfg.scales,
+                                 flare_canvas=cfg.flare_canvas, night=cfg.night,
+                                 ghosts=ghosts, fill_holes=cfg.fill_holes)
+        return metrics, format_kinds(metrics), weights
+    metrics = evaluate(weights, cfg.data, cfg.count, refine=cfg.refine, size=cfg.size,
+                       split=cfg.split)
+    return metrics, format_metrics(metrics), weights
+
+
 # --------------------------------------------------------------------------- scoring a batch
 def score(model, images, masks, batch: int = 8, refine: bool = False,
           cut: float = 0.5, also=None, confirm=None,
