@@ -193,87 +193,134 @@ def _mark_across(out: np.ndarray, lum: np.ndarray, xs: np.ndarray, ys: np.ndarra
         out[yi[good], xi[good]] = True
 
 
+@dataclass
+class _Fan:
+    """The lines tried through every light of one image: ``n`` angles ``step`` apart (unit
+    direction ``ux``, ``uy``, normal ``nx``, ``ny``), each passed at ``offs`` pixels from the
+    light's centre; a line's two halves are rows ``i`` (+u) and ``n + i`` (-u) of ``dx``,
+    ``dy`` (and of their normals ``nxx``, ``nyy``)."""
+
+    n: int
+    nx: np.ndarray
+    ny: np.ndarray
+    offs: np.ndarray
+    dx: np.ndarray
+    dy: np.ndarray
+    nxx: np.ndarray
+    nyy: np.ndarray
+
+    @classmethod
+    def of(cls, cfg: LineConfig) -> _Fan:
+        theta = np.deg2rad(np.arange(0.0, 180.0, cfg.step))
+        ux, uy = np.cos(theta).astype(np.float32), np.sin(theta).astype(np.float32)
+        nx, ny = -uy, ux
+        n_off = int(round(cfg.offsets / 0.5))
+        offs = np.arange(-n_off, n_off + 1, dtype=np.float32) * np.float32(0.5)
+        return cls(n=len(theta), nx=nx, ny=ny, offs=offs,
+                   dx=np.concatenate([ux, -ux])[:, None], dy=np.concatenate([uy, -uy])[:, None],
+                   nxx=np.concatenate([nx, nx])[:, None], nyy=np.concatenate([ny, ny])[:, None])
+
+
+@dataclass
+class _Planes:
+    """One image's planes the rule samples: linear luminance, saturated and near white."""
+
+    lum: np.ndarray
+    sat: np.ndarray
+    near_white: np.ndarray
+
+    @classmethod
+    def of(cls, img: np.ndarray, cfg: LineConfig, saturated: float) -> _Planes:
+        lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32) @ LUMA).astype(np.float32)
+        return cls(lum=lum, sat=(img.max(-1) >= saturated).astype(np.float32),
+                   near_white=(img.max(-1) >= cfg.bright_level).astype(np.float32))
+
+
+def _streaks_at(planes: _Planes, fan: _Fan, light: tuple[float, float, float],
+                cfg: LineConfig) -> tuple[list[tuple[float, int, int]], dict]:
+    """The lines through ``light`` whose two halves hold as a streak: (on samples, angle
+    index, offset index) for each, and by (angle, offset) its two halves' sample positions,
+    on samples and run ends."""
+    h, w = planes.lum.shape
+    x0, y0, rad = light
+    diag = float(np.hypot(h, w))
+    slack = int(round(cfg.slack * diag))
+    min_len = cfg.min_length * diag
+    n, dx, dy, nxx, nyy = fan.n, fan.dx, fan.dy, fan.nxx, fan.nyy
+    reach = int(np.ceil(max(np.hypot(cx - x0, cy - y0) for cx in (0, w) for cy in (0, h))))
+    t = np.arange(reach, dtype=np.float32)
+    start = int(np.ceil(rad)) + 1
+    best: list[tuple[float, int, int]] = []
+    found: dict[tuple[int, int], tuple] = {}
+    for k, o in enumerate(fan.offs):
+        px = np.float32(x0) + o * nxx + t[None] * dx
+        py = np.float32(y0) + o * nyy + t[None] * dy
+        on = np.zeros(px.shape, bool)
+        inside = np.zeros(px.shape, bool)
+        excess = np.full(px.shape, np.nan, np.float32)
+        linked = np.zeros(px.shape, bool)
+        # sampled only as far as each half-line can be in the frame (beyond, a sample is
+        # outside: neither on nor inside)
+        for rows, length in _by_length(_in_frame(px[:, 0], py[:, 0], dx[:, 0], dy[:, 0],
+                                                 w, h, reach)):
+            cut = (rows, slice(0, length))
+            on[cut], inside[cut], excess[cut] = _ridge_on(
+                planes.lum, px[cut], py[cut], nxx[rows], nyy[rows], 0.0, cfg)
+            linked[cut] = _sample(planes.sat, px[cut], py[cut]) > 0.5
+        on &= ~linked
+        begin = min(start + slack, reach)
+        stop, count = _prefix_run(on, inside & ~linked, begin, cfg.density)
+        # where each half leaves the frame
+        end = np.where(inside, np.arange(reach, dtype=np.int32)[None], -1).max(1) + 1
+        ok = (count >= cfg.density * min_len) | ((stop >= end - cfg.edge) & (count >= 3))
+        sel = np.flatnonzero(ok[:n] & ok[n:])  # lines whose two halves hold
+        if len(sel):
+            rows = np.concatenate([sel, sel + n])
+            keep = np.ones(len(sel), bool)
+            if cfg.symmetry > 0:
+                keep &= _halves_alike(excess[rows], stop[rows], begin, int(min_len),
+                                      cfg.symmetry)
+            if cfg.bright < 1:
+                keep &= _halves_not_white(on[rows], stop[rows], begin,
+                                          _sample(planes.near_white, px[rows], py[rows]) > 0.5,
+                                          cfg.bright)
+            sel = sel[keep]
+        for i in sel:
+            best.append((float(count[i] + count[n + i]), int(i), k))
+            found[(int(i), k)] = (px[[i, n + i]], py[[i, n + i]], on[[i, n + i]],
+                                  stop[[i, n + i]])
+    return best, found
+
+
+def _mark_streaks(out: np.ndarray, lum: np.ndarray, fan: _Fan, best: list, found: dict,
+                  cfg: LineConfig) -> None:
+    """Mark in ``out`` the ``max_lines`` streaks of ``best`` with the most on samples that
+    are ``separation`` degrees apart."""
+    kept: list[int] = []
+    for _, i, k in sorted(best, reverse=True):
+        if any(min(abs(i - j), fan.n - abs(i - j)) * cfg.step < cfg.separation
+               for j in kept):
+            continue
+        kept.append(i)
+        lx, ly, lon, lstop = found[(i, k)]
+        for r in range(2):
+            m = np.flatnonzero(lon[r, :lstop[r]])
+            if len(m):
+                _mark_across(out, lum, lx[r, m], ly[r, m], fan.nx[i], fan.ny[i], cfg)
+        if len(kept) == cfg.max_lines:
+            break
+
+
 def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
               cfg: LineConfig | None = None, saturated: float = 0.98) -> np.ndarray:
     """[H, W] bool: the streak lines through ``lights`` ((x, y, radius) at ``img``'s size)
     of sRGB ``img`` [H, W, 3] float 0..1 (see the module docstring)."""
     cfg = cfg or LineConfig()
-    h, w = img.shape[:2]
-    out = np.zeros((h, w), bool)
+    out = np.zeros(img.shape[:2], bool)
     if not lights:
         return out
-    lum = (srgb_to_linear(np.clip(img, 0, 1)).astype(np.float32) @ LUMA).astype(np.float32)
-    sat = (img.max(-1) >= saturated).astype(np.float32)
-    near_white = (img.max(-1) >= cfg.bright_level).astype(np.float32)
-    diag = float(np.hypot(h, w))
-    slack = int(round(cfg.slack * diag))
-    min_len = cfg.min_length * diag
-    theta = np.deg2rad(np.arange(0.0, 180.0, cfg.step))
-    ux, uy = np.cos(theta).astype(np.float32), np.sin(theta).astype(np.float32)
-    nx, ny = -uy, ux
-    n_off = int(round(cfg.offsets / 0.5))
-    offs = np.arange(-n_off, n_off + 1, dtype=np.float32) * np.float32(0.5)
-    # rows: the two halves of each line, out from the light (+u, then -u)
-    dx, dy = np.concatenate([ux, -ux])[:, None], np.concatenate([uy, -uy])[:, None]
-    nxx, nyy = np.concatenate([nx, nx])[:, None], np.concatenate([ny, ny])[:, None]
-    n = len(theta)
-    for x0, y0, rad in lights:
-        reach = int(np.ceil(max(np.hypot(cx - x0, cy - y0) for cx in (0, w) for cy in (0, h))))
-        t = np.arange(reach, dtype=np.float32)
-        start = int(np.ceil(rad)) + 1
-        best: list[tuple[float, int, int]] = []  # (on samples, angle index, offset index)
-        found: dict[tuple[int, int], tuple] = {}
-        for k, o in enumerate(offs):
-            px = np.float32(x0) + o * nxx + t[None] * dx
-            py = np.float32(y0) + o * nyy + t[None] * dy
-            on = np.zeros(px.shape, bool)
-            inside = np.zeros(px.shape, bool)
-            excess = np.full(px.shape, np.nan, np.float32)
-            linked = np.zeros(px.shape, bool)
-            # sampled only as far as each half-line can be in the frame (beyond, a sample is
-            # outside: neither on nor inside)
-            for rows, length in _by_length(_in_frame(px[:, 0], py[:, 0], dx[:, 0], dy[:, 0],
-                                                     w, h, reach)):
-                cut = (rows, slice(0, length))
-                on[cut], inside[cut], excess[cut] = _ridge_on(
-                    lum, px[cut], py[cut], nxx[rows], nyy[rows], 0.0, cfg)
-                linked[cut] = _sample(sat, px[cut], py[cut]) > 0.5
-            on &= ~linked
-            begin = min(start + slack, reach)
-            stop, count = _prefix_run(on, inside & ~linked, begin, cfg.density)
-            # where each half leaves the frame
-            end = np.where(inside, np.arange(reach, dtype=np.int32)[None], -1).max(1) + 1
-            ok = (count >= cfg.density * min_len) | ((stop >= end - cfg.edge) & (count >= 3))
-            sel = np.flatnonzero(ok[:n] & ok[n:])  # lines whose two halves hold
-            if len(sel):
-                rows = np.concatenate([sel, sel + n])
-                keep = np.ones(len(sel), bool)
-                if cfg.symmetry > 0:
-                    keep &= _halves_alike(excess[rows], stop[rows], begin, int(min_len),
-                                          cfg.symmetry)
-                if cfg.bright < 1:
-                    keep &= _halves_not_white(on[rows], stop[rows], begin,
-                                              _sample(near_white, px[rows], py[rows]) > 0.5,
-                                              cfg.bright)
-                sel = sel[keep]
-            for i in sel:
-                best.append((float(count[i] + count[n + i]), int(i), k))
-                found[(int(i), k)] = (px[[i, n + i]], py[[i, n + i]], on[[i, n + i]],
-                                      stop[[i, n + i]])
-        best.sort(reverse=True)
-        kept: list[int] = []
-        for _, i, k in best:
-            if any(min(abs(i - j), n - abs(i - j)) * cfg.step < cfg.separation
-                   for j in kept):
-                continue
-            kept.append(i)
-            lx, ly, lon, lstop = found[(i, k)]
-            for r in range(2):
-                m = np.flatnonzero(lon[r, :lstop[r]])
-                xs, ys = lx[r, m], ly[r, m]
-                if len(xs) == 0:
-                    continue
-                _mark_across(out, lum, xs, ys, nx[i], ny[i], cfg)
-            if len(kept) == cfg.max_lines:
-                break
+    planes, fan = _Planes.of(img, cfg, saturated), _Fan.of(cfg)
+    for light in lights:
+        best, found = _streaks_at(planes, fan, light, cfg)
+        _mark_streaks(out, planes.lum, fan, best, found, cfg)
     return out
