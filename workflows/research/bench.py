@@ -323,79 +323,117 @@ def _sources(scene, train_cfg, size: tuple[int, int], n: int):
     return imgs, K.contiguous(), masks, scene.c2w[:n].float()
 
 
-def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int]) -> dict:
-    """Seconds per frame at ``size``: fast (cached sources) and reference (re-encoded, fp32,
-    unfused), each with peak memory. Random weights: speed does not depend on them."""
+@dataclass
+class _FrameRays:
+    """What one frame's rendering is timed on: a model, the encoded sources' inputs and
+    ``R`` rays of the frame, each timed pass rendering them all."""
+
+    model: object
+    sources: tuple  # images, K, masks, c2w (``_sources``)
+    o: object
+    d: object
+    near: object
+    far: object
+    ids: object
+    samples: int
+    chunk: int
+    bf16: bool
+    device: str
+
+    def encode(self, grad: bool = False):
+        from gnfr.renderer import SourceViews
+
+        imgs, K, masks, c2w = self.sources
+        return SourceViews.encode(self.model, imgs, K, c2w, masks, self.device, grad=grad)
+
+    def fast(self, src, rays: slice = slice(None)) -> None:
+        """The render stage's path: ``render_rays`` on sources encoded once."""
+        from gnfr.renderer import render_rays
+
+        render_rays(self.model, src, self.ids, self.o[rays], self.d[rays], self.near[rays],
+                    self.far[rays], self.samples, chunk=self.chunk, cpu_bf16=self.bf16)
+
+    def reference(self, src, rays: slice = slice(None)) -> None:
+        """The plain path: fp32, plain attention, chunk by chunk."""
+        from gnfr.geometry import sample_depths
+        from gnfr.renderer import forward_rays
+
+        idx = range(len(self.o))[rays]
+        for i in range(idx.start, idx.stop, self.chunk):
+            sl = slice(i, min(i + self.chunk, idx.stop))
+            t = sample_depths(self.near[sl].to(self.o), self.far[sl].to(self.o), self.samples,
+                              jitter=False)
+            forward_rays(self.model, src, self.ids.to(self.device), self.o[sl], self.d[sl], t,
+                         reference=True)
+
+    def timed(self, reference: bool) -> tuple[float, float]:
+        """(encode s, rays s) of one pass: fast (sources encoded once, shared by every frame
+        of a path) or reference (sources re-encoded for this frame in fp32)."""
+        _sync(self.device)
+        t0 = time.perf_counter()
+        src = self.encode(grad=reference)
+        _sync(self.device)
+        enc = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        (self.reference if reference else self.fast)(src)
+        _sync(self.device)
+        return enc, time.perf_counter() - t0
+
+
+def _frame_bench(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int]):
+    """The frame's ``_FrameRays`` (random weights: speed does not depend on them) and the
+    record's fixed fields."""
     import torch
 
-    from gnfr.geometry import sample_depths
     from gnfr.model import GNFR
-    from gnfr.renderer import SourceViews, cpu_bf16, forward_rays, render_rays
+    from gnfr.renderer import cpu_bf16
     from pipeline.render import default_chunk
 
     torch.manual_seed(0)
     model = GNFR(tcfg.model).to(device).eval()
     W, H = size
     n_src = min(tcfg.eval_views, len(scene.stems) - 1)
-    samples = cfg.samples or tcfg.samples
     n_rays = cfg.rays or (W * H if device == "cuda" else 4096)
-    chunk = cfg.chunk or default_chunk(device)
-    imgs, K, masks, c2w = _sources(scene, tcfg, size, n_src)
-    target = scene.c2w[n_src].float()
-    _, o, d = _frame_rays(W, H, n_rays, target, device)
+    sources = _sources(scene, tcfg, size, n_src)
+    _, o, d = _frame_rays(W, H, n_rays, scene.c2w[n_src].float(), device)
     R = len(o)
-    near, far = torch.full((R,), 1.0), torch.full((R,), 4.5)
-    ids = torch.arange(n_src)
-    scale = W * H / R
-    bf16 = cpu_bf16(None, device)  # the render stage's default on this device
-    out = {"rays_timed": R, "samples": samples, "chunk": chunk, "cpu_bf16": bf16,
-           "sources": f"{n_src} x {imgs.shape[-1]}x"
-           f"{imgs.shape[-2]}"}
+    bench = _FrameRays(model=model, sources=sources, o=o, d=d, near=torch.full((R,), 1.0),
+                       far=torch.full((R,), 4.5), ids=torch.arange(n_src),
+                       samples=cfg.samples or tcfg.samples,
+                       chunk=cfg.chunk or default_chunk(device),
+                       bf16=cpu_bf16(None, device),  # the render stage's default on this device
+                       device=device)
+    imgs = sources[0]
+    fields = {"rays_timed": R, "samples": bench.samples, "chunk": bench.chunk,
+              "cpu_bf16": bench.bf16,
+              "sources": f"{n_src} x {imgs.shape[-1]}x{imgs.shape[-2]}"}
+    return bench, fields
 
-    def fast_pass() -> tuple[float, float]:
-        # fast: sources encoded once (shared by every frame of a path), then only the rays
-        _sync(device)
-        t0 = time.perf_counter()
-        src = SourceViews.encode(model, imgs, K, c2w, masks, device)
-        _sync(device)
-        enc = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        render_rays(model, src, ids, o, d, near, far, samples, chunk=chunk, cpu_bf16=bf16)
-        _sync(device)
-        return enc, time.perf_counter() - t0
 
-    def reference_pass() -> tuple[float, float]:
-        # reference: sources re-encoded for this frame in fp32, plain attention
-        _sync(device)
-        t0 = time.perf_counter()
-        src = SourceViews.encode(model, imgs, K, c2w, masks, device, grad=True)
-        _sync(device)
-        enc = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        for i in range(0, R, chunk):
-            sl = slice(i, i + chunk)
-            t = sample_depths(near[sl].to(o), far[sl].to(o), samples, jitter=False)
-            forward_rays(model, src, ids.to(device), o[sl], d[sl], t, reference=True)
-        _sync(device)
-        return enc, time.perf_counter() - t0
+def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, int]) -> dict:
+    """Seconds per frame at ``size``: fast (cached sources) and reference (re-encoded, fp32,
+    unfused), each with peak memory."""
+    import torch
 
+    bench, out = _frame_bench(cfg, tcfg, scene, device, size)
+    R = out["rays_timed"]
+    scale = size[0] * size[1] / R
+    repeats = max(cfg.repeats, 1)
     # Both paths are warmed up on a full chunk, then timed alternately ``repeats`` times
     # and the fastest pass of each kept: a single pass in a fixed order let allocator
     # growth and other load on the machine decide which path looked faster.
-    warm = slice(0, min(R, chunk))
+    warm = slice(0, min(R, bench.chunk))
     best = {"fast": (math.inf, math.inf), "reference": (math.inf, math.inf)}
     peak = {"fast": 0.0, "reference": 0.0}
     with torch.inference_mode():
-        src0 = SourceViews.encode(model, imgs, K, c2w, masks, device)
-        render_rays(model, src0, ids, o[warm], d[warm], near[warm], far[warm], samples,
-                    chunk=chunk, cpu_bf16=bf16)
-        t = sample_depths(near[warm].to(o), far[warm].to(o), samples, jitter=False)
-        forward_rays(model, src0, ids.to(device), o[warm], d[warm], t, reference=True)
+        src0 = bench.encode()
+        bench.fast(src0, warm)
+        bench.reference(src0, warm)
         del src0
-        for _ in range(max(cfg.repeats, 1)):
-            for name, fn in (("fast", fast_pass), ("reference", reference_pass)):
+        for _ in range(repeats):
+            for name in ("fast", "reference"):
                 with PeakMemory(device) as mem:
-                    enc, rays_s = fn()
+                    enc, rays_s = bench.timed(reference=name == "reference")
                 peak[name] = max(peak[name], mem.mib)
                 if rays_s < best[name][1]:
                     best[name] = (enc, rays_s)
@@ -405,7 +443,7 @@ def bench_render(cfg: BenchConfig, tcfg, scene, device: str, size: tuple[int, in
     enc, rays_s = best["reference"]
     out["reference"] = {"s_per_frame": rays_s * scale + enc, "encode_per_frame_s": enc,
                         "ms_per_ray": 1e3 * rays_s / R, "peak_mib": peak["reference"]}
-    out["repeats"] = max(cfg.repeats, 1)
+    out["repeats"] = repeats
     out["reference_over_fast"] = out["reference"]["s_per_frame"] / out["fast"]["s_per_frame"]
     return out
 
