@@ -94,3 +94,14 @@ def recorded_walls(row_start: str) -> tuple[list[float], list[float]]:
 def clock(seconds: float) -> str:
     """A wall time as the pages write it to the second (16:05)."""
     return f"{int(seconds // 60)}:{round(seconds % 60):02d}"
+
+
+def text_rows(name: str) -> list[list[str]]:
+    """The words of each line of a text result file, its comments (#) and blank lines left."""
+    return [ln.split() for ln in (RESULTS / name).read_text().splitlines()
+            if ln and not ln.startswith("#")]
+
+
+def time_seconds(*names: str) -> dict[str, float]:
+    """``NAME SECONDS s`` lines of text result files (``/usr/bin/time``'s), by name."""
+    return {row[0]: float(row[1]) for name in names for row in text_rows(name)}
