@@ -1,6 +1,7 @@
 #!/bin/bash
 # Work for a lent CUDA machine (the `device` tool), one phase per call, each ending inside
-# the tool's 10-minute limit. Run from the repo root there. Prepare here, on CPU, the data
+# the tool's 10-minute limit. Step by step, with the next session's call: docs/gpu.md.
+# Run from the repo root there. Prepare here, on CPU, the data
 # it carries (.carry/ is ignored by git: `echo .carry/ >> .git/info/exclude`):
 #   python -m workflows.research.scene_pack SCENES... --out .carry/packs \
 #       --quality 85                                                          # GN-FR, ~8 MB

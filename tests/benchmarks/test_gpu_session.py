@@ -121,3 +121,61 @@ def test_the_gpu_scripts_inline_python_imports_what_exists_with_its_keywords():
 def test_the_files_the_gpu_script_names_exist(named, path):
     assert named in SCRIPT.read_text()
     assert (REPO / path).exists()
+
+
+RUNBOOK = REPO / "docs" / "gpu.md"
+
+
+def _runbook_blocks() -> list[str]:
+    """docs/gpu.md's command blocks, continuations joined."""
+    return [b.replace("\\\n", " ") for b in re.findall(r"```\n(.*?)```", RUNBOOK.read_text(),
+                                                       re.S)]
+
+
+def test_the_gpu_runbooks_call_uses_what_the_script_reads():
+    """docs/gpu.md's call: each variable it sets is one the script reads, the phases it
+    names are the script's, and the file it starts the FMG from exists."""
+    script = SCRIPT.read_text()
+    prep, call = _runbook_blocks()
+    env = dict(re.findall(r"(?<![\w$])([A-Z_]+)=(\S+)", call))
+    assert {"FMG_FROM", "FMG_LR", "FMG_FRAMES", "FMG_KINDS", "FMG_NIGHT_GLARE"} <= set(env)
+    for name in env:
+        assert "${" + name in script, f"gpu_session.sh does not read {name}"
+    assert (REPO / env["FMG_FROM"]).exists()
+    phases = set(re.findall(r"^([a-z]+)\)", script, re.M))
+    text = RUNBOOK.read_text()
+    named = set(re.findall(r"(?:gpu_session\.sh |`)([a-z]+) \d+", text))
+    assert {"session", "train", "fern"} <= named <= phases, (named, phases)
+
+
+def test_the_gpu_runbooks_held_files_are_none_the_call_reads():
+    """The files docs/gpu.md holds back for the call are none of those the `session` phase
+    reads (the `paper` prior, the FMG's start), and what it carries is what it prepared."""
+    prep, call = _runbook_blocks()
+    slim = prep[prep.index("device_slim.sh out"):]
+    held, carry = (part.split() for part in slim.split("device_slim.sh out")[1].split(" -- "))
+    env = dict(re.findall(r"(?<![\w$])([A-Z_]+)=(\S+)", call))
+    for path in held:
+        assert (REPO / path).exists(), path
+        for read in ("gnfr/weights/gnfr_paper.safetensors", env["FMG_FROM"],
+                     "benchmarks", "workflows", "pipeline", "gnfr/fmg.py"):
+            assert not read.startswith(path.rstrip("/") + "/") and read != path, (path, read)
+    made = set(re.findall(r"(\.carry/\w+)", prep[:prep.index("device_slim.sh")]))
+    assert set(carry) == made == {".carry/fmgdata", ".carry/fern", ".carry/whl"}
+    assert all(f'"{c}"' in RUNBOOK.read_text() for c in carry)  # the run's carry list
+    # the FMG's CUDA test finds a full-width file among those that travel
+    gpu_test = (REPO / "tests/gnfr/test_gpu.py").read_text()
+    assert any(n in gpu_test and f"gnfr/weights/{n}" not in held
+               for n in ("fmg_candidate_F26.safetensors",))
+
+
+def test_the_gpu_runbooks_fern_speeds_are_the_files():
+    from tests.docs.numbers import result
+
+    text = " ".join(RUNBOOK.read_text().split())
+    for name, fmt in (("fern_llff_paper_cuda_h200_s77.json", "1 500 took {:.0f} s"),
+                      ("fern_llff_paper_cuda_h200_s78.json", "{rate:.2f} steps/s")):
+        run = result(name)["clean"]
+        secs = run["methods"]["gnfr_network"]["provenance"]["trained"]["train_seconds"]
+        steps = run["budget"]["iters"]
+        assert fmt.format(secs, rate=steps / secs) in text, (name, steps, secs)
