@@ -134,10 +134,18 @@ def _runbook_blocks() -> list[str]:
 
 def test_the_gpu_runbooks_call_uses_what_the_script_reads():
     """docs/gpu.md's call: each variable it sets is one the script reads, the phases it
-    names are the script's, and the file it starts the FMG from exists."""
+    names are the script's, and the file it starts the FMG from exists; its dry run here
+    is the same call on the CPU."""
     script = SCRIPT.read_text()
-    prep, call = _runbook_blocks()
+    prep, call, dry = _runbook_blocks()
     env = dict(re.findall(r"(?<![\w$])([A-Z_]+)=(\S+)", call))
+    dry_env = dict(re.findall(r"(?<![\w$])([A-Z_]+)=(\S+)", dry))
+    assert dry_env["DEV"] == "cpu" and "gpu_session.sh session" in dry
+    assert {k: v for k, v in dry_env.items() if k in env and k != "FMG_WORKERS"} == {
+        k: v for k, v in env.items() if k != "FMG_WORKERS"}  # the recipe, as called
+    local = {"OUT", "CKPT", "DEV", "FM", "PT", "OMP_NUM_THREADS", "FMG_BATCH"}
+    for name in set(dry_env) - set(env) - {"OMP_NUM_THREADS", "OUT"}:
+        assert name in local and "${" + name in script, name
     assert {"FMG_FROM", "FMG_LR", "FMG_FRAMES", "FMG_KINDS", "FMG_NIGHT_GLARE"} <= set(env)
     for name in env:
         assert "${" + name in script, f"gpu_session.sh does not read {name}"
@@ -151,7 +159,7 @@ def test_the_gpu_runbooks_call_uses_what_the_script_reads():
 def test_the_gpu_runbooks_held_files_are_none_the_call_reads():
     """The files docs/gpu.md holds back for the call are none of those the `session` phase
     reads (the `paper` prior, the FMG's start), and what it carries is what it prepared."""
-    prep, call = _runbook_blocks()
+    prep, call = _runbook_blocks()[:2]
     slim = prep[prep.index("device_slim.sh out"):]
     held, carry = (part.split() for part in slim.split("device_slim.sh out")[1].split(" -- "))
     env = dict(re.findall(r"(?<![\w$])([A-Z_]+)=(\S+)", call))
