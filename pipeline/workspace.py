@@ -110,7 +110,11 @@ def atomic_imwrite(path: str | os.PathLike, image, params: list[int] | None = No
     return Path(path)
 
 
-def read_json(path: str | os.PathLike) -> Any:
+def read_json(path: str | os.PathLike,
+              fix: str = "delete it and rerun the stage that writes it") -> Any:
+    """The parsed JSON file ``path``; a missing or broken file is one UserError line, a
+    broken one saying what to do (``fix``: for a workspace file, write it again; a file the
+    user wrote, such as a camera path, is mended, never deleted)."""
     path = Path(path)
     try:
         return json.loads(path.read_text())
@@ -118,7 +122,7 @@ def read_json(path: str | os.PathLike) -> Any:
         raise UserError(f"{path} is missing: run the stage that writes it first") from None
     except json.JSONDecodeError as e:
         raise UserError(f"{path} is not valid JSON ({e.msg} at line {e.lineno}); "
-                        "delete it and rerun the stage that writes it") from None
+                        f"{fix}") from None
 
 
 # --------------------------------------------------------------------------- digests

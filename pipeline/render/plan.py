@@ -226,7 +226,8 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
             raise UserError(f"--path {cfg.path}: no such camera path file; give an existing "
                             "one (docs/camera_paths.md) or interpolate / spiral")
         try:
-            pcs = paths.path_from_json(read_json(file))
+            pcs = paths.path_from_json(read_json(
+                file, fix="mend the file (format: docs/camera_paths.md)"))
         except ValueError as e:
             raise UserError(f"{file}: {e} (format: docs/camera_paths.md)") from None
         if cfg.size or cfg.scale:

@@ -93,6 +93,16 @@ def test_render_cli_errors(rws, capsys):
     bad = rws.root.parent / "bad.json"
     bad.write_text('{"frames": [{"name": "x"}]}')
     assert main(["render", str(rws.root), "--path", str(bad)]) == 2
+    # a camera path the user wrote with a JSON typo: one line saying to mend it (never to
+    # delete it, as for a workspace file), and the file as it was
+    typo = rws.root.parent / "typo.json"
+    typo.write_text('{"frames": [1, 2')
+    capsys.readouterr()
+    assert main(["render", str(rws.root), "--path", str(typo)]) == 2
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and "is not valid JSON" in errors[0], errors
+    assert "mend the file" in errors[0] and "delete" not in errors[0]
+    assert typo.read_text() == '{"frames": [1, 2'
 
 
 def _exif_app1(orientation: int) -> bytes:
