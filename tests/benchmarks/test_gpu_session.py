@@ -46,8 +46,6 @@ def _cli_calls() -> list[tuple[tuple[str, ...], list[str]]]:
     for line in _commands():
         for m in re.finditer(r"(?:python3 -m workflows\.cli|(?<![\w-])cli)\s+([a-z][a-z-]*)"
                              r"(?:\s+(train|eval|calibrate|overlay))?([^|&;]*)", line):
-            if m.group(1) == "cli" or "()" in line[m.start():m.end()]:
-                continue  # the helper's own definition
             path = (m.group(1),) + ((m.group(2),) if m.group(2) else ())
             rest = re.split(r"\s\d?>", m.group(3))[0]  # up to the output redirections
             expanded = [o for a in re.findall(r"\$\{(\w+)\[@\]\}", rest) for o in arrays[a]]
