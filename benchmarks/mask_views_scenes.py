@@ -15,7 +15,7 @@ photos and cameras, so nothing is written into WS). Use development scenes to ch
 
     python benchmarks/mask_views_scenes.py [SYNTH ...] [--posed WS [WS ...]] --work DIR \
         [--clean] [--weights W] [--pads reflect,replicate,constant | --light-cores |
-        --fill-holes] --out J
+        --fill-holes | --streak-lines [--streak-scales 1,0.25]] --out J
 """
 
 from __future__ import annotations
@@ -77,6 +77,8 @@ def score_workspace(synth: Path, work: Path, weights: Path, clean: bool,
                      "scales": [1.0], "ghost_lines": config.ghost_lines,
                      "ghost_views": config.ghost_views, "ray_opposite": config.ray_opposite,
                      "streak_lines": config.streak_lines, "light_cores": config.light_cores,
+                     "streak_scales": (list(config.streak_scales)
+                                       if config.streak_scales is not None else None),
                      "fill_holes": config.fill_holes,
                      "pads": list(config.pads),
                      "pads_keep": config.pads_keep if config.pads else None,
@@ -119,8 +121,23 @@ def main(argv: list[str] | None = None) -> int:
                     help="score today's default (ghost_views_pads, as with --light-cores) and "
                          "it with `mask --fill-holes` (ghost_views_pads_holes), those two only; "
                          "`candidate_added`: the second's mean share over the first's")
+    ap.add_argument("--streak-scales", default=None, metavar="S1,S2",
+                    help="with --streak-lines: score today's default with `mask "
+                         "--streak-lines` (ghost_views_pads_lines) and with `--streak-scales "
+                         "S1,S2` too (ghost_views_pads_lines_scaled), those two only; "
+                         "`candidate_added`: the second's mean share over the first's")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    scales = ()
+    if a.streak_scales is not None:
+        try:
+            scales = tuple(float(v) for v in a.streak_scales.split(","))
+        except ValueError:
+            scales = ()
+        if not scales or not all(0 < v <= 1 for v in scales):
+            ap.error("--streak-scales: fractions over 0 and at most 1 separated by commas")
+        if not a.streak_lines:
+            ap.error("--streak-scales sets where --streak-lines looks: add --streak-lines")
     if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None,
             a.light_cores, a.fill_holes)) > 1:
         ap.error("give one candidate: --ray-opposite, --streak-lines, --pads, --light-cores "
@@ -141,12 +158,15 @@ def main(argv: list[str] | None = None) -> int:
         settings["ghost_views_pads"] = {**SETTINGS["ghost_views"], "pads": pads,
                                         "pads_keep": a.pads_keep}
     # today's default against it with one option more: (setting's suffix, MaskConfig field)
-    extra = ("_cores", "light_cores") if a.light_cores else (
-        ("_holes", "fill_holes") if a.fill_holes else None)
+    today = {**SETTINGS["ghost_views"], "pads": ("reflect", "replicate", "constant")}
+    extra = ("_cores", "light_cores", True) if a.light_cores else (
+        ("_holes", "fill_holes", True) if a.fill_holes else None)
+    if scales:  # today's default with the streak lines, and with them at these scales too
+        today = {**today, "streak_lines": True}
+        extra = ("_scaled", "streak_scales", scales)
     if extra:
-        today = {**SETTINGS["ghost_views"], "pads": ("reflect", "replicate", "constant")}
-        settings = {"ghost_views_pads": today,
-                    "ghost_views_pads" + extra[0]: {**today, extra[1]: True}}
+        base = "ghost_views_pads" + ("_lines" if scales else "")
+        settings = {base: today, base + extra[0]: {**today, extra[1]: extra[2]}}
     from workflows.threads import apply_thread_policy
 
     apply_thread_policy()  # before torch loads (workflows/threads.py)
@@ -177,8 +197,8 @@ def main(argv: list[str] | None = None) -> int:
             out["candidate_added"] = (out["mean_marked"][cand]
                                       - out["mean_marked"]["ghost_views"])
     if extra:
-        out["candidate_added"] = (out["mean_marked"]["ghost_views_pads" + extra[0]]
-                                  - out["mean_marked"]["ghost_views_pads"])
+        out["candidate_added"] = (out["mean_marked"][base + extra[0]]
+                                  - out["mean_marked"][base])
     out["max_view_marked"] = {n: max(v["marked"] for r in rs for v in r["per_view"].values())
                               for n, rs in by.items()}
     print(f"mean over {len(a.scenes) + len(a.posed)} scenes: marked " + ", ".join(

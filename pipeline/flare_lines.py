@@ -26,7 +26,10 @@ background beyond them (``half_width`` + ``flank`` away) by the same thresholds.
 Shaped on the one-kind streak scenes of seed 31 (one anamorphic lens) and the clean
 development photos; judged as the mask stage's default and not made it (it finds bright
 long streaks, not faint short ones; docs/history/fmg.md, "Sixty-second session: streak
-lines through a light"): `mask --streak-lines`.
+lines through a light"): `mask --streak-lines`. A beam tens of pixels wide (broader than
+``flank``) is a ridge on the photo shrunk: ``line_mask_scaled`` runs the rule at fractions of
+the working size (`mask --streak-scales`, an option; docs/history/fmg.md, "Ninety-sixth
+session").
 """
 
 from __future__ import annotations
@@ -323,4 +326,27 @@ def line_mask(img: np.ndarray, lights: list[tuple[float, float, float]],
     for light in lights:
         best, found = _streaks_at(planes, fan, light, cfg)
         _mark_streaks(out, planes.lum, fan, best, found, cfg)
+    return out
+
+
+def line_mask_scaled(img: np.ndarray, lights: list[tuple[float, float, float]],
+                     scales: tuple[float, ...] = (1.0,), cfg: LineConfig | None = None,
+                     saturated: float = 0.98) -> np.ndarray:
+    """[H, W] bool: ``line_mask`` run on ``img`` shrunk to each of ``scales`` (fractions of
+    its size; 1: as it is) with ``lights`` scaled alike, each mask brought back to full
+    size (bilinear, kept at 0.5) and the masks added."""
+    h, w = img.shape[:2]
+    out = np.zeros((h, w), bool)
+    for s in scales:
+        if s == 1.0:
+            out |= line_mask(img, lights, cfg, saturated)
+            continue
+        size = (max(8, int(round(w * s))), max(8, int(round(h * s))))
+        sx, sy = size[0] / w, size[1] / h
+        small = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+        found = line_mask(small, [(x * sx, y * sy, r * min(sx, sy)) for x, y, r in lights],
+                          cfg, saturated)
+        if found.any():
+            out |= cv2.resize(found.astype(np.float32), (w, h),
+                              interpolation=cv2.INTER_LINEAR) >= 0.5
     return out

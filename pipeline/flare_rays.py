@@ -115,6 +115,10 @@ class RayConfig:
     lines: bool = False
     """Also mark streak lines through each light (``pipeline.flare_lines``): thin straight
     streaks, one each way, that the rays' polar runs lose (`mask --streak-lines`)."""
+    line_scales: tuple[float, ...] = option((1.0,), gt=0, le=1, metavar="S1,S2")
+    """With ``lines``: the fractions of the image's size the streak lines are looked for at
+    (``flare_lines.line_mask_scaled``; 0.25 also finds a beam tens of pixels wide; `mask
+    --streak-scales`)."""
     cores: bool = False
     """A saturated region too large or too ragged to be a light (``max_light``,
     ``compact``) is looked at again by its core: its pixels at least half its largest
@@ -359,7 +363,7 @@ def ray_mask(img: np.ndarray, cfg: RayConfig | None = None,
                              flags | cv2.WARP_INVERSE_MAP)
         out |= back > 0.5
     if cfg.lines:
-        from pipeline.flare_lines import line_mask
+        from pipeline.flare_lines import line_mask_scaled
 
-        out |= line_mask(img, lights, saturated=cfg.saturated)
+        out |= line_mask_scaled(img, lights, tuple(cfg.line_scales), saturated=cfg.saturated)
     return out

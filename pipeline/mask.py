@@ -105,6 +105,11 @@ class MaskConfig:
     """With the rays: also mark thin straight streaks through a light, one each way
     (``pipeline.flare_lines``; an anamorphic lens's streak), which the rays' polar runs
     lose. Default (unset): the ray rule's (off)."""
+    streak_scales: tuple[float, ...] | None = option(None, gt=0, le=1, metavar="S1,S2")
+    """With ``streak_lines``: also look for the streaks on the photo shrunk to these
+    fractions of the working size, e.g. 1,0.25: a beam tens of pixels wide through a night
+    lamp is a thin ridge at a quarter. An option, not judged as the default
+    (docs/history/fmg.md, "Ninety-sixth session"). Default (unset): 1 alone."""
     light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
     """Also find a lamp whose saturated streak runs out of it (its saturated region too long
     or ragged to be a light) by the region's core, for the rays and the ghost lines; such a
@@ -180,6 +185,9 @@ class MaskConfig:
         if self.streak_lines and (not self.rays or self.masks_dir is not None):
             raise UserError("--streak-lines adds streaks to the FMG's flare rays: it has no "
                             "use with --no-rays or --masks; leave one out")
+        if self.streak_scales is not None and not self.streak_lines:
+            raise UserError("--streak-scales sets where --streak-lines looks: add "
+                            "--streak-lines, or leave --streak-scales out")
         lines = self.masks_dir is None if self.ghost_lines is None else self.ghost_lines
         ghost_config(replace(self, ghost_lines=lines))  # --ghost-chain without the lines
         if self.confirm_weights is not None and not self.confirm:
@@ -445,7 +453,8 @@ def ray_config(config: MaskConfig):
     from pipeline.flare_rays import RayConfig
 
     over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite),
-                              ("lines", config.streak_lines), ("cores", config.light_cores))
+                              ("lines", config.streak_lines), ("cores", config.light_cores),
+                              ("line_scales", getattr(config, "streak_scales", None)))
             if v is not None}
     return RayConfig(**over)
 

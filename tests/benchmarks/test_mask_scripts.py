@@ -683,3 +683,34 @@ def test_mask_kind_scenes_names_filled_holes():
     assert (kinds.setting({**row, "fill_holes": True})
             == "fmg_candidate_F26.safetensors@1+holes+pads=reflect,replicate,constant")
 
+
+
+def test_mask_views_scenes_streak_scales_scores_the_lines_and_them_scaled(tmp_path,
+                                                                           monkeypatch):
+    """mask_views_scenes.py --streak-lines --streak-scales 1,0.25 scores today's default with
+    the streak lines and with them at those scales too, those two only, the second's mean
+    share over the first's its candidate_added; --streak-scales alone or out of range stops
+    with a usage error."""
+    bench = load_benchmark("mask_views_scenes")
+    seen: dict = {}
+
+    def fake(scene, work, weights, clean, posed=False, settings=None):
+        seen.update(settings)
+        return [{"setting": n, "folder": "posed", "flare_iou": 0.0, "marked": 0.01 * (i + 1),
+                 "per_view": {"a": {"marked": 0.01 * (i + 1)}}}
+                for i, n in enumerate(settings)]
+
+    monkeypatch.setattr(bench, "score_workspace", fake)
+    out = tmp_path / "o.json"
+    assert bench.main(["--posed", str(tmp_path), "--work", str(tmp_path / "w"),
+                       "--streak-lines", "--streak-scales", "1,0.25", "--out", str(out)]) == 0
+    assert list(seen) == ["ghost_views_pads_lines", "ghost_views_pads_lines_scaled"]
+    base, scaled = seen.values()
+    assert base["streak_lines"] and base["pads"] == ("reflect", "replicate", "constant")
+    assert scaled == {**base, "streak_scales": (1.0, 0.25)}
+    rec = json.loads(out.read_text())
+    assert rec["candidate_added"] == pytest.approx(0.01)
+    for bad in (["--streak-scales", "0.25"], ["--streak-lines", "--streak-scales", "1,0"],
+                ["--streak-lines", "--streak-scales", "x"]):
+        with pytest.raises(SystemExit):
+            bench.main(["--posed", "x", "--work", "w", *bad])

@@ -116,3 +116,32 @@ def test_each_half_line_is_sampled_as_far_as_it_can_be_in_the_frame():
     samples = (px > -1) & (px < w) & (py > -1) & (py < h)
     last = np.where(samples, t, -1).max(1) + 1
     assert (last <= length).all() and (length <= np.minimum(last + 2, reach)).all()
+
+
+def test_a_broad_beam_is_found_on_the_photo_shrunk_and_the_default_scale_is_the_rule():
+    """A beam 12 px across (sigma) through a light is no ridge against samples 4 px across
+    at full size; at a quarter of the size it is a thin one, and line_mask_scaled with
+    (1, 0.25) marks most of it and little else. Scale 1 alone is line_mask itself, and a
+    clean light marks nothing at either scale."""
+    from pipeline.flare_lines import line_mask_scaled
+
+    beam = _streak(25.0, sigma=12.0, amp=0.12)
+    img = _photo(_background() + beam)
+    lights = find_lights(img, RayConfig())
+    yy, xx = np.mgrid[:H, :W]
+    core = (beam > 0.05) & (np.hypot(xx - LIGHT[0], yy - LIGHT[1]) > 16)
+    alone = line_mask(img, lights)
+    assert (alone & core).sum() < 0.2 * core.sum()
+    both = line_mask_scaled(img, lights, (1.0, 0.25))
+    assert (both & core).sum() > 0.6 * core.sum()
+    assert (both & ~(beam > 0.005)).sum() <= 0.1 * both.sum()
+    assert np.array_equal(line_mask_scaled(img, lights), alone)
+    thin = _photo(_background() + _streak(37.0, miss=1.0))
+    thin_lights = find_lights(thin, RayConfig())
+    assert np.array_equal(line_mask_scaled(thin, thin_lights, (1.0,)),
+                          line_mask(thin, thin_lights))
+    clean = _photo(_background())
+    assert not line_mask_scaled(clean, find_lights(clean, RayConfig()), (1.0, 0.25)).any()
+    # through the rays' rule (mask --streak-lines --streak-scales 1,0.25)
+    assert (ray_mask(img, RayConfig(lines=True, line_scales=(1.0, 0.25))) & core).sum() > (
+        0.6 * core.sum())

@@ -101,6 +101,10 @@ BAD = [  # (command, extra args, the line starts with)
     ("mask", ["--scales", "1,0"], "error: --scales 1,0: must be numbers, each more than 0 and "
      "at most 2"),
     ("mask", ["--scales", "1,x"], "error: --scales 1,x: must be numbers separated by commas"),
+    ("mask", ["--streak-scales", "1,0.25"],
+     "error: --streak-scales sets where --streak-lines looks: add --streak-lines"),
+    ("mask", ["--streak-lines", "--streak-scales", "1,0"],
+     "error: --streak-scales 1,0: must be numbers, each more than 0 and"),
     ("render", ["--path", "nowhere"], "error: --path nowhere: must be one of inputs, "
      "interpolate, spiral or a .json file"),
     ("render", ["--fill", "magic"], "error: --fill magic: must be one of hybrid or network"),
@@ -183,6 +187,10 @@ RESEARCH_BAD = [  # research commands: ({ws}, {tmp} filled in, the line starts w
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--streak-lines"],
      "error: --ray-min, --ray-opposite, --streak-lines and --light-cores set the flare rays' "
      "rule: add --rays"),
+    (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--rays", "--streak-scales",
+      "0.25"], "error: --streak-scales sets where --streak-lines looks: add --streak-lines"),
+    (["fmg", "eval", "--per-kind", "--rays", "--streak-scales", "0.25"],
+     "error: --streak-scales sets where --streak-lines looks: add --streak-lines"),
     (["fmg", "calibrate", "--count", "0", "--out", "{tmp}/c.json"],
      "error: --count 0: must be at least 1"),
     (["fmg", "overlay", "{tmp}/a.jpg", "--out", "{tmp}/o.jpg", "--work-size", "0"],

@@ -83,6 +83,9 @@ class FMGEvalConfig:
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
     """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
+    streak_scales: tuple[float, ...] | None = option(None, gt=0, le=1, metavar="S1,S2")
+    """With ``streak_lines``: where the streak lines are looked for (as `mask
+    --streak-scales`)."""
     light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
     """With ``rays``: also lamps found by their saturated region's core (as `mask
     --light-cores`)."""
@@ -159,6 +162,9 @@ class FMGOverlayConfig:
     """With ``rays``: the ray rule's opposite-streak tolerance (as `mask --ray-opposite`)."""
     streak_lines: bool | None = option(None, flag="--streak-lines/--no-streak-lines")
     """With ``rays``: also the streak lines through a light (as `mask --streak-lines`)."""
+    streak_scales: tuple[float, ...] | None = option(None, gt=0, le=1, metavar="S1,S2")
+    """With ``streak_lines``: where the streak lines are looked for (as `mask
+    --streak-scales`)."""
     light_cores: bool | None = option(None, flag="--light-cores/--no-light-cores")
     """With ``rays``: also lamps found by their saturated region's core (as `mask
     --light-cores`)."""
@@ -215,11 +221,14 @@ def check_modes(cfg: FMGEvalConfig) -> FMGEvalConfig:
 
 def check_ray_rule(cfg) -> None:
     """A one-line UserError when ``ray_min``, ``ray_opposite``, ``streak_lines`` or
-    ``light_cores`` is given without ``rays`` (they would silently change nothing)."""
+    ``light_cores`` is given without ``rays``, or ``streak_scales`` without
+    ``streak_lines`` (they would silently change nothing)."""
     if not cfg.rays and (cfg.ray_min is not None or cfg.ray_opposite is not None
                          or cfg.streak_lines is not None or cfg.light_cores is not None):
         raise UserError("--ray-min, --ray-opposite, --streak-lines and --light-cores set the "
                         "flare rays' rule: add --rays")
+    if cfg.streak_scales is not None and not cfg.streak_lines:
+        raise UserError("--streak-scales sets where --streak-lines looks: add --streak-lines")
 
 
 def run_eval(cfg: FMGEvalConfig) -> tuple[dict, str, Path]:
@@ -777,8 +786,12 @@ def overlay_label(weights: Path, marked: float, rays: bool, ray_cfg, ghost_lines
     """An overlay tile's label: the weights, each option that added marks, the share marked."""
     lines = rays and ray_cfg is not None and ray_cfg.lines
     cores = rays and ray_cfg is not None and ray_cfg.cores
+    if lines and tuple(ray_cfg.line_scales) != (1.0,):
+        lines = " + streak lines at " + ",".join(f"{s:g}" for s in ray_cfg.line_scales)
+    elif lines:
+        lines = " + streak lines"
     return (f"{weights_label(weights)}{' + rays' if rays else ''}"
-            f"{' + streak lines' if lines else ''}{' + light cores' if cores else ''}"
+            f"{lines or ''}{' + light cores' if cores else ''}"
             f"{' + ghost lines' if ghost_lines else ''}{' + pads' if pads else ''}"
             f"{' + holes filled' if holes else ''}: "
             f"{100 * marked:.1f} %")
