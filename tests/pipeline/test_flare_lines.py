@@ -145,3 +145,17 @@ def test_a_broad_beam_is_found_on_the_photo_shrunk_and_the_default_scale_is_the_
     # through the rays' rule (mask --streak-lines --streak-scales 1,0.25)
     assert (ray_mask(img, RayConfig(lines=True, line_scales=(1.0, 0.25))) & core).sum() > (
         0.6 * core.sum())
+
+
+def test_the_mask_options_reach_the_line_scales():
+    """mask --streak-scales reaches the rays' rule; unset, the rule's one scale; without
+    --streak-lines one line before anything runs."""
+    from pipeline.errors import UserError
+    from pipeline.mask import MaskConfig, ray_config
+    from pipeline.options import validate
+
+    assert ray_config(MaskConfig()).line_scales == (1.0,)
+    cfg = MaskConfig(streak_lines=True, streak_scales=(1.0, 0.25))
+    assert ray_config(cfg).lines and ray_config(cfg).line_scales == (1.0, 0.25)
+    with pytest.raises(UserError, match="--streak-scales"):
+        validate(MaskConfig(streak_scales=(0.25,)))
