@@ -1146,3 +1146,42 @@ def test_night_glare_check_is_its_file():
         lines = (RESULTS / f"fmg_train_cpu_s89_{arm}.jsonl").read_text().splitlines()
         assert [json.loads(line)["step"] for line in lines] == list(range(1, 151))
 
+
+
+def test_streak_scales_clean_part_and_real_photos_are_their_files():
+    """docs/history/fmg.md, "Ninety-sixth session" (and the card, options.md, goals.md): the
+    clean-photo part of `mask --streak-scales 1,0.25` (each scene's mean share with the
+    streak lines alone and with the scales, lund's largest view, the verdict against the
+    plan's 0.05 points) and the real night photos' shares against the default's file."""
+    rec = result("mask_views_clean_dev_streak_scales_s96.json")
+    assert rec["code"]["commit"].startswith("82616f4") and not rec["code"]["dirty"]
+    by = {(r["scene"], r["setting"]): r for r in rec["rows"]}
+    base, cand = "ghost_views_pads_lines", "ghost_views_pads_lines_scaled"
+    assert by["lund_ws", cand]["streak_scales"] == [1.0, 0.25]
+    assert by["lund_ws", base]["streak_lines"] and by["lund_ws", base]["streak_scales"] is None
+    hist = page_text("docs/history/fmg.md")
+    pages = [page_text(p) for p in ("gnfr/weights/fmg.md", "docs/options.md", "docs/goals.md")]
+    lund = [100 * by["lund_ws", s]["marked"] for s in (base, cand)]
+    worst = [100 * max(v["marked"] for v in by["lund_ws", s]["per_view"].values())
+             for s in (base, cand)]
+    et = [100 * by["et_ws", s]["marked"] for s in (base, cand)]
+    assert f"from {lund[0]:.3f} % to {lund[1]:.3f} % there" in hist
+    assert f"(+{lund[1] - lund[0]:.3f} points against the 0.05 allowed)" in hist
+    assert lund[1] - lund[0] > 0.05  # the part fails
+    assert f"its largest view from {worst[0]:.3f} % to {worst[1]:.2f} %" in hist
+    assert max(worst) < 10 and "No view is over the 10 % rule" in hist
+    assert f"et is unchanged at {et[0]:.3f} %" in hist and f"{et[0]:.3f}" == f"{et[1]:.3f}"
+    assert f"lund {lund[1]:.3f} % of the pixels against {lund[0]:.3f} %" in pages[1]
+    assert f"its largest view {worst[1]:.2f} %" in pages[1]
+    assert all(f"{lund[1]:.3f} % against {lund[0]:.3f} %" in p for p in (pages[0], pages[2]))
+    real = result("fmg_real_flare_streak_scales_s96.json")
+    assert "--streak-scales 1,0.25" in real["command"] and real["pads"] == [
+        "reflect", "replicate", "constant"]
+    new = [100 * v for k, v in sorted(real["marked"].items())]
+    old = [100 * v for k, v in sorted(result("fmg_real_flare_M_F26_s79.json")["marked"].items())
+           if k.endswith("/fmg.safetensors")]
+    assert (f"{new[0]:.2f} % and {new[1]:.2f} % of the two frames are marked, against "
+            f"{old[0]:.2f} % and {old[1]:.2f} % at the default") in hist
+    assert (f"{new[0]:.2f} % and {new[1]:.2f} % of the frames are marked, against "
+            f"{old[0]:.2f} % and {old[1]:.2f} %") in pages[0]
+    assert all(f"{new[1]:.2f} % of the frame against {old[1]:.2f} %" in p for p in pages[1:])
