@@ -276,6 +276,9 @@ def test_overlay_labels_name_every_option_that_added_marks():
             == "weights/fmg + rays + streak lines: 7.0 %")
     assert (overlay_label(w, 0.07, False, None, False, True, holes=True)
             == "weights/fmg + pads + holes filled: 7.0 %")
+    assert (overlay_label(w, 0.07, True, RayConfig(lines=True, line_scales=(1.0, 0.25)),
+                          False, False)
+            == "weights/fmg + rays + streak lines at 1,0.25: 7.0 %")
     # cores or lines without rays add nothing, so the label does not claim them
     assert (overlay_label(w, 0.07, False, RayConfig(cores=True), False, False)
             == "weights/fmg: 7.0 %")
