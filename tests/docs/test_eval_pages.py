@@ -810,3 +810,37 @@ def test_fern_in_fp32_is_its_file():
         most = max(most, abs(margin(new_name) - margin(old_name)))
     assert (f"kermit, cyprus and fern measured again in fp32: GN-FR's margin over GNT moved by "
             f"{most:.2f} dB at most") in page_text("README.md")
+
+
+def _scores(methods: dict) -> dict:
+    """Every variant's scores of an eval or eval-llff record: its ``inputs`` and
+    ``heldout`` (PSNR, SSIM, per view), without paths and times."""
+    return {m: {k: v.get(k) for k in ("inputs", "heldout")} for m, v in methods.items()}
+
+
+def test_the_test_scenes_after_the_refactors_are_the_ninety_third_sessions():
+    """docs/eval.md, "The test scenes after the refactors": the three fp32 test files made
+    again at 510c1ce (fp32, a clean tree) score as the ninety-third session's at 580340e,
+    every variant, view and mask score to the last digit."""
+    text = page_text("docs/eval.md")
+    i = text.index("## The test scenes after the refactors (ninety-sixth session)")
+    section = text[i:text.index("## ", i + 3)]
+    assert "every score equals the ninety-third session's to the last digit" in section
+    pairs = [(f"{s}_synth_gnfr_gnt_cpu_s96_fp32.json", f"{s}_synth_gnfr_gnt_cpu_s93_fp32.json")
+             for s in ("kermit", "cyprus")]
+    for new_name, old_name in pairs:
+        new, old = result(new_name), result(old_name)
+        assert new["provenance"]["code"]["commit"].startswith("510c1ce")
+        assert old["provenance"]["code"]["commit"].startswith("580340e")
+        assert not new["provenance"]["code"]["dirty"]
+        assert '"cpu_bf16": false' in json.dumps(new) and '"cpu_bf16": true' not in json.dumps(new)
+        assert _scores(new["methods"]) == _scores(old["methods"]), new_name
+        assert new["mask_scores"] == old["mask_scores"] and new["mask_scores"]
+        assert new_name in section
+    new, old = result("fern_llff_quick_cpu_s96_fp32.json"), result(
+        "fern_llff_quick_cpu_s93_fp32.json")
+    for part in ("clean", "flare"):
+        assert new[part]["provenance"]["code"]["commit"].startswith("510c1ce")
+        assert _scores(new[part]["methods"]) == _scores(old[part]["methods"]), part
+    assert '"cpu_bf16": true' not in json.dumps(new)
+    assert "fern_llff_quick_cpu_s96_fp32.json" in section
