@@ -9,8 +9,9 @@ share of the mask stage (the flare rays and file writing are the same for every 
 thread count is the process's (set OMP_NUM_THREADS to compare like with like). ``--rays``
 also times the flare rays per view (``pipeline.mask.ray_marks``, the lights found each
 time), with the stage's rule and with the streak lines (`mask --streak-lines`): rows with
-``rays`` set instead of weights. ``--pads MODES`` also times each file as `mask --pads MODES`
-runs it (rows with ``pads`` set).
+``rays`` set instead of weights; with ``--streak-scales S1,S2`` a third, the streak lines at
+those scales too (`mask --streak-scales`). ``--pads MODES`` also times each file as `mask
+--pads MODES` runs it (rows with ``pads`` set).
 """
 
 from __future__ import annotations
@@ -35,8 +36,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--rays", action="store_true",
                     help="also time the flare rays, without and with the streak lines")
+    ap.add_argument("--streak-scales", default=None, metavar="S1,S2",
+                    help="with --rays: also time the streak lines at these scales")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args(argv)
+    scales = None
+    if a.streak_scales is not None:
+        try:
+            scales = tuple(float(v) for v in a.streak_scales.split(","))
+        except ValueError:
+            scales = ()
+        if not a.rays or not scales or not all(0 < v <= 1 for v in scales):
+            ap.error("--streak-scales: with --rays, fractions over 0 and at most 1 separated "
+                     "by commas")
     import torch
 
     from pipeline.errors import UserError
@@ -85,9 +97,12 @@ def main(argv: list[str] | None = None) -> int:
               f"parameters, {row['median_s_per_view']:.3f} s per "
               f"{row['view_size'][0]}x{row['view_size'][1]} view (median of "
               f"{a.repeat * len(images)}, {row['threads']} thread(s))", flush=True)
-    for lines in ((False, True) if a.rays else ()):
-        cfg = RayConfig(lines=lines)
-        row = {"rays": "streak_lines" if lines else "default",
+    rules = [("default", RayConfig()), ("streak_lines", RayConfig(lines=True))]
+    if scales:
+        rules.append(("streak_lines_at_" + ",".join(f"{v:g}" for v in scales),
+                      RayConfig(lines=True, line_scales=scales)))
+    for name, cfg in (rules if a.rays else ()):
+        row = {"rays": name,
                **per_view(lambda im, c=cfg: ray_marks(im, a.work_size, c))}
         rows.append(row)
         print(f"rays ({row['rays']}): {row['median_s_per_view']:.3f} s per view (median of "

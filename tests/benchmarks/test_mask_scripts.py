@@ -533,6 +533,12 @@ def test_mask_time_rays_rows_time_the_rays_with_and_without_the_streak_lines(tmp
     rows = json.loads(out.read_text())["rows"]
     assert [r.get("rays") for r in rows] == [None, "default", "streak_lines"]
     assert all(r["median_s_per_view"] > 0 and r["views"] == 1 for r in rows)
+    assert bench.main([str(tmp_path / "p"), "--weights", str(w), "--repeat", "1", "--rays",
+                       "--streak-scales", "1,0.25", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [r.get("rays") for r in rows][-1] == "streak_lines_at_1,0.25"
+    with pytest.raises(SystemExit):  # the scales time the rays' lines: --rays needed
+        bench.main([str(tmp_path / "p"), "--weights", str(w), "--streak-scales", "0.25"])
 
 
 def test_mask_time_bad_folders_are_one_line_errors(tmp_path, capsys):
