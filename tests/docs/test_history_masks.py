@@ -1185,3 +1185,27 @@ def test_streak_scales_clean_part_and_real_photos_are_their_files():
     assert (f"{new[0]:.2f} % and {new[1]:.2f} % of the frames are marked, against "
             f"{old[0]:.2f} % and {old[1]:.2f} %") in pages[0]
     assert all(f"{new[1]:.2f} % of the frame against {old[1]:.2f} %" in p for p in pages[1:])
+
+
+def test_streak_scales_time_is_its_files():
+    """docs/history/fmg.md and docs/options.md: the rays' time per view at the stage's rule,
+    with the streak lines and with them at a quarter too, and the network's."""
+    hist, opts = page_text("docs/history/fmg.md"), page_text("docs/options.md")
+    got = {}
+    for where in ("lund", "real"):
+        rec = result(f"mask_time_cpu_streak_scales_{where}_s96.json")
+        assert rec["code"]["commit"].startswith("dd05e68") and not rec["code"]["dirty"]
+        rays = {r["rays"]: r["median_s_per_view"] for r in rec["rows"] if "rays" in r}
+        net = [r["median_s_per_view"] for r in rec["rows"] if "weights" in r]
+        got[where] = ([rays[k] for k in ("default", "streak_lines",
+                                         "streak_lines_at_1,0.25")], net[0])
+    (l0, l1, l2), ln = got["lund"]
+    (r0, r1, r2), rn = got["real"]
+    assert (f"the flare rays take {l0:.3f} s per view (median) at the stage's rule, {l1:.3f} s "
+            f"with the streak lines and {l2:.3f} s with them also at a quarter") in hist
+    assert f"the same are {r0:.3f}, {r1:.3f} and {r2:.3f} s" in hist
+    assert f"against {ln:.3f} and {rn:.3f} s for the network alone" in hist
+    assert "costs about half as much again as the streak lines themselves" in hist
+    assert 0.4 < (l2 - l1) / (l1 - l0) < 0.7 and 0.4 < (r2 - r1) / (r1 - r0) < 0.7
+    assert f"{l1:.3f} s a view with the streak lines, {l2:.3f} s with the quarter too" in opts
+    assert f"about {l2 - l1:.1f} s per view to the streak lines' {l1 - l0:.1f}" in opts
