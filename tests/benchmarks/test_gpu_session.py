@@ -185,3 +185,6 @@ def test_the_gpu_runbooks_fern_speeds_are_the_files():
         secs = run["methods"]["gnfr_network"]["provenance"]["trained"]["train_seconds"]
         steps = run["budget"]["iters"]
         assert fmt.format(secs, rate=steps / secs) in text, (name, steps, secs)
+    s78 = result("fern_llff_paper_cuda_h200_s78.json")
+    fine = s78["clean"]["methods"]["gnfr_network"]["provenance"]["trained"]["train_seconds"]
+    assert f"took {s78['seconds']:.0f} s for {fine:.0f} s of fine-tuning" in text
