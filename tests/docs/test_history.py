@@ -2,9 +2,10 @@
 
 This file keeps the table ``CHECKS``: a number a history page quotes as it stands in a result
 file. The tests that recompute a history's tables and verdicts are split by topic (ninety-fourth
-session): test_history_masks.py (docs/history/fmg.md, the FMG card's candidates and the mask
-options), test_history_fill.py (docs/history/fill.md, the depth and fill options),
-test_history_gnfr.py (docs/history/gnfr.md and pose.md, the fine-tune and pretraining levers).
+session): test_history_masks.py and test_history_mask_rules.py (docs/history/fmg.md, the FMG
+card's candidates, and the mask stage's rules and options), test_history_fill.py
+(docs/history/fill.md, the depth and fill options), test_history_gnfr.py
+(docs/history/gnfr.md and pose.md, the fine-tune and pretraining levers).
 """
 
 from __future__ import annotations
