@@ -476,6 +476,16 @@ def test_the_sample_after_the_ninety_fifth_sessions_splits_scores_as_before():
             "split into parts (meant to change nothing), it gave the same scores to the last "
             "digit, on every view (`sample_oneshot_cpu_s95_fp32.json`)") in page_text(
         "docs/eval.md")
+    later = result("sample_oneshot_cpu_s96_fp32.json")  # after the ninety-sixth's changes
+    assert later["code"]["commit"].startswith("1b10d02")
+    assert later["code"]["dirty_files"] == ["oneshot.log"]
+    assert later["model"]["provenance"]["train"]["cpu_bf16"] is False
+    assert later["mean"] == new["mean"] and later["views"] == new["views"]
+    wall = recorded_walls(r"\| `sample_oneshot_cpu_s96_fp32\.json`")[0][0]
+    assert (f"at 1b10d02, after that session's refactors and the `--streak-scales` option (off "
+            f"by default), it gave the same scores to the last digit, on every view, in "
+            f"{clock(wall)} wall (`sample_oneshot_cpu_s96_fp32.json`)") in page_text(
+        "docs/eval.md")
     # the README's fp32 span is the two fp32 walls on an otherwise idle machine
     walls = [recorded_walls(rf"\| `{name}`")[0][0]
              for name in (r"sample_oneshot_cpu_s92_fp32_idle\.json",
