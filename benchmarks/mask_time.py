@@ -42,13 +42,15 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     scales = None
     if a.streak_scales is not None:
+        from pipeline.errors import UserError
+        from pipeline.mask import parse_streak_scales
+
+        if not a.rays:
+            ap.error("--streak-scales times the rays' streak lines: add --rays")
         try:
-            scales = tuple(float(v) for v in a.streak_scales.split(","))
-        except ValueError:
-            scales = ()
-        if not a.rays or not scales or not all(0 < v <= 1 for v in scales):
-            ap.error("--streak-scales: with --rays, fractions over 0 and at most 1 separated "
-                     "by commas")
+            scales = parse_streak_scales(a.streak_scales)
+        except UserError as e:
+            ap.error(str(e))
     import torch
 
     from pipeline.errors import UserError

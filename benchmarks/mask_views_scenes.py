@@ -130,14 +130,14 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     scales = ()
     if a.streak_scales is not None:
+        from pipeline.errors import UserError
+        from pipeline.mask import MaskConfig, check_streak_scales, parse_streak_scales
+
         try:
-            scales = tuple(float(v) for v in a.streak_scales.split(","))
-        except ValueError:
-            scales = ()
-        if not scales or not all(0 < v <= 1 for v in scales):
-            ap.error("--streak-scales: fractions over 0 and at most 1 separated by commas")
-        if not a.streak_lines:
-            ap.error("--streak-scales sets where --streak-lines looks: add --streak-lines")
+            scales = parse_streak_scales(a.streak_scales)
+            check_streak_scales(MaskConfig(streak_lines=a.streak_lines, streak_scales=scales))
+        except UserError as e:
+            ap.error(str(e))
     if sum((a.streak_lines, a.ray_opposite is not None, a.pads is not None,
             a.light_cores, a.fill_holes)) > 1:
         ap.error("give one candidate: --ray-opposite, --streak-lines, --pads, --light-cores "

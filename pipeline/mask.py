@@ -185,9 +185,7 @@ class MaskConfig:
         if self.streak_lines and (not self.rays or self.masks_dir is not None):
             raise UserError("--streak-lines adds streaks to the FMG's flare rays: it has no "
                             "use with --no-rays or --masks; leave one out")
-        if self.streak_scales is not None and not self.streak_lines:
-            raise UserError("--streak-scales sets where --streak-lines looks: add "
-                            "--streak-lines, or leave --streak-scales out")
+        check_streak_scales(self)
         lines = self.masks_dir is None if self.ghost_lines is None else self.ghost_lines
         ghost_config(replace(self, ghost_lines=lines))  # --ghost-chain without the lines
         if self.confirm_weights is not None and not self.confirm:
@@ -446,15 +444,38 @@ def confirmed_regions(a: np.ndarray, b: np.ndarray, keep: str = "both") -> np.nd
     return out
 
 
+def check_streak_scales(config) -> None:
+    """A one-line UserError when ``config`` (the mask stage's, `fmg eval`'s or `fmg
+    overlay`'s) gives ``streak_scales`` without ``streak_lines``: they would change nothing."""
+    if config.streak_scales is not None and not config.streak_lines:
+        raise UserError("--streak-scales sets where --streak-lines looks: add "
+                        "--streak-lines, or leave --streak-scales out")
+
+
+def parse_streak_scales(text: str) -> tuple[float, ...]:
+    """The command-line ``--streak-scales`` text (e.g. ``1,0.25``) as the mask stage's option
+    reads and checks it (numbers, each over 0 and at most 1); else a one-line UserError."""
+    import typing
+
+    from pipeline.options import check_field, coerce
+
+    tp = typing.get_type_hints(MaskConfig)["streak_scales"]
+    scales = coerce(text, tp, f"--streak-scales {text}")
+    if scales is None:  # "none" unsets the stage's option; a script asking for scales needs them
+        raise UserError(f"--streak-scales {text}: give fractions of the size, e.g. 1,0.25")
+    check_field(MaskConfig(streak_lines=True, streak_scales=scales), "streak_scales")
+    return scales
+
+
 def ray_config(config: MaskConfig):
     """The flare-ray rule of the mask stage (or of any config with ``ray_min``,
-    ``ray_opposite``, ``streak_lines`` and ``light_cores``, e.g. `fmg eval`'s): RayConfig's
-    defaults with those where given."""
+    ``ray_opposite``, ``streak_lines``, ``streak_scales`` and ``light_cores``, e.g. `fmg
+    eval`'s): RayConfig's defaults with those where given."""
     from pipeline.flare_rays import RayConfig
 
     over = {k: v for k, v in (("min_rays", config.ray_min), ("opposite", config.ray_opposite),
                               ("lines", config.streak_lines), ("cores", config.light_cores),
-                              ("line_scales", getattr(config, "streak_scales", None)))
+                              ("line_scales", config.streak_scales))
             if v is not None}
     return RayConfig(**over)
 

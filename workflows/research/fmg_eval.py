@@ -227,8 +227,9 @@ def check_ray_rule(cfg) -> None:
                          or cfg.streak_lines is not None or cfg.light_cores is not None):
         raise UserError("--ray-min, --ray-opposite, --streak-lines and --light-cores set the "
                         "flare rays' rule: add --rays")
-    if cfg.streak_scales is not None and not cfg.streak_lines:
-        raise UserError("--streak-scales sets where --streak-lines looks: add --streak-lines")
+    from pipeline.mask import check_streak_scales
+
+    check_streak_scales(cfg)
 
 
 def run_eval(cfg: FMGEvalConfig) -> tuple[dict, str, Path]:
