@@ -55,6 +55,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -429,26 +430,23 @@ def _remove_stale(folder: Path, keep: set[str], path_of: Callable[[str], Path]) 
             p.unlink()
 
 
-def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike | None = None,
-        force: bool = False) -> Workspace:
-    """Decode every photo of ``photos`` into the workspace ``ws_path``; return it."""
-    validate(cfg)
-    if cfg.max_size != 0 and cfg.max_size < 64:
-        raise UserError(f"--max-size {cfg.max_size} is too small: use at least 64 pixels "
-                        "(or 0 to keep the full size)")
-    photos = Path(photos)
-    check_not_workspace(photos)
-    chosen = list_photos(photos, cfg.video_frames)
-    ws_path = Path(ws_path or default_workspace(photos))
-    made_here = not ws_path.exists()  # a failed first decode leaves no workspace behind
-    ws = Workspace.create(ws_path, photos)
-    stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,
-                                defaults=asdict(DecodeConfig()))
-    if stage_run.skip:
-        info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
-        return ws
-    keep = partial(ws.kept, stage_run)  # this run's file (an earlier run's of other settings: not)
+class _Decoded(NamedTuple):
+    """What one decode run made of the chosen files."""
 
+    done: dict[str, Photo]
+    """Stem -> the photo (or video) it came from."""
+    skipped: dict[str, str]
+    """File name -> why it could not be decoded."""
+    reused: int
+    """Images kept from an interrupted run."""
+    frames: dict[str, dict]
+    """Video frames taken: stem -> {video, frame, seconds}."""
+
+
+def _decode_all(chosen: list[Photo], cfg: DecodeConfig, ws: Workspace,
+                keep: Callable[[Path], bool]) -> _Decoded:
+    """Decode the videos' frames, then the still photos, into ``ws``; a file that cannot be
+    decoded is warned about and skipped."""
     done, skipped, reused, frames = {}, {}, 0, {}
     stills = [p for p in chosen if not p.video]
     for video in (p for p in chosen if p.video):
@@ -472,6 +470,30 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         except DecodeError as e:
             warn(f"skipping {e}; replace or remove the file")
             skipped[photo.path.name] = str(e)
+    return _Decoded(done, skipped, reused, frames)
+
+
+def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike | None = None,
+        force: bool = False) -> Workspace:
+    """Decode every photo of ``photos`` into the workspace ``ws_path``; return it."""
+    validate(cfg)
+    if cfg.max_size != 0 and cfg.max_size < 64:
+        raise UserError(f"--max-size {cfg.max_size} is too small: use at least 64 pixels "
+                        "(or 0 to keep the full size)")
+    photos = Path(photos)
+    check_not_workspace(photos)
+    chosen = list_photos(photos, cfg.video_frames)
+    ws_path = Path(ws_path or default_workspace(photos))
+    made_here = not ws_path.exists()  # a failed first decode leaves no workspace behind
+    ws = Workspace.create(ws_path, photos)
+    stage_run = ws.begin_stage("decode", asdict(cfg), [photos.resolve()], force,
+                                defaults=asdict(DecodeConfig()))
+    if stage_run.skip:
+        info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
+        return ws
+    keep = partial(ws.kept, stage_run)  # this run's file (an earlier run's of other settings: not)
+
+    done, skipped, reused, frames = _decode_all(chosen, cfg, ws, keep)
     raw_stems = {s for s, p in done.items() if p.is_raw}
     if len(done) < MIN_IMAGES:  # before anything of an earlier run is removed
         what = (f"{len(done)} of {len(chosen)} photos" if not frames

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import asdict, replace
 from pathlib import Path
 
+from pipeline.cameras import Cameras
 from pipeline.errors import shell_path
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
@@ -198,6 +199,36 @@ def record_defaults(key: str, device: str) -> dict:
     return defaults
 
 
+def warn_unshaped(cfg: RenderConfig, key: str) -> None:
+    """Warn where the key blend's shaping options are set without the key blend."""
+    shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
+                               (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]
+    if shaping and not cfg.key_blend:
+        warn(f"render: {' and '.join(shaping)} "
+             f"{'does' if len(shaping) == 1 else 'do'} nothing without the key blend "
+             f"({'the de-flared photos have none' if key == 'inputs' else '--key-blend 0'})")
+
+
+def stage_inputs(ws: Workspace, cfg: RenderConfig, key: str, ckpt: Path, use_photos: bool,
+                 frames_maps: bool) -> list[Path]:
+    """The files whose change makes a finished render of ``key`` render again."""
+    inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
+    inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
+    inputs += [ws.decoded] if key == "inputs" else []
+    inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
+    inputs += [ws.deflared] if cfg.from_deflared else []
+    return inputs
+
+
+def render_todo(setup: RenderSetup, cams: Cameras, todo: list[FrameJob]) -> None:
+    """Render ``todo`` in worker processes where the device wants them, else here."""
+    workers = frame_workers(setup.cfg, setup.device, len(todo))
+    if workers > 1:
+        render_in_workers(setup, todo, workers)
+    else:
+        render_here(setup, cams, todo)
+
+
 def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     """Render ``cfg.path``; returns the written folders (and the full-res one if asked)."""
     validate(cfg)
@@ -230,12 +261,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     cfg = options_for_path(cfg, key)
     deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
-    shaping = [f for f, on in (("--key-occlusion", cfg.key_occlusion),
-                               (f"--key-power {cfg.key_power:g}", cfg.key_power != 1.0)) if on]
-    if shaping and not cfg.key_blend:
-        warn(f"render: {' and '.join(shaping)} "
-             f"{'does' if len(shaping) == 1 else 'do'} nothing without the key blend "
-             f"({'the de-flared photos have none' if key == 'inputs' else '--key-blend 0'})")
+    warn_unshaped(cfg, key)
     from gnfr.renderer import cpu_bf16, emulated_bf16
 
     cfg = replace(cfg, bf16=cpu_bf16(cfg.bf16, device))  # recorded resolved: CUDA always
@@ -248,11 +274,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
     samples = int(cfg.samples or meta.get("samples") or meta.get("n_samples")
                   or (64 if device.startswith("cuda") else 32))
     params = record_params(cfg, meta, key, device, samples, frames_maps)
-    inputs = [ws.cameras_json, ws.views_json, ws.images, ws.masks, ckpt]
-    inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
-    inputs += [ws.decoded] if key == "inputs" else []
-    inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
-    inputs += [ws.deflared] if cfg.from_deflared else []
+    inputs = stage_inputs(ws, cfg, key, ckpt, use_photos, frames_maps)
     defaults = record_defaults(key, device)
     stage_run = ws.begin_stage(f"render:{key}", params, inputs, force, defaults=defaults)
     if stage_run.skip:
@@ -273,10 +295,6 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         setup = RenderSetup(ws, ckpt, cfg, params, device,
                             sorted({s for j in todo for s in j.all_sources}),
                             meta.get("exposure_gains") or None, deflared_blend)
-        workers = frame_workers(cfg, device, len(todo))
-        if workers > 1:
-            render_in_workers(setup, todo, workers)
-        else:
-            render_here(setup, cams, todo)
+        render_todo(setup, cams, todo)
     outputs = [out_dir] + ([ws.deflared_full] if full else [])
     return stage_run.finish(outputs, extra={"frames": len(jobs)}, versions=["torch"])
