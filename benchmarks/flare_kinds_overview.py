@@ -44,6 +44,7 @@ def load_backgrounds(root: Path) -> list[np.ndarray]:
 def example(img: np.ndarray, cfg, rng: np.random.Generator) -> np.ndarray:
     """[h, w, 3] uint8 BGR: ``img`` flared by ``synthesize``, its mask outlined."""
     from pipeline.flare import synthesize
+    from pipeline.images import put_label
 
     h, w = img.shape[:2]
     light = (float(rng.uniform(0.15, 0.85) * w), float(rng.uniform(0.15, 0.85) * h))
@@ -54,10 +55,7 @@ def example(img: np.ndarray, cfg, rng: np.random.Generator) -> np.ndarray:
     outlined = cv2.drawContours(bgr.copy(), contours, -1, (0, 255, 255), 1, cv2.LINE_8)
     bgr = cv2.addWeighted(bgr, 0.45, outlined, 0.55, 0.0)  # see the flare under the line
     label = "+".join(layers.kinds) + f"  mask {100 * layers.mask.mean():.1f}%"
-    cv2.putText(bgr, label, (5, bgr.shape[0] - 7), cv2.FONT_HERSHEY_SIMPLEX, 0.38,
-                (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(bgr, label, (5, bgr.shape[0] - 7), cv2.FONT_HERSHEY_SIMPLEX, 0.38,
-                (255, 255, 255), 1, cv2.LINE_AA)
+    put_label(bgr, label, scale=0.38, bottom=True)
     return bgr
 
 

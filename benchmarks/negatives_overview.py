@@ -16,7 +16,6 @@ import argparse
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,6 +38,7 @@ def overview(data: Path, seed: int = 0, per_kind: int = 4) -> np.ndarray:
         random_crop,
         split_backgrounds,
     )
+    from pipeline.images import put_label
 
     bgs = load_backgrounds(split_backgrounds(data).train, 384)
     comp = CompositeConfig(size=TILE, night_gain=(0.03, 0.2))
@@ -54,9 +54,7 @@ def overview(data: Path, seed: int = 0, per_kind: int = 4) -> np.ndarray:
             tiles.append(np.ascontiguousarray(tile.astype(np.uint8)))
         row = np.hstack(tiles)
         label = kind + ("" if kind in DEFAULT_NEGATIVES else " (option)")
-        cv2.putText(row, label, (6, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(row, label, (6, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1,
-                    cv2.LINE_AA)
+        put_label(row, label, scale=0.6)
         rows.append(row)
     return np.vstack(rows)
 

@@ -96,3 +96,30 @@ def read_gray(path: str | os.PathLike, *, fix: str | None = None) -> np.ndarray:
 def image_size(path: str | os.PathLike, *, fix: str | None = None) -> tuple[int, int]:
     """(height, width) of an image file."""
     return read_image(path, bgr=True, fix=fix).shape[:2]
+
+
+def put_label(img: np.ndarray, label: str, scale: float = 0.5, min_scale: float = 0.3,
+              bottom: bool = False) -> None:
+    """Write ``label`` white, outlined in black, at the top left of ``img`` (at its bottom
+    left with ``bottom``; an 8-bit image, in place), smaller down to ``min_scale`` where it
+    is wider than ``img``, then shortened in the middle."""
+    import cv2
+
+    font, room = cv2.FONT_HERSHEY_SIMPLEX, img.shape[1] - 10
+
+    def width(text: str, sc: float) -> int:
+        return cv2.getTextSize(text, font, sc, 1)[0][0]
+
+    if width(label, scale) > room:
+        scale = max(min_scale, scale * room / width(label, scale))
+    full, keep = label, len(label)
+    while keep > 4 and width(label, scale) > room:
+        keep -= 1
+        label = full[:keep // 2] + ".." + full[len(full) - (keep - keep // 2):]
+    y = img.shape[0] - 7 if bottom else 7 + cv2.getTextSize(label, font, scale, 1)[0][1]
+    # the outline grown from the glyphs themselves: a Hershey font's advance grows with the
+    # stroke's thickness, so a thick black pass drawn under a thin white one drifts from it
+    glyphs = np.zeros(img.shape[:2], np.uint8)
+    cv2.putText(glyphs, label, (5, y), font, scale, 255, 1)
+    img[cv2.dilate(glyphs, np.ones((3, 3), np.uint8)) > 0] = 0
+    img[glyphs > 0] = 255

@@ -30,7 +30,7 @@ import numpy as np
 
 from gnfr import WEIGHTS_DIR
 from pipeline.errors import UserError
-from pipeline.images import image_size, is_photo, read_image_as_stored
+from pipeline.images import image_size, is_photo, put_label, read_image_as_stored
 from pipeline.options import option, resolve_device, validate
 from pipeline.progress import info, track
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_bytes
@@ -593,14 +593,15 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
         im = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32)
         m = cv2.resize(mask.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
         im[m] = 0.45 * im[m] + 0.55 * np.array([0, 0, 255], np.float32)
-        label = f"{stem}  {100 * flare_fraction(mask):.1f}%"
-        im = im.astype(np.uint8)
-        cv2.putText(im, label, (5, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 3)
-        cv2.putText(im, label, (5, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1)
         r, c = divmod(i, cols)
         y, x = r * (th + 4) + 2, c * (thumb + 4) + 2
-        sheet[y:y + h, x:x + w] = im
+        sheet[y:y + h, x:x + w] = im.astype(np.uint8)
+        # the label spans the cell, not the image: a portrait photo's thumbnail is narrower
+        cell = sheet[y:y + th, x:x + thumb].copy()
+        put_label(cell, f"{stem}  {100 * flare_fraction(mask):.1f}%")
+        sheet[y:y + th, x:x + thumb] = cell
     return sheet
+
 
 
 # --------------------------------------------------------------------------- stage
