@@ -15,6 +15,7 @@ import json
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,6 +31,9 @@ from workflows.research.fmg_eval import (
     weights_info,
 )
 from workflows.research.run_settings import record_settings, refuse_other_settings
+
+if TYPE_CHECKING:
+    from pipeline.flare import FlareConfig
 
 
 @dataclass
@@ -377,6 +381,32 @@ def _fit(cfg: FMGTrainConfig, model, opt, batches: TrainBatches, step: int, val,
             save_checkpoint(out, model, opt, step, init_steps)
 
 
+def _init_steps(cfg: FMGTrainConfig, out: Path, step: int) -> int:
+    """The steps the weights a run starts from had: on resuming, those its checkpoint
+    recorded for the --init it started from; on a fresh start (or a checkpoint written
+    before it recorded them), --init's own (0 without one)."""
+    recorded = None
+    if step:
+        from gnfr.fmg import read_fmg_metadata
+
+        recorded = read_fmg_metadata(out / "checkpoint.safetensors").get("init_iters")
+    if recorded is not None:
+        return int(recorded)
+    return weights_info(Path(cfg.init))["steps"] if cfg.init else 0
+
+
+def _final_meta(cfg: FMGTrainConfig, flare_cfg: FlareConfig, init_steps: int) -> dict[str, str]:
+    """The metadata of a finished run's OUT/fmg.safetensors."""
+    meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
+            "without": ",".join(cfg.without), "kinds": ",".join(flare_cfg.kinds),
+            "kind_probs": json.dumps({k: flare_cfg.kind_prob(k) for k in flare_cfg.kinds}),
+            "night_glare": str(cfg.night_glare)}
+    if cfg.init:
+        meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
+    meta["total_iters"] = str(cfg.iters + init_steps)  # steps from scratch, init included
+    return meta
+
+
 def train(cfg: FMGTrainConfig) -> dict:
     """Train (or resume) an FMG; returns the final metrics."""
     import torch
@@ -421,30 +451,14 @@ def train(cfg: FMGTrainConfig) -> dict:
     from pipeline.fmg_data import CompositeSource
 
     val = fixed_set(CompositeSource(val_bgs, src.flare_cfg, comp), cfg.val_count, 12345)
-    recorded = None
-    if step:  # resumed: the steps its checkpoint recorded for the --init it started from
-        from gnfr.fmg import read_fmg_metadata
-
-        recorded = read_fmg_metadata(out / "checkpoint.safetensors").get("init_iters")
-    if recorded is not None:
-        init_steps = int(recorded)
-    else:  # a fresh start, or a checkpoint written before it recorded them: --init's own
-        init_steps = weights_info(Path(cfg.init))["steps"] if cfg.init else 0
+    init_steps = _init_steps(cfg, out, step)
     batches.begin(step)
     try:
         _fit(cfg, model, opt, batches, step, val, dev, out, init_steps)
     finally:
         batches.close()
-    meta = {"iters": str(cfg.iters), "train": json.dumps(asdict(cfg), default=str),
-            "without": ",".join(cfg.without), "kinds": ",".join(src.flare_cfg.kinds),
-            "kind_probs": json.dumps({k: src.flare_cfg.kind_prob(k)
-                                      for k in src.flare_cfg.kinds}),
-            "night_glare": str(cfg.night_glare)}
-    if cfg.init:
-        meta.update({"init": str(cfg.init), "init_iters": str(init_steps)})
-    meta["total_iters"] = str(cfg.iters + init_steps)  # steps from scratch, init included
     with atomic_path(out / "fmg.safetensors") as tmp:
-        save_fmg(tmp, model.cpu(), extra=meta)
+        save_fmg(tmp, model.cpu(), extra=_final_meta(cfg, src.flare_cfg, init_steps))
     metrics = evaluate(out / "fmg.safetensors", Path(cfg.data), count=cfg.val_count * 2,
                        size=cfg.size, split="dev")
     atomic_write_json(out / "metrics.json", metrics)
