@@ -65,27 +65,8 @@ def register(app: typer.Typer) -> None:
         photos: list[Path] = typer.Argument(..., help="Photos to mask (e.g. real flare)."),
     ) -> None:
         """One image: each photo beside each model's mask (red, outlined) at its cut."""
-        from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
-        from workflows.research.fmg_eval import check_pads, check_ray_rule, real_flare_overview
+        from workflows.research.fmg_eval import run_overlay
 
-        check_ray_rule(config)
-        check_pads(config)
-        weights = config.weights or (DEFAULT_WEIGHTS,)
-        for path in weights:
-            load_fmg_weights(path)
-        marked = real_flare_overview(weights, config.photos, config.out, config.work_size,
-                                     rays=config.rays, ray_cfg=ray_config(config),
-                                     ghosts=ghost_config(config), pads=config.pads,
-                                     pads_keep=config.pads_keep,
-                                     fill_holes=config.fill_holes)
-        for key, fraction in marked.items():
+        for key, fraction in run_overlay(config).items():
             typer.echo(f"{key}: {100 * fraction:.2f} % marked")
-        if config.json is not None:
-            from pipeline.provenance import write_result
-
-            write_result(config.json, {"overview": str(config.out), "marked": marked,
-                                       "weights": [str(w) for w in weights],
-                                       "work_size": config.work_size, "rays": config.rays,
-                                       "pads": list(config.pads),
-                                       "fill_holes": config.fill_holes})
         typer.echo(f"wrote {config.out}" + (f" and {config.json}" if config.json else ""))

@@ -809,6 +809,7 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     outlined and tinted red; returns the fraction of each photo each model marks."""
     import cv2
 
+    from pipeline.images import put_label
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
     from pipeline.ws_files import enclosed_holes
 
@@ -834,13 +835,36 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
             cv2.drawContours(tile, contours, -1, (0, 255, 255), 1)
             label = overlay_label(Path(w), float(marked.mean()), rays, ray_cfg,
                                   ghosts is not None, bool(pads), fill_holes)
-            size = 0.7 * min(1.0, (tile.shape[1] - 16) / cv2.getTextSize(
-                label, cv2.FONT_HERSHEY_SIMPLEX, 0.7, 2)[0][0])  # the label fits the tile
-            cv2.putText(tile, label, (8, 24), cv2.FONT_HERSHEY_SIMPLEX, size, (255, 255, 255), 2)
+            put_label(tile, label, scale=0.7)
             tiles.append(tile)
         rows.append(np.hstack(tiles))
     atomic_imwrite(out, np.vstack(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return fracs
+
+
+def run_overlay(cfg: FMGOverlayConfig) -> dict[str, float]:
+    """`fmg overlay`: check ``cfg`` and open every weights file (one clear line for a bad
+    one), write the overview (``real_flare_overview``) and, with ``cfg.json``, its record;
+    returns the fraction of each photo each model marks."""
+    from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
+
+    check_ray_rule(cfg)
+    check_pads(cfg)
+    weights = cfg.weights or (DEFAULT_WEIGHTS,)
+    for path in weights:
+        load_fmg_weights(path)
+    marked = real_flare_overview(weights, cfg.photos, cfg.out, cfg.work_size, rays=cfg.rays,
+                                 ray_cfg=ray_config(cfg), ghosts=ghost_config(cfg),
+                                 pads=cfg.pads, pads_keep=cfg.pads_keep,
+                                 fill_holes=cfg.fill_holes)
+    if cfg.json is not None:
+        from pipeline.provenance import write_result
+
+        write_result(cfg.json, {"overview": str(cfg.out), "marked": marked,
+                                "weights": [str(w) for w in weights],
+                                "work_size": cfg.work_size, "rays": cfg.rays,
+                                "pads": list(cfg.pads), "fill_holes": cfg.fill_holes})
+    return marked
 
 
 def weights_label(path: Path) -> str:
