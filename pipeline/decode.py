@@ -205,6 +205,10 @@ def list_photos(photos: Path, video_frames: int = DecodeConfig.video_frames) -> 
                             tuple(paths[1:])))
     chosen += [Photo(p, p.stem, False, video=True) for p in videos]
     chosen = without_copies(chosen)
+    if inner := photo_subfolders(photos):  # said, so a photo there is not thought used
+        listed = ", ".join(f"{d.name}/ ({n})" for d, n in inner[:4])
+        info(f"decode: photos in subfolders are left out, only {photos}'s own are used: "
+             f"{listed}{', ...' if len(inner) > 4 else ''}")
     views = sum(video_frames if p.video else 1 for p in chosen)
     if views < MIN_IMAGES:
         inner = [(d, n) for d, n in photo_subfolders(photos) if n >= MIN_IMAGES]

@@ -132,6 +132,17 @@ def test_photos_in_subfolders_are_pointed_at(tmp_path, capsys):
            f"its subfolder 100CANON holds 4: pass {tmp_path / 'stray' / '100CANON'}")
 
 
+def test_photos_left_in_subfolders_are_named(tmp_path, capsys):
+    """Enough photos of its own and more in a subfolder (an export/ beside the originals):
+    the folder's own are decoded and one line names the subfolder left out."""
+    d = _photos(tmp_path / "walk", 3)
+    _photos(d / "export", 2)
+    assert main(["decode", str(d), "-o", str(tmp_path / "ws")]) == 0
+    err = capsys.readouterr().err
+    assert "photos in subfolders are left out" in err and "export/ (2)" in err
+    assert len(list((tmp_path / "ws" / "decoded").glob("*.png"))) == 3
+
+
 def test_too_few_images(tmp_path, capsys):
     d = _kermit(tmp_path / "two", 2)
     before = digest_paths([d])
