@@ -720,3 +720,20 @@ def test_mask_views_scenes_streak_scales_scores_the_lines_and_them_scaled(tmp_pa
                 ["--streak-lines", "--streak-scales", "x"]):
         with pytest.raises(SystemExit):
             bench.main(["--posed", "x", "--work", "w", *bad])
+
+
+def test_scene_luminance_weights_and_folder_range(tmp_path):
+    """benchmarks/scene_luminance.py: a grey photo's luminance is its grey (the weights sum
+    to one), green counts most, and a folder's range spans its photos' medians."""
+    sl = load_benchmark("scene_luminance")
+    grey = np.full((8, 8, 3), 0.25, np.float32)
+    assert sl.luminance_stats(grey) == pytest.approx((0.25, 0.25), abs=1e-6)
+    green, red = np.zeros((8, 8, 3), np.float32), np.zeros((8, 8, 3), np.float32)
+    green[..., 1], red[..., 0] = 1.0, 1.0
+    assert sl.luminance_stats(green)[0] > 0.7 > 0.25 > sl.luminance_stats(red)[0]
+    for name, value in (("a.png", 51), ("b.png", 204)):
+        cv2.imwrite(str(tmp_path / name), np.full((8, 8, 3), value, np.uint8))
+    stats = sl.folder_stats(tmp_path)
+    assert sorted(stats["photos"]) == ["a.png", "b.png"]
+    assert stats["median_min"] == pytest.approx(0.2, abs=1e-6)
+    assert stats["median_max"] == pytest.approx(0.8, abs=1e-6)

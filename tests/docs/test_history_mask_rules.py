@@ -601,3 +601,25 @@ def test_streak_scales_time_is_its_files():
     assert 0.4 < (l2 - l1) / (l1 - l0) < 0.7 and 0.4 < (r2 - r1) / (r1 - r0) < 0.7
     assert f"{l1:.3f} s a view with the streak lines, {l2:.3f} s with the quarter too" in opts
     assert f"about {l2 - l1:.1f} s per view to the streak lines' {l1 - l0:.1f}" in opts
+
+
+def test_night_photos_are_no_darker_than_daylight_ones():
+    """docs/history/fmg.md, "Ninety-seventh session": each folder's row is the luminance
+    file's range (three decimals), and the verdict holds: the real night photos' darkest
+    median lies above a daylight scene's darkest and their brightest below a daylight
+    scene's brightest, so no brightness cut splits them."""
+    folders = result("scene_luminance_s97.json")["folders"]
+    by_name = {Path(k).parts[-1] if Path(k).name != "images" else Path(k).parts[-2]: v
+               for k, v in folders.items()}
+    by_name["fern"] = by_name.pop("images_8")
+    text = page_text("docs/history/fmg.md")
+    for name, stats in by_name.items():
+        label = "flare_real (the real night photos)" if name == "flare_real" else name
+        row = (f"| {label} | {len(stats['photos'])} | {stats['median_min']:.3f} to "
+               f"{stats['median_max']:.3f} |")
+        assert row in text, row
+    night = by_name.pop("flare_real")
+    assert any(d["median_min"] < night["median_min"] for d in by_name.values())
+    assert any(d["median_max"] > night["median_max"] for d in by_name.values())
+    assert any(d["median_min"] < night["median_max"] < d["median_max"]
+               for d in by_name.values())
