@@ -205,6 +205,16 @@ def sweep_views(views: dict[str, PosedView], cams: Cameras, near: dict[str, list
     confs = {}
     for s in cams.stems:
         views[s].depth, confs[s] = read_depth(ws, s, raw_dir / f"{s}.npz")
+    return consistent_depths(views, confs, cams, near, config)
+
+
+def consistent_depths(views: dict[str, PosedView], confs: dict[str, np.ndarray],
+                      cams: Cameras, near: dict[str, list[str]], config: DepthConfig
+                      ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{stem: (depth, confidence)}: each view's swept ``depth`` (and ``confs``) zeroed where
+    no ``near`` view agrees with it (the multi-view consistency check; kept as swept when
+    ``config`` turns the check off)."""
+    by = cams.by_stem()
     order = list(cams.stems)
     idx = {t: i for i, t in enumerate(order)}
     ordered = [views[t] for t in order]
