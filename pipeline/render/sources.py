@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.cameras import Cameras
+from pipeline.cameras import Cameras, Frame
 from pipeline.errors import UserError, shell_path
 from pipeline.progress import warn
 from pipeline.render.config import RenderConfig
@@ -119,6 +119,38 @@ def load_model(ckpt: Path, device: str):
         raise UserError(f"{e}: retrain with `deflare-scene finetune WS --force`") from None
 
 
+def _source_images(ws: Workspace, cams: Cameras, stems: list[str], scale: float,
+                   gains: dict | None, deflared: tuple[float, float] | None
+                   ) -> list[np.ndarray]:
+    """The views ``stems`` as :func:`encode_sources` encodes them: [h, w, 3] uint8 RGB, each
+    flare region from its de-flared photo with ``deflared``, resized by ``scale``, brought to
+    the model's exposure by ``gains``."""
+    by = cams.by_stem()
+    imgs = [read_view_image(ws, s) for s in stems]
+    if deflared is not None:
+        imgs = [with_deflared(ws, by[s], i, *deflared) for s, i in zip(stems, imgs, strict=True)]
+    imgs = [_resize_img(i, scale) for i in imgs]
+    if gains:
+        from pipeline.exposure import apply_gain
+
+        imgs = [apply_gain(i, gains[s]) if s in gains else i
+                for s, i in zip(stems, imgs, strict=True)]
+    return imgs
+
+
+def _source_mask(ws: Workspace, cam: Frame, img: np.ndarray, scale: float,
+                 grow: float) -> np.ndarray:
+    """[h, w] float32 1/0: the view ``cam``'s flare mask, grown by ``grow``, at the size of
+    its resized image ``img``."""
+    flare = grow_mask(read_mask(ws, cam.stem), grow)
+    if flare.shape != (cam.height, cam.width):
+        raise UserError(f"{ws.mask_path(cam.stem)} is not the size of its image: "
+                        f"{ws.rerun('mask')}")
+    # area-resized as 0/255 grey, then cut: flare where more than half is
+    grey = flare.astype(np.uint8) * 255
+    return (_resize_img(grey, scale, like=img) > MASK_THRESHOLD).astype(np.float32)
+
+
 def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device: str,
                    scale: float = 1.0, full_res_colour: bool = False,
                    gains: dict | None = None, apart: bool = False,
@@ -144,15 +176,7 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
 
     by = cams.by_stem()
     feature_scale, scale = (scale, 1.0) if full_res_colour else (1.0, scale)
-    imgs = [read_view_image(ws, s) for s in stems]
-    if deflared is not None:
-        imgs = [with_deflared(ws, by[s], i, *deflared) for s, i in zip(stems, imgs, strict=True)]
-    imgs = [_resize_img(i, scale) for i in imgs]
-    if gains:
-        from pipeline.exposure import apply_gain
-
-        imgs = [apply_gain(i, gains[s]) if s in gains else i
-                for s, i in zip(stems, imgs, strict=True)]
+    imgs = _source_images(ws, cams, stems, scale, gains, deflared)
     H, W = max(i.shape[0] for i in imgs), max(i.shape[1] for i in imgs)
     have_masks = has_masks(ws, stems)
     if not have_masks:
@@ -165,15 +189,8 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
         h, w = img.shape[:2]
         images[v, :, :h, :w] = torch.from_numpy(img).permute(2, 0, 1).float() / 255
         if masks is not None:
-            m = np.zeros((h, w), np.float32)
-            if have_masks:
-                flare = grow_mask(read_mask(ws, s), grow)
-                if flare.shape != (by[s].height, by[s].width):
-                    raise UserError(f"{ws.mask_path(s)} is not the size of its image: "
-                                    f"{ws.rerun('mask')}")
-                # area-resized as 0/255 grey, then cut: flare where more than half is
-                grey = flare.astype(np.uint8) * 255
-                m = (_resize_img(grey, scale, like=img) > MASK_THRESHOLD).astype(np.float32)
+            m = (_source_mask(ws, by[s], img, scale, grow) if have_masks
+                 else np.zeros((h, w), np.float32))
             masks[v, 0, :h, :w] = torch.from_numpy(m)
     K = np.stack([by[s].K for s in stems])
     for v, (s, img) in enumerate(zip(stems, imgs, strict=True)):  # exact K of resized images
