@@ -279,7 +279,10 @@ def _helper_main(model: GNFR, inputs: list, cfg: TrainConfig, me: int, n: int,
     import pickle
     import traceback
 
+    from gnfr.malloc import keep_freed_memory
+
     torch.set_num_threads(threads)
+    keep_freed_memory()
 
     def recv():
         try:

@@ -121,10 +121,12 @@ def _worker_main(setup: RenderSetup, jobs: list[FrameJob], index: int, results) 
     import pickle
     import traceback
 
+    from gnfr.malloc import keep_freed_memory
     from pipeline.errors import UserError
     from pipeline.ws_files import read_cameras
 
     _one_thread()
+    keep_freed_memory()
     try:
         render_here(setup, read_cameras(setup.ws), jobs, quiet=True)
     except KeyboardInterrupt:  # Ctrl-C reaches every process: the parent reports it

@@ -191,3 +191,18 @@ def test_step_parts_times_each_part_of_padded_and_stretched_steps(tmp_path, monk
     with pytest.raises(SystemExit, match="not a workspace"):
         bench.main([str(tmp_path)])
 
+
+
+def test_malloc_ab_summary_takes_each_arms_fastest_and_medians():
+    """benchmarks/malloc_ab.py: per arm the fastest pass's wall time and the medians of its
+    passes; the ratio is the settings' fastest over the plain arm's."""
+    ab = load_benchmark("malloc_ab")
+    passes = [{"arm": "off", "wall_s": w, "user_s": 10.0, "kernel_s": k, "minor_faults": f}
+              for w, k, f in ((20.0, 3.0, 900), (22.0, 5.0, 1100), (21.0, 4.0, 1000))]
+    passes += [{"arm": "on", "wall_s": w, "user_s": 9.0, "kernel_s": 0.5, "minor_faults": 50}
+               for w in (16.0, 15.0)]
+    s = ab.summary(passes)
+    assert s["off"]["fastest_wall_s"] == 20.0 and s["on"]["fastest_wall_s"] == 15.0
+    assert s["off"]["median_kernel_s"] == 4.0 and s["off"]["median_minor_faults"] == 1000
+    assert s["on"]["median_wall_s"] == 15.5
+    assert s["fastest_wall_ratio_on_off"] == 0.75
