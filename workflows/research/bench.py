@@ -558,12 +558,20 @@ def measure(isolate: bool, fn, *args) -> dict:
 
     import torch
 
-    from workflows.threads import apply_thread_policy
-
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"),
-                             initializer=apply_thread_policy,
+                             initializer=_child_init,
                              initargs=(torch.get_num_threads(),)) as pool:
         return pool.submit(fn, *args).result()
+
+
+def _child_init(threads: int) -> None:
+    """A measuring process set up as the CLI sets up its own: torch's threads and malloc's
+    settings (``gnfr.malloc``)."""
+    from gnfr.malloc import keep_freed_memory
+    from workflows.threads import apply_thread_policy
+
+    apply_thread_policy(threads)
+    keep_freed_memory()
 
 
 def default_devices() -> tuple[str, ...]:
