@@ -5,8 +5,8 @@ page faults, and the frames compared pixel for pixel.
         [--path interpolate] [--out docs/results/malloc_ab_cpu.json]
 
 Each pass runs `deflare-scene render SCRATCH --path PATH --frames N --force` in a fresh
-process (malloc's settings last a process's life), once with ``DEFLARE_MALLOC=off`` and once
-without, the two arms alternating ``--repeats`` times in a scratch workspace of hard links
+process (malloc's settings last a process's life), once with ``DEFLARE_MALLOC=keep`` and
+once without, the two arms alternating ``--repeats`` times in a scratch workspace of hard links
 (``workflows.research.bench.scratch_workspace``: WS is only read). Per pass: the wall time,
 and from the finished processes' resource usage (the render process and its frame workers)
 the user and kernel CPU seconds and the minor page faults. The fastest pass of each arm
@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 ARMS = ("off", "on")
-"""``off``: ``DEFLARE_MALLOC=off``, glibc's malloc as it is; ``on``: the product's default."""
+"""``off``: glibc's malloc as it is (the default); ``on``: ``DEFLARE_MALLOC=keep``."""
 CLI = "from workflows.cli import main; raise SystemExit(main())"
 
 
@@ -37,8 +37,8 @@ def render_pass(ws: Path, ckpt: Path, arm: str, frames: int, workers: int,
     """One render of ``frames`` frames of ``path`` in a fresh process: wall seconds, the
     processes' user and kernel seconds and minor page faults."""
     env = {k: v for k, v in os.environ.items() if k != "DEFLARE_MALLOC"}
-    if arm == "off":
-        env["DEFLARE_MALLOC"] = "off"
+    if arm == "on":
+        env["DEFLARE_MALLOC"] = "keep"
     cmd = [sys.executable, "-c", CLI, "render", str(ws), "--path", path, "--frames",
            str(frames), "--force", "--checkpoint", str(ckpt), "--device", "cpu",
            "--workers", str(workers)]

@@ -1,18 +1,20 @@
-"""Keep glibc's malloc from handing freed memory back to the kernel between tensors.
+"""Keep glibc's malloc from handing freed memory back to the kernel between tensors: an
+opt-in (``DEFLARE_MALLOC=keep``).
 
 Torch on the CPU allocates a tensor's memory with malloc and frees it when the tensor goes.
 glibc hands a large block to the kernel as it is freed (blocks over its mmap threshold are
 unmapped; the heap's free top is trimmed past its trim threshold), so the next tensor of the
-same size faults its pages in again, each zeroed by the kernel. Rendering a video frame frees
-and re-allocates the same large tensors chunk after chunk: on the sample's workspace four
-frames took 4.3 million page faults and 11.7 s of kernel time for 46.6 s of compute
-(docs/performance.md, "Freed memory kept by malloc"). :func:`keep_freed_memory` raises the
-thresholds with ``mallopt``: blocks up to 32 MiB come from the heap and the heap keeps up to
-1 GiB of free top. The peak memory does not grow (the same blocks are reused), only what a
-process holds after its peak stays held until it ends.
+same size faults its pages in again, each zeroed by the kernel. :func:`keep_freed_memory`
+raises the thresholds with ``mallopt``: blocks up to 32 MiB come from the heap and the heap
+keeps up to 1 GiB of free top.
 
-Set ``DEFLARE_MALLOC=off`` to leave malloc as glibc sets it (a comparison's other arm). Other
-C libraries (macOS, musl) are left alone.
+Judged in the ninety-seventh session (docs/performance.md, "Freed memory kept by malloc"):
+the sample's frames rendered in fresh processes 0.830 times as long, but the README's main
+job only 0.973 times as long (15:34.7 against 16:00.7) with its peak memory 1.24 times as
+high (1.40 GB against 1.13), against a rule that allowed 1.10. So it is not the default:
+``DEFLARE_MALLOC=keep`` turns it on (a long render on a machine with memory to spare), in the
+CLI's process, the render workers and the fine-tune helpers alike. Other C libraries (macOS,
+musl) are left alone.
 """
 
 from __future__ import annotations
@@ -28,20 +30,20 @@ SETTINGS = ((M_MMAP_THRESHOLD, 32 << 20), (M_TRIM_THRESHOLD, 1 << 30), (M_TOP_PA
 """(parameter, value): blocks up to 32 MiB from the heap (glibc's largest allowed), up to
 1 GiB of the heap's free top kept, 64 MiB more asked of the kernel each time it grows."""
 ENV = "DEFLARE_MALLOC"
-"""``off`` leaves glibc's malloc as it is."""
+"""``keep`` applies :data:`SETTINGS`; anything else leaves glibc's malloc as it is."""
 
 _applied: bool | None = None
 
 
 def keep_freed_memory() -> bool:
-    """Apply :data:`SETTINGS` to this process's malloc once; returns whether they are in force
-    (False where ``DEFLARE_MALLOC=off``, off Linux, or where the C library has no glibc
-    ``mallopt`` or refuses a value)."""
+    """Apply :data:`SETTINGS` to this process's malloc once where ``DEFLARE_MALLOC=keep``;
+    returns whether they are in force (False without it, off Linux, or where the C library
+    has no glibc ``mallopt`` or refuses a value)."""
     global _applied
     if _applied is not None:
         return _applied
     _applied = False
-    if os.environ.get(ENV, "").lower() == "off" or not sys.platform.startswith("linux"):
+    if os.environ.get(ENV, "").lower() != "keep" or not sys.platform.startswith("linux"):
         return False
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")

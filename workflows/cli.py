@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI on ``argv`` and return the exit status (tests call this directly)."""
     from gnfr.malloc import keep_freed_memory
 
-    keep_freed_memory()  # before the stages' tensors (docs/performance.md)
+    keep_freed_memory()  # DEFLARE_MALLOC=keep, before the stages' tensors (gnfr/malloc.py)
     argv = list(sys.argv[1:] if argv is None else argv)
     names = command_names()
     if argv and not argv[0].startswith("-") and argv[0] not in names:

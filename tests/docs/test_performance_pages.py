@@ -513,3 +513,35 @@ def test_the_samples_fp32_time_is_its_idle_run():
             f"{st['render:interpolate']['seconds']:.1f} s, against "
             f"{bf16['finetune']['seconds']:.1f} s and {bf16['render:interpolate']['seconds']:.1f}"
             " s in the eighty-fifth session's bf16 run") in perf
+
+
+def test_malloc_settings_judged_by_their_files():
+    """docs/performance.md, "Freed memory kept by malloc": the render A/B's numbers are its
+    file's (each arm's fastest pass and medians, the frames identical), the one-shot pair
+    scored the same to the last digit, its stage times are the files', and the rule's
+    verdict follows from the page's peak memories (1.40 against 1.13 GB: over 1.10x)."""
+    text = page_text("docs/performance.md")
+    ab = result("malloc_ab_render_sample_s97.json")
+    s = ab["summary"]
+    assert ab["max_abs_diff"] == 0 and ab["values_differing"] == 0 and ab["frames"] == 8
+    assert (f"fastest pass {s['on']['fastest_wall_s']:.1f} s with the settings against "
+            f"{s['off']['fastest_wall_s']:.1f} s without ({s['fastest_wall_ratio_on_off']:.3f}x), "
+            f"the median pass {s['on']['median_minor_faults'] / 1e6:.2f} million page faults "
+            f"against {s['off']['median_minor_faults'] / 1e6:.1f} million and "
+            f"{s['on']['median_kernel_s']:.1f} s of kernel time against "
+            f"{s['off']['median_kernel_s']:.1f} s") in text
+    on, off = (result(f"sample_oneshot_cpu_s97_malloc_{a}.json") for a in ("on", "off"))
+    assert on["views"] == off["views"] and on["code"]["commit"] == off["code"]["commit"]
+    assert on["code"]["dirty_files"] == off["code"]["dirty_files"] == ["oneshot.log"]
+    row = (f"| fine-tune / 48 frames | {on['stages']['finetune']['seconds']:.1f} s / "
+           f"{on['stages']['render:interpolate']['seconds']:.1f} s | "
+           f"{off['stages']['finetune']['seconds']:.1f} s / "
+           f"{off['stages']['render:interpolate']['seconds']:.1f} s |")
+    assert row in text
+    assert (f"({on['mean']['psnr']:.3f} / {on['mean']['psnr_flare']:.3f} dB, whole photo / "
+            "flare region)") in text
+    frames = (on["stages"]["render:interpolate"]["seconds"]
+              / off["stages"]["render:interpolate"]["seconds"])
+    assert f"its frames {frames:.3f} times" in text
+    assert "| peak memory (`time -v`) | 1.40 GB | 1.13 GB |" in text
+    assert round(1.40 / 1.13, 2) == 1.24 > 1.10 and "peak memory rose 1.24 times" in text
