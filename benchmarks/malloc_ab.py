@@ -1,5 +1,6 @@
-"""The render stage with and without ``gnfr.malloc.keep_freed_memory``: time, kernel time,
-page faults, and the frames compared pixel for pixel.
+"""The render stage with and without malloc's settings (``gnfr.malloc``), timed and compared.
+
+Time, kernel time, page faults, and the frames compared pixel for pixel.
 
     python benchmarks/malloc_ab.py --workspace WS [--frames 6] [--repeats 3] [--workers 2] \
         [--path interpolate] [--out docs/results/malloc_ab_cpu.json]

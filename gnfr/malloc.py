@@ -1,5 +1,4 @@
-"""Keep glibc's malloc from handing freed memory back to the kernel between tensors: an
-opt-in (``DEFLARE_MALLOC=keep``).
+"""An opt-in (``DEFLARE_MALLOC=keep``): glibc's malloc keeps freed memory between tensors.
 
 Torch on the CPU allocates a tensor's memory with malloc and frees it when the tensor goes.
 glibc hands a large block to the kernel as it is freed (blocks over its mmap threshold are

@@ -496,7 +496,6 @@ def run(cfg: DecodeConfig, photos: str | os.PathLike, ws_path: str | os.PathLike
         info(f"decode: up to date ({len(stage_run.previous.get('sources', {}))} images)")
         return ws
     keep = partial(ws.kept, stage_run)  # this run's file (an earlier run's of other settings: not)
-
     done, skipped, reused, frames = _decode_all(chosen, cfg, ws, keep)
     raw_stems = {s for s, p in done.items() if p.is_raw}
     if len(done) < MIN_IMAGES:  # before anything of an earlier run is removed
