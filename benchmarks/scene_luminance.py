@@ -31,9 +31,14 @@ def luminance_stats(rgb: np.ndarray) -> tuple[float, float]:
 
 def folder_stats(folder: Path) -> dict:
     """Each photo's stats and the folder's range of them."""
+    from pipeline.errors import UserError
     from pipeline.images import list_photos, read_image_float
 
+    if not folder.is_dir():
+        raise UserError(f"{folder} is not a folder: pass folders of photos")
     photos = {p.name: luminance_stats(read_image_float(p)) for p in list_photos(folder)}
+    if not photos:
+        raise UserError(f"{folder} holds no photos (JPEG/PNG/TIFF...): pass folders of photos")
     medians = [m for m, _ in photos.values()]
     return {"photos": {k: {"median": m, "p75": q} for k, (m, q) in photos.items()},
             "median_min": min(medians), "median_max": max(medians)}
@@ -53,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
             result[str(folder)] = stats
             print(f"{folder}: {len(stats['photos'])} photos, median luminance "
                   f"{stats['median_min']:.3f} to {stats['median_max']:.3f}")
-    except (UserError, ValueError) as e:
+    except UserError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     if args.out:

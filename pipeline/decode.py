@@ -184,8 +184,8 @@ def list_photos(photos: Path, video_frames: int = DecodeConfig.video_frames) -> 
             warn(message)
             not_read += 1
     videos = live_clips_left_out(files, [p for p in files if is_video(p)])
+    inner = photo_subfolders(photos)
     if not by_stem and not videos:
-        inner = photo_subfolders(photos)
         if inner:
             listed = ", ".join(f"{d.name} ({n} photos)" for d, n in inner[:4])
             raise UserError(f"photo folder {photos} has no photos of its own, its subfolders "
@@ -205,15 +205,15 @@ def list_photos(photos: Path, video_frames: int = DecodeConfig.video_frames) -> 
                             tuple(paths[1:])))
     chosen += [Photo(p, p.stem, False, video=True) for p in videos]
     chosen = without_copies(chosen)
-    if inner := photo_subfolders(photos):  # said, so a photo there is not thought used
+    if inner:  # said, so a photo there is not thought used
         listed = ", ".join(f"{d.name}/ ({n})" for d, n in inner[:4])
         info(f"decode: photos in subfolders are left out, only {photos}'s own are used: "
              f"{listed}{', ...' if len(inner) > 4 else ''}")
     views = sum(video_frames if p.video else 1 for p in chosen)
     if views < MIN_IMAGES:
-        inner = [(d, n) for d, n in photo_subfolders(photos) if n >= MIN_IMAGES]
-        hint = (f" (its subfolder {inner[0][0].name} holds {inner[0][1]}: pass "
-                f"{inner[0][0]} if those are the scene)" if inner else "")
+        enough = [(d, n) for d, n in inner if n >= MIN_IMAGES]
+        hint = (f" (its subfolder {enough[0][0].name} holds {enough[0][1]}: pass "
+                f"{enough[0][0]} if those are the scene)" if enough else "")
         raise UserError(f"photo folder {photos} has only {views} photo(s){hint}: at least "
                         f"{MIN_IMAGES} overlapping photos of the scene are needed")
     return chosen

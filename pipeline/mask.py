@@ -597,11 +597,8 @@ def overview_sheet(tiles: list[tuple[str, np.ndarray, np.ndarray]], thumb: int =
         y, x = r * (th + 4) + 2, c * (thumb + 4) + 2
         sheet[y:y + h, x:x + w] = im.astype(np.uint8)
         # the label spans the cell, not the image: a portrait photo's thumbnail is narrower
-        cell = sheet[y:y + th, x:x + thumb].copy()
-        put_label(cell, f"{stem}  {100 * flare_fraction(mask):.1f}%")
-        sheet[y:y + th, x:x + thumb] = cell
+        put_label(sheet[y:y + th, x:x + thumb], f"{stem}  {100 * flare_fraction(mask):.1f}%")
     return sheet
-
 
 
 # --------------------------------------------------------------------------- stage

@@ -737,3 +737,16 @@ def test_scene_luminance_weights_and_folder_range(tmp_path):
     assert sorted(stats["photos"]) == ["a.png", "b.png"]
     assert stats["median_min"] == pytest.approx(0.2, abs=1e-6)
     assert stats["median_max"] == pytest.approx(0.8, abs=1e-6)
+
+
+def test_scene_luminance_bad_folders_one_line(tmp_path, capsys):
+    """benchmarks/scene_luminance.py: a missing folder and a folder without photos each end
+    the run with one `error:` line and exit 2, nothing written."""
+    sl = load_benchmark("scene_luminance")
+    (tmp_path / "empty").mkdir()
+    for folder, needle in ((tmp_path / "missing", "is not a folder"),
+                           (tmp_path / "empty", "holds no photos")):
+        assert sl.main([str(folder), "--out", str(tmp_path / "out.json")]) == 2
+        err = [ln for ln in capsys.readouterr().err.splitlines() if ln]
+        assert len(err) == 1 and err[0].startswith("error:") and needle in err[0], err
+    assert not (tmp_path / "out.json").exists()

@@ -30,6 +30,17 @@ def card_and_goals_quote(quotes) -> None:
         assert all(q in text for q in quotes), (page, quotes)
 
 
+def quote_streaks_and_sceaux(kinds: dict, base: str, cand: str, clean: dict, setting: str,
+                             tail: str = "") -> None:
+    """The card and the goals page quote a candidate's streak IoU against its base's
+    (``kinds``: kind -> arm -> IoU) and what it marks of sceaux_castle's clean photos against
+    the stage's rule (``clean``: (scene, setting) -> share marked), followed by ``tail``."""
+    card_and_goals_quote((
+        f"streaks {kinds['streaks'][base]:.3f} to {kinds['streaks'][cand]:.3f}",
+        f"{100 * clean['sceaux_ws', 'ghost_views']:.3f} % to "
+        f"{100 * clean['sceaux_ws', setting]:.3f} %{tail}"))
+
+
 def failed_streaks_judgement(names: list[str], base: str, cand: str, saved_name: str,
                              label: str, flat: str) -> dict:
     """A change aimed at streaks judged again from its one-kind files (``mask_kind_scenes.py
@@ -77,10 +88,7 @@ def test_fmg_opposite_rays_table_is_its_files():
         cells = " / ".join(f"{100 * vb[s, setting]:.3f}" for s in ("lund_ws", "sceaux_ws", "et_ws"))
         assert f"{cells} %" in flat, cells
     # the card and the goals page quote the streaks and sceaux_castle's clean photos
-    quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
-             f"{100 * vb['sceaux_ws', 'ghost_views']:.3f} % to "
-             f"{100 * vb['sceaux_ws', 'ghost_views_opp']:.3f} % marked")
-    card_and_goals_quote(quote)
+    quote_streaks_and_sceaux(k, base, cand, vb, "ghost_views_opp", " marked")
 
 
 def test_ghost_views_verdicts_are_the_judge_of_the_committed_scores():
@@ -208,10 +216,7 @@ def test_streak_lines_candidates_are_their_files():
     cells = [" / ".join(f"{s31[f'{n}_streaks', lines]['flare_iou']:.3f}"
                         for n in ("et", "lund", "sceaux")) for lines in (False, True)]
     assert f"goes from {cells[0]} to {cells[1]} with them" in flat, cells
-    quote = (f"streaks {k['streaks'][base]:.3f} to {k['streaks'][cand]:.3f}",
-             f"{100 * bv['sceaux_ws', 'ghost_views']:.3f} % to "
-             f"{100 * bv['sceaux_ws', 'ghost_views_lines']:.3f} %")
-    card_and_goals_quote(quote)
+    quote_streaks_and_sceaux(k, base, cand, bv, "ghost_views_lines")
 
 
 def test_learned_fusion_table_is_its_file():

@@ -813,7 +813,8 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
     from pipeline.mask import flare_marks, load_fmg_weights, ray_marks
     from pipeline.ws_files import enclosed_holes
 
-    models = [(weights_info(Path(w))["cut"], load_fmg_weights(Path(w))) for w in weights]
+    loaded = [load_fmg_weights(Path(w)) for w in weights]  # a bad file: one line, before work
+    models = [(weights_info(Path(w))["cut"], m) for w, m in zip(weights, loaded, strict=True)]
     rows, fracs = [], {}
     for photo in photos:
         img = read_image(photo, bgr=True)
@@ -843,16 +844,14 @@ def real_flare_overview(weights: tuple[Path, ...], photos: tuple[Path, ...], out
 
 
 def run_overlay(cfg: FMGOverlayConfig) -> dict[str, float]:
-    """`fmg overlay`: check ``cfg`` and open every weights file (one clear line for a bad
-    one), write the overview (``real_flare_overview``) and, with ``cfg.json``, its record;
-    returns the fraction of each photo each model marks."""
-    from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, load_fmg_weights, ray_config
+    """`fmg overlay`: check ``cfg``, write the overview (``real_flare_overview``, which opens
+    every weights file before any photo: one clear line for a bad one) and, with
+    ``cfg.json``, its record; returns the fraction of each photo each model marks."""
+    from pipeline.mask import DEFAULT_WEIGHTS, ghost_config, ray_config
 
     check_ray_rule(cfg)
     check_pads(cfg)
     weights = cfg.weights or (DEFAULT_WEIGHTS,)
-    for path in weights:
-        load_fmg_weights(path)
     marked = real_flare_overview(weights, cfg.photos, cfg.out, cfg.work_size, rays=cfg.rays,
                                  ray_cfg=ray_config(cfg), ghosts=ghost_config(cfg),
                                  pads=cfg.pads, pads_keep=cfg.pads_keep,
