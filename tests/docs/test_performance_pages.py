@@ -545,3 +545,24 @@ def test_malloc_settings_judged_by_their_files():
     assert f"its frames {frames:.3f} times" in text
     assert "| peak memory (`time -v`) | 1.40 GB | 1.13 GB |" in text
     assert round(1.40 / 1.13, 2) == 1.24 > 1.10 and "peak memory rose 1.24 times" in text
+
+
+def test_malloc_one_shots_time_rows_are_their_logs():
+    """The one-shot pair's wall, peak memory, kernel time and page faults on
+    docs/performance.md are the `time -v` logs' (GB: kbytes / 1e6, two decimals)."""
+    text = page_text("docs/performance.md")
+    got = {}
+    for arm in ("on", "off"):
+        log = (RESULTS / f"sample_oneshot_cpu_s97_malloc_{arm}_time.log").read_text()
+        field = {k.strip(): v.strip() for k, v in
+                 (ln.rsplit(": ", 1) for ln in log.splitlines() if ": " in ln)}
+        minutes, seconds = field["Elapsed (wall clock) time (h:mm:ss or m:ss)"].split(":")
+        got[arm] = (f"{minutes}:{float(seconds):04.1f}",
+                    int(field["Maximum resident set size (kbytes)"]) / 1e6,
+                    float(field["System time (seconds)"]),
+                    int(field["Minor (reclaiming a frame) page faults"]) / 1e6)
+    on, off = got["on"], got["off"]
+    assert f"| wall | {on[0]} | {off[0]} |" in text
+    assert f"| peak memory (`time -v`) | {on[1]:.2f} GB | {off[1]:.2f} GB |" in text
+    assert f"| kernel time / user time | {on[2]:.1f} s /" in text and f"| {off[2]:.1f} s /" in text
+    assert f"| minor page faults | {on[3]:.2f} million | {off[3]:.1f} million |" in text
