@@ -8,7 +8,7 @@ convention (x right, y down, z forward), the convention of ``WS/cameras.json``.
   (centripetal knots) and spherical Catmull-Rom rotations (the Barry-Goldman pyramid with
   slerp in place of lerp), resampled to an even pace of image motion where the scene's
   points are given (:func:`image_shift`), else to constant speed. It passes through every
-  key pose.
+  key pose; :func:`interpolate_tour` also carries each key's zoom along the tour.
 - :func:`spiral_path` is the LLFF spiral for forward-facing captures, and an orbit with a
   vertical wave for captures that surround the scene.
 - :class:`PathCamera`, :func:`path_from_json`, :func:`path_to_json` read and write the
@@ -277,12 +277,40 @@ class PoseSpline:
         return out
 
 
-def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
+@dataclass
+class Tour:
+    """A path through key poses (:func:`interpolate_tour`): the frames' poses and zooms."""
+
+    poses: np.ndarray  # [F, 4, 4]
+    zoom: np.ndarray  # [F], each frame's focal length over the path's base one (1: none)
+
+
+ZOOM_PACE = 0.5
+"""A zoom's image motion per unit change of the log focal length, in the units of
+:func:`image_shift` (the half-width at unit focal length times this): a zoom by ``dz / z``
+moves a point at a fraction ``u`` of the half-width by ``u dz / z`` of it, and half the
+half-width is a typical ``u``."""
+
+
+def key_blend(values: np.ndarray, knots: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Per-key positive ``values`` [K] (one per knot, in tour order) at spline parameters
+    ``t``: between two keys a smoothstep in the log, so each key's value is met exactly,
+    held still there (no jump in the rate of change at a key) and never overshot."""
+    v = np.log(np.asarray(values, np.float64))
+    t = np.clip(np.asarray(t, np.float64), knots[0], knots[-1])
+    seg = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
+    w = (t - knots[seg]) / (knots[seg + 1] - knots[seg])
+    w = w * w * (3 - 2 * w)
+    return np.exp(v[seg] + (v[seg + 1] - v[seg]) * w)
+
+
+def interpolate_tour(c2ws: np.ndarray, n_frames: int, closed: bool = False,
                      order: bool = True, up: np.ndarray | None = None,
                      points: np.ndarray | None = None,
                      fov: tuple[float, float] = (1.0, 0.75),
-                     tour: str = "position", depth: float | None = None) -> np.ndarray:
-    """A smooth path [n_frames, 4, 4] through key poses c2ws [N, 4, 4] at an even pace.
+                     tour: str = "position", depth: float | None = None,
+                     zoom: np.ndarray | None = None) -> Tour:
+    """A smooth path of ``n_frames`` through key poses c2ws [N, 4, 4] at an even pace.
 
     ``order`` first sorts the keys into a short tour (:func:`order_tour`; ``tour``
     ``view``: by travel over the scene's ``depth`` plus turn, ``position``: by travel;
@@ -297,14 +325,23 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
     half-width and half-height of the view at unit focal length), so a whip-pan and a walk
     towards a close wall get the frames their motion needs. Without, it is the travel plus
     0.1 x the keys' spread per radian turned.
+
+    ``zoom`` [N] (each key's focal length over the path's base one, positive) is carried
+    along the tour (:func:`key_blend`): every frame at a key has that key's zoom. The arc
+    then counts a zoomed-in stretch's motion as that much larger, and a change of zoom as
+    motion too (ZOOM_PACE of the half-width per unit of log zoom; without ``points``, 0.1 x
+    the keys' spread, as a radian's turn). Without ``zoom`` every frame's is 1.
     """
     c2ws = np.asarray(c2ws, np.float64)
+    keys_zoom = np.ones(len(c2ws)) if zoom is None else np.asarray(zoom, np.float64)
+    if keys_zoom.shape != (len(c2ws),) or not np.all(keys_zoom > 0):
+        raise ValueError("zoom must be one positive number per key pose")
     if up is not None:
         c2ws = upright(c2ws, up)
     if n_frames < 1:
         raise ValueError("n_frames must be >= 1")
     if len(c2ws) == 1:
-        return np.repeat(c2ws, n_frames, axis=0)
+        return Tour(np.repeat(c2ws, n_frames, axis=0), np.repeat(keys_zoom, n_frames))
     span = np.linalg.norm(np.ptp(c2ws[:, :3, 3], axis=0)) or 1.0  # the keys' spread
     if order:
         if tour not in ("position", "view"):
@@ -312,21 +349,40 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
         rots = c2ws[:, :3, :3] if tour == "view" else None
         if rots is not None and depth is None:
             depth = 0.1 * span
-        c2ws = c2ws[order_tour(c2ws[:, :3, 3], rotations=rots, depth=depth)]
+        keys = order_tour(c2ws[:, :3, 3], rotations=rots, depth=depth)
+        c2ws, keys_zoom = c2ws[keys], keys_zoom[keys]
+    if closed:
+        keys_zoom = np.append(keys_zoom, keys_zoom[0])
     spline = PoseSpline.fit(c2ws, closed)
     dense_t = np.linspace(spline.knots[0], spline.knots[-1], 64 * len(c2ws) + 1)
     dense = spline(dense_t)
     da = rotation_angle(dense[:-1, :3, :3], dense[1:, :3, :3])
-    if points is not None and len(points):
+    paced = points is not None and len(points)
+    if paced:
         step = image_shift(dense, np.asarray(points, np.float64), fov, fallback=da)
     else:
         dp = np.linalg.norm(np.diff(dense[:, :3, 3], axis=0), axis=1)
         step = dp + 0.1 * span * da
+    if zoom is not None:
+        dz = np.log(key_blend(keys_zoom, spline.knots, dense_t))
+        step = step * np.exp((dz[:-1] + dz[1:]) / 2) + np.abs(np.diff(dz)) * (
+            ZOOM_PACE * fov[0] if paced else 0.1 * span)
     arc = np.concatenate([[0.0], np.cumsum(step)])
     s = np.linspace(0.0, arc[-1], n_frames + (1 if closed else 0))[: n_frames]
     if n_frames == 1:
         s = np.zeros(1)
-    return spline(np.interp(s, arc, dense_t))
+    t = np.interp(s, arc, dense_t)
+    frames_zoom = key_blend(keys_zoom, spline.knots, t) if zoom is not None else np.ones(len(t))
+    return Tour(spline(t), frames_zoom)
+
+
+def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
+                     order: bool = True, up: np.ndarray | None = None,
+                     points: np.ndarray | None = None,
+                     fov: tuple[float, float] = (1.0, 0.75),
+                     tour: str = "position", depth: float | None = None) -> np.ndarray:
+    """The poses [n_frames, 4, 4] of :func:`interpolate_tour` (one zoom for every frame)."""
+    return interpolate_tour(c2ws, n_frames, closed, order, up, points, fov, tour, depth).poses
 
 
 def image_shift(c2ws: np.ndarray, points: np.ndarray, fov: tuple[float, float],

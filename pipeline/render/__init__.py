@@ -77,6 +77,7 @@ from pipeline.render.plan import (
     reference_frame,
     resize_camera,
     resolve_fill,
+    resolve_zoom,
 )
 from pipeline.render.sources import (
     encode_sources,
@@ -110,10 +111,13 @@ __all__ = [
 ]
 
 
-def options_for_path(cfg: RenderConfig, key: str) -> RenderConfig:
+def options_for_path(cfg: RenderConfig, key: str, cams: Cameras) -> RenderConfig:
     """``cfg`` with the options of the other kind of render set aside, each with a warning:
     the de-flared photos (``key`` "inputs") and the video's frames each have options of
-    their own; the depth maps' islands are dropped by the path's default."""
+    their own; the depth maps' islands are dropped by the path's default; ``zoom`` is
+    ``fixed`` where the path does not zoom (:func:`plan.resolve_zoom`: recorded resolved,
+    so a capture at one zoom keeps its records of before the option)."""
+    cfg = resolve_zoom(cfg, cams)
     if cfg.depth_min_blob is None:  # the de-flared photos lose the depth maps' islands
         cfg = replace(cfg, depth_min_blob=INPUTS_MIN_BLOB if key == "inputs" else 0.0)
     if key == "inputs" and cfg.novel_agree is not None:
@@ -150,9 +154,10 @@ def record_params(cfg: RenderConfig, meta: dict, key: str, device: str, samples:
               "flare_fallback": cfg.flare_fallback or meta.get("flare_fallback", "valid"),
               "depth_maps": "frames" if frames_maps else "depth",
               "bf16": cfg.bf16}
-    if key != "interpolate":  # only the interpolate path is paced and toured
+    if key != "interpolate":  # only the interpolate path is paced, toured and zoomed
         params.pop("pace")
         params.pop("tour")
+        params.pop("zoom")
     if key != "inputs":  # the ring check is the de-flared photos' alone
         params.pop("band_rejected")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade, and
@@ -188,6 +193,7 @@ def record_defaults(key: str, device: str) -> dict:
         defaults["fade_limit"] = 0.0  # and its step-back on a dense path
         defaults["path_exposure"] = 0.0
         defaults["tour"] = "position"  # records before the fifty-sixth session's tour
+        defaults["zoom"] = "fixed"  # and before the ninety-eighth's zoom along it
         defaults["nearest_count"] = 1  # and before the eightieth's two nearest views
         defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
         defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
@@ -258,7 +264,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         info(f"render: {ws.depth} was made before the depth stage wrote maps of its own for "
              f"the novel frames; `deflare-scene depth {shell_path(ws.root)} --force` writes them "
              "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
-    cfg = options_for_path(cfg, key)
+    cfg = options_for_path(cfg, key, cams)
     deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
     warn_unshaped(cfg, key)

@@ -87,6 +87,13 @@ class RenderConfig:
     travel over the scene's typical depth plus its turn in radians: the image motion it
     makes), so two photos taken from one spot looking apart are not neighbours on the tour
     (an opt-in: its rule failed on a small toy capture; docs/camera_paths.md)."""
+    zoom: str = option("photos", choices=("photos", "fixed"))
+    """An interpolate path's focal length: ``photos``, each frame at a photo has that
+    photo's field of view (its focal length over its long side), and the frames between
+    glide from one to the next; ``fixed``, every frame has the reference photo's (the first
+    of the most common size), as before the ninety-eighth session. A capture whose photos'
+    fields of view lie within ``plan.ZOOM_SPREAD`` of each other renders, and is recorded,
+    as ``fixed`` (docs/camera_paths.md)."""
     source_fade: int = option(1, ge=0, le=12)
     """Novel paths: where a frame's sources (GN-FR's, or the photos its fill takes first)
     differ from the next frame's, the change is cross-faded over this many frames either

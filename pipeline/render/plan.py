@@ -243,17 +243,58 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
     ref = reference_frame(cams)
     base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
     base = resize_camera(base, cfg, device)
+    zoom = np.ones(n)
     if cfg.path == "interpolate":
         fov = path_fov(base)
         paced = pace_points(cams, points, fov) if cfg.pace == "image" else None
-        poses = paths.interpolate_path(c2ws, n, closed=paths.is_surrounding(c2ws),
-                                       up=paths.world_up(c2ws), points=paced, fov=fov,
-                                       tour=cfg.tour,
-                                       depth=float(np.median(np.sqrt(near * far))))
+        tour = paths.interpolate_tour(c2ws, n, closed=paths.is_surrounding(c2ws),
+                                      up=paths.world_up(c2ws), points=paced, fov=fov,
+                                      tour=cfg.tour, depth=float(np.median(np.sqrt(near * far))),
+                                      zoom=photo_zoom(cams)
+                                      if resolve_zoom(cfg, cams).zoom == "photos" else None)
+        poses, zoom = tour.poses, tour.zoom
     else:
         poses = paths.spiral_path(c2ws, near, far, n)
-    return [paths.PathCamera(f"{i:05d}", base.K, p, base.width, base.height)
-            for i, p in enumerate(poses)], cfg.path
+    return [paths.PathCamera(f"{i:05d}", zoomed(base.K, z), p, base.width, base.height)
+            for i, (p, z) in enumerate(zip(poses, zoom, strict=True))], cfg.path
+
+
+ZOOM_SPREAD = 1.05
+"""The largest ratio between two photos' fields of view (:func:`photo_zoom`) at which an
+interpolate path keeps one focal length (``RenderConfig.zoom``): photos of one camera at one
+zoom, whose focal lengths the pose stage refines a little apart, do not make the video
+breathe."""
+
+
+def photo_zoom(cams: Cameras) -> np.ndarray:
+    """[N] each photo's focal length over its long side, over the reference photo's
+    (:func:`reference_frame`): the zoom that gives a frame of the reference's shape the
+    photo's field of view along its long side."""
+    ref = reference_frame(cams)
+    return np.array([f.K[0][0] / max(f.width, f.height) for f in cams.frames]) / (
+        ref.K[0][0] / max(ref.width, ref.height))
+
+
+def resolve_zoom(cfg: RenderConfig, cams: Cameras) -> RenderConfig:
+    """``cfg`` with ``zoom`` ``fixed`` where nothing would zoom: every path but interpolate,
+    and captures whose photos' fields of view lie within ZOOM_SPREAD (so their records, and
+    frames, stay those of before the option)."""
+    if cfg.zoom == "photos" and cfg.path == "interpolate" and len(cams.frames):
+        z = photo_zoom(cams)
+        if z.max() / z.min() > ZOOM_SPREAD:
+            return cfg
+    return replace(cfg, zoom="fixed")
+
+
+def zoomed(K: np.ndarray, zoom: float) -> np.ndarray:
+    """Intrinsics ``K`` with the focal lengths times ``zoom`` (the principal point kept);
+    ``K`` itself at a zoom of 1."""
+    if zoom == 1:
+        return K
+    K = np.asarray(K, np.float64).copy()
+    K[0, 0] *= zoom
+    K[1, 1] *= zoom
+    return K
 
 
 PACE_POINTS = 4000
@@ -310,7 +351,11 @@ def pace_line(cfg: RenderConfig, cams: Cameras, path_cams: list,
     poses = np.stack([p.c2w for p in path_cams])
     turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
     shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn)
-    step = float(np.median(shifts)) / (2 * fov[0])
+    # zoom (the frames' focal lengths over the first's): a zoomed-in frame sees the shift
+    # larger, and a change of zoom moves the image too (gnfr.paths.ZOOM_PACE)
+    zoom = np.log([p.K[0][0] / path_cams[0].K[0][0] for p in path_cams])
+    step = float(np.median(shifts * np.exp((zoom[:-1] + zoom[1:]) / 2) / (2 * fov[0])
+                           + paths.ZOOM_PACE / 2 * np.abs(np.diff(zoom))))
     line = f"render interpolate: the scene moves about {step:.1%} of the frame's width a frame"
     if cfg.frames:  # the frame rate is the video's (export), not known here
         return line

@@ -585,3 +585,39 @@ def test_unseen_judge_pools_seeds_and_applies_its_tolerances(tmp_path):
     assert worst < -0.05 and r["b"] is False and r["passed"] is False  # x2 fell too far
     assert "ssim_gain_mean" in r and isinstance(r["c"], bool)
 
+
+
+def test_path_zoom_warps_a_frame_into_its_photo_and_judges_the_zoomed_photos(tmp_path, capsys):
+    """path_zoom.py: a frame seen from the photo's centre lands on the photo's pixels by the
+    two intrinsics (a frame twice as wide shows the photo at half the pixels: lower PSNR);
+    the gain fit forgives an exposure; the rule asks every zoomed-in photo and the mean."""
+    pz = load_benchmark("path_zoom")
+    rng = np.random.default_rng(0)
+    photo = cv2.GaussianBlur(rng.random((48, 64, 3)).astype(np.float32), (0, 0), 1.0)
+    K = np.array([[60.0, 0, 32], [0, 60.0, 24], [0, 0, 1]])
+    back, seen = pz.to_photo(photo, K, K, (64, 48))  # the same camera: the photo itself
+    assert seen.all() and np.abs(back - photo)[2:-2, 2:-2].max() < 1e-5
+    wide = K.copy()
+    wide[:2, :2] /= 2  # half the focal length: the photo fills the frame's middle quarter
+    frame = cv2.resize(photo, (32, 24), interpolation=cv2.INTER_AREA)
+    big = np.zeros((48, 64, 3), np.float32)
+    big[12:36, 16:48] = frame
+    got, seen = pz.to_photo(big, wide, K, (64, 48))
+    assert seen.all()
+    assert pz.gain_psnr(back, photo, seen) > pz.gain_psnr(got, photo, seen) + 3
+    assert pz.gain_psnr(0.5 * photo, photo, seen) > 60  # an exposure is forgiven
+    _, seen = pz.to_photo(photo, K, wide, (64, 48))  # a wider photo: only its middle
+    assert 0.2 < seen.mean() < 0.3
+
+    def row(zoom, fixed, photos):
+        return {"zoom": zoom, "fixed": {"psnr": fixed}, "photos": {"psnr": photos}}
+
+    ok = [row(1.0, 30.0, 30.0), row(2.0, 20.0, 22.0), row(3.0, 18.0, 19.5)]
+    assert pz.judge(ok, 1.25)["passed"]
+    assert pz.judge(ok, 1.25)["zoomed_mean_gain_db"] == pytest.approx(1.75)
+    assert not pz.judge(ok[:2] + [row(3.0, 18.0, 17.9)], 1.25)["passed"]  # every one
+    assert not pz.judge([row(1.0, 30, 30), row(2.0, 20, 20.5)], 1.25)["passed"]  # 1 dB
+    assert not pz.judge([row(1.0, 30, 29.8)] + ok[1:], 1.25)["passed"]  # the others held
+    assert not pz.judge([row(1.0, 30, 30)], 1.25)["passed"]  # nothing zoomed: no verdict
+    assert pz.main([str(tmp_path)]) == 2
+    assert "no cameras.json" in capsys.readouterr().err

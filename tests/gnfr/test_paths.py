@@ -13,7 +13,9 @@ from gnfr.paths import (
     bounds_points,
     image_shift,
     interpolate_path,
+    interpolate_tour,
     is_surrounding,
+    key_blend,
     look_at,
     matrix_from_quat,
     order_tour,
@@ -196,6 +198,55 @@ def test_paced_path_spreads_a_whip_pan_and_still_passes_every_key():
         near = (np.linalg.norm(paced[:, :3, 3] - k[:3, 3], axis=1) <= dp + 1e-9) & (
             rotation_angle(paced[:, :3, :3], k[None, :3, :3]) <= da + 1e-9)
         assert near.any()
+
+
+def test_key_blend_meets_each_key_and_never_overshoots():
+    knots, values = np.array([0.0, 1.0, 3.0, 3.5]), np.array([1.0, 1.0, 2.8, 0.7])
+    assert np.allclose(key_blend(values, knots, knots), values)  # each key exactly
+    t = np.linspace(0, 3.5, 701)
+    v = key_blend(values, knots, t)
+    for a, b in zip(knots[:-1], knots[1:], strict=True):  # between keys: from one to the
+        seg = v[(t >= a) & (t <= b)]  # next, monotone, nothing past either
+        lo, hi = sorted(key_blend(values, knots, np.array([a, b])))
+        assert seg.min() >= lo - 1e-12 and seg.max() <= hi + 1e-12
+        assert np.all(np.diff(seg) >= -1e-12) or np.all(np.diff(seg) <= 1e-12)
+    assert np.allclose(v[(t >= 0) & (t <= 1)], 1.0)  # two equal keys: no breathing
+    # held still at a key: the rate of change is ~0 on either side of it
+    k = 1.0
+    h = 1e-4
+    assert abs(np.log(key_blend(values, knots, np.array([k + h]))[0] / 1.0)) < 1e-6
+
+
+def test_tour_carries_the_keys_zoom_and_paces_on_it():
+    """Each key's zoom is met where the path passes the key; a zoomed-in stretch moves
+    the image that much faster, so it gets more frames; without zoom, or with every key's
+    1, the path is interpolate_path's."""
+    keys = np.stack([turned(0, (x, 0, 0)) for x in (0.0, 0.3, 0.6, 0.9)])
+    pts, fov, n = wall(z=2.0, half=6.0, n=81), (0.5, 0.4), 41
+    plain = interpolate_path(keys, n, points=pts, fov=fov)
+    assert np.array_equal(interpolate_tour(keys, n, points=pts, fov=fov).poses, plain)
+    ones = interpolate_tour(keys, n, points=pts, fov=fov, zoom=np.ones(4))
+    assert np.array_equal(ones.poses, plain) and np.array_equal(ones.zoom, np.ones(n))
+    zoom = np.array([1.0, 1.0, 3.0, 3.0])
+    tour = interpolate_tour(keys, n, points=pts, fov=fov, zoom=zoom)
+    x = tour.poses[:, 0, 3]
+    assert np.all(np.diff(x) > 0) or np.all(np.diff(x) < 0)  # the same line, in order
+    ends = {round(x[i], 6): tour.zoom[i] for i in (0, -1)}  # the tour starts at either end
+    assert ends == pytest.approx({0.0: 1.0, 0.9: 3.0})
+    assert tour.zoom.min() >= 1.0 - 1e-12 and tour.zoom.max() <= 3.0 + 1e-12
+    assert (x > 0.6).sum() > 2 * (x < 0.3).sum()  # the zoomed-in end gets more frames
+    # on the frames: the zoomed image motion a frame is about even
+    shift = image_shift(tour.poses, pts, fov, np.zeros(n - 1)) * (
+        (tour.zoom[:-1] + tour.zoom[1:]) / 2)
+    assert shift.max() / np.median(shift) < 1.5
+    # a key's zoom goes with the key when the tour reorders them
+    shuffled = interpolate_tour(keys[[2, 0, 3, 1]], n, zoom=zoom[[2, 0, 3, 1]])
+    ends = {round(shuffled.poses[i, 0, 3], 6): shuffled.zoom[i] for i in (0, -1)}
+    assert ends == pytest.approx({0.0: 1.0, 0.9: 3.0})
+    with pytest.raises(ValueError, match="zoom"):
+        interpolate_tour(keys, n, zoom=np.array([1.0, 0.0, 1.0, 1.0]))
+    closed = interpolate_tour(ring(5), 30, closed=True, zoom=np.linspace(1, 2, 5))
+    assert closed.zoom.min() >= 1.0 - 1e-12 and closed.zoom.max() <= 2.0 + 1e-12
 
 
 def test_bounds_points_stand_in_for_the_scene_across_each_view():

@@ -138,6 +138,66 @@ def test_the_video_is_paced_on_the_depth_maps_points_and_older_videos_render_aga
     assert "pace" not in hws.stage_record("render:inputs")["params"]
 
 
+def zoom_capture(cams, focal_times):
+    """``cams`` with each photo's focal lengths times ``focal_times`` (a mixed-zoom capture)."""
+    frames = []
+    for f, z in zip(cams.frames, focal_times, strict=True):
+        K = np.asarray(f.K, float).copy()
+        K[0, 0] *= z
+        K[1, 1] *= z
+        frames.append(replace(f, K=K))
+    return replace(cams, frames=frames)
+
+
+def test_the_interpolate_path_zooms_to_each_photos_field_of_view(hws):
+    """A capture at several zooms: the frame at a photo has its field of view along the
+    long side, the frames between lie between, and ``--zoom fixed`` keeps the reference
+    photo's; a capture at one zoom (within ZOOM_SPREAD) keeps one K for every frame and
+    records ``fixed``, so its older videos stay up to date."""
+    from pipeline.render import RenderConfig, novel_path, run
+    from pipeline.render.plan import ZOOM_SPREAD, photo_zoom, reference_frame, resolve_zoom
+
+    cams = load_cameras(hws.cameras_json)
+    n = len(cams.frames)
+    times = np.geomspace(1.0, 2.5, n)
+    mixed = zoom_capture(cams, times)
+    cfg = RenderConfig(path="interpolate", frames=4 * n + 1, scale=0.25, pace="travel")
+    assert np.allclose(photo_zoom(mixed), times / times[cams.frames.index(
+        reference_frame(cams))])
+    pcs = novel_path(cfg, mixed, "cpu")[0]
+    base = novel_path(replace(cfg, zoom="fixed"), mixed, "cpu")[0]
+    assert all(np.array_equal(p.K, base[0].K) for p in base)
+    # the path starts at a photo's camera: the frame there has its field of view
+    first = min(mixed.frames, key=lambda f: np.linalg.norm(f.c2w[:3, 3] - pcs[0].c2w[:3, 3]))
+    assert np.linalg.norm(first.c2w[:3, 3] - pcs[0].c2w[:3, 3]) < 1e-9
+    assert pcs[0].K[0][0] / max(pcs[0].width, pcs[0].height) == pytest.approx(
+        first.K[0][0] / max(first.width, first.height))
+    zooms = np.array([p.K[0][0] for p in pcs]) / base[0].K[0][0]
+    rel = photo_zoom(mixed)
+    assert rel.min() - 1e-9 <= zooms.min() and zooms.max() <= rel.max() + 1e-9
+    assert len(np.unique(zooms.round(9))) > n  # glides between the photos' zooms
+    assert all(np.allclose(p.K[:, 2], base[0].K[:, 2]) for p in pcs)  # centre kept
+    assert resolve_zoom(cfg, mixed).zoom == "photos"
+    assert resolve_zoom(replace(cfg, path="spiral"), mixed).zoom == "fixed"
+    # one zoom, with the small spread a refined focal length has: one K, recorded fixed
+    near_one = zoom_capture(cams, np.linspace(1.0, ZOOM_SPREAD - 0.01, n))
+    assert resolve_zoom(cfg, near_one).zoom == "fixed"
+    one = novel_path(cfg, near_one, "cpu")[0]
+    assert all(np.array_equal(p.K, one[0].K) for p in one)
+    assert resolve_zoom(cfg, zoom_capture(cams, np.linspace(1.0, ZOOM_SPREAD + 0.01, n))
+                        ).zoom == "photos"
+    small = RenderConfig(path="interpolate", frames=3, size=(16, 12))
+    run(small, hws)
+    rec = hws.stage_record("render:interpolate")
+    assert rec["params"]["zoom"] == "fixed"
+    frames = sorted(hws.render_dir("interpolate").glob("*.png"))
+    stamps = [f.stat().st_mtime_ns for f in frames]
+    hws.update_manifest("render:interpolate", {**rec, "params": {  # a record from before
+        k: v for k, v in rec["params"].items() if k != "zoom"}})
+    run(small, hws)
+    assert [f.stat().st_mtime_ns for f in frames] == stamps  # still up to date
+
+
 def test_the_pace_line_says_how_fast_the_video_moves_and_how_to_calm_it(hws, capsys):
     """Rendering the interpolate path says how far the scene moves a frame and a second; over
     CALM_PACE a second it names the ``--seconds`` that brings the pace under it."""

@@ -220,13 +220,13 @@ def test_the_render_record_holds_each_paths_own_settings():
     meta = {"source_scale": 0.25, "point_sampler": False}
     rec = {key: record_params(cfg, meta, key, "cpu", 32, False)
            for key in ("inputs", "interpolate", "spiral")}
-    video_only = {"pace", "tour", "nearest_count", "source_fade", "fade_cut", "fade_limit",
+    video_only = {"pace", "tour", "zoom", "nearest_count", "source_fade", "fade_cut", "fade_limit",
                   "source_hold", "path_exposure", "from_deflared", "source_grow",
                   "network_scale"}
     assert not video_only & rec["inputs"].keys()
     assert video_only <= rec["interpolate"].keys()
-    assert video_only - {"pace", "tour"} <= rec["spiral"].keys()
-    assert not {"pace", "tour"} & rec["spiral"].keys()
+    assert video_only - {"pace", "tour", "zoom"} <= rec["spiral"].keys()
+    assert not {"pace", "tour", "zoom"} & rec["spiral"].keys()
     assert "band_rejected" in rec["inputs"] and "band_rejected" not in rec["spiral"]
     for r in rec.values():
         assert r["device"] is None and r["samples"] == 32
@@ -238,5 +238,6 @@ def test_the_render_record_holds_each_paths_own_settings():
     assert old_inputs["network_scale"] == 0.25  # the novel frames' CPU default of then
     assert record_defaults("inputs", "cuda")["network_scale"] == 1.0
     assert old_video["source_fade"] == 0 and old_video["pace"] == "travel"
+    assert old_video["zoom"] == "fixed"
     assert old_inputs["source_fade"] == cfg.source_fade  # no record of it: today's default
 
