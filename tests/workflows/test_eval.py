@@ -394,7 +394,7 @@ def test_benchmarks_render_in_a_scratch_copy_and_name_what_a_workspace_lacks(tmp
     from workflows.research.bench import scratch_workspace
 
     ws = make_render_ws(tmp_path / "ws")
-    with pytest.raises(SystemExit, match="depth"), scratch_workspace(ws.root, "t-"):
+    with pytest.raises(SystemExit, match="^error: .*depth"), scratch_workspace(ws.root, "t-"):
         pass
     ws.depth.mkdir()
     before = sorted(p.relative_to(ws.root) for p in ws.root.rglob("*"))

@@ -473,7 +473,8 @@ def scratch_workspace(path: Path, prefix: str):
     """For a benchmark's ``--workspace``: yields (workspace, checkpoint, scratch), scratch a
     workspace in a temporary folder sharing the workspace's stages (hard links), which the
     benchmark renders into and which is removed after; what the workspace lacks is its
-    one-line error as ``SystemExit``. The workspace itself is not written to."""
+    one-line error (``error: ...``, as the CLI's) as ``SystemExit``. The workspace itself
+    is not written to."""
     import tempfile
 
     from pipeline.errors import UserError
@@ -481,8 +482,8 @@ def scratch_workspace(path: Path, prefix: str):
 
     try:
         base, ckpt = check_workspace(path)
-    except UserError as e:
-        raise SystemExit(str(e)) from None
+    except UserError as e:  # worded as the CLI words a user's error
+        raise SystemExit(f"error: {e}") from None
     with tempfile.TemporaryDirectory(prefix=prefix) as tmp:
         yield base, ckpt, shared_workspace(base, Path(tmp) / "ws")
 
