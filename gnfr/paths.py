@@ -285,13 +285,6 @@ class Tour:
     zoom: np.ndarray  # [F], each frame's focal length over the path's base one (1: none)
 
 
-ZOOM_PACE = 0.5
-"""A zoom's image motion per unit change of the log focal length, in the units of
-:func:`image_shift` (the half-width at unit focal length times this): a zoom by ``dz / z``
-moves a point at a fraction ``u`` of the half-width by ``u dz / z`` of it, and half the
-half-width is a typical ``u``."""
-
-
 def key_blend(values: np.ndarray, knots: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Per-key positive ``values`` [K] (one per knot, in tour order) at spline parameters
     ``t``: between two keys a smoothstep in the log, so each key's value is met exactly,
@@ -328,9 +321,10 @@ def interpolate_tour(c2ws: np.ndarray, n_frames: int, closed: bool = False,
 
     ``zoom`` [N] (each key's focal length over the path's base one, positive) is carried
     along the tour (:func:`key_blend`): every frame at a key has that key's zoom. The arc
-    then counts a zoomed-in stretch's motion as that much larger, and a change of zoom as
-    motion too (ZOOM_PACE of the half-width per unit of log zoom; without ``points``, 0.1 x
-    the keys' spread, as a radian's turn). Without ``zoom`` every frame's is 1.
+    then measures the image motion in each sample's zoomed view (a zoomed-in stretch moves
+    the image faster, and a change of zoom moves it too); without ``points``, the travel
+    and turn times the zoom, plus 0.1 x the keys' spread per unit of log zoom (as a
+    radian's turn). Without ``zoom`` every frame's is 1.
     """
     c2ws = np.asarray(c2ws, np.float64)
     keys_zoom = np.ones(len(c2ws)) if zoom is None else np.asarray(zoom, np.float64)
@@ -357,16 +351,16 @@ def interpolate_tour(c2ws: np.ndarray, n_frames: int, closed: bool = False,
     dense_t = np.linspace(spline.knots[0], spline.knots[-1], 64 * len(c2ws) + 1)
     dense = spline(dense_t)
     da = rotation_angle(dense[:-1, :3, :3], dense[1:, :3, :3])
-    paced = points is not None and len(points)
-    if paced:
-        step = image_shift(dense, np.asarray(points, np.float64), fov, fallback=da)
+    dense_zoom = key_blend(keys_zoom, spline.knots, dense_t) if zoom is not None else None
+    if points is not None and len(points):
+        step = image_shift(dense, np.asarray(points, np.float64), fov, fallback=da,
+                           zoom=dense_zoom)
     else:
         dp = np.linalg.norm(np.diff(dense[:, :3, 3], axis=0), axis=1)
         step = dp + 0.1 * span * da
-    if zoom is not None:
-        dz = np.log(key_blend(keys_zoom, spline.knots, dense_t))
-        step = step * np.exp((dz[:-1] + dz[1:]) / 2) + np.abs(np.diff(dz)) * (
-            ZOOM_PACE * fov[0] if paced else 0.1 * span)
+        if dense_zoom is not None:  # zoomed in: faster; a zoom weighs as much as a turn
+            dz = np.log(dense_zoom)
+            step = step * np.exp((dz[:-1] + dz[1:]) / 2) + 0.1 * span * np.abs(np.diff(dz))
     arc = np.concatenate([[0.0], np.cumsum(step)])
     s = np.linspace(0.0, arc[-1], n_frames + (1 if closed else 0))[: n_frames]
     if n_frames == 1:
@@ -386,22 +380,26 @@ def interpolate_path(c2ws: np.ndarray, n_frames: int, closed: bool = False,
 
 
 def image_shift(c2ws: np.ndarray, points: np.ndarray, fov: tuple[float, float],
-                fallback: np.ndarray) -> np.ndarray:
+                fallback: np.ndarray, zoom: np.ndarray | None = None) -> np.ndarray:
     """[F - 1] image motion between consecutive cameras c2ws [F, 4, 4]: the median shift,
     in the image plane at unit focal length, of the ``points`` [P, 3] both cameras see in
     front of them within ``fov`` = (tan of the half-width, tan of the half-height angle);
-    ``fallback`` [F - 1] (e.g. the angle turned) where they share no point."""
+    ``fallback`` [F - 1] (e.g. the angle turned) where they share no point. With ``zoom``
+    [F] (each camera's focal length over the unit one) every camera sees its points that
+    much larger and its view that much narrower, so the shift is in each frame's own
+    pixels over the unit focal length, a change of zoom moving the points too."""
     tx, ty = fov
+    zoom = np.ones(len(c2ws)) if zoom is None else np.asarray(zoom, np.float64)
 
-    def view(c2w):
+    def view(c2w, z):
         R, t = c2w[:3, :3], c2w[:3, 3]
         cam = (points - t) @ R
-        z = cam[:, 2]
-        xy = cam[:, :2] / np.where(z > 1e-9, z, 1.0)[:, None]
-        seen = (z > 1e-9) & (np.abs(xy[:, 0]) <= tx) & (np.abs(xy[:, 1]) <= ty)
+        depth = cam[:, 2]
+        xy = z * cam[:, :2] / np.where(depth > 1e-9, depth, 1.0)[:, None]
+        seen = (depth > 1e-9) & (np.abs(xy[:, 0]) <= tx) & (np.abs(xy[:, 1]) <= ty)
         return xy, seen
 
-    return median_shift((view(c) for c in c2ws), fallback)
+    return median_shift((view(c, z) for c, z in zip(c2ws, zoom, strict=True)), fallback)
 
 
 def median_shift(views, fallback: np.ndarray) -> np.ndarray:

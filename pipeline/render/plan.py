@@ -343,19 +343,17 @@ rates; the sample's tour at 4 s moves 0.68 of the width a second)."""
 def pace_line(cfg: RenderConfig, cams: Cameras, path_cams: list,
               points: np.ndarray | None) -> str:
     """One line on how fast the interpolate path's frames move the scene (the median
-    ``gnfr.paths.image_shift`` of ``points`` between frames, as a share of the width), with
+    ``gnfr.paths.image_shift`` of ``points`` between frames, each in its own zoom, as a
+    share of the width), with
     the ``--seconds`` that keeps it under CALM_PACE a second when it is over."""
     from gnfr import paths
 
     fov = path_fov(path_cams[0])
     poses = np.stack([p.c2w for p in path_cams])
     turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
-    shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn)
-    # zoom (the frames' focal lengths over the first's): a zoomed-in frame sees the shift
-    # larger, and a change of zoom moves the image too (gnfr.paths.ZOOM_PACE)
-    zoom = np.log([p.K[0][0] / path_cams[0].K[0][0] for p in path_cams])
-    step = float(np.median(shifts * np.exp((zoom[:-1] + zoom[1:]) / 2) / (2 * fov[0])
-                           + paths.ZOOM_PACE / 2 * np.abs(np.diff(zoom))))
+    zoom = [p.K[0][0] / path_cams[0].K[0][0] for p in path_cams]  # over the first frame's
+    shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn, zoom=zoom)
+    step = float(np.median(shifts)) / (2 * fov[0])
     line = f"render interpolate: the scene moves about {step:.1%} of the frame's width a frame"
     if cfg.frames:  # the frame rate is the video's (export), not known here
         return line

@@ -236,9 +236,17 @@ def test_tour_carries_the_keys_zoom_and_paces_on_it():
     assert tour.zoom.min() >= 1.0 - 1e-12 and tour.zoom.max() <= 3.0 + 1e-12
     assert (x > 0.6).sum() > 2 * (x < 0.3).sum()  # the zoomed-in end gets more frames
     # on the frames: the zoomed image motion a frame is about even
-    shift = image_shift(tour.poses, pts, fov, np.zeros(n - 1)) * (
-        (tour.zoom[:-1] + tour.zoom[1:]) / 2)
-    assert shift.max() / np.median(shift) < 1.5
+    shift = image_shift(tour.poses, pts, fov, np.zeros(n - 1), zoom=tour.zoom)
+    assert shift.max() / np.median(shift) < 1.25
+    unzoomed = image_shift(tour.poses, pts, fov, np.zeros(n - 1))
+    assert unzoomed.max() / unzoomed.min() > 2  # what the zoom evens out
+    # a zoom on the spot moves the image: each point by its distance from the centre
+    still = np.stack([turned(0), turned(0)])
+    assert image_shift(still, pts, fov, np.zeros(1))[0] == 0
+    xy = pts[:, :2] / pts[:, 2:]  # the camera at the origin looking down +z
+    inner = (np.abs(2 * xy) <= fov).all(1)  # what the zoomed-in view still sees
+    assert image_shift(still, pts, fov, np.zeros(1), zoom=np.array([1.0, 2.0]))[0] == (
+        pytest.approx(np.median(np.linalg.norm(xy[inner], axis=1))))
     # a key's zoom goes with the key when the tour reorders them
     shuffled = interpolate_tour(keys[[2, 0, 3, 1]], n, zoom=zoom[[2, 0, 3, 1]])
     ends = {round(shuffled.poses[i, 0, 3], 6): shuffled.zoom[i] for i in (0, -1)}
