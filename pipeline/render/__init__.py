@@ -215,6 +215,20 @@ def warn_unshaped(cfg: RenderConfig, key: str) -> None:
              f"({'the de-flared photos have none' if key == 'inputs' else '--key-blend 0'})")
 
 
+def use_frames_maps(ws: Workspace, key: str, use_photos: bool) -> bool:
+    """Whether the frames of ``key`` warp the photos through the depth stage's maps for
+    them (WS/depth_frames, written by depth --frames-sgm) rather than WS/depth: novel frames
+    where the stage wrote them (with a line saying how to get them where the depth stage is
+    older than them); the de-flared photos always through WS/depth."""
+    frames_maps = use_photos and key != "inputs" and ws.depth_frames.is_dir()
+    if (use_photos and key != "inputs" and not frames_maps
+            and "frames_sgm" not in ws.stage_record("depth").get("params", {})):
+        info(f"render: {ws.depth} was made before the depth stage wrote maps of its own for "
+             f"the novel frames; `deflare-scene depth {shell_path(ws.root)} --force` writes them "
+             "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
+    return frames_maps
+
+
 def stage_inputs(ws: Workspace, cfg: RenderConfig, key: str, ckpt: Path, use_photos: bool,
                  frames_maps: bool) -> list[Path]:
     """The files whose change makes a finished render of ``key`` render again."""
@@ -256,14 +270,7 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
                                    cfg.photo_sources)
     if key == "inputs" and cfg.blend == "mask":  # before the stage clears WS/deflared
         require_masks(ws, [job.camera.stem for job in jobs])
-    # novel frames warp the photos through the depth stage's maps for them where it wrote
-    # them (depth --frames-sgm); the de-flared photos always through WS/depth
-    frames_maps = use_photos and key != "inputs" and ws.depth_frames.is_dir()
-    if (use_photos and key != "inputs" and not frames_maps
-            and "frames_sgm" not in ws.stage_record("depth").get("params", {})):
-        info(f"render: {ws.depth} was made before the depth stage wrote maps of its own for "
-             f"the novel frames; `deflare-scene depth {shell_path(ws.root)} --force` writes them "
-             "(sharper video frames; the fine-tune and the de-flared photos stay as they are)")
+    frames_maps = use_frames_maps(ws, key, use_photos)
     cfg = options_for_path(cfg, key, cams)
     deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
