@@ -1,6 +1,7 @@
 """The interpolate path's zoom judged at the photos' own cameras (``render --zoom``).
 
     python benchmarks/path_zoom.py WS [--min-zoom 1.25] [--out JSON] [--sheet JPG]
+        [--frames-sheet JPG]
 
 An interpolate path passes through every photo's camera. There, ``--zoom fixed`` renders
 the reference photo's field of view and ``--zoom photos`` the photo's own (its focal length
@@ -12,7 +13,9 @@ that both frames see (the frame warped into the photo by the homography of the t
 intrinsics: one camera centre): PSNR after a per-channel gain (the video's exposure is the
 model's, not the photo's) and SSIM. A frame wider than the photo shows it with fewer
 pixels, so the score says how much of the photo's detail the video shows as it passes.
-Also per photo: its zoom, and the share of each frame the photo fills.
+Also per photo: its zoom, and the share of its pixels both frames see. ``--sheet``: per
+photo, the photo and both frames warped into it; ``--frames-sheet``: the frames as the
+video shows them, at the three most zoomed-in photos (photo, ``fixed``, ``photos``).
 
 The rule (ninety-eighth session, written before the run; docs/camera_paths.md): on the
 photos zoomed in at least ``--min-zoom`` from the reference, ``photos`` scores higher PSNR
@@ -138,6 +141,33 @@ def write_sheet(path: Path, tiles: list[np.ndarray], rows: list[dict]) -> None:
     cv2.imwrite(str(path), np.concatenate(out, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
 
 
+def write_frames_sheet(path: Path, ws, files: dict[str, Path], rows: list[dict],
+                       count: int = 3) -> None:
+    """The ``count`` most zoomed-in photos, a row each: the photo, then the ``fixed`` and
+    ``photos`` frames at its camera as rendered (each scaled to one height)."""
+    import cv2
+
+    from pipeline.images import put_label, read_image
+
+    height, out = 300, []
+    for row in sorted(rows, key=lambda r: -r["zoom"])[:count]:
+        cells = []
+        for label, img in ((f"photo, zoom {row['zoom']:.2f}",
+                            read_image(ws.images / f"{row['stem']}.png", bgr=True)),
+                           *((f"frame, zoom {arm}", read_image(
+                               ws.render_dir(str(files[arm])) / f"{row['stem']}.png",
+                               bgr=True)) for arm in files)):
+            w = max(1, round(img.shape[1] * height / img.shape[0]))
+            cell = np.ascontiguousarray(cv2.resize(img, (w, height),
+                                                   interpolation=cv2.INTER_AREA))
+            put_label(cell, label)
+            cells.append(cell)
+        out.append(np.concatenate(cells, axis=1))
+    width = max(r.shape[1] for r in out)
+    out = [np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0))) for r in out]
+    cv2.imwrite(str(path), np.concatenate(out, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
+
+
 def judge(rows: list[dict], min_zoom: float) -> dict:
     """The rule (module docstring) on the rows of :func:`score`."""
     zoomed = [r for r in rows if r["zoom"] >= min_zoom]
@@ -160,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--min-zoom", type=float, default=1.25)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--sheet", type=Path)
+    ap.add_argument("--frames-sheet", type=Path)
     args = ap.parse_args(argv)
     from pipeline.render import RenderConfig, run
     from pipeline.workspace import Workspace
@@ -176,12 +207,18 @@ def main(argv: list[str] | None = None) -> int:
     for f in files.values():
         run(replace(cfg, path=str(f)), ws)
     rows = score(ws, cams, files, args.sheet)
+    if args.frames_sheet:
+        write_frames_sheet(args.frames_sheet, ws, files, rows)
+    from pipeline.provenance import write_result
+
     result = {"workspace": str(args.workspace), "min_zoom": args.min_zoom, "photos": rows,
               "judge": judge(rows, args.min_zoom)}
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        args.out.write_text(text + "\n")
+    verdict = result["judge"]
+    for r in rows:
+        print(f"{r['stem']}: zoom {r['zoom']:.2f}, PSNR fixed {r['fixed']['psnr']:.2f} dB, "
+              f"photos {r['photos']['psnr']:.2f} dB")
+    print(f"rule {'passed' if verdict['passed'] else 'failed'}: {verdict}")
+    write_result(args.out, result)
     return 0
 
 
