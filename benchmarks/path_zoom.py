@@ -13,7 +13,8 @@ that both frames see (the frame warped into the photo by the homography of the t
 intrinsics: one camera centre): PSNR after a per-channel gain (the video's exposure is the
 model's, not the photo's) and SSIM. A frame wider than the photo shows it with fewer
 pixels, so the score says how much of the photo's detail the video shows as it passes.
-Also per photo: its zoom, and the share of its pixels both frames see. ``--sheet``: per
+Also per photo: its zoom, and the share of its pixels both frames see; and per setting the
+default interpolate path's median and largest step (``path_steps``). ``--sheet``: per
 photo, the photo and both frames warped into it; ``--frames-sheet``: the frames as the
 video shows them, at the three most zoomed-in photos (photo, ``fixed``, ``photos``).
 
@@ -168,6 +169,29 @@ def write_frames_sheet(path: Path, ws, files: dict[str, Path], rows: list[dict],
     cv2.imwrite(str(path), np.concatenate(out, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
 
 
+def path_steps(ws, cams, cfg) -> dict:
+    """Per setting, the interpolate path's steps (``cfg``'s frames, paced on the depth maps'
+    points): the median and largest image motion between frames as a share of the width,
+    each frame in its own zoom (as the render stage's pace line measures)."""
+    from gnfr import paths
+    from pipeline.render import novel_path
+    from pipeline.render.plan import pace_points, path_fov, scene_points
+
+    points = scene_points(ws, cams)
+    out = {}
+    for arm in ("fixed", "photos"):
+        pcs = novel_path(replace(cfg, zoom=arm), cams, "cpu", points)[0]
+        fov = path_fov(pcs[0])
+        poses = np.stack([pc.c2w for pc in pcs])
+        turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
+        zoom = [pc.K[0][0] / pcs[0].K[0][0] for pc in pcs]
+        share = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn,
+                                  zoom=zoom) / (2 * fov[0])
+        out[arm] = {"frames": len(pcs), "median_step": round(float(np.median(share)), 5),
+                    "largest_step": round(float(share.max()), 5)}
+    return out
+
+
 def judge(rows: list[dict], min_zoom: float) -> dict:
     """The rule (module docstring) on the rows of :func:`score`."""
     zoomed = [r for r in rows if r["zoom"] >= min_zoom]
@@ -212,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     from pipeline.provenance import write_result
 
     result = {"workspace": str(args.workspace), "min_zoom": args.min_zoom, "photos": rows,
-              "judge": judge(rows, args.min_zoom)}
+              "judge": judge(rows, args.min_zoom), "path_steps": path_steps(ws, cams, cfg)}
     verdict = result["judge"]
     for r in rows:
         print(f"{r['stem']}: zoom {r['zoom']:.2f}, PSNR fixed {r['fixed']['psnr']:.2f} dB, "
