@@ -611,3 +611,42 @@ def test_tour_by_view_rule_is_its_file():
         t, v = r["today"]["total"], r["view"]["total"]
         assert (f"{names[Path(ws).name]} {t:.3f} -> {v:.3f} ({100 * (v / t - 1):+.1f} %)"
                 in hist)
+
+
+def test_zoom_rule_is_its_file():
+    """docs/history/fill.md and docs/camera_paths.md, the interpolate path's zoom: every
+    photo's zoom and PSNR pair, the means, the verdict and the paths' steps are
+    path_zoom_sacre_coeur_s98.json's; the rule's verdict is recomputed from its rows, and
+    the default follows it."""
+    import numpy as np
+
+    from pipeline.render import RenderConfig
+    from tests.conftest import load_benchmark
+
+    hist = page_text("docs/history/fill.md")
+    paths_page = page_text("docs/camera_paths.md")
+    rec = result("path_zoom_sacre_coeur_s98.json")
+    rows, verdict = rec["photos"], rec["judge"]
+    again = load_benchmark("path_zoom").judge(rows, rec["min_zoom"])
+    assert again == verdict and verdict["passed"]
+    assert RenderConfig().zoom == "photos"
+    zoomed = [r for r in rows if r["zoom"] >= rec["min_zoom"]]
+    for r in zoomed:
+        assert (f"{r['zoom']:.2f}, {r['fixed']['psnr']:.2f} -> {r['photos']['psnr']:.2f}"
+                in hist.replace("1.63 times, ", "1.63, "))
+    gain, rise = verdict["zoomed_mean_gain_db"], -verdict["others_mean_fall_db"]
+    words = {2: "two", 3: "three", 4: "four", 5: "five", 6: "six"}
+    for page in (hist, paths_page):
+        assert f"the {words[len(zoomed)]} zoomed-in photos {gain:.2f} dB higher" in page
+        assert f"the {words[len(rows) - len(zoomed)]} others {rise:.2f} dB higher" in page
+    ref = next(r for r in rows if r["zoom"] == 1.0)
+    assert f"the reference itself the same, {ref['photos']['psnr']:.2f} dB" in hist
+    assert ref["photos"] == ref["fixed"]
+    steps = rec["path_steps"]
+    pct = {a: (100 * steps[a]["median_step"], 100 * steps[a]["largest_step"]) for a in steps}
+    assert (f"the median step moves the scene {pct['photos'][0]:.3f} % of the width and the "
+            f"largest {pct['photos'][1]:.3f} %, against {pct['fixed'][0]:.3f} % and "
+            f"{pct['fixed'][1]:.3f} % at one zoom" in hist)
+    assert steps["photos"]["frames"] == 96 and f"sacre_coeur's {96}-frame path" in hist
+    assert np.isclose(steps["photos"]["largest_step"] / steps["photos"]["median_step"], 1.0,
+                      atol=0.01)
