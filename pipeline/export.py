@@ -27,7 +27,7 @@ from pipeline.errors import UserError, shell_path
 from pipeline.images import image_size, read_image
 from pipeline.options import option, validate
 from pipeline.progress import info, track, warn
-from pipeline.render import decoded_camera, flare_mask_in, path_poses, rendered_frames
+from pipeline.render import decoded_camera, flare_mask_in, path_cameras, rendered_frames
 from pipeline.workspace import Workspace, atomic_imwrite, atomic_write_json
 from pipeline.ws_files import has_masks, read_cameras, read_decoded, read_mask
 
@@ -226,20 +226,21 @@ def write_points(ws: Workspace, cams: Cameras, max_points: int) -> Path | None:
 # --------------------------------------------------------------------------- scene.glb
 def write_glb(ws: Workspace, cams: Cameras, frames_dir: Path) -> Path | None:
     """Rewrite WS/scene.glb: its sparse points, the input cameras and the rendered path
-    (the poses of ``frames_dir/cameras.json``, pipeline.render.path_poses)."""
+    (the cameras of ``frames_dir/cameras.json``, pipeline.render.path_cameras: each frame's
+    frustum with its own intrinsics)."""
     from pipeline.scene_glb import read_scene_points, write_scene_glb
 
-    poses = path_poses(frames_dir)
-    if poses is None:
+    path_cams = path_cameras(frames_dir)
+    if path_cams is None:
         warn(f"no rendered path in {frames_dir}: scene.glb left without a path")
         return ws.scene_glb if ws.scene_glb.exists() else None
     if ws.scene_glb.exists():
         points, colors = read_scene_points(ws.scene_glb)
     else:
         points, colors = np.zeros((0, 3)), np.zeros((0, 3), np.uint8)
-    write_scene_glb(ws.scene_glb, points, colors, cams.frames, extra_paths=[poses])
+    write_scene_glb(ws.scene_glb, points, colors, cams.frames, extra_paths=[path_cams])
     info(f"wrote {ws.scene_glb} ({len(points)} points, {len(cams.frames)} cameras, path of "
-         f"{len(poses)} poses)")
+         f"{len(path_cams)} poses)")
     return ws.scene_glb
 
 

@@ -39,22 +39,26 @@ def frustum_segments(K: np.ndarray, width: int, height: int, c2w: np.ndarray,
     return np.asarray(segs)
 
 
-def _path_segments(c2ws: np.ndarray, K: np.ndarray, width: int, height: int,
+def _path_segments(c2ws: np.ndarray, Ks: Sequence[np.ndarray], sizes: Sequence[tuple[int, int]],
                    depth: float) -> np.ndarray:
-    """[S, 2, 3] a polyline through the camera centres plus a small frustum per pose."""
+    """[S, 2, 3] a polyline through the camera centres plus a small frustum per pose, each
+    with its own intrinsics ``Ks`` and image size ``sizes`` (a zoomed-in frame's narrower)."""
     centers = c2ws[:, :3, 3]
     segs = [np.stack([centers[:-1], centers[1:]], 1)] if len(c2ws) > 1 else []
-    segs += [frustum_segments(K, width, height, c, depth) for c in c2ws]
+    segs += [frustum_segments(K, w, h, c, depth)
+             for c, K, (w, h) in zip(c2ws, Ks, sizes, strict=True)]
     return np.concatenate(segs, 0) if segs else np.zeros((0, 2, 3))
 
 
 def write_scene_glb(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray,
-                    frames: Sequence[Frame], extra_paths: Sequence[np.ndarray] = ()) -> Path:
+                    frames: Sequence[Frame], extra_paths: Sequence = ()) -> Path:
     """Write a GLB with a point cloud, one frustum per frame and optional camera paths.
 
     points [N, 3] float, colors [N, 3] uint8 RGB, frames: the posed input views,
-    extra_paths: camera paths, each [M, 4, 4] camera-to-world (drawn with the first frame's
-    intrinsics, in another colour). The frustum depth is 8% of the camera spread.
+    extra_paths: camera paths, in another colour, each a list of path cameras (anything with
+    ``c2w``, ``K``, ``width`` and ``height``: ``gnfr.paths.PathCamera``), each frustum drawn
+    with its own intrinsics, or [M, 4, 4] camera-to-world poses alone (drawn with the first
+    frame's intrinsics). The frustum depth is 8% of the camera spread.
     """
     import trimesh
 
@@ -71,14 +75,19 @@ def write_scene_glb(path: str | os.PathLike, points: np.ndarray, colors: np.ndar
         segs = np.concatenate([frustum_segments(f.K, f.width, f.height, f.c2w, depth)
                                for f in frames])
         scene.add_geometry(_lines(segs, INPUT_COLOR), geom_name="cameras")
-    for i, c2ws in enumerate(extra_paths):
-        c2ws = np.asarray(c2ws, np.float64).reshape(-1, 4, 4)
-        if not len(c2ws):
+    for i, path_cams in enumerate(extra_paths):
+        if not len(path_cams):
             continue
-        ref = frames[0] if frames else None
-        K = ref.K if ref else np.array([[1.0, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]])
-        w, h = (ref.width, ref.height) if ref else (1, 1)
-        segs = _path_segments(c2ws, K, w, h, 0.5 * depth)
+        if isinstance(path_cams, np.ndarray):  # poses alone: the first frame's intrinsics
+            c2ws = np.asarray(path_cams, np.float64).reshape(-1, 4, 4)
+            ref = frames[0] if frames else None
+            K = ref.K if ref else np.array([[1.0, 0, 0.5], [0, 1.0, 0.5], [0, 0, 1]])
+            Ks, sizes = [K] * len(c2ws), [(ref.width, ref.height) if ref else (1, 1)] * len(c2ws)
+        else:
+            c2ws = np.stack([np.asarray(c.c2w, np.float64) for c in path_cams])
+            Ks = [np.asarray(c.K, np.float64) for c in path_cams]
+            sizes = [(c.width, c.height) for c in path_cams]
+        segs = _path_segments(c2ws, Ks, sizes, 0.5 * depth)
         scene.add_geometry(_lines(segs, PATH_COLOR), geom_name=f"path{i}")
     return atomic_write_bytes(path, scene.export(file_type="glb"))
 

@@ -44,7 +44,7 @@ from pipeline.render.engine import (
 from pipeline.render.fill import fill_from_photos, photo_views
 from pipeline.render.frames import (
     clear_frames,
-    path_poses,
+    path_cameras,
     rendered_frames,
     with_exif,
     write_frame,
@@ -103,7 +103,8 @@ __all__ = [
     "blend_weights", "clear_frames", "decoded_camera", "default_chunk", "depth_samples",
     "enclosed_holes", "encode_sources", "fill_from_photos", "find_checkpoint", "flare_mask_in",
     "frame_workers", "input_blend", "input_rays", "input_sources", "load_model", "match_colours",
-    "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_poses", "photo_views",
+    "novel_depth_range", "novel_path", "novel_scale", "novel_sources", "path_cameras",
+    "photo_views",
     "plan_full_res", "plan_jobs", "prepare_full_res", "prepare_hybrid_novel", "prepare_input",
     "prepare_job", "prepare_novel", "reference_frame", "render_here", "render_in_workers",
     "render_jobs", "rendered_frames", "require_masks", "resize_camera", "resolve_fill", "run",

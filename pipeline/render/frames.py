@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.errors import UserError
 from pipeline.images import JPEG_EXTS, is_photo
 from pipeline.render.jobs import FrameJob
 from pipeline.workspace import (
@@ -116,9 +117,15 @@ def rendered_frames(out_dir: Path) -> list[Path]:
     return sorted(out_dir.glob("*.png")) if out_dir.is_dir() else []
 
 
-def path_poses(out_dir: Path) -> np.ndarray | None:
-    """[M, 4, 4] camera-to-world of a rendered path (its cameras.json), or None."""
+def path_cameras(out_dir: Path) -> list | None:
+    """The cameras (``gnfr.paths.PathCamera``: pose, intrinsics, size) of a rendered path,
+    read from its cameras.json, or None where it has none."""
+    from gnfr.paths import path_from_json
+
     f = out_dir / PATH_CAMERAS_FILE
     if not f.is_file():
         return None
-    return np.asarray([fr["c2w"] for fr in read_json(f)["frames"]], np.float64)
+    try:
+        return path_from_json(read_json(f))
+    except ValueError as e:
+        raise UserError(f"{f}: {e}; render the path again (--force)") from None

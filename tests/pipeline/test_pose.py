@@ -7,6 +7,7 @@ the geometry helpers."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -394,6 +395,45 @@ def test_frustum_corners_project_to_image_corners():
     assert np.allclose(corners[:, 2], 2.0)
     uv = corners @ K.T
     assert np.allclose(uv[:, :2] / uv[:, 2:], [[0, 0], [640, 0], [640, 480], [0, 480]])
+
+
+def test_a_paths_frustums_take_each_frames_own_intrinsics(tmp_path):
+    """scene.glb's path: each frame's frustum with its own K (a zoomed-in frame's narrower);
+    poses alone are drawn with the first photo's; a broken path file is one line."""
+    import trimesh
+
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.errors import UserError
+    from pipeline.render import path_cameras
+
+    K = np.array([[50.0, 0, 32], [0, 50, 24], [0, 0, 1]])
+    zoomed = K.copy()
+    zoomed[:2, :2] *= 3
+    eye = np.eye(4)
+    near = np.eye(4)
+    near[0, 3] = 1.0
+    photo = Frame("a.jpg", "a", K, 64, 48, eye, 0.1, 10)
+    path = [PathCamera("0", K, eye, 64, 48), PathCamera("1", zoomed, near, 64, 48)]
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "cameras.json").write_text(json.dumps(path_to_json(path)))
+    got = path_cameras(tmp_path / "p")
+    assert [np.asarray(c.K).tolist() for c in got] == [K.tolist(), zoomed.tolist()]
+    assert path_cameras(tmp_path / "none") is None
+
+    def frustum_widths(extra):
+        out = write_scene_glb(tmp_path / "s.glb", np.zeros((0, 3)), np.zeros((0, 3), np.uint8),
+                              [photo, replace(photo, c2w=near)], extra_paths=[extra])
+        v = np.asarray(trimesh.load(out).geometry["path0"].vertices)
+        return [np.ptp(v[(np.abs(v[:, 0] - x) < 0.5) & (v[:, 2] > 1e-6)][:, 1])
+                for x in (0.0, 1.0)]
+
+    wide, narrow = frustum_widths(got)
+    assert narrow == pytest.approx(wide / 3, rel=0.05)
+    same = frustum_widths(np.stack([c.c2w for c in got]))
+    assert same[0] == pytest.approx(same[1])
+    (tmp_path / "p" / "cameras.json").write_text(json.dumps({"frames": [{"name": "0"}]}))
+    with pytest.raises(UserError, match="cameras.json: .*render the path again"):
+        path_cameras(tmp_path / "p")
 
 
 def test_plane_sweep_depth_agrees_with_the_sparse_points(kermit):
