@@ -614,7 +614,8 @@ def test_tour_by_view_rule_is_its_file():
 
 
 def test_zoom_rule_is_its_file():
-    """docs/history/fill.md and docs/camera_paths.md, the interpolate path's zoom: every
+    """docs/history/fill.md, docs/camera_paths.md and docs/options.md, the interpolate path's
+    zoom: every
     photo's zoom and PSNR pair, the means, the verdict and the paths' steps are
     path_zoom_sacre_coeur_s98.json's; the rule's verdict is recomputed from its rows, and
     the default follows it."""
@@ -639,6 +640,8 @@ def test_zoom_rule_is_its_file():
     for page in (hist, paths_page):
         assert f"the {words[len(zoomed)]} zoomed-in photos {gain:.2f} dB higher" in page
         assert f"the {words[len(rows) - len(zoomed)]} others {rise:.2f} dB higher" in page
+    assert (f"{gain:.2f} dB lower on the {words[len(zoomed)]} zoomed-in photos' mean"
+            in page_text("docs/options.md"))
     ref = next(r for r in rows if r["zoom"] == 1.0)
     assert f"the reference itself the same, {ref['photos']['psnr']:.2f} dB" in hist
     assert ref["photos"] == ref["fixed"]
