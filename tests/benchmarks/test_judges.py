@@ -621,3 +621,23 @@ def test_path_zoom_warps_a_frame_into_its_photo_and_judges_the_zoomed_photos(tmp
     assert not pz.judge([row(1.0, 30, 30)], 1.25)["passed"]  # nothing zoomed: no verdict
     assert pz.main([str(tmp_path)]) == 2
     assert "no cameras.json" in capsys.readouterr().err
+
+
+def test_frames_sheet_rows_every_nth_frame_and_names_an_empty_folder(tmp_path, capsys):
+    """frames_sheet.py: a row per folder of every N-th frame at one height (rows padded to
+    one width); a folder without frames is one line naming it."""
+    fs = load_benchmark("frames_sheet")
+    for name, n, shape in (("a", 9, (30, 40, 3)), ("b", 5, (30, 60, 3))):
+        (tmp_path / name).mkdir()
+        for i in range(n):
+            cv2.imwrite(str(tmp_path / name / f"{i:05d}.png"), np.full(shape, 20 * i, np.uint8))
+    rows = fs.sheet_rows([(tmp_path / "a", "fixed"), (tmp_path / "b", "")], every=4, height=60)
+    assert [r.shape for r in rows] == [(60, 240, 3), (60, 240, 3)]  # 3 cells of 80, 2 of 120
+    assert np.median(rows[0][:, 80:160, 0]) == 80  # frame 4, under its label
+    assert np.median(rows[0][:, 160:, 0]) == 160  # frame 8
+    assert (rows[1][:, 120:, 0] == 80).mean() > 0.5  # the second row: frames 0 and 4
+    assert fs.main([str(tmp_path / "a"), "--out", str(tmp_path / "s.jpg")]) == 0
+    assert cv2.imread(str(tmp_path / "s.jpg")).shape[:2] == (160, 3 * 213)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit, match="empty: no frames"):
+        fs.main([str(tmp_path / "empty"), "--out", str(tmp_path / "t.jpg")])
