@@ -214,7 +214,10 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
     """(list of gnfr.paths.PathCamera, path key) for interpolate / spiral / FILE.json; the
     interpolate path paced by the image motion of ``points`` (:func:`scene_points`; None:
     ``gnfr.paths.bounds_points`` of the photos' bounds), or with ``cfg.pace`` ``travel`` at
-    constant travel."""
+    constant travel. The frames have the reference photo's size (:func:`reference_frame`,
+    resized by :func:`resize_camera`) and its intrinsics, the interpolate path's zoomed to
+    the photos' fields of view along the tour where ``cfg.zoom`` asks and the capture has
+    more than one (:func:`resolve_zoom`)."""
     from gnfr import paths
 
     if cfg.path not in NAMED_PATHS:
