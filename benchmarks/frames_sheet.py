@@ -20,11 +20,35 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def sheet_rows(folders: list[tuple[Path, str]], every: int, height: int) -> list[np.ndarray]:
-    """One BGR row per (folder, label): every ``every``-th frame scaled to ``height``."""
+def labelled_row(cells: list[tuple[np.ndarray, str]], height: int) -> np.ndarray:
+    """One BGR row of (image, label) cells, each scaled to ``height`` and labelled."""
     import cv2
 
-    from pipeline.images import put_label, read_image
+    from pipeline.images import put_label
+
+    out = []
+    for img, label in cells:
+        w = max(1, round(img.shape[1] * height / img.shape[0]))
+        cell = np.ascontiguousarray(cv2.resize(img, (w, height), interpolation=cv2.INTER_AREA))
+        put_label(cell, label)
+        out.append(cell)
+    return np.concatenate(out, axis=1)
+
+
+def padded(rows: list[np.ndarray]) -> list[np.ndarray]:
+    """``rows`` each padded on the right with black to the widest."""
+    width = max(r.shape[1] for r in rows)
+    return [np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0))) for r in rows]
+
+
+def stacked(rows: list[np.ndarray]) -> np.ndarray:
+    """``rows`` one above the other, padded to the widest."""
+    return np.concatenate(padded(rows), axis=0)
+
+
+def sheet_rows(folders: list[tuple[Path, str]], every: int, height: int) -> list[np.ndarray]:
+    """One BGR row per (folder, label): every ``every``-th frame scaled to ``height``."""
+    from pipeline.images import read_image
 
     rows = []
     for folder, label in folders:
@@ -32,17 +56,10 @@ def sheet_rows(folders: list[tuple[Path, str]], every: int, height: int) -> list
         if not frames:
             raise SystemExit(f"error: {folder}: no frames (00000.png ...); give a render's "
                              "folder, e.g. WS/renders/interpolate")
-        cells = []
-        for k, f in enumerate(frames[::every]):
-            img = read_image(f, bgr=True)
-            w = max(1, round(img.shape[1] * height / img.shape[0]))
-            cell = np.ascontiguousarray(cv2.resize(img, (w, height),
-                                                   interpolation=cv2.INTER_AREA))
-            put_label(cell, f"{label} {f.stem}" if k == 0 and label else f.stem)
-            cells.append(cell)
-        rows.append(np.concatenate(cells, axis=1))
-    width = max(r.shape[1] for r in rows)
-    return [np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0))) for r in rows]
+        rows.append(labelled_row([(read_image(f, bgr=True),
+                                   f"{label} {f.stem}" if k == 0 and label else f.stem)
+                                  for k, f in enumerate(frames[::every])], height))
+    return padded(rows)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -60,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
                for d in a.folders]
     rows = sheet_rows(folders, a.every, a.height)
     a.out.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(a.out), np.concatenate(rows, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
+    cv2.imwrite(str(a.out), stacked(rows), [cv2.IMWRITE_JPEG_QUALITY, 80])
     print(f"wrote {a.out} ({len(rows)} rows)")
     return 0
 

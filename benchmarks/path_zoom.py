@@ -148,25 +148,15 @@ def write_frames_sheet(path: Path, ws, files: dict[str, Path], rows: list[dict],
     ``photos`` frames at its camera as rendered (each scaled to one height)."""
     import cv2
 
-    from pipeline.images import put_label, read_image
+    from benchmarks.frames_sheet import labelled_row, stacked
+    from pipeline.images import read_image
 
-    height, out = 300, []
-    for row in sorted(rows, key=lambda r: -r["zoom"])[:count]:
-        cells = []
-        for label, img in ((f"photo, zoom {row['zoom']:.2f}",
-                            read_image(ws.images / f"{row['stem']}.png", bgr=True)),
-                           *((f"frame, zoom {arm}", read_image(
-                               ws.render_dir(str(files[arm])) / f"{row['stem']}.png",
-                               bgr=True)) for arm in files)):
-            w = max(1, round(img.shape[1] * height / img.shape[0]))
-            cell = np.ascontiguousarray(cv2.resize(img, (w, height),
-                                                   interpolation=cv2.INTER_AREA))
-            put_label(cell, label)
-            cells.append(cell)
-        out.append(np.concatenate(cells, axis=1))
-    width = max(r.shape[1] for r in out)
-    out = [np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0))) for r in out]
-    cv2.imwrite(str(path), np.concatenate(out, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
+    out = [labelled_row([(read_image(ws.images / f"{row['stem']}.png", bgr=True),
+                          f"photo, zoom {row['zoom']:.2f}")]
+                        + [(read_image(ws.render_dir(str(files[arm])) / f"{row['stem']}.png",
+                                       bgr=True), f"frame, zoom {arm}") for arm in files], 300)
+           for row in sorted(rows, key=lambda r: -r["zoom"])[:count]]
+    cv2.imwrite(str(path), stacked(out), [cv2.IMWRITE_JPEG_QUALITY, 80])
 
 
 def path_steps(ws, cams, cfg) -> dict:
