@@ -114,32 +114,28 @@ def score(ws, cams, files: dict[str, Path], sheet: Path | None = None) -> list[d
             row[arm] = {"psnr": round(gain_psnr(warped[arm], photo, seen), 3),
                         "ssim": round(ssim(masked, photo), 4)}
         rows.append(row)
-        tiles.append(np.concatenate([photo] + [np.where(seen[..., None], warped[a], 0)
-                                               for a in files], axis=1))
+        tiles.append([photo] + [np.where(seen[..., None], warped[a], 0) for a in files])
     if sheet:
         write_sheet(sheet, tiles, rows)
     return rows
 
 
-def write_sheet(path: Path, tiles: list[np.ndarray], rows: list[dict]) -> None:
-    """One row per photo: the photo, the fixed frame and the zoomed frame in its pixels."""
+def write_sheet(path: Path, tiles: list[list[np.ndarray]], rows: list[dict]) -> None:
+    """One row per photo: the photo, the fixed frame and the zoomed frame in its pixels
+    (RGB in [0, 1]), each labelled (the frames with their PSNR)."""
     import cv2
 
-    from pipeline.images import put_label
+    from benchmarks.frames_sheet import labelled_row, stacked
 
-    width = 1200
-    out = []
-    for tile, row in zip(tiles, rows, strict=True):
-        t = cv2.resize(tile, (width, max(1, round(tile.shape[0] * width / tile.shape[1]))),
-                       interpolation=cv2.INTER_AREA)
-        t = np.ascontiguousarray((t[..., ::-1] * 255).round().astype(np.uint8))
-        third = width // 3
-        for k, text in enumerate((f"photo zoom {row['zoom']:.2f}",
-                                  f"fixed {row['fixed']['psnr']:.2f} dB",
-                                  f"photos {row['photos']['psnr']:.2f} dB")):
-            put_label(t[:, k * third:(k + 1) * third], text)
-        out.append(t)
-    cv2.imwrite(str(path), np.concatenate(out, axis=0), [cv2.IMWRITE_JPEG_QUALITY, 80])
+    def bgr(img):
+        return (img[..., ::-1] * 255).round().astype(np.uint8)
+
+    out = [labelled_row(list(zip(map(bgr, tile), (f"photo zoom {row['zoom']:.2f}",
+                                                  f"fixed {row['fixed']['psnr']:.2f} dB",
+                                                  f"photos {row['photos']['psnr']:.2f} dB"),
+                                 strict=True)), 240)
+           for tile, row in zip(tiles, rows, strict=True)]
+    cv2.imwrite(str(path), stacked(out), [cv2.IMWRITE_JPEG_QUALITY, 80])
 
 
 def write_frames_sheet(path: Path, ws, files: dict[str, Path], rows: list[dict],

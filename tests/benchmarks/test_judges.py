@@ -619,6 +619,12 @@ def test_path_zoom_warps_a_frame_into_its_photo_and_judges_the_zoomed_photos(tmp
     assert not pz.judge([row(1.0, 30, 30), row(2.0, 20, 20.5)], 1.25)["passed"]  # 1 dB
     assert not pz.judge([row(1.0, 30, 29.8)] + ok[1:], 1.25)["passed"]  # the others held
     assert not pz.judge([row(1.0, 30, 30)], 1.25)["passed"]  # nothing zoomed: no verdict
+    tiles = [[photo] * 3, [photo[:, :24]] * 3]  # a landscape photo and a portrait one
+    scored = [{"zoom": z, "fixed": {"psnr": 20.0}, "photos": {"psnr": 25.0}} for z in (1, 2)]
+    pz.write_sheet(tmp_path / "sheet.jpg", tiles, scored)
+    sheet = cv2.imread(str(tmp_path / "sheet.jpg"))
+    assert sheet.shape == (2 * 240, 3 * 320, 3)  # a row a photo, padded to the widest
+    assert sheet[240:, 3 * 120 + 8:].max() < 20  # the portrait row's padding
     assert pz.main([str(tmp_path)]) == 2
     assert "no cameras.json" in capsys.readouterr().err
 
