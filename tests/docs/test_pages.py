@@ -209,6 +209,8 @@ CHECKS = [
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     (PERF, "clean_capture_lund_s37.json", "stages/depth/sweeps_from_mask_stage",
      "took {} of its"),
+    *[(PERF, "clean_capture_lund_s98.json", f"stages/{st}/seconds", "| {:.1f} |")
+      for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, "clean_capture_lund_s36.json", f"stages/{st}/seconds", "{:.1f}")
       for st in ("pose", "mask", "depth", "finetune", "render:inputs", "render:interpolate")],
     *[(PERF, f"crosscheck_time_cpu_et_s36_{w}.json", "rows/ghost_views/seconds_per_view",

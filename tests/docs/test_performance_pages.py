@@ -566,3 +566,23 @@ def test_malloc_one_shots_time_rows_are_their_logs():
     assert f"| peak memory (`time -v`) | {on[1]:.2f} GB | {off[1]:.2f} GB |" in text
     assert f"| kernel time / user time | {on[2]:.1f} s /" in text and f"| {off[2]:.1f} s /" in text
     assert f"| minor page faults | {on[3]:.2f} million | {off[3]:.1f} million |" in text
+
+
+def test_lund_capture_sixty_one_sessions_later_is_its_file():
+    """docs/performance.md, "A larger capture": the ninety-eighth session's shares marked and
+    changed, and the frames' seconds each, are clean_capture_lund_s98.json's (its stage
+    seconds are held by test_pages.py's table of quotes)."""
+    perf = page_text("docs/performance.md")
+    rec = result("clean_capture_lund_s98.json")
+    mean, stages = rec["mean"], rec["stages"]
+    assert (f"masks marked {100 * mean['marked']:.3f} % of the pixels (the network "
+            f"{100 * mean['marked_network']:.3f} %, the other photos' check "
+            f"{100 * mean['added_by_views']:.3f} %)") in perf
+    assert f"changed {100 * mean['changed']:.3f} % by more than 2 of 255" in perf
+    old = result("clean_capture_lund_s37.json")
+    assert f"{100 * old['mean']['changed']:.2f} %" in perf
+    assert mean["changed"] < old["mean"]["changed"] / 2.5  # "about a third"
+    per_frame = [stages["render:interpolate"]["seconds"] / 48,
+                 old["stages"]["render:interpolate"]["seconds"] / 48]
+    assert f"frames take {per_frame[0]:.0f} s each against {per_frame[1]:.0f} s" in perf
+    assert len(rec["views"]) == 29
