@@ -31,6 +31,8 @@ def plan_jobs(cfg: RenderConfig, ws: Workspace, cams: Cameras, views: ViewsFile,
     path_cams, key = novel_path(cfg, cams, device, points)
     if key == "interpolate" and len(path_cams) > 1:
         info(pace_line(cfg, cams, path_cams, points))
+        if line := zoom_line(cfg, cams):
+            info(line)
     out_dir = ws.render_dir(cfg.path)
     spot_share = resolve_fill(cfg, device, novel=True).key_spot
     spot = spot_share * median_camera_distance(cams) if spot_share else 0.0
@@ -287,6 +289,18 @@ def resolve_zoom(cfg: RenderConfig, cams: Cameras) -> RenderConfig:
         if z.max() / z.min() > ZOOM_SPREAD:
             return cfg
     return replace(cfg, zoom="fixed")
+
+
+def zoom_line(cfg: RenderConfig, cams: Cameras) -> str | None:
+    """One line saying the interpolate path zooms with the photos (their range of fields of
+    view over the reference's) and how to keep one; None where it does not zoom."""
+    if resolve_zoom(cfg, cams).zoom != "photos":
+        return None
+    z = photo_zoom(cams)
+    return (f"render interpolate: the photos were taken at several zooms (focal lengths over "
+            f"the long side {z.min():.2f} to {z.max():.2f} times the reference photo's); each "
+            "frame takes the field of view of the photo it passes (--zoom fixed keeps one for "
+            "every frame)")
 
 
 def zoomed(K: np.ndarray, zoom: float) -> np.ndarray:

@@ -178,6 +178,11 @@ def test_the_interpolate_path_zooms_to_each_photos_field_of_view(hws):
     assert len(np.unique(zooms.round(9))) > n  # glides between the photos' zooms
     assert all(np.allclose(p.K[:, 2], base[0].K[:, 2]) for p in pcs)  # centre kept
     assert resolve_zoom(cfg, mixed).zoom == "photos"
+    from pipeline.render.plan import zoom_line
+
+    assert "the long side 1.00 to 2.50 times the reference" in zoom_line(cfg, mixed)
+    assert zoom_line(replace(cfg, zoom="fixed"), mixed) is None
+    assert zoom_line(cfg, cams) is None  # one zoom: nothing to say
     assert resolve_zoom(replace(cfg, path="spiral"), mixed).zoom == "fixed"
     # one zoom, with the small spread a refined focal length has: one K, recorded fixed
     near_one = zoom_capture(cams, np.linspace(1.0, ZOOM_SPREAD - 0.01, n))
