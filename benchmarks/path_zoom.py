@@ -48,10 +48,9 @@ def path_files(ws, cams, cfg) -> dict[str, Path]:
     resized as the interpolate path's (``fixed``), and those zoomed to each photo's field
     of view (``photos``); written into the workspace, one frame per photo (its stem)."""
     from gnfr.paths import PathCamera, path_to_json
-    from pipeline.render.plan import photo_zoom, reference_frame, resize_camera, zoomed
+    from pipeline.render.plan import base_camera, photo_zoom, zoomed
 
-    ref = reference_frame(cams)
-    base = resize_camera(PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height), cfg, "cpu")
+    base = base_camera(cfg, cams, "cpu")
     out = {}
     for arm, zoom in (("fixed", np.ones(len(cams.frames))), ("photos", photo_zoom(cams))):
         pcs = [PathCamera(f.stem, zoomed(base.K, float(z)), f.c2w, base.width, base.height)
@@ -159,20 +158,14 @@ def path_steps(ws, cams, cfg) -> dict:
     """Per setting, the interpolate path's steps (``cfg``'s frames, paced on the depth maps'
     points): the median and largest image motion between frames as a share of the width,
     each frame in its own zoom (as the render stage's pace line measures)."""
-    from gnfr import paths
     from pipeline.render import novel_path
-    from pipeline.render.plan import pace_points, path_fov, scene_points
+    from pipeline.render.plan import scene_points, step_shares
 
     points = scene_points(ws, cams)
     out = {}
     for arm in ("fixed", "photos"):
         pcs = novel_path(replace(cfg, zoom=arm), cams, "cpu", points)[0]
-        fov = path_fov(pcs[0])
-        poses = np.stack([pc.c2w for pc in pcs])
-        turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
-        zoom = [pc.K[0][0] / pcs[0].K[0][0] for pc in pcs]
-        share = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn,
-                                  zoom=zoom) / (2 * fov[0])
+        share = step_shares(cams, pcs, points)
         out[arm] = {"frames": len(pcs), "median_step": round(float(np.median(share)), 5),
                     "largest_step": round(float(share.max()), 5)}
     return out

@@ -245,9 +245,7 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
     c2ws = np.stack([f.c2w for f in cams.frames])
     near = np.array([f.near for f in cams.frames])
     far = np.array([f.far for f in cams.frames])
-    ref = reference_frame(cams)
-    base = paths.PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height)
-    base = resize_camera(base, cfg, device)
+    base = base_camera(cfg, cams, device)
     zoom = np.ones(n)
     if cfg.path == "interpolate":
         fov = path_fov(base)
@@ -255,8 +253,7 @@ def novel_path(cfg: RenderConfig, cams: Cameras, device: str,
         tour = paths.interpolate_tour(c2ws, n, closed=paths.is_surrounding(c2ws),
                                       up=paths.world_up(c2ws), points=paced, fov=fov,
                                       tour=cfg.tour, depth=float(np.median(np.sqrt(near * far))),
-                                      zoom=photo_zoom(cams)
-                                      if resolve_zoom(cfg, cams).zoom == "photos" else None)
+                                      zoom=path_zoom(cfg, cams))
         poses, zoom = tour.poses, tour.zoom
     else:
         poses = paths.spiral_path(c2ws, near, far, n)
@@ -280,23 +277,28 @@ def photo_zoom(cams: Cameras) -> np.ndarray:
         ref.K[0][0] / max(ref.width, ref.height))
 
 
+def path_zoom(cfg: RenderConfig, cams: Cameras) -> np.ndarray | None:
+    """The photos' zooms (:func:`photo_zoom`) the path carries, or None where it keeps one
+    focal length: every path but interpolate, ``zoom`` ``fixed``, and captures whose photos'
+    fields of view lie within ZOOM_SPREAD."""
+    if cfg.zoom != "photos" or cfg.path != "interpolate" or not len(cams.frames):
+        return None
+    z = photo_zoom(cams)
+    return z if z.max() / z.min() > ZOOM_SPREAD else None
+
+
 def resolve_zoom(cfg: RenderConfig, cams: Cameras) -> RenderConfig:
-    """``cfg`` with ``zoom`` ``fixed`` where nothing would zoom: every path but interpolate,
-    and captures whose photos' fields of view lie within ZOOM_SPREAD (so their records, and
-    frames, stay those of before the option)."""
-    if cfg.zoom == "photos" and cfg.path == "interpolate" and len(cams.frames):
-        z = photo_zoom(cams)
-        if z.max() / z.min() > ZOOM_SPREAD:
-            return cfg
-    return replace(cfg, zoom="fixed")
+    """``cfg`` with ``zoom`` ``fixed`` where nothing zooms (:func:`path_zoom`), so the
+    records, and frames, of a capture at one zoom stay those of before the option."""
+    return cfg if path_zoom(cfg, cams) is not None else replace(cfg, zoom="fixed")
 
 
 def zoom_line(cfg: RenderConfig, cams: Cameras) -> str | None:
     """One line saying the interpolate path zooms with the photos (their range of fields of
     view over the reference's) and how to keep one; None where it does not zoom."""
-    if resolve_zoom(cfg, cams).zoom != "photos":
+    z = path_zoom(cfg, cams)
+    if z is None:
         return None
-    z = photo_zoom(cams)
     return (f"render interpolate: the photos were taken at several zooms (focal lengths over "
             f"the long side {z.min():.2f} to {z.max():.2f} times the reference photo's); each "
             "frame takes the field of view of the photo it passes (--zoom fixed keeps one for "
@@ -363,14 +365,7 @@ def pace_line(cfg: RenderConfig, cams: Cameras, path_cams: list,
     ``gnfr.paths.image_shift`` of ``points`` between frames, each in its own zoom, as a
     share of the width), with
     the ``--seconds`` that keeps it under CALM_PACE a second when it is over."""
-    from gnfr import paths
-
-    fov = path_fov(path_cams[0])
-    poses = np.stack([p.c2w for p in path_cams])
-    turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
-    zoom = [p.K[0][0] / path_cams[0].K[0][0] for p in path_cams]  # over the first frame's
-    shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn, zoom=zoom)
-    step = float(np.median(shifts)) / (2 * fov[0])
+    step = float(np.median(step_shares(cams, path_cams, points)))
     line = f"render interpolate: the scene moves about {step:.1%} of the frame's width a frame"
     if cfg.frames:  # the frame rate is the video's (export), not known here
         return line
@@ -380,6 +375,30 @@ def pace_line(cfg: RenderConfig, cams: Cameras, path_cams: list,
         calm = int(np.ceil(cfg.seconds * per_second / CALM_PACE))
         line += f"; for a calmer video: --seconds {calm} (more frames to render)"
     return line
+
+
+def step_shares(cams: Cameras, path_cams: list, points: np.ndarray | None) -> np.ndarray:
+    """[F - 1] how far the scene moves between a path's frames, as a share of the frame's
+    width: ``gnfr.paths.image_shift`` of ``points`` (:func:`pace_points`), each frame in its
+    own zoom (its focal length over the first frame's)."""
+    from gnfr import paths
+
+    fov = path_fov(path_cams[0])
+    poses = np.stack([p.c2w for p in path_cams])
+    turn = paths.rotation_angle(poses[:-1, :3, :3], poses[1:, :3, :3])
+    zoom = [p.K[0][0] / path_cams[0].K[0][0] for p in path_cams]
+    shifts = paths.image_shift(poses, pace_points(cams, points, fov), fov, turn, zoom=zoom)
+    return shifts / (2 * fov[0])
+
+
+def base_camera(cfg: RenderConfig, cams: Cameras, device: str):
+    """The built-in paths' camera before its pose and zoom: the reference photo's
+    (:func:`reference_frame`) intrinsics and size, resized as ``cfg`` asks
+    (:func:`resize_camera`)."""
+    from gnfr.paths import PathCamera
+
+    ref = reference_frame(cams)
+    return resize_camera(PathCamera("ref", ref.K, ref.c2w, ref.width, ref.height), cfg, device)
 
 
 def reference_frame(cams: Cameras) -> Frame:
