@@ -203,12 +203,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {args.workspace}: no cameras.json; give a posed workspace",
               file=sys.stderr)
         return 2
+    from pipeline.errors import UserError
+
     ws = Workspace(args.workspace)
-    cams = read_cameras(ws)
-    cfg = RenderConfig(path="interpolate")
-    files = path_files(ws, cams, cfg)
-    for f in files.values():
-        run(replace(cfg, path=str(f)), ws)
+    try:  # a workspace the render stage cannot render (no model, no views.json): one line
+        cams = read_cameras(ws)
+        cfg = RenderConfig(path="interpolate")
+        files = path_files(ws, cams, cfg)
+        for f in files.values():
+            run(replace(cfg, path=str(f)), ws)
+    except UserError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     rows = score(ws, cams, files, args.sheet)
     if args.frames_sheet:
         write_frames_sheet(args.frames_sheet, ws, files, rows)

@@ -627,6 +627,9 @@ def test_path_zoom_warps_a_frame_into_its_photo_and_judges_the_zoomed_photos(tmp
     assert sheet[240:, 3 * 120 + 16:].mean() < 2 < sheet[240:, :3 * 120 - 16].mean()  # padding
     assert pz.main([str(tmp_path)]) == 2
     assert "no cameras.json" in capsys.readouterr().err
+    (tmp_path / "cameras.json").write_text("{}")  # posed by hand, nothing else: one line
+    assert pz.main([str(tmp_path)]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
 
 
 def test_frames_sheet_rows_every_nth_frame_and_names_an_empty_folder(tmp_path, capsys):
