@@ -37,6 +37,10 @@ class PosedView:
     """[H, W] bool, False where the pixel must not be used (flare); None: all valid."""
     depth: np.ndarray | None = None
     """[H, W] float32 z-depth (0 = unknown), when known."""
+    deflared: np.ndarray | None = None
+    """[H, W, 3] float32 RGB 0..1: the photo with its flare region filled (the render's
+    de-flared photo, in ``image``'s geometry), where a fill may read it whole; None: not
+    loaded."""
 
     @property
     def size(self) -> tuple[int, int]:

@@ -128,6 +128,10 @@ def options_for_path(cfg: RenderConfig, key: str, cams: Cameras) -> RenderConfig
         warn("render: --from-deflared is for the video's frames; the de-flared photos are "
              "drawn from the photos")
         cfg = replace(cfg, from_deflared=False)
+    if key == "inputs" and cfg.lean_deflared:
+        warn("render: --lean-deflared is for the video's frames; the de-flared photos are "
+             "drawn from the photos")
+        cfg = replace(cfg, lean_deflared=False)
     if key == "inputs" and cfg.source_grow:
         warn("render: --source-grow is for the video's frames; the de-flared photos grow "
              "their masks by --dilate")
@@ -169,6 +173,7 @@ def record_params(cfg: RenderConfig, meta: dict, key: str, device: str, samples:
         params.pop("source_hold")
         params.pop("path_exposure")
         params.pop("from_deflared")  # they are what it reads
+        params.pop("lean_deflared")
         params.pop("source_grow")
         params.pop("network_scale")  # their GN-FR renders at their full size
     return params
@@ -199,6 +204,7 @@ def record_defaults(key: str, device: str) -> dict:
         defaults["key_spot"] = 0.0  # and before the eighty-first's lean past a twin
         defaults["unseen_below"] = 0.0  # and before the eighty-third's unseen fill
         defaults["from_deflared"] = False  # and before the eighty-eighth's options
+        defaults["lean_deflared"] = False  # and before the ninety-ninth's
         defaults["source_grow"] = 0.0
     else:  # records before the forty-fifth session hold the novel frames' network scale
         # of then, which must not make finished de-flared photos render again
@@ -237,7 +243,7 @@ def stage_inputs(ws: Workspace, cfg: RenderConfig, key: str, ckpt: Path, use_pho
     inputs += ws.depth_inputs(frames=frames_maps) if use_photos else []
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
-    inputs += [ws.deflared] if cfg.from_deflared else []
+    inputs += [ws.deflared] if cfg.from_deflared or cfg.lean_deflared else []
     return inputs
 
 
@@ -273,7 +279,8 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         require_masks(ws, [job.camera.stem for job in jobs])
     frames_maps = use_frames_maps(ws, key, use_photos)
     cfg = options_for_path(cfg, key, cams)
-    deflared_blend = require_deflared(ws, views) if cfg.from_deflared else None
+    deflared_blend = (require_deflared(ws, views, cfg)
+                      if cfg.from_deflared or cfg.lean_deflared else None)
     cfg = resolve_fill(cfg, device, novel=key != "inputs")
     warn_unshaped(cfg, key)
     from gnfr.renderer import cpu_bf16, emulated_bf16

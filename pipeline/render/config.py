@@ -356,6 +356,14 @@ class RenderConfig:
     where that photo passes the fill's occlusion test against its own depth map (off: wherever
     it sees the frame outside its flare mask; docs/history/fill.md, "The key blend's reach
     and its occlusion test")."""
+    lean_deflared: bool = option(False, flag="--lean-deflared/--no-lean-deflared")
+    """hybrid novel frames, with ``key_blend``: the photos the frame leans to (its nearest
+    and those at its spot) are read de-flared (WS/deflared, ``render --path inputs``, which
+    must be up to date; their flare regions blended in as the de-flared photos blend them),
+    flare regions included, in the photo fill too: at a photo's own camera the frame is that
+    photo's de-flared photo instead of GN-FR's render at ``network_scale`` inside its flare
+    mask (``pipeline.render.fill.lean_deflared_views``). Off: the photos as they are,
+    their flare masks respected."""
     network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth

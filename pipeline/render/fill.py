@@ -16,11 +16,14 @@ if TYPE_CHECKING:
 
 
 def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig,
-                frames: bool = False) -> dict:
+                frames: bool = False, deflared: tuple[float, float] | None = None) -> dict:
     """{stem: PosedView} (WS/images, flare masks, WS/depth or with ``frames`` the novel
     frames' WS/depth/frames) of every photo a job warps; with ``cfg.depth_min_blob`` the
     depth maps' islands under that share of the image removed
-    (``pipeline.stereo.remove_specks``, at the depth stage's plane step)."""
+    (``pipeline.stereo.remove_specks``, at the depth stage's plane step). ``deflared``: the
+    de-flared photos' blend (dilate, feather): each view also carries its de-flared photo
+    (``PosedView.deflared``, ``pipeline.render.sources.with_deflared``), for
+    ``cfg.lean_deflared``."""
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
@@ -42,7 +45,29 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
             if v.depth is not None:
                 v.depth = remove_specks(v.depth, by[s].near, by[s].far, planes,
                                         round(cfg.depth_min_blob * v.depth.size))
+    if deflared is not None:
+        from pipeline.render.sources import with_deflared
+
+        by = cams.by_stem()
+        for s, v in views.items():
+            u8 = np.clip(np.rint(v.image * 255.0), 0, 255).astype(np.uint8)
+            v.deflared = with_deflared(ws, by[s], u8, *deflared).astype(np.float32) / 255.0
     return views
+
+
+def lean_deflared_views(photos: dict, near: list[str], same_spot: float) -> dict:
+    """``photos`` with the photos a novel frame leans to (the first of ``near``, its
+    sources nearest first, and those at its spot, :func:`at_spot`) read de-flared: their
+    ``PosedView.deflared`` as the image, no flare mask (``RenderConfig.lean_deflared``);
+    a view without one is left as it is."""
+    from dataclasses import replace
+
+    if not near:
+        return photos
+    spot = at_spot([photos[s] for s in near], same_spot)
+    return {**photos, **{near[i]: replace(photos[near[i]], image=photos[near[i]].deflared,
+                                          valid=None)
+                         for i in spot if photos[near[i]].deflared is not None}}
 
 
 class HybridFill(NamedTuple):
@@ -87,6 +112,10 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     K, c2w = np.asarray(K, float), np.asarray(c2w, float)
     c = c2w[:3, 3]
     near = job.fill_order(c, lambda s: photos[s].c2w[:3, 3], photos)
+    share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0,
+                      cfg.key_power, job.same_spot) if novel else 0.0
+    if share > 0 and cfg.lean_deflared:  # the photos it leans to, de-flared
+        photos = lean_deflared_views(photos, near[:cfg.photo_sources], job.same_spot)
     if job.exposure is not None and job.photo_gains:  # the photos at the frame's exposure
         photos = at_frame_exposure(photos, near[:cfg.photo_sources + cfg.photo_fallback], job)
     srcs = [photos[s] for s in near[:cfg.photo_sources]]
@@ -118,8 +147,6 @@ def fill_from_photos(K, c2w, size, job: FrameJob, photos: dict, cfg: RenderConfi
     if close > 0:
         colour, ok = close_small_holes(colour, ok, close * max(size))
     weight = sharp_hole_weight(ok, sharp * max(size)) if sharp > 0 else support_weight(ok, 0)
-    share = key_share(c, [photos[s] for s in near], cfg.key_blend or 0.0,
-                      cfg.key_power, job.same_spot) if novel else 0.0
     if share > 0:
         spot = at_spot([photos[s] for s in near[:len(srcs)]], job.same_spot)
         colour, weight = lean_to_nearest(colour, weight,

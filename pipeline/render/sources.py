@@ -205,19 +205,23 @@ def encode_sources(model, ws: Workspace, cams: Cameras, stems: list[str], device
     return src, {s: i for i, s in enumerate(stems)}
 
 
-def require_deflared(ws: Workspace, views: ViewsFile | Mapping) -> tuple[float, float]:
+def require_deflared(ws: Workspace, views: ViewsFile | Mapping,
+                     cfg: RenderConfig | None = None) -> tuple[float, float]:
     """The de-flared photos' blend (dilate, feather) from their stage's record, for
-    ``RenderConfig.from_deflared``; a one-line error when that stage has not finished or a
-    view's de-flared photo is missing."""
+    ``RenderConfig.from_deflared`` and ``lean_deflared`` (the option ``cfg`` asks for, named
+    in the error); a one-line error when that stage has not finished or a view's de-flared
+    photo is missing."""
+    flag = ("--lean-deflared" if cfg is not None and cfg.lean_deflared and not cfg.from_deflared
+            else "--from-deflared")
     rec = ws.stage_record("render:inputs")
     fix = f"run `deflare-scene render {shell_path(ws.root)}` (--path inputs) first"
     if rec.get("status") != "complete":
-        raise UserError(f"render --from-deflared reads the de-flared photos in {ws.deflared}, "
-                        f"which are not rendered: {fix}, or drop --from-deflared")
+        raise UserError(f"render {flag} reads the de-flared photos in {ws.deflared}, "
+                        f"which are not rendered: {fix}, or drop {flag}")
     for stem in _views_file(views).views:
         if not ws.deflared_path(stem).is_file():
-            raise UserError(f"{ws.deflared_path(stem)} is missing (render --from-deflared "
-                            f"reads it): {fix}, or drop --from-deflared")
+            raise UserError(f"{ws.deflared_path(stem)} is missing (render {flag} "
+                            f"reads it): {fix}, or drop {flag}")
     params = rec.get("params", {})
     return float(params.get("dilate", 0.0)), float(params.get("feather", 0.01))
 

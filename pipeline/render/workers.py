@@ -51,8 +51,9 @@ class RenderSetup:
     gains: dict | None
     """The exposure the model was trained at (the checkpoint's ``exposure_gains``)."""
     deflared: tuple[float, float] | None = None
-    """With ``RenderConfig.from_deflared``: the de-flared photos' blend (dilate, feather),
-    by which GN-FR's sources read their flare regions from them."""
+    """With ``RenderConfig.from_deflared`` or ``lean_deflared``: the de-flared photos' blend
+    (dilate, feather), by which GN-FR's sources (``from_deflared``) or the photos a frame
+    leans to (``lean_deflared``) read their flare regions from them."""
 
     @property
     def use_photos(self) -> bool:
@@ -94,9 +95,11 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
         src, index = encode_sources(model, setup.ws, cams, setup.stems, setup.device,
                                     setup.params["source_scale"],
                                     setup.params["full_res_colour"], setup.gains,
-                                    setup.params["encode_apart"], setup.deflared,
+                                    setup.params["encode_apart"],
+                                    setup.deflared if setup.cfg.from_deflared else None,
                                     setup.cfg.source_grow)
-        photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps)
+        photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps,
+                              setup.deflared if setup.cfg.lean_deflared else None)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled
             model = torch.compile(model, dynamic=False)
