@@ -89,13 +89,16 @@ def score(ws, cams, render_dir: Path, truth: Path) -> tuple[list[dict], list]:
 
 
 def summary(rows: list[dict]) -> dict:
-    """Pooled over the flared photos: each arm's mean flare-region and whole PSNR."""
-    out = {}
+    """Over the flared photos (a clean photo's own PSNR is unbounded): each arm's mean
+    flare-region and whole PSNR, and how many photos the frame beats the de-flared photo on
+    in the flare region."""
+    flared = [r for r in rows if r["flare_share"] > 0]
+    out = {"flared_photos": len(flared),
+           "frame_higher": sum(r["frame"]["flare_psnr"] > r["deflared"]["flare_psnr"]
+                               for r in flared)}
     for arm in ("frame", "deflared", "photo"):
-        fl = [r[arm]["flare_psnr"] for r in rows if r[arm]["flare_psnr"] is not None]
-        out[arm] = {"flare_psnr_mean": round(float(np.mean(fl)), 3) if fl else None,
-                    "whole_psnr_mean": round(float(np.mean([r[arm]["whole_psnr"]
-                                                            for r in rows])), 3)}
+        out[arm] = {key + "_mean": round(float(np.mean([r[arm][key] for r in flared])), 3)
+                    if flared else None for key in ("flare_psnr", "whole_psnr")}
     return out
 
 

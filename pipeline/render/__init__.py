@@ -32,7 +32,13 @@ from pipeline.cameras import Cameras
 from pipeline.errors import shell_path
 from pipeline.options import resolve_device, validate
 from pipeline.progress import info, warn
-from pipeline.render.config import FILLS, INPUTS_MIN_BLOB, NAMED_PATHS, RenderConfig
+from pipeline.render.config import (
+    FILLS,
+    INPUTS_FRAMES,
+    INPUTS_MIN_BLOB,
+    NAMED_PATHS,
+    RenderConfig,
+)
 from pipeline.render.engine import (
     CHUNK,
     DEPTH_BAND,
@@ -163,8 +169,9 @@ def record_params(cfg: RenderConfig, meta: dict, key: str, device: str, samples:
         params.pop("pace")
         params.pop("tour")
         params.pop("zoom")
-    if key != "inputs":  # the ring check is the de-flared photos' alone
+    if key != "inputs":  # the ring check and the fill's source are the de-flared photos'
         params.pop("band_rejected")
+        params.pop("inputs_fill")
     if key == "inputs":  # the de-flared photos are no path: nothing to cross-fade, and
         params.pop("nearest_count")  # they never take themselves as a source
         params.pop("source_fade")
@@ -244,7 +251,35 @@ def stage_inputs(ws: Workspace, cfg: RenderConfig, key: str, ckpt: Path, use_pho
     inputs += [ws.decoded] if key == "inputs" else []
     inputs += [Path(cfg.path)] if key not in NAMED_PATHS else []
     inputs += [ws.deflared] if cfg.from_deflared or cfg.lean_deflared else []
+    inputs += [ws.renders / INPUTS_FRAMES] if key == "inputs" and cfg.inputs_fill == "frame" else []
     return inputs
+
+
+def render_inputs_frames(cfg: RenderConfig, ws: Workspace, cams: Cameras,
+                         force: bool = False) -> None:
+    """``RenderConfig.inputs_fill`` ``frame``: the novel frames at the flared photos' own
+    cameras (WS/renders/inputs_frames, their path WS/renders/inputs_frames.json), drawn with
+    the video's defaults (no cross-fade: they are no video) or found up to date."""
+    import json
+
+    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.workspace import atomic_write_bytes
+    from pipeline.ws_files import read_mask
+
+    flared = [f for f in cams.frames
+              if ws.mask_path(f.stem).exists() and read_mask(ws, f.stem).any()]
+    if not flared:
+        return
+    path = ws.renders / f"{INPUTS_FRAMES}.json"
+    text = json.dumps(path_to_json([PathCamera(f.stem, f.K, f.c2w, f.width, f.height)
+                                    for f in flared]), indent=1).encode()
+    if not path.is_file() or path.read_bytes() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, text)
+    info(f"render inputs: the video's frames at the {len(flared)} flared photos' cameras "
+         "first (--inputs-fill frame)")
+    run(RenderConfig(path=str(path), device=cfg.device, workers=cfg.workers,
+                     checkpoint=cfg.checkpoint, bf16=cfg.bf16, source_fade=0), ws, force)
 
 
 def render_todo(setup: RenderSetup, cams: Cameras, todo: list[FrameJob]) -> None:
@@ -272,6 +307,11 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
+    if key == "inputs" and cfg.inputs_fill == "frame":
+        if use_photos:  # the frames the de-flared photos take their fill from, first
+            render_inputs_frames(cfg, ws, cams, force)
+        else:  # GN-FR renders every pixel: there is no photo fill to replace
+            cfg = replace(cfg, inputs_fill="photos")
     if key != "inputs":  # the video's exposure glides along the path (path_exposure)
         jobs = exposure_along_path(jobs, cams, meta.get("exposure_gains"), cfg.path_exposure,
                                    cfg.photo_sources)

@@ -13,6 +13,11 @@ NAMED_PATHS = ("inputs", "interpolate", "spiral")
 FILLS = ("hybrid", "network")
 
 
+INPUTS_FRAMES = "inputs_frames"
+"""``RenderConfig.inputs_fill`` ``frame``: the novel frames at the flared photos' cameras,
+WS/renders/inputs_frames/ (their camera path WS/renders/inputs_frames.json)."""
+
+
 INPUTS_MIN_BLOB = 0.0005
 """``RenderConfig.depth_min_blob`` of the de-flared photos (`--path inputs`): chosen on fresh
 flare draws of two development scenes (docs/history/fill.md, "Specks in the sky")."""
@@ -356,6 +361,14 @@ class RenderConfig:
     where that photo passes the fill's occlusion test against its own depth map (off: wherever
     it sees the frame outside its flare mask; docs/history/fill.md, "The key blend's reach
     and its occlusion test")."""
+    inputs_fill: str = option("photos", choices=("photos", "frame"))
+    """inputs (hybrid fill): what fills a de-flared photo's flare region before the ring
+    check, the colour match and the flare layer: ``photos``, its own photo fill (the
+    neighbours warped by depth where they agree, GN-FR at full size elsewhere); ``frame``,
+    the video's frame drawn at the photo's own camera first (WS/renders/inputs_frames, the
+    novel frames' fill and options; ``pipeline.render.inputs.frame_fill``), GN-FR at full
+    size only where the ring check turns it down (docs/history/fill.md, "The de-flared
+    photos filled as the video's frame at their camera")."""
     lean_deflared: bool = option(False, flag="--lean-deflared/--no-lean-deflared")
     """hybrid novel frames, with ``key_blend``: the photos the frame leans to (its nearest
     and those at its spot) are read de-flared (WS/deflared, ``render --path inputs``, which

@@ -7,7 +7,7 @@ import numpy as np
 from pipeline.camera_models import CameraModel, warp_maps
 from pipeline.cameras import Frame
 from pipeline.errors import UserError, shell_path
-from pipeline.render.config import RenderConfig
+from pipeline.render.config import INPUTS_FRAMES, RenderConfig
 from pipeline.render.fill import fill_from_photos
 from pipeline.render.flare_layer import apply_flare_layer
 from pipeline.render.frames import to_u8
@@ -73,8 +73,12 @@ def input_photo_fill(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: di
     to the view's own clean pixels), brought to WS/decoded geometry, the ring check applied
     where there is a ``ring`` (``rejected``: the regions it turned down)."""
     frame = job.camera
-    colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w, (frame.width, frame.height),
-                                             job, photos, cfg, own_clean_pixels(ws, frame))
+    if cfg.inputs_fill == "frame":
+        colour, wgt, depth = frame_fill(ws, frame)
+    else:
+        colour, wgt, depth, _ = fill_from_photos(frame.K, frame.c2w,
+                                                 (frame.width, frame.height), job, photos,
+                                                 cfg, own_clean_pixels(ws, frame))
     colour, wgt, depth = to_decoded(frame, (photo.shape[1], photo.shape[0]), colour, wgt,
                                     depth)
     rejected = np.zeros(region.shape, bool)
@@ -82,6 +86,20 @@ def input_photo_fill(job: FrameJob, cfg: RenderConfig, ws: Workspace, photos: di
         wgt, rejected = check_on_ring(colour, wgt, photo.astype(np.float32) / 255.0, region,
                                       ring)
     return colour, wgt, depth, rejected
+
+
+def frame_fill(ws: Workspace, frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(colour, weight, depth) of an input view's fill for ``RenderConfig.inputs_fill``
+    ``frame``: the novel frame drawn at its camera (WS/renders/inputs_frames/<stem>.png,
+    resized to WS/images' size if it was drawn at another), weight 1 everywhere, no depth
+    (GN-FR samples whole rays where the ring check turns the frame down)."""
+    from pipeline.images import read_image_float
+
+    path = ws.renders / INPUTS_FRAMES / f"{frame.stem}.png"
+    colour = read_image_float(path, size=(frame.width, frame.height),
+                              fix=f"render the de-flared photos again: {ws.rerun('render')}")
+    size = colour.shape[:2]
+    return colour, np.ones(size, np.float32), np.zeros(size, np.float32)
 
 
 def network_pixels(region: np.ndarray, wgt: np.ndarray, ring: np.ndarray | None) -> np.ndarray:
