@@ -188,11 +188,15 @@ class RenderConfig:
     photo by a per-channel gain and offset fitted on the rendered pixels just outside the
     flare mask (the dilation ring, where both the render and the clean photo exist); this
     removes the fill's colour and exposure drift (docs/eval.md)."""
-    flare_layer: float = option(0.12, ge=0)
+    flare_layer: float = option(0.01, ge=0)
     """inputs (with ``blend mask``): inside the flare region keep the photo's own pixels
     minus a smooth flare layer (the photo's difference from the fill, blurred by a Gaussian
     of this fraction of the long side), so the scene's detail seen through the flare stays;
-    clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md)."""
+    clipped pixels keep the fill. 0: replace the region by the fill (docs/depth.md). 0.12
+    from the sixth session to the ninety-eighth; 0.01 since the ninety-ninth, by the rule in
+    docs/history/fill.md, "A narrow flare layer" (most of the flare's light, streaks and
+    spikes included, is coarser than 0.01 of the long side; the scene's finest texture is
+    not)."""
     flare_layer_adapt: float = option(0.0, ge=0)
     """inputs: each connected part of the flare region gets a flare layer of this many times
     its equivalent radius (at most ``flare_layer``), so a compact ghost is measured at its own
