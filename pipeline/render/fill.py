@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from pipeline.cameras import Cameras
+from pipeline.cameras import Cameras, Frame
 from pipeline.render.config import RenderConfig
 from pipeline.render.jobs import FrameJob
 from pipeline.workspace import Workspace
@@ -16,14 +17,15 @@ if TYPE_CHECKING:
 
 
 def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderConfig,
-                frames: bool = False, deflared: tuple[float, float] | None = None) -> dict:
+                frames: bool = False,
+                deflared: Callable[[Frame, np.ndarray], np.ndarray] | None = None) -> dict:
     """{stem: PosedView} (WS/images, flare masks, WS/depth or with ``frames`` the novel
     frames' WS/depth/frames) of every photo a job warps; with ``cfg.depth_min_blob`` the
     depth maps' islands under that share of the image removed
-    (``pipeline.stereo.remove_specks``, at the depth stage's plane step). ``deflared``: the
-    de-flared photos' blend (dilate, feather): each view also carries its de-flared photo
-    (``PosedView.deflared``, ``pipeline.render.sources.with_deflared``), for
-    ``cfg.lean_deflared``."""
+    (``pipeline.stereo.remove_specks``, at the depth stage's plane step). ``deflared``: a
+    view's de-flared photo from its camera and its WS/images pixels (uint8;
+    ``pipeline.render.sources.with_deflared`` at the de-flared photos' blend): each view also
+    carries it (``PosedView.deflared``), for ``cfg.lean_deflared``."""
     from pipeline.depth import DepthConfig, load_views
     from pipeline.stereo import remove_specks
 
@@ -46,12 +48,10 @@ def photo_views(ws: Workspace, cams: Cameras, jobs: list[FrameJob], cfg: RenderC
                 v.depth = remove_specks(v.depth, by[s].near, by[s].far, planes,
                                         round(cfg.depth_min_blob * v.depth.size))
     if deflared is not None:
-        from pipeline.render.sources import with_deflared
-
         by = cams.by_stem()
         for s, v in views.items():
             u8 = np.clip(np.rint(v.image * 255.0), 0, 255).astype(np.uint8)
-            v.deflared = with_deflared(ws, by[s], u8, *deflared).astype(np.float32) / 255.0
+            v.deflared = deflared(by[s], u8).astype(np.float32) / 255.0
     return views
 
 

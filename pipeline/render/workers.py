@@ -22,7 +22,7 @@ from pipeline.render.config import RenderConfig
 from pipeline.render.engine import render_jobs
 from pipeline.render.fill import photo_views
 from pipeline.render.jobs import FrameJob
-from pipeline.render.sources import encode_sources, load_model
+from pipeline.render.sources import encode_sources, load_model, with_deflared
 from pipeline.workspace import Workspace
 
 MIN_FRAMES_PER_WORKER = 2
@@ -98,8 +98,11 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
                                     setup.params["encode_apart"],
                                     setup.deflared if setup.cfg.from_deflared else None,
                                     setup.cfg.source_grow)
-        photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps,
-                              setup.deflared if setup.cfg.lean_deflared else None)
+        lean = None
+        if setup.cfg.lean_deflared and setup.deflared is not None:
+            def lean(frame, img):  # the photos a frame leans to, read de-flared
+                return with_deflared(setup.ws, frame, img, *setup.deflared)
+        photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps, lean)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled
             model = torch.compile(model, dynamic=False)
