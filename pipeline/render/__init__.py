@@ -216,6 +216,7 @@ def record_defaults(key: str, device: str) -> dict:
     else:  # records before the forty-fifth session hold the novel frames' network scale
         # of then, which must not make finished de-flared photos render again
         defaults["network_scale"] = 1.0 if device.startswith("cuda") else 0.25
+        defaults["inputs_fill"] = "photos"  # and before the ninety-ninth's frame fill
     return defaults
 
 
@@ -253,6 +254,17 @@ def stage_inputs(ws: Workspace, cfg: RenderConfig, key: str, ckpt: Path, use_pho
     inputs += [ws.deflared] if cfg.from_deflared or cfg.lean_deflared else []
     inputs += [ws.renders / INPUTS_FRAMES] if key == "inputs" and cfg.inputs_fill == "frame" else []
     return inputs
+
+
+def resolve_inputs_fill(cfg: RenderConfig, device: str, use_photos: bool) -> str:
+    """``cfg.inputs_fill`` as the de-flared photos apply it: ``photos`` where GN-FR renders
+    every pixel (no photo fill to replace); where not given, ``frame`` on the CPU and
+    ``photos`` on CUDA (not measured there)."""
+    if not use_photos:
+        return "photos"
+    if cfg.inputs_fill is not None:
+        return cfg.inputs_fill
+    return "photos" if device.startswith("cuda") else "frame"
 
 
 def render_inputs_frames(cfg: RenderConfig, ws: Workspace, cams: Cameras,
@@ -307,11 +319,10 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
              "renders every pixel")
         cfg = replace(cfg, fill="network")
     key, out_dir, jobs = plan_jobs(cfg, ws, cams, views, device)
-    if key == "inputs" and cfg.inputs_fill == "frame":
-        if use_photos:  # the frames the de-flared photos take their fill from, first
+    if key == "inputs":  # the frames the de-flared photos take their fill from, first
+        cfg = replace(cfg, inputs_fill=resolve_inputs_fill(cfg, device, use_photos))
+        if cfg.inputs_fill == "frame":
             render_inputs_frames(cfg, ws, cams, force)
-        else:  # GN-FR renders every pixel: there is no photo fill to replace
-            cfg = replace(cfg, inputs_fill="photos")
     if key != "inputs":  # the video's exposure glides along the path (path_exposure)
         jobs = exposure_along_path(jobs, cams, meta.get("exposure_gains"), cfg.path_exposure,
                                    cfg.photo_sources)

@@ -365,14 +365,16 @@ class RenderConfig:
     where that photo passes the fill's occlusion test against its own depth map (off: wherever
     it sees the frame outside its flare mask; docs/history/fill.md, "The key blend's reach
     and its occlusion test")."""
-    inputs_fill: str = option("photos", choices=("photos", "frame"))
+    inputs_fill: str | None = option(None, choices=("photos", "frame"))
     """inputs (hybrid fill): what fills a de-flared photo's flare region before the ring
     check, the colour match and the flare layer: ``photos``, its own photo fill (the
     neighbours warped by depth where they agree, GN-FR at full size elsewhere); ``frame``,
     the video's frame drawn at the photo's own camera first (WS/renders/inputs_frames, the
     novel frames' fill and options; ``pipeline.render.inputs.frame_fill``), GN-FR at full
     size only where the ring check turns it down (docs/history/fill.md, "The de-flared
-    photos filled as the video's frame at their camera")."""
+    photos filled as the video's frame at their camera"). Default: ``frame`` on the CPU
+    since the ninety-ninth session (docs/history/fill.md, "A narrow flare layer"),
+    ``photos`` on CUDA (not measured there); ``photos`` where GN-FR renders every pixel."""
     lean_deflared: bool = option(False, flag="--lean-deflared/--no-lean-deflared")
     """hybrid novel frames, with ``key_blend``: the photos the frame leans to (its nearest
     and those at its spot) are read de-flared (WS/deflared, ``render --path inputs``, which

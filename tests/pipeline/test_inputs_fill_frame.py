@@ -38,7 +38,21 @@ def test_the_deflared_photo_takes_the_frame_at_its_camera_as_its_fill(hws, capsy
     inner = (slice(HYBRID_BOX[0].start + 4, HYBRID_BOX[0].stop - 4),
              slice(HYBRID_BOX[1].start + 4, HYBRID_BOX[1].stop - 4))
     assert np.abs(out[inner] - want[inner]).mean() <= 4  # up to the ring's colour match
-    run(RenderConfig(path="inputs", flare_layer=0.0), hws)  # the photo fill, as before
+    run(RenderConfig(path="inputs", inputs_fill="photos", flare_layer=0.0), hws)  # as before
     assert hws.stage_record("render:inputs")["params"]["inputs_fill"] == "photos"
     plain = read_image(hws.deflared_path(HYBRID_FLARED)).astype(int)
     assert np.abs(plain[inner] - want[inner]).mean() > 20
+
+
+def test_the_frame_fill_is_the_cpu_default_where_there_is_a_photo_fill(hws, rws):
+    from pipeline.render import RenderConfig, record_defaults, resolve_inputs_fill, run
+
+    assert resolve_inputs_fill(RenderConfig(), "cpu", True) == "frame"
+    assert resolve_inputs_fill(RenderConfig(), "cuda", True) == "photos"  # not measured
+    assert resolve_inputs_fill(RenderConfig(inputs_fill="photos"), "cpu", True) == "photos"
+    assert resolve_inputs_fill(RenderConfig(inputs_fill="frame"), "cpu", False) == "photos"
+    assert record_defaults("inputs", "cpu")["inputs_fill"] == "photos"  # older records
+    run(RenderConfig(path="inputs"), hws, force=True)
+    assert hws.stage_record("render:inputs")["params"]["inputs_fill"] == "frame"
+    run(RenderConfig(path="inputs"), rws, force=True)  # no depth maps: GN-FR draws it all
+    assert rws.stage_record("render:inputs")["params"]["inputs_fill"] == "photos"
