@@ -27,7 +27,8 @@ def test_hybrid_inputs_fill_the_flare_region_from_the_photos(hws, counters):
     from pipeline.render import RenderConfig, blend_weights, decoded_camera, flare_mask_in, run
 
     rays, _ = counters
-    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", color_match=False, flare_layer=0), hws)
+    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", color_match=False,
+                     flare_layer=0), hws)
     f = load_cameras(hws.cameras_json).by_stem()[HYBRID_FLARED]
     got = cv2.imread(str(hws.deflared / f"{HYBRID_FLARED}.png")).astype(int)
     orig = cv2.imread(str(hws.decoded / f"{HYBRID_FLARED}.png")).astype(int)
@@ -80,7 +81,8 @@ def test_novel_frames_warp_through_the_frames_maps_and_the_inputs_through_ws_dep
     atomic_write_json(path, path_to_json([PathCamera("v", f.K, f.c2w, f.width, f.height)]))
     orig = cv2.imread(str(ws.images / f"{f.stem}.png")).astype(int)
     inner = (slice(12, -12), slice(12, -12))
-    inputs = RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", color_match=False, flare_layer=0)
+    inputs = RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", color_match=False,
+                          flare_layer=0)
     frames, deflared = {}, {}
     for maps in ("frames", "depth"):
         if maps == "depth":
@@ -171,7 +173,8 @@ def test_band_rejected_decides_the_band_where_the_ring_check_turns_the_photos_do
     split = engine.split_guided
     monkeypatch.setattr(engine, "split_guided", spy)
     monkeypatch.setattr(inputs, "RING_TOLERANCE", -1.0)
-    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", band_rejected=band), hws, force=True)
+    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", band_rejected=band), hws,
+        force=True)
     assert len(seen) == 1  # the one flared photo renders rays
     assert (seen[0] > 0) == band, seen
     assert hws.stage_record("render:inputs")["params"]["band_rejected"] is band
@@ -327,7 +330,8 @@ def test_key_occlusion_without_a_key_blend_says_it_does_nothing(hws, capsys):
     the blend they are recorded."""
     from pipeline.render import RenderConfig, run
 
-    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", key_occlusion=True, novel_agree=0.2), hws)
+    run(RenderConfig(path="inputs", fill="hybrid", inputs_fill="photos", key_occlusion=True,
+                     novel_agree=0.2), hws)
     err = capsys.readouterr().err
     assert "--key-occlusion does nothing without the key blend" in err
     assert "the de-flared photos have none" in err
