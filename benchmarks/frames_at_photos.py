@@ -30,12 +30,10 @@ sys.path.insert(0, str(ROOT))
 
 def path_file(ws, cams, name: str) -> Path:
     """WS/<name>.json: one frame at each photo's camera, named by its stem."""
-    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.render.frames import photos_path
 
-    pcs = [PathCamera(f.stem, np.asarray(f.K), np.asarray(f.c2w), f.width, f.height)
-           for f in cams.frames]
     out = ws.root / f"{name}.json"
-    out.write_text(json.dumps(path_to_json(pcs)))
+    out.write_text(json.dumps(photos_path(cams.frames)))
     return out
 
 

@@ -274,7 +274,7 @@ def render_inputs_frames(cfg: RenderConfig, ws: Workspace, cams: Cameras,
     the video's defaults (no cross-fade: they are no video) or found up to date."""
     import json
 
-    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.render.frames import photos_path
     from pipeline.workspace import atomic_write_bytes
     from pipeline.ws_files import read_mask
 
@@ -283,8 +283,7 @@ def render_inputs_frames(cfg: RenderConfig, ws: Workspace, cams: Cameras,
     if not flared:
         return
     path = ws.renders / f"{INPUTS_FRAMES}.json"
-    text = json.dumps(path_to_json([PathCamera(f.stem, f.K, f.c2w, f.width, f.height)
-                                    for f in flared]), indent=1).encode()
+    text = json.dumps(photos_path(flared), indent=1).encode()
     if not path.is_file() or path.read_bytes() != text:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(path, text)

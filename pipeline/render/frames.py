@@ -92,6 +92,14 @@ def clear_frames(out_dir: Path) -> None:
                 p.unlink()
 
 
+def photos_path(frames: list) -> dict:
+    """The JSON camera path (docs/camera_paths.md) with a frame at each of ``frames``' cameras
+    (``pipeline.cameras.Frame``: its own intrinsics and size), each named by its stem."""
+    from gnfr.paths import PathCamera, path_to_json
+
+    return path_to_json([PathCamera(f.stem, f.K, f.c2w, f.width, f.height) for f in frames])
+
+
 def write_path_cameras(out_dir: Path, jobs: list[FrameJob]) -> None:
     """``out_dir/cameras.json`` (``PATH_CAMERAS_FILE``): the novel jobs' cameras in the JSON
     path format (docs/camera_paths.md), each frame with its sources and near / far (and the
