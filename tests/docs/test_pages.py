@@ -384,9 +384,9 @@ def test_crosscheck_photo_rule_numbers_agree_with_the_judge():
 
 def test_readme_sample_flare_gain_per_view():
     """The README: the sample's mean flare-region gain and its per-view range, from the run its
-    Results table quotes (the eighty-fifth session's); the README's notes until the
+    Results table quotes (the hundredth session's); the README's notes until the
     ninety-second session (docs/eval.md) quoted the thirty-sixth session's run."""
-    for f, text in (("sample_oneshot_cpu_s85_head.json", page_text("README.md")),
+    for f, text in (("sample_oneshot_cpu_s100_head.json", page_text("README.md")),
                     ("sample_oneshot_cpu_s36_ghosts.json", readme_notes())):
         views = result(f)["views"]
         gains = [v["psnr_flare"] - v["psnr_flare_input"] for v in views.values()]

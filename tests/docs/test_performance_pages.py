@@ -195,10 +195,16 @@ def test_readme_sample_row_is_todays_run_and_the_rounding_paths_its_files():
     assert f"{s79['mean']['psnr_flare']:.2f} / {s79['mean']['psnr']:.2f}" in rows
     # the row since the eighty-fifth session (the fine-tune pads the portrait photo); that
     # session's first commit, run just before on its machine, repeats the s79 clone exactly
-    today = result("sample_oneshot_cpu_s85_head.json")
+    s85 = result("sample_oneshot_cpu_s85_head.json")
     first = result("sample_oneshot_cpu_s85_313090a.json")
     assert first["code"]["commit"].startswith("313090a") and first["mean"] == s79["mean"]
-    assert today["machine"]["platform"] == first["machine"]["platform"]
+    assert s85["machine"]["platform"] == first["machine"]["platform"]
+    assert f"{s85['mean']['psnr_flare']:.2f} / {s85['mean']['psnr']:.2f}" in rows
+    # the row since the hundredth session: a fresh clone at the ninety-ninth session's
+    # defaults, which repeats that session's run at fbf5dc8 to the digit
+    today = result("sample_oneshot_cpu_s100_head.json")
+    assert today["code"]["commit"].startswith("7e39685")
+    assert today["mean"] == result("sample_oneshot_cpu_s99.json")["mean"]
     assert (f"(the main job above) | {today['mean']['psnr_flare']:.2f} / "
             f"{today['mean']['psnr']:.2f} |") in readme
     assert f"{today['mean']['psnr_flare']:.2f} / {today['mean']['psnr']:.2f}" in rows
@@ -368,6 +374,24 @@ def test_slower_machine_oneshot_is_its_file():
     assert "22:32 on the slower machine" in page_text("README.md")
 
 
+def test_readme_sample_time_today_is_the_paired_idle_runs():
+    """README, "Run the main job": today's wall time and the run before the ninety-ninth
+    session's defaults are the hundredth session's paired idle one-shots as
+    docs/results/README.md records them, and the added stage's seconds are its file's."""
+    (head, before), _ = recorded_walls(r"\| `sample_oneshot_cpu_s100_head\.json`")
+    head_run = result("sample_oneshot_cpu_s100_head.json")
+    before_run = result("sample_oneshot_cpu_s100_cda7581.json")
+    assert before_run["code"]["commit"].startswith("cda7581")
+    assert "render:inputs_frames" in head_run["stages"]
+    assert "render:inputs_frames" not in before_run["stages"]
+    added = head_run["stages"]["render:inputs_frames"]["seconds"]
+    readme = " ".join(page_text("README.md").split())
+    assert (f"at today's code {clock(head)} on an idle machine of that kind (the hundredth "
+            f"session), against {clock(before)} for the code before the ninety-ninth "
+            f"session's defaults run just after it, of which {added:.0f} s are the frames") \
+        in readme
+
+
 def test_readme_sample_time_is_the_recent_runs():
     """README, "Run the main job": the range of the sample's wall times and the largest peak
     are the eightieth to eighty-seventh sessions' one-shots as docs/results/README.md records
@@ -447,8 +471,8 @@ def test_performance_apart_timing_rerun_is_its_file():
 
 def test_the_sample_in_fp32_on_a_cpu_without_native_bf16_is_its_file():
     """docs/eval.md: the ninety-second session's one-shot on a CPU without native bf16 trained
-    in fp32 (its model's record), at 5b95ea5, and scored what the page says; the README's row
-    is the eighty-fifth session's, trained in bf16."""
+    in fp32 (its model's record), at 5b95ea5, and scored what the page says against the
+    eighty-fifth session's run, trained in bf16 (the README's row until the hundredth)."""
     fp32 = result("sample_oneshot_cpu_s92_fp32.json")
     row = result("sample_oneshot_cpu_s85_head.json")
     assert fp32["model"]["provenance"]["train"]["cpu_bf16"] is False
@@ -458,7 +482,8 @@ def test_the_sample_in_fp32_on_a_cpu_without_native_bf16_is_its_file():
     f, r = fp32["mean"], row["mean"]
     assert f["psnr_flare_input"] == r["psnr_flare_input"]  # the same photos
     assert (f"scored {f['psnr_flare']:.2f} / {f['psnr']:.2f} dB (flare region / whole; "
-            f"`docs/results/sample_oneshot_cpu_s92_fp32.json`) against the row's "
+            f"`docs/results/sample_oneshot_cpu_s92_fp32.json`) against the eighty-fifth "
+            f"session's bf16 run's "
             f"{r['psnr_flare']:.2f} / {r['psnr']:.2f}") in page_text("docs/eval.md")
 
 
