@@ -208,7 +208,7 @@ def keys_path_json(synth: Path, ws: Path) -> Path:
     """WS/eval/input_cameras.json: the synth scene's training cameras as a novel path, the
     keys the video passes through (a frame at each photo's position, drawn as novel frames
     are), written once."""
-    from gnfr.paths import PathCamera, path_to_json
+    from pipeline.render.frames import photos_path
     from pipeline.workspace import atomic_write_json
     from workflows.research.eval.scene import load_synth
 
@@ -217,9 +217,7 @@ def keys_path_json(synth: Path, ws: Path) -> Path:
         scene = load_synth(synth)
         by_stem = scene.cams.by_stem()
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_json(path, path_to_json([
-            PathCamera(s, by_stem[s].K, by_stem[s].c2w, by_stem[s].width, by_stem[s].height)
-            for s in scene.train]))
+        atomic_write_json(path, photos_path([by_stem[s] for s in scene.train]))
     return path
 
 

@@ -650,3 +650,27 @@ def test_frames_sheet_rows_every_nth_frame_and_names_an_empty_folder(tmp_path, c
     (tmp_path / "empty").mkdir()
     with pytest.raises(SystemExit, match="empty: no frames"):
         fs.main([str(tmp_path / "empty"), "--out", str(tmp_path / "t.jpg")])
+
+
+def test_fmg_photo_ab_keys_path_is_the_training_cameras_written_once(tmp_path):
+    """fmg_photo_ab.py --keys: WS/eval/input_cameras.json holds one frame at each training
+    photo's camera of the synth scene (the shipped sample's truth), in split order, with that
+    camera's intrinsics, pose and size; a second call keeps the file as it is."""
+    from gnfr.paths import path_from_json
+    from workflows.research.eval.scene import load_synth
+
+    bench = load_benchmark("fmg_photo_ab")
+    synth = Path(__file__).resolve().parents[2] / "samples" / "cyprus_truth"
+    path = bench.keys_path_json(synth, tmp_path)
+    assert path == tmp_path / "eval" / "input_cameras.json"
+    scene = load_synth(synth)
+    cams = path_from_json(json.loads(path.read_text()))
+    assert [c.name for c in cams] == scene.train and len(cams) == 8
+    by_stem = scene.cams.by_stem()
+    for c in cams:
+        f = by_stem[c.name]
+        assert np.allclose(c.K, f.K) and np.allclose(c.c2w, f.c2w)
+        assert (c.width, c.height) == (f.width, f.height)
+    path.write_text(path.read_text().replace("\n", " ") + " ")
+    kept = path.read_text()
+    assert bench.keys_path_json(synth, tmp_path).read_text() == kept
