@@ -142,8 +142,8 @@ def run_all(cfg: OneShotConfig) -> Path:
     finetune.run(stages["finetune"], ws, force=force)
     # the de-flared photos first (the video's frames may read them), without the options
     # that are the frames' alone
-    render.run(replace(stages["render"], path="inputs", from_deflared=False, source_grow=0.0),
-               ws, force=force)
+    render.run(replace(stages["render"], path="inputs", from_deflared=False,
+                       lean_deflared=False, source_grow=0.0), ws, force=force)
     render.run(stages["render"], ws, force=force)
     path = Path(stages["render"].path).stem
     written = export.run(replace(stages["export"], path=path), ws, force=force)

@@ -290,7 +290,49 @@ def render_inputs_frames(cfg: RenderConfig, ws: Workspace, cams: Cameras,
     info(f"render inputs: the video's frames at the {len(flared)} flared photos' cameras "
          "first (--inputs-fill frame)")
     run(RenderConfig(path=str(path), device=cfg.device, workers=cfg.workers,
-                     checkpoint=cfg.checkpoint, bf16=cfg.bf16, source_fade=0), ws, force)
+                     checkpoint=cfg.checkpoint, bf16=cfg.bf16, source_fade=0,
+                     lean_deflared=False), ws, force)  # they are what the video leans to
+
+
+def deflared_up_to_date(ws: Workspace, views, ckpt: Path) -> bool:
+    """Whether WS/deflared is the render stage's finished ``--path inputs`` for today's
+    inputs (the cameras, views, photos, masks, depth maps, decoded photos and ``ckpt``, as
+    that stage digests them), every view's file there: what a frame leaning to the
+    de-flared photos reads."""
+    from pipeline.workspace import digest_paths
+
+    rec = ws.stage_record("render:inputs")
+    if rec.get("status") != "complete":
+        return False
+    if not all(ws.deflared_path(stem).is_file() for stem in views.views):
+        return False
+    params = rec.get("params", {})
+    was = replace(RenderConfig(), path="inputs", lean_deflared=False,
+                  inputs_fill=params.get("inputs_fill", "photos"))
+    use_photos = params.get("fill", "hybrid") == "hybrid" and ws.depth.is_dir()
+    inputs = stage_inputs(ws, was, "inputs", ckpt, use_photos, frames_maps=False)
+    return digest_paths(inputs, ws.root) == rec.get("inputs_digest")
+
+
+def resolve_lean(cfg: RenderConfig, ws: Workspace, views, ckpt: Path, key: str,
+                 device: str) -> RenderConfig:
+    """``cfg.lean_deflared`` as a novel path applies it (``cfg``'s fill resolved): where not
+    given, on for the CPU's hybrid frames with the key blend where the de-flared photos are
+    up to date (``deflared_up_to_date``; a line says how to get them where they are not),
+    off on CUDA and where no photo is leaned to; the de-flared photos never lean."""
+    if key == "inputs":
+        return replace(cfg, lean_deflared=False)
+    if cfg.lean_deflared is not None:
+        return cfg
+    if device.startswith("cuda") or cfg.fill != "hybrid" or not cfg.key_blend:
+        return replace(cfg, lean_deflared=False)
+    if deflared_up_to_date(ws, views, ckpt):
+        return replace(cfg, lean_deflared=True)
+    info(f"render {key}: the de-flared photos are not up to date, so at the photos' cameras "
+         "the frames show GN-FR's fill inside the flare, not the de-flared photos'; "
+         f"`deflare-scene render {shell_path(ws.root)} --path inputs` first makes them lean "
+         "to those (--no-lean-deflared: never)")
+    return replace(cfg, lean_deflared=False)
 
 
 def render_todo(setup: RenderSetup, cams: Cameras, todo: list[FrameJob]) -> None:
@@ -329,9 +371,10 @@ def run(cfg: RenderConfig, ws: Workspace, force: bool = False) -> list[Path]:
         require_masks(ws, [job.camera.stem for job in jobs])
     frames_maps = use_frames_maps(ws, key, use_photos)
     cfg = options_for_path(cfg, key, cams)
+    cfg = resolve_fill(cfg, device, novel=key != "inputs")
+    cfg = resolve_lean(cfg, ws, views, ckpt, key, device)
     deflared_blend = (require_deflared(ws, views, cfg)
                       if cfg.from_deflared or cfg.lean_deflared else None)
-    cfg = resolve_fill(cfg, device, novel=key != "inputs")
     warn_unshaped(cfg, key)
     from gnfr.renderer import cpu_bf16, emulated_bf16
 

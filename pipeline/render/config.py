@@ -375,14 +375,17 @@ class RenderConfig:
     photos filled as the video's frame at their camera"). Default: ``frame`` on the CPU
     since the ninety-ninth session (docs/history/fill.md, "A narrow flare layer"),
     ``photos`` on CUDA (not measured there); ``photos`` where GN-FR renders every pixel."""
-    lean_deflared: bool = option(False, flag="--lean-deflared/--no-lean-deflared")
+    lean_deflared: bool | None = option(None, flag="--lean-deflared/--no-lean-deflared")
     """hybrid novel frames, with ``key_blend``: the photos the frame leans to (its nearest
     and those at its spot) are read de-flared (WS/deflared, ``render --path inputs``, which
     must be up to date; their flare regions blended in as the de-flared photos blend them),
     flare regions included, in the photo fill too: at a photo's own camera the frame is that
     photo's de-flared photo instead of GN-FR's render at ``network_scale`` inside its flare
     mask (``pipeline.render.fill.lean_deflared_views``). Off: the photos as they are,
-    their flare masks respected."""
+    their flare masks respected. Default: on for the CPU's hybrid frames with the key blend
+    where the de-flared photos are up to date (a line says so where they are not), off
+    otherwise (docs/history/fill.md, "The frames at the photos lean to the de-flared
+    photos, again"); the frames the de-flared photos take as their fill never lean."""
     network_depth: str | None = option(None, choices=("off", "holes", "all"))
     """hybrid novel frames: GN-FR renders every pixel at ``network_scale`` with its depth
     first, and the photos are warped through that depth: ``holes``, where the photos' depth

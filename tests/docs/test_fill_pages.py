@@ -674,3 +674,47 @@ def test_key_spot_rule_table_and_default_are_the_judgments():
     assert (f"its frames at the photos' cameras move {n2['keys']['psnr']:.2f} -> "
             f"{ks['keys']['psnr']:.2f} dB, the flare region {n2['keys']['psnr_flare']:.2f} -> "
             f"{ks['keys']['psnr_flare']:.2f}") in flat
+
+
+def test_lean_deflared_rule_of_the_hundredth_session_is_its_judgements():
+    """docs/history/fill.md, "The frames at the photos lean to the de-flared photos, again":
+    its table is the two judge files (both pass, at 7e39685), the judges recomputed from the
+    committed arm files give the same means, docs/depth.md quotes the same numbers, and the
+    option's default is unset (resolved on at render time, on the CPU)."""
+    from dataclasses import fields
+
+    from pipeline.render.config import RenderConfig
+    from tests.conftest import load_benchmark
+
+    fill = " ".join(page_text("docs/history/fill.md").split())
+    j, g = result("keys_judge_lean_s100.json"), result("keys_guard_lean_s100.json")
+    assert j["rule"] == "keys" and j["seeds"] == [42, 43] and j["decision"] == "passes"
+    assert g["rule"] == "keys-guard" and g["seeds"] == [42] and g["decision"] == "passes"
+    assert j["code"]["commit"].startswith("7e39685") and not j["code"]["dirty"]
+
+    def cell(d):
+        return f"{d['keys']:+.2f} / {d['keys_flare']:+.2f} / {d['held']:+.3f}"
+
+    row = ("| `s100_lean` | " + " | ".join(cell(d) for d in j["per_scene"].values())
+           + f" | {cell(j['mean'])} | "
+           + " | ".join(cell(d) for d in g["per_scene"].values()) + f" | {cell(g['mean'])} |")
+    assert row in fill
+    ab = load_benchmark("fmg_photo_ab")
+    for saved, scenes in ((j, ["sceaux_p4", "et_p5", "lund_k4"]), (g, ["sceaux", "et", "lund"])):
+        again = ab.judge(RESULTS, "s100_lean", "s100_base", scenes, saved["seeds"],
+                         rule=saved["rule"])
+        assert again["decision"] == saved["decision"]
+        assert again["mean"] == pytest.approx(saved["mean"])
+    for scene in ("sceaux_p4", "et_p5", "lund_k4"):  # "every build and seed higher"
+        for seed in (42, 43):
+            pair = [result(f"fmg_s100_{a}_fair_{scene}_s{seed}.json")["keys"]["psnr"]
+                    for a in ("base", "lean")]
+            assert pair[1] > pair[0], (scene, seed)
+    m, gm = j["mean"], g["mean"]
+    depth = " ".join(page_text("docs/depth.md").split())
+    assert (f"cameras {m['keys']:+.2f} dB on three flared development builds over two seeds "
+            f"(every build and seed higher), their flare region {m['keys_flare']:+.2f}, the "
+            f"held-out views {m['held']:+.3f}; on the every-kind builds {gm['keys']:+.2f} / "
+            f"{gm['keys_flare']:+.2f} / {gm['held']:+.3f}") in depth
+    field = {f.name: f for f in fields(RenderConfig)}["lean_deflared"]
+    assert field.default is None

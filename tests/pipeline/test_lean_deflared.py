@@ -73,7 +73,7 @@ def test_a_frame_at_a_flared_photo_shows_its_deflared_photo(hws, tmp_path, capsy
         # here a few levels)
         assert np.abs(on[inner] - want[inner]).mean() <= 5
         assert np.abs(on[inner] - want[inner]).max() <= 12
-        run(RenderConfig(path=str(p)), hws)  # off: renders again, the photos as they are
+        run(RenderConfig(path=str(p), lean_deflared=False), hws)  # off: the photos as they are
         off = read_image(hws.render_dir(str(p)) / "at.png").astype(int)
         assert hws.stage_record("render:at_photo")["params"]["lean_deflared"] is False
         assert np.abs(off[inner] - want[inner]).mean() > 20  # the others' view, not the fill
@@ -99,3 +99,48 @@ def test_lean_deflared_needs_the_deflared_photos_and_is_not_for_them(hws, tmp_pa
     run(RenderConfig(path="inputs", lean_deflared=True), hws)  # for the frames only: ignored
     assert "--lean-deflared is for the video's frames" in capsys.readouterr().err
     assert "lean_deflared" not in hws.stage_record("render:inputs")["params"]
+
+
+def test_the_default_leans_where_the_deflared_photos_are_up_to_date(hws, tmp_path, capsys):
+    """Not given, the CPU's frames lean to the de-flared photos when those are the finished
+    render of today's inputs; after a mask changes they are not, and the frames read the
+    photos as they are, with a line saying how to bring them up to date. CUDA has no key
+    blend and never leans; the de-flared photos never lean, nor do the frames they take
+    as their fill."""
+    import shutil
+
+    from pipeline.render import RenderConfig, deflared_up_to_date, resolve_lean, run
+    from pipeline.workspace import Workspace
+    from pipeline.ws_files import read_views
+
+    ws = Workspace(shutil.copytree(hws.root, tmp_path / "ws"))
+    run(RenderConfig(path="inputs"), ws)
+    frames = ws.stage_record("render:inputs_frames")["params"]
+    assert frames["lean_deflared"] is False  # the fill's own frames: drawn from the photos
+    p = _one_frame_path(ws, tmp_path, HYBRID_FLARED)
+    run(RenderConfig(path=str(p)), ws)
+    assert ws.stage_record("render:at_photo")["params"]["lean_deflared"] is True
+    ckpt = ws.model_file
+    views = read_views(ws)
+    assert deflared_up_to_date(ws, views, ckpt)
+    cfg = RenderConfig(path=str(p), fill="hybrid", key_blend=0.5)
+    assert resolve_lean(cfg, ws, views, ckpt, "at_photo", "cpu").lean_deflared is True
+    assert resolve_lean(cfg, ws, views, ckpt, "at_photo", "cuda:0").lean_deflared is False
+    assert resolve_lean(cfg, ws, views, ckpt, "inputs", "cpu").lean_deflared is False
+    assert resolve_lean(replace_key(cfg, 0.0), ws, views, ckpt, "at_photo",
+                        "cpu").lean_deflared is False
+    mask = cv2.imread(str(ws.mask_path(HYBRID_FLARED)), cv2.IMREAD_UNCHANGED)
+    mask[0, 0] = 255 - mask[0, 0]  # the masks changed since the de-flared photos
+    cv2.imwrite(str(ws.mask_path(HYBRID_FLARED)), mask)
+    assert not deflared_up_to_date(ws, views, ckpt)
+    capsys.readouterr()
+    run(RenderConfig(path=str(p)), ws)
+    assert ws.stage_record("render:at_photo")["params"]["lean_deflared"] is False
+    err = capsys.readouterr().err
+    assert "the de-flared photos are not up to date" in err and "--path inputs" in err
+
+
+def replace_key(cfg, key_blend: float):
+    from dataclasses import replace
+
+    return replace(cfg, key_blend=key_blend)
