@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from tests.conftest import load_benchmark
 from tests.docs.numbers import (
     REPO,
@@ -266,7 +268,7 @@ def test_goals_page_rows_follow_their_files():
         assert f"{before['psnr']:.2f}" in text, scene  # "before it"
         assert f"{m['gnfr']['heldout']['psnr']:.2f}" in text, scene  # "before those"
     readme = page_text("README.md")
-    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s90.json")["methods"] for s in ("kermit", "cyprus"))
+    k, c = (load(f"{s}_synth_gnfr_gnt_cpu_s100.json")["methods"] for s in ("kermit", "cyprus"))
     ahead = c["gnfr"]["heldout"]["psnr"] - c["gnt"]["heldout"]["psnr"]
     behind = k["gnt"]["heldout"]["psnr"] - k["gnfr"]["heldout"]["psnr"]
     assert (f"GN-FR is {ahead:.2f} dB ahead of vanilla GNT on cyprus and {behind:.2f} dB "
@@ -844,3 +846,38 @@ def test_the_test_scenes_after_the_refactors_are_the_ninety_third_sessions():
         assert _scores(new[part]["methods"]) == _scores(old[part]["methods"]), part
     assert '"cpu_bf16": true' not in json.dumps(new)
     assert "fern_llff_quick_cpu_s96_fp32.json" in section
+
+
+def test_test_scenes_at_the_ninety_ninth_sessions_defaults_are_their_files():
+    """docs/eval.md and the README: the hundredth session's kermit and cyprus evals (seed 0,
+    7e39685) and the same models' de-flared photos at the old defaults (the fill from the
+    photos, the 0.12 layer) scored alike: the table's cells, the margins and what the
+    defaults did to them."""
+    text = " ".join(page_text("docs/eval.md").split())
+    readme = " ".join(page_text("README.md").split())
+    new_margins, old_margins = [], []
+    for scene in ("kermit", "cyprus"):
+        d = result(f"{scene}_synth_gnfr_gnt_cpu_s100.json")
+        assert d["provenance"]["code"]["commit"].startswith("7e39685")
+        m = d["methods"]
+        a, b = m["gnfr"]["inputs"], m["gnt"]["inputs"]
+        before = s90_methods(f"{scene}_synth_gnfr_gnt_cpu_s90.json")
+        was = before["gnfr"]["inputs"]["psnr_flare"] - before["gnt"]["inputs"]["psnr_flare"]
+        assert (f"| {scene} | {a['psnr_flare']:.2f} / {a['psnr']:.2f} | {b['psnr_flare']:.2f} "
+                f"/ {b['psnr']:.2f} | {a['psnr_flare'] - b['psnr_flare']:+.2f} | {was:+.2f} |"
+                ) in text, scene
+        pair = {(v, w): result(f"defaults_pair_{scene}_{v}_{w}_s100.json")["mean"]["psnr_flare"]
+                for v in ("gnfr", "gnt") for w in ("old", "new")}
+        # the pair's "new" is the eval's own de-flared photos, scored alike
+        assert pair[("gnfr", "new")] == pytest.approx(a["psnr_flare"], abs=1e-6)
+        assert pair[("gnt", "new")] == pytest.approx(b["psnr_flare"], abs=1e-6)
+        old = pair[("gnfr", "old")] - pair[("gnt", "old")]
+        assert (f"{pair[('gnfr', 'old')]:.2f} and GNT {pair[('gnt', 'old')]:.2f} on {scene} "
+                f"(margin {old:+.2f})" in text) or (
+            f"GN-FR {pair[('gnfr', 'old')]:.2f} and GNT {pair[('gnt', 'old')]:.2f} on {scene} "
+            f"({old:+.2f})" in text), scene
+        new_margins.append(a["psnr_flare"] - b["psnr_flare"])
+        old_margins.append(old)
+    assert (f"worth {new_margins[0]:+.2f} and {new_margins[1]:+.2f} dB in the flare region over "
+            "vanilla GNT on kermit and cyprus at 7e39685") in readme
+    assert f"at the old defaults: {old_margins[0]:+.2f} and {old_margins[1]:+.2f};" in readme

@@ -43,7 +43,7 @@ CHECKS = [
     *[("gnfr/weights/gnfr.md", f, f"clean/methods/gnfr_hybrid/heldout/{m}",
        "{:.2f}" if m == "psnr" else "{:.3f}")
       for f in (FERN4, "fern_llff_paper_cuda_h100_ptp5000.json") for m in ("psnr", "ssim")],
-    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s90.json", f"methods/{m}/inputs/{k}", "{:.2f}")
+    *[("README.md", f"{s}_synth_gnfr_gnt_cpu_s100.json", f"methods/{m}/inputs/{k}", "{:.2f}")
       for s in ("kermit", "cyprus") for m in ("gnfr", "gnt", "input")
       for k in ("psnr_flare", "psnr")],
     *[("docs/eval.md", f"{s}_synth_gnfr_gnt_cpu_s42.json", f"methods/{m}/heldout/{k}", f)
