@@ -718,3 +718,18 @@ def test_lean_deflared_rule_of_the_hundredth_session_is_its_judgements():
             f"{gm['keys_flare']:+.2f} / {gm['held']:+.3f}") in depth
     field = {f.name: f for f in fields(RenderConfig)}["lean_deflared"]
     assert field.default is None
+
+
+def test_lean_deflared_on_the_sample_is_its_pair_of_files():
+    """docs/history/fill.md: the sample's frames at the photos' cameras with the lean off and
+    on are the two files' (the same workspace and code, only the option differs)."""
+    off, on = (result(f"frames_at_photos_sample_s100_{n}.json") for n in ("off", "on"))
+    assert off["code"]["commit"] == on["code"]["commit"]
+    assert "lean_deflared=false" in off["command"] and "lean_deflared" not in on["command"]
+    fill = " ".join(page_text("docs/history/fill.md").split())
+    a, b = off["summary"], on["summary"]
+    assert (f"score {a['frame']['flare_psnr_mean']:.2f} dB in the true flare region with the "
+            f"lean off and {b['frame']['flare_psnr_mean']:.2f} with it (the de-flared photos "
+            f"{b['deflared']['flare_psnr_mean']:.2f}), the whole frame "
+            f"{a['frame']['whole_psnr_mean']:.2f} and {b['frame']['whole_psnr_mean']:.2f}") in fill
+    assert (REPO / "docs" / "lean_deflared_sample.jpg").is_file()
