@@ -881,3 +881,25 @@ def test_test_scenes_at_the_ninety_ninth_sessions_defaults_are_their_files():
     assert (f"worth {new_margins[0]:+.2f} and {new_margins[1]:+.2f} dB in the flare region over "
             "vanilla GNT on kermit and cyprus at 7e39685") in readme
     assert f"at the old defaults: {old_margins[0]:+.2f} and {old_margins[1]:+.2f};" in readme
+    fern = result("fern_llff_quick_cpu_s100.json")
+    assert fern["flare"]["provenance"]["code"]["commit"].startswith("7e39685")
+    f = fern["flare"]["methods"]
+    new_margins.append(f["gnfr"]["inputs"]["psnr_flare"] - f["gnt"]["inputs"]["psnr_flare"])
+    pair = {(v, w): result(f"defaults_pair_fern_{v}_{w}_s100.json")["mean"]["psnr_flare"]
+            for v in ("gnfr", "gnt") for w in ("old", "new")}
+    assert pair[("gnfr", "new")] == pytest.approx(f["gnfr"]["inputs"]["psnr_flare"], abs=1e-6)
+    lost = [pair[(v, "old")] - pair[(v, "new")] for v in ("gnfr", "gnt")]
+    assert (f"give GN-FR {pair[('gnfr', 'old')]:.2f} and GNT {pair[('gnt', 'old')]:.2f} "
+            f"({pair[('gnfr', 'old')] - pair[('gnt', 'old')]:+.2f}), so the frame fill and the "
+            f"narrow layer took {lost[0]:.2f} dB from GN-FR's flare region on fern and "
+            f"{lost[1]:.2f} from GNT's") in text
+    assert f"on fern {new_margins[2]:+.2f}, where the same defaults cost GN-FR {lost[0]:.2f} dB" \
+        in readme
+    lean, head = (result(f"sample_oneshot_cpu_s100_{n}.json") for n in ("lean", "head"))
+    assert lean["views"] == head["views"] and lean["code"]["commit"].startswith("971403a")
+    goals = page_text("docs/goals.md")
+    assert (f"at today's de-flared photos (7e39685, seed 0) kermit {new_margins[0]:+.2f}, "
+            f"cyprus {new_margins[1]:+.2f}, fern {new_margins[2]:+.2f} dB;") in goals
+    assert (f"| GN-FR {f['gnfr']['inputs']['psnr_flare']:.2f}, GNT "
+            f"{f['gnt']['inputs']['psnr_flare']:.2f} | | flared input "
+            f"{f['input']['inputs']['psnr_flare']:.2f} |") in page_text("README.md")

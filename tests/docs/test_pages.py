@@ -127,7 +127,7 @@ CHECKS = [
       for m in ("psnr_flare_input", "psnr_input")],
     *[(page, f, f"flare/methods/{m}/inputs/psnr_flare", "{:.2f}")
       for m in ("gnfr", "gnt", "input")
-      for page, f in (("README.md", "fern_llff_quick_cpu_s90.json"),
+      for page, f in (("README.md", "fern_llff_quick_cpu_s100.json"),
                       ("docs/eval.md", "fern_llff_quick_cpu_s50.json"))],
     *[("docs/eval.md", "kermit_synth_quick_cpu_fmg_masks_cut075.json",
        f"methods/{m}/inputs/{k}", "{:.2f}")
