@@ -14,6 +14,7 @@ frames on disk.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 from pipeline.cameras import Cameras
@@ -98,10 +99,9 @@ def render_here(setup: RenderSetup, cams: Cameras, jobs: list[FrameJob],
                                     setup.params["encode_apart"],
                                     setup.deflared if setup.cfg.from_deflared else None,
                                     setup.cfg.source_grow)
-        lean = None
-        if setup.cfg.lean_deflared and setup.deflared is not None:
-            def lean(frame, img):  # the photos a frame leans to, read de-flared
-                return with_deflared(setup.ws, frame, img, *setup.deflared)
+        lean = (partial(with_deflared, setup.ws, dilate=setup.deflared[0],
+                        feather=setup.deflared[1])  # the photos a frame leans to, de-flared
+                if setup.cfg.lean_deflared and setup.deflared is not None else None)
         photos = (photo_views(setup.ws, cams, jobs, setup.cfg, setup.frames_maps, lean)
                   if setup.use_photos else None)
         if setup.cfg.compile:  # after encoding: only the rays' forward pass is compiled

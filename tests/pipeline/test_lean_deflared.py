@@ -108,6 +108,7 @@ def test_the_default_leans_where_the_deflared_photos_are_up_to_date(hws, tmp_pat
     blend and never leans; the de-flared photos never lean, nor do the frames they take
     as their fill."""
     import shutil
+    from dataclasses import replace
 
     from pipeline.render import RenderConfig, deflared_up_to_date, resolve_lean, run
     from pipeline.workspace import Workspace
@@ -127,7 +128,7 @@ def test_the_default_leans_where_the_deflared_photos_are_up_to_date(hws, tmp_pat
     assert resolve_lean(cfg, ws, views, ckpt, "at_photo", "cpu").lean_deflared is True
     assert resolve_lean(cfg, ws, views, ckpt, "at_photo", "cuda:0").lean_deflared is False
     assert resolve_lean(cfg, ws, views, ckpt, "inputs", "cpu").lean_deflared is False
-    assert resolve_lean(replace_key(cfg, 0.0), ws, views, ckpt, "at_photo",
+    assert resolve_lean(replace(cfg, key_blend=0.0), ws, views, ckpt, "at_photo",
                         "cpu").lean_deflared is False
     mask = cv2.imread(str(ws.mask_path(HYBRID_FLARED)), cv2.IMREAD_UNCHANGED)
     mask[0, 0] = 255 - mask[0, 0]  # the masks changed since the de-flared photos
@@ -139,8 +140,3 @@ def test_the_default_leans_where_the_deflared_photos_are_up_to_date(hws, tmp_pat
     err = capsys.readouterr().err
     assert "the de-flared photos are not up to date" in err and "--path inputs" in err
 
-
-def replace_key(cfg, key_blend: float):
-    from dataclasses import replace
-
-    return replace(cfg, key_blend=key_blend)
