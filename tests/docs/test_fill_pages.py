@@ -733,3 +733,17 @@ def test_lean_deflared_on_the_sample_is_its_pair_of_files():
             f"{b['deflared']['flare_psnr_mean']:.2f}), the whole frame "
             f"{a['frame']['whole_psnr_mean']:.2f} and {b['frame']['whole_psnr_mean']:.2f}") in fill
     assert (REPO / "docs" / "lean_deflared_sample.jpg").is_file()
+
+
+def test_frames_at_photos_diagnosis_of_the_hundredth_session_is_its_files():
+    """docs/history/fill.md: the full-size frames at the photos against the de-flared photos
+    on the three flared builds (seed 42) are the three files' means."""
+    fill = " ".join(page_text("docs/history/fill.md").split())
+    cells = []
+    for scene in ("sceaux_p4", "et_p5", "lund_k4"):
+        d = result(f"frames_at_photos_{scene}_s42_s100.json")
+        assert d["code"]["commit"].startswith("7e39685")
+        m = d["summary"]
+        cells.append(f"{m['frame']['flare_psnr_mean']:.2f} against "
+                     f"{m['deflared']['flare_psnr_mean']:.2f}")
+    assert (f"{cells[0]} and {cells[1]} dB, lund_k4 {cells[2]};") in fill
